@@ -1,0 +1,112 @@
+// World: owns the static Model, the dynamic State and the collision caches, and runs the step as
+// the pipeline of docs/conventions.md: contacts -> unconstrained velocity -> PGS -> integrate.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "signorini/contact.hpp"
+#include "signorini/shapes.hpp"
+#include "signorini/solver.hpp"
+#include "signorini/types.hpp"
+
+namespace signorini {
+
+namespace collision { class BroadPhase; }
+
+struct WorldSettings {
+  Vec3 gravity = Vec3(0.0, 0.0, -9.81);  ///< m/s^2
+  double contact_margin = 0.005;         ///< m: pairs closer than this get (speculative) contacts
+  SolverSettings solver;
+};
+
+/// What a user asks for when adding a body. Exactly one of density and mass is given for a dynamic
+/// body; neither for a static one. A non-unit orientation quaternion is normalised.
+struct BodyDesc {
+  Shape shape = Sphere(1.0);
+  bool is_static = false;
+  std::optional<double> density;  ///< kg/m^3
+  std::optional<double> mass;     ///< kg
+  Vec3 position = Vec3::Zero();          ///< centre of mass, world (m); a mesh is re-centred on it
+  Quat4 orientation = Quat4(1, 0, 0, 0); ///< (w, x, y, z), world-from-body
+  Vec3 velocity = Vec3::Zero();          ///< m/s
+  Vec3 angular_velocity = Vec3::Zero();  ///< rad/s, world frame
+};
+
+/// Static description of the bodies (written by add_body, read by every stage). One entry per body.
+struct Model {
+  std::vector<Shape> shape;      ///< body frame; a dynamic mesh is re-centred on its com
+  std::vector<bool> is_static;
+  std::vector<double> mass;      ///< kg (infinity for static)
+  std::vector<double> inv_mass;  ///< 1/kg (0 for static)
+  std::vector<Mat3> I_body;      ///< inertia about the com, body axes (kg m^2; zero for static)
+  std::vector<Mat3> I_body_inv;  ///< its inverse (zero for static)
+  std::vector<double> rho;       ///< bounding radius about the body origin (m; inf for a plane)
+  std::size_t size() const { return shape.size(); }
+};
+
+/// Dynamic state, one entry per body. Written by integrate (p, R, v, omega) and by the user.
+struct State {
+  std::vector<Vec3> p;      ///< com position, world (m)
+  std::vector<Mat3> R;      ///< rotation world-from-body
+  std::vector<Vec3> v;      ///< p_dot, world (m/s)
+  std::vector<Vec3> omega;  ///< angular velocity, world (rad/s)
+  std::vector<Vec3> f_ext;  ///< external force, world (N), applied every step
+  std::vector<Vec3> tau_ext;///< external torque about the com, world (N m), applied every step
+  double time = 0.0;        ///< s
+};
+
+class World {
+ public:
+  explicit World(const WorldSettings& settings = WorldSettings());
+  ~World();
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  /// Validates desc completely, then adds the body; returns its index. On a bad desc throws
+  /// std::invalid_argument naming the body index and the problem, and the world is unchanged.
+  BodyIndex add_body(const BodyDesc& desc);
+
+  /// Advances `steps` steps of dt seconds. dt must be positive and finite.
+  void step(double dt, int steps = 1);
+
+  // state setters: validated, the body named on error, nothing changed on error
+  void set_position(BodyIndex i, const Vec3& p);
+  void set_orientation(BodyIndex i, const Quat4& q);
+  void set_velocity(BodyIndex i, const Vec3& v);
+  void set_angular_velocity(BodyIndex i, const Vec3& omega);
+  void set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torque);
+
+  const Model& model() const { return model_; }
+  const State& state() const { return state_; }
+  const WorldSettings& settings() const { return settings_; }
+  void set_settings(const WorldSettings& settings);
+  std::size_t num_bodies() const { return model_.size(); }
+
+  /// Contacts of the last step (detected at its start), with their solved alpha and impulse.
+  const std::vector<Contact>& contacts() const { return contacts_; }
+  const SolverStats& solver_stats() const { return stats_; }
+
+  /// Orientation of body i as a unit quaternion (w, x, y, z), w >= 0.
+  Quat4 orientation(BodyIndex i) const;
+  /// Total kinetic energy 1/2 sum (m v.v + omega . I_w omega) (J).
+  double kinetic_energy() const;
+  /// Gravitational potential energy -sum m g . p relative to the origin (J).
+  double potential_energy() const;
+
+  /// Contacts the current state would produce for a step of dt, without stepping.
+  std::vector<Contact> detect_contacts(double dt) const;
+
+ private:
+  void check_index(BodyIndex i) const;
+
+  WorldSettings settings_;
+  Model model_;
+  State state_;
+  std::vector<Contact> contacts_;
+  SolverStats stats_;
+  std::unique_ptr<collision::BroadPhase> broad_phase_;
+};
+
+}  // namespace signorini

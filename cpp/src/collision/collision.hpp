@@ -1,0 +1,64 @@
+// Contact generation: broad phase (FCL dynamic AABB tree), narrow phase (own plane and sphere
+// tests, FCL signed distance for the rest), in the contact order of docs/conventions.md.
+// FCL types never appear in this header; they stay in cpp/src/collision/*.cpp.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "signorini/contact.hpp"
+#include "signorini/shapes.hpp"
+#include "signorini/world.hpp"
+
+namespace signorini::collision {
+
+/// Empty when the narrow phase can collide shapes a and b; otherwise why not ("unsupported pair
+/// Mesh (non-convex) - Sphere: ..."). Two planes count as supported: both are static and never
+/// collide.
+std::string unsupported_pair(const Shape& a, const Shape& b);
+
+/// Candidate pairs from bounding volumes. Holds one FCL object per non-plane body: dynamic ones in
+/// a DynamicAABBTree updated incrementally each step, static ones in a second tree built once.
+class BroadPhase {
+ public:
+  BroadPhase();
+  ~BroadPhase();
+  /// Registers body i (after the Model has it). Planes are not registered (they are unbounded and
+  /// tested against every dynamic body directly).
+  void add_body(BodyIndex i, const Shape& shape, bool is_static, const Vec3& p, const Mat3& R);
+  /// Moves static body i (rare; rebuilds its tree entry).
+  void move_static(BodyIndex i, const Vec3& p, const Mat3& R);
+  /// Pairs (i, j), i < j, whose AABBs, grown by reach[i] + margin/2 and reach[j] + margin/2,
+  /// overlap; at least one of them dynamic; planes excluded. Sorted lexicographically.
+  std::vector<std::pair<BodyIndex, BodyIndex>> pairs(const Model& model, const State& state,
+                                                     const std::vector<double>& reach, double margin);
+  /// Signed distance between two registered bodies at their current proxy poses (FCL, GST_LIBCCD):
+  /// fills gap, normal (A -> B), point (midpoint of witnesses). Returns false if FCL gave nothing.
+  bool signed_distance(BodyIndex a, BodyIndex b, Contact& out) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Contacts of a static plane (body a, world pose p_a, R_a) against body b, for every feature with
+/// gap < threshold, appended to out in feature order (sphere: 1; box: corners 0..7; mesh: vertices).
+void plane_contacts(BodyIndex a, const Plane& plane, const Vec3& p_a, const Mat3& R_a, BodyIndex b,
+                    const Shape& shape_b, const Vec3& p_b, const Mat3& R_b, double threshold,
+                    std::vector<Contact>& out);
+
+/// Exact sphere-sphere contact (A centre c_a radius r_a, B likewise). Written here rather than
+/// through FCL because FCL's penetrating witness points carry ~1e-5 m of EPA error (measured).
+Contact sphere_sphere(BodyIndex a, const Vec3& c_a, double r_a, BodyIndex b, const Vec3& c_b, double r_b);
+
+/// Speculative reach of every body for a step of dt: s_b = dt (|v| + dt |g| + |omega| rho) for a
+/// dynamic body, 0 for a static one (m).
+std::vector<double> speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity);
+
+/// All contacts for the current state, in the order of docs/conventions.md.
+std::vector<Contact> detect_contacts(const Model& model, const State& state, double dt,
+                                     const Vec3& gravity, double margin, BroadPhase& broad_phase);
+
+}  // namespace signorini::collision

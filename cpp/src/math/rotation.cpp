@@ -1,0 +1,50 @@
+#include "math/rotation.hpp"
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+namespace signorini::math {
+
+Mat3 skew(const Vec3& x) {
+  Mat3 S;
+  S << 0.0, -x.z(), x.y(),
+       x.z(), 0.0, -x.x(),
+      -x.y(), x.x(), 0.0;
+  return S;
+}
+
+Mat3 rodrigues(const Vec3& omega, double dt) {
+  const Vec3 phi = omega * dt;
+  const double theta2 = phi.squaredNorm();
+  const double theta = std::sqrt(theta2);
+  double A, B;
+  if (theta < 1e-4) {
+    // series: next terms are theta^4/120 and theta^4/720, below 1e-18 here
+    A = 1.0 - theta2 / 6.0;
+    B = 0.5 - theta2 / 24.0;
+  } else {
+    A = std::sin(theta) / theta;
+    B = (1.0 - std::cos(theta)) / theta2;
+  }
+  const Mat3 K = skew(phi);
+  return Mat3::Identity() + A * K + B * (K * K);
+}
+
+Mat3 orthonormalize(const Mat3& R) {
+  return 1.5 * R - 0.5 * R * (R.transpose() * R);
+}
+
+Mat3 quat_to_matrix(const Quat4& q) {
+  return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+}
+
+Quat4 matrix_to_quat(const Mat3& R) {
+  Eigen::Quaterniond q(R);
+  q.normalize();
+  Quat4 out(q.w(), q.x(), q.y(), q.z());
+  if (out[0] < 0.0) out = -out;
+  return out;
+}
+
+}  // namespace signorini::math

@@ -1,0 +1,237 @@
+#include "signorini/world.hpp"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "collision/collision.hpp"
+#include "dynamics/rigid_body.hpp"
+#include "math/rotation.hpp"
+#include "signorini/mass_properties.hpp"
+#include "solver/pgs.hpp"
+
+namespace signorini {
+namespace {
+
+std::string body_label(BodyIndex i, const Shape& shape) {
+  return "body " + std::to_string(i) + " (" + shape_name(shape) + ")";
+}
+
+std::string fmt(const Eigen::VectorXd& x) {
+  std::ostringstream s;
+  s << "(";
+  for (Eigen::Index k = 0; k < x.size(); ++k) s << (k ? ", " : "") << x[k];
+  s << ")";
+  return s.str();
+}
+
+void require_finite(const std::string& who, const char* what, const Eigen::VectorXd& x) {
+  if (!x.allFinite())
+    throw std::invalid_argument(who + ": " + what + " must be finite, got " + fmt(x));
+}
+
+/// Unit quaternion from a user's one: finite, non-zero; a non-unit one is normalised.
+Quat4 unit_quaternion(const std::string& who, const Quat4& q) {
+  require_finite(who, "orientation", q);
+  const double norm = q.norm();
+  if (!(norm > 1e-12))
+    throw std::invalid_argument(who + ": orientation quaternion " + fmt(q) + " is zero; use (1, 0, 0, 0) for no rotation");
+  return q / norm;
+}
+
+}  // namespace
+
+World::World(const WorldSettings& settings) : broad_phase_(std::make_unique<collision::BroadPhase>()) {
+  set_settings(settings);
+}
+
+World::~World() = default;
+
+void World::set_settings(const WorldSettings& s) {
+  require_finite("World", "gravity", s.gravity);
+  if (!(std::isfinite(s.contact_margin) && s.contact_margin >= 0.0))
+    throw std::invalid_argument("World: contact_margin must be finite and >= 0, got " + std::to_string(s.contact_margin));
+  if (!(std::isfinite(s.solver.erp) && s.solver.erp >= 0.0 && s.solver.erp <= 1.0))
+    throw std::invalid_argument("World: erp must be in [0, 1], got " + std::to_string(s.solver.erp));
+  if (!(std::isfinite(s.solver.tolerance) && s.solver.tolerance >= 0.0))
+    throw std::invalid_argument("World: tolerance must be finite and >= 0, got " + std::to_string(s.solver.tolerance));
+  if (s.solver.max_iterations < 1)
+    throw std::invalid_argument("World: max_iterations must be >= 1, got " + std::to_string(s.solver.max_iterations));
+  settings_ = s;
+}
+
+BodyIndex World::add_body(const BodyDesc& desc) {
+  // validate everything first: the world changes only once nothing can fail
+  const BodyIndex index = static_cast<BodyIndex>(model_.size());
+  const std::string who = body_label(index, desc.shape);
+  require_finite(who, "position", desc.position);
+  require_finite(who, "velocity", desc.velocity);
+  require_finite(who, "angular_velocity", desc.angular_velocity);
+  const Mat3 R = math::quat_to_matrix(unit_quaternion(who, desc.orientation));
+  const bool is_plane = std::holds_alternative<Plane>(desc.shape);
+
+  Shape shape = desc.shape;
+  Vec3 position = desc.position;
+  double mass = std::numeric_limits<double>::infinity();
+  double inv_mass = 0.0;
+  Mat3 I_body = Mat3::Zero(), I_body_inv = Mat3::Zero();
+  if (desc.is_static) {
+    if (desc.density || desc.mass)
+      throw std::invalid_argument(who + ": a static body takes neither mass nor density");
+    if (desc.velocity.squaredNorm() > 0.0 || desc.angular_velocity.squaredNorm() > 0.0)
+      throw std::invalid_argument(who + ": a static body cannot have a velocity");
+  } else {
+    if (is_plane) throw std::invalid_argument(who + ": a plane is unbounded and can only be static; use add_static");
+    if (desc.density.has_value() == desc.mass.has_value())
+      throw std::invalid_argument(who + ": give exactly one of density and mass");
+    const double given = desc.density ? *desc.density : *desc.mass;
+    const char* what = desc.density ? "density" : "mass";
+    if (!(std::isfinite(given) && given > 0.0))
+      throw std::invalid_argument(who + ": " + what + " must be positive and finite, got " + std::to_string(given));
+    MassProperties props;
+    try {
+      props = mass_properties(desc.shape, 1.0);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(who + ": " + e.what());
+    }
+    const double density = desc.density ? *desc.density : *desc.mass / props.volume;
+    mass = density * props.volume;
+    inv_mass = 1.0 / mass;
+    I_body = density * props.inertia;
+    I_body_inv = I_body.inverse();
+    if (!I_body_inv.allFinite())
+      throw std::invalid_argument(who + ": inertia tensor is singular (a flat or degenerate solid)");
+    if (auto* mesh = std::get_if<Mesh>(&shape)) {
+      // a mesh body's frame is its centre of mass: vertices re-centred, axes unchanged
+      mesh->vertices.rowwise() -= props.com.transpose();
+    }
+  }
+  for (BodyIndex j = 0; j < index; ++j) {
+    if (desc.is_static && model_.is_static[j]) continue;
+    const std::string problem = collision::unsupported_pair(model_.shape[j], shape);
+    if (!problem.empty()) throw std::invalid_argument(who + ": " + problem + " (with body " + std::to_string(j) + ")");
+  }
+
+  // commit
+  broad_phase_->add_body(index, shape, desc.is_static, position, R);
+  model_.rho.push_back(bounding_radius(shape));
+  model_.shape.push_back(std::move(shape));
+  model_.is_static.push_back(desc.is_static);
+  model_.mass.push_back(mass);
+  model_.inv_mass.push_back(inv_mass);
+  model_.I_body.push_back(I_body);
+  model_.I_body_inv.push_back(I_body_inv);
+  state_.p.push_back(position);
+  state_.R.push_back(R);
+  state_.v.push_back(desc.velocity);
+  state_.omega.push_back(desc.angular_velocity);
+  state_.f_ext.push_back(Vec3::Zero());
+  state_.tau_ext.push_back(Vec3::Zero());
+  return index;
+}
+
+std::vector<Contact> World::detect_contacts(double dt) const {
+  return collision::detect_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_);
+}
+
+void World::step(double dt, int steps) {
+  if (!(std::isfinite(dt) && dt > 0.0))
+    throw std::invalid_argument("step: dt must be positive and finite, got " + std::to_string(dt));
+  if (steps < 0) throw std::invalid_argument("step: steps must be >= 0, got " + std::to_string(steps));
+  std::vector<Vec3> v, omega;
+  for (int s = 0; s < steps; ++s) {
+    const State before = state_;
+    // 1. contacts from the current state
+    std::vector<Contact> contacts = detect_contacts(dt);
+    // 2. unconstrained velocity q_dot*
+    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, dt, v, omega);
+    // 3. contact impulses by PGS: q_dot* -> q_dot^{t+1}
+    const SolverStats stats = solver::solve_pgs(model_, state_, dt, settings_.solver, contacts, v, omega);
+    // 4. integrate poses with the new velocities
+    state_.v = v;
+    state_.omega = omega;
+    dynamics::integrate(model_, state_, dt);
+    state_.time += dt;
+    // a step that produced a non-finite number is undone and reported, never kept
+    for (std::size_t i = 0; i < model_.size(); ++i) {
+      if (state_.p[i].allFinite() && state_.v[i].allFinite() && state_.omega[i].allFinite() && state_.R[i].allFinite())
+        continue;
+      state_ = before;
+      throw std::runtime_error(body_label(static_cast<BodyIndex>(i), model_.shape[i]) +
+                               ": state became non-finite at t = " + std::to_string(before.time) +
+                               "; the step was undone (check forces, masses and dt)");
+    }
+    contacts_ = std::move(contacts);
+    stats_ = stats;
+  }
+}
+
+void World::check_index(BodyIndex i) const {
+  if (i < 0 || static_cast<std::size_t>(i) >= model_.size())
+    throw std::out_of_range("body index " + std::to_string(i) + " is out of range: the world has " +
+                            std::to_string(model_.size()) + " bodies");
+}
+
+void World::set_position(BodyIndex i, const Vec3& p) {
+  check_index(i);
+  require_finite(body_label(i, model_.shape[i]), "position", p);
+  state_.p[i] = p;
+  if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+}
+
+void World::set_orientation(BodyIndex i, const Quat4& q) {
+  check_index(i);
+  state_.R[i] = math::quat_to_matrix(unit_quaternion(body_label(i, model_.shape[i]), q));
+  if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+}
+
+void World::set_velocity(BodyIndex i, const Vec3& v) {
+  check_index(i);
+  const std::string who = body_label(i, model_.shape[i]);
+  require_finite(who, "velocity", v);
+  if (model_.is_static[i] && v.squaredNorm() > 0.0) throw std::invalid_argument(who + ": a static body cannot have a velocity");
+  state_.v[i] = v;
+}
+
+void World::set_angular_velocity(BodyIndex i, const Vec3& omega) {
+  check_index(i);
+  const std::string who = body_label(i, model_.shape[i]);
+  require_finite(who, "angular_velocity", omega);
+  if (model_.is_static[i] && omega.squaredNorm() > 0.0) throw std::invalid_argument(who + ": a static body cannot have a velocity");
+  state_.omega[i] = omega;
+}
+
+void World::set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torque) {
+  check_index(i);
+  const std::string who = body_label(i, model_.shape[i]);
+  require_finite(who, "force", force);
+  require_finite(who, "torque", torque);
+  state_.f_ext[i] = force;
+  state_.tau_ext[i] = torque;
+}
+
+Quat4 World::orientation(BodyIndex i) const {
+  check_index(i);
+  return math::matrix_to_quat(state_.R[i]);
+}
+
+double World::kinetic_energy() const {
+  double T = 0.0;
+  for (std::size_t i = 0; i < model_.size(); ++i) {
+    if (model_.is_static[i]) continue;
+    const Mat3& R = state_.R[i];
+    const Vec3& w = state_.omega[i];
+    T += 0.5 * model_.mass[i] * state_.v[i].squaredNorm() + 0.5 * w.dot(R * (model_.I_body[i] * (R.transpose() * w)));
+  }
+  return T;
+}
+
+double World::potential_energy() const {
+  double V = 0.0;
+  for (std::size_t i = 0; i < model_.size(); ++i)
+    if (!model_.is_static[i]) V -= model_.mass[i] * settings_.gravity.dot(state_.p[i]);
+  return V;
+}
+
+}  // namespace signorini
