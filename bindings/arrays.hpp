@@ -1,0 +1,66 @@
+// NumPy <-> Eigen marshalling shared by the register_*.cpp files: shape checks with clear errors.
+#pragma once
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <string>
+#include <vector>
+
+#include "signorini/shapes.hpp"
+#include "signorini/types.hpp"
+
+namespace py = pybind11;
+
+namespace signorini::bindings {
+
+/// (n, cols) float64 C-contiguous copy of an array-like, or ValueError "<who>: <what> must have shape (n, cols), got ...".
+inline py::array_t<double, py::array::c_style | py::array::forcecast> as_rows(const py::handle& x, py::ssize_t cols,
+                                                                             const std::string& who,
+                                                                             const std::string& what) {
+  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(x);
+  if (!a) throw py::type_error(who + ": " + what + " must be an array of numbers");
+  if (a.ndim() != 2 || a.shape(1) != cols) {
+    std::string shape = "(";
+    for (py::ssize_t k = 0; k < a.ndim(); ++k) shape += (k ? ", " : "") + std::to_string(a.shape(k));
+    shape += a.ndim() == 1 ? ",)" : ")";
+    throw py::value_error(who + ": " + what + " must have shape (n, " + std::to_string(cols) + "), got " + shape);
+  }
+  return a;
+}
+
+/// (n, 3) array from a vector of Vec3 (a copy: the state vectors may reallocate when bodies are added).
+inline py::array_t<double> rows_of(const std::vector<Vec3>& xs) {
+  py::array_t<double> out({static_cast<py::ssize_t>(xs.size()), py::ssize_t(3)});
+  auto o = out.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < xs.size(); ++i)
+    for (int c = 0; c < 3; ++c) o(i, c) = xs[i][c];
+  return out;
+}
+
+/// (n, 3, 3) array from a vector of Mat3.
+inline py::array_t<double> stack_of(const std::vector<Mat3>& xs) {
+  py::array_t<double> out({static_cast<py::ssize_t>(xs.size()), py::ssize_t(3), py::ssize_t(3)});
+  auto o = out.mutable_unchecked<3>();
+  for (std::size_t i = 0; i < xs.size(); ++i)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) o(i, r, c) = xs[i](r, c);
+  return out;
+}
+
+/// A Python shape object (Sphere, Box, Plane, Mesh) as the core's Shape variant (a copy).
+inline Shape to_shape(const py::handle& x, const std::string& who) {
+  if (py::isinstance<Sphere>(x)) return x.cast<Sphere>();
+  if (py::isinstance<Box>(x)) return x.cast<Box>();
+  if (py::isinstance<Plane>(x)) return x.cast<Plane>();
+  if (py::isinstance<Mesh>(x)) return x.cast<Mesh>();
+  throw py::type_error(who + ": shape must be a Sphere, Box, Plane or Mesh, got " +
+                       std::string(py::str(py::type::of(x).attr("__name__"))));
+}
+
+/// The core's Shape as its Python object.
+inline py::object from_shape(const Shape& shape) {
+  return std::visit([](const auto& s) { return py::cast(s); }, shape);
+}
+
+}  // namespace signorini::bindings

@@ -1,0 +1,127 @@
+// World: construction, bodies, stepping, state and contact arrays (copies, shapes in comments).
+#include <pybind11/eigen.h>
+#include <pybind11/stl.h>
+
+#include "arrays.hpp"
+#include "signorini/world.hpp"
+
+using namespace signorini;
+
+namespace {
+
+/// Contacts as a dict of arrays: body_a, body_b (K,), point, normal (K, 3), gap, alpha, impulse (K,).
+py::dict contact_arrays(const std::vector<Contact>& contacts) {
+  const auto K = static_cast<py::ssize_t>(contacts.size());
+  py::array_t<std::int64_t> a(K), b(K);
+  py::array_t<double> gap(K), alpha(K), impulse(K);
+  std::vector<Vec3> point, normal;
+  for (py::ssize_t i = 0; i < K; ++i) {
+    const Contact& c = contacts[i];
+    a.mutable_at(i) = c.body_a;
+    b.mutable_at(i) = c.body_b;
+    gap.mutable_at(i) = c.gap;
+    alpha.mutable_at(i) = c.alpha;
+    impulse.mutable_at(i) = c.impulse;
+    point.push_back(c.point);
+    normal.push_back(c.normal);
+  }
+  py::dict d;
+  d["body_a"] = a;
+  d["body_b"] = b;
+  d["point"] = bindings::rows_of(point);
+  d["normal"] = bindings::rows_of(normal);
+  d["gap"] = gap;
+  d["alpha"] = alpha;
+  d["impulse"] = impulse;
+  return d;
+}
+
+}  // namespace
+
+void register_world(py::module_& m) {
+  py::class_<World>(m, "World")
+      .def(py::init([](const Vec3& gravity, double margin, double erp, double tolerance, int max_iterations) {
+             WorldSettings s;
+             s.gravity = gravity;
+             s.contact_margin = margin;
+             s.solver.erp = erp;
+             s.solver.tolerance = tolerance;
+             s.solver.max_iterations = max_iterations;
+             return std::make_unique<World>(s);
+           }),
+           py::arg("gravity"), py::arg("contact_margin"), py::arg("erp"), py::arg("tolerance"), py::arg("max_iterations"))
+      .def(
+          "add_body",
+          [](World& w, const py::object& shape, bool is_static, std::optional<double> density, std::optional<double> mass,
+             const Vec3& position, const Quat4& orientation, const Vec3& velocity, const Vec3& angular_velocity) {
+            BodyDesc d;
+            d.shape = bindings::to_shape(shape, "body " + std::to_string(w.num_bodies()));
+            d.is_static = is_static;
+            d.density = density;
+            d.mass = mass;
+            d.position = position;
+            d.orientation = orientation;
+            d.velocity = velocity;
+            d.angular_velocity = angular_velocity;
+            return w.add_body(d);
+          },
+          py::arg("shape"), py::arg("is_static"), py::arg("density"), py::arg("mass"), py::arg("position"),
+          py::arg("orientation"), py::arg("velocity"), py::arg("angular_velocity"))
+      .def("step", &World::step, py::arg("dt"), py::arg("steps") = 1, py::call_guard<py::gil_scoped_release>())
+      .def("set_position", &World::set_position)
+      .def("set_orientation", &World::set_orientation)
+      .def("set_velocity", &World::set_velocity)
+      .def("set_angular_velocity", &World::set_angular_velocity)
+      .def("set_external_wrench", &World::set_external_wrench)
+      .def("shape", [](const World& w, BodyIndex i) {
+        if (i < 0 || static_cast<std::size_t>(i) >= w.num_bodies()) throw std::out_of_range("body index " + std::to_string(i) + " is out of range");
+        return bindings::from_shape(w.model().shape[i]);
+      })
+      .def_property_readonly("num_bodies", &World::num_bodies)
+      .def_property_readonly("time", [](const World& w) { return w.state().time; })
+      // state (N x 3, N x 3 x 3, N x 4): copies taken now
+      .def_property_readonly("positions", [](const World& w) { return bindings::rows_of(w.state().p); })
+      .def_property_readonly("rotations", [](const World& w) { return bindings::stack_of(w.state().R); })
+      .def_property_readonly("orientations", [](const World& w) {
+        py::array_t<double> q({static_cast<py::ssize_t>(w.num_bodies()), py::ssize_t(4)});
+        auto o = q.mutable_unchecked<2>();
+        for (std::size_t i = 0; i < w.num_bodies(); ++i) {
+          const Quat4 qi = w.orientation(static_cast<BodyIndex>(i));
+          for (int c = 0; c < 4; ++c) o(i, c) = qi[c];
+        }
+        return q;
+      })
+      .def_property_readonly("velocities", [](const World& w) { return bindings::rows_of(w.state().v); })
+      .def_property_readonly("angular_velocities", [](const World& w) { return bindings::rows_of(w.state().omega); })
+      .def_property_readonly("forces", [](const World& w) { return bindings::rows_of(w.state().f_ext); })
+      .def_property_readonly("torques", [](const World& w) { return bindings::rows_of(w.state().tau_ext); })
+      // model
+      .def_property_readonly("masses", [](const World& w) { return py::array_t<double>(py::cast(w.model().mass)); })
+      .def_property_readonly("inv_masses", [](const World& w) { return py::array_t<double>(py::cast(w.model().inv_mass)); })
+      .def_property_readonly("inertias", [](const World& w) { return bindings::stack_of(w.model().I_body); })
+      .def_property_readonly("inv_inertias", [](const World& w) { return bindings::stack_of(w.model().I_body_inv); })
+      .def_property_readonly("is_static", [](const World& w) {
+        std::vector<bool> s(w.model().is_static.begin(), w.model().is_static.end());
+        return py::array_t<bool>(py::cast(s));
+      })
+      // settings
+      .def_property_readonly("gravity", [](const World& w) { return w.settings().gravity; })
+      .def_property_readonly("contact_margin", [](const World& w) { return w.settings().contact_margin; })
+      .def_property_readonly("erp", [](const World& w) { return w.settings().solver.erp; })
+      .def_property_readonly("tolerance", [](const World& w) { return w.settings().solver.tolerance; })
+      .def_property_readonly("max_iterations", [](const World& w) { return w.settings().solver.max_iterations; })
+      // last step
+      .def_property_readonly("contacts", [](const World& w) { return contact_arrays(w.contacts()); })
+      .def("detect_contacts", [](const World& w, double dt) { return contact_arrays(w.detect_contacts(dt)); }, py::arg("dt"))
+      .def_property_readonly("solver_stats", [](const World& w) {
+        const SolverStats& s = w.solver_stats();
+        py::dict d;
+        d["iterations"] = s.iterations;
+        d["residual"] = s.residual;
+        d["converged"] = s.converged;
+        d["contacts"] = s.contacts;
+        return d;
+      })
+      .def("kinetic_energy", &World::kinetic_energy)
+      .def("potential_energy", &World::potential_energy);
+}

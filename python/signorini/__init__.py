@@ -1,0 +1,17 @@
+"""signorini: rigid-body contact simulation with a C++ core (Eigen, FCL) and the lecture's PGS.
+
+    import signorini as sg
+    w = sg.World(gravity=(0, 0, -9.81))
+    w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
+    w.add_body(sg.Box(half_extents=(0.5, 0.5, 0.5)), density=1000.0, position=(0, 0, 1))
+    w.step(dt=1/240, steps=240)
+
+``signorini.oracle`` re-derives each step in plain NumPy; ``python -m signorini.compare`` checks
+the core against it; ``python -m signorini run`` runs a built-in scene.
+"""
+from ._core import Box, Mesh, Plane, Sphere
+from .world import BodyIndexError, Contacts, SolverStats, World, mass_properties, shape_dict
+
+__all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "mass_properties", "Contacts", "SolverStats",
+           "BodyIndexError", "shape_dict"]
+__version__ = "0.1.0"

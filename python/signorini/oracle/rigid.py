@@ -1,0 +1,192 @@
+"""Rigid-body kinematics and the unconstrained update (docs/conventions.md, "Body",
+"Jacobian", "One step" items 2 and 4).
+
+State layout (the snapshot dict, N bodies):
+    position p          (N, 3)     COM, world, m
+    rotation R          (N, 3, 3)  world-from-body, x = R X + p
+    velocity v          (N, 3)     COM velocity, world, m/s
+    angular_velocity w  (N, 3)     world, rad/s
+    q_dot               (6,)       (omega, p_dot): angular part first, as in the lecture
+"""
+
+import numpy as np
+
+# below this rotation angle theta = |omega| dt, Rodrigues uses its Taylor series
+RODRIGUES_SMALL_ANGLE = 1e-4
+
+
+def skew(x):
+    """Cross-product matrix [x]x, so that skew(x) @ y = x cross y.
+
+    Input: x (..., 3).  Output: (..., 3, 3).
+    """
+    x = np.asarray(x, dtype=float)
+    K = np.zeros(x.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2] = -x[..., 2], x[..., 1]
+    K[..., 1, 0], K[..., 1, 2] = x[..., 2], -x[..., 0]
+    K[..., 2, 0], K[..., 2, 1] = -x[..., 1], x[..., 0]
+    return K
+
+
+def rodrigues(omega, dt):
+    """exp([omega dt]x): the rotation by angle theta = |omega| dt about omega.
+
+    Inputs: omega (3,) rad/s, world; dt s.  Output: (3, 3) rotation.
+    exp(K) = I + A K + B K^2, K = [omega dt]x, A = sin(theta)/theta, B = (1 - cos(theta))/theta^2;
+    for theta < 1e-4: A = 1 - theta^2/6, B = 1/2 - theta^2/24 (conventions).
+    """
+    omega = np.asarray(omega, dtype=float)
+    K = skew(omega * dt)
+    theta = np.linalg.norm(omega) * dt
+    if theta < RODRIGUES_SMALL_ANGLE:
+        A = 1.0 - theta**2 / 6.0
+        B = 0.5 - theta**2 / 24.0
+    else:
+        A = np.sin(theta) / theta
+        B = (1.0 - np.cos(theta)) / theta**2
+    return np.eye(3) + A * K + B * (K @ K)
+
+
+def quat_to_matrix(q):
+    """Rotation matrix of a quaternion q = (w, x, y, z), (4,).
+
+    A non-unit quaternion is normalised; a zero one is rejected (ValueError).
+    Output: (3, 3) world-from-body.
+    """
+    q = np.asarray(q, dtype=float)
+    norm = np.linalg.norm(q)
+    if norm == 0.0:
+        raise ValueError("zero quaternion has no rotation")
+    w, x, y, z = q / norm
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def matrix_to_quat(R):
+    """Unit quaternion (w, x, y, z), (4,), of a rotation matrix R (3, 3), with w >= 0.
+
+    Shepperd's method: take the square root of the largest of 1 + tr R, 1 + 2 R_ii - tr R,
+    so the division is always by a number >= 1/2.
+    """
+    R = np.asarray(R, dtype=float)
+    tr = np.trace(R)
+    candidates = [tr, R[0, 0], R[1, 1], R[2, 2]]
+    k = int(np.argmax(candidates))
+    if k == 0:
+        s = 2.0 * np.sqrt(1.0 + tr)                       # s = 4 w
+        q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
+    elif k == 1:
+        s = 2.0 * np.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])  # s = 4 x
+        q = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
+    elif k == 2:
+        s = 2.0 * np.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])  # s = 4 y
+        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
+    else:
+        s = 2.0 * np.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])  # s = 4 z
+        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
+    q = np.array(q)
+    q /= np.linalg.norm(q)
+    return -q if q[0] < 0 else q
+
+
+def jacobian(p, y):
+    """J(y) = [ -[y - p]x , I3 ], (3, 6): maps q_dot = (omega, p_dot) of a body with COM p
+    to the world velocity of its point y:  J(y) q_dot = omega x (y - p) + p_dot.
+
+    Inputs: p (3,) COM, world, m; y (3,) point, world, m.  Output (3, 6).
+    J(y)^T f = ((y - p) x f, f) is the (torque, force) of a force f applied at y.
+    """
+    r = np.asarray(y, dtype=float) - np.asarray(p, dtype=float)
+    return np.hstack([-skew(r), np.eye(3)])
+
+
+def world_inertia(R, I_body):
+    """I_w = R I_body R^T.  Inputs (..., 3, 3) each; output (..., 3, 3), kg m^2, world."""
+    return R @ I_body @ np.swapaxes(R, -1, -2)
+
+
+def body_arrays(snapshot):
+    """Per-body constants as arrays: (static (N,) bool, inv_mass (N,), I_body (N, 3, 3),
+    inv_I_body (N, 3, 3)); static bodies have inv_mass 0 and inv_I_body 0."""
+    bodies = snapshot["bodies"]
+    static = np.array([bool(b["static"]) for b in bodies], dtype=bool)
+    inv_mass = np.array([0.0 if b["static"] else float(b["inv_mass"]) for b in bodies])
+    I_body = np.array([np.asarray(b["inertia"], dtype=float) for b in bodies]).reshape(-1, 3, 3)
+    inv_I_body = np.array([np.zeros((3, 3)) if b["static"] else np.asarray(b["inv_inertia"], dtype=float)
+                           for b in bodies]).reshape(-1, 3, 3)
+    return static, inv_mass, I_body, inv_I_body
+
+
+def inverse_mass_blocks(snapshot):
+    """M^-1 per body, (N, 6, 6): diag(R I_body^-1 R^T, m^-1 I3) in the (omega, p_dot) layout.
+
+    Static bodies get the zero matrix (the notes' infinite mass).
+    """
+    static, inv_mass, _, inv_I_body = body_arrays(snapshot)
+    R = np.asarray(snapshot["rotation"], dtype=float)
+    N = len(static)
+    M_inv = np.zeros((N, 6, 6))
+    M_inv[:, :3, :3] = world_inertia(R, inv_I_body)
+    M_inv[:, 3:, 3:] = inv_mass[:, None, None] * np.eye(3)
+    return M_inv
+
+
+def unconstrained_velocity(snapshot, dt):
+    """Velocities after gravity, external forces and the gyroscopic term, before contacts.
+
+    Per dynamic body (conventions, step 2), world frame:
+        v*     = v + dt (g + f / m)
+        omega* = omega + dt I_w^-1 (tau - omega x (I_w omega)),   I_w = R I_body R^T
+    so that I_w omega* = L + dt (tau - omega x L) with L = I_w omega (d(I_w omega)/dt = tau).
+    Static bodies never move: their v* and omega* are zero.
+
+    Inputs: snapshot (see module doc), dt s.
+    Outputs: v_star (N, 3) m/s, omega_star (N, 3) rad/s.
+    """
+    static, inv_mass, I_body, inv_I_body = body_arrays(snapshot)
+    g = np.asarray(snapshot["gravity"], dtype=float)
+    R = np.asarray(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
+    v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
+    omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
+    f = np.asarray(snapshot["force"], dtype=float).reshape(-1, 3)
+    tau = np.asarray(snapshot["torque"], dtype=float).reshape(-1, 3)
+
+    # linear: gravity plus external force
+    v_star = v + dt * (g + inv_mass[:, None] * f)
+
+    # angular: torque minus the gyroscopic term omega x L, with L = I_w omega
+    I_w = world_inertia(R, I_body)
+    I_w_inv = world_inertia(R, inv_I_body)
+    L = np.einsum("nij,nj->ni", I_w, omega)
+    omega_star = omega + dt * np.einsum("nij,nj->ni", I_w_inv, tau - np.cross(omega, L))
+
+    # static bodies never move
+    v_star[static] = 0.0
+    omega_star[static] = 0.0
+    return v_star, omega_star
+
+
+def integrate(snapshot, velocity, angular_velocity, dt):
+    """Positions and rotations after one step with the new velocities (conventions, step 4).
+
+        R <- exp([omega]x dt) R            (Rodrigues)
+        R <- 1.5 R - 0.5 R R^T R           (one polar Newton step, keeps R orthonormal)
+        p <- p + dt v
+    Static bodies keep their position and rotation.
+
+    Inputs: snapshot, velocity (N, 3) m/s, angular_velocity (N, 3) rad/s (world), dt s.
+    Outputs: position (N, 3) m, rotation (N, 3, 3) world-from-body.
+    """
+    static = np.array([bool(b["static"]) for b in snapshot["bodies"]], dtype=bool)
+    p = np.array(snapshot["position"], dtype=float).reshape(-1, 3)
+    R = np.array(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
+    v = np.asarray(velocity, dtype=float).reshape(-1, 3)
+    omega = np.asarray(angular_velocity, dtype=float).reshape(-1, 3)
+    for n in np.flatnonzero(~static):
+        R_n = rodrigues(omega[n], dt) @ R[n]
+        R[n] = 1.5 * R_n - 0.5 * R_n @ R_n.T @ R_n
+        p[n] = p[n] + dt * v[n]
+    return p, R
