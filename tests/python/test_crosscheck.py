@@ -1,0 +1,96 @@
+"""The core against the NumPy oracle (signorini.oracle), which never imports the core.
+
+Tolerances: one step of the same formulas from the same state agrees to rounding (~1e-15); 1e-10
+leaves room only for a few ulps of arithmetic-order differences times the condition of the step.
+Over 500 free steps rounding differences can be amplified by the contact LCP (degenerate when many
+coplanar vertices touch: the impulses are not unique), hence 1e-8 as the issue sets it.
+"""
+import numpy as np
+import pytest
+
+import signorini as sg
+from signorini import compare, oracle
+from signorini.meshes import box_mesh, icosphere, torus
+
+
+@pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres", "torus", "boxes"])
+def test_one_step_agrees_to_1e_10(scene):
+    world, dt, steps = compare.build(scene)
+    report = compare.lockstep(world, dt, min(steps, 400))
+    assert report.largest < 1e-10, "\n".join(report.lines())
+    # the scene did make contacts, or the comparison would test nothing about the solver
+    assert world.solver_stats.contacts > 0
+
+
+@pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres"])
+def test_free_rollout_agrees_over_500_steps_to_1e_8(scene):
+    world, dt, steps = compare.build(scene)
+    assert steps == 500
+    report = compare.free(world, dt, steps)
+    assert report.largest < 1e-8, "\n".join(report.lines())
+    assert report.contact_count_mismatches == 0
+
+
+@pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres", "torus"])
+def test_contacts_match_the_oracle_feature_by_feature(scene):
+    world, dt, _ = compare.build(scene)
+    seen = 0
+    for _ in range(60):
+        world.step(dt, 5)
+        core = world.detect_contacts(dt)
+        expected = oracle.detect_contacts(world.snapshot(), dt)
+        assert np.array_equal(core.body_a, expected["body_a"])
+        assert np.array_equal(core.body_b, expected["body_b"])
+        for key in ("point", "normal", "gap"):
+            assert np.allclose(getattr(core, key), expected[key], rtol=0, atol=1e-12), key
+        seen += len(core)
+    assert seen > 0
+
+
+def test_pgs_reaches_the_exact_lcp_solution():
+    # a ball on the plane with a second ball landing on it off-centre: a coupled 2-contact LCP with
+    # a positive definite Delassus matrix, so its solution is unique and PGS must converge to it
+    w = sg.World(gravity=(0, 0, -9.81), tolerance=1e-13, max_iterations=10000)
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    w.add_body(sg.Sphere(0.3), mass=2.0, position=(0, 0, 0.3), velocity=(0, 0, -0.5))
+    d = np.array([0.2, 0.1, 1.0]) / np.linalg.norm([0.2, 0.1, 1.0])
+    w.add_body(sg.Sphere(0.2), mass=1.0, position=np.array([0, 0, 0.3]) + (0.5 - 1e-4) * d, velocity=(0, 0, -1.0))
+    dt = 1 / 240
+    snap = w.snapshot()
+    w.step(dt)
+    assert w.solver_stats.converged and len(w.contacts) == 2
+    contacts = {k: getattr(w.contacts, k) for k in ("body_a", "body_b", "point", "normal", "gap")}
+    v_star, omega_star = oracle.unconstrained_velocity(snap, dt)
+    A, b = oracle.contact_lcp(snap, contacts, v_star, omega_star, dt)
+    x, _ = oracle.lcp_solve(A, b)
+    assert np.allclose(w.contacts.alpha, x, rtol=1e-9, atol=1e-9 * np.abs(x).max())
+
+
+def test_mesh_mass_properties_agree_with_closed_forms_and_the_oracle():
+    # box mesh: the divergence theorem is exact for a polyhedron (rounding only)
+    h = np.array([0.3, 0.5, 0.7])
+    v, f = box_mesh(h)
+    m, com, inertia = sg.mass_properties(sg.Mesh(v, f), density=900.0)
+    m_box, _, i_box = sg.mass_properties(sg.Box(h), density=900.0)
+    assert m == pytest.approx(m_box, rel=1e-14)
+    assert np.allclose(com, 0.0, atol=1e-15) and np.allclose(inertia, i_box, rtol=1e-13, atol=1e-13)
+    # fine icosphere: an inscribed polyhedron; its mass and inertia lie below the ball's, within the
+    # second-order discretisation error 1 - (mesh volume / ball volume) ~ a few 1e-3 at 5 levels
+    r = 0.5
+    v, f = icosphere(r, 5)
+    m, com, inertia = sg.mass_properties(sg.Mesh(v, f), density=1000.0)
+    m_ball, _, i_ball = sg.mass_properties(sg.Sphere(r), density=1000.0)
+    assert 0.0 < 1.0 - m / m_ball < 2e-3
+    assert np.allclose(com, 0.0, atol=1e-12)
+    # inertia scales as r^5 against volume's r^3: its relative deficit is about 5/3 the volume's
+    deficit = 1.0 - m / m_ball
+    assert np.all(np.diag(inertia) < np.diag(i_ball))
+    assert np.allclose(np.diag(inertia), np.diag(i_ball), rtol=2.0 * deficit, atol=0)
+    assert np.max(np.abs(inertia - np.diag(np.diag(inertia)))) < 1e-12 * i_ball[0, 0]
+    # the core and the oracle agree on an arbitrary closed mesh (a torus) to rounding
+    v, f = torus(0.4, 0.15, 24, 12)
+    v = v @ oracle.quat_to_matrix(np.array([0.8, 0.4, -0.2, 0.4]) / np.linalg.norm([0.8, 0.4, -0.2, 0.4])).T + [1, 2, 3]
+    core = sg.mass_properties(sg.Mesh(v, f), density=700.0)
+    expected = oracle.mass_properties_mesh(v, f, 700.0)
+    for a, b in zip(core, expected):
+        assert np.allclose(a, b, rtol=1e-12, atol=1e-12)
