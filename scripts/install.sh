@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Installs what signorini needs on Debian bookworm, as root, skipping what is already there:
+# the compiler, CMake, ninja, Eigen 3.4, FCL 0.7 and libccd, GoogleTest (Debian packages), then
+# the Python build tools and the package itself (editable, built by scikit-build-core into the
+# cached build/ folder, so a warm rebuild only recompiles what changed).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libgtest-dev)
+python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip python3-dev python3-venv)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "signorini: installing Debian packages: ${missing[*]}"
+  apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+
+# a Debian system Python marks itself externally managed; this project installs into it on purpose
+export PIP_BREAK_SYSTEM_PACKAGES=1 PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_ROOT_USER_ACTION=ignore
+python3 -m pip install -q "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.22" "matplotlib>=3.5" \
+  "pytest>=7" "scipy>=1.8"
+python3 -m pip install -q --no-build-isolation -e .
