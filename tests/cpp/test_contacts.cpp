@@ -63,3 +63,58 @@ TEST(NarrowPhase, UnsupportedPairIsNamed) {
   EXPECT_TRUE(collision::unsupported_pair(L, Plane(Vec3::UnitZ(), 0.0)).empty());
   EXPECT_TRUE(collision::unsupported_pair(Box(Vec3(1, 1, 1)), Sphere(1.0)).empty());
 }
+
+TEST(BoxSphere, ExactOutsideInsideAndSwapped) {
+  const Mat3 R = math::quat_to_matrix(Quat4(0.9, 0.1, 0.3, -0.2).normalized());
+  const Vec3 p(1.0, -0.5, 2.0), h(0.5, 0.3, 0.2);
+  // a sphere 1 cm above the +z face, off-centre: the closest point is straight below its centre
+  const Vec3 c_face = p + R * Vec3(0.1, -0.1, 0.2 + 0.25 + 0.01);
+  const Contact face = collision::box_sphere(0, p, R, h, 1, c_face, 0.25, true);
+  EXPECT_NEAR(face.gap, 0.01, 1e-15);
+  EXPECT_LT((face.normal - R * Vec3::UnitZ()).norm(), 1e-15);
+  EXPECT_LT((face.point - (p + R * Vec3(0.1, -0.1, 0.205))).norm(), 1e-15);
+  // beyond an edge: the closest point is on the edge, the normal along the diagonal
+  const Vec3 c_edge = p + R * Vec3(0.0, 0.3 + 0.3, 0.2 + 0.4);
+  const Contact edge = collision::box_sphere(0, p, R, h, 1, c_edge, 0.25, true);
+  EXPECT_NEAR(edge.gap, 0.5 - 0.25, 1e-15);
+  EXPECT_LT((edge.normal - R * Vec3(0, 0.6, 0.8)).norm(), 1e-15);
+  // centre inside, nearest the -x face: pushed out through it
+  const Vec3 c_in = p + R * Vec3(-0.45, 0.0, 0.0);
+  const Contact in = collision::box_sphere(0, p, R, h, 1, c_in, 0.1, true);
+  EXPECT_NEAR(in.gap, -0.05 - 0.1, 1e-15);
+  EXPECT_LT((in.normal + R * Vec3::UnitX()).norm(), 1e-15);
+  // the sphere as A: same point and gap, opposite normal
+  const Contact swapped = collision::box_sphere(1, p, R, h, 0, c_edge, 0.25, false);
+  EXPECT_EQ(swapped.body_a, 0);
+  EXPECT_EQ(swapped.body_b, 1);
+  EXPECT_LT((swapped.normal + edge.normal).norm(), 1e-15);
+  EXPECT_LT((swapped.point - edge.point).norm(), 1e-15);
+  EXPECT_EQ(swapped.gap, edge.gap);
+}
+
+TEST(FclPairs, BoxBoxNormalIsExactWhenTouchingApartOrOverlapping) {
+  // a box resting on a box (gap 0), a hair above it, clearly above, and sunk 1 mm: the normal
+  // must be the face normal every time, from A to B, and the gap exact to GJK/EPA accuracy
+  const Box big(Vec3(1.0, 1.0, 0.5)), small(Vec3(0.3, 0.2, 0.25));
+  for (const double gap : {0.0, 1e-9, 1e-6, 0.05, -1e-3}) {
+    Model model;
+    State state;
+    collision::BroadPhase broad;
+    for (int i = 0; i < 2; ++i) {
+      model.shape.push_back(i == 0 ? Shape(big) : Shape(small));
+      model.is_static.push_back(i == 0);
+      model.rho.push_back(bounding_radius(model.shape.back()));
+      state.p.push_back(i == 0 ? Vec3::Zero() : Vec3(0.2, -0.1, 0.5 + 0.25 + gap));
+      state.R.push_back(Mat3::Identity());
+      state.v.push_back(Vec3::Zero());
+      state.omega.push_back(Vec3::Zero());
+      broad.add_body(i, model.shape.back(), i == 0, state.p.back(), state.R.back());
+    }
+    const auto pairs = broad.pairs(model, state, {0.0, 0.0}, 0.1);
+    ASSERT_EQ(pairs.size(), 1u);
+    Contact c;
+    ASSERT_TRUE(broad.signed_distance(0, 1, c));
+    EXPECT_LT((c.normal - Vec3::UnitZ()).norm(), 1e-9) << "gap " << gap;
+    EXPECT_NEAR(c.gap, gap, 1e-6) << "gap " << gap;
+  }
+}

@@ -407,7 +407,8 @@ def test_sphere_sphere_geometry():
 
 
 def test_speculative_reach_rule():
-    # s_b = dt (|v| + dt |g| + |omega| rho); a contact exists iff gap < margin + s_A + s_B
+    # body pairs: s_b = dt (|v| + dt |g| + |omega| rho); against a plane only the approach counts,
+    # dt (max(0, -n.v) + dt max(0, -n.g) + |omega| rho); a contact exists iff gap < margin + reach
     dt, r = 0.01, 0.5
     v, w = np.array([0, 3.0, -4.0]), np.array([0, 0, 2.0])
     snap = make_snapshot([ground(), make_body({"type": "sphere", "radius": r})],
@@ -416,7 +417,9 @@ def test_speculative_reach_rule():
     s = o.speculative_reach(snap, dt)
     expected = dt * (5.0 + dt * G + 2.0 * r)
     np.testing.assert_allclose(s, [0.0, expected], rtol=1e-15)
-    threshold = 0.005 + expected
+    toward_plane = dt * (4.0 + dt * G + 2.0 * r)
+    assert o.plane_reach(snap, 1, np.array([0, 0, 1.0]), dt) == pytest.approx(toward_plane, rel=1e-15)
+    threshold = 0.005 + toward_plane
     for gap, present in ((threshold * (1 - 1e-9), True), (threshold * (1 + 1e-9), False)):
         snap["position"][1, 2] = r + gap
         assert (len(o.detect_contacts(snap, dt)["gap"]) == 1) == present
@@ -424,11 +427,11 @@ def test_speculative_reach_rule():
 
 def test_unsupported_pair_raises_only_when_within_reach():
     bodies = [make_body({"type": "box", "half_extents": [0.5, 0.5, 0.5]}),
-              make_body({"type": "sphere", "radius": 0.5})]
+              make_body({"type": "box", "half_extents": [0.25, 0.25, 0.25]})]
     near = make_snapshot(bodies, [[0, 0, 0], [1.2, 0, 0]], gravity=(0, 0, 0))
-    with pytest.raises(NotImplementedError, match="box.*sphere"):
+    with pytest.raises(NotImplementedError, match="box.*box"):
         o.detect_contacts(near, 0.01)
-    # bounding spheres |(0.5, 0.5, 0.5)| + 0.5 = 1.37 m; 10 m apart they cannot touch
+    # bounding spheres |(0.5, 0.5, 0.5)| + |(0.25, 0.25, 0.25)| = 1.30 m; 10 m apart they cannot touch
     far = make_snapshot(bodies, [[0, 0, 0], [10.0, 0, 0]], gravity=(0, 0, 0))
     assert len(o.detect_contacts(far, 0.01)["gap"]) == 0
     # static-static pairs are skipped whatever their shapes

@@ -53,9 +53,24 @@ void plane_contacts(BodyIndex a, const Plane& plane, const Vec3& p_a, const Mat3
 /// through FCL because FCL's penetrating witness points carry ~1e-5 m of EPA error (measured).
 Contact sphere_sphere(BodyIndex a, const Vec3& c_a, double r_a, BodyIndex b, const Vec3& c_b, double r_b);
 
+/// Exact box-sphere contact: box (A or B) with pose (p_box, R_box) and half extents h, sphere with
+/// centre c and radius r. The closest box point is the sphere centre clamped into the box; a centre
+/// inside the box is pushed out through the nearest face (lowest axis on ties). `box_is_a` says
+/// which body is A, so the normal points from A to B either way. Written here rather than through
+/// FCL because FCL's box-sphere witness points carry ~1e-5 m of tangential error (measured), which
+/// ruins the normal of a shallow contact.
+Contact box_sphere(BodyIndex box, const Vec3& p_box, const Mat3& R_box, const Vec3& h, BodyIndex sphere,
+                   const Vec3& c, double r, bool box_is_a);
+
 /// Speculative reach of every body for a step of dt: s_b = dt (|v| + dt |g| + |omega| rho) for a
 /// dynamic body, 0 for a static one (m).
 std::vector<double> speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity);
+
+/// Speculative reach of body b towards a plane of world normal n: only the approach speed counts,
+/// dt (max(0, -n . v) + dt max(0, -n . g) + |omega| rho) (m), so a body sliding along a plane does
+/// not gather contacts it cannot reach.
+double plane_reach(const Model& model, const State& state, BodyIndex b, const Vec3& n, double dt,
+                   const Vec3& gravity);
 
 /// All contacts for the current state, in the order of docs/conventions.md.
 std::vector<Contact> detect_contacts(const Model& model, const State& state, double dt,

@@ -152,21 +152,41 @@ bool BroadPhase::signed_distance(BodyIndex a, BodyIndex b, Contact& out) const {
   out.body_b = b;
   out.gap = gap;
   out.point = 0.5 * (w_a + w_b);
-  // normal from the witness points (w_b - w_a = gap n) unless they coincide (exact touching);
-  // then FCL's collide() normal, and as a last resort the direction between the origins
-  const double scale = std::max(1e-9, 1e-9 * (pa->getTranslation() - pb->getTranslation()).norm());
-  if (std::abs(gap) > scale) {
-    out.normal = (w_b - w_a) / gap;
-    out.normal.normalize();
+  // GJK's witness points carry ~1e-5 m of tangential error (measured on box-sphere), so their
+  // direction is a good normal only when the gap is much larger than that. Closer pairs take the
+  // normal of fcl::collide, whose box-box and primitive tests are exact: overlapping pairs as they
+  // are (depth and point too), pairs a hair apart after B is moved into A along the approximate
+  // normal by the gap plus a small probe depth (the gap itself stays the distance query's).
+  const double size = std::max(pa->collisionGeometry()->aabb_radius, pb->collisionGeometry()->aabb_radius);
+  Vec3 approx = w_b - w_a;
+  if (!(approx.norm() > 1e-12)) approx = pb->getTranslation() - pa->getTranslation();
+  if (!(approx.norm() > 0.0)) approx = Vec3::UnitZ();
+  approx.normalize();
+  if (gap < 0.0) approx = -approx;  // witnesses of an overlap point from B's surface to A's
+  if (gap > 1e-3 * size) {
+    out.normal = approx;
     return true;
   }
+  const double shift = gap > 0.0 ? gap + 1e-4 * size : 0.0;
+  fcl::CollisionObjectd probe(std::const_pointer_cast<fcl::CollisionGeometryd>(pb->collisionGeometry()),
+                              pb->getRotation(), pb->getTranslation() - shift * approx);
+  probe.computeAABB();
   fcl::CollisionRequestd creq(1, true);
   creq.gjk_solver_type = fcl::GST_LIBCCD;
   fcl::CollisionResultd cres;
-  fcl::collide(pa, pb, creq, cres);
-  Vec3 n = cres.numContacts() > 0 ? Vec3(cres.getContact(0).normal) : Vec3(pb->getTranslation() - pa->getTranslation());
-  if (!(n.norm() > 0.0)) n = Vec3::UnitZ();
-  out.normal = n.normalized();
+  fcl::collide(pa, &probe, creq, cres);
+  if (cres.numContacts() == 0 || !Vec3(cres.getContact(0).normal).allFinite()) {
+    out.normal = approx;
+    return true;
+  }
+  const auto& contact = cres.getContact(0);
+  out.normal = Vec3(contact.normal).normalized();
+  if (shift == 0.0) {
+    out.gap = -contact.penetration_depth;
+    out.point = contact.pos;
+  } else {
+    out.point = Vec3(contact.pos) + 0.5 * shift * approx;
+  }
   return true;
 }
 

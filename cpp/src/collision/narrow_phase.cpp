@@ -21,7 +21,7 @@ std::string unsupported_pair(const Shape& a, const Shape& b) {
   // the dispatch table:
   //            Plane   Sphere  Box     convex Mesh  non-convex Mesh
   // Plane      static  plane   plane   plane        plane
-  // Sphere             exact   FCL     FCL          unsupported
+  // Sphere             exact   exact   FCL          unsupported
   // Box                        FCL     FCL          unsupported
   // convex                             FCL          unsupported
   // non-convex                                      unsupported
@@ -43,6 +43,13 @@ std::vector<double> speculative_reach(const Model& model, const State& state, do
   return reach;
 }
 
+double plane_reach(const Model& model, const State& state, BodyIndex b, const Vec3& n, double dt,
+                   const Vec3& gravity) {
+  if (model.is_static[b]) return 0.0;
+  return dt * (std::max(0.0, -n.dot(state.v[b])) + dt * std::max(0.0, -n.dot(gravity)) +
+               state.omega[b].norm() * model.rho[b]);
+}
+
 std::vector<Contact> detect_contacts(const Model& model, const State& state, double dt,
                                      const Vec3& gravity, double margin, BroadPhase& broad_phase) {
   const std::vector<double> reach = speculative_reach(model, state, dt, gravity);
@@ -58,22 +65,30 @@ std::vector<Contact> detect_contacts(const Model& model, const State& state, dou
 
   std::vector<Contact> contacts;
   for (const auto& [i, j] : pairs) {
-    const double threshold = margin + reach[i] + reach[j];
     const Shape& si = model.shape[i];
     const Shape& sj = model.shape[j];
     if (is_plane(si) || is_plane(sj)) {
-      // a plane is always A
+      // a plane is always A; the body's reach counts only towards the plane
       const BodyIndex a = is_plane(si) ? i : j;
       const BodyIndex b = is_plane(si) ? j : i;
-      plane_contacts(a, std::get<Plane>(model.shape[a]), state.p[a], state.R[a], b, model.shape[b],
-                     state.p[b], state.R[b], threshold, contacts);
+      const Plane& plane = std::get<Plane>(model.shape[a]);
+      const double threshold = margin + plane_reach(model, state, b, state.R[a] * plane.normal, dt, gravity);
+      plane_contacts(a, plane, state.p[a], state.R[a], b, model.shape[b], state.p[b], state.R[b],
+                     threshold, contacts);
       continue;
     }
+    const double threshold = margin + reach[i] + reach[j];
     const auto* sphere_i = std::get_if<Sphere>(&si);
     const auto* sphere_j = std::get_if<Sphere>(&sj);
+    const auto* box_i = std::get_if<Box>(&si);
+    const auto* box_j = std::get_if<Box>(&sj);
     Contact c;
     if (sphere_i && sphere_j) {
       c = sphere_sphere(i, state.p[i], sphere_i->radius, j, state.p[j], sphere_j->radius);
+    } else if (box_i && sphere_j) {
+      c = box_sphere(i, state.p[i], state.R[i], box_i->half_extents, j, state.p[j], sphere_j->radius, true);
+    } else if (sphere_i && box_j) {
+      c = box_sphere(j, state.p[j], state.R[j], box_j->half_extents, i, state.p[i], sphere_i->radius, false);
     } else if (!broad_phase.signed_distance(i, j, c)) {
       continue;
     }

@@ -1,5 +1,6 @@
 // Plane tests written by hand: FCL 0.7's halfspace distance queries crash (docs/DESIGN), and the
 // exact answer is one dot product per feature.
+#include <cmath>
 #include <variant>
 
 #include "collision/collision.hpp"
@@ -58,6 +59,40 @@ Contact sphere_sphere(BodyIndex a, const Vec3& c_a, double r_a, BodyIndex b, con
   const Vec3 w_b = c_b - r_b * c.normal;
   c.point = 0.5 * (w_a + w_b);
   return c;
+}
+
+Contact box_sphere(BodyIndex box, const Vec3& p_box, const Mat3& R_box, const Vec3& h, BodyIndex sphere,
+                   const Vec3& c, double r, bool box_is_a) {
+  // in box coordinates: the closest box point to the centre, or the nearest face if inside
+  const Vec3 c_l = R_box.transpose() * (c - p_box);
+  const Vec3 q = c_l.cwiseMax(-h).cwiseMin(h);
+  Vec3 n_l, w_box;
+  double gap;
+  if (q != c_l) {
+    const Vec3 d = c_l - q;
+    const double dist = d.norm();
+    n_l = d / dist;
+    gap = dist - r;
+    w_box = q;
+  } else {
+    int k = 0;
+    for (int axis = 1; axis < 3; ++axis)
+      if (h[axis] - std::abs(c_l[axis]) < h[k] - std::abs(c_l[k])) k = axis;
+    const double s = c_l[k] < 0.0 ? -1.0 : 1.0;
+    n_l = Vec3::Zero();
+    n_l[k] = s;
+    gap = -(h[k] - std::abs(c_l[k])) - r;
+    w_box = c_l;
+    w_box[k] = s * h[k];
+  }
+  const Vec3 w_sphere = c_l - r * n_l;
+  Contact out;
+  out.body_a = box_is_a ? box : sphere;
+  out.body_b = box_is_a ? sphere : box;
+  out.normal = R_box * (box_is_a ? n_l : Vec3(-n_l));
+  out.gap = gap;
+  out.point = R_box * (0.5 * (w_box + w_sphere)) + p_box;
+  return out;
 }
 
 }  // namespace signorini::collision

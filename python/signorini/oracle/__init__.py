@@ -16,10 +16,12 @@ Modules, in the order of a step:
 from .contacts import (
     bounding_radius,
     box_corners,
+    contact_box_sphere,
     contact_plane_points,
     contact_plane_sphere,
     contact_sphere_sphere,
     detect_contacts,
+    plane_reach,
     speculative_reach,
 )
 from .lcp import (
@@ -52,7 +54,7 @@ from .rigid import (
 from .step import copy_snapshot, rollout, step
 
 __all__ = [
-    "bias", "bounding_radius", "box_corners", "contact_jacobian", "contact_lcp",
+    "bias", "bounding_radius", "box_corners", "contact_box_sphere", "plane_reach", "contact_jacobian", "contact_lcp",
     "contact_plane_points", "contact_plane_sphere", "contact_rows", "contact_sphere_sphere",
     "copy_snapshot", "detect_contacts", "integrate", "inverse_mass_blocks",
     "inverse_mass_matrix", "jacobian", "lcp_solve", "mass_properties", "mass_properties_box",

@@ -10,6 +10,7 @@ Dispatch table (plane is always A; other pairs have A = lower body index):
     plane  - box    : the 8 corners, corner order k = 0..7
     plane  - mesh   : every vertex, vertex order
     sphere - sphere : one contact along the line of centres
+    box    - sphere : one contact, the sphere centre clamped into the box (nearest face if inside)
     anything else   : NotImplementedError when the bounding spheres are within reach
                       (the core uses FCL there; the oracle does not), skipped when not.
 """
@@ -51,6 +52,19 @@ def speculative_reach(snapshot, dt):
             rho = bounding_radius(body["shape"])
             s[b] = dt * (np.linalg.norm(v[b]) + dt * g + np.linalg.norm(omega[b]) * rho)
     return s
+
+
+def plane_reach(snapshot, b, n, dt):
+    """Reach of body b towards a plane of world normal n (3,): only the approach counts,
+    dt (max(0, -n . v_b) + dt max(0, -n . g) + |omega_b| rho_b); 0 for a static body. m."""
+    body = snapshot["bodies"][b]
+    if body["static"]:
+        return 0.0
+    v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)[b]
+    omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)[b]
+    g = np.asarray(snapshot["gravity"], dtype=float)
+    return dt * (max(0.0, -float(n @ v)) + dt * max(0.0, -float(n @ g))
+                 + np.linalg.norm(omega) * bounding_radius(body["shape"]))
 
 
 def box_corners(half_extents):
@@ -111,6 +125,35 @@ def contact_sphere_sphere(c_A, r_A, c_B, r_B):
     return y[None, :], n[None, :], np.array([gap])
 
 
+def contact_box_sphere(p_box, R_box, half_extents, c, r):
+    """Box (COM p_box, rotation R_box, half extents h) against a sphere (centre c, radius r).
+
+    In box coordinates c_l = R^T (c - p): the closest box point q is c_l clamped to [-h, h]; if
+    c_l is outside, n = (c_l - q) / |c_l - q| and gap = |c_l - q| - r; if inside, the nearest
+    face k (lowest index on ties) gives n = sign(c_l[k]) e_k and gap = -(h_k - |c_l[k]|) - r,
+    with q = c_l moved onto that face. Witnesses q on the box and c_l - r n on the sphere.
+    Outputs (y (1, 3), n (1, 3) from the box towards the sphere, gap (1,)), world frame.
+    """
+    h = np.asarray(half_extents, dtype=float)
+    R_box = np.asarray(R_box, dtype=float)
+    c_l = R_box.T @ (np.asarray(c, dtype=float) - np.asarray(p_box, dtype=float))
+    q = np.clip(c_l, -h, h)
+    if np.any(q != c_l):
+        d = c_l - q
+        n_l = d / np.linalg.norm(d)
+        gap = np.linalg.norm(d) - r
+    else:
+        slack = h - np.abs(c_l)
+        k = int(np.argmin(slack))
+        n_l = np.zeros(3)
+        n_l[k] = -1.0 if c_l[k] < 0 else 1.0
+        gap = -slack[k] - r
+        q = c_l.copy()
+        q[k] = n_l[k] * h[k]
+    y_l = 0.5 * (q + (c_l - r * n_l))
+    return (R_box @ y_l + p_box)[None, :], (R_box @ n_l)[None, :], np.array([gap])
+
+
 def _plane_against(plane, shape, p, R):
     """Candidate features of a plane (A) against a body (B) with COM p (3,), rotation R (3, 3).
 
@@ -163,14 +206,26 @@ def detect_contacts(snapshot, dt):
             # choose A and B: a plane is always A, otherwise the lower index
             candidates = None
             a, b = i, j
-            if kinds[0] == "plane" and kinds[1] != "plane":
-                candidates = _plane_against(shape_i, shape_j, p[j], R[j])
-            elif kinds[1] == "plane" and kinds[0] != "plane":
+            if kinds[1] == "plane" and kinds[0] != "plane":
                 a, b = j, i
-                candidates = _plane_against(shape_j, shape_i, p[i], R[i])
+            if kinds[0] == "plane" or kinds[1] == "plane":
+                if kinds[0] != kinds[1]:
+                    # the plane in world coordinates; the body's reach only towards it
+                    plane = bodies[a]["shape"]
+                    n_w = R[a] @ np.asarray(plane["normal"], dtype=float)
+                    world_plane = {"normal": n_w, "offset": float(plane["offset"]) + n_w @ p[a]}
+                    candidates = _plane_against(world_plane, bodies[b]["shape"], p[b], R[b])
+                    threshold = margin + plane_reach(snapshot, b, n_w, dt)
             elif kinds == ("sphere", "sphere"):
                 candidates = contact_sphere_sphere(p[i], float(shape_i["radius"]),
                                                    p[j], float(shape_j["radius"]))
+            elif kinds == ("box", "sphere"):
+                candidates = contact_box_sphere(p[i], R[i], shape_i["half_extents"], p[j],
+                                                float(shape_j["radius"]))
+            elif kinds == ("sphere", "box"):
+                y, n, d = contact_box_sphere(p[j], R[j], shape_j["half_extents"], p[i],
+                                             float(shape_i["radius"]))
+                candidates = (y, -n, d)
 
             if candidates is None:
                 # no exact rule: fail loudly unless the bounding spheres cannot touch

@@ -1,0 +1,155 @@
+"""Built-in scenes, written once and used by the command line, the tests and the benchmarks.
+
+``SCENES`` maps a scene name to a builder that takes no arguments and returns a fresh ``Scene``
+(a new ``World`` each time, so scenes can be run side by side). ``build(name)`` looks one up.
+
+Scenes:
+- ``torus`` (the default): the CSC417 rigid-body assignment setting. A torus mesh tumbles onto a
+  static plane tilted 45 degrees (normal normalize(0.7, 0.7, 0) through (0, -0.1, 0)) under
+  gravity (0, -0.98, 0), lands and slides down the slope (there is no friction yet).
+- ``boxes``: boxes and spheres dropped on the ground plane z = 0 under gravity (0, 0, -9.81);
+  two spheres meet head on, one lands on a box, one on another sphere.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from . import meshes
+
+__all__ = ["Scene", "SCENES", "build", "DEFAULT_SCENE", "axis_angle_quaternion"]
+
+DEFAULT_SCENE = "torus"
+
+
+@dataclass
+class Scene:
+    """A world ready to run, with how to run it.
+
+    Fields:
+    - name: the registry name (str);
+    - world: the ``signorini.World``, in its initial state (running the scene advances it);
+    - dt: time step (s);
+    - steps: number of steps of a full run (the simulated time is dt * steps);
+    - description: one line for ``python -m signorini list`` and the plot title;
+    - snapshot_times: times (s) of the 3-D snapshots in the plot, or None for evenly spaced ones.
+    """
+
+    name: str
+    world: object
+    dt: float
+    steps: int
+    description: str
+    snapshot_times: tuple[float, ...] | None = None
+
+    @property
+    def duration(self) -> float:
+        """Simulated time of a full run (s)."""
+        return self.dt * self.steps
+
+
+def axis_angle_quaternion(axis, angle: float) -> tuple[float, float, float, float]:
+    """Unit quaternion (w, x, y, z) of a rotation by angle (rad) about axis (3,) (any length > 0)."""
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    s = math.sin(0.5 * angle)
+    return (math.cos(0.5 * angle), s * a[0], s * a[1], s * a[2])
+
+
+def _torus() -> Scene:
+    """The CSC417 assignment setting: a torus dropped onto a tilted plane, gravity -0.98 y."""
+    import signorini as sg
+
+    # the tilted ground: normal normalize(0.7, 0.7, 0) through the point (0, -0.1, 0)
+    normal = np.array([0.7, 0.7, 0.0]) / np.linalg.norm([0.7, 0.7, 0.0])
+    offset = float(normal @ np.array([0.0, -0.1, 0.0]))  # -0.0707 m: the origin is 0.0707 m above
+    # a 1 mm contact margin: the default 5 mm is a third of this small torus's tube radius, and
+    # would keep five rings of hovering vertices as speculative contacts once it lies flat
+    world = sg.World(gravity=(0.0, -0.98, 0.0), contact_margin=0.001)
+    world.add_static(sg.Plane(normal=tuple(normal), offset=offset))
+
+    # a torus of outer radius R + r = 0.055 m < 0.0707 m clears the plane in any orientation
+    R, r = 0.04, 0.015
+    vertices, faces = meshes.torus(R, r, n_major=32, n_minor=16)
+
+    # tilt its axis 50 degrees about the downhill direction (1, -1, 0) and make it tumble
+    world.add_body(
+        sg.Mesh(vertices, faces),
+        density=1000.0,
+        position=(0.0, 0.0, 0.0),
+        orientation=axis_angle_quaternion((1.0, -1.0, 0.0), math.radians(50.0)),
+        velocity=(0.0, 0.0, 0.0),
+        angular_velocity=(1.5, -0.5, 3.0),
+    )
+    return Scene(
+        name="torus",
+        world=world,
+        dt=1.0 / 240.0,
+        steps=1200,
+        description="torus mesh tumbles onto a 45-degree plane (CSC417 setting), g = 0.98 m/s^2; "
+        "no friction: it lands, wobbles down flat and slides",
+        snapshot_times=(0.0, 0.3, 0.9, 2.0, 5.0),
+    )
+
+
+def _boxes() -> Scene:
+    """Boxes and spheres dropped on the ground z = 0; two spheres meet head on."""
+    import signorini as sg
+
+    world = sg.World(gravity=(0.0, 0.0, -9.81))
+    world.add_static(sg.Plane(normal=(0.0, 0.0, 1.0), offset=0.0))
+
+    # a cube tilted onto its edge, and a long flat box spinning as it falls
+    world.add_body(
+        sg.Box(half_extents=(0.2, 0.2, 0.2)),
+        density=500.0,
+        position=(0.0, 0.0, 0.5),
+        orientation=axis_angle_quaternion((1.0, 1.0, 0.0), math.radians(30.0)),
+    )
+    world.add_body(
+        sg.Box(half_extents=(0.4, 0.2, 0.1)),
+        density=500.0,
+        position=(1.2, -0.2, 0.4),
+        orientation=axis_angle_quaternion((0.0, 0.0, 1.0), math.radians(20.0)),
+        angular_velocity=(2.0, 0.0, 1.0),
+    )
+
+    # two equal spheres sliding towards each other: they meet near x = 0, y = 1
+    world.add_body(sg.Sphere(radius=0.15), mass=1.0, position=(-1.0, 1.0, 0.6), velocity=(1.5, 0.0, 0.0))
+    world.add_body(sg.Sphere(radius=0.15), mass=1.0, position=(1.0, 1.0, 0.6), velocity=(-1.5, 0.0, 0.0))
+
+    # a small sphere dropped on the cube, and one dropped off-centre on a resting sphere
+    world.add_body(sg.Sphere(radius=0.1), mass=0.5, position=(0.05, 0.0, 1.4))
+    world.add_body(sg.Sphere(radius=0.2), mass=2.0, position=(-1.0, -1.0, 0.2))
+    world.add_body(sg.Sphere(radius=0.12), mass=0.5, position=(-0.93, -1.0, 1.2))
+
+    return Scene(
+        name="boxes",
+        world=world,
+        dt=1.0 / 240.0,
+        steps=480,
+        description="two boxes and five spheres dropped on the ground, g = 9.81 m/s^2; "
+        "spheres meet head on and land on a box and on a sphere",
+        snapshot_times=(0.0, 0.3, 0.6, 1.0, 2.0),
+    )
+
+
+# name -> builder; each call builds a fresh world
+SCENES: dict[str, Callable[[], Scene]] = {
+    "torus": _torus,
+    "boxes": _boxes,
+}
+
+
+def build(name: str = DEFAULT_SCENE) -> Scene:
+    """A fresh ``Scene`` by registry name; ValueError naming the scene and the known ones."""
+    try:
+        builder = SCENES[name]
+    except KeyError:
+        known = ", ".join(sorted(SCENES))
+        raise ValueError(f"unknown scene {name!r} (known scenes: {known})") from None
+    return builder()

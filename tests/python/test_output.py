@@ -1,0 +1,180 @@
+"""Recording, saving, summarising and plotting, on a stand-in world (no compiled core needed).
+
+The stand-in moves bodies ballistically (exact in closed form) and reports a scripted contact list,
+so every recorded number here is known in advance.
+"""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from signorini import meshes, output
+
+
+class BallisticWorld:
+    """Bodies in free flight under gravity, integrated exactly; body 0 is a static plane z = 0.
+
+    Contacts are scripted: step k (1-based) reports gaps ``gaps(k)`` and iterations k % 5.
+    """
+
+    def __init__(self, gaps):
+        self.gravity = np.array([0.0, 0.0, -9.81])
+        self._shapes = [
+            SimpleNamespace(normal=(0.0, 0.0, 1.0), offset=0.0),
+            SimpleNamespace(radius=0.2),
+            SimpleNamespace(half_extents=(0.3, 0.2, 0.1)),
+            SimpleNamespace(vertices=meshes.torus(0.3, 0.1, 12, 6)[0], faces=meshes.torus(0.3, 0.1, 12, 6)[1]),
+        ]
+        self.masses = np.array([np.inf, 1.0, 2.0, 3.0])
+        self.is_static = np.array([True, False, False, False])
+        self.num_bodies = 4
+        self.time = 0.0
+        self._p0 = np.array([[0, 0, 0], [0, 0, 1.0], [1.0, 0, 2.0], [-1.0, 0, 3.0]])
+        self._v0 = np.array([[0, 0, 0], [1.0, 0, 0], [0, 0.5, 1.0], [0, 0, 0]])
+        self._gaps = gaps
+        self._k = 0
+        self.angular_velocities = np.array([[0, 0, 0], [0, 0, 1.0], [0, 0, 0], [1.0, 0, 0]])
+        self.contacts = SimpleNamespace(gap=np.zeros(0))
+        self.solver_stats = SimpleNamespace(iterations=0, residual=0.0, converged=True)
+
+    def _free(self):
+        return np.where(self.is_static[:, None], 0.0, 1.0)
+
+    @property
+    def positions(self):
+        t = self.time
+        return self._p0 + self._free() * (self._v0 * t + 0.5 * self.gravity * t**2)
+
+    @property
+    def velocities(self):
+        return self._free() * (self._v0 + self.gravity * self.time)
+
+    @property
+    def orientations(self):
+        # body 1 spins about z at 1 rad/s, body 3 about x
+        half = 0.5 * self.time
+        q = np.tile([1.0, 0.0, 0.0, 0.0], (4, 1))
+        q[1] = [np.cos(half), 0, 0, np.sin(half)]
+        q[3] = [np.cos(half), np.sin(half), 0, 0]
+        return q
+
+    def step(self, dt, steps=1):
+        for _ in range(steps):
+            self._k += 1
+            self.time += dt
+            self.contacts = SimpleNamespace(gap=np.asarray(self._gaps(self._k), dtype=float))
+            self.solver_stats = SimpleNamespace(iterations=self._k % 5, residual=1e-12 * self._k, converged=True)
+
+    def kinetic_energy(self):
+        m = self.masses[1:]
+        return float(0.5 * np.sum(m * np.sum(self.velocities[1:] ** 2, axis=1)))
+
+    def potential_energy(self):
+        m = self.masses[1:]
+        return float(-np.sum(m * (self.positions[1:] @ self.gravity)))
+
+    def shape(self, i):
+        return self._shapes[i]
+
+
+def scripted_gaps(k):
+    """no contacts for the first 10 steps, then two contacts, the deepest -k * 1e-5 m."""
+    return [] if k <= 10 else [0.001, -k * 1e-5]
+
+
+def make_scene(steps=40, dt=0.01, snapshot_times=None):
+    return SimpleNamespace(
+        name="ballistic", world=BallisticWorld(scripted_gaps), dt=dt, steps=steps,
+        description="stand-in world", snapshot_times=snapshot_times,
+    )
+
+
+def test_run_records_state_rows_and_step_rows():
+    scene = make_scene()
+    record = output.run(scene, progress=False)
+    T, N = 40, 4
+    assert record.time.shape == (T + 1,)
+    assert record.positions.shape == (T + 1, N, 3) and record.velocities.shape == (T + 1, N, 3)
+    assert record.orientations.shape == (T + 1, N, 4) and record.angular_velocities.shape == (T + 1, N, 3)
+    assert record.kinetic_energy.shape == record.potential_energy.shape == (T + 1,)
+    for name in ("num_contacts", "min_gap", "iterations", "residual", "converged"):
+        assert getattr(record, name).shape == (T,), name
+
+    # row 0 is the initial state, row k the state after k steps
+    np.testing.assert_allclose(record.time, 0.01 * np.arange(T + 1), atol=1e-15)
+    np.testing.assert_allclose(record.positions[0, 1], [0, 0, 1.0])
+    np.testing.assert_allclose(record.positions[-1, 1], [0.4, 0, 1.0 - 0.5 * 9.81 * 0.4**2], atol=1e-12)
+
+    # step arrays follow the scripted contacts: none, then 2 with the deepest gap -k 1e-5
+    k = np.arange(1, T + 1)
+    np.testing.assert_array_equal(record.num_contacts, np.where(k <= 10, 0, 2))
+    assert np.all(np.isnan(record.min_gap[:10]))
+    np.testing.assert_allclose(record.min_gap[10:], -k[10:] * 1e-5)
+    np.testing.assert_allclose(record.penetration, np.where(k <= 10, 0.0, k * 1e-5))
+    np.testing.assert_array_equal(record.iterations, k % 5)
+
+    # exact ballistic motion conserves energy
+    np.testing.assert_allclose(record.total_energy, record.total_energy[0], rtol=1e-12)
+
+
+def test_run_overrides_steps_and_dt_and_rejects_bad_ones():
+    record = output.run(make_scene(), steps=7, dt=0.5, progress=False)
+    assert record.steps == 7 and record.dt == 0.5
+    assert record.time[-1] == pytest.approx(3.5)
+    with pytest.raises(ValueError, match="dt"):
+        output.run(make_scene(), dt=0.0, progress=False)
+    with pytest.raises(ValueError, match="steps"):
+        output.run(make_scene(), steps=0, progress=False)
+
+
+def test_save_and_load_round_trip(tmp_path):
+    record = output.run(make_scene(steps=12), progress=False)
+    path = output.save_npz(tmp_path / "sub" / "run.npz", record)
+    with np.load(path, allow_pickle=False) as data:
+        assert data["positions"].shape == (13, 4, 3)
+        assert str(data["scene"]) == "ballistic"
+    back = output.load_npz(path)
+    assert back.scene == "ballistic" and back.dt == record.dt
+    np.testing.assert_array_equal(back.orientations, record.orientations)
+    np.testing.assert_array_equal(back.min_gap, record.min_gap)
+    np.testing.assert_array_equal(back.masses, record.masses)
+
+
+def test_summary_numbers():
+    scene = make_scene(steps=200, dt=0.01)  # 2 s
+    record = output.run(scene, progress=False)
+    s = output.summary(record, window=1.0)
+    assert s["bodies"] == 4 and s["dynamic"] == 3 and s["steps"] == 200
+    assert s["simulated_time"] == pytest.approx(2.0)
+    # the deepest scripted penetration in the last second is at the last step
+    assert s["max_penetration_last"] == pytest.approx(200 * 1e-5)
+    assert s["contact_steps"] == 190
+    assert s["iterations_max"] == 4
+    assert s["iterations_median"] == 2
+    assert s["energy_drift"] == pytest.approx(0.0, abs=1e-9)
+    text = output.format_summary(record, files=["a.npz", "b.png"])
+    assert "ballistic" in text and "a.npz" in text and "b.png" in text and "last 1 s: 2 mm" in text
+
+
+def test_plot_writes_a_png(tmp_path):
+    record = output.run(make_scene(steps=30), progress=False)
+    path = output.plot(tmp_path / "run.png", record, make_scene(snapshot_times=(0.0, 0.1, 0.3)))
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert path.stat().st_size > 10_000
+
+
+def test_plane_patch_is_the_cut_of_the_view_box():
+    lo, hi = np.zeros(3), np.ones(3)
+    # z = 0.5 cuts the unit cube in a unit square
+    square = output._plane_in_box(np.array([0.0, 0.0, 1.0]), 0.5, lo, hi)
+    assert square.shape == (4, 3)
+    np.testing.assert_allclose(square[:, 2], 0.5)
+    # a plane outside the box gives nothing
+    assert output._plane_in_box(np.array([0.0, 0.0, 1.0]), 2.0, lo, hi) is None
+    # x + y + z = 1.5 cuts a regular hexagon
+    n = np.ones(3) / np.sqrt(3)
+    hexagon = output._plane_in_box(n, 1.5 / np.sqrt(3), lo, hi)
+    assert hexagon.shape == (6, 3)
+    sides = np.linalg.norm(np.roll(hexagon, 1, axis=0) - hexagon, axis=1)
+    np.testing.assert_allclose(sides, np.sqrt(0.5))

@@ -1,0 +1,97 @@
+"""Built-in scenes: they build, start clear of the ground, and end where physics says they should.
+
+The end states are closed-form predictions (a frictionless body resting on a slope accelerates at
+g sin(theta) and conserves energy; two equal spheres meeting head on in a perfectly inelastic
+contact stop), not numbers read off a run.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from signorini import meshes, output, scenes
+
+
+def test_registry_and_unknown_name():
+    assert scenes.DEFAULT_SCENE in scenes.SCENES
+    for name in scenes.SCENES:
+        scene = scenes.build(name)
+        assert scene.name == name and scene.dt > 0 and scene.steps >= 1 and scene.description
+    with pytest.raises(ValueError, match="'no-such-scene'"):
+        scenes.build("no-such-scene")
+
+
+def test_builders_give_fresh_worlds():
+    a, b = scenes.build("boxes"), scenes.build("boxes")
+    assert a.world is not b.world
+    a.world.step(dt=a.dt, steps=5)
+    assert b.world.time == 0.0
+
+
+def lowest_gap(world, plane_index, body):
+    """Smallest signed distance (m) of a dynamic body's surface from a static plane."""
+    plane = world.shape(plane_index)
+    n = np.asarray(plane.normal, dtype=float)
+    n = n / np.linalg.norm(n)
+    shape = world.shape(body)
+    p, q = world.positions[body], world.orientations[body]
+    if hasattr(shape, "radius") and not hasattr(shape, "vertices"):
+        return float(n @ p - plane.offset - shape.radius)
+    v, _ = meshes.render_mesh(shape)
+    return float(np.min(meshes.posed(v, p, q) @ n - plane.offset))
+
+
+@pytest.mark.parametrize("name", sorted(scenes.SCENES))
+def test_scenes_start_without_overlap(name):
+    # resting on the ground (gap 0) is allowed, overlapping it is not
+    world = scenes.build(name).world
+    for body in np.flatnonzero(~np.asarray(world.is_static)):
+        assert lowest_gap(world, 0, body) >= -1e-12
+
+
+def test_torus_scene_is_the_assignment_setting():
+    world = scenes.build("torus").world
+    plane = world.shape(0)
+    n = np.array([0.7, 0.7, 0.0]) / math.hypot(0.7, 0.7)
+    np.testing.assert_allclose(plane.normal, n, rtol=1e-12)
+    assert plane.offset == pytest.approx(n @ [0.0, -0.1, 0.0], rel=1e-12)
+    assert world.num_bodies == 2 and not world.is_static[1]
+
+
+def test_torus_lands_flat_then_slides_at_g_sin_45():
+    scene = scenes.build("torus")
+    record = output.run(scene, progress=False)
+    n = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
+    offset = -0.1 / math.sqrt(2.0)
+    minor_radius = 0.015
+
+    # at the end the torus lies flat: axis along the normal, COM one tube radius above the plane
+    axis = meshes.quaternion_matrix(record.orientations[-1, 1])[:, 2]
+    assert abs(axis @ n) > 0.999
+    assert record.positions[-1, 1] @ n - offset == pytest.approx(minor_radius, abs=5e-4)
+
+    # in the last second it slides downhill, (1, -1, 0) / sqrt(2), at g sin(45 deg) = 0.98 / sqrt(2)
+    last = record.time >= record.time[-1] - 1.0
+    downhill = np.array([1.0, -1.0, 0.0]) / math.sqrt(2.0)
+    s = record.positions[last, 1] @ downhill
+    acceleration = 2.0 * np.polyfit(record.time[last], s, 2)[0]
+    assert acceleration == pytest.approx(0.98 / math.sqrt(2.0), rel=1e-3)
+
+    # resting contact without friction does no work: the total energy stays put
+    energy = record.total_energy[last]
+    assert np.ptp(energy) < 1e-3 * record.kinetic_energy[-1]
+    assert output.summary(record)["max_penetration_last"] < 1e-4
+
+
+def test_boxes_spheres_meeting_head_on_stop():
+    scene = scenes.build("boxes")
+    record = output.run(scene, progress=False)
+    # bodies 3 and 4 are the equal spheres sliding towards each other along x
+    v = record.velocities[-1]
+    np.testing.assert_allclose(v[3], 0.0, atol=1e-3)
+    np.testing.assert_allclose(v[4], 0.0, atol=1e-3)
+    assert record.positions[-1, 4, 0] - record.positions[-1, 3, 0] == pytest.approx(0.3, abs=1e-3)
+    # nothing sinks into the ground
+    for body in range(1, record.num_bodies):
+        assert lowest_gap(scene.world, 0, body) > -1e-3
