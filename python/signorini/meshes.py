@@ -10,7 +10,7 @@ consistently outward oriented (counter-clockwise seen from outside, so the signe
 positive). They can be handed to ``signorini.Mesh(vertices, faces)`` as they are.
 
 Nothing here is physics: the volumes below are for tests and documentation, and the drawing
-helpers (``render_mesh``, ``posed``, ``quaternion_matrix``) are only used for plots.
+helpers (``render_mesh``, ``posed``) are only used for plots.
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from .oracle.rigid import quat_to_matrix
 
 __all__ = [
     "torus",
@@ -27,7 +29,6 @@ __all__ = [
     "signed_volume",
     "torus_mesh_volume",
     "cylinder_mesh_volume",
-    "quaternion_matrix",
     "posed",
     "render_mesh",
 ]
@@ -263,27 +264,10 @@ def signed_volume(vertices, faces) -> float:
 # drawing helpers: used by the plots only, never by the simulation
 
 
-def quaternion_matrix(quaternion) -> np.ndarray:
-    """Rotation matrix(es) world-from-body of unit quaternion(s) (w, x, y, z).
-
-    Inputs: quaternion (..., 4); a non-unit one is normalised. Outputs: R (..., 3, 3) so that a
-    body point X is at R X + p in the world.
-    """
-    q = np.asarray(quaternion, dtype=np.float64)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    w, x, y, z = np.moveaxis(q, -1, 0)
-    rows = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ]
-    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
-
-
 def posed(vertices, position, orientation) -> np.ndarray:
     """World coordinates (n, 3) of body-frame vertices (n, 3) for a body at position (3,) (m)
     with orientation (4,) (w, x, y, z): x = R X + p."""
-    return np.asarray(vertices, dtype=np.float64) @ quaternion_matrix(orientation).T + np.asarray(
+    return np.asarray(vertices, dtype=np.float64) @ quat_to_matrix(orientation).T + np.asarray(
         position, dtype=np.float64
     )
 

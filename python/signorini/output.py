@@ -27,6 +27,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from . import meshes
 
@@ -123,14 +124,7 @@ def run(scene, steps: int | None = None, dt: float | None = None, progress: bool
     # a progress bar only for a person watching a terminal
     if progress is None:
         progress = sys.stdout.isatty()
-    bar = None
-    if progress:
-        try:
-            from tqdm import tqdm
-        except ImportError:  # the bar is a nicety, not a dependency
-            tqdm = None
-        if tqdm is not None:
-            bar = tqdm(total=steps, unit="step", desc=scene.name, leave=False)
+    bar = tqdm(total=steps, unit="step", desc=scene.name, leave=False) if progress else None
 
     # step, then read back the state, the contacts of that step and its solver report
     record_state(0)

@@ -187,18 +187,6 @@ def test_signed_volume_flips_with_the_winding():
 # drawing helpers
 
 
-def test_quaternion_matrix_rotates_like_the_conventions():
-    np.testing.assert_allclose(meshes.quaternion_matrix((1, 0, 0, 0)), np.eye(3), atol=0)
-    # a quarter turn about z takes x to y
-    q = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))
-    np.testing.assert_allclose(meshes.quaternion_matrix(q) @ [1, 0, 0], [0, 1, 0], atol=1e-15)
-    # non-unit quaternions are normalised; results are rotations
-    rng = np.random.default_rng(3)
-    R = meshes.quaternion_matrix(rng.normal(size=(10, 4)) * 5)
-    np.testing.assert_allclose(R @ np.swapaxes(R, -1, -2), np.broadcast_to(np.eye(3), R.shape), atol=1e-14)
-    np.testing.assert_allclose(np.linalg.det(R), 1.0, rtol=1e-14)
-
-
 def test_posed_applies_rotation_then_translation():
     q = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))
     out = meshes.posed([[1.0, 0.0, 0.0], [0.0, 0.0, 2.0]], (10.0, 0.0, 0.0), q)
