@@ -227,3 +227,15 @@ def test_determinism_bit_identical():
         w.step(1 / 240, 480)
         return w.positions.tobytes() + w.orientations.tobytes() + w.velocities.tobytes()
     assert run() == run()
+
+
+def test_a_step_that_overflows_is_undone_and_reported():
+    w = sg.World(gravity=(0, 0, 0))
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    w.add_body(sg.Sphere(0.5), mass=1.0, position=(0, 0, 2.0), velocity=(1.0, 0, 0))
+    w.step(0.01, 2)
+    w.set_external_wrench(1, force=(1e308, 0, 0))
+    before = world_state(w)
+    with pytest.raises(RuntimeError, match=r"body 1 \(Sphere\): state became non-finite"):
+        w.step(1e10)  # v + dt f / m overflows to infinity
+    assert world_state(w) == before

@@ -97,6 +97,8 @@ class World {
 
   /// Contacts the current state would produce for a step of dt, without stepping.
   std::vector<Contact> detect_contacts(double dt) const;
+  /// The same, written into out (cleared first; its capacity is reused).
+  void detect_contacts(double dt, std::vector<Contact>& out) const;
 
  private:
   void check_index(BodyIndex i) const;
@@ -107,6 +109,10 @@ class World {
   std::vector<Contact> contacts_;
   SolverStats stats_;
   std::unique_ptr<collision::BroadPhase> broad_phase_;
+  // step scratch, kept between steps so that a step reuses its buffers instead of allocating
+  State before_;                         ///< state at the start of the step (restored on failure)
+  std::vector<Contact> contacts_next_;   ///< the step's contacts until it succeeds
+  std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
 };
 
 }  // namespace signorini

@@ -72,8 +72,9 @@ std::vector<double> speculative_reach(const Model& model, const State& state, do
 double plane_reach(const Model& model, const State& state, BodyIndex b, const Vec3& n, double dt,
                    const Vec3& gravity);
 
-/// All contacts for the current state, in the order of docs/conventions.md.
-std::vector<Contact> detect_contacts(const Model& model, const State& state, double dt,
-                                     const Vec3& gravity, double margin, BroadPhase& broad_phase);
+/// All contacts for the current state, in the order of docs/conventions.md, written into out
+/// (cleared first).
+void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
+                     double margin, BroadPhase& broad_phase, std::vector<Contact>& out);
 
 }  // namespace signorini::collision

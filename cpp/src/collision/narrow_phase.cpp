@@ -50,8 +50,8 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
                state.omega[b].norm() * model.rho[b]);
 }
 
-std::vector<Contact> detect_contacts(const Model& model, const State& state, double dt,
-                                     const Vec3& gravity, double margin, BroadPhase& broad_phase) {
+void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
+                     double margin, BroadPhase& broad_phase, std::vector<Contact>& contacts) {
   const std::vector<double> reach = speculative_reach(model, state, dt, gravity);
   // candidate pairs: the broad phase's, plus every plane against every dynamic body
   std::vector<std::pair<BodyIndex, BodyIndex>> pairs = broad_phase.pairs(model, state, reach, margin);
@@ -63,7 +63,7 @@ std::vector<Contact> detect_contacts(const Model& model, const State& state, dou
   }
   std::sort(pairs.begin(), pairs.end());
 
-  std::vector<Contact> contacts;
+  contacts.clear();
   for (const auto& [i, j] : pairs) {
     const Shape& si = model.shape[i];
     const Shape& sj = model.shape[j];
@@ -94,7 +94,6 @@ std::vector<Contact> detect_contacts(const Model& model, const State& state, dou
     }
     if (c.gap < threshold) contacts.push_back(c);
   }
-  return contacts;
 }
 
 }  // namespace signorini::collision

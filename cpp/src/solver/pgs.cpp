@@ -11,6 +11,7 @@ namespace {
 /// One contact row, in the notes' symbols. Angular part first, as in q_dot = (omega, p_dot).
 struct Row {
   std::size_t a, b;
+  bool a_static, b_static;
   Vec3 gA_ang, gA_lin, gB_ang, gB_lin;      // g_i^A, g_i^B
   Vec3 MgA_ang, MgA_lin, MgB_ang, MgB_lin;  // M^-1 g for each side
   double delta;                            // dt (g_B^T M_B^-1 g_B + g_A^T M_A^-1 g_A)
@@ -33,6 +34,8 @@ SolverStats solve_pgs(const Model& model, const State& state, double dt, const S
     Row& r = rows[i];
     r.a = static_cast<std::size_t>(c.body_a);
     r.b = static_cast<std::size_t>(c.body_b);
+    r.a_static = model.is_static[r.a];
+    r.b_static = model.is_static[r.b];
     const Vec3& n = c.normal;
     r.gA_ang = -(c.point - state.p[r.a]).cross(n);
     r.gA_lin = -n;
@@ -65,11 +68,17 @@ SolverStats solve_pgs(const Model& model, const State& state, double dt, const S
       const double d_alpha = alpha_new - alpha[i];
       if (d_alpha == 0.0) continue;
       alpha[i] = alpha_new;
+      // static bodies (M^-1 = 0) are skipped rather than given 0 * alpha, which an overflowing
+      // alpha would turn into NaN
       const double s = dt * d_alpha;
-      omega[r.a] += s * r.MgA_ang;
-      v[r.a] += s * r.MgA_lin;
-      omega[r.b] += s * r.MgB_ang;
-      v[r.b] += s * r.MgB_lin;
+      if (!r.a_static) {
+        omega[r.a] += s * r.MgA_ang;
+        v[r.a] += s * r.MgA_lin;
+      }
+      if (!r.b_static) {
+        omega[r.b] += s * r.MgB_ang;
+        v[r.b] += s * r.MgB_lin;
+      }
       largest_change = std::max(largest_change, r.delta * std::abs(d_alpha));
     }
     stats.converged = largest_change <= settings.tolerance;

@@ -132,37 +132,42 @@ BodyIndex World::add_body(const BodyDesc& desc) {
 }
 
 std::vector<Contact> World::detect_contacts(double dt) const {
-  return collision::detect_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_);
+  std::vector<Contact> out;
+  detect_contacts(dt, out);
+  return out;
+}
+
+void World::detect_contacts(double dt, std::vector<Contact>& out) const {
+  collision::detect_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_, out);
 }
 
 void World::step(double dt, int steps) {
   if (!(std::isfinite(dt) && dt > 0.0))
     throw std::invalid_argument("step: dt must be positive and finite, got " + std::to_string(dt));
   if (steps < 0) throw std::invalid_argument("step: steps must be >= 0, got " + std::to_string(steps));
-  std::vector<Vec3> v, omega;
   for (int s = 0; s < steps; ++s) {
-    const State before = state_;
+    before_ = state_;
     // 1. contacts from the current state
-    std::vector<Contact> contacts = detect_contacts(dt);
+    detect_contacts(dt, contacts_next_);
     // 2. unconstrained velocity q_dot*
-    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, dt, v, omega);
+    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, dt, v_, omega_);
     // 3. contact impulses by PGS: q_dot* -> q_dot^{t+1}
-    const SolverStats stats = solver::solve_pgs(model_, state_, dt, settings_.solver, contacts, v, omega);
+    const SolverStats stats = solver::solve_pgs(model_, state_, dt, settings_.solver, contacts_next_, v_, omega_);
     // 4. integrate poses with the new velocities
-    state_.v = v;
-    state_.omega = omega;
+    state_.v = v_;
+    state_.omega = omega_;
     dynamics::integrate(model_, state_, dt);
     state_.time += dt;
     // a step that produced a non-finite number is undone and reported, never kept
     for (std::size_t i = 0; i < model_.size(); ++i) {
       if (state_.p[i].allFinite() && state_.v[i].allFinite() && state_.omega[i].allFinite() && state_.R[i].allFinite())
         continue;
-      state_ = before;
+      state_ = before_;
       throw std::runtime_error(body_label(static_cast<BodyIndex>(i), model_.shape[i]) +
-                               ": state became non-finite at t = " + std::to_string(before.time) +
+                               ": state became non-finite at t = " + std::to_string(before_.time) +
                                "; the step was undone (check forces, masses and dt)");
     }
-    contacts_ = std::move(contacts);
+    contacts_.swap(contacts_next_);
     stats_ = stats;
   }
 }
