@@ -141,31 +141,34 @@ class World:
             raise BodyIndexError(f"body index {i} is out of range: the world has {self.num_bodies} bodies")
         return int(i)
 
+    def _label(self, i: int) -> str:
+        return f"body {i} ({type(self._core.shape(i)).__name__})"
+
     def shape(self, i: int):
         """The shape of body i (a mesh body's vertices are centred on its centre of mass)."""
         return self._core.shape(self._index(i))
 
     def set_position(self, i: int, position) -> None:
         i = self._index(i)
-        self._core.set_position(i, _vector(position, 3, f"body {i}", "position"))
+        self._core.set_position(i, _vector(position, 3, self._label(i), "position"))
 
     def set_orientation(self, i: int, orientation) -> None:
         i = self._index(i)
-        self._core.set_orientation(i, _vector(orientation, 4, f"body {i}", "orientation"))
+        self._core.set_orientation(i, _vector(orientation, 4, self._label(i), "orientation"))
 
     def set_velocity(self, i: int, velocity) -> None:
         i = self._index(i)
-        self._core.set_velocity(i, _vector(velocity, 3, f"body {i}", "velocity"))
+        self._core.set_velocity(i, _vector(velocity, 3, self._label(i), "velocity"))
 
     def set_angular_velocity(self, i: int, angular_velocity) -> None:
         i = self._index(i)
-        self._core.set_angular_velocity(i, _vector(angular_velocity, 3, f"body {i}", "angular_velocity"))
+        self._core.set_angular_velocity(i, _vector(angular_velocity, 3, self._label(i), "angular_velocity"))
 
     def set_external_wrench(self, i: int, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0)) -> None:
         """Sets a world-frame force (N, at the centre of mass) and torque (N m) applied every step."""
         i = self._index(i)
-        self._core.set_external_wrench(i, _vector(force, 3, f"body {i}", "force"),
-                                       _vector(torque, 3, f"body {i}", "torque"))
+        self._core.set_external_wrench(i, _vector(force, 3, self._label(i), "force"),
+                                       _vector(torque, 3, self._label(i), "torque"))
 
     # stepping ---------------------------------------------------------------------------------
     def step(self, dt: float, steps: int = 1) -> None:

@@ -102,6 +102,8 @@ class World {
 
  private:
   void check_index(BodyIndex i) const;
+  /// A velocity for body i must be finite, and zero for a static body.
+  void check_velocity(BodyIndex i, const char* what, const Vec3& x) const;
 
   WorldSettings settings_;
   Model model_;

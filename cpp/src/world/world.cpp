@@ -191,19 +191,21 @@ void World::set_orientation(BodyIndex i, const Quat4& q) {
   if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
 }
 
-void World::set_velocity(BodyIndex i, const Vec3& v) {
+void World::check_velocity(BodyIndex i, const char* what, const Vec3& x) const {
   check_index(i);
   const std::string who = body_label(i, model_.shape[i]);
-  require_finite(who, "velocity", v);
-  if (model_.is_static[i] && v.squaredNorm() > 0.0) throw std::invalid_argument(who + ": a static body cannot have a velocity");
+  require_finite(who, what, x);
+  if (model_.is_static[i] && x.squaredNorm() > 0.0)
+    throw std::invalid_argument(who + ": a static body cannot have a velocity");
+}
+
+void World::set_velocity(BodyIndex i, const Vec3& v) {
+  check_velocity(i, "velocity", v);
   state_.v[i] = v;
 }
 
 void World::set_angular_velocity(BodyIndex i, const Vec3& omega) {
-  check_index(i);
-  const std::string who = body_label(i, model_.shape[i]);
-  require_finite(who, "angular_velocity", omega);
-  if (model_.is_static[i] && omega.squaredNorm() > 0.0) throw std::invalid_argument(who + ": a static body cannot have a velocity");
+  check_velocity(i, "angular_velocity", omega);
   state_.omega[i] = omega;
 }
 
