@@ -7,7 +7,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libgtest-dev)
-python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip python3-dev python3-venv)
+python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip)
+# the extension compiles against Python.h
+python3 -c 'import os, sysconfig; raise SystemExit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \
+  || packages+=(python3-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
