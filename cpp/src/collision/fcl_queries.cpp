@@ -159,10 +159,13 @@ bool BroadPhase::signed_distance(BodyIndex a, BodyIndex b, Contact& out) const {
   // normal by the gap plus a small probe depth (the gap itself stays the distance query's).
   const double size = std::max(pa->collisionGeometry()->aabb_radius, pb->collisionGeometry()->aabb_radius);
   Vec3 approx = w_b - w_a;
-  if (!(approx.norm() > 1e-12)) approx = pb->getTranslation() - pa->getTranslation();
-  if (!(approx.norm() > 0.0)) approx = Vec3::UnitZ();
+  if (approx.norm() > 1e-12) {
+    if (gap < 0.0) approx = -approx;  // witnesses of an overlap point from B's surface to A's
+  } else {
+    approx = pb->getTranslation() - pa->getTranslation();  // touching: between the origins
+    if (!(approx.norm() > 0.0)) approx = Vec3::UnitZ();
+  }
   approx.normalize();
-  if (gap < 0.0) approx = -approx;  // witnesses of an overlap point from B's surface to A's
   if (gap > 1e-3 * size) {
     out.normal = approx;
     return true;
