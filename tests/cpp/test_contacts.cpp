@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include "collision/collision.hpp"
+#include <random>
+
 #include "math/rotation.hpp"
 
 using namespace signorini;
@@ -116,5 +118,30 @@ TEST(FclPairs, BoxBoxNormalIsExactWhenTouchingApartOrOverlapping) {
     ASSERT_TRUE(broad.signed_distance(0, 1, c));
     EXPECT_LT((c.normal - Vec3::UnitZ()).norm(), 1e-9) << "gap " << gap;
     EXPECT_NEAR(c.gap, gap, 1e-6) << "gap " << gap;
+  }
+}
+
+TEST(ConvexSphere, AgreesWithTheBoxFormulaOnABoxMesh) {
+  // a box as a convex mesh and as a Box: two exact methods, one answer (rounding only), for
+  // centres outside (faces, edges, corners) and inside the box, with the mesh as A and as B
+  const Vec3 h(0.5, 0.3, 0.2);
+  Points v(8, 3);
+  for (int k = 0; k < 8; ++k) v.row(k) << ((k & 1) ? h.x() : -h.x()), ((k & 2) ? h.y() : -h.y()), ((k & 4) ? h.z() : -h.z());
+  Triangles f(12, 3);
+  f << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5;
+  const Mesh mesh(v, f);
+  const Mat3 R = math::quat_to_matrix(Quat4(0.7, -0.2, 0.4, 0.1).normalized());
+  const Vec3 p(0.3, 0.2, -0.1);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  for (int trial = 0; trial < 500; ++trial) {
+    const Vec3 c = p + R * Vec3(U(rng), U(rng), U(rng));
+    const bool mesh_is_a = trial % 2 == 0;
+    const Contact exact = collision::box_sphere(0, p, R, h, 1, c, 0.1, mesh_is_a);
+    const Contact got = collision::convex_sphere(0, p, R, mesh, 1, c, 0.1, mesh_is_a);
+    EXPECT_NEAR(got.gap, exact.gap, 1e-12);
+    EXPECT_LT((got.normal - exact.normal).norm(), 1e-12);
+    EXPECT_LT((got.point - exact.point).norm(), 1e-12);
+    EXPECT_EQ(got.body_a, exact.body_a);
   }
 }

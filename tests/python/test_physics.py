@@ -118,17 +118,15 @@ def test_newtons_third_law_in_the_contact_impulses():
     assert touched > 0
 
 
-def test_sphere_rests_on_a_static_convex_mesh_through_fcl():
-    # sphere against a convex mesh goes through FCL's signed distance: it must stop on the top
-    # face (z = 0.5) and stay, its centre one radius above it. FCL's GJK/EPA normal is good to
-    # ~1e-5 (measured), and a frictionless sphere slides along any tilt of it: hence 1e-4 bounds
-    # on the normal and the creep speed, where an exact normal would give zero
+def test_sphere_rests_on_a_static_convex_mesh():
+    # sphere against a convex mesh is exact (closest point over the triangles): it must stop on
+    # the top face (z = 0.5) with its centre one radius above it, and stay, without creeping
     from signorini.meshes import box_mesh
     v, f = box_mesh((1.0, 1.0, 0.5))
     w = sg.World(gravity=(0, 0, -9.81))
     w.add_static(sg.Mesh(v, f))
     b = w.add_body(sg.Sphere(0.2), mass=1.0, position=(0.3, -0.2, 1.5))
     w.step(DT, 3 * 240)
-    assert w.positions[b] == pytest.approx([0.3, -0.2, 0.7], abs=1e-3)
-    assert np.linalg.norm(w.velocities[b]) < 1e-4
-    assert len(w.contacts) == 1 and w.contacts.normal[0] == pytest.approx([0, 0, 1], abs=1e-4)
+    assert w.positions[b] == pytest.approx([0.3, -0.2, 0.7], abs=1e-9)
+    assert np.linalg.norm(w.velocities[b]) < 1e-12
+    assert len(w.contacts) == 1 and w.contacts.normal[0] == pytest.approx([0, 0, 1], abs=1e-15)

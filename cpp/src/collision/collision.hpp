@@ -62,6 +62,12 @@ Contact sphere_sphere(BodyIndex a, const Vec3& c_a, double r_a, BodyIndex b, con
 Contact box_sphere(BodyIndex box, const Vec3& p_box, const Mat3& R_box, const Vec3& h, BodyIndex sphere,
                    const Vec3& c, double r, bool box_is_a);
 
+/// Exact convex-mesh-sphere contact: mesh (A or B) with pose (p_mesh, R_mesh), sphere centre c and
+/// radius r. Outside the mesh the closest point over its triangles; inside, out through the face
+/// plane nearest the centre. `mesh_is_a` says which is A. Needs a convex, outward-oriented mesh.
+Contact convex_sphere(BodyIndex mesh_body, const Vec3& p_mesh, const Mat3& R_mesh, const Mesh& mesh,
+                      BodyIndex sphere, const Vec3& c, double r, bool mesh_is_a);
+
 /// Speculative reach of every body for a step of dt: s_b = dt (|v| + dt |g| + |omega| rho) for a
 /// dynamic body, 0 for a static one (m).
 std::vector<double> speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity);

@@ -21,7 +21,7 @@ std::string unsupported_pair(const Shape& a, const Shape& b) {
   // the dispatch table:
   //            Plane   Sphere  Box     convex Mesh  non-convex Mesh
   // Plane      static  plane   plane   plane        plane
-  // Sphere             exact   exact   FCL          unsupported
+  // Sphere             exact   exact   exact        unsupported
   // Box                        FCL     FCL          unsupported
   // convex                             FCL          unsupported
   // non-convex                                      unsupported
@@ -89,6 +89,10 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
       c = box_sphere(i, state.p[i], state.R[i], box_i->half_extents, j, state.p[j], sphere_j->radius, true);
     } else if (sphere_i && box_j) {
       c = box_sphere(j, state.p[j], state.R[j], box_j->half_extents, i, state.p[i], sphere_i->radius, false);
+    } else if (const auto* mesh_i = std::get_if<Mesh>(&si); mesh_i && sphere_j) {
+      c = convex_sphere(i, state.p[i], state.R[i], *mesh_i, j, state.p[j], sphere_j->radius, true);
+    } else if (const auto* mesh_j = std::get_if<Mesh>(&sj); sphere_i && mesh_j) {
+      c = convex_sphere(j, state.p[j], state.R[j], *mesh_j, i, state.p[i], sphere_i->radius, false);
     } else if (!broad_phase.signed_distance(i, j, c)) {
       continue;
     }
