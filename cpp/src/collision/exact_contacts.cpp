@@ -65,6 +65,27 @@ Contact sphere_sphere(BodyIndex a, const Vec3& c_a, double r_a, BodyIndex b, con
   return c;
 }
 
+namespace {
+
+/// The contact of a sphere (centre c_l, radius r, in the shape's frame) with a shape at (p, R),
+/// from the shape-frame normal n_l (shape -> sphere), the shape's witness w_shape and the gap:
+/// the sphere's witness is c_l - r n_l, the point their midpoint, the normal flipped if the
+/// sphere is A.
+Contact shape_sphere_contact(BodyIndex shape_body, const Vec3& p, const Mat3& R, BodyIndex sphere,
+                             const Vec3& c_l, double r, const Vec3& n_l, const Vec3& w_shape,
+                             double gap, bool shape_is_a) {
+  const Vec3 w_sphere = c_l - r * n_l;
+  Contact out;
+  out.body_a = shape_is_a ? shape_body : sphere;
+  out.body_b = shape_is_a ? sphere : shape_body;
+  out.normal = R * (shape_is_a ? n_l : Vec3(-n_l));
+  out.gap = gap;
+  out.point = R * (0.5 * (w_shape + w_sphere)) + p;
+  return out;
+}
+
+}  // namespace
+
 Contact box_sphere(BodyIndex box, const Vec3& p_box, const Mat3& R_box, const Vec3& h, BodyIndex sphere,
                    const Vec3& c, double r, bool box_is_a) {
   // in box coordinates: the closest box point to the centre, or the nearest face if inside
@@ -89,14 +110,7 @@ Contact box_sphere(BodyIndex box, const Vec3& p_box, const Mat3& R_box, const Ve
     w_box = c_l;
     w_box[k] = s * h[k];
   }
-  const Vec3 w_sphere = c_l - r * n_l;
-  Contact out;
-  out.body_a = box_is_a ? box : sphere;
-  out.body_b = box_is_a ? sphere : box;
-  out.normal = R_box * (box_is_a ? n_l : Vec3(-n_l));
-  out.gap = gap;
-  out.point = R_box * (0.5 * (w_box + w_sphere)) + p_box;
-  return out;
+  return shape_sphere_contact(box, p_box, R_box, sphere, c_l, r, n_l, w_box, gap, box_is_a);
 }
 
 namespace {
@@ -164,14 +178,7 @@ Contact convex_sphere(BodyIndex mesh_body, const Vec3& p_mesh, const Mat3& R_mes
     n_l = (c_l - w_mesh) / dist;
     gap = dist - r;
   }
-  const Vec3 w_sphere = c_l - r * n_l;
-  Contact out;
-  out.body_a = mesh_is_a ? mesh_body : sphere;
-  out.body_b = mesh_is_a ? sphere : mesh_body;
-  out.normal = R_mesh * (mesh_is_a ? n_l : Vec3(-n_l));
-  out.gap = gap;
-  out.point = R_mesh * (0.5 * (w_mesh + w_sphere)) + p_mesh;
-  return out;
+  return shape_sphere_contact(mesh_body, p_mesh, R_mesh, sphere, c_l, r, n_l, w_mesh, gap, mesh_is_a);
 }
 
 }  // namespace signorini::collision
