@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from .oracle.mass import mesh_volume_integrals
 from .oracle.rigid import quat_to_matrix
 
 __all__ = [
@@ -250,15 +251,12 @@ def cylinder_mesh_volume(radius: float, half_height: float, n: int = 32) -> floa
 
 
 def signed_volume(vertices, faces) -> float:
-    """Signed enclosed volume (m^3) of a closed triangle mesh (divergence theorem).
+    """Signed enclosed volume (m^3) of a closed triangle mesh: the oracle's divergence-theorem
+    volume (sum over faces of det(v0, v1, v2) / 6), positive when the faces are outward oriented.
 
-    Inputs: vertices (n, 3), faces (k, 3). Output: sum over faces of det(v0, v1, v2) / 6, the
-    signed tetrahedra (origin, v0, v1, v2); positive when the faces are outward oriented.
+    Inputs: vertices (n, 3), faces (k, 3).
     """
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces, dtype=np.int64)
-    v0, v1, v2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    return float(np.einsum("ij,ij->i", v0, np.cross(v1, v2)).sum() / 6.0)
+    return float(mesh_volume_integrals(vertices, faces)[0])
 
 
 # drawing helpers: used by the plots only, never by the simulation
