@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "signorini/contact.hpp"
 #include "signorini/shapes.hpp"
 #include "signorini/types.hpp"
 
@@ -61,6 +62,39 @@ inline Shape to_shape(const py::handle& x, const std::string& who) {
 /// The core's Shape as its Python object.
 inline py::object from_shape(const Shape& shape) {
   return std::visit([](const auto& s) { return py::cast(s); }, shape);
+}
+
+/// Contacts as a dict of arrays: body_a, body_b (K,) int64; point, normal (K, 3); gap, alpha,
+/// impulse (K,); feature_a, feature_b (K,) uint64 (docs/conventions.md, "Feature ids").
+inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
+  const auto K = static_cast<py::ssize_t>(contacts.size());
+  py::array_t<std::int64_t> a(K), b(K);
+  py::array_t<std::uint64_t> fa(K), fb(K);
+  py::array_t<double> gap(K), alpha(K), impulse(K);
+  std::vector<Vec3> point, normal;
+  for (py::ssize_t i = 0; i < K; ++i) {
+    const Contact& c = contacts[i];
+    a.mutable_at(i) = c.body_a;
+    b.mutable_at(i) = c.body_b;
+    fa.mutable_at(i) = c.feature_a;
+    fb.mutable_at(i) = c.feature_b;
+    gap.mutable_at(i) = c.gap;
+    alpha.mutable_at(i) = c.alpha;
+    impulse.mutable_at(i) = c.impulse;
+    point.push_back(c.point);
+    normal.push_back(c.normal);
+  }
+  py::dict d;
+  d["body_a"] = a;
+  d["body_b"] = b;
+  d["point"] = rows_of(point);
+  d["normal"] = rows_of(normal);
+  d["gap"] = gap;
+  d["alpha"] = alpha;
+  d["impulse"] = impulse;
+  d["feature_a"] = fa;
+  d["feature_b"] = fb;
+  return d;
 }
 
 }  // namespace signorini::bindings

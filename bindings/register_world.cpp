@@ -6,37 +6,7 @@
 #include "signorini/world.hpp"
 
 using namespace signorini;
-
-namespace {
-
-/// Contacts as a dict of arrays: body_a, body_b (K,), point, normal (K, 3), gap, alpha, impulse (K,).
-py::dict contact_arrays(const std::vector<Contact>& contacts) {
-  const auto K = static_cast<py::ssize_t>(contacts.size());
-  py::array_t<std::int64_t> a(K), b(K);
-  py::array_t<double> gap(K), alpha(K), impulse(K);
-  std::vector<Vec3> point, normal;
-  for (py::ssize_t i = 0; i < K; ++i) {
-    const Contact& c = contacts[i];
-    a.mutable_at(i) = c.body_a;
-    b.mutable_at(i) = c.body_b;
-    gap.mutable_at(i) = c.gap;
-    alpha.mutable_at(i) = c.alpha;
-    impulse.mutable_at(i) = c.impulse;
-    point.push_back(c.point);
-    normal.push_back(c.normal);
-  }
-  py::dict d;
-  d["body_a"] = a;
-  d["body_b"] = b;
-  d["point"] = bindings::rows_of(point);
-  d["normal"] = bindings::rows_of(normal);
-  d["gap"] = gap;
-  d["alpha"] = alpha;
-  d["impulse"] = impulse;
-  return d;
-}
-
-}  // namespace
+using bindings::contact_arrays;
 
 void register_world(py::module_& m) {
   py::class_<World>(m, "World")

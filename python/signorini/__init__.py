@@ -11,7 +11,8 @@ the core against it; ``python -m signorini run`` runs a built-in scene.
 """
 from ._core import Box, Mesh, Plane, Sphere
 from .world import BodyIndexError, Contacts, SolverStats, World, mass_properties, shape_dict
+from .collision import Feature, collide, feature
 
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "mass_properties", "Contacts", "SolverStats",
-           "BodyIndexError", "shape_dict"]
+           "BodyIndexError", "shape_dict", "collide", "feature", "Feature"]
 __version__ = "0.1.0"

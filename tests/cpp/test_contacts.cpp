@@ -1,147 +1,277 @@
-// Contact generation: plane tests, sphere-sphere, FCL pairs, ordering and speculative reach.
+// Contact generation through collision::collide: golden manifolds with exact answers (docs/
+// conventions.md, "Manifolds"), feature ids, A/B symmetry, speculative gaps, unsupported pairs.
 #include <gtest/gtest.h>
 
-#include "collision/collision.hpp"
-#include <random>
+#include <cmath>
+#include <set>
 
+#include "collision/collision.hpp"
 #include "math/rotation.hpp"
 
 using namespace signorini;
+using collision::Pose;
 
-TEST(PlaneContacts, BoxRestingFaceDownGetsItsFourBottomCorners) {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::vector<Contact> collide(const Shape& a, const Pose& pa, const Shape& b, const Pose& pb, double threshold = 1e-6) {
   std::vector<Contact> out;
+  collision::collide(a, pa, b, pb, threshold, {}, out);
+  return out;
+}
+
+Mat3 rot_z(double angle) { return Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRotationMatrix(); }
+
+/// A flat square floor [-s, s]^2 at z = 0 made of 2 n^2 triangles.
+TriangleMesh floor_mesh(double s, int n) {
+  Points v((n + 1) * (n + 1), 3);
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j) v.row(i * (n + 1) + j) << -s + 2 * s * i / n, -s + 2 * s * j / n, 0.0;
+  Triangles f(2 * n * n, 3);
+  int k = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const int a = i * (n + 1) + j, b = a + (n + 1), c = b + 1, d = a + 1;
+      f.row(k++) << a, b, c;
+      f.row(k++) << a, c, d;
+    }
+  return TriangleMesh(v, f);
+}
+
+}  // namespace
+
+TEST(Manifold, BoxFaceDownOnAPlaneHasItsFourBottomCornersWithVertexIds) {
   const Box box(Vec3(0.5, 0.5, 0.5));
-  collision::plane_contacts(0, Plane(Vec3::UnitZ(), 0.0), Vec3::Zero(), Mat3::Identity(), 1, box,
-                            Vec3(0.2, -0.3, 0.5), Mat3::Identity(), 1e-3, out);
+  const auto out = collide(Plane(Vec3::UnitZ(), 0.0), {}, box, {Vec3(0.2, -0.3, 0.5), Mat3::Identity()}, 1e-3);
   ASSERT_EQ(out.size(), 4u);
-  for (const Contact& c : out) {
-    EXPECT_EQ(c.body_a, 0);
-    EXPECT_EQ(c.body_b, 1);
-    EXPECT_EQ(c.gap, 0.0);
-    EXPECT_EQ(c.normal, Vec3::UnitZ());
-    EXPECT_EQ(c.point.z(), 0.0);
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_LT(std::abs(out[k].gap), 1e-9);
+    EXPECT_EQ(out[k].normal, Vec3::UnitZ());
+    EXPECT_EQ(out[k].feature_a, feature_id(FeatureKind::Face, 0));
+    EXPECT_EQ(out[k].feature_b, feature_id(FeatureKind::Vertex, k));
+    const Vec3 corner(k & 1 ? 0.7 : -0.3, k & 2 ? 0.2 : -0.8, 0.0);
+    EXPECT_LT((out[k].point - corner).norm(), 1e-12);
   }
-  // corner order k = 0, 1, 2, 3 (sz = -1): (-,-), (+,-), (-,+), (+,+)
-  EXPECT_EQ(out[0].point, Vec3(-0.3, -0.8, 0.0));
-  EXPECT_EQ(out[3].point, Vec3(0.7, 0.2, 0.0));
 }
 
-TEST(PlaneContacts, TiltedPlaneSphereAndPlanePose) {
-  // a plane body placed by a pose: local normal z rotated to world x, origin at x = 2
-  std::vector<Contact> out;
-  const Mat3 R = math::quat_to_matrix(Quat4(std::sqrt(0.5), 0.0, std::sqrt(0.5), 0.0));  // z -> x
-  collision::plane_contacts(0, Plane(Vec3::UnitZ(), 0.0), Vec3(2, 0, 0), R, 1, Sphere(0.5),
-                            Vec3(2.4, 1, 1), Mat3::Identity(), 0.0, out);
+TEST(Manifold, UnitBoxOnALargerBoxHasFourCornerPointsAndTheExactNormal) {
+  const Box ground(Vec3(2.0, 2.0, 0.5)), box(Vec3(0.5, 0.5, 0.5));
+  const Pose pg{Vec3(0, 0, -0.5), Mat3::Identity()};
+  const Pose pb{Vec3(0.3, 0.1, 0.5), Mat3::Identity()};
+  const auto out = collide(ground, pg, box, pb);
+  ASSERT_EQ(out.size(), 4u);
+  std::set<FeatureId> ids;
+  for (const Contact& c : out) {
+    EXPECT_LT(std::abs(c.gap), 1e-9);
+    EXPECT_EQ(c.normal, Vec3::UnitZ());
+    EXPECT_NEAR(std::abs(c.point.x() - 0.3), 0.5, 1e-12);
+    EXPECT_NEAR(std::abs(c.point.y() - 0.1), 0.5, 1e-12);
+    EXPECT_NEAR(c.point.z(), 0.0, 1e-12);
+    ids.insert(c.feature_b);
+  }
+  // the reference face is the ground's top (face 5, +z); the box's bottom corners are vertices 0..3
+  EXPECT_EQ(ids, (std::set<FeatureId>{feature_id(FeatureKind::Vertex, 0), feature_id(FeatureKind::Vertex, 1),
+                                       feature_id(FeatureKind::Vertex, 2), feature_id(FeatureKind::Vertex, 3)}));
+  EXPECT_EQ(out[0].feature_a, feature_id(FeatureKind::Face, 5));
+  // the same with B's reference: swapping A and B flips the normal and keeps the points
+  const auto swapped = collide(box, pb, ground, pg);
+  ASSERT_EQ(swapped.size(), 4u);
+  for (const Contact& c : swapped) EXPECT_EQ(c.normal, -Vec3::UnitZ());
+}
+
+TEST(Manifold, BoxTurned45DegreesOnABoxKeepsFourPointsOnTheOverlapOctagon) {
+  const Box box(Vec3(0.5, 0.5, 0.5));
+  const Pose lower{Vec3::Zero(), Mat3::Identity()};
+  const Pose upper{Vec3(0, 0, 1.0), rot_z(kPi / 4)};
+  const auto out = collide(box, lower, box, upper);
+  ASSERT_EQ(out.size(), 4u);
+  // the overlap of the two unit squares is a regular octagon with vertices at radius
+  // 0.5 / cos(22.5 deg) on the directions 22.5 + 45 k degrees
+  const double rv = 0.5 / std::cos(kPi / 8);
+  std::vector<Vec3> octagon;
+  for (int k = 0; k < 8; ++k) octagon.emplace_back(rv * std::cos(kPi / 8 + k * kPi / 4), rv * std::sin(kPi / 8 + k * kPi / 4), 0.5);
+  for (const Contact& c : out) {
+    EXPECT_LT(std::abs(c.gap), 1e-9);
+    EXPECT_LT((c.normal - Vec3::UnitZ()).norm(), 1e-12);
+    double nearest = 1e9;
+    for (const Vec3& o : octagon) nearest = std::min(nearest, (c.point - o).norm());
+    EXPECT_LT(nearest, 1e-9) << "every point is an octagon vertex";
+  }
+  // the 4 points span the largest quadrilateral of the octagon: half its area or more
+  // (a square on alternate vertices: 2 rv^2; the octagon itself: 2 sqrt(2) rv^2)
+  const Vec3 d1 = out[0].point, d2 = out[1].point, d3 = out[2].point, d4 = out[3].point;
+  double area = 0.0;
+  const Vec3 centre = (d1 + d2 + d3 + d4) / 4;
+  std::vector<Vec3> pts = {d1, d2, d3, d4};
+  std::sort(pts.begin(), pts.end(), [&](const Vec3& a, const Vec3& b) {
+    return std::atan2(a.y() - centre.y(), a.x() - centre.x()) < std::atan2(b.y() - centre.y(), b.x() - centre.x());
+  });
+  for (int k = 0; k < 4; ++k) area += 0.5 * (pts[k].x() * pts[(k + 1) % 4].y() - pts[(k + 1) % 4].x() * pts[k].y());
+  EXPECT_GE(area, 2 * rv * rv * (1 - 1e-9));
+}
+
+TEST(Manifold, CrossedEdgesGiveOneEdgeEdgePointWithTheExactGap) {
+  // a box standing on an edge along x, above a box lying on an edge along y
+  const Box box(Vec3(0.5, 0.5, 0.5));
+  const Mat3 Rx = Eigen::AngleAxisd(kPi / 4, Vec3::UnitX()).toRotationMatrix();
+  const Mat3 Ry = Eigen::AngleAxisd(kPi / 4, Vec3::UnitY()).toRotationMatrix();
+  const double h = 0.5 * std::sqrt(2.0);
+  const auto out = collide(box, {Vec3::Zero(), Ry}, box, {Vec3(0, 0, 2 * h - 0.01), Rx}, 1e-3);
   ASSERT_EQ(out.size(), 1u);
-  EXPECT_NEAR(out[0].gap, -0.1, 1e-15);
-  EXPECT_LT((out[0].normal - Vec3::UnitX()).norm(), 1e-15);
-  EXPECT_LT((out[0].point - Vec3(1.95, 1, 1)).norm(), 1e-15);
+  EXPECT_NEAR(out[0].gap, -0.01, 1e-12);
+  EXPECT_LT((out[0].normal - Vec3::UnitZ()).norm(), 1e-12);
+  EXPECT_LT((out[0].point - Vec3(0, 0, h - 0.005)).norm(), 1e-12);
+  EXPECT_EQ(feature_kind(out[0].feature_a), FeatureKind::Edge);
+  EXPECT_EQ(feature_kind(out[0].feature_b), FeatureKind::Edge);
 }
 
-TEST(SphereSphere, ExactGapNormalAndSymmetricPoint) {
-  const Contact c = collision::sphere_sphere(0, Vec3(0, 0, 0), 0.5, 1, Vec3(0.9, 0.1, 0), 0.5);
-  const double d = std::sqrt(0.82);
-  EXPECT_NEAR(c.gap, d - 1.0, 1e-15);
-  EXPECT_LT((c.normal - Vec3(0.9, 0.1, 0) / d).norm(), 1e-15);
-  const Contact swapped = collision::sphere_sphere(1, Vec3(0.9, 0.1, 0), 0.5, 0, Vec3(0, 0, 0), 0.5);
-  EXPECT_LT((swapped.normal + c.normal).norm(), 1e-15);
-  EXPECT_LT((swapped.point - c.point).norm(), 1e-15);
+TEST(Manifold, SpeculativeBoxAboveABoxHasPositiveGaps) {
+  const Box box(Vec3(0.5, 0.5, 0.5));
+  const auto out = collide(box, {}, box, {Vec3(0.1, 0, 1.003), Mat3::Identity()}, 0.005);
+  ASSERT_EQ(out.size(), 4u);
+  for (const Contact& c : out) EXPECT_NEAR(c.gap, 0.003, 1e-12);
+  EXPECT_TRUE(collide(box, {}, box, {Vec3(0.1, 0, 1.006), Mat3::Identity()}, 0.005).empty());
 }
 
-TEST(NarrowPhase, UnsupportedPairIsNamed) {
-  // a torus-like non-convex mesh: an L-shaped prism is enough
+TEST(Manifold, CapsuleLyingOnABoxOrAPlaneHasTwoPoints) {
+  const Capsule capsule(0.1, 0.4);
+  const Mat3 lying = Eigen::AngleAxisd(kPi / 2, Vec3::UnitY()).toRotationMatrix();  // axis along x
+  const auto on_box = collide(Box(Vec3(1, 1, 0.5)), {Vec3(0, 0, -0.5), Mat3::Identity()}, capsule,
+                              {Vec3(0.2, 0.3, 0.1), lying});
+  ASSERT_EQ(on_box.size(), 2u);
+  for (const Contact& c : on_box) {
+    EXPECT_LT(std::abs(c.gap), 1e-12);
+    EXPECT_LT((c.normal - Vec3::UnitZ()).norm(), 1e-12);
+    EXPECT_NEAR(std::abs(c.point.x() - 0.2), 0.4, 1e-12);
+  }
+  // hanging over the box's edge: the segment is clipped to the face
+  const auto over_edge = collide(Box(Vec3(1, 1, 0.5)), {Vec3(0, 0, -0.5), Mat3::Identity()}, capsule,
+                                 {Vec3(0.9, 0.0, 0.1), lying});
+  ASSERT_EQ(over_edge.size(), 2u);
+  EXPECT_NEAR(std::max(over_edge[0].point.x(), over_edge[1].point.x()), 1.0, 1e-12);
+  const auto on_plane = collide(Plane(Vec3::UnitZ(), 0.0), {}, capsule, {Vec3(0, 0, 0.1), lying});
+  ASSERT_EQ(on_plane.size(), 2u);
+  for (const Contact& c : on_plane) EXPECT_LT(std::abs(c.gap), 1e-12);
+}
+
+TEST(Manifold, CylinderStandingHasRimPointsAndLyingHasTwo) {
+  const Cylinder cylinder(0.3, 0.5);
+  const auto standing = collide(Plane(Vec3::UnitZ(), 0.0), {}, cylinder, {Vec3(0, 0, 0.5), Mat3::Identity()});
+  ASSERT_GE(standing.size(), 3u);
+  for (const Contact& c : standing) {
+    EXPECT_LT(std::abs(c.gap), 1e-12);
+    EXPECT_NEAR(std::hypot(c.point.x(), c.point.y()), 0.3, 1e-12);
+  }
+  const Mat3 lying = Eigen::AngleAxisd(kPi / 2, Vec3::UnitX()).toRotationMatrix();
+  const auto on_side = collide(Plane(Vec3::UnitZ(), 0.0), {}, cylinder, {Vec3(0, 0, 0.3), lying});
+  ASSERT_EQ(on_side.size(), 2u);
+  for (const Contact& c : on_side) EXPECT_LT(std::abs(c.gap), 1e-12);
+  EXPECT_NEAR(std::abs(on_side[0].point.y() - on_side[1].point.y()), 1.0, 1e-12);
+  // standing on a box: FCL's normal, then the cap clipped against the box face
+  const auto on_box = collide(Box(Vec3(1, 1, 0.5)), {Vec3(0, 0, -0.5), Mat3::Identity()}, cylinder,
+                              {Vec3(0, 0, 0.5 - 1e-4), Mat3::Identity()}, 1e-3);
+  ASSERT_GE(on_box.size(), 3u);
+  for (const Contact& c : on_box) {
+    EXPECT_NEAR(c.gap, -1e-4, 1e-9);
+    EXPECT_LT((c.normal - Vec3::UnitZ()).norm(), 1e-9);
+  }
+}
+
+TEST(Manifold, SpherePairsHaveOnePointAndSwappingFlipsTheNormal) {
+  const Sphere s(0.5);
+  const Pose pa{Vec3::Zero(), Mat3::Identity()}, pb{Vec3(0.9, 0.1, 0), Mat3::Identity()};
+  const auto ab = collide(s, pa, s, pb, 0.0);
+  const auto ba = collide(s, pb, s, pa, 0.0);
+  ASSERT_EQ(ab.size(), 1u);
+  ASSERT_EQ(ba.size(), 1u);
+  EXPECT_NEAR(ab[0].gap, std::sqrt(0.82) - 1.0, 1e-15);
+  EXPECT_LT((ab[0].normal + ba[0].normal).norm(), 1e-15);
+  EXPECT_LT((ab[0].point - ba[0].point).norm(), 1e-15);
+  // sphere against each primitive, both orders
+  const Mat3 R = math::quat_to_matrix(Quat4(0.9, 0.1, 0.3, -0.2).normalized());
+  const std::vector<Shape> others = {Box(Vec3(0.5, 0.3, 0.2)), Capsule(0.2, 0.3), Cylinder(0.3, 0.2)};
+  for (const Shape& other : others) {
+    const Pose po{Vec3(0.1, 0.2, -0.3), R};
+    const Pose ps{Vec3(0.3, 0.4, 0.5), Mat3::Identity()};
+    const auto x = collide(other, po, Sphere(0.4), ps, 1.0);
+    const auto y = collide(Sphere(0.4), ps, other, po, 1.0);
+    ASSERT_EQ(x.size(), 1u) << shape_name(other);
+    ASSERT_EQ(y.size(), 1u);
+    EXPECT_EQ(x[0].gap, y[0].gap);
+    EXPECT_LT((x[0].normal + y[0].normal).norm(), 1e-15);
+    EXPECT_LT((x[0].point - y[0].point).norm(), 1e-15);
+    EXPECT_NEAR(x[0].normal.norm(), 1.0, 1e-15);
+  }
+  // a sphere on a capsule's side: gap along the perpendicular
+  const auto side = collide(Capsule(0.2, 0.5), {}, Sphere(0.1), {Vec3(0.35, 0, 0.2), Mat3::Identity()}, 1.0);
+  ASSERT_EQ(side.size(), 1u);
+  EXPECT_NEAR(side[0].gap, 0.05, 1e-15);
+  EXPECT_EQ(side[0].feature_a, feature_id(FeatureKind::Edge, 0));
+}
+
+TEST(Manifold, ParallelCapsulesTouchAlongTwoPointsCrossedOnOne) {
+  const Capsule c(0.1, 0.5);
+  const Mat3 along_x = Eigen::AngleAxisd(kPi / 2, Vec3::UnitY()).toRotationMatrix();
+  const auto parallel = collide(c, {Vec3::Zero(), along_x}, c, {Vec3(0.3, 0, 0.19), along_x}, 0.0);
+  ASSERT_EQ(parallel.size(), 2u);
+  for (const Contact& k : parallel) {
+    EXPECT_NEAR(k.gap, -0.01, 1e-15);
+    EXPECT_LT((k.normal - Vec3::UnitZ()).norm(), 1e-15);
+  }
+  const Mat3 along_y = Eigen::AngleAxisd(kPi / 2, Vec3::UnitX()).toRotationMatrix();
+  const auto crossed = collide(c, {Vec3::Zero(), along_x}, c, {Vec3(0, 0, 0.19), along_y}, 0.0);
+  ASSERT_EQ(crossed.size(), 1u);
+  EXPECT_NEAR(crossed[0].gap, -0.01, 1e-15);
+}
+
+TEST(Manifold, BoxOnATriangleMeshFloorKeepsItsFourCornersWithStableIds) {
+  const TriangleMesh floor = floor_mesh(2.0, 4);
+  const Box box(Vec3(0.5, 0.4, 0.3));
+  std::vector<Contact> first;
+  for (int step = 0; step < 5; ++step) {
+    // the box slides over interior edges of the floor; always the same 4 corners, no ghost normals
+    const Pose pb{Vec3(0.13 + 0.01 * step, -0.07, 0.3), rot_z(0.2)};
+    const auto out = collide(floor, {}, box, pb, 1e-3);
+    ASSERT_EQ(out.size(), 4u) << "step " << step;
+    for (const Contact& c : out) {
+      EXPECT_LT(std::abs(c.gap), 1e-9);
+      EXPECT_LT((c.normal - Vec3::UnitZ()).norm(), 1e-12);
+      EXPECT_EQ(feature_kind(c.feature_b), FeatureKind::Vertex);
+      EXPECT_LT(feature_index(c.feature_b), 4u);
+    }
+    if (step == 0) first = out;
+    for (int k = 0; k < 4; ++k) EXPECT_EQ(out[k].feature_b, first[k].feature_b);
+  }
+}
+
+TEST(Manifold, SphereRollingOverATriangleMeshFloorSeesOnlyTheFaceNormal) {
+  const TriangleMesh floor = floor_mesh(2.0, 4);
+  for (double x : {0.0, 0.5, 1.0, 0.25}) {  // on vertices, on interior edges, inside faces
+    const auto out = collide(floor, {}, Sphere(0.2), {Vec3(x, x, 0.19), Mat3::Identity()}, 0.0);
+    ASSERT_GE(out.size(), 1u);
+    for (const Contact& c : out) {
+      EXPECT_LT((c.normal - Vec3::UnitZ()).norm(), 1e-12) << "x = " << x;
+      EXPECT_NEAR(c.gap, -0.01, 1e-12);
+    }
+  }
+}
+
+TEST(NarrowPhase, UnsupportedPairsAreNamedAndThrow) {
+  // an L-shaped prism: a closed non-convex mesh
   Points v(12, 3);
   v << 0, 0, 0, 2, 0, 0, 2, 1, 0, 1, 1, 0, 1, 2, 0, 0, 2, 0,
        0, 0, 1, 2, 0, 1, 2, 1, 1, 1, 1, 1, 1, 2, 1, 0, 2, 1;
   Triangles f(20, 3);
-  f << 0, 2, 1, 0, 3, 2, 0, 5, 3, 3, 5, 4,        // bottom (z = 0), facing -z
-       6, 7, 8, 6, 8, 9, 6, 9, 11, 9, 10, 11,     // top, facing +z
+  f << 0, 2, 1, 0, 3, 2, 0, 5, 3, 3, 5, 4,
+       6, 7, 8, 6, 8, 9, 6, 9, 11, 9, 10, 11,
        0, 1, 7, 0, 7, 6, 1, 2, 8, 1, 8, 7, 2, 3, 9, 2, 9, 8,
        3, 4, 10, 3, 10, 9, 4, 5, 11, 4, 11, 10, 5, 0, 6, 5, 6, 11;
   const Mesh L(v, f);
-  EXPECT_TRUE(L.closedness_problem().empty()) << L.closedness_problem();
   EXPECT_FALSE(L.is_convex());
   EXPECT_NE(collision::unsupported_pair(L, Sphere(1.0)).find("unsupported pair"), std::string::npos);
   EXPECT_TRUE(collision::unsupported_pair(L, Plane(Vec3::UnitZ(), 0.0)).empty());
-  EXPECT_TRUE(collision::unsupported_pair(Box(Vec3(1, 1, 1)), Sphere(1.0)).empty());
-}
-
-TEST(BoxSphere, ExactOutsideInsideAndSwapped) {
-  const Mat3 R = math::quat_to_matrix(Quat4(0.9, 0.1, 0.3, -0.2).normalized());
-  const Vec3 p(1.0, -0.5, 2.0), h(0.5, 0.3, 0.2);
-  // a sphere 1 cm above the +z face, off-centre: the closest point is straight below its centre
-  const Vec3 c_face = p + R * Vec3(0.1, -0.1, 0.2 + 0.25 + 0.01);
-  const Contact face = collision::box_sphere(0, p, R, h, 1, c_face, 0.25, true);
-  EXPECT_NEAR(face.gap, 0.01, 1e-15);
-  EXPECT_LT((face.normal - R * Vec3::UnitZ()).norm(), 1e-15);
-  EXPECT_LT((face.point - (p + R * Vec3(0.1, -0.1, 0.205))).norm(), 1e-15);
-  // beyond an edge: the closest point is on the edge, the normal along the diagonal
-  const Vec3 c_edge = p + R * Vec3(0.0, 0.3 + 0.3, 0.2 + 0.4);
-  const Contact edge = collision::box_sphere(0, p, R, h, 1, c_edge, 0.25, true);
-  EXPECT_NEAR(edge.gap, 0.5 - 0.25, 1e-15);
-  EXPECT_LT((edge.normal - R * Vec3(0, 0.6, 0.8)).norm(), 1e-15);
-  // centre inside, nearest the -x face: pushed out through it
-  const Vec3 c_in = p + R * Vec3(-0.45, 0.0, 0.0);
-  const Contact in = collision::box_sphere(0, p, R, h, 1, c_in, 0.1, true);
-  EXPECT_NEAR(in.gap, -0.05 - 0.1, 1e-15);
-  EXPECT_LT((in.normal + R * Vec3::UnitX()).norm(), 1e-15);
-  // the sphere as A: same point and gap, opposite normal
-  const Contact swapped = collision::box_sphere(1, p, R, h, 0, c_edge, 0.25, false);
-  EXPECT_EQ(swapped.body_a, 0);
-  EXPECT_EQ(swapped.body_b, 1);
-  EXPECT_LT((swapped.normal + edge.normal).norm(), 1e-15);
-  EXPECT_LT((swapped.point - edge.point).norm(), 1e-15);
-  EXPECT_EQ(swapped.gap, edge.gap);
-}
-
-TEST(FclPairs, BoxBoxNormalIsExactWhenTouchingApartOrOverlapping) {
-  // a box resting on a box (gap 0), a hair above it, clearly above, and sunk 1 mm: the normal
-  // must be the face normal every time, from A to B, and the gap exact to GJK/EPA accuracy
-  const Box big(Vec3(1.0, 1.0, 0.5)), small(Vec3(0.3, 0.2, 0.25));
-  for (const double gap : {0.0, 1e-9, 1e-6, 0.05, -1e-3}) {
-    Model model;
-    State state;
-    collision::BroadPhase broad;
-    for (int i = 0; i < 2; ++i) {
-      model.shape.push_back(i == 0 ? Shape(big) : Shape(small));
-      model.is_static.push_back(i == 0);
-      model.rho.push_back(bounding_radius(model.shape.back()));
-      state.p.push_back(i == 0 ? Vec3::Zero() : Vec3(0.2, -0.1, 0.5 + 0.25 + gap));
-      state.R.push_back(Mat3::Identity());
-      state.v.push_back(Vec3::Zero());
-      state.omega.push_back(Vec3::Zero());
-      broad.add_body(i, model.shape.back(), i == 0, state.p.back(), state.R.back());
-    }
-    const auto pairs = broad.pairs(model, state, {0.0, 0.0}, 0.1);
-    ASSERT_EQ(pairs.size(), 1u);
-    Contact c;
-    ASSERT_TRUE(broad.signed_distance(0, 1, c));
-    EXPECT_LT((c.normal - Vec3::UnitZ()).norm(), 1e-9) << "gap " << gap;
-    EXPECT_NEAR(c.gap, gap, 1e-6) << "gap " << gap;
-  }
-}
-
-TEST(ConvexSphere, AgreesWithTheBoxFormulaOnABoxMesh) {
-  // a box as a convex mesh and as a Box: two exact methods, one answer (rounding only), for
-  // centres outside (faces, edges, corners) and inside the box, with the mesh as A and as B
-  const Vec3 h(0.5, 0.3, 0.2);
-  Points v(8, 3);
-  for (int k = 0; k < 8; ++k) v.row(k) << ((k & 1) ? h.x() : -h.x()), ((k & 2) ? h.y() : -h.y()), ((k & 4) ? h.z() : -h.z());
-  Triangles f(12, 3);
-  f << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5;
-  const Mesh mesh(v, f);
-  const Mat3 R = math::quat_to_matrix(Quat4(0.7, -0.2, 0.4, 0.1).normalized());
-  const Vec3 p(0.3, 0.2, -0.1);
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> U(-1.0, 1.0);
-  for (int trial = 0; trial < 500; ++trial) {
-    const Vec3 c = p + R * Vec3(U(rng), U(rng), U(rng));
-    const bool mesh_is_a = trial % 2 == 0;
-    const Contact exact = collision::box_sphere(0, p, R, h, 1, c, 0.1, mesh_is_a);
-    const Contact got = collision::convex_sphere(0, p, R, mesh, 1, c, 0.1, mesh_is_a);
-    EXPECT_NEAR(got.gap, exact.gap, 1e-12);
-    EXPECT_LT((got.normal - exact.normal).norm(), 1e-12);
-    EXPECT_LT((got.point - exact.point).norm(), 1e-12);
-    EXPECT_EQ(got.body_a, exact.body_a);
-  }
+  EXPECT_NE(collision::unsupported_pair(floor_mesh(1, 1), Cylinder(1, 1)).find("unsupported pair"), std::string::npos);
+  std::vector<Contact> out;
+  EXPECT_THROW(collision::collide(L, {}, Sphere(1.0), {}, 0.0, {}, out), std::invalid_argument);
 }

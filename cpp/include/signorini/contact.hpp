@@ -1,17 +1,36 @@
 // The contact record that the narrow phase writes and the solver reads.
 #pragma once
 
+#include <cstdint>
+
 #include "signorini/types.hpp"
 
 namespace signorini {
 
+/// Which feature of a shape a contact point comes from, packed in 64 bits so that the same contact
+/// is recognised from one step to the next (see docs/conventions.md, "Feature ids"):
+/// id = part << 32 | kind << 28 | index, part = compound part, mesh piece or triangle (0 otherwise),
+/// kind one of FeatureKind, index the vertex, edge or face number within that part.
+using FeatureId = std::uint64_t;
+
+enum class FeatureKind : std::uint32_t { Shape = 0, Vertex = 1, Edge = 2, Face = 3 };
+
+constexpr FeatureId feature_id(FeatureKind kind, std::uint32_t index, std::uint32_t part = 0) {
+  return (static_cast<FeatureId>(part) << 32) | (static_cast<FeatureId>(kind) << 28) | (index & 0x0FFFFFFFu);
+}
+constexpr FeatureKind feature_kind(FeatureId id) { return static_cast<FeatureKind>((id >> 28) & 0xFu); }
+constexpr std::uint32_t feature_index(FeatureId id) { return static_cast<std::uint32_t>(id & 0x0FFFFFFFu); }
+constexpr std::uint32_t feature_part(FeatureId id) { return static_cast<std::uint32_t>(id >> 32); }
+
 /// One contact point between bodies A and B (see docs/conventions.md).
 struct Contact {
-  BodyIndex body_a = -1;  ///< body A (a plane is always A)
+  BodyIndex body_a = -1;  ///< body A (a plane or triangle mesh is always A)
   BodyIndex body_b = -1;  ///< body B
   Vec3 point = Vec3::Zero();   ///< y_i, world (m): midpoint of the witness points on A and B
   Vec3 normal = Vec3::Zero();  ///< n_i, world, unit, pointing from A towards B
   double gap = 0.0;            ///< signed distance along n_i (m); negative = overlap
+  FeatureId feature_a = 0;     ///< feature of A the point comes from
+  FeatureId feature_b = 0;     ///< feature of B the point comes from
   double alpha = 0.0;          ///< contact force magnitude alpha_i >= 0 (N), as in the notes
   double impulse = 0.0;        ///< dt * alpha_i (N s), applied as -impulse n on A and +impulse n on B
 };

@@ -1,8 +1,10 @@
-// Contact generation: broad phase (FCL dynamic AABB tree), narrow phase (own plane and sphere
-// tests, FCL signed distance for the rest), in the contact order of docs/conventions.md.
-// FCL types never appear in this header; they stay in cpp/src/collision/*.cpp.
+// Contact generation: broad phase (FCL dynamic AABB tree), narrow phase (a dispatch table over
+// shape pairs: own exact tests for planes, spheres, capsules and polytopes; FCL signed distance for
+// the curved pairs left), manifolds of up to 4 points with feature ids, in the contact order of
+// docs/conventions.md. FCL types never appear in this header; they stay in fcl_queries.cpp.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <string>
 #include <utility>
@@ -14,10 +16,131 @@
 
 namespace signorini::collision {
 
+/// Where a shape is: x_world = R x_body + p.
+struct Pose {
+  Vec3 p = Vec3::Zero();
+  Mat3 R = Mat3::Identity();
+};
+
+/// Triangles of a static TriangleMesh whose bounding volumes overlap a box given in the mesh's
+/// frame (FCL BVHModel<OBBRSS>); one per TriangleMesh, built once.
+class TriangleQuery {
+ public:
+  explicit TriangleQuery(const TriangleMesh& mesh);
+  ~TriangleQuery();
+  /// Indices of the triangles whose OBBRSS leaves overlap the axis-aligned box [lo, hi] (mesh
+  /// frame, m), in increasing order, written into out (cleared first).
+  void overlapping(const Vec3& lo, const Vec3& hi, std::vector<int>& out) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// One convex piece of a body as the pair tests see it: a primitive, or a polytope (a convex mesh
+/// or a mesh piece), with its pose and part number (for the feature ids).
+struct Item {
+  const Sphere* sphere = nullptr;      ///< exactly one of sphere, capsule, cylinder, polytope is
+  const Capsule* capsule = nullptr;    ///< the item's geometry; box and hull are set as well as
+  const Cylinder* cylinder = nullptr;  ///< polytope for boxes and hulls (their exact tests)
+  const Box* box = nullptr;
+  const ConvexHull* hull = nullptr;
+  const Polytope* polytope = nullptr;  ///< boxes, hulls and mesh pieces
+  Pose pose;
+  std::uint32_t part = 0;
+  /// Largest distance of the item's surface from its own origin (m).
+  double radius() const;
+};
+
+/// The convex items of a bounded shape at pose, appended to items (a Compound's parts, a Mesh's
+/// pieces, or the shape itself). A convex Mesh without pieces gets a polytope built into `keep`.
+void items_of(const Shape& shape, const Pose& pose, std::vector<Item>& items,
+              std::vector<std::shared_ptr<const Polytope>>& keep);
+
+/// FCL's signed distance between two convex items (GST_LIBCCD), for the pairs no exact test
+/// covers (cylinders against boxes, hulls, capsules and cylinders). gap (m), unit normal A -> B,
+/// witness points on A and B (world). Returns false if FCL gave nothing finite.
+struct Distance {
+  double gap;
+  Vec3 normal, w_a, w_b;
+};
+bool fcl_signed_distance(const Item& a, const Item& b, Distance& out);
+
+/// What a narrow-phase query may use besides the two shapes: the triangle queries of static
+/// triangle meshes (null: built on the spot).
+struct Services {
+  const TriangleQuery* triangles_a = nullptr;
+  const TriangleQuery* triangles_b = nullptr;
+};
+
 /// Empty when the narrow phase can collide shapes a and b; otherwise why not ("unsupported pair
-/// Mesh (non-convex) - Sphere: ..."). Two planes count as supported: both are static and never
-/// collide.
+/// ..."). Pairs of static-only shapes count as supported: both are static and never collide.
 std::string unsupported_pair(const Shape& a, const Shape& b);
+
+/// The contact manifold of shape a at pose_a (A) and shape b at pose_b (B): up to 4 contacts with
+/// gap < threshold (m), normals A -> B, feature ids, in id order (docs/conventions.md,
+/// "Manifolds"); body_a and body_b are left at -1. Appended to out. A static-only shape (Plane,
+/// TriangleMesh) must be a. Throws std::invalid_argument for an unsupported pair.
+void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pose_b, double threshold,
+             const Services& services, std::vector<Contact>& out);
+
+/// Length scale L of a pair (sum of the bounding radii of its bounded shapes), for the relative
+/// tolerances of the manifold rules.
+double pair_scale(const Shape& a, const Shape& b);
+
+/// Candidates -> manifold (docs/conventions.md, "Manifolds"): drops gap >= threshold, sorts by
+/// (feature_a, feature_b), drops duplicates within 1e-9 L, reduces more than 4 to 4 by area
+/// (unless reduce is false: a plane against a mesh keeps every vertex, as the lecture does).
+/// candidates is consumed; the result is appended to out.
+void finish_manifold(std::vector<Contact>& candidates, double threshold, double L, std::vector<Contact>& out,
+                     bool reduce = true);
+
+// ---- pair tests (append candidates in world frame, normal A -> B) ----
+
+/// Plane (A) against any bounded shape B.
+void plane_contacts(const Plane& plane, const Pose& pa, const Shape& b, const Pose& pb, double threshold,
+                    std::vector<Contact>& out);
+
+/// Exact sphere-sphere contact, one candidate.
+void sphere_sphere(const Vec3& c_a, double r_a, const Vec3& c_b, double r_b, std::vector<Contact>& out);
+
+/// A convex item (A) against a sphere (B), exact (closest point): boxes, capsules and cylinders by
+/// their closed forms, hulls and mesh pieces over their faces.
+void item_sphere(const Item& a, const Vec3& c, double r, std::vector<Contact>& out);
+
+/// The plane n . x = offset (world, A) against item B: sphere, box corners, capsule ends,
+/// cylinder rims, hull and piece vertices.
+void plane_item(const Vec3& n, double offset, const Item& b, std::vector<Contact>& out);
+
+/// Two convex polytopes (boxes, hulls, mesh pieces) by separating axes and face clipping.
+void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
+                       const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out);
+
+/// One triangle of a static mesh (as a two-faced polytope, A) against a polytope B: one-sided
+/// separating axes (its front face, B's faces, edge axes from its active edges only), clipping
+/// that drops cuts along inactive edges. Features of A carry the triangle index as part.
+void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, const Pose& pa,
+                       std::uint32_t triangle, const Polytope& b, const Pose& pb, std::uint32_t part_b,
+                       double threshold, std::vector<Contact>& out);
+
+/// Capsule (segment p0 p1, radius r) against capsule, exact; 2 points when parallel and overlapping.
+void capsule_capsule(const Capsule& a, const Pose& pa, std::uint32_t part_a, const Capsule& b,
+                     const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out);
+
+/// Polytope (A) against capsule (B): exact distance (or separating axes when the segment enters
+/// the polytope), the segment clipped to the face it lies on.
+void polytope_capsule(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Capsule& b,
+                      const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out);
+
+/// Any two items without an exact test (a cylinder against a box, hull, capsule or cylinder):
+/// FCL's signed distance for the normal, then the supporting features of both along it clipped
+/// against each other (a face against whatever faces it), or FCL's single point.
+void convex_by_support(const Item& a, const Item& b, double threshold, std::vector<Contact>& out);
+
+/// Static triangle mesh (A) against item B: candidate triangles from the BVH, a convex test per
+/// triangle (inactive edges give no edge contacts), merged.
+void trimesh_item(const TriangleMesh& a, const Pose& pa, const TriangleQuery& query, const Item& b,
+                  double threshold, std::vector<Contact>& out);
 
 /// Candidate pairs from bounding volumes. Holds one FCL object per non-plane body: dynamic ones in
 /// a DynamicAABBTree updated incrementally each step, static ones in a second tree built once.
@@ -34,39 +157,13 @@ class BroadPhase {
   /// overlap; at least one of them dynamic; planes excluded. Sorted lexicographically.
   std::vector<std::pair<BodyIndex, BodyIndex>> pairs(const Model& model, const State& state,
                                                      const std::vector<double>& reach, double margin);
-  /// Signed distance between two registered bodies at their current proxy poses (FCL, GST_LIBCCD):
-  /// fills gap, normal (A -> B), point (midpoint of witnesses). Returns false if FCL gave nothing.
-  bool signed_distance(BodyIndex a, BodyIndex b, Contact& out) const;
+  /// The triangle query of body i if it is a TriangleMesh, else null.
+  const TriangleQuery* triangles(BodyIndex i) const;
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
-
-/// Contacts of a static plane (body a, world pose p_a, R_a) against body b, for every feature with
-/// gap < threshold, appended to out in feature order (sphere: 1; box: corners 0..7; mesh: vertices).
-void plane_contacts(BodyIndex a, const Plane& plane, const Vec3& p_a, const Mat3& R_a, BodyIndex b,
-                    const Shape& shape_b, const Vec3& p_b, const Mat3& R_b, double threshold,
-                    std::vector<Contact>& out);
-
-/// Exact sphere-sphere contact (A centre c_a radius r_a, B likewise). Written here rather than
-/// through FCL because FCL's penetrating witness points carry ~1e-5 m of EPA error (measured).
-Contact sphere_sphere(BodyIndex a, const Vec3& c_a, double r_a, BodyIndex b, const Vec3& c_b, double r_b);
-
-/// Exact box-sphere contact: box (A or B) with pose (p_box, R_box) and half extents h, sphere with
-/// centre c and radius r. The closest box point is the sphere centre clamped into the box; a centre
-/// inside the box is pushed out through the nearest face (lowest axis on ties). `box_is_a` says
-/// which body is A, so the normal points from A to B either way. Written here rather than through
-/// FCL because FCL's box-sphere witness points carry ~1e-5 m of tangential error (measured), which
-/// ruins the normal of a shallow contact.
-Contact box_sphere(BodyIndex box, const Vec3& p_box, const Mat3& R_box, const Vec3& h, BodyIndex sphere,
-                   const Vec3& c, double r, bool box_is_a);
-
-/// Exact convex-mesh-sphere contact: mesh (A or B) with pose (p_mesh, R_mesh), sphere centre c and
-/// radius r. Outside the mesh the closest point over its triangles; inside, out through the face
-/// plane nearest the centre. `mesh_is_a` says which is A. Needs a convex, outward-oriented mesh.
-Contact convex_sphere(BodyIndex mesh_body, const Vec3& p_mesh, const Mat3& R_mesh, const Mesh& mesh,
-                      BodyIndex sphere, const Vec3& c, double r, bool mesh_is_a);
 
 /// Speculative reach of every body for a step of dt: s_b = dt (|v| + dt |g| + |omega| rho) for a
 /// dynamic body, 0 for a static one (m).

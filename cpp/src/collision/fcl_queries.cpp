@@ -1,6 +1,8 @@
 // Everything that touches FCL 0.7: the broad phase (DynamicAABBTreeCollisionManager) and signed
 // distance for body-body pairs (GST_LIBCCD; GST_INDEP returns wrong signs, see DESIGN.md).
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <fcl/fcl.h>
@@ -29,29 +31,47 @@ class Proxy : public fcl::CollisionObjectd {
   BodyIndex index_;
 };
 
-std::shared_ptr<fcl::CollisionGeometryd> make_geometry(const Shape& shape) {
-  if (const auto* s = std::get_if<Sphere>(&shape)) return std::make_shared<fcl::Sphered>(s->radius);
-  if (const auto* b = std::get_if<Box>(&shape))
-    return std::make_shared<fcl::Boxd>(2.0 * b->half_extents);
-  const auto& mesh = std::get<Mesh>(shape);
-  if (mesh.is_convex()) {
-    auto vertices = std::make_shared<std::vector<Vec3>>();
-    for (Eigen::Index i = 0; i < mesh.vertices.rows(); ++i) vertices->push_back(mesh.vertex(i));
-    auto faces = std::make_shared<std::vector<int>>();
-    for (Eigen::Index k = 0; k < mesh.faces.rows(); ++k) {
-      faces->push_back(3);
-      for (int c = 0; c < 3; ++c) faces->push_back(static_cast<int>(mesh.faces(k, c)));
-    }
-    return std::make_shared<fcl::Convexd>(vertices, static_cast<int>(mesh.faces.rows()), faces);
+std::shared_ptr<fcl::Convexd> convex_of(const Polytope& P) {
+  auto vertices = std::make_shared<std::vector<Vec3>>();
+  for (Eigen::Index i = 0; i < P.vertices.rows(); ++i) vertices->push_back(P.vertex(static_cast<int>(i)));
+  auto faces = std::make_shared<std::vector<int>>();
+  for (const auto& loop : P.faces) {
+    faces->push_back(static_cast<int>(loop.size()));
+    faces->insert(faces->end(), loop.begin(), loop.end());
   }
-  // non-convex: a bounding-volume hierarchy, used for candidate pairs only
+  return std::make_shared<fcl::Convexd>(vertices, static_cast<int>(P.faces.size()), faces);
+}
+
+std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> bvh_of(const Points& vertices, const Triangles& faces) {
   auto model = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>();
   model->beginModel();
-  for (Eigen::Index k = 0; k < mesh.faces.rows(); ++k)
-    model->addTriangle(mesh.vertex(mesh.faces(k, 0)), mesh.vertex(mesh.faces(k, 1)),
-                       mesh.vertex(mesh.faces(k, 2)));
+  for (Eigen::Index k = 0; k < faces.rows(); ++k)
+    model->addTriangle(vertices.row(faces(k, 0)).transpose(), vertices.row(faces(k, 1)).transpose(),
+                       vertices.row(faces(k, 2)).transpose());
   model->endModel();
   return model;
+}
+
+/// FCL geometry of one convex item (for signed distance).
+std::shared_ptr<fcl::CollisionGeometryd> item_geometry(const Item& it) {
+  if (it.sphere) return std::make_shared<fcl::Sphered>(it.sphere->radius);
+  if (it.capsule) return std::make_shared<fcl::Capsuled>(it.capsule->radius, 2.0 * it.capsule->half_length);
+  if (it.cylinder) return std::make_shared<fcl::Cylinderd>(it.cylinder->radius, 2.0 * it.cylinder->half_height);
+  if (it.box) return std::make_shared<fcl::Boxd>(2.0 * it.box->half_extents);
+  return convex_of(*it.polytope);
+}
+
+/// FCL geometry of a whole body for the broad phase (only its bounding box matters).
+std::shared_ptr<fcl::CollisionGeometryd> make_geometry(const Shape& shape) {
+  if (const auto* s = std::get_if<Sphere>(&shape)) return std::make_shared<fcl::Sphered>(s->radius);
+  if (const auto* b = std::get_if<Box>(&shape)) return std::make_shared<fcl::Boxd>(2.0 * b->half_extents);
+  if (const auto* c = std::get_if<Capsule>(&shape)) return std::make_shared<fcl::Capsuled>(c->radius, 2.0 * c->half_length);
+  if (const auto* c = std::get_if<Cylinder>(&shape)) return std::make_shared<fcl::Cylinderd>(c->radius, 2.0 * c->half_height);
+  if (const auto* h = std::get_if<ConvexHull>(&shape)) return convex_of(*h->polytope);
+  if (const auto* m = std::get_if<Mesh>(&shape)) return bvh_of(m->vertices, m->faces);
+  if (const auto* t = std::get_if<TriangleMesh>(&shape)) return bvh_of(t->vertices, t->faces);
+  // a compound: the sphere that bounds it (its AABB is all the broad phase reads)
+  return std::make_shared<fcl::Sphered>(bounding_radius(shape));
 }
 
 struct PairCollector {
@@ -68,8 +88,58 @@ bool collect_pair(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* da
 
 }  // namespace
 
+struct TriangleQuery::Impl {
+  std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> bvh;
+};
+
+TriangleQuery::TriangleQuery(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>()) {
+  impl_->bvh = bvh_of(mesh.vertices, mesh.faces);
+}
+
+TriangleQuery::~TriangleQuery() = default;
+
+void TriangleQuery::overlapping(const Vec3& lo, const Vec3& hi, std::vector<int>& out) const {
+  out.clear();
+  // every triangle that meets the box: FCL's BVH traversal with an exact triangle-box test
+  fcl::CollisionObjectd mesh(impl_->bvh);
+  fcl::CollisionObjectd box(std::make_shared<fcl::Boxd>(hi - lo), Mat3::Identity(), 0.5 * (lo + hi));
+  mesh.computeAABB();
+  box.computeAABB();
+  fcl::CollisionRequestd request(std::numeric_limits<int>::max() / 2, false);
+  fcl::CollisionResultd result;
+  fcl::collide(&mesh, &box, request, result);
+  for (std::size_t k = 0; k < result.numContacts(); ++k) out.push_back(result.getContact(k).b1);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+}
+
+bool fcl_signed_distance(const Item& a, const Item& b, Distance& out) {
+  fcl::CollisionObjectd oa(item_geometry(a), a.pose.R, a.pose.p);
+  fcl::CollisionObjectd ob(item_geometry(b), b.pose.R, b.pose.p);
+  fcl::DistanceRequestd request;
+  request.enable_signed_distance = true;
+  request.enable_nearest_points = true;
+  request.gjk_solver_type = fcl::GST_LIBCCD;
+  fcl::DistanceResultd result;
+  fcl::distance(&oa, &ob, request, result);
+  const double gap = result.min_distance;  // the return value is not the signed distance
+  if (!std::isfinite(gap)) return false;
+  out.gap = gap;
+  out.w_a = result.nearest_points[0];
+  out.w_b = result.nearest_points[1];
+  Vec3 n = out.w_b - out.w_a;
+  if (gap < 0.0) n = -n;  // witnesses of an overlap point from B's surface to A's
+  if (!(n.norm() > 1e-12)) {
+    n = b.pose.p - a.pose.p;  // touching: between the origins
+    if (!(n.norm() > 0.0)) n = Vec3::UnitZ();
+  }
+  out.normal = n.normalized();
+  return out.normal.allFinite();
+}
+
 struct BroadPhase::Impl {
   std::vector<std::unique_ptr<Proxy>> proxy;  ///< by body index; null for planes
+  std::vector<std::unique_ptr<TriangleQuery>> triangles;  ///< by body index; set for triangle meshes
   std::vector<BodyIndex> dynamic_bodies;
   fcl::DynamicAABBTreeCollisionManagerd dynamic_tree;
   fcl::DynamicAABBTreeCollisionManagerd static_tree;
@@ -83,6 +153,8 @@ BroadPhase::~BroadPhase() = default;
 void BroadPhase::add_body(BodyIndex i, const Shape& shape, bool is_static, const Vec3& p, const Mat3& R) {
   if (static_cast<std::size_t>(i) != impl_->proxy.size())
     throw std::logic_error("BroadPhase::add_body: bodies must be added in index order");
+  impl_->triangles.emplace_back(nullptr);
+  if (const auto* mesh = std::get_if<TriangleMesh>(&shape)) impl_->triangles.back() = std::make_unique<TriangleQuery>(*mesh);
   if (std::holds_alternative<Plane>(shape)) {
     impl_->proxy.emplace_back(nullptr);
     return;
@@ -135,62 +207,6 @@ std::vector<std::pair<BodyIndex, BodyIndex>> BroadPhase::pairs(const Model& mode
   return collector.pairs;
 }
 
-bool BroadPhase::signed_distance(BodyIndex a, BodyIndex b, Contact& out) const {
-  const Proxy* pa = impl_->proxy.at(a).get();
-  const Proxy* pb = impl_->proxy.at(b).get();
-  fcl::DistanceRequestd request;
-  request.enable_signed_distance = true;
-  request.enable_nearest_points = true;
-  request.gjk_solver_type = fcl::GST_LIBCCD;
-  fcl::DistanceResultd result;
-  fcl::distance(pa, pb, request, result);
-  const double gap = result.min_distance;  // the return value is not the signed distance
-  if (!std::isfinite(gap)) return false;
-  const Vec3 w_a = result.nearest_points[0];
-  const Vec3 w_b = result.nearest_points[1];
-  out.body_a = a;
-  out.body_b = b;
-  out.gap = gap;
-  out.point = 0.5 * (w_a + w_b);
-  // GJK's witness points carry ~1e-5 m of tangential error (measured on box-sphere), so their
-  // direction is a good normal only when the gap is much larger than that. Closer pairs take the
-  // normal of fcl::collide, whose box-box and primitive tests are exact: overlapping pairs as they
-  // are (depth and point too), pairs a hair apart after B is moved into A along the approximate
-  // normal by the gap plus a small probe depth (the gap itself stays the distance query's).
-  const double size = std::max(pa->collisionGeometry()->aabb_radius, pb->collisionGeometry()->aabb_radius);
-  Vec3 approx = w_b - w_a;
-  if (approx.norm() > 1e-12) {
-    if (gap < 0.0) approx = -approx;  // witnesses of an overlap point from B's surface to A's
-  } else {
-    approx = pb->getTranslation() - pa->getTranslation();  // touching: between the origins
-    if (!(approx.norm() > 0.0)) approx = Vec3::UnitZ();
-  }
-  approx.normalize();
-  if (gap > 1e-3 * size) {
-    out.normal = approx;
-    return true;
-  }
-  const double shift = gap > 0.0 ? gap + 1e-4 * size : 0.0;
-  fcl::CollisionObjectd probe(std::const_pointer_cast<fcl::CollisionGeometryd>(pb->collisionGeometry()),
-                              pb->getRotation(), pb->getTranslation() - shift * approx);
-  probe.computeAABB();
-  fcl::CollisionRequestd creq(1, true);
-  creq.gjk_solver_type = fcl::GST_LIBCCD;
-  fcl::CollisionResultd cres;
-  fcl::collide(pa, &probe, creq, cres);
-  if (cres.numContacts() == 0 || !Vec3(cres.getContact(0).normal).allFinite()) {
-    out.normal = approx;
-    return true;
-  }
-  const auto& contact = cres.getContact(0);
-  out.normal = Vec3(contact.normal).normalized();
-  if (shift == 0.0) {
-    out.gap = -contact.penetration_depth;
-    out.point = contact.pos;
-  } else {
-    out.point = Vec3(contact.pos) + 0.5 * shift * approx;
-  }
-  return true;
-}
+const TriangleQuery* BroadPhase::triangles(BodyIndex i) const { return impl_->triangles.at(i).get(); }
 
 }  // namespace signorini::collision

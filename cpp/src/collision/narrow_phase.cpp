@@ -1,37 +1,205 @@
-// The narrow phase: which shape pairs are supported, and the contact list for a state in the
-// order of docs/conventions.md (pairs by index, features in order, a plane always A).
+// The narrow phase: the dispatch table over shape pairs, the world-free collide(), and the contact
+// list of a state in the order of docs/conventions.md (pairs by index, features in id order, a
+// static-only shape always A).
 #include <algorithm>
+#include <cmath>
+#include <stdexcept>
 #include <variant>
 
 #include "collision/collision.hpp"
+#include "signorini/collide.hpp"
 
 namespace signorini::collision {
 namespace {
 
 bool is_plane(const Shape& s) { return std::holds_alternative<Plane>(s); }
 
-bool is_nonconvex_mesh(const Shape& s) {
+/// A mesh that can only collide with planes: non-convex and not decomposed.
+bool is_bare_nonconvex_mesh(const Shape& s) {
   const auto* m = std::get_if<Mesh>(&s);
-  return m && !m->is_convex();
+  return m && m->pieces.empty() && !m->is_convex();
+}
+
+bool has_cylinder(const Shape& s) {
+  if (std::holds_alternative<Cylinder>(s)) return true;
+  if (const auto* c = std::get_if<Compound>(&s))
+    for (const auto& part : c->parts)
+      if (std::holds_alternative<Cylinder>(part.shape)) return true;
+  return false;
+}
+
+/// Normals reversed and ids swapped for the contacts from index `from` on (A and B exchanged).
+void flip(std::vector<Contact>& out, std::size_t from) {
+  for (std::size_t k = from; k < out.size(); ++k) {
+    out[k].normal = -out[k].normal;
+    std::swap(out[k].feature_a, out[k].feature_b);
+  }
+}
+
+void item_pair(const Item& a, const Item& b, double threshold, std::vector<Contact>& out) {
+  const Sphere* sphere_a = a.sphere;
+  const Sphere* sphere_b = b.sphere;
+  const Capsule* capsule_a = a.capsule;
+  const Capsule* capsule_b = b.capsule;
+  const std::size_t first = out.size();
+  if (sphere_b) {
+    item_sphere(a, b.pose.p, sphere_b->radius, out);
+    for (std::size_t k = first; k < out.size(); ++k) out[k].feature_b = feature_id(FeatureKind::Shape, 0, b.part);
+  } else if (sphere_a) {
+    item_pair(b, a, threshold, out);
+    flip(out, first);
+  } else if (a.polytope && b.polytope) {
+    polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, out);
+  } else if (capsule_a && capsule_b) {
+    capsule_capsule(*capsule_a, a.pose, a.part, *capsule_b, b.pose, b.part, threshold, out);
+  } else if (a.polytope && capsule_b) {
+    polytope_capsule(*a.polytope, a.pose, a.part, *capsule_b, b.pose, b.part, threshold, out);
+  } else if (capsule_a && b.polytope) {
+    polytope_capsule(*b.polytope, b.pose, b.part, *capsule_a, a.pose, a.part, threshold, out);
+    flip(out, first);
+  } else {
+    convex_by_support(a, b, threshold, out);
+  }
 }
 
 }  // namespace
 
-std::string unsupported_pair(const Shape& a, const Shape& b) {
-  // the dispatch table:
-  //            Plane   Sphere  Box     convex Mesh  non-convex Mesh
-  // Plane      static  plane   plane   plane        plane
-  // Sphere             exact   exact   exact        unsupported
-  // Box                        FCL     FCL          unsupported
-  // convex                             FCL          unsupported
-  // non-convex                                      unsupported
-  if (is_plane(a) || is_plane(b)) return {};
-  if (is_nonconvex_mesh(a) || is_nonconvex_mesh(b)) {
-    return "unsupported pair " + shape_name(a) + (is_nonconvex_mesh(a) ? " (non-convex)" : "") +
-           " - " + shape_name(b) + (is_nonconvex_mesh(b) ? " (non-convex)" : "") +
-           ": a non-convex mesh collides only with planes so far";
+namespace {
+
+void add_primitive(const Primitive& p, const Pose& pose, std::uint32_t part, std::vector<Item>& items) {
+  Item it;
+  it.pose = pose;
+  it.part = part;
+  std::visit(
+      [&](const auto& s) {
+        using T = std::decay_t<decltype(s)>;
+        if constexpr (std::is_same_v<T, Sphere>) it.sphere = &s;
+        if constexpr (std::is_same_v<T, Capsule>) it.capsule = &s;
+        if constexpr (std::is_same_v<T, Cylinder>) it.cylinder = &s;
+        if constexpr (std::is_same_v<T, Box>) it.box = &s, it.polytope = s.polytope.get();
+        if constexpr (std::is_same_v<T, ConvexHull>) it.hull = &s, it.polytope = s.polytope.get();
+      },
+      p);
+  items.push_back(it);
+}
+
+}  // namespace
+
+double Item::radius() const {
+  if (sphere) return sphere->radius;
+  if (capsule) return capsule->radius + capsule->half_length;
+  if (cylinder) return std::hypot(cylinder->radius, cylinder->half_height);
+  return polytope->vertices.rowwise().norm().maxCoeff();
+}
+
+void items_of(const Shape& shape, const Pose& pose, std::vector<Item>& items,
+              std::vector<std::shared_ptr<const Polytope>>& keep) {
+  if (const auto* c = std::get_if<Compound>(&shape)) {
+    for (std::size_t k = 0; k < c->parts.size(); ++k) {
+      const auto& part = c->parts[k];
+      add_primitive(part.shape, {pose.R * part.position + pose.p, pose.R * part.rotation},
+                    static_cast<std::uint32_t>(k), items);
+    }
+  } else if (const auto* m = std::get_if<Mesh>(&shape)) {
+    if (m->pieces.empty()) {
+      // a convex mesh that the world has not prepared (collide() on user shapes): built here
+      keep.push_back(std::make_shared<const Polytope>(polytope_from_triangles(m->vertices, m->faces)));
+      Item it;
+      it.polytope = keep.back().get();
+      it.pose = pose;
+      items.push_back(it);
+    } else {
+      for (std::size_t k = 0; k < m->pieces.size(); ++k) {
+        Item it;
+        it.polytope = m->pieces[k].get();
+        it.pose = pose;
+        it.part = static_cast<std::uint32_t>(k);
+        items.push_back(it);
+      }
+    }
+  } else {
+    std::visit(
+        [&](const auto& s) {
+          using T = std::decay_t<decltype(s)>;
+          Item it;
+          it.pose = pose;
+          if constexpr (std::is_same_v<T, Sphere>) it.sphere = &s;
+          if constexpr (std::is_same_v<T, Capsule>) it.capsule = &s;
+          if constexpr (std::is_same_v<T, Cylinder>) it.cylinder = &s;
+          if constexpr (std::is_same_v<T, Box>) it.box = &s, it.polytope = s.polytope.get();
+          if constexpr (std::is_same_v<T, ConvexHull>) it.hull = &s, it.polytope = s.polytope.get();
+          if (it.sphere || it.capsule || it.cylinder || it.polytope) items.push_back(it);
+        },
+        shape);
   }
+}
+
+std::string unsupported_pair(const Shape& a, const Shape& b) {
+  // the dispatch table (docs/conventions.md):
+  //              Plane   TriMesh  Sphere  Capsule  Box/Hull/piece  Cylinder
+  // Plane        static  static   exact   exact    exact           exact
+  // TriMesh              static   exact   exact    SAT/triangle    unsupported
+  // Sphere                        exact   exact    exact           exact
+  // Capsule                               exact    exact + SAT     FCL + clip
+  // Box/Hull/piece                                 SAT + clip      FCL + clip
+  // Cylinder                                                       FCL + clip
+  // A non-convex Mesh without pieces collides with planes only. Compounds: part by part.
+  if (is_plane(a) || is_plane(b)) return {};
+  if (static_only(a) && static_only(b)) return {};
+  auto label = [](const Shape& s) {
+    return shape_name(s) + (is_bare_nonconvex_mesh(s) ? " (non-convex)" : "");
+  };
+  if (is_bare_nonconvex_mesh(a) || is_bare_nonconvex_mesh(b))
+    return "unsupported pair " + label(a) + " - " + label(b) +
+           ": a non-convex mesh collides only with planes unless it is decomposed into convex pieces "
+           "(signorini does this with CoACD when such a mesh is added as a dynamic body)";
+  const bool trimesh = std::holds_alternative<TriangleMesh>(a) || std::holds_alternative<TriangleMesh>(b);
+  if (trimesh && (has_cylinder(a) || has_cylinder(b)))
+    return "unsupported pair " + label(a) + " - " + label(b) +
+           ": cylinders against triangle meshes are not implemented; use a capsule or a ConvexHull of the cylinder";
   return {};
+}
+
+void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pose_b, double threshold,
+             const Services& services, std::vector<Contact>& out) {
+  const std::string problem = unsupported_pair(a, b);
+  if (!problem.empty()) throw std::invalid_argument(problem);
+  if (static_only(a) && static_only(b)) return;
+  if (static_only(b)) {
+    // the static-only shape is always A inside; the caller's A and B are restored after
+    const std::size_t first = out.size();
+    collide(b, pose_b, a, pose_a, threshold, {services.triangles_b, services.triangles_a}, out);
+    flip(out, first);
+    return;
+  }
+  thread_local std::vector<Contact> candidates;
+  thread_local std::vector<Item> items_a, items_b;
+  std::vector<std::shared_ptr<const Polytope>> keep;
+  candidates.clear();
+  items_b.clear();
+  if (const auto* plane = std::get_if<Plane>(&a)) {
+    plane_contacts(*plane, pose_a, b, pose_b, threshold, candidates);
+    // a mesh on a plane keeps all its touching vertices (the lecture's vertex contacts): 4 of a
+    // ring-shaped footprint, chosen anew each step as it slides, let a torus rock for seconds
+    finish_manifold(candidates, threshold, pair_scale(a, b), out, !std::holds_alternative<Mesh>(b));
+    return;
+  }
+  items_of(b, pose_b, items_b, keep);
+  if (const auto* mesh = std::get_if<TriangleMesh>(&a)) {
+    std::unique_ptr<TriangleQuery> own;
+    const TriangleQuery* query = services.triangles_a;
+    if (!query) {
+      own = std::make_unique<TriangleQuery>(*mesh);
+      query = own.get();
+    }
+    for (const Item& ib : items_b) trimesh_item(*mesh, pose_a, *query, ib, threshold, candidates);
+  } else {
+    items_a.clear();
+    items_of(a, pose_a, items_a, keep);
+    for (const Item& ia : items_a)
+      for (const Item& ib : items_b) item_pair(ia, ib, threshold, candidates);
+  }
+  finish_manifold(candidates, threshold, pair_scale(a, b), out);
 }
 
 std::vector<double> speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity) {
@@ -65,39 +233,46 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
 
   contacts.clear();
   for (const auto& [i, j] : pairs) {
-    const Shape& si = model.shape[i];
-    const Shape& sj = model.shape[j];
-    if (is_plane(si) || is_plane(sj)) {
-      // a plane is always A; the body's reach counts only towards the plane
-      const BodyIndex a = is_plane(si) ? i : j;
-      const BodyIndex b = is_plane(si) ? j : i;
-      const Plane& plane = std::get<Plane>(model.shape[a]);
-      const double threshold = margin + plane_reach(model, state, b, state.R[a] * plane.normal, dt, gravity);
-      plane_contacts(a, plane, state.p[a], state.R[a], b, model.shape[b], state.p[b], state.R[b],
-                     threshold, contacts);
-      continue;
+    // a static-only shape (plane, triangle mesh) is always A
+    const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
+    const BodyIndex a = swap ? j : i, b = swap ? i : j;
+    double threshold = margin + reach[i] + reach[j];
+    if (const auto* plane = std::get_if<Plane>(&model.shape[a]))
+      threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
+    const std::size_t first = contacts.size();
+    collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
+            {broad_phase.triangles(a), broad_phase.triangles(b)}, contacts);
+    for (std::size_t k = first; k < contacts.size(); ++k) {
+      contacts[k].body_a = a;
+      contacts[k].body_b = b;
     }
-    const double threshold = margin + reach[i] + reach[j];
-    const auto* sphere_i = std::get_if<Sphere>(&si);
-    const auto* sphere_j = std::get_if<Sphere>(&sj);
-    const auto* box_i = std::get_if<Box>(&si);
-    const auto* box_j = std::get_if<Box>(&sj);
-    Contact c;
-    if (sphere_i && sphere_j) {
-      c = sphere_sphere(i, state.p[i], sphere_i->radius, j, state.p[j], sphere_j->radius);
-    } else if (box_i && sphere_j) {
-      c = box_sphere(i, state.p[i], state.R[i], box_i->half_extents, j, state.p[j], sphere_j->radius, true);
-    } else if (sphere_i && box_j) {
-      c = box_sphere(j, state.p[j], state.R[j], box_j->half_extents, i, state.p[i], sphere_i->radius, false);
-    } else if (const auto* mesh_i = std::get_if<Mesh>(&si); mesh_i && sphere_j) {
-      c = convex_sphere(i, state.p[i], state.R[i], *mesh_i, j, state.p[j], sphere_j->radius, true);
-    } else if (const auto* mesh_j = std::get_if<Mesh>(&sj); sphere_i && mesh_j) {
-      c = convex_sphere(j, state.p[j], state.R[j], *mesh_j, i, state.p[i], sphere_i->radius, false);
-    } else if (!broad_phase.signed_distance(i, j, c)) {
-      continue;
-    }
-    if (c.gap < threshold) contacts.push_back(c);
   }
 }
 
 }  // namespace signorini::collision
+
+namespace signorini {
+
+std::vector<Contact> collide(const Shape& shape_a, const Vec3& p_a, const Quat4& q_a, const Shape& shape_b,
+                             const Vec3& p_b, const Quat4& q_b, double margin) {
+  auto rotation = [](const char* who, const Vec3& p, const Quat4& q) {
+    if (!p.allFinite()) throw std::invalid_argument(std::string("collide: position of ") + who + " must be finite");
+    if (!q.allFinite() || !(q.norm() > 1e-12))
+      throw std::invalid_argument(std::string("collide: orientation of ") + who +
+                                  " must be a finite non-zero quaternion (w, x, y, z)");
+    const Quat4 u = q / q.norm();
+    return Eigen::Quaterniond(u[0], u[1], u[2], u[3]).toRotationMatrix();
+  };
+  const Mat3 R_a = rotation("A", p_a, q_a), R_b = rotation("B", p_b, q_b);
+  if (!(std::isfinite(margin) && margin >= 0.0))
+    throw std::invalid_argument("collide: margin must be finite and >= 0, got " + std::to_string(margin));
+  std::vector<Contact> out;
+  collision::collide(shape_a, {p_a, R_a}, shape_b, {p_b, R_b}, margin, {}, out);
+  for (Contact& c : out) {
+    c.body_a = 0;
+    c.body_b = 1;
+  }
+  return out;
+}
+
+}  // namespace signorini

@@ -1,0 +1,318 @@
+// Convex polytope pairs (boxes, hulls, convex mesh pieces) by separating axes and reference/incident
+// face clipping (docs/conventions.md, "Manifolds"). Written here because FCL 0.7 returns one contact
+// per pair and its EPA depths carry ~1e-5 m of error (DESIGN.md, measured); the separating-axis
+// depth of two polytopes is exact and the clipped face gives the 4-point manifold a box needs to lie
+// still. Edge pairs are pruned on the Gauss map (only those that form a face of the Minkowski
+// difference can realise the separation).
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "collision/collision.hpp"
+
+namespace signorini::collision {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// A polytope's vertices, face normals and offsets expressed in one common frame (A's).
+struct View {
+  const Polytope* topo = nullptr;
+  std::vector<Vec3> v, n;
+  std::vector<double> d;
+  Vec3 centroid;
+  std::uint32_t part = 0;
+
+  void place(const Polytope& P, const Mat3& R, const Vec3& t, std::uint32_t part_index) {
+    topo = &P;
+    part = part_index;
+    const Eigen::Index nv = P.vertices.rows();
+    v.resize(nv);
+    for (Eigen::Index i = 0; i < nv; ++i) v[i] = R * P.vertex(static_cast<int>(i)) + t;
+    const std::size_t nf = P.normals.size();
+    n.resize(nf);
+    d.resize(nf);
+    for (std::size_t f = 0; f < nf; ++f) {
+      n[f] = R * P.normals[f];
+      d[f] = P.offsets[f] + n[f].dot(t);
+    }
+    centroid = R * P.centroid + t;
+  }
+  /// min over vertices of n . v
+  double min_along(const Vec3& dir) const {
+    double m = kInf;
+    for (const Vec3& x : v) m = std::min(m, dir.dot(x));
+    return m;
+  }
+  FeatureId id(FeatureKind kind, int index) const { return feature_id(kind, static_cast<std::uint32_t>(index), part); }
+};
+
+struct FaceQuery {
+  double separation = -kInf;
+  int face = -1;
+};
+
+/// Largest separation of `other`'s vertices from the face planes of `self` (first on ties).
+FaceQuery face_query(const View& self, const View& other) {
+  FaceQuery q;
+  for (std::size_t f = 0; f < self.n.size(); ++f) {
+    const double s = other.min_along(self.n[f]) - self.d[f];
+    if (s > q.separation) {
+      q.separation = s;
+      q.face = static_cast<int>(f);
+    }
+  }
+  return q;
+}
+
+struct EdgeQuery {
+  double separation = -kInf;
+  int edge_a = -1, edge_b = -1;
+  Vec3 axis = Vec3::Zero();  ///< unit, from A towards B
+};
+
+/// Do the Gauss-map arcs (a, b) of an edge of A and (c, d) of an edge of -B cross? Then the edge
+/// pair spans a face of the Minkowski difference and its cross product is a candidate axis.
+bool minkowski_face(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  const Vec3 bxa = b.cross(a), dxc = d.cross(c);
+  const double cba = c.dot(bxa), dba = d.dot(bxa), adc = a.dot(dxc), bdc = b.dot(dxc);
+  return cba * dba < 0.0 && adc * bdc < 0.0 && cba * bdc > 0.0;
+}
+
+EdgeQuery edge_query(const View& A, const View& B) {
+  EdgeQuery q;
+  const auto& ea = A.topo->edges;
+  const auto& eb = B.topo->edges;
+  for (std::size_t i = 0; i < ea.size(); ++i) {
+    const Vec3& pa = A.v[ea[i].v0];
+    const Vec3 ua = A.v[ea[i].v1] - pa;
+    const Vec3& na0 = A.n[ea[i].f0];
+    const Vec3& na1 = A.n[ea[i].f1];
+    for (std::size_t j = 0; j < eb.size(); ++j) {
+      if (!minkowski_face(na0, na1, -B.n[eb[j].f0], -B.n[eb[j].f1])) continue;
+      const Vec3& pb = B.v[eb[j].v0];
+      const Vec3 ub = B.v[eb[j].v1] - pb;
+      Vec3 L = ua.cross(ub);
+      const double len = L.norm();
+      if (!(len > 1e-9 * ua.norm() * ub.norm())) continue;  // parallel edges: a face axis covers them
+      L /= len;
+      if (L.dot(pa - A.centroid) < 0.0) L = -L;
+      const double s = L.dot(pb - pa);
+      if (s > q.separation) {
+        q.separation = s;
+        q.edge_a = static_cast<int>(i);
+        q.edge_b = static_cast<int>(j);
+        q.axis = L;
+      }
+    }
+  }
+  return q;
+}
+
+/// A vertex of the polygon being clipped: position, its ids on the reference and incident shapes,
+/// and the label of the polygon side that leaves it (an incident edge, or a reference side plane).
+struct ClipVertex {
+  Vec3 q;
+  FeatureId ref_id, inc_id;
+  bool side_is_ref;
+  int side;  ///< incident edge index, or reference loop side k
+  bool keep = true;  ///< false when made on an inactive side of a triangle-mesh face
+};
+
+/// Sutherland-Hodgman of the incident face's loop against the side planes of the reference face,
+/// tracking feature ids; appends the clipped points below the threshold as contacts. The reference
+/// face is `ref` face f; `ref_is_a` says whether the reference polytope is A.
+void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double threshold,
+                const Mat3& R_a, const Vec3& p_a, std::vector<Contact>& out,
+                const std::array<bool, 3>* ref_active = nullptr) {
+  const Vec3& n_ref = ref.n[f];
+  // incident face: the most anti-parallel (first on ties)
+  int g = 0;
+  double least = kInf;
+  for (std::size_t k = 0; k < inc.n.size(); ++k) {
+    const double c = inc.n[k].dot(n_ref);
+    if (c < least) {
+      least = c;
+      g = static_cast<int>(k);
+    }
+  }
+  const auto& inc_loop = inc.topo->faces[g];
+  thread_local std::vector<ClipVertex> poly, next;
+  poly.clear();
+  for (std::size_t k = 0; k < inc_loop.size(); ++k)
+    poly.push_back({inc.v[inc_loop[k]], ref.id(FeatureKind::Face, f), inc.id(FeatureKind::Vertex, inc_loop[k]),
+                    false, inc.topo->face_edges[g][k]});
+  const auto& ref_loop = ref.topo->faces[f];
+  const std::size_t m = ref_loop.size();
+  for (std::size_t k = 0; k < m && !poly.empty(); ++k) {
+    const Vec3& r0 = ref.v[ref_loop[k]];
+    const Vec3& r1 = ref.v[ref_loop[(k + 1) % m]];
+    const Vec3 side = (r1 - r0).cross(n_ref).normalized();
+    const double c = side.dot(r0);
+    next.clear();
+    for (std::size_t i = 0; i < poly.size(); ++i) {
+      const ClipVertex& P = poly[i];
+      const ClipVertex& Q = poly[(i + 1) % poly.size()];
+      const double dP = side.dot(P.q) - c, dQ = side.dot(Q.q) - c;
+      if (dP <= 0.0) next.push_back(P);
+      if ((dP <= 0.0) != (dQ <= 0.0)) {
+        ClipVertex X;
+        X.q = P.q + (dP / (dP - dQ)) * (Q.q - P.q);
+        if (P.side_is_ref) {
+          // the cut along side k' meets side k at the reference face's shared corner
+          const int kp = P.side;
+          const int corner = (static_cast<std::size_t>(kp) + 1) % m == k ? ref_loop[k]
+                             : (k + 1) % m == static_cast<std::size_t>(kp) ? ref_loop[(k + 1) % m] : -1;
+          X.ref_id = corner >= 0 ? ref.id(FeatureKind::Vertex, corner) : ref.id(FeatureKind::Face, f);
+          X.inc_id = inc.id(FeatureKind::Face, g);
+          X.keep = !ref_active || ((*ref_active)[k] && (*ref_active)[kp]);
+        } else {
+          X.ref_id = ref.id(FeatureKind::Edge, ref.topo->face_edges[f][k]);
+          X.inc_id = inc.id(FeatureKind::Edge, P.side);
+          // a cut along an interior (inactive) edge of a triangle mesh lies inside the surface
+          X.keep = !ref_active || (*ref_active)[k];
+        }
+        if (dP <= 0.0) {  // leaving: the next side runs along the cut
+          X.side_is_ref = true;
+          X.side = static_cast<int>(k);
+        } else {  // entering: the next side continues along P -> Q
+          X.side_is_ref = P.side_is_ref;
+          X.side = P.side;
+        }
+        next.push_back(X);
+      }
+    }
+    std::swap(poly, next);
+  }
+  const Vec3 n_world = R_a * n_ref;
+  for (const ClipVertex& V : poly) {
+    if (!V.keep) continue;
+    const double gap = n_ref.dot(V.q) - ref.d[f];
+    if (!(gap < threshold)) continue;
+    Contact c;
+    c.point = R_a * (V.q - 0.5 * gap * n_ref) + p_a;
+    c.normal = ref_is_a ? n_world : Vec3(-n_world);
+    c.gap = gap;
+    c.feature_a = ref_is_a ? V.ref_id : V.inc_id;
+    c.feature_b = ref_is_a ? V.inc_id : V.ref_id;
+    out.push_back(c);
+  }
+}
+
+double radius_of(const Polytope& P) { return P.vertices.rowwise().norm().maxCoeff(); }
+
+}  // namespace
+
+void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
+                       const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out) {
+  // everything in A's frame: B placed by R_ab = R_a^T R_b, t_ab = R_a^T (p_b - p_a)
+  thread_local View A, B;
+  A.place(a, Mat3::Identity(), Vec3::Zero(), part_a);
+  B.place(b, pa.R.transpose() * pb.R, pa.R.transpose() * (pb.p - pa.p), part_b);
+  const FaceQuery fa = face_query(A, B);
+  if (!(fa.separation < threshold)) return;
+  const FaceQuery fb = face_query(B, A);
+  if (!(fb.separation < threshold)) return;
+  const EdgeQuery e = edge_query(A, B);
+  if (!(e.separation < threshold)) return;
+  const double tol = 1e-9 * (radius_of(a) + radius_of(b));
+  if (e.edge_a >= 0 && e.separation > std::max(fa.separation, fb.separation) + tol) {
+    // edge-edge: one point, midway between the closest points of the two edge lines
+    const auto& EA = a.edges[e.edge_a];
+    const auto& EB = b.edges[e.edge_b];
+    const Vec3 p0 = A.v[EA.v0], u = A.v[EA.v1] - p0;
+    const Vec3 q0 = B.v[EB.v0], w = B.v[EB.v1] - q0;
+    const Vec3 r = p0 - q0;
+    const double uu = u.dot(u), ww = w.dot(w), uw = u.dot(w), ur = u.dot(r), wr = w.dot(r);
+    const double det = uw * uw - uu * ww;  // non-zero: the edges are not parallel
+    const double s = (ur * ww - uw * wr) / det, t = (uw * ur - uu * wr) / det;
+    Contact c;
+    c.point = pa.R * (0.5 * ((p0 + s * u) + (q0 + t * w))) + pa.p;
+    c.normal = pa.R * e.axis;
+    c.gap = e.separation;
+    c.feature_a = A.id(FeatureKind::Edge, e.edge_a);
+    c.feature_b = B.id(FeatureKind::Edge, e.edge_b);
+    out.push_back(c);
+    return;
+  }
+  if (fb.separation > fa.separation + tol)
+    clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, out);
+  else
+    clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, out);
+}
+
+void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, const Pose& pa,
+                       std::uint32_t triangle, const Polytope& b, const Pose& pb, std::uint32_t part_b,
+                       double threshold, std::vector<Contact>& out) {
+  thread_local View A, B;
+  A.place(tri, Mat3::Identity(), Vec3::Zero(), triangle);
+  B.place(b, pa.R.transpose() * pb.R, pa.R.transpose() * (pb.p - pa.p), part_b);
+  // one-sided: only the front face pushes, and a body whose centre is behind it is left alone
+  if (A.n[0].dot(B.centroid) < A.d[0]) return;
+  const double sep_a = B.min_along(A.n[0]) - A.d[0];
+  if (!(sep_a < threshold)) return;
+  const FaceQuery fb = face_query(B, A);
+  if (!(fb.separation < threshold)) return;
+  const double tol = 1e-9 * (radius_of(tri) + radius_of(b));
+  // edge axes from the active triangle edges only (interior edges of a flat region would give
+  // ghost normals); a triangle has no Gauss-map arcs, so intervals are projected in full and the
+  // pair kept only if both edges support their shapes along the axis
+  EdgeQuery e;
+  for (int k = 0; k < 3; ++k) {
+    if (!active[k]) continue;
+    const auto& ea = tri.edges[k];
+    const Vec3 ua = A.v[ea.v1] - A.v[ea.v0];
+    for (std::size_t j = 0; j < b.edges.size(); ++j) {
+      const auto& eb = b.edges[j];
+      const Vec3 ub = B.v[eb.v1] - B.v[eb.v0];
+      Vec3 L = ua.cross(ub);
+      const double len = L.norm();
+      if (!(len > 1e-9 * ua.norm() * ub.norm())) continue;
+      L /= len;
+      double a_lo = kInf, a_hi = -kInf, b_lo = kInf, b_hi = -kInf;
+      for (const Vec3& x : A.v) a_lo = std::min(a_lo, L.dot(x)), a_hi = std::max(a_hi, L.dot(x));
+      for (const Vec3& x : B.v) b_lo = std::min(b_lo, L.dot(x)), b_hi = std::max(b_hi, L.dot(x));
+      if (a_lo - b_hi > b_lo - a_hi) {
+        L = -L;
+        std::swap(a_lo, a_hi);
+        a_lo = -a_lo, a_hi = -a_hi;
+        std::swap(b_lo, b_hi);
+        b_lo = -b_lo, b_hi = -b_hi;
+      }
+      const double s = b_lo - a_hi;
+      if (!(s > e.separation)) continue;
+      const bool a_supports = std::abs(L.dot(A.v[ea.v0]) - a_hi) <= tol && std::abs(L.dot(A.v[ea.v1]) - a_hi) <= tol;
+      const bool b_supports = std::abs(L.dot(B.v[eb.v0]) - b_lo) <= tol && std::abs(L.dot(B.v[eb.v1]) - b_lo) <= tol;
+      if (!(a_supports && b_supports)) continue;
+      e.separation = s;
+      e.edge_a = k;
+      e.edge_b = static_cast<int>(j);
+      e.axis = L;
+    }
+  }
+  if (!(e.separation < threshold)) return;
+  if (e.edge_a >= 0 && e.separation > std::max(sep_a, fb.separation) + tol) {
+    const auto& EA = tri.edges[e.edge_a];
+    const auto& EB = b.edges[e.edge_b];
+    const Vec3 p0 = A.v[EA.v0], u = A.v[EA.v1] - p0;
+    const Vec3 q0 = B.v[EB.v0], w = B.v[EB.v1] - q0;
+    const Vec3 r = p0 - q0;
+    const double uu = u.dot(u), ww = w.dot(w), uw = u.dot(w), ur = u.dot(r), wr = w.dot(r);
+    const double det = uw * uw - uu * ww;
+    const double s = (ur * ww - uw * wr) / det, t = (uw * ur - uu * wr) / det;
+    Contact c;
+    c.point = pa.R * (0.5 * ((p0 + s * u) + (q0 + t * w))) + pa.p;
+    c.normal = pa.R * e.axis;
+    c.gap = e.separation;
+    c.feature_a = A.id(FeatureKind::Edge, e.edge_a);
+    c.feature_b = B.id(FeatureKind::Edge, e.edge_b);
+    out.push_back(c);
+    return;
+  }
+  if (fb.separation > sep_a + tol)
+    clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, out);
+  else
+    clip_faces(A, 0, B, true, threshold, pa.R, pa.p, out, &active);
+}
+
+}  // namespace signorini::collision

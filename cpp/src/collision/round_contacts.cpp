@@ -1,0 +1,413 @@
+// Pairs with a capsule or a cylinder. Capsules are segments with a radius, so their pairs are exact
+// closest-point problems (Ericson, Real-Time Collision Detection, 5.1.9) plus separating axes when a
+// segment enters a polytope. Cylinders have no such closed form against boxes, hulls or other
+// cylinders: FCL's signed distance gives the normal and the manifold comes from the supporting
+// features of both shapes along it.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "collision/collision.hpp"
+
+namespace signorini::collision {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kPi = 3.14159265358979323846;
+
+/// Closest points of segments P0 P1 and Q0 Q1: parameters s, t in [0, 1].
+void closest_segments(const Vec3& P0, const Vec3& P1, const Vec3& Q0, const Vec3& Q1, double& s, double& t) {
+  const Vec3 d1 = P1 - P0, d2 = Q1 - Q0, r = P0 - Q0;
+  const double a = d1.dot(d1), e = d2.dot(d2), f = d2.dot(r);
+  if (a <= 0.0 && e <= 0.0) {
+    s = t = 0.0;
+    return;
+  }
+  if (a <= 0.0) {
+    s = 0.0;
+    t = std::clamp(f / e, 0.0, 1.0);
+    return;
+  }
+  const double c = d1.dot(r);
+  if (e <= 0.0) {
+    t = 0.0;
+    s = std::clamp(-c / a, 0.0, 1.0);
+    return;
+  }
+  const double b = d1.dot(d2), denom = a * e - b * b;
+  s = denom > 0.0 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+  t = (b * s + f) / e;
+  if (t < 0.0) {
+    t = 0.0;
+    s = std::clamp(-c / a, 0.0, 1.0);
+  } else if (t > 1.0) {
+    t = 1.0;
+    s = std::clamp((b - c) / a, 0.0, 1.0);
+  }
+}
+
+FeatureId segment_feature(double t, std::uint32_t part) {
+  return t <= 0.0 ? feature_id(FeatureKind::Vertex, 0, part)
+         : t >= 1.0 ? feature_id(FeatureKind::Vertex, 1, part)
+                    : feature_id(FeatureKind::Edge, 0, part);
+}
+
+/// Contact between two rounded points: core points x_a, x_b with radii r_a, r_b (world); n_hint
+/// is the normal used when the cores coincide.
+Contact rounded(const Vec3& x_a, double r_a, const Vec3& x_b, double r_b, const Vec3& n_hint, FeatureId fa,
+                FeatureId fb) {
+  const Vec3 d = x_b - x_a;
+  const double dist = d.norm();
+  Contact c;
+  c.normal = dist > 0.0 ? Vec3(d / dist) : n_hint;
+  c.gap = dist - r_a - r_b;
+  c.point = 0.5 * ((x_a + r_a * c.normal) + (x_b - r_b * c.normal));
+  c.feature_a = fa;
+  c.feature_b = fb;
+  return c;
+}
+
+/// Closest point to x on a convex polytope's surface (x outside), in the polytope's frame.
+Vec3 closest_on_polytope(const Polytope& P, const Vec3& x) {
+  double best = kInf;
+  Vec3 w = x;
+  for (std::size_t f = 0; f < P.faces.size(); ++f) {
+    const auto& loop = P.faces[f];
+    const Vec3& n = P.normals[f];
+    Vec3 q = x - (n.dot(x) - P.offsets[f]) * n;  // projection onto the face plane
+    bool inside = true;
+    for (std::size_t k = 0; k < loop.size() && inside; ++k) {
+      const Vec3 a = P.vertex(loop[k]), b = P.vertex(loop[(k + 1) % loop.size()]);
+      inside = (b - a).cross(n).dot(q - a) <= 0.0;
+    }
+    if (!inside) {
+      double best_edge = kInf;
+      for (std::size_t k = 0; k < loop.size(); ++k) {
+        const Vec3 a = P.vertex(loop[k]), b = P.vertex(loop[(k + 1) % loop.size()]);
+        const double t = std::clamp((x - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+        const Vec3 e = a + t * (b - a);
+        if ((x - e).squaredNorm() < best_edge) {
+          best_edge = (x - e).squaredNorm();
+          q = e;
+        }
+      }
+    }
+    if ((x - q).squaredNorm() < best) {
+      best = (x - q).squaredNorm();
+      w = q;
+    }
+  }
+  return w;
+}
+
+}  // namespace
+
+void capsule_capsule(const Capsule& a, const Pose& pa, std::uint32_t part_a, const Capsule& b, const Pose& pb,
+                     std::uint32_t part_b, double threshold, std::vector<Contact>& out) {
+  const Vec3 ua = pa.R.col(2), ub = pb.R.col(2);
+  const Vec3 P0 = pa.p - a.half_length * ua, P1 = pa.p + a.half_length * ua;
+  const Vec3 Q0 = pb.p - b.half_length * ub, Q1 = pb.p + b.half_length * ub;
+  const Vec3 d1 = P1 - P0, d2 = Q1 - Q0;
+  const bool parallel = a.half_length > 0.0 && b.half_length > 0.0 &&
+                        d1.cross(d2).norm() <= 1e-9 * d1.norm() * d2.norm();
+  if (parallel) {
+    // lying side by side: the two ends of the overlap of B's projection onto A
+    const double s0 = (Q0 - P0).dot(d1) / d1.squaredNorm(), s1 = (Q1 - P0).dot(d1) / d1.squaredNorm();
+    const double lo = std::max(0.0, std::min(s0, s1)), hi = std::min(1.0, std::max(s0, s1));
+    if (hi - lo > 1e-9) {
+      for (double s : {lo, hi}) {
+        const Vec3 x_a = P0 + s * d1;
+        const double t = std::clamp((x_a - Q0).dot(d2) / d2.squaredNorm(), 0.0, 1.0);
+        Contact c = rounded(x_a, a.radius, Q0 + t * d2, b.radius, pa.R.col(0), segment_feature(s, part_a),
+                            segment_feature(t, part_b));
+        if (c.gap < threshold) out.push_back(c);
+      }
+      return;
+    }
+  }
+  double s, t;
+  closest_segments(P0, P1, Q0, Q1, s, t);
+  Contact c = rounded(P0 + s * d1, a.radius, Q0 + t * d2, b.radius, pa.R.col(0), segment_feature(s, part_a),
+                      segment_feature(t, part_b));
+  if (c.gap < threshold) out.push_back(c);
+}
+
+void polytope_capsule(const Polytope& P, const Pose& pa, std::uint32_t part_a, const Capsule& cap,
+                      const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out) {
+  // in the polytope's frame: the capsule's core segment e0 e1
+  const Mat3 Rt = pa.R.transpose();
+  const Vec3 axis = Rt * pb.R.col(2);
+  const Vec3 centre = Rt * (pb.p - pa.p);
+  const Vec3 e0 = centre - cap.half_length * axis, e1 = centre + cap.half_length * axis;
+  const Vec3 s = e1 - e0;
+  const double r = cap.radius;
+  // separating axes of the segment and the polytope: its faces, and its edges crossed with s
+  double sep = -kInf;
+  Vec3 n_sep = Vec3::UnitZ();
+  for (std::size_t f = 0; f < P.normals.size(); ++f) {
+    const double x = std::min(P.normals[f].dot(e0), P.normals[f].dot(e1)) - P.offsets[f];
+    if (x > sep) {
+      sep = x;
+      n_sep = P.normals[f];
+    }
+  }
+  for (const auto& edge : P.edges) {
+    Vec3 L = (P.vertex(edge.v1) - P.vertex(edge.v0)).cross(s);
+    const double len = L.norm();
+    if (!(len > 1e-9 * (P.vertex(edge.v1) - P.vertex(edge.v0)).norm() * s.norm())) continue;
+    L /= len;
+    double lo = kInf, hi = -kInf;
+    for (Eigen::Index i = 0; i < P.vertices.rows(); ++i) {
+      const double x = L.dot(P.vertex(static_cast<int>(i)));
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    const double slo = std::min(L.dot(e0), L.dot(e1)), shi = std::max(L.dot(e0), L.dot(e1));
+    if (slo - hi > sep) {
+      sep = slo - hi;
+      n_sep = L;
+    }
+    if (lo - shi > sep) {
+      sep = lo - shi;
+      n_sep = -L;
+    }
+  }
+  if (!(sep - r < threshold)) return;
+  Vec3 n, w_seg;  // normal (polytope -> capsule) and the segment point nearest the polytope
+  double gap;
+  double t_seg;
+  if (sep > 0.0) {
+    // apart: the exact distance, over the segment's ends and the polytope's edges
+    double best = kInf;
+    Vec3 w_poly = Vec3::Zero();
+    for (int k = 0; k < 2; ++k) {
+      const Vec3 e = k ? e1 : e0;
+      const Vec3 q = closest_on_polytope(P, e);
+      if ((e - q).squaredNorm() < best) {
+        best = (e - q).squaredNorm();
+        w_seg = e;
+        w_poly = q;
+        t_seg = k;
+      }
+    }
+    for (const auto& edge : P.edges) {
+      double u, v;
+      closest_segments(e0, e1, P.vertex(edge.v0), P.vertex(edge.v1), u, v);
+      const Vec3 x = e0 + u * s, q = P.vertex(edge.v0) + v * (P.vertex(edge.v1) - P.vertex(edge.v0));
+      if ((x - q).squaredNorm() < best) {
+        best = (x - q).squaredNorm();
+        w_seg = x;
+        w_poly = q;
+        t_seg = u;
+      }
+    }
+    const double dist = std::sqrt(best);
+    n = (w_seg - w_poly) / dist;
+    gap = dist - r;
+  } else {
+    // the segment enters the polytope: the separating axis of least penetration
+    n = n_sep;
+    gap = sep - r;
+    t_seg = n.dot(e0) <= n.dot(e1) ? 0.0 : 1.0;
+    w_seg = t_seg == 0.0 ? e0 : e1;
+  }
+  // lying on a face: the segment clipped to that face gives up to two points
+  std::size_t face = 0;
+  for (std::size_t f = 1; f < P.normals.size(); ++f)
+    if (P.normals[f].dot(n) > P.normals[face].dot(n)) face = f;
+  const Vec3& nf = P.normals[face];
+  const double offset = P.offsets[face];
+  auto emit = [&](const Vec3& x, const Vec3& nn, double g, FeatureId fa, FeatureId fb) {
+    Contact c;
+    const Vec3 w_b = x - r * nn;
+    c.point = pa.R * (w_b - 0.5 * g * nn) + pa.p;
+    c.normal = pa.R * nn;
+    c.gap = g;
+    c.feature_a = fa;
+    c.feature_b = fb;
+    if (c.gap < threshold) out.push_back(c);
+  };
+  if (nf.dot(n) >= 1.0 - 1e-8 && std::abs(nf.dot(s)) <= 0.1 * s.norm() + 1e-300) {
+    double t0 = 0.0, t1 = 1.0;
+    int side0 = -1, side1 = -1;
+    const auto& loop = P.faces[face];
+    for (std::size_t k = 0; k < loop.size(); ++k) {
+      const Vec3 a = P.vertex(loop[k]), b = P.vertex(loop[(k + 1) % loop.size()]);
+      const Vec3 m = (b - a).cross(nf);
+      const double d0 = m.dot(e0 - a), d1 = m.dot(e1 - a);
+      if (d0 > 0.0 && d1 > 0.0) {
+        t0 = 1.0;
+        t1 = 0.0;
+        break;
+      }
+      if (d0 > 0.0) {
+        const double t = d0 / (d0 - d1);
+        if (t > t0) t0 = t, side0 = static_cast<int>(k);
+      } else if (d1 > 0.0) {
+        const double t = d0 / (d0 - d1);
+        if (t < t1) t1 = t, side1 = static_cast<int>(k);
+      }
+    }
+    if (t1 - t0 > 1e-9) {
+      const auto& face_edges = P.face_edges[face];
+      for (int end = 0; end < 2; ++end) {
+        const double t = end ? t1 : t0;
+        const int side = end ? side1 : side0;
+        const Vec3 x = e0 + t * s;
+        const FeatureId fa = side < 0 ? feature_id(FeatureKind::Face, static_cast<std::uint32_t>(face), part_a)
+                                      : feature_id(FeatureKind::Edge, face_edges[side], part_a);
+        emit(x, nf, nf.dot(x) - offset - r, fa, segment_feature(t, part_b));
+      }
+      return;
+    }
+  }
+  emit(w_seg, n, gap, feature_id(FeatureKind::Shape, 0, part_a), segment_feature(t_seg, part_b));
+}
+
+namespace {
+
+/// A shape's supporting feature along a world direction: a face polygon (with its outward normal),
+/// a segment, or a point; world coordinates, with ids.
+struct Support {
+  std::vector<Vec3> points;
+  std::vector<FeatureId> ids;
+  Vec3 normal = Vec3::Zero();  ///< set for faces
+  bool is_face = false;
+};
+
+constexpr double kFaceCos = 0.995;  // a face within ~5.7 degrees of the normal supports as a face
+
+Support support_feature(const Item& it, const Vec3& dir) {
+  Support s;
+  const Mat3& R = it.pose.R;
+  const Vec3& p = it.pose.p;
+  if (it.polytope) {
+    const Polytope& P = *it.polytope;
+    const Vec3 d = R.transpose() * dir;
+    std::size_t face = 0;
+    for (std::size_t f = 1; f < P.normals.size(); ++f)
+      if (P.normals[f].dot(d) > P.normals[face].dot(d)) face = f;
+    if (P.normals[face].dot(d) >= kFaceCos) {
+      for (int v : P.faces[face]) {
+        s.points.push_back(R * P.vertex(v) + p);
+        s.ids.push_back(feature_id(FeatureKind::Vertex, v, it.part));
+      }
+      s.normal = R * P.normals[face];
+      s.is_face = true;
+      return s;
+    }
+    int best = 0;
+    for (Eigen::Index i = 1; i < P.vertices.rows(); ++i)
+      if (P.vertex(static_cast<int>(i)).dot(d) > P.vertex(best).dot(d)) best = static_cast<int>(i);
+    s.points.push_back(R * P.vertex(best) + p);
+    s.ids.push_back(feature_id(FeatureKind::Vertex, best, it.part));
+    return s;
+  }
+  const Vec3 a = R.col(2);
+  const double c = a.dot(dir);
+  Vec3 u = dir - c * a;
+  const double u_norm = u.norm();
+  u = u_norm > 1e-12 ? Vec3(u / u_norm) : Vec3(R.col(0));
+  if (const Cylinder* cyl = it.cylinder) {
+    const int cap = c >= 0.0 ? 1 : 0;
+    const Vec3 centre = p + (cap ? 1.0 : -1.0) * cyl->half_height * a;
+    if (std::abs(c) >= kFaceCos) {
+      for (int k = 0; k < 8; ++k) {
+        const int kk = cap ? k : 7 - k;  // counter-clockwise seen from outside
+        const double phi = kk * kPi / 4.0;
+        s.points.push_back(centre + cyl->radius * (std::cos(phi) * R.col(0) + std::sin(phi) * R.col(1)));
+        s.ids.push_back(feature_id(FeatureKind::Vertex, 8 * cap + kk, it.part));
+      }
+      s.normal = (cap ? 1.0 : -1.0) * a;
+      s.is_face = true;
+    } else if (std::abs(c) <= 1.0 - kFaceCos) {
+      for (int end = 0; end < 2; ++end) {
+        s.points.push_back(p + (end ? 1.0 : -1.0) * cyl->half_height * a + cyl->radius * u);
+        s.ids.push_back(feature_id(FeatureKind::Vertex, 16 + end, it.part));
+      }
+    } else {
+      s.points.push_back(centre + cyl->radius * u);
+      s.ids.push_back(feature_id(FeatureKind::Edge, cap, it.part));
+    }
+  } else if (const Capsule* capsule = it.capsule) {
+    const Vec3 d = dir.normalized();
+    if (std::abs(c) <= 1.0 - kFaceCos && capsule->half_length > 0.0) {
+      for (int end = 0; end < 2; ++end) {
+        s.points.push_back(p + (end ? 1.0 : -1.0) * capsule->half_length * a + capsule->radius * d);
+        s.ids.push_back(feature_id(FeatureKind::Vertex, end, it.part));
+      }
+    } else {
+      const int end = c >= 0.0 ? 1 : 0;
+      s.points.push_back(p + (end ? 1.0 : -1.0) * capsule->half_length * a + capsule->radius * d);
+      s.ids.push_back(feature_id(FeatureKind::Vertex, end, it.part));
+    }
+  } else if (const Sphere* sphere = it.sphere) {
+    s.points.push_back(p + sphere->radius * dir.normalized());
+    s.ids.push_back(feature_id(FeatureKind::Shape, 0, it.part));
+  }
+  return s;
+}
+
+}  // namespace
+
+void convex_by_support(const Item& a, const Item& b, double threshold, std::vector<Contact>& out) {
+  Distance dist;
+  if (!fcl_signed_distance(a, b, dist) || !(dist.gap < threshold)) return;
+  const Vec3 n = dist.normal;
+  const Support sa = support_feature(a, n), sb = support_feature(b, -n);
+  const bool ref_is_a = sa.is_face && (!sb.is_face || sa.normal.dot(n) >= -sb.normal.dot(n));
+  if (!sa.is_face && !sb.is_face) {
+    // no face on either side (edge against edge, a rim against a rim): FCL's single point
+    Contact c;
+    c.normal = n;
+    c.gap = dist.gap;
+    c.point = 0.5 * (dist.w_a + dist.w_b);
+    c.feature_a = sa.ids.size() == 1 ? sa.ids[0] : feature_id(FeatureKind::Shape, 0, a.part);
+    c.feature_b = sb.ids.size() == 1 ? sb.ids[0] : feature_id(FeatureKind::Shape, 0, b.part);
+    out.push_back(c);
+    return;
+  }
+  const Support& ref = ref_is_a ? sa : sb;
+  const Support& inc = ref_is_a ? sb : sa;
+  const std::uint32_t ref_part = ref_is_a ? a.part : b.part, inc_part = ref_is_a ? b.part : a.part;
+  const Vec3& n_ref = ref.normal;
+  const double d_ref = n_ref.dot(ref.points[0]);
+  // the incident feature clipped by the reference face's side planes (side k: internal id 256 + k)
+  std::vector<std::pair<Vec3, std::pair<FeatureId, FeatureId>>> poly, next;
+  for (std::size_t i = 0; i < inc.points.size(); ++i)
+    poly.push_back({inc.points[i], {feature_id(FeatureKind::Face, 0, ref_part), inc.ids[i]}});
+  const std::size_t m = ref.points.size();
+  for (std::size_t k = 0; k < m && !poly.empty(); ++k) {
+    const Vec3 side = (ref.points[(k + 1) % m] - ref.points[k]).cross(n_ref).normalized();
+    const double c = side.dot(ref.points[k]);
+    next.clear();
+    const std::size_t np = poly.size();
+    const std::size_t sides = np == 2 ? 1 : np;  // a segment has one side, a point none
+    for (std::size_t i = 0; i < np; ++i) {
+      const auto& P = poly[i];
+      const double dP = side.dot(P.first) - c;
+      if (dP <= 0.0) next.push_back(P);
+      if (i >= sides || np == 1) continue;
+      const auto& Q = poly[(i + 1) % np];
+      const double dQ = side.dot(Q.first) - c;
+      if ((dP <= 0.0) != (dQ <= 0.0))
+        next.push_back({P.first + (dP / (dP - dQ)) * (Q.first - P.first),
+                        {feature_id(FeatureKind::Edge, 256 + static_cast<std::uint32_t>(k), ref_part),
+                         feature_id(FeatureKind::Edge, 256 + static_cast<std::uint32_t>(i), inc_part)}});
+    }
+    std::swap(poly, next);
+  }
+  for (const auto& [q, ids] : poly) {
+    const double gap = n_ref.dot(q) - d_ref;
+    if (!(gap < threshold)) continue;
+    Contact c;
+    c.point = q - 0.5 * gap * n_ref;
+    c.normal = ref_is_a ? n_ref : Vec3(-n_ref);
+    c.gap = gap;
+    c.feature_a = ref_is_a ? ids.first : ids.second;
+    c.feature_b = ref_is_a ? ids.second : ids.first;
+    out.push_back(c);
+  }
+}
+
+}  // namespace signorini::collision

@@ -1,0 +1,118 @@
+// Static triangle meshes against convex items: the BVH (fcl_queries.cpp) names the candidate
+// triangles, each is tested as a one-sided convex piece, and all points go into one manifold.
+// Interior edges of flat or concave regions are inactive: they never produce edge normals, so a box
+// sliding over a tessellated floor meets no ghost contacts.
+#include <algorithm>
+#include <cmath>
+
+#include "collision/collision.hpp"
+
+namespace signorini::collision {
+namespace {
+
+/// Triangle t of the mesh as a two-faced polytope (front loop 0 1 2, back 0 2 1; edges 0->1, 1->2, 2->0).
+void triangle_polytope_of(const TriangleMesh& mesh, Eigen::Index t, Polytope& P) {
+  if (P.faces.empty()) {
+    P.vertices.resize(3, 3);
+    P.faces = {{0, 1, 2}, {0, 2, 1}};
+    P.face_edges = {{0, 1, 2}, {2, 1, 0}};
+    P.edges = {{0, 1, 0, 1}, {1, 2, 0, 1}, {2, 0, 0, 1}};
+    P.normals.resize(2);
+    P.offsets.resize(2);
+  }
+  for (int c = 0; c < 3; ++c) P.vertices.row(c) = mesh.vertices.row(mesh.faces(t, c));
+  const Vec3& n = mesh.normals[t];
+  P.normals[0] = n;
+  P.normals[1] = -n;
+  P.offsets[0] = n.dot(P.vertex(0));
+  P.offsets[1] = -P.offsets[0];
+  P.centroid = (P.vertex(0) + P.vertex(1) + P.vertex(2)) / 3.0;
+}
+
+/// Sphere (centre c_l, radius r, mesh frame) against triangle t: the closest point, with the face
+/// normal wherever the closest feature is an inactive edge or a vertex between inactive edges.
+void triangle_sphere(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Vec3& c_l, double r,
+                     std::uint32_t part_b, std::vector<Contact>& out) {
+  const Vec3 v[3] = {mesh.vertex(mesh.faces(t, 0)), mesh.vertex(mesh.faces(t, 1)), mesh.vertex(mesh.faces(t, 2))};
+  const Vec3& n = mesh.normals[t];
+  const double height = n.dot(c_l - v[0]);
+  if (height < 0.0) return;  // one-sided: a centre behind the face is left alone
+  // closest point by barycentric region
+  Vec3 q = c_l - height * n;
+  int region = -1;  // -1 face, 0..2 edge k (v_k -> v_k+1), 3..5 vertex k
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 a = v[k], b = v[(k + 1) % 3];
+    if ((b - a).cross(n).dot(q - a) > 0.0) region = k;
+  }
+  if (region >= 0) {
+    double best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 a = v[k], b = v[(k + 1) % 3];
+      const double s = std::clamp((c_l - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+      const Vec3 x = a + s * (b - a);
+      if ((c_l - x).squaredNorm() < best) {
+        best = (c_l - x).squaredNorm();
+        q = x;
+        region = s <= 0.0 ? 3 + k : s >= 1.0 ? 3 + (k + 1) % 3 : k;
+      }
+    }
+  }
+  const auto& active = mesh.active_edge[t];
+  const bool use_face = region < 0 || (region < 3 && !active[region]) ||
+                        (region >= 3 && !active[region - 3] && !active[(region - 3 + 2) % 3]);
+  Vec3 n_l;
+  double gap;
+  Vec3 w = q;
+  if (use_face) {
+    n_l = n;
+    gap = height - r;
+    w = c_l - height * n;
+  } else {
+    const double dist = (c_l - q).norm();
+    n_l = dist > 0.0 ? Vec3((c_l - q) / dist) : n;
+    gap = dist - r;
+  }
+  Contact c;
+  c.normal = pa.R * n_l;
+  c.gap = gap;
+  c.point = pa.R * (0.5 * (w + (c_l - r * n_l))) + pa.p;
+  const auto tri = static_cast<std::uint32_t>(t);
+  c.feature_a = region < 0 ? feature_id(FeatureKind::Face, 0, tri)
+                : region < 3 ? feature_id(FeatureKind::Edge, region, tri)
+                             : feature_id(FeatureKind::Vertex, region - 3, tri);
+  c.feature_b = feature_id(FeatureKind::Shape, 0, part_b);
+  out.push_back(c);
+}
+
+}  // namespace
+
+void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery& query, const Item& b,
+                  double threshold, std::vector<Contact>& out) {
+  // B's bounding box in the mesh frame, grown by the threshold
+  const Vec3 centre = pa.R.transpose() * (b.pose.p - pa.p);
+  const double reach = b.radius() + std::max(threshold, 0.0);
+  thread_local std::vector<int> triangles;
+  query.overlapping(centre - Vec3::Constant(reach), centre + Vec3::Constant(reach), triangles);
+  thread_local Polytope tri;
+  for (int t : triangles) {
+    const auto index = static_cast<std::uint32_t>(t);
+    if (b.polytope) {
+      triangle_polytope_of(mesh, t, tri);
+      triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, b.pose, b.part, threshold, out);
+    } else if (const Sphere* s = b.sphere) {
+      triangle_sphere(mesh, t, pa, centre, s->radius, b.part, out);
+    } else if (const Capsule* cap = b.capsule) {
+      triangle_polytope_of(mesh, t, tri);
+      const std::size_t first = out.size();
+      polytope_capsule(tri, pa, index, *cap, b.pose, b.part, threshold, out);
+      // keep only contacts pushing out of the front side
+      const Vec3 n_world = pa.R * mesh.normals[t];
+      out.erase(std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
+                               [&](const Contact& c) { return c.normal.dot(n_world) <= 0.0; }),
+                out.end());
+    }
+    // cylinders against triangle meshes are refused when the body is added (unsupported_pair)
+  }
+}
+
+}  // namespace signorini::collision
