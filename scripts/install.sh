@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Installs what signorini needs on Debian bookworm, as root, skipping what is already there:
-# the compiler, CMake, ninja, Eigen 3.4, FCL 0.7 and libccd, GoogleTest (Debian packages), then
+# the compiler, CMake, ninja, Eigen 3.4, FCL 0.7 and libccd, Qhull, GoogleTest (Debian packages), then
 # the Python build tools and the package itself (editable, built by scikit-build-core into the
 # cached build/ folder, so a warm rebuild only recompiles what changed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libgtest-dev)
+packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libqhull-dev libgtest-dev)
 python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip)
 # the extension compiles against Python.h
 python3 -c 'import os, sysconfig; raise SystemExit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \

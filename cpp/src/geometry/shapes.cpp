@@ -1,12 +1,17 @@
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
 
 #include <Eigen/Geometry>
 
+#include "geometry/polytope.hpp"
+#include "math/rotation.hpp"
 #include "signorini/shapes.hpp"
 
 namespace signorini {
@@ -26,6 +31,12 @@ std::string fmt(const Vec3& x) {
   return s.str();
 }
 
+std::string fmt_quat(const Quat4& q) {
+  std::ostringstream s;
+  s << "(" << q[0] << ", " << q[1] << ", " << q[2] << ", " << q[3] << ")";
+  return s.str();
+}
+
 }  // namespace
 
 Sphere::Sphere(double r) : radius(r) {
@@ -36,6 +47,7 @@ Sphere::Sphere(double r) : radius(r) {
 Box::Box(const Vec3& h) : half_extents(h) {
   if (!(h.allFinite() && (h.array() > 0.0).all()))
     throw std::invalid_argument("Box: half extents must be positive and finite, got " + fmt(h));
+  polytope = std::make_shared<const Polytope>(geometry::box_polytope(h));
 }
 
 Plane::Plane(const Vec3& n, double d) : normal(n), offset(d) {
@@ -102,15 +114,152 @@ bool Mesh::is_convex() const {
   return true;
 }
 
+Capsule::Capsule(double r, double h) : radius(r), half_length(h) {
+  if (!(finite(r) && r > 0.0))
+    throw std::invalid_argument("Capsule: radius must be positive and finite, got " + fmt(r));
+  if (!(finite(h) && h >= 0.0))
+    throw std::invalid_argument("Capsule: half_length must be finite and >= 0, got " + fmt(h));
+}
+
+Cylinder::Cylinder(double r, double h) : radius(r), half_height(h) {
+  if (!(finite(r) && r > 0.0))
+    throw std::invalid_argument("Cylinder: radius must be positive and finite, got " + fmt(r));
+  if (!(finite(h) && h > 0.0))
+    throw std::invalid_argument("Cylinder: half_height must be positive and finite, got " + fmt(h));
+}
+
+TriangleMesh::TriangleMesh(Points v, Triangles f) : vertices(std::move(v)), faces(std::move(f)) {
+  const Eigen::Index n = vertices.rows(), F = faces.rows();
+  if (n < 3) throw std::invalid_argument("TriangleMesh: needs at least 3 vertices, got " + std::to_string(n));
+  if (F < 1) throw std::invalid_argument("TriangleMesh: needs at least one face");
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!vertices.row(i).allFinite())
+      throw std::invalid_argument("TriangleMesh: vertex " + std::to_string(i) + " is not finite, got " +
+                                  fmt(Vec3(vertices.row(i).transpose())));
+  // as for Mesh: a triangle whose doubled area is below 1e-12 of the squared mesh size is degenerate
+  const double size = (vertices.colwise().maxCoeff() - vertices.colwise().minCoeff()).norm();
+  std::map<std::array<std::int64_t, 3>, Eigen::Index> seen;  // sorted vertex triple -> first face
+  normals.resize(static_cast<std::size_t>(F));
+  for (Eigen::Index k = 0; k < F; ++k) {
+    for (int c = 0; c < 3; ++c)
+      if (faces(k, c) < 0 || faces(k, c) >= n)
+        throw std::invalid_argument("TriangleMesh: face " + std::to_string(k) + " has vertex index " +
+                                    std::to_string(faces(k, c)) + " outside [0, " + std::to_string(n) + ")");
+    const Vec3 a = vertex(faces(k, 0)), b = vertex(faces(k, 1)), c = vertex(faces(k, 2));
+    const Vec3 area = (b - a).cross(c - a);
+    if (area.norm() <= 1e-12 * size * size)
+      throw std::invalid_argument("TriangleMesh: face " + std::to_string(k) +
+                                  " is degenerate (zero area or repeated vertex)");
+    std::array<std::int64_t, 3> key{faces(k, 0), faces(k, 1), faces(k, 2)};
+    std::sort(key.begin(), key.end());
+    if (const auto [it, fresh] = seen.emplace(key, k); !fresh)
+      throw std::invalid_argument("TriangleMesh: face " + std::to_string(k) + " repeats face " +
+                                  std::to_string(it->second) + " (the same three vertices)");
+    normals[k] = area.normalized();
+  }
+
+  // edge adjacency: undirected edge -> the (face, side) pairs that use it
+  std::map<std::pair<std::int64_t, std::int64_t>, std::vector<std::pair<Eigen::Index, int>>> users;
+  for (Eigen::Index k = 0; k < F; ++k)
+    for (int s = 0; s < 3; ++s) users[std::minmax(faces(k, s), faces(k, (s + 1) % 3))].push_back({k, s});
+
+  // side s of face k (v_s -> v_s+1) is active when it is a boundary edge, a non-manifold one (3+
+  // faces), or when the fold towards the neighbour is convex by more than 1e-6 rad. The fold angle
+  // is atan2(-d, t) for the neighbour's opposite vertex o, with w = o - v_s, d = n . w (height above
+  // this face's plane) and t = (e x n) . w (how far o lies beyond the edge, in the plane; e the edge
+  // direction, e x n points out of this face): 0 for a flat continuation, > 0 convex, < 0 concave.
+  // It needs no consistent orientation of the neighbour.
+  active_edge.assign(static_cast<std::size_t>(F), {true, true, true});
+  for (Eigen::Index k = 0; k < F; ++k)
+    for (int s = 0; s < 3; ++s) {
+      const std::int64_t i0 = faces(k, s), i1 = faces(k, (s + 1) % 3);
+      const auto& around = users.at(std::minmax(i0, i1));
+      if (around.size() != 2) continue;  // boundary or non-manifold: active
+      const Eigen::Index g = around[0].first == k ? around[1].first : around[0].first;
+      std::int64_t o = -1;
+      for (int c = 0; c < 3; ++c)
+        if (faces(g, c) != i0 && faces(g, c) != i1) o = faces(g, c);
+      const Vec3 e = (vertex(i1) - vertex(i0)).normalized();
+      const Vec3 w = vertex(o) - vertex(i0);
+      const double d = normals[k].dot(w), t = e.cross(normals[k]).dot(w);
+      active_edge[k][s] = std::atan2(-d, t) > 1e-6;
+    }
+}
+
+Compound::Part Compound::make_part(Primitive shape, const Vec3& position, const Quat4& q) {
+  if (!q.allFinite()) throw std::invalid_argument("orientation quaternion must be finite, got " + fmt_quat(q));
+  const double norm = q.norm();
+  if (!(norm > 1e-12))
+    throw std::invalid_argument("orientation quaternion " + fmt_quat(q) +
+                                " is zero; use (1, 0, 0, 0) for no rotation");
+  return Part{std::move(shape), position, math::quat_to_matrix(q / norm)};
+}
+
+Quat4 Compound::Part::orientation() const { return math::matrix_to_quat(rotation); }
+
+Compound::Compound(std::vector<Part> p) : parts(std::move(p)) {
+  if (parts.empty()) throw std::invalid_argument("Compound: needs at least one part");
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const std::string who = "Compound: part " + std::to_string(i);
+    const Part& part = parts[i];
+    if (!part.position.allFinite()) throw std::invalid_argument(who + ": position must be finite, got " + fmt(part.position));
+    const Mat3& R = part.rotation;
+    if (!R.allFinite() || (R.transpose() * R - Mat3::Identity()).cwiseAbs().maxCoeff() > 1e-9 ||
+        std::abs(R.determinant() - 1.0) > 1e-9)
+      throw std::invalid_argument(who + ": rotation must be a proper rotation (orthonormal within 1e-9, determinant +1)");
+  }
+}
+
 std::string shape_name(const Shape& shape) {
   struct Name {
     std::string operator()(const Sphere&) const { return "Sphere"; }
     std::string operator()(const Box&) const { return "Box"; }
     std::string operator()(const Plane&) const { return "Plane"; }
     std::string operator()(const Mesh&) const { return "Mesh"; }
+    std::string operator()(const Capsule&) const { return "Capsule"; }
+    std::string operator()(const Cylinder&) const { return "Cylinder"; }
+    std::string operator()(const ConvexHull&) const { return "ConvexHull"; }
+    std::string operator()(const TriangleMesh&) const { return "TriangleMesh"; }
+    std::string operator()(const Compound&) const { return "Compound"; }
   };
   return std::visit(Name{}, shape);
 }
+
+namespace {
+
+/// Largest |x| over the points x = t + R y of a convex part (t, R) (m), exact for each shape:
+/// sphere |t| + r; box and hull the largest over the vertices; capsule the larger segment end
+/// plus r; cylinder the larger over the two rims: a rim of centre c, axis a and radius r reaches
+/// sqrt((c . a)^2 + (|c - (c . a) a| + r)^2).
+double part_radius(const Primitive& shape, const Vec3& t, const Mat3& R) {
+  struct Radius {
+    const Vec3& t;
+    const Mat3& R;
+    double operator()(const Sphere& s) const { return t.norm() + s.radius; }
+    double operator()(const Box& b) const { return farthest(b.polytope->vertices); }
+    double operator()(const ConvexHull& h) const { return farthest(h.vertices); }
+    double operator()(const Capsule& c) const {
+      const Vec3 a = R.col(2) * c.half_length;
+      return std::max((t - a).norm(), (t + a).norm()) + c.radius;
+    }
+    double operator()(const Cylinder& c) const {
+      const Vec3 a = R.col(2);
+      double out = 0.0;
+      for (double s : {-1.0, 1.0}) {
+        const Vec3 centre = t + s * c.half_height * a;
+        const double along = centre.dot(a);
+        out = std::max(out, std::hypot(along, (centre - along * a).norm() + c.radius));
+      }
+      return out;
+    }
+    double farthest(const Points& v) const {
+      return ((v * R.transpose()).rowwise() + t.transpose()).rowwise().norm().maxCoeff();
+    }
+  };
+  return std::visit(Radius{t, R}, shape);
+}
+
+}  // namespace
 
 double bounding_radius(const Shape& shape) {
   struct Radius {
@@ -118,8 +267,21 @@ double bounding_radius(const Shape& shape) {
     double operator()(const Box& b) const { return b.half_extents.norm(); }
     double operator()(const Plane&) const { return std::numeric_limits<double>::infinity(); }
     double operator()(const Mesh& m) const { return m.vertices.rowwise().norm().maxCoeff(); }
+    double operator()(const Capsule& c) const { return c.radius + c.half_length; }
+    double operator()(const Cylinder& c) const { return std::hypot(c.radius, c.half_height); }
+    double operator()(const ConvexHull& h) const { return h.vertices.rowwise().norm().maxCoeff(); }
+    double operator()(const TriangleMesh& m) const { return m.vertices.rowwise().norm().maxCoeff(); }
+    double operator()(const Compound& c) const {
+      double r = 0.0;
+      for (const Compound::Part& p : c.parts) r = std::max(r, part_radius(p.shape, p.position, p.rotation));
+      return r;
+    }
   };
   return std::visit(Radius{}, shape);
+}
+
+bool static_only(const Shape& shape) {
+  return std::holds_alternative<Plane>(shape) || std::holds_alternative<TriangleMesh>(shape);
 }
 
 }  // namespace signorini

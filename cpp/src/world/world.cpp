@@ -7,6 +7,7 @@
 
 #include "collision/collision.hpp"
 #include "dynamics/rigid_body.hpp"
+#include "geometry/polytope.hpp"
 #include "math/rotation.hpp"
 #include "signorini/mass_properties.hpp"
 #include "solver/pgs.hpp"
@@ -83,6 +84,8 @@ BodyIndex World::add_body(const BodyDesc& desc) {
       throw std::invalid_argument(who + ": a static body cannot have a velocity");
   } else {
     if (is_plane) throw std::invalid_argument(who + ": a plane is unbounded and can only be static; use add_static");
+    if (static_only(desc.shape))
+      throw std::invalid_argument(who + ": a triangle mesh can only be static; use add_static");
     if (desc.density.has_value() == desc.mass.has_value())
       throw std::invalid_argument(who + ": give exactly one of density and mass");
     const double given = desc.density ? *desc.density : *desc.mass;
@@ -102,9 +105,16 @@ BodyIndex World::add_body(const BodyDesc& desc) {
     I_body_inv = I_body.inverse();
     if (!I_body_inv.allFinite())
       throw std::invalid_argument(who + ": inertia tensor is singular (a flat or degenerate solid)");
+    // a mesh, hull or compound body's frame is its centre of mass: the geometry is moved by -com
+    // (vertices, convex pieces, polytope, part positions), axes unchanged
     if (auto* mesh = std::get_if<Mesh>(&shape)) {
-      // a mesh body's frame is its centre of mass: vertices re-centred, axes unchanged
       mesh->vertices.rowwise() -= props.com.transpose();
+      for (auto& piece : mesh->pieces) piece = std::make_shared<const Polytope>(geometry::translated(*piece, -props.com));
+    } else if (auto* hull = std::get_if<ConvexHull>(&shape)) {
+      hull->vertices.rowwise() -= props.com.transpose();
+      hull->polytope = std::make_shared<const Polytope>(geometry::translated(*hull->polytope, -props.com));
+    } else if (auto* compound = std::get_if<Compound>(&shape)) {
+      for (Compound::Part& part : compound->parts) part.position -= props.com;
     }
   }
   for (BodyIndex j = 0; j < index; ++j) {
