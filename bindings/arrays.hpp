@@ -49,14 +49,20 @@ inline py::array_t<double> stack_of(const std::vector<Mat3>& xs) {
   return out;
 }
 
-/// A Python shape object (Sphere, Box, Plane, Mesh) as the core's Shape variant (a copy).
+/// A Python shape object (Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, TriangleMesh,
+/// Compound) as the core's Shape variant (a copy; meshes and hulls share their polytopes).
 inline Shape to_shape(const py::handle& x, const std::string& who) {
   if (py::isinstance<Sphere>(x)) return x.cast<Sphere>();
   if (py::isinstance<Box>(x)) return x.cast<Box>();
   if (py::isinstance<Plane>(x)) return x.cast<Plane>();
   if (py::isinstance<Mesh>(x)) return x.cast<Mesh>();
-  throw py::type_error(who + ": shape must be a Sphere, Box, Plane or Mesh, got " +
-                       std::string(py::str(py::type::of(x).attr("__name__"))));
+  if (py::isinstance<Capsule>(x)) return x.cast<Capsule>();
+  if (py::isinstance<Cylinder>(x)) return x.cast<Cylinder>();
+  if (py::isinstance<ConvexHull>(x)) return x.cast<ConvexHull>();
+  if (py::isinstance<TriangleMesh>(x)) return x.cast<TriangleMesh>();
+  if (py::isinstance<Compound>(x)) return x.cast<Compound>();
+  throw py::type_error(who + ": shape must be a Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, "
+                       "TriangleMesh or Compound, got " + std::string(py::str(py::type::of(x).attr("__name__"))));
 }
 
 /// The core's Shape as its Python object.

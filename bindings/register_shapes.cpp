@@ -2,7 +2,10 @@
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "arrays.hpp"
 #include "signorini/mass_properties.hpp"
@@ -24,6 +27,74 @@ std::string str(const Vec3& x) {
   std::ostringstream s;
   s << "(" << x.x() << ", " << x.y() << ", " << x.z() << ")";
   return s.str();
+}
+
+/// (k, 3) int64 triangle indices from an integer array-like, or TypeError / ValueError naming who.
+Triangles triangles(const py::object& faces, const std::string& who) {
+  auto fa = py::array::ensure(faces);
+  if (!fa || !(fa.dtype().kind() == 'i' || fa.dtype().kind() == 'u'))
+    throw py::type_error(who + ": faces must be an integer array of shape (k, 3)");
+  auto f = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(fa);
+  if (f.ndim() != 2 || f.shape(1) != 3)
+    throw py::value_error(who + ": faces must have shape (k, 3), got " + std::string(py::str(py::tuple(f.attr("shape")))));
+  return Eigen::Map<const Triangles>(f.data(), f.shape(0), 3);
+}
+
+Points points(const py::object& x, const std::string& who, const std::string& what) {
+  auto v = bindings::as_rows(x, 3, who, what);
+  return Eigen::Map<const Points>(v.data(), v.shape(0), 3);
+}
+
+/// A read-only (n, 3) copy of a polytope's or hull's vertices.
+py::array_t<double> readonly_rows(const Points& p) {
+  py::array_t<double> out({static_cast<py::ssize_t>(p.rows()), py::ssize_t(3)});
+  std::copy(p.data(), p.data() + p.size(), out.mutable_data());
+  out.attr("flags").attr("writeable") = false;
+  return out;
+}
+
+/// One compound part from (shape, (position, orientation)); errors name the part index.
+Compound::Part compound_part(const py::handle& item, std::size_t i) {
+  const std::string who = "Compound: part " + std::to_string(i);
+  if (!py::isinstance<py::sequence>(item) || py::isinstance<py::str>(item) || py::len(item) != 2)
+    throw py::type_error(who + " must be (shape, (position, orientation)), got " + std::string(py::repr(item)));
+  const py::sequence pair = py::reinterpret_borrow<py::sequence>(item);
+  const py::object pose = pair[1];
+  if (!py::isinstance<py::sequence>(pose) || py::isinstance<py::str>(pose) || py::len(pose) != 2)
+    throw py::type_error(who + ": pose must be (position, orientation), got " + std::string(py::repr(pose)));
+  const py::sequence pq = py::reinterpret_borrow<py::sequence>(pose);
+  const Vec3 position = vec3(pq[0], who, "position");
+  auto q = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(pq[1]);
+  if (!q) throw py::type_error(who + ": orientation must be 4 numbers (w, x, y, z)");
+  if (q.ndim() != 1 || q.shape(0) != 4)
+    throw py::value_error(who + ": orientation must have shape (4,), got " + std::string(py::str(py::tuple(q.attr("shape")))));
+  const Quat4 orientation(q.at(0), q.at(1), q.at(2), q.at(3));
+  const py::object s = pair[0];
+  Primitive shape = Sphere(1.0);
+  if (py::isinstance<Sphere>(s)) shape = s.cast<Sphere>();
+  else if (py::isinstance<Box>(s)) shape = s.cast<Box>();
+  else if (py::isinstance<Capsule>(s)) shape = s.cast<Capsule>();
+  else if (py::isinstance<Cylinder>(s)) shape = s.cast<Cylinder>();
+  else if (py::isinstance<ConvexHull>(s)) shape = s.cast<ConvexHull>();
+  else if (py::isinstance<Mesh>(s)) {
+    const Mesh& mesh = s.cast<const Mesh&>();
+    if (!mesh.is_convex())
+      throw py::value_error(who + ": a Mesh part must be convex (it becomes the ConvexHull of its vertices); "
+                                  "split a non-convex mesh into convex parts");
+    try {
+      shape = ConvexHull(mesh.vertices);
+    } catch (const std::invalid_argument& e) {
+      throw py::value_error(who + ": " + e.what());
+    }
+  } else {
+    throw py::type_error(who + ": shape must be a Sphere, Box, Capsule, Cylinder, ConvexHull or convex Mesh, got " +
+                         std::string(py::str(py::type::of(s).attr("__name__"))));
+  }
+  try {
+    return Compound::make_part(std::move(shape), position, orientation);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(who + ": " + e.what());
+  }
 }
 
 }  // namespace
@@ -49,18 +120,10 @@ void register_shapes(py::module_& m) {
 
   py::class_<Mesh>(m, "Mesh",
                    "Triangle mesh: vertices (n, 3) in m, faces (k, 3) vertex indices, counter-clockwise seen "
-                   "from outside. A dynamic mesh must be closed; its body frame is its centre of mass.")
+                   "from outside. A dynamic mesh must be closed; its body frame is its centre of mass. A "
+                   "non-convex one collides through convex pieces (see with_pieces).")
       .def(py::init([](const py::object& vertices, const py::object& faces) {
-             auto v = bindings::as_rows(vertices, 3, "Mesh", "vertices");
-             auto fa = py::array::ensure(faces);
-             if (!fa || !(fa.dtype().kind() == 'i' || fa.dtype().kind() == 'u'))
-               throw py::type_error("Mesh: faces must be an integer array of shape (k, 3)");
-             auto f = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(fa);
-             if (f.ndim() != 2 || f.shape(1) != 3)
-               throw py::value_error("Mesh: faces must have shape (k, 3), got " + std::string(py::str(py::tuple(f.attr("shape")))));
-             Points P = Eigen::Map<const Points>(v.data(), v.shape(0), 3);
-             Triangles T = Eigen::Map<const Triangles>(f.data(), f.shape(0), 3);
-             return Mesh(std::move(P), std::move(T));
+             return Mesh(points(vertices, "Mesh", "vertices"), triangles(faces, "Mesh"));
            }),
            py::arg("vertices"), py::arg("faces"))
       .def_readonly("vertices", &Mesh::vertices)
@@ -68,8 +131,135 @@ void register_shapes(py::module_& m) {
       .def("is_convex", &Mesh::is_convex)
       .def("closedness_problem", &Mesh::closedness_problem,
            "Empty when closed and consistently oriented; otherwise what is wrong.")
+      .def(
+          "with_pieces",
+          [](const Mesh& mesh, const py::iterable& pieces) {
+            Mesh out = mesh;
+            out.pieces.clear();
+            std::size_t i = 0;
+            for (const py::handle& piece : pieces) {
+              const std::string who = "Mesh.with_pieces: piece " + std::to_string(i++);
+              try {
+                out.pieces.push_back(ConvexHull(points(py::reinterpret_borrow<py::object>(piece), who, "vertices")).polytope);
+              } catch (const std::invalid_argument& e) {
+                throw py::value_error(who + ": " + e.what());
+              }
+            }
+            return out;
+          },
+          py::arg("pieces"),
+          "A copy of this mesh whose convex pieces (for collisions) are the convex hulls of the given (n_i, 3) "
+          "vertex arrays (m, mesh frame). Mass properties stay those of the mesh itself.")
+      .def_property_readonly(
+          "pieces",
+          [](const Mesh& mesh) {
+            py::list out;
+            for (const auto& piece : mesh.pieces) out.append(readonly_rows(piece->vertices));
+            return out;
+          },
+          "The convex pieces' hull vertices, a list of read-only (n_i, 3) arrays (empty when none).")
       .def("__repr__", [](const Mesh& mesh) {
-        return "Mesh(" + std::to_string(mesh.vertices.rows()) + " vertices, " + std::to_string(mesh.faces.rows()) + " faces)";
+        std::string s = "Mesh(" + std::to_string(mesh.vertices.rows()) + " vertices, " + std::to_string(mesh.faces.rows()) + " faces";
+        if (!mesh.pieces.empty()) s += ", " + std::to_string(mesh.pieces.size()) + (mesh.pieces.size() == 1 ? " convex piece" : " convex pieces");
+        return s + ")";
+      });
+
+  py::class_<Capsule>(m, "Capsule",
+                      "Points within `radius` (m) of the segment from (0, 0, -half_length) to (0, 0, +half_length) "
+                      "(m) on the body z axis; half_length 0 is a sphere.")
+      .def(py::init<double, double>(), py::arg("radius"), py::arg("half_length"))
+      .def_readonly("radius", &Capsule::radius)
+      .def_readonly("half_length", &Capsule::half_length)
+      .def("__repr__", [](const Capsule& c) {
+        return "Capsule(radius=" + std::to_string(c.radius) + ", half_length=" + std::to_string(c.half_length) + ")";
+      });
+
+  py::class_<Cylinder>(m, "Cylinder",
+                       "Solid cylinder of `radius` (m) around the body z axis, from z = -half_height to +half_height (m).")
+      .def(py::init<double, double>(), py::arg("radius"), py::arg("half_height"))
+      .def_readonly("radius", &Cylinder::radius)
+      .def_readonly("half_height", &Cylinder::half_height)
+      .def("__repr__", [](const Cylinder& c) {
+        return "Cylinder(radius=" + std::to_string(c.radius) + ", half_height=" + std::to_string(c.half_height) + ")";
+      });
+
+  py::class_<ConvexHull>(m, "ConvexHull",
+                         "Convex hull (Qhull) of (n, 3) points (m, body frame), n >= 4, not all coplanar. "
+                         "vertices: the hull's points in input order; faces: (k, 3) outward triangles.")
+      .def(py::init([](const py::object& pts) { return ConvexHull(points(pts, "ConvexHull", "points")); }), py::arg("points"))
+      .def_readonly("vertices", &ConvexHull::vertices)
+      .def_readonly("faces", &ConvexHull::faces)
+      .def("__repr__", [](const ConvexHull& h) {
+        return "ConvexHull(" + std::to_string(h.vertices.rows()) + " vertices, " + std::to_string(h.faces.rows()) +
+               " triangles, " + std::to_string(h.polytope->faces.size()) + " faces)";
+      });
+
+  py::class_<TriangleMesh>(m, "TriangleMesh",
+                           "Static triangle mesh of any shape (terrain, bowls, ramps): vertices (n, 3) in m, faces "
+                           "(k, 3) counter-clockwise seen from the side bodies touch. Static bodies only.")
+      .def(py::init([](const py::object& vertices, const py::object& faces) {
+             return TriangleMesh(points(vertices, "TriangleMesh", "vertices"), triangles(faces, "TriangleMesh"));
+           }),
+           py::arg("vertices"), py::arg("faces"))
+      .def_readonly("vertices", &TriangleMesh::vertices)
+      .def_readonly("faces", &TriangleMesh::faces)
+      .def_property_readonly(
+          "active_edge",
+          [](const TriangleMesh& t) {
+            py::array_t<bool> out({static_cast<py::ssize_t>(t.active_edge.size()), py::ssize_t(3)});
+            auto o = out.mutable_unchecked<2>();
+            for (std::size_t k = 0; k < t.active_edge.size(); ++k)
+              for (int c = 0; c < 3; ++c) o(k, c) = t.active_edge[k][c];
+            out.attr("flags").attr("writeable") = false;
+            return out;
+          },
+          "(k, 3) bool: side c of face k (v_c -> v_c+1) can make edge contacts (boundary, non-manifold, or convex "
+          "by more than 1e-6 rad).")
+      .def_property_readonly(
+          "normals", [](const TriangleMesh& t) { return bindings::rows_of(t.normals); }, "(k, 3) unit face normals.")
+      .def("__repr__", [](const TriangleMesh& t) {
+        return "TriangleMesh(" + std::to_string(t.vertices.rows()) + " vertices, " + std::to_string(t.faces.rows()) + " faces)";
+      });
+
+  py::class_<Compound>(m, "Compound",
+                       "Convex parts on one body: a list of (shape, (position, orientation)), shape a Sphere, Box, "
+                       "Capsule, Cylinder, ConvexHull or convex Mesh (which becomes the ConvexHull of its vertices), "
+                       "position (3,) m and orientation (w, x, y, z) (normalised) in the compound frame. A dynamic "
+                       "compound is re-centred on its centre of mass.")
+      .def(py::init([](const py::iterable& items) {
+             std::vector<Compound::Part> parts;
+             for (const py::handle& item : items) parts.push_back(compound_part(item, parts.size()));
+             return Compound(std::move(parts));
+           }),
+           py::arg("parts"))
+      .def_property_readonly(
+          "parts",
+          [](const Compound& c) {
+            py::list out;
+            for (const Compound::Part& p : c.parts) {
+              py::object shape = std::visit([](const auto& s) { return py::cast(s); }, p.shape);
+              const Quat4 q = p.orientation();
+              py::array_t<double> position(3), orientation(4);
+              for (int k = 0; k < 3; ++k) position.mutable_at(k) = p.position[k];
+              for (int k = 0; k < 4; ++k) orientation.mutable_at(k) = q[k];
+              out.append(py::make_tuple(shape, py::make_tuple(position, orientation)));
+            }
+            return out;
+          },
+          "[(shape, (position (3,), orientation (w, x, y, z) with w >= 0))], in the compound frame.")
+      .def_property_readonly(
+          "rotations",
+          [](const Compound& c) {
+            std::vector<Mat3> R;
+            for (const Compound::Part& p : c.parts) R.push_back(p.rotation);
+            return bindings::stack_of(R);
+          },
+          "(parts, 3, 3) compound-from-part rotation matrices, as the core stores them.")
+      .def("__repr__", [](const Compound& c) {
+        std::string s = "Compound(" + std::to_string(c.parts.size()) + " parts:";
+        for (std::size_t i = 0; i < c.parts.size(); ++i)
+          s += (i ? ", " : " ") + std::visit([](const auto& x) { return shape_name(Shape(x)); }, c.parts[i].shape);
+        return s + ")";
       });
 
   m.def(

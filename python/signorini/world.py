@@ -11,9 +11,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _core
-from ._core import Box, Mesh, Plane, Sphere
+from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 
-Shape = (Sphere, Box, Plane, Mesh)
+Shape = (Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, TriangleMesh, Compound)
 
 
 class BodyIndexError(IndexError, ValueError):
@@ -128,7 +128,8 @@ class World:
     def _add(self, shape, is_static, density, mass, position, orientation, velocity, angular_velocity) -> int:
         who = f"body {self.num_bodies} ({type(shape).__name__})"
         if not isinstance(shape, Shape):
-            raise TypeError(f"{who}: shape must be a Sphere, Box, Plane or Mesh, got {type(shape).__name__}")
+            raise TypeError(f"{who}: shape must be a Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, "
+                            f"TriangleMesh or Compound, got {type(shape).__name__}")
         return self._core.add_body(
             shape, is_static, _scalar(density, who, "density"), _scalar(mass, who, "mass"),
             _vector(position, 3, who, "position"), _vector(orientation, 4, who, "orientation"),
@@ -292,7 +293,22 @@ def shape_dict(shape) -> dict:
     if isinstance(shape, Plane):
         return {"type": "plane", "normal": np.array(shape.normal), "offset": shape.offset}
     if isinstance(shape, Mesh):
-        return {"type": "mesh", "vertices": np.array(shape.vertices), "faces": np.array(shape.faces)}
+        d = {"type": "mesh", "vertices": np.array(shape.vertices), "faces": np.array(shape.faces)}
+        if shape.pieces:
+            d["pieces"] = [np.array(p) for p in shape.pieces]  # convex pieces' hull vertices (n_i, 3)
+        return d
+    if isinstance(shape, Capsule):
+        return {"type": "capsule", "radius": shape.radius, "half_length": shape.half_length}
+    if isinstance(shape, Cylinder):
+        return {"type": "cylinder", "radius": shape.radius, "half_height": shape.half_height}
+    if isinstance(shape, ConvexHull):
+        return {"type": "hull", "vertices": np.array(shape.vertices), "faces": np.array(shape.faces)}
+    if isinstance(shape, TriangleMesh):
+        return {"type": "trimesh", "vertices": np.array(shape.vertices), "faces": np.array(shape.faces)}
+    if isinstance(shape, Compound):
+        # (part dict, position (3,), compound-from-part rotation (3, 3)) exactly as the core holds them
+        return {"type": "compound", "parts": [(shape_dict(s), np.array(pos), R.copy())
+                                              for (s, (pos, _)), R in zip(shape.parts, shape.rotations)]}
     raise TypeError(f"not a signorini shape: {shape!r}")
 
 

@@ -5,7 +5,7 @@ core number for number.  It imports nothing from the rest of ``signorini`` (in p
 never ``signorini._core``), so it also loads as a standalone package.
 
 Modules, in the order of a step:
-    mass      mass properties of spheres, boxes and closed triangle meshes
+    mass      mass properties of spheres, boxes, capsules, cylinders, closed meshes, hulls, compounds
     rigid     skew, Rodrigues, quaternions, the Jacobian J(y), unconstrained velocity, integrate
     contacts  exact contacts (plane-sphere, plane-box, plane-mesh, sphere-sphere)
     pgs       projected Gauss-Seidel on the Signorini conditions, and its residual
@@ -34,6 +34,10 @@ from .lcp import (
 from .mass import (
     mass_properties,
     mass_properties_box,
+    mass_properties_capsule,
+    mass_properties_compound,
+    mass_properties_cylinder,
+    mass_properties_hull,
     mass_properties_mesh,
     mass_properties_sphere,
     mesh_volume_integrals,
@@ -58,6 +62,7 @@ __all__ = [
     "contact_plane_points", "contact_plane_sphere", "contact_rows", "contact_sphere_sphere",
     "copy_snapshot", "detect_contacts", "integrate", "inverse_mass_blocks",
     "inverse_mass_matrix", "jacobian", "lcp_solve", "mass_properties", "mass_properties_box",
+    "mass_properties_capsule", "mass_properties_compound", "mass_properties_cylinder", "mass_properties_hull",
     "mass_properties_mesh", "mass_properties_sphere", "matrix_to_quat", "mesh_volume_integrals",
     "pgs", "quat_to_matrix", "rodrigues", "rollout", "shape_volume", "skew", "speculative_reach",
     "step", "unconstrained_velocity", "velocities_from_alpha", "world_inertia",

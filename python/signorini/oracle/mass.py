@@ -1,4 +1,5 @@
-"""Mass properties of the shapes (docs/conventions.md, "Mass properties").
+"""Mass properties of the shapes (docs/conventions.md, "Mass properties"; the capsule, cylinder
+and compound formulas as in cpp/include/signorini/mass_properties.hpp).
 
 Every function returns ``(m, com, I)``:
     m   -- mass, kg (float)
@@ -91,23 +92,103 @@ def mass_properties_mesh(vertices, faces, density):
     return m, com, I
 
 
+def volume_cylinder(radius, half_height):
+    """Volume of a cylinder of radius r and half height h (m) -> m^3: pi r^2 (2 h)."""
+    return np.pi * radius**2 * 2.0 * half_height
+
+
+def volume_capsule(radius, half_length):
+    """Volume of a capsule (radius r, segment half length h, m) -> m^3: pi r^2 2h + 4/3 pi r^3."""
+    return volume_cylinder(radius, half_length) + volume_sphere(radius)
+
+
+def mass_properties_cylinder(radius, half_height, density):
+    """Solid cylinder of radius r and half height h (m) about the z axis, centred on the origin.
+
+    With H = 2 h the full height: m = rho pi r^2 H,  com = 0,
+    I = diag(m (3 r^2 + H^2) / 12, m (3 r^2 + H^2) / 12, m r^2 / 2).
+    """
+    r, h = float(radius), float(half_height)
+    m = density * volume_cylinder(r, h)
+    I_xx = m * (r**2 / 4.0 + h**2 / 3.0)  # = m (3 r^2 + (2h)^2) / 12
+    return m, np.zeros(3), np.diag([I_xx, I_xx, 0.5 * m * r**2])
+
+
+def mass_properties_capsule(radius, half_length, density):
+    """Solid capsule: the points within r of the segment z in [-h, h] on the z axis (m).
+
+    A cylinder of height 2 h (mass m_c = rho pi r^2 2h) and two hemispheres (m_s = rho 4/3 pi r^3
+    together).  Second moments about the centre: the cylinder gives int x^2 dm = m_c r^2 / 4 and
+    int z^2 dm = m_c h^2 / 3; the hemispheres int x^2 dm = m_s r^2 / 5 (as the whole ball) and
+    int z^2 dm = m_s r^2 / 5 + 2 h m_s (3 r / 8) + m_s h^2 (each half shifted by h, its centroid
+    3 r / 8 from its flat face).  I_zz = 2 int x^2 dm, I_xx = I_yy = int x^2 dm + int z^2 dm:
+        I_zz = m_c r^2 / 2 + 2/5 m_s r^2
+        I_xx = m_c (r^2 / 4 + h^2 / 3) + m_s (2/5 r^2 + 3/4 h r + h^2).
+    com = 0; h = 0 is the sphere.
+    """
+    r, h = float(radius), float(half_length)
+    m_c = density * volume_cylinder(r, h)
+    m_s = density * volume_sphere(r)
+    I_zz = 0.5 * m_c * r**2 + 0.4 * m_s * r**2
+    I_xx = m_c * (r**2 / 4.0 + h**2 / 3.0) + m_s * (0.4 * r**2 + 0.75 * h * r + h**2)
+    return m_c + m_s, np.zeros(3), np.diag([I_xx, I_xx, I_zz])
+
+
+def mass_properties_hull(vertices, faces, density):
+    """Convex hull given by its vertices (n, 3) m and outward triangles (k, 3): the closed-mesh
+    routine (``mass_properties_mesh``) on its triangulation."""
+    return mass_properties_mesh(vertices, faces, density)
+
+
+def mass_properties_compound(parts, density):
+    """Union of convex parts, each ``(shape dict, position (3,) m, rotation R (3, 3))`` with R the
+    compound-from-part rotation; the parts should not overlap (an overlap counts twice).
+
+    Each part p has (m_p, c_p, I_p) in its own frame.  In the compound frame its COM is
+    x_p = R_p c_p + t_p and its inertia about x_p is R_p I_p R_p^T.  Then
+        m = sum m_p,  com = sum m_p x_p / m,
+        I = sum [ R_p I_p R_p^T + m_p (|d_p|^2 I3 - d_p d_p^T) ],  d_p = x_p - com
+    (parallel-axis theorem), in compound axes.
+    """
+    props = []
+    for shape, position, R in parts:
+        m_p, c_p, I_p = mass_properties(shape, density=density)
+        R = np.asarray(R, dtype=float)
+        props.append((m_p, R @ c_p + np.asarray(position, dtype=float), R @ I_p @ R.T))
+    m = sum(p[0] for p in props)
+    com = sum(p[0] * p[1] for p in props) / m
+    I = np.zeros((3, 3))
+    for m_p, x_p, I_p in props:
+        d = x_p - com
+        I += I_p + m_p * (d @ d * np.eye(3) - np.outer(d, d))
+    return m, com, I
+
+
 def shape_volume(shape):
-    """Volume (m^3) of a shape dict (sphere, box or mesh)."""
+    """Volume (m^3) of a shape dict (sphere, box, mesh, capsule, cylinder, hull, compound: the sum
+    of its parts).  Planes and triangle meshes have none: ValueError."""
     kind = shape["type"]
     if kind == "sphere":
         return volume_sphere(shape["radius"])
     if kind == "box":
         return volume_box(shape["half_extents"])
-    if kind == "mesh":
+    if kind in ("mesh", "hull"):
         return mesh_volume_integrals(shape["vertices"], shape["faces"])[0]
-    raise ValueError(f"shape {kind!r} has no volume")
+    if kind == "capsule":
+        return volume_capsule(shape["radius"], shape["half_length"])
+    if kind == "cylinder":
+        return volume_cylinder(shape["radius"], shape["half_height"])
+    if kind == "compound":
+        return sum(shape_volume(part) for part, _, _ in shape["parts"])
+    raise ValueError(f"shape {kind!r} has no volume; it can only be static")
 
 
 def mass_properties(shape, density=None, mass=None):
     """Mass properties of a shape dict, given exactly one of density (kg/m^3) or mass (kg).
 
-    Dispatches to ``mass_properties_sphere``, ``_box`` or ``_mesh``; a given mass uses
-    density = mass / volume.  Planes have no mass (they are static only): ValueError.
+    Dispatches to ``mass_properties_sphere``, ``_box``, ``_mesh``, ``_capsule``, ``_cylinder``,
+    ``_hull`` or ``_compound``; a given mass uses density = mass / volume.  Planes and triangle
+    meshes have no mass (they are static only): ValueError.
     Output: (m, com (3,), I (3, 3) about the COM), shape frame.
     """
     if (density is None) == (mass is None):
@@ -121,4 +202,12 @@ def mass_properties(shape, density=None, mass=None):
         return mass_properties_box(shape["half_extents"], density)
     if kind == "mesh":
         return mass_properties_mesh(shape["vertices"], shape["faces"], density)
-    raise ValueError(f"shape {kind!r} has no mass properties")
+    if kind == "capsule":
+        return mass_properties_capsule(shape["radius"], shape["half_length"], density)
+    if kind == "cylinder":
+        return mass_properties_cylinder(shape["radius"], shape["half_height"], density)
+    if kind == "hull":
+        return mass_properties_hull(shape["vertices"], shape["faces"], density)
+    if kind == "compound":
+        return mass_properties_compound(shape["parts"], density)
+    raise ValueError(f"shape {kind!r} has no mass properties; it can only be static")
