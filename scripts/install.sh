@@ -24,5 +24,5 @@ fi
 # a Debian system Python marks itself externally managed; this project installs into it on purpose
 export PIP_BREAK_SYSTEM_PACKAGES=1 PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_ROOT_USER_ACTION=ignore
 python3 -m pip install -q "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.22" "matplotlib>=3.6" "tqdm>=4.60" \
-  "pytest>=7" "scipy>=1.8"
+  "pytest>=7" "scipy>=1.8" "coacd>=1.0"
 python3 -m pip install -q --no-build-isolation -e .

@@ -30,6 +30,9 @@ class Contacts:
     gap: (K,) signed distances along n_i (m), negative when overlapping.
     alpha: (K,) contact force magnitudes alpha_i (N), as in the lecture notes.
     impulse: (K,) impulses dt * alpha_i (N s) applied as +impulse n on B and -impulse n on A.
+    feature_a, feature_b: (K,) uint64 feature ids of the point on A and on B, the same from one
+        step to the next for the same contact: part * 2**32 + kind * 2**28 + index, kind 0 whole
+        shape, 1 vertex, 2 edge, 3 face (see ``signorini.feature``).
     """
 
     body_a: np.ndarray
@@ -39,13 +42,16 @@ class Contacts:
     gap: np.ndarray
     alpha: np.ndarray
     impulse: np.ndarray
+    feature_a: np.ndarray
+    feature_b: np.ndarray
 
     def __len__(self) -> int:
         return len(self.gap)
 
     def as_dict(self) -> dict:
         """The arrays as a dict (the oracle's contact format)."""
-        return {k: getattr(self, k) for k in ("body_a", "body_b", "point", "normal", "gap", "alpha", "impulse")}
+        return {k: getattr(self, k) for k in ("body_a", "body_b", "point", "normal", "gap", "alpha", "impulse",
+                                              "feature_a", "feature_b")}
 
 
 @dataclass(frozen=True)
@@ -83,6 +89,15 @@ def _scalar(x, who: str, what: str):
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float, np.integer, np.floating)):
         raise TypeError(f"{who}: {what} must be a number, got {x!r}")
     return float(x)
+
+
+def _solid(mesh) -> bool:
+    """True when the mesh is a closed solid of positive volume (else add_body reports why)."""
+    try:
+        _core.mass_properties(mesh, 1.0)
+    except ValueError:
+        return False
+    return True
 
 
 class World:
@@ -130,6 +145,14 @@ class World:
         if not isinstance(shape, Shape):
             raise TypeError(f"{who}: shape must be a Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, "
                             f"TriangleMesh or Compound, got {type(shape).__name__}")
+        if (not is_static and isinstance(shape, Mesh) and not shape.pieces and not shape.is_convex()
+                and _solid(shape)):
+            # a dynamic non-convex mesh collides with other bodies through convex pieces
+            from .decompose import decompose
+            try:
+                shape = decompose(shape)
+            except ValueError as e:
+                raise ValueError(f"{who}: {e}") from None
         return self._core.add_body(
             shape, is_static, _scalar(density, who, "density"), _scalar(mass, who, "mass"),
             _vector(position, 3, who, "position"), _vector(orientation, 4, who, "orientation"),

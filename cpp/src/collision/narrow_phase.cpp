@@ -14,10 +14,10 @@ namespace {
 
 bool is_plane(const Shape& s) { return std::holds_alternative<Plane>(s); }
 
-/// A mesh that can only collide with planes: non-convex and not decomposed.
+/// A mesh that can only collide with planes: not decomposed, and non-convex or open.
 bool is_bare_nonconvex_mesh(const Shape& s) {
   const auto* m = std::get_if<Mesh>(&s);
-  return m && m->pieces.empty() && !m->is_convex();
+  return m && m->pieces.empty() && (!m->is_convex() || !m->closedness_problem().empty());
 }
 
 bool has_cylinder(const Shape& s) {
@@ -147,12 +147,13 @@ std::string unsupported_pair(const Shape& a, const Shape& b) {
   if (is_plane(a) || is_plane(b)) return {};
   if (static_only(a) && static_only(b)) return {};
   auto label = [](const Shape& s) {
-    return shape_name(s) + (is_bare_nonconvex_mesh(s) ? " (non-convex)" : "");
+    return shape_name(s) + (is_bare_nonconvex_mesh(s) ? " (non-convex or open)" : "");
   };
   if (is_bare_nonconvex_mesh(a) || is_bare_nonconvex_mesh(b))
     return "unsupported pair " + label(a) + " - " + label(b) +
-           ": a non-convex mesh collides only with planes unless it is decomposed into convex pieces "
-           "(signorini does this with CoACD when such a mesh is added as a dynamic body)";
+           ": such a mesh collides only with planes unless it is decomposed into convex pieces "
+           "(signorini does this with CoACD when a closed one is added as a dynamic body); "
+           "use a TriangleMesh for static scenery";
   const bool trimesh = std::holds_alternative<TriangleMesh>(a) || std::holds_alternative<TriangleMesh>(b);
   if (trimesh && (has_cylinder(a) || has_cylinder(b)))
     return "unsupported pair " + label(a) + " - " + label(b) +

@@ -117,6 +117,15 @@ BodyIndex World::add_body(const BodyDesc& desc) {
       for (Compound::Part& part : compound->parts) part.position -= props.com;
     }
   }
+  // a convex mesh collides as one polytope: built once here, not in every step
+  if (auto* mesh = std::get_if<Mesh>(&shape);
+      mesh && mesh->pieces.empty() && mesh->is_convex() && mesh->closedness_problem().empty()) {
+    try {
+      mesh->pieces.push_back(std::make_shared<const Polytope>(polytope_from_triangles(mesh->vertices, mesh->faces)));
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(who + ": " + e.what());
+    }
+  }
   for (BodyIndex j = 0; j < index; ++j) {
     if (desc.is_static && model_.is_static[j]) continue;
     const std::string problem = collision::unsupported_pair(model_.shape[j], shape);
