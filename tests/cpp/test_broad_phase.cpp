@@ -1,0 +1,282 @@
+// The broad phase against brute force on random scenes, bit-for-bit determinism of the narrow
+// phase and of a stepped World, and boxes resting on a box and on a triangle-mesh floor with a
+// steady 4-point manifold.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <set>
+#include <utility>
+#include <vector>
+
+#include "collision/collision.hpp"
+#include "math/rotation.hpp"
+#include "random_scene.hpp"
+#include "signorini/world.hpp"
+
+using namespace signorini;
+using collision::Pose;
+
+namespace {
+
+using Pair = std::pair<BodyIndex, BodyIndex>;
+
+/// true when a and b hold the same bits (so -0.0 != 0.0, and NaN == the same NaN).
+template <class T>
+bool same_bits(const T& a, const T& b) {
+  return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+
+bool same_bits(const Contact& a, const Contact& b) {
+  return a.body_a == b.body_a && a.body_b == b.body_b && same_bits(a.point, b.point) &&
+         same_bits(a.normal, b.normal) && same_bits(a.gap, b.gap) && a.feature_a == b.feature_a &&
+         a.feature_b == b.feature_b && same_bits(a.alpha, b.alpha) && same_bits(a.impulse, b.impulse);
+}
+
+/// Every pair (i < j, not both static) whose narrow phase gives at least one contact with
+/// threshold margin + reach_i + reach_j, by trying all of them.
+std::vector<Pair> brute_force_pairs(const scenes::Scene& scene, const std::vector<double>& reach, double margin) {
+  std::vector<Pair> pairs;
+  std::vector<Contact> out;
+  const BodyIndex n = static_cast<BodyIndex>(scene.size());
+  for (BodyIndex i = 0; i < n; ++i)
+    for (BodyIndex j = i + 1; j < n; ++j) {
+      if (scene.model.is_static[i] && scene.model.is_static[j]) continue;
+      out.clear();
+      collision::collide(scene.model.shape[i], {scene.state.p[i], scene.state.R[i]}, scene.model.shape[j],
+                         {scene.state.p[j], scene.state.R[j]}, margin + reach[i] + reach[j], {}, out);
+      if (!out.empty()) pairs.emplace_back(i, j);
+    }
+  return pairs;
+}
+
+/// A flat square floor [-s, s]^2 at z = 0 made of 2 n^2 triangles, facing +z.
+TriangleMesh floor_mesh(double s, int n) {
+  Points v((n + 1) * (n + 1), 3);
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j) v.row(i * (n + 1) + j) << -s + 2 * s * i / n, -s + 2 * s * j / n, 0.0;
+  Triangles f(2 * n * n, 3);
+  int k = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const int a = i * (n + 1) + j, b = a + (n + 1), c = b + 1, d = a + 1;
+      f.row(k++) << a, b, c;
+      f.row(k++) << a, c, d;
+    }
+  return TriangleMesh(v, f);
+}
+
+using Ids = std::vector<std::pair<FeatureId, FeatureId>>;
+
+Ids ids_of(const std::vector<Contact>& contacts) {
+  Ids ids;
+  for (const Contact& c : contacts) ids.emplace_back(c.feature_a, c.feature_b);
+  return ids;
+}
+
+/// A unit box (half extents 0.5, 1000 kg/m^3) placed exactly resting (bottom at z = 0) on the
+/// static floor body 0 of `world`, stepped 240 times at dt = 1/240: exactly 4 contacts every step,
+/// with the (feature_a, feature_b) ids of the first step, and the height within 1e-6 m of 0.5.
+void expect_steady_rest(World& world, const Vec3& xy, const Mat3& R) {
+  BodyDesc box;
+  box.shape = Box(Vec3(0.5, 0.5, 0.5));
+  box.density = 1000.0;
+  box.position = Vec3(xy.x(), xy.y(), 0.5);
+  box.orientation = math::matrix_to_quat(R);
+  const BodyIndex b = world.add_body(box);
+  Ids first;
+  double drift = 0.0;
+  int wrong_count = 0, changed_ids = 0;
+  for (int step = 0; step < 240; ++step) {
+    world.step(1.0 / 240.0);
+    const auto& contacts = world.contacts();
+    if (contacts.size() != 4u) {
+      if (wrong_count++ < 5)
+        ADD_FAILURE() << "step " << step << ": " << contacts.size() << " contacts, expected 4";
+    }
+    if (step == 0) first = ids_of(contacts);
+    if (ids_of(contacts) != first) {
+      if (changed_ids++ < 5) {
+        std::string what;
+        for (const auto& [fa, fb] : ids_of(contacts))
+          what += " (" + std::to_string(fa) + ", " + std::to_string(fb) + ")";
+        ADD_FAILURE() << "step " << step << ": feature ids changed to" << what;
+      }
+    }
+    drift = std::max(drift, std::abs(world.state().p[b].z() - 0.5));
+  }
+  EXPECT_EQ(wrong_count, 0) << "steps without exactly 4 contacts";
+  EXPECT_EQ(changed_ids, 0) << "steps whose feature ids differ from step 0's";
+  EXPECT_LE(drift, 1e-6) << "largest |z - 0.5| over 240 steps (m)";
+  EXPECT_LE((world.state().p[b].head<2>() - xy.head<2>()).norm(), 1e-6) << "the box slid";
+}
+
+}  // namespace
+
+// ---- broad phase -------------------------------------------------------------------------------
+
+TEST(BroadPhase, FindsEveryPairThatBruteForceFindsOnRandomScenes) {
+  // 200 random convex bodies (spheres, boxes, capsules, cylinders, hulls; sizes 0.05..0.4 m) in a
+  // 4.5 m cube, 20 % static, speeds up to 5 m/s and spins up to 8 rad/s per axis, dt = 1/60 s:
+  // every pair with narrow-phase contacts at the speculative threshold must be a candidate. (With
+  // these speeds, AABBs not grown by reach + margin would miss some of them: printed as context.)
+  const double dt = 1.0 / 60.0, margin = 0.005;
+  const Vec3 gravity(0, 0, -9.81);
+  std::size_t brute_total = 0, broad_total = 0;
+  for (std::uint64_t seed : {1u, 2u, 3u, 4u, 5u, 6u}) {
+    const scenes::Scene scene =
+        scenes::random_scene(seed, 200, scenes::Mix::AllConvex, 4.5, 0.05, 0.4, 5.0, 8.0, 0.2);
+    collision::BroadPhase broad_phase;
+    scenes::register_bodies(scene, broad_phase);
+    const std::vector<double> reach = collision::speculative_reach(scene.model, scene.state, dt, gravity);
+    const std::vector<Pair> broad = broad_phase.pairs(scene.model, scene.state, reach, margin);
+    const std::vector<Pair> brute = brute_force_pairs(scene, reach, margin);
+    ASSERT_FALSE(brute.empty()) << "seed " << seed << ": the scene has no contacts to find";
+    EXPECT_TRUE(std::is_sorted(broad.begin(), broad.end())) << "seed " << seed;
+    const std::set<Pair> found(broad.begin(), broad.end());
+    EXPECT_EQ(found.size(), broad.size()) << "seed " << seed << ": duplicate pairs";
+    for (const auto& [i, j] : broad) {
+      EXPECT_LT(i, j);
+      EXPECT_FALSE(scene.model.is_static[i] && scene.model.is_static[j]) << "static pair " << i << ", " << j;
+    }
+    for (const Pair& p : brute)
+      EXPECT_TRUE(found.count(p)) << "seed " << seed << ": broad phase misses pair (" << p.first << ", "
+                                  << p.second << ") " << shape_name(scene.model.shape[p.first]) << " - "
+                                  << shape_name(scene.model.shape[p.second]);
+    // context: how many of the brute-force pairs bare AABBs (no reach, no margin) would miss
+    const std::vector<Pair> bare = broad_phase.pairs(scene.model, scene.state, std::vector<double>(scene.size(), 0.0), 0.0);
+    const std::set<Pair> bare_found(bare.begin(), bare.end());
+    std::size_t need_growth = 0;
+    for (const Pair& p : brute) need_growth += bare_found.count(p) ? 0 : 1;
+    std::printf("[          ] seed %llu: %zu brute-force pairs, %zu broad-phase pairs (ratio %.2f); "
+                "%zu need the reach + margin growth\n",
+                static_cast<unsigned long long>(seed), brute.size(), broad.size(),
+                static_cast<double>(broad.size()) / static_cast<double>(brute.size()), need_growth);
+    brute_total += brute.size();
+    broad_total += broad.size();
+  }
+  std::printf("[          ] all seeds: broad-phase / brute-force pairs = %zu / %zu = %.2f\n", broad_total,
+              brute_total, static_cast<double>(broad_total) / static_cast<double>(brute_total));
+}
+
+TEST(BroadPhase, KeepsFindingThemWhileBodiesMove) {
+  // the incremental refit: the same check after 30 steps of drift, every 10th step
+  const double dt = 1.0 / 60.0, margin = 0.005, side = 4.5;
+  const Vec3 gravity(0, 0, -9.81);
+  scenes::Scene scene = scenes::random_scene(11, 200, scenes::Mix::AllConvex, side, 0.05, 0.4, 5.0, 8.0, 0.2);
+  collision::BroadPhase broad_phase;
+  scenes::register_bodies(scene, broad_phase);
+  for (int step = 0; step <= 30; ++step) {
+    const std::vector<double> reach = collision::speculative_reach(scene.model, scene.state, dt, gravity);
+    const std::vector<Pair> broad = broad_phase.pairs(scene.model, scene.state, reach, margin);
+    if (step % 10 == 0) {
+      const std::set<Pair> found(broad.begin(), broad.end());
+      for (const Pair& p : brute_force_pairs(scene, reach, margin))
+        EXPECT_TRUE(found.count(p)) << "step " << step << ": broad phase misses (" << p.first << ", " << p.second << ")";
+    }
+    scenes::drift(scene, dt, side);
+  }
+}
+
+// ---- determinism -------------------------------------------------------------------------------
+
+TEST(Determinism, CollideTwiceGivesBitIdenticalContacts) {
+  // every pair of a random scene that has contacts, collided twice (with other pairs in between,
+  // so that scratch buffers are reused), gives the same bits
+  const scenes::Scene scene = scenes::random_scene(21, 120, scenes::Mix::AllConvex, 3.0, 0.05, 0.4, 0.0, 0.0, 0.0);
+  const double threshold = 0.02;
+  std::vector<std::vector<Contact>> first;
+  std::vector<Pair> pairs;
+  for (int pass = 0; pass < 2; ++pass) {
+    std::size_t k = 0;
+    for (BodyIndex i = 0; i < static_cast<BodyIndex>(scene.size()); ++i)
+      for (BodyIndex j = i + 1; j < static_cast<BodyIndex>(scene.size()); ++j) {
+        std::vector<Contact> out;
+        collision::collide(scene.model.shape[i], {scene.state.p[i], scene.state.R[i]}, scene.model.shape[j],
+                           {scene.state.p[j], scene.state.R[j]}, threshold, {}, out);
+        if (pass == 0) {
+          if (out.empty()) continue;
+          pairs.emplace_back(i, j);
+          first.push_back(out);
+          continue;
+        }
+        if (k < pairs.size() && pairs[k] == Pair(i, j)) {
+          ASSERT_EQ(out.size(), first[k].size()) << "pair " << i << ", " << j;
+          for (std::size_t c = 0; c < out.size(); ++c)
+            EXPECT_TRUE(same_bits(out[c], first[k][c])) << "pair " << i << ", " << j << " contact " << c;
+          ++k;
+        } else {
+          EXPECT_TRUE(out.empty()) << "pair " << i << ", " << j << " has contacts only the second time";
+        }
+      }
+    if (pass == 1) EXPECT_EQ(k, pairs.size());
+  }
+  EXPECT_GE(pairs.size(), 20u) << "too few touching pairs to say much";
+}
+
+TEST(Determinism, FiftyBoxesDroppedOnAPlaneTwiceGiveBitIdenticalStates) {
+  auto run = []() {
+    World world;
+    BodyDesc ground;
+    ground.shape = Plane(Vec3::UnitZ(), 0.0);
+    ground.is_static = true;
+    world.add_body(ground);
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (int k = 0; k < 50; ++k) {
+      BodyDesc d;
+      d.shape = Box(Vec3(0.1 + 0.2 * u(rng), 0.1 + 0.2 * u(rng), 0.1 + 0.2 * u(rng)));
+      d.density = 500.0 + 1000.0 * u(rng);
+      // a 2 m x 2 m column, 5 layers: they land on the plane and on each other
+      d.position = Vec3(2.0 * u(rng) - 1.0, 2.0 * u(rng) - 1.0, 0.5 + 0.8 * (k / 10) + 0.3 * u(rng));
+      d.orientation = math::matrix_to_quat(scenes::random_rotation(rng));
+      d.angular_velocity = scenes::random_vector(rng, 2.0);
+      world.add_body(d);
+    }
+    std::vector<std::size_t> contacts;
+    for (int s = 0; s < 200; ++s) {
+      world.step(1.0 / 240.0);
+      contacts.push_back(world.contacts().size());
+    }
+    return std::make_pair(world.state(), contacts);
+  };
+  const auto [a, ca] = run();
+  const auto [b, cb] = run();
+  EXPECT_EQ(ca, cb) << "contact counts per step differ";
+  std::size_t touching = 0;
+  for (std::size_t c : ca) touching = std::max(touching, c);
+  EXPECT_GT(touching, 0u) << "no contacts: the test checks only free flight";
+  ASSERT_EQ(a.p.size(), b.p.size());
+  EXPECT_TRUE(same_bits(a.time, b.time));
+  for (std::size_t i = 0; i < a.p.size(); ++i) {
+    EXPECT_TRUE(same_bits(a.p[i], b.p[i])) << "body " << i;
+    EXPECT_TRUE(same_bits(a.R[i], b.R[i])) << "body " << i;
+    EXPECT_TRUE(same_bits(a.v[i], b.v[i])) << "body " << i;
+    EXPECT_TRUE(same_bits(a.omega[i], b.omega[i])) << "body " << i;
+  }
+}
+
+// ---- resting manifolds -------------------------------------------------------------------------
+
+TEST(Resting, BoxOnABoxKeepsFourContactsWithTheSameIds) {
+  World world;
+  BodyDesc ground;
+  ground.shape = Box(Vec3(2.0, 2.0, 0.5));
+  ground.is_static = true;
+  ground.position = Vec3(0, 0, -0.5);  // top face at z = 0
+  world.add_body(ground);
+  expect_steady_rest(world, Vec3(0.13, -0.07, 0.0), Eigen::AngleAxisd(0.2, Vec3::UnitZ()).toRotationMatrix());
+}
+
+TEST(Resting, BoxOnATriangleMeshFloorKeepsFourContactsWithTheSameIds) {
+  // a flat 4 x 4-cell grid of 32 triangles, [-2, 2]^2 at z = 0; the box covers interior edges
+  World world;
+  BodyDesc floor;
+  floor.shape = floor_mesh(2.0, 4);
+  floor.is_static = true;
+  ASSERT_EQ(std::get<TriangleMesh>(floor.shape).faces.rows(), 32);
+  world.add_body(floor);
+  expect_steady_rest(world, Vec3(0.13, -0.07, 0.0), Eigen::AngleAxisd(0.2, Vec3::UnitZ()).toRotationMatrix());
+}
