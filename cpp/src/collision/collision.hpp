@@ -1,7 +1,8 @@
 // Contact generation: broad phase (FCL dynamic AABB tree), narrow phase (a dispatch table over
-// shape pairs: own exact tests for planes, spheres, capsules and polytopes; FCL signed distance for
-// the curved pairs left), manifolds of up to 4 points with feature ids, in the contact order of
-// docs/conventions.md. FCL types never appear in this header; they stay in fcl_queries.cpp.
+// shape pairs: own exact tests for planes, spheres, capsules and polytopes; support functions for
+// cylinder pairs; FCL's BVH for candidate triangles of static meshes), manifolds of up to 4 points
+// with feature ids, in the contact order of docs/conventions.md. FCL types never appear in this
+// header; they stay in fcl_queries.cpp.
 #pragma once
 
 #include <array>
@@ -57,14 +58,11 @@ struct Item {
 void items_of(const Shape& shape, const Pose& pose, std::vector<Item>& items,
               std::vector<std::shared_ptr<const Polytope>>& keep);
 
-/// FCL's signed distance between two convex items (GST_LIBCCD), for the pairs no exact test
-/// covers (cylinders against boxes, hulls, capsules and cylinders). gap (m), unit normal A -> B,
-/// witness points on A and B (world). Returns false if FCL gave nothing finite.
+/// A signed distance: gap (m), unit normal A -> B, witness points on A and B (world).
 struct Distance {
   double gap;
   Vec3 normal, w_a, w_b;
 };
-bool fcl_signed_distance(const Item& a, const Item& b, Distance& out);
 
 /// What a narrow-phase query may use besides the two shapes: the triangle queries of static
 /// triangle meshes (null: built on the spot).
@@ -132,9 +130,10 @@ void capsule_capsule(const Capsule& a, const Pose& pa, std::uint32_t part_a, con
 void polytope_capsule(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Capsule& b,
                       const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out);
 
-/// Any two items without an exact test (a cylinder against a box, hull, capsule or cylinder):
-/// FCL's signed distance for the normal, then the supporting features of both along it clipped
-/// against each other (a face against whatever faces it), or FCL's single point.
+/// Any two items without a closed-form test (a cylinder against a box, hull, capsule or cylinder):
+/// the signed distance as the maximum of the support-plane gap over directions, then the
+/// supporting features of both along its normal clipped against each other (a face against
+/// whatever faces it), or the single pair of support points.
 void convex_by_support(const Item& a, const Item& b, double threshold, std::vector<Contact>& out);
 
 /// Static triangle mesh (A) against item B: candidate triangles from the BVH, a convex test per

@@ -1,5 +1,7 @@
-// Everything that touches FCL 0.7: the broad phase (DynamicAABBTreeCollisionManager) and signed
-// distance for body-body pairs (GST_LIBCCD; GST_INDEP returns wrong signs, see DESIGN.md).
+// Everything that touches FCL 0.7: the broad phase (DynamicAABBTreeCollisionManager) and the
+// candidate triangles of static triangle meshes (BVHModel<OBBRSS>). FCL's signed distance is not
+// used: the narrow phase is exact without it (see round_contacts.cpp for what libccd did to
+// cylinders here).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -52,15 +54,6 @@ std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> bvh_of(const Points& vertices, cons
   return model;
 }
 
-/// FCL geometry of one convex item (for signed distance).
-std::shared_ptr<fcl::CollisionGeometryd> item_geometry(const Item& it) {
-  if (it.sphere) return std::make_shared<fcl::Sphered>(it.sphere->radius);
-  if (it.capsule) return std::make_shared<fcl::Capsuled>(it.capsule->radius, 2.0 * it.capsule->half_length);
-  if (it.cylinder) return std::make_shared<fcl::Cylinderd>(it.cylinder->radius, 2.0 * it.cylinder->half_height);
-  if (it.box) return std::make_shared<fcl::Boxd>(2.0 * it.box->half_extents);
-  return convex_of(*it.polytope);
-}
-
 /// FCL geometry of a whole body for the broad phase (only its bounding box matters).
 std::shared_ptr<fcl::CollisionGeometryd> make_geometry(const Shape& shape) {
   if (const auto* s = std::get_if<Sphere>(&shape)) return std::make_shared<fcl::Sphered>(s->radius);
@@ -90,10 +83,13 @@ bool collect_pair(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* da
 
 struct TriangleQuery::Impl {
   std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> bvh;
+  std::unique_ptr<fcl::CollisionObjectd> mesh;  ///< the BVH at the identity pose, built once
 };
 
 TriangleQuery::TriangleQuery(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>()) {
   impl_->bvh = bvh_of(mesh.vertices, mesh.faces);
+  impl_->mesh = std::make_unique<fcl::CollisionObjectd>(impl_->bvh);
+  impl_->mesh->computeAABB();
 }
 
 TriangleQuery::~TriangleQuery() = default;
@@ -101,40 +97,14 @@ TriangleQuery::~TriangleQuery() = default;
 void TriangleQuery::overlapping(const Vec3& lo, const Vec3& hi, std::vector<int>& out) const {
   out.clear();
   // every triangle that meets the box: FCL's BVH traversal with an exact triangle-box test
-  fcl::CollisionObjectd mesh(impl_->bvh);
   fcl::CollisionObjectd box(std::make_shared<fcl::Boxd>(hi - lo), Mat3::Identity(), 0.5 * (lo + hi));
-  mesh.computeAABB();
   box.computeAABB();
   fcl::CollisionRequestd request(std::numeric_limits<int>::max() / 2, false);
   fcl::CollisionResultd result;
-  fcl::collide(&mesh, &box, request, result);
+  fcl::collide(impl_->mesh.get(), &box, request, result);
   for (std::size_t k = 0; k < result.numContacts(); ++k) out.push_back(result.getContact(k).b1);
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
-}
-
-bool fcl_signed_distance(const Item& a, const Item& b, Distance& out) {
-  fcl::CollisionObjectd oa(item_geometry(a), a.pose.R, a.pose.p);
-  fcl::CollisionObjectd ob(item_geometry(b), b.pose.R, b.pose.p);
-  fcl::DistanceRequestd request;
-  request.enable_signed_distance = true;
-  request.enable_nearest_points = true;
-  request.gjk_solver_type = fcl::GST_LIBCCD;
-  fcl::DistanceResultd result;
-  fcl::distance(&oa, &ob, request, result);
-  const double gap = result.min_distance;  // the return value is not the signed distance
-  if (!std::isfinite(gap)) return false;
-  out.gap = gap;
-  out.w_a = result.nearest_points[0];
-  out.w_b = result.nearest_points[1];
-  Vec3 n = out.w_b - out.w_a;
-  if (gap < 0.0) n = -n;  // witnesses of an overlap point from B's surface to A's
-  if (!(n.norm() > 1e-12)) {
-    n = b.pose.p - a.pose.p;  // touching: between the origins
-    if (!(n.norm() > 0.0)) n = Vec3::UnitZ();
-  }
-  out.normal = n.normalized();
-  return out.normal.allFinite();
 }
 
 struct BroadPhase::Impl {

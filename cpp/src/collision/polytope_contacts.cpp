@@ -4,6 +4,7 @@
 // depth of two polytopes is exact and the clipped face gives the 4-point manifold a box needs to lie
 // still. Edge pairs are pruned on the Gauss map (only those that form a face of the Minkowski
 // difference can realise the separation).
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -14,6 +15,12 @@ namespace signorini::collision {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+/// How much better (times the pair's length scale L) B's face or an edge pair must separate than
+/// A's face to be chosen (docs/conventions.md, "Manifolds").
+constexpr double kFacePreference = 5e-4;
+/// An edge axis within 0.05 rad of the face normal is "nearly parallel": only then does the face
+/// preference apply to it; crossing points of such edges keep their exact edge-edge distance.
+const double kNearlyParallel = std::cos(0.05);
 
 /// A polytope's vertices, face normals and offsets expressed in one common frame (A's).
 struct View {
@@ -119,6 +126,33 @@ struct ClipVertex {
   bool keep = true;  ///< false when made on an inactive side of a triangle-mesh face
 };
 
+/// A clipped point where an incident edge crosses a side of the reference face: when the two edges
+/// are nearly perpendicular to n_ref (their cross product within 0.05 rad of it) and their closest
+/// points lie on both, the contact there is edge against edge, so its gap, point and normal become
+/// the exact ones of the two edge lines (the plane distance differs from it to second order).
+void edge_crossing(const View& ref, FeatureId ref_edge, const View& inc, FeatureId inc_edge, const Vec3& n_ref,
+                   double& gap, Vec3& y, Vec3& n) {
+  const auto& er = ref.topo->edges[feature_index(ref_edge)];
+  const auto& ei = inc.topo->edges[feature_index(inc_edge)];
+  const Vec3 p0 = ref.v[er.v0], u = ref.v[er.v1] - p0;
+  const Vec3 q0 = inc.v[ei.v0], w = inc.v[ei.v1] - q0;
+  Vec3 L = u.cross(w);
+  const double len = L.norm();
+  if (!(len > 1e-9 * u.norm() * w.norm())) return;
+  L /= len;
+  if (L.dot(n_ref) < 0.0) L = -L;
+  if (L.dot(n_ref) < kNearlyParallel) return;
+  const Vec3 r = p0 - q0;
+  const double uu = u.dot(u), ww = w.dot(w), uw = u.dot(w), ur = u.dot(r), wr = w.dot(r);
+  const double det = uw * uw - uu * ww;
+  const double s = (ur * ww - uw * wr) / det, t = (uw * ur - uu * wr) / det;
+  if (s < 0.0 || s > 1.0 || t < 0.0 || t > 1.0) return;
+  const Vec3 x_ref = p0 + s * u, x_inc = q0 + t * w;
+  gap = L.dot(x_inc - x_ref);
+  y = 0.5 * (x_ref + x_inc);
+  n = L;
+}
+
 /// Sutherland-Hodgman of the incident face's loop against the side planes of the reference face,
 /// tracking feature ids; appends the clipped points below the threshold as contacts. The reference
 /// face is `ref` face f; `ref_is_a` says whether the reference polytope is A.
@@ -126,10 +160,17 @@ void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double t
                 const Mat3& R_a, const Vec3& p_a, std::vector<Contact>& out,
                 const std::array<bool, 3>* ref_active = nullptr) {
   const Vec3& n_ref = ref.n[f];
-  // incident face: the most anti-parallel (first on ties)
-  int g = 0;
+  // incident face: among the faces around the incident shape's deepest vertex along -n_ref, the
+  // most anti-parallel (first on ties). For a box that is its most anti-parallel face; on a hull
+  // with many faces the most anti-parallel one overall can lie far from the overlap.
+  int deepest = 0;
+  for (std::size_t i = 1; i < inc.v.size(); ++i)
+    if (inc.v[i].dot(n_ref) < inc.v[deepest].dot(n_ref)) deepest = static_cast<int>(i);
+  int g = -1;
   double least = kInf;
   for (std::size_t k = 0; k < inc.n.size(); ++k) {
+    const auto& loop = inc.topo->faces[k];
+    if (std::find(loop.begin(), loop.end(), deepest) == loop.end()) continue;
     const double c = inc.n[k].dot(n_ref);
     if (c < least) {
       least = c;
@@ -184,13 +225,16 @@ void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double t
     }
     std::swap(poly, next);
   }
-  const Vec3 n_world = R_a * n_ref;
   for (const ClipVertex& V : poly) {
     if (!V.keep) continue;
-    const double gap = n_ref.dot(V.q) - ref.d[f];
+    double gap = n_ref.dot(V.q) - ref.d[f];
+    Vec3 y = V.q - 0.5 * gap * n_ref, n = n_ref;
+    if (feature_kind(V.ref_id) == FeatureKind::Edge && feature_kind(V.inc_id) == FeatureKind::Edge)
+      edge_crossing(ref, V.ref_id, inc, V.inc_id, n_ref, gap, y, n);
     if (!(gap < threshold)) continue;
+    const Vec3 n_world = R_a * n;
     Contact c;
-    c.point = R_a * (V.q - 0.5 * gap * n_ref) + p_a;
+    c.point = R_a * y + p_a;
     c.normal = ref_is_a ? n_world : Vec3(-n_world);
     c.gap = gap;
     c.feature_a = ref_is_a ? V.ref_id : V.inc_id;
@@ -215,8 +259,14 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   if (!(fb.separation < threshold)) return;
   const EdgeQuery e = edge_query(A, B);
   if (!(e.separation < threshold)) return;
-  const double tol = 1e-9 * (radius_of(a) + radius_of(b));
-  if (e.edge_a >= 0 && e.separation > std::max(fa.separation, fb.separation) + tol) {
+  // faces are preferred: B's face only when better than A's by tol, an edge only when better than
+  // both by tol (tol = 5e-4 L). Two stacked boxes tilted by a hair have an edge axis that beats the
+  // face axis by ~0.2 L theta; taking it would leave one contact point and the stack would rock.
+  const double L = radius_of(a) + radius_of(b);
+  const Vec3& n_face = fb.separation > fa.separation ? B.n[fb.face] : A.n[fa.face];
+  const double edge_tol = std::abs(e.axis.dot(n_face)) >= kNearlyParallel ? kFacePreference * L : 1e-9 * L;
+  const double tol = kFacePreference * L;
+  if (e.edge_a >= 0 && e.separation > std::max(fa.separation, fb.separation) + edge_tol) {
     // edge-edge: one point, midway between the closest points of the two edge lines
     const auto& EA = a.edges[e.edge_a];
     const auto& EB = b.edges[e.edge_b];
@@ -235,7 +285,8 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
     out.push_back(c);
     return;
   }
-  if (fb.separation > fa.separation + tol)
+  const double face_tol = std::abs(A.n[fa.face].dot(B.n[fb.face])) >= kNearlyParallel ? tol : 1e-9 * L;
+  if (fb.separation > fa.separation + face_tol)
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, out);
   else
     clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, out);
@@ -253,7 +304,8 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
   if (!(sep_a < threshold)) return;
   const FaceQuery fb = face_query(B, A);
   if (!(fb.separation < threshold)) return;
-  const double tol = 1e-9 * (radius_of(tri) + radius_of(b));
+  const double tol = kFacePreference * (radius_of(tri) + radius_of(b));
+  const double support_tol = 1e-9 * (radius_of(tri) + radius_of(b));
   // edge axes from the active triangle edges only (interior edges of a flat region would give
   // ghost normals); a triangle has no Gauss-map arcs, so intervals are projected in full and the
   // pair kept only if both edges support their shapes along the axis
@@ -281,8 +333,8 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
       }
       const double s = b_lo - a_hi;
       if (!(s > e.separation)) continue;
-      const bool a_supports = std::abs(L.dot(A.v[ea.v0]) - a_hi) <= tol && std::abs(L.dot(A.v[ea.v1]) - a_hi) <= tol;
-      const bool b_supports = std::abs(L.dot(B.v[eb.v0]) - b_lo) <= tol && std::abs(L.dot(B.v[eb.v1]) - b_lo) <= tol;
+      const bool a_supports = std::abs(L.dot(A.v[ea.v0]) - a_hi) <= support_tol && std::abs(L.dot(A.v[ea.v1]) - a_hi) <= support_tol;
+      const bool b_supports = std::abs(L.dot(B.v[eb.v0]) - b_lo) <= support_tol && std::abs(L.dot(B.v[eb.v1]) - b_lo) <= support_tol;
       if (!(a_supports && b_supports)) continue;
       e.separation = s;
       e.edge_a = k;
