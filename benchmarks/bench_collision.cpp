@@ -167,7 +167,7 @@ std::vector<PairCase> pair_cases(const TriangleMesh& floor, const collision::Tri
                    {Vec3(0.2, -0.3, 0.5 - dip), rot(0.3, Vec3::UnitZ())}, {}, ""});
   cases.push_back({"cylinder-plane (standing)", Plane(Vec3::UnitZ(), 0.0), Cylinder(0.3, 0.5), {Vec3::Zero(), I},
                    {Vec3(0.1, 0.2, 0.5 - dip), I}, {}, ""});
-  cases.push_back({"cylinder-box (FCL + clip)", Cylinder(0.3, 0.5), ground, {Vec3(0.1, 0.2, 0.5 - dip), I}, on_ground,
+  cases.push_back({"cylinder-box (support search)", Cylinder(0.3, 0.5), ground, {Vec3(0.1, 0.2, 0.5 - dip), I}, on_ground,
                    {}, ""});
 
   // two hulls of 30 random points in a unit cube, B stacked on A with 1 cm of overlap along z

@@ -381,10 +381,10 @@ double support_gap(const Item& a, const Item& b, const Vec3& d) {
 }
 
 /// Pattern search for the maximum of g on the unit sphere from d (16 directions on a cone that
-/// shrinks to 1e-12 rad; g is not smooth where the support jumps, at rims and edges, and the many
+/// shrinks from rho_start to rho_end (rad); g is not smooth where the support jumps, at rims and edges, and the many
 /// directions let the search climb along such ridges). Updates d and g.
-void climb(const Item& a, const Item& b, Vec3& d, double& g) {
-  for (double rho = 0.25; rho > 1e-12;) {
+void climb(const Item& a, const Item& b, Vec3& d, double& g, double rho_start, double rho_end) {
+  for (double rho = rho_start; rho > rho_end;) {
     const Vec3 e1 = (std::abs(d.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(d).normalized();
     const Vec3 e2 = d.cross(e1);
     bool moved = false;
@@ -422,13 +422,15 @@ Distance support_distance(const Item& a, const Item& b) {
     add(Vec3(r * std::cos(golden * k), r * std::sin(golden * k), z));
   }
   std::stable_sort(seeds.begin(), seeds.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+  // the best three seeds climbed to 1e-3 rad, the winner on to 1e-11 rad
   Distance best{-std::numeric_limits<double>::infinity(), Vec3::UnitZ(), Vec3::Zero(), Vec3::Zero()};
   for (std::size_t k = 0; k < std::min<std::size_t>(3, seeds.size()); ++k) {
     Vec3 d = seeds[k].second;
     double g = seeds[k].first;
-    climb(a, b, d, g);
+    climb(a, b, d, g, 0.25, 1e-3);
     if (g > best.gap) best.gap = g, best.normal = d;
   }
+  climb(a, b, best.normal, best.gap, 1e-3, 1e-11);
   best.w_a = support_point(a, best.normal);
   best.w_b = support_point(b, -best.normal);
   return best;
