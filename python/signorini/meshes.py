@@ -273,12 +273,30 @@ def posed(vertices, position, orientation) -> np.ndarray:
 def render_mesh(shape, sphere_subdivisions: int = 2) -> tuple[np.ndarray, np.ndarray] | None:
     """Triangle mesh of a body's shape, in its body frame, for drawing.
 
-    Inputs: a shape object (``signorini.Sphere`` (.radius), ``Box`` (.half_extents), ``Mesh``
-    (.vertices, .faces; COM-centred) or ``Plane`` (.normal, .offset); any object with these
-    attributes works). Outputs: (vertices (n, 3) float64 m, faces (k, 3) int64), or None for a
+    Inputs: a shape object (``signorini.Sphere`` (.radius), ``Box`` (.half_extents), ``Capsule``
+    (.radius, .half_length), ``Cylinder`` (.radius, .half_height), ``Mesh``, ``ConvexHull`` and
+    ``TriangleMesh`` (.vertices, .faces), ``Compound`` (.parts) or ``Plane`` (.normal, .offset);
+    any object with these attributes works). Outputs: (vertices (n, 3) float64 m, faces (k, 3) int64), or None for a
     plane, which has no finite mesh (draw it as a patch). Unknown shapes raise TypeError.
     """
     # test the attributes rather than the classes, so that plots work on recorded shapes too
+    if hasattr(shape, "parts"):
+        # a compound: its parts' meshes placed by their poses, in one vertex array
+        vertices, faces, count = [], [], 0
+        for part, (position, orientation) in shape.parts:
+            v, f = render_mesh(part, sphere_subdivisions)
+            vertices.append(posed(v, position, orientation))
+            faces.append(f + count)
+            count += len(v)
+        return np.concatenate(vertices), np.concatenate(faces)
+    if hasattr(shape, "half_length"):
+        # a capsule: a sphere mesh whose halves are pushed apart along z
+        v, f = icosphere(float(shape.radius), sphere_subdivisions)
+        v = v.copy()
+        v[:, 2] += np.where(v[:, 2] >= 0.0, 1.0, -1.0) * float(shape.half_length)
+        return v, f
+    if hasattr(shape, "half_height"):
+        return cylinder_mesh(float(shape.radius), float(shape.half_height))
     if hasattr(shape, "vertices") and hasattr(shape, "faces"):
         return np.asarray(shape.vertices, dtype=np.float64), np.asarray(shape.faces, dtype=np.int64)
     if hasattr(shape, "half_extents"):

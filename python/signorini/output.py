@@ -441,6 +441,7 @@ def plot(path_png, record: Record, scene) -> Path:
             ax.plot_trisurf(
                 v[:, 0], v[:, 1], v[:, 2], triangles=render[i][1], color=colour,
                 edgecolor=(0, 0, 0, 0.15), linewidth=0.2, shade=True,
+                alpha=0.35 if record.is_static[i] else 1.0,  # see-through scenery hides nothing
             )
 
         # the path of each dynamic body's COM up to now, inside the view only

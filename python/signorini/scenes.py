@@ -138,10 +138,61 @@ def _boxes() -> Scene:
     )
 
 
+def _shapes() -> Scene:
+    """Every collidable of the lecture on a tessellated floor: a stack of boxes, a capsule, a
+    cylinder, a convex hull, a compound (a table) and a torus decomposed into convex pieces."""
+    import signorini as sg
+
+    from . import meshes
+
+    world = sg.World(gravity=(0.0, 0.0, -9.81), contact_margin=0.002)
+    # the floor: a 2 m x 2 m static triangle mesh of 8 x 8 cells (128 triangles)
+    n, s = 8, 1.0
+    grid = np.linspace(-s, s, n + 1)
+    vertices = np.array([(x, y, 0.0) for x in grid for y in grid])
+    faces = []
+    for i in range(n):
+        for j in range(n):
+            a, b = i * (n + 1) + j, (i + 1) * (n + 1) + j
+            faces += [(a, b, b + 1), (a, b + 1, a + 1)]
+    world.add_static(sg.TriangleMesh(vertices, np.array(faces)))
+
+    # a stack of three boxes, each turned a little about the vertical
+    for k in range(3):
+        world.add_body(sg.Box((0.1, 0.1, 0.1)), density=500.0, position=(-0.5, -0.5, 0.1 + 0.2 * k + 0.001 * k),
+                       orientation=axis_angle_quaternion((0.0, 0.0, 1.0), math.radians(15.0 * k)))
+    # a capsule dropped lying, a cylinder dropped standing, a hull tumbling
+    world.add_body(sg.Capsule(0.05, 0.15), density=500.0, position=(0.4, -0.5, 0.3),
+                   orientation=axis_angle_quaternion((0.0, 1.0, 0.0), math.radians(90.0)))
+    world.add_body(sg.Cylinder(0.08, 0.1), density=500.0, position=(0.0, -0.5, 0.3))
+    rng = np.random.default_rng(7)
+    world.add_body(sg.ConvexHull(rng.normal(size=(20, 3)) * 0.08), density=500.0, position=(0.5, 0.4, 0.4),
+                   angular_velocity=(1.0, 2.0, 0.0))
+    # a compound table: a top and four legs
+    legs = [(sg.Box((0.02, 0.02, 0.1)), ((sx * 0.12, sy * 0.12, -0.1), (1, 0, 0, 0))) for sx in (-1, 1) for sy in (-1, 1)]
+    world.add_body(sg.Compound([(sg.Box((0.15, 0.15, 0.02)), ((0.0, 0.0, 0.02), (1, 0, 0, 0)))] + legs),
+                   density=500.0, position=(-0.4, 0.4, 0.3))
+    # a torus (non-convex: decomposed by CoACD, cached) falling onto a ball
+    world.add_body(sg.Sphere(0.06), density=500.0, position=(0.0, 0.3, 0.06))
+    v, f = meshes.torus(0.12, 0.035, 32, 16)
+    world.add_body(sg.Mesh(v, f), density=500.0, position=(0.0, 0.3, 0.4),
+                   orientation=axis_angle_quaternion((1.0, 0.0, 0.0), math.radians(20.0)))
+    return Scene(
+        name="shapes",
+        world=world,
+        dt=1.0 / 240.0,
+        steps=720,
+        description="boxes stacked three high, a capsule, a cylinder, a convex hull, a compound table and a "
+        "decomposed torus on a triangle-mesh floor, g = 9.81 m/s^2",
+        snapshot_times=(0.0, 0.3, 1.0, 3.0),
+    )
+
+
 # name -> builder; each call builds a fresh world
 SCENES: dict[str, Callable[[], Scene]] = {
     "torus": _torus,
     "boxes": _boxes,
+    "shapes": _shapes,
 }
 
 

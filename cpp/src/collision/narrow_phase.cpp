@@ -20,13 +20,6 @@ bool is_bare_nonconvex_mesh(const Shape& s) {
   return m && m->pieces.empty() && (!m->is_convex() || !m->closedness_problem().empty());
 }
 
-bool has_cylinder(const Shape& s) {
-  if (std::holds_alternative<Cylinder>(s)) return true;
-  if (const auto* c = std::get_if<Compound>(&s))
-    for (const auto& part : c->parts)
-      if (std::holds_alternative<Cylinder>(part.shape)) return true;
-  return false;
-}
 
 /// Normals reversed and ids swapped for the contacts from index `from` on (A and B exchanged).
 void flip(std::vector<Contact>& out, std::size_t from) {
@@ -138,11 +131,11 @@ std::string unsupported_pair(const Shape& a, const Shape& b) {
   // the dispatch table (docs/conventions.md):
   //              Plane   TriMesh  Sphere  Capsule  Box/Hull/piece  Cylinder
   // Plane        static  static   exact   exact    exact           exact
-  // TriMesh              static   exact   exact    SAT/triangle    unsupported
+  // TriMesh              static   exact   exact    SAT/triangle    support search
   // Sphere                        exact   exact    exact           exact
-  // Capsule                               exact    exact + SAT     FCL + clip
-  // Box/Hull/piece                                 SAT + clip      FCL + clip
-  // Cylinder                                                       FCL + clip
+  // Capsule                               exact    exact + SAT     support search + clip
+  // Box/Hull/piece                                 SAT + clip      support search + clip
+  // Cylinder                                                       support search + clip
   // A non-convex Mesh without pieces collides with planes only. Compounds: part by part.
   if (is_plane(a) || is_plane(b)) return {};
   if (static_only(a) && static_only(b)) return {};
@@ -154,10 +147,6 @@ std::string unsupported_pair(const Shape& a, const Shape& b) {
            ": such a mesh collides only with planes unless it is decomposed into convex pieces "
            "(signorini does this with CoACD when a closed one is added as a dynamic body); "
            "use a TriangleMesh for static scenery";
-  const bool trimesh = std::holds_alternative<TriangleMesh>(a) || std::holds_alternative<TriangleMesh>(b);
-  if (trimesh && (has_cylinder(a) || has_cylinder(b)))
-    return "unsupported pair " + label(a) + " - " + label(b) +
-           ": cylinders against triangle meshes are not implemented; use a capsule or a ConvexHull of the cylinder";
   return {};
 }
 

@@ -1,7 +1,8 @@
 // Static triangle meshes against convex items: the BVH (fcl_queries.cpp) names the candidate
 // triangles, each is tested as a one-sided convex piece, and all points go into one manifold.
 // Interior edges of flat or concave regions are inactive: they never produce edge normals, so a box
-// sliding over a tessellated floor meets no ghost contacts.
+// sliding over a tessellated floor meets no ghost contacts. (Cylinders go through the support
+// search, which does not know about inactive edges.)
 #include <algorithm>
 #include <cmath>
 
@@ -110,8 +111,22 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       out.erase(std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
                                [&](const Contact& c) { return c.normal.dot(n_world) <= 0.0; }),
                 out.end());
+    } else if (b.cylinder) {
+      // no closed form: the support-function search, the triangle as a flat polytope; only
+      // contacts pushing out of the front side, and none for a centre behind the triangle
+      triangle_polytope_of(mesh, t, tri);
+      if (mesh.normals[t].dot(centre - tri.vertex(0)) < 0.0) continue;
+      Item face;
+      face.polytope = &tri;
+      face.pose = pa;
+      face.part = index;
+      const std::size_t first = out.size();
+      convex_by_support(face, b, threshold, out);
+      const Vec3 n_world = pa.R * mesh.normals[t];
+      out.erase(std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
+                               [&](const Contact& c) { return c.normal.dot(n_world) <= 0.0; }),
+                out.end());
     }
-    // cylinders against triangle meshes are refused when the body is added (unsupported_pair)
   }
 }
 
