@@ -121,7 +121,24 @@ def spheres() -> tuple[World, float, int]:
     return w, 1 / 240, 500
 
 
-COMPARE_SCENES = {"tumbling_box": tumbling_box, "mesh_drop": mesh_drop, "spheres": spheres}
+def stack() -> tuple[World, float, int]:
+    """Box-box manifolds and capsules: three boxes dropped into a stack on a static box, each turned
+    about the vertical, a capsule lying on the ground with a sphere landing on it, a cylinder
+    standing on the ground."""
+    from . import Capsule, Cylinder
+    w = World(gravity=(0, 0, -9.81))
+    w.add_static(Plane(normal=(0, 0, 1), offset=0.0))
+    w.add_static(Box(half_extents=(0.6, 0.6, 0.1)), position=(0, 0, 0.1))
+    for k, angle in enumerate((0.0, 0.4, 0.8)):
+        w.add_body(Box(half_extents=(0.2, 0.2, 0.1)), density=500.0, position=(0.02 * k, 0, 0.31 + 0.21 * k),
+                   orientation=(np.cos(angle / 2), 0, 0, np.sin(angle / 2)))
+    w.add_body(Capsule(0.1, 0.3), density=500.0, position=(2.2, 0, 0.11), orientation=(np.sqrt(0.5), 0, np.sqrt(0.5), 0))
+    w.add_body(Sphere(0.1), mass=0.5, position=(2.3, 0.02, 0.5))
+    w.add_body(Cylinder(0.15, 0.2), density=500.0, position=(-2.2, 0, 0.25))
+    return w, 1 / 240, 480
+
+
+COMPARE_SCENES = {"tumbling_box": tumbling_box, "mesh_drop": mesh_drop, "spheres": spheres, "stack": stack}
 
 
 def build(name: str) -> tuple[World, float, int]:
@@ -139,7 +156,7 @@ def build(name: str) -> tuple[World, float, int]:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m signorini.compare", description=__doc__.split("\n\n")[0])
     parser.add_argument("scene", nargs="?", default="tumbling_box",
-                        help="tumbling_box, mesh_drop, spheres, or a built-in scene (torus, boxes)")
+                        help="tumbling_box, mesh_drop, spheres, stack, or a built-in scene (torus, boxes, shapes)")
     parser.add_argument("--steps", type=int, default=None, help="steps to compare (default: the scene's)")
     parser.add_argument("--mode", choices=("lockstep", "free", "both"), default="both")
     args = parser.parse_args(argv)
