@@ -135,7 +135,7 @@ def stack() -> tuple[World, float, int]:
     w.add_body(Capsule(0.1, 0.3), density=500.0, position=(2.2, 0, 0.11), orientation=(np.sqrt(0.5), 0, np.sqrt(0.5), 0))
     w.add_body(Sphere(0.1), mass=0.5, position=(2.3, 0.02, 0.5))
     w.add_body(Cylinder(0.15, 0.2), density=500.0, position=(-2.2, 0, 0.25))
-    return w, 1 / 240, 480
+    return w, 1 / 240, 500
 
 
 COMPARE_SCENES = {"tumbling_box": tumbling_box, "mesh_drop": mesh_drop, "spheres": spheres, "stack": stack}

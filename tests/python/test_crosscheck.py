@@ -13,7 +13,7 @@ from signorini import compare, oracle
 from signorini.meshes import box_mesh, icosphere, torus
 
 
-@pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres", "torus", "boxes"])
+@pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres", "torus", "boxes", "stack"])
 def test_one_step_agrees_to_1e_10(scene):
     world, dt, steps = compare.build(scene)
     report = compare.lockstep(world, dt, min(steps, 400))
@@ -22,7 +22,7 @@ def test_one_step_agrees_to_1e_10(scene):
     assert world.solver_stats.contacts > 0
 
 
-@pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres"])
+@pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres", "stack"])
 def test_free_rollout_agrees_over_500_steps_to_1e_8(scene):
     world, dt, steps = compare.build(scene)
     assert steps == 500
@@ -31,7 +31,7 @@ def test_free_rollout_agrees_over_500_steps_to_1e_8(scene):
     assert report.contact_count_mismatches == 0
 
 
-@pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres", "torus"])
+@pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres", "torus", "stack"])
 def test_contacts_match_the_oracle_feature_by_feature(scene):
     world, dt, _ = compare.build(scene)
     seen = 0
@@ -43,6 +43,9 @@ def test_contacts_match_the_oracle_feature_by_feature(scene):
         assert np.array_equal(core.body_b, expected["body_b"])
         for key in ("point", "normal", "gap"):
             assert np.allclose(getattr(core, key), expected[key], rtol=0, atol=1e-12), key
+        # the same features: box-box manifolds clipped and reduced the same way, ids and all
+        for key in ("feature_a", "feature_b"):
+            assert np.array_equal(getattr(core, key), np.asarray(expected[key], dtype=np.uint64)), key
         seen += len(core)
     assert seen > 0
 

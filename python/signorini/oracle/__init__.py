@@ -7,18 +7,24 @@ never ``signorini._core``), so it also loads as a standalone package.
 Modules, in the order of a step:
     mass      mass properties of spheres, boxes, capsules, cylinders, closed meshes, hulls, compounds
     rigid     skew, Rodrigues, quaternions, the Jacobian J(y), unconstrained velocity, integrate
-    contacts  exact contacts (plane-sphere, plane-box, plane-mesh, sphere-sphere)
+    contacts  exact contacts per shape pair (dispatch table ``PAIRS``), with feature ids
+    manifold  feature ids, the box polytope, box-box SAT + face clipping, the 4-point reduction
+    support   support mappings and the brute-force signed separation of two convex shapes
     pgs       projected Gauss-Seidel on the Signorini conditions, and its residual
     lcp       the same problem as an LCP, solved exactly by enumeration (small K)
     step      one step and a rollout
 """
 
 from .contacts import (
+    PAIRS,
     bounding_radius,
     box_corners,
     contact_box_sphere,
+    contact_plane_capsule,
+    contact_plane_cylinder,
     contact_plane_points,
     contact_plane_sphere,
+    contact_sphere_capsule,
     contact_sphere_sphere,
     detect_contacts,
     plane_reach,
@@ -30,6 +36,24 @@ from .lcp import (
     inverse_mass_matrix,
     lcp_solve,
     velocities_from_alpha,
+)
+from .manifold import (
+    EDGE,
+    FACE,
+    FACE_PREFERENCE,
+    SHAPE,
+    VERTEX,
+    box_box_separation,
+    box_edge,
+    box_polytope,
+    clip_incident_face,
+    contact_box_box,
+    feature_id,
+    feature_parts,
+    polytope_to_world,
+    reduce_manifold,
+    select_manifold,
+    signed_area,
 )
 from .mass import (
     mass_properties,
@@ -56,14 +80,30 @@ from .rigid import (
     world_inertia,
 )
 from .step import copy_snapshot, rollout, step
+from .support import (
+    fibonacci_sphere,
+    support_box,
+    support_capsule,
+    support_cylinder,
+    support_hull,
+    support_of,
+    support_separation,
+    support_sphere,
+)
 
 __all__ = [
-    "bias", "bounding_radius", "box_corners", "contact_box_sphere", "plane_reach", "contact_jacobian", "contact_lcp",
-    "contact_plane_points", "contact_plane_sphere", "contact_rows", "contact_sphere_sphere",
-    "copy_snapshot", "detect_contacts", "integrate", "inverse_mass_blocks",
-    "inverse_mass_matrix", "jacobian", "lcp_solve", "mass_properties", "mass_properties_box",
-    "mass_properties_capsule", "mass_properties_compound", "mass_properties_cylinder", "mass_properties_hull",
-    "mass_properties_mesh", "mass_properties_sphere", "matrix_to_quat", "mesh_volume_integrals",
-    "pgs", "quat_to_matrix", "rodrigues", "rollout", "shape_volume", "skew", "speculative_reach",
-    "step", "unconstrained_velocity", "velocities_from_alpha", "world_inertia",
+    "EDGE", "FACE", "FACE_PREFERENCE", "PAIRS", "SHAPE", "VERTEX",
+    "bias", "bounding_radius", "box_box_separation", "box_corners", "box_edge",
+    "box_polytope", "clip_incident_face", "contact_box_box", "contact_box_sphere", "contact_jacobian",
+    "contact_lcp", "contact_plane_capsule", "contact_plane_cylinder", "contact_plane_points",
+    "contact_plane_sphere", "contact_rows", "contact_sphere_capsule", "contact_sphere_sphere",
+    "copy_snapshot", "detect_contacts", "feature_id", "feature_parts", "fibonacci_sphere",
+    "integrate", "inverse_mass_blocks", "inverse_mass_matrix", "jacobian", "lcp_solve",
+    "mass_properties", "mass_properties_box", "mass_properties_capsule", "mass_properties_compound",
+    "mass_properties_cylinder", "mass_properties_hull", "mass_properties_mesh", "mass_properties_sphere",
+    "matrix_to_quat", "mesh_volume_integrals", "pgs", "plane_reach", "polytope_to_world",
+    "quat_to_matrix", "reduce_manifold", "rodrigues", "rollout", "select_manifold", "shape_volume",
+    "signed_area", "skew", "speculative_reach", "step", "support_box", "support_capsule",
+    "support_cylinder", "support_hull", "support_of", "support_separation", "support_sphere",
+    "unconstrained_velocity", "velocities_from_alpha", "world_inertia",
 ]

@@ -1,36 +1,62 @@
-"""Exact contact detection for the pairs the oracle knows (docs/conventions.md, "Contacts").
+"""Exact contact detection for the pairs the oracle knows (docs/conventions.md, "Contacts",
+"Feature ids", "Manifolds").
 
-A contact is (body_a, body_b, point y, normal n, gap), world frame:
-    n    unit, points from A towards B
-    gap  signed distance along n, m (negative = overlap)
-    y    midpoint of the witness points, y = (w_A + w_B) / 2 with w_B - w_A = gap n
+A contact is (body_a, body_b, point y, normal n, gap, feature_a, feature_b), world frame:
+    n          unit, points from A towards B
+    gap        signed distance along n, m (negative = overlap)
+    y          midpoint of the witness points, y = (w_A + w_B) / 2 with w_B - w_A = gap n
+    feature_*  the feature of A / B the point comes from, np.uint64
+               (part * 2^32 + kind * 2^28 + index, see ``manifold.feature_id``)
 
-Dispatch table (plane is always A; other pairs have A = lower body index):
-    plane  - sphere : one contact, the sphere's lowest point
-    plane  - box    : the 8 corners, corner order k = 0..7
-    plane  - mesh   : every vertex, vertex order
-    sphere - sphere : one contact along the line of centres
-    box    - sphere : one contact, the sphere centre clamped into the box (nearest face if inside)
-    anything else   : NotImplementedError when the bounding spheres are within reach
-                      (the core uses FCL there; the oracle does not), skipped when not.
+Dispatch table (plane is always A; other pairs have A = lower body index), features (A, B):
+    plane    - sphere   : the sphere's lowest point                       (face 0, shape 0)
+    plane    - box      : the 8 corners, corner order k = 0..7            (face 0, vertex k)
+    plane    - mesh     : every vertex, vertex order, never reduced       (face 0, vertex i)
+    plane    - capsule  : both segment ends as spheres                    (face 0, vertex 0 / 1)
+    plane    - cylinder : 16 rim points and the deepest rim point per cap (face 0, vertex 8 s + k
+                          / edge s)
+    sphere   - sphere   : along the line of centres                       (shape 0, shape 0)
+    box      - sphere   : the centre clamped into the box                 (shape 0, shape 0)
+    sphere   - capsule  : the closest point of the capsule's segment      (shape 0, vertex 0 / 1 /
+                                                                           edge 0)
+    box      - box      : separating axes and face clipping (``manifold.contact_box_box``)
+    anything else       : NotImplementedError when the bounding spheres are within reach
+                          (the core uses FCL there; the oracle does not), skipped when not.
+Each pair's candidates become its manifold by ``manifold.select_manifold`` (gap < threshold,
+id order, duplicates dropped, at most 4 points), except plane - mesh, which keeps every vertex
+within the threshold in vertex order.
 """
 
 import numpy as np
 
+from .manifold import (
+    EDGE,
+    FACE,
+    SHAPE,
+    VERTEX,
+    contact_box_box,
+    feature_id,
+    select_manifold,
+)
 from .rigid import body_arrays
 
 
 def bounding_radius(shape):
     """rho: largest distance of the shape's surface from its COM, m.
 
-    sphere r, box |(a, b, c)|, mesh max |vertex| (body frame, COM at origin); plane inf.
+    sphere r, box |(a, b, c)|, capsule r + h, cylinder sqrt(r^2 + h^2), mesh, hull or triangle
+    mesh max |vertex| (body frame, COM at origin); plane inf.
     """
     kind = shape["type"]
     if kind == "sphere":
         return float(shape["radius"])
     if kind == "box":
         return float(np.linalg.norm(np.asarray(shape["half_extents"], dtype=float)))
-    if kind == "mesh":
+    if kind == "capsule":
+        return float(shape["radius"]) + float(shape["half_length"])
+    if kind == "cylinder":
+        return float(np.hypot(float(shape["radius"]), float(shape["half_height"])))
+    if kind in ("mesh", "hull", "trimesh"):
         return float(np.max(np.linalg.norm(np.asarray(shape["vertices"], dtype=float), axis=1)))
     if kind == "plane":
         return np.inf
@@ -154,37 +180,185 @@ def contact_box_sphere(p_box, R_box, half_extents, c, r):
     return (R_box @ y_l + p_box)[None, :], (R_box @ n_l)[None, :], np.array([gap])
 
 
-def _plane_against(plane, shape, p, R):
-    """Candidate features of a plane (A) against a body (B) with COM p (3,), rotation R (3, 3).
+def contact_sphere_capsule(c, r_s, p, R, r_c, h):
+    """Sphere (centre c (3,), radius r_s) against a capsule (COM p (3,), rotation R (3, 3),
+    radius r_c, half length h; segment p0 = p - h a, p1 = p + h a, a = R e_z), all m.
 
-    Returns (y, n, gap) for every candidate feature in the conventions' order, or None when
-    the pair is not handled (plane against plane).
+    t = the parameter of the segment point closest to c, clamped to [0, 1] (0 when h = 0),
+    q = p0 + t (p1 - p0), n_cap = (c - q) / |c - q| (R e_x when c = q), gap = |c - q| - r_c - r_s,
+    witnesses q + r_c n_cap (capsule) and c - r_s n_cap (sphere).
+    Outputs: y (1, 3), n_cap (1, 3) from the capsule towards the sphere, gap (1,), and the
+    capsule's feature (1,) np.uint64: vertex 0 if t = 0, vertex 1 if t = 1, else edge 0.
     """
-    normal, offset = plane["normal"], float(plane["offset"])
-    kind = shape["type"]
-    if kind == "sphere":
-        return contact_plane_sphere(normal, offset, p, float(shape["radius"]))
-    if kind == "box":
-        X = box_corners(shape["half_extents"])
-        return contact_plane_points(normal, offset, X @ R.T + p)
-    if kind == "mesh":
-        X = np.asarray(shape["vertices"], dtype=float)
-        return contact_plane_points(normal, offset, X @ R.T + p)
-    return None
+    c, p, R = (np.asarray(x, dtype=float) for x in (c, p, R))
+    a = R[:, 2]
+    p0, p1 = p - h * a, p + h * a
+    e = p1 - p0
+    t = 0.0 if e @ e == 0.0 else float(np.clip((c - p0) @ e / (e @ e), 0.0, 1.0))
+    q = p0 + t * e
+    d = c - q
+    dist = np.linalg.norm(d)
+    n_cap = d / dist if dist > 0.0 else R[:, 0]
+    gap = dist - r_c - r_s
+    y = 0.5 * ((q + r_c * n_cap) + (c - r_s * n_cap))
+    feature = (feature_id(VERTEX, 0) if t == 0.0 else feature_id(VERTEX, 1) if t == 1.0
+               else feature_id(EDGE, 0))
+    return y[None, :], n_cap[None, :], np.array([gap]), np.array([feature], dtype=np.uint64)
+
+
+def contact_plane_capsule(normal, offset, p, R, r_c, h):
+    """Plane {n . x = offset} (A) against a capsule (B: COM p (3,), rotation R (3, 3), radius r_c,
+    half length h, m): both segment ends p_0 = p - h a, p_1 = p + h a (a = R e_z) as spheres of
+    radius r_c: gap = n . p_k - offset - r_c, w_B = p_k - r_c n, y = w_B - gap n / 2.
+    Outputs: y (2, 3), n (2, 3), gap (2,), the capsule's features (2,) (vertex 0, vertex 1).
+    """
+    n = np.asarray(normal, dtype=float)
+    p, R = np.asarray(p, dtype=float), np.asarray(R, dtype=float)
+    ends = np.stack([p - h * R[:, 2], p + h * R[:, 2]])
+    gap = ends @ n - offset - r_c
+    y = ends - r_c * n - 0.5 * gap[:, None] * n
+    return y, np.tile(n, (2, 1)), gap, feature_id(VERTEX, np.arange(2))
+
+
+def contact_plane_cylinder(normal, offset, p, R, r, h):
+    """Plane {n . x = offset} (A) against a cylinder (B: centre p (3,), rotation R (3, 3), axis
+    a = R e_z, radius r, half height h, m).
+
+    For each cap s = 0 (c_0 = p - h a) and s = 1 (c_1 = p + h a): the 8 rim points
+    c_s + r (cos phi_k R e_x + sin phi_k R e_y), phi_k = k pi / 4, as vertex 8 s + k, then, where
+    u = -n + (n . a) a has |u| > 1e-12, the deepest rim point c_s + r u / |u| as edge s.  Each is a
+    point x of B against the plane (``contact_plane_points``).
+    Outputs: y (K, 3), n (K, 3), gap (K,), the cylinder's features (K,), K = 16 or 18.
+    """
+    n = np.asarray(normal, dtype=float)
+    p, R = np.asarray(p, dtype=float), np.asarray(R, dtype=float)
+    a = R[:, 2]
+    phi = np.arange(8) * np.pi / 4
+    rim = r * (np.cos(phi)[:, None] * R[:, 0] + np.sin(phi)[:, None] * R[:, 1])
+    caps = [p - h * a, p + h * a]
+    x = [c_s + rim for c_s in caps]
+    features = [feature_id(VERTEX, np.arange(16))]
+    u = -n + (n @ a) * a
+    if np.linalg.norm(u) > 1e-12:
+        x += [np.stack([c_s + r * u / np.linalg.norm(u) for c_s in caps])]
+        features += [feature_id(EDGE, np.arange(2))]
+    y, n_k, gap = contact_plane_points(n, offset, np.vstack(x))
+    return y, n_k, gap, np.concatenate(features)
+
+
+# --------------------------------------------------------------------------- dispatch
+#
+# Every pair function takes (shape_A, p_A, R_A, shape_B, p_B, R_B, threshold) with p (3,) the COM
+# and R (3, 3) the rotation of each body, and returns its candidates (y (K, 3), n (K, 3) from A
+# towards B, gap (K,), feature_a (K,), feature_b (K,)), world frame, m.  A plane is A.
+
+def _world_plane(plane, p, R):
+    """World normal R n (3,) and offset offset + (R n) . p of a plane body at (p, R)."""
+    n_w = R @ np.asarray(plane["normal"], dtype=float)
+    return n_w, float(plane["offset"]) + n_w @ p
+
+
+def _with_plane_feature(candidates):
+    y, n, gap, feature_b = candidates
+    return y, n, gap, np.full(len(gap), feature_id(FACE, 0), dtype=np.uint64), feature_b
+
+
+def _pair_plane_sphere(plane, p_A, R_A, sphere, p_B, R_B, threshold):
+    y, n, gap = contact_plane_sphere(*_world_plane(plane, p_A, R_A), p_B, float(sphere["radius"]))
+    return _with_plane_feature((y, n, gap, np.array([feature_id(SHAPE, 0)])))
+
+
+def _pair_plane_box(plane, p_A, R_A, box, p_B, R_B, threshold):
+    x = box_corners(box["half_extents"]) @ R_B.T + p_B
+    y, n, gap = contact_plane_points(*_world_plane(plane, p_A, R_A), x)
+    return _with_plane_feature((y, n, gap, feature_id(VERTEX, np.arange(8))))
+
+
+def _pair_plane_mesh(plane, p_A, R_A, mesh, p_B, R_B, threshold):
+    x = np.asarray(mesh["vertices"], dtype=float) @ R_B.T + p_B
+    y, n, gap = contact_plane_points(*_world_plane(plane, p_A, R_A), x)
+    return _with_plane_feature((y, n, gap, feature_id(VERTEX, np.arange(len(x)))))
+
+
+def _pair_plane_capsule(plane, p_A, R_A, capsule, p_B, R_B, threshold):
+    return _with_plane_feature(contact_plane_capsule(
+        *_world_plane(plane, p_A, R_A), p_B, R_B, float(capsule["radius"]),
+        float(capsule["half_length"])))
+
+
+def _pair_plane_cylinder(plane, p_A, R_A, cylinder, p_B, R_B, threshold):
+    return _with_plane_feature(contact_plane_cylinder(
+        *_world_plane(plane, p_A, R_A), p_B, R_B, float(cylinder["radius"]),
+        float(cylinder["half_height"])))
+
+
+def _pair_sphere_sphere(sphere_A, p_A, R_A, sphere_B, p_B, R_B, threshold):
+    y, n, gap = contact_sphere_sphere(p_A, float(sphere_A["radius"]), p_B, float(sphere_B["radius"]))
+    shape = np.array([feature_id(SHAPE, 0)])
+    return y, n, gap, shape, shape
+
+
+def _pair_box_sphere(box, p_A, R_A, sphere, p_B, R_B, threshold):
+    y, n, gap = contact_box_sphere(p_A, R_A, box["half_extents"], p_B, float(sphere["radius"]))
+    shape = np.array([feature_id(SHAPE, 0)])
+    return y, n, gap, shape, shape
+
+
+def _pair_sphere_box(sphere, p_A, R_A, box, p_B, R_B, threshold):
+    y, n, gap = contact_box_sphere(p_B, R_B, box["half_extents"], p_A, float(sphere["radius"]))
+    shape = np.array([feature_id(SHAPE, 0)])
+    return y, -n, gap, shape, shape
+
+
+def _pair_capsule_sphere(capsule, p_A, R_A, sphere, p_B, R_B, threshold):
+    y, n_cap, gap, feature = contact_sphere_capsule(
+        p_B, float(sphere["radius"]), p_A, R_A, float(capsule["radius"]), float(capsule["half_length"]))
+    return y, n_cap, gap, feature, np.array([feature_id(SHAPE, 0)])
+
+
+def _pair_sphere_capsule(sphere, p_A, R_A, capsule, p_B, R_B, threshold):
+    y, n_cap, gap, feature = contact_sphere_capsule(
+        p_A, float(sphere["radius"]), p_B, R_B, float(capsule["radius"]), float(capsule["half_length"]))
+    return y, -n_cap, gap, np.array([feature_id(SHAPE, 0)]), feature
+
+
+def _pair_box_box(box_A, p_A, R_A, box_B, p_B, R_B, threshold):
+    return contact_box_box(p_A, R_A, box_A["half_extents"], p_B, R_B, box_B["half_extents"], threshold)
+
+
+# (type of A, type of B) -> pair function; a pair missing here has no exact rule in the oracle
+PAIRS = {
+    ("plane", "sphere"): _pair_plane_sphere,
+    ("plane", "box"): _pair_plane_box,
+    ("plane", "mesh"): _pair_plane_mesh,
+    ("plane", "capsule"): _pair_plane_capsule,
+    ("plane", "cylinder"): _pair_plane_cylinder,
+    ("sphere", "sphere"): _pair_sphere_sphere,
+    ("box", "sphere"): _pair_box_sphere,
+    ("sphere", "box"): _pair_sphere_box,
+    ("capsule", "sphere"): _pair_capsule_sphere,
+    ("sphere", "capsule"): _pair_sphere_capsule,
+    ("box", "box"): _pair_box_box,
+}
+
+# pairs whose candidates are all kept (gap < threshold, their own order) instead of a manifold
+UNREDUCED = {("plane", "mesh")}
 
 
 def detect_contacts(snapshot, dt):
     """All contacts of the current state, in the order the PGS sweeps them.
 
     Pairs (i, j), i < j, lexicographic; static-static pairs skipped; within a pair the
-    features in the conventions' order.  A candidate becomes a contact when
-    gap < contact_margin + s_A + s_B (speculative reach ``speculative_reach``).
+    manifold's points in (feature_a, feature_b) order (plane - mesh: vertex order).  A candidate
+    becomes a contact when gap < contact_margin + s_A + s_B (speculative reach
+    ``speculative_reach``; against a plane only the approach counts, ``plane_reach``).
 
     Inputs: snapshot, dt s.
     Output: dict body_a (K,) int64, body_b (K,) int64, point (K, 3) m, normal (K, 3),
-            gap (K,) m, world frame, n from A towards B.
-    Raises NotImplementedError for a pair with no exact rule here (box-box, box-sphere,
-    anything-mesh other than plane-mesh) whose bounding spheres are within reach.
+            gap (K,) m, feature_a (K,) np.uint64, feature_b (K,) np.uint64, world frame,
+            n from A towards B.
+    Raises NotImplementedError for a pair with no exact rule here (not in ``PAIRS``) whose
+    bounding spheres are within reach.
     """
     bodies = snapshot["bodies"]
     static, _, _, _ = body_arrays(snapshot)
@@ -193,64 +367,65 @@ def detect_contacts(snapshot, dt):
     margin = float(snapshot["settings"]["contact_margin"])
     s = speculative_reach(snapshot, dt)
 
-    body_a, body_b, point, normal, gap = [], [], [], [], []
+    out = {key: [] for key in ("body_a", "body_b", "point", "normal", "gap", "feature_a", "feature_b")}
     N = len(bodies)
     for i in range(N):
         for j in range(i + 1, N):
             if static[i] and static[j]:
                 continue
-            shape_i, shape_j = bodies[i]["shape"], bodies[j]["shape"]
-            kinds = (shape_i["type"], shape_j["type"])
-            threshold = margin + s[i] + s[j]
 
             # choose A and B: a plane is always A, otherwise the lower index
-            candidates = None
             a, b = i, j
-            if kinds[1] == "plane" and kinds[0] != "plane":
+            if bodies[j]["shape"]["type"] == "plane" and bodies[i]["shape"]["type"] != "plane":
                 a, b = j, i
-            if kinds[0] == "plane" or kinds[1] == "plane":
-                if kinds[0] != kinds[1]:
-                    # the plane in world coordinates; the body's reach only towards it
-                    plane = bodies[a]["shape"]
-                    n_w = R[a] @ np.asarray(plane["normal"], dtype=float)
-                    world_plane = {"normal": n_w, "offset": float(plane["offset"]) + n_w @ p[a]}
-                    candidates = _plane_against(world_plane, bodies[b]["shape"], p[b], R[b])
-                    threshold = margin + plane_reach(snapshot, b, n_w, dt)
-            elif kinds == ("sphere", "sphere"):
-                candidates = contact_sphere_sphere(p[i], float(shape_i["radius"]),
-                                                   p[j], float(shape_j["radius"]))
-            elif kinds == ("box", "sphere"):
-                candidates = contact_box_sphere(p[i], R[i], shape_i["half_extents"], p[j],
-                                                float(shape_j["radius"]))
-            elif kinds == ("sphere", "box"):
-                y, n, d = contact_box_sphere(p[j], R[j], shape_j["half_extents"], p[i],
-                                             float(shape_i["radius"]))
-                candidates = (y, -n, d)
+            shape_a, shape_b = bodies[a]["shape"], bodies[b]["shape"]
+            kinds = (shape_a["type"], shape_b["type"])
 
-            if candidates is None:
+            # the threshold: margin + reach (towards a plane only the approach counts)
+            if kinds[0] == "plane" and kinds[1] != "plane":
+                n_w, _ = _world_plane(shape_a, p[a], R[a])
+                threshold = margin + plane_reach(snapshot, b, n_w, dt)
+            else:
+                threshold = margin + s[i] + s[j]
+
+            pair = PAIRS.get(kinds)
+            if pair is None:
                 # no exact rule: fail loudly unless the bounding spheres cannot touch
-                reach = (np.linalg.norm(p[j] - p[i]) - bounding_radius(shape_i)
-                         - bounding_radius(shape_j))
+                reach = (np.linalg.norm(p[j] - p[i]) - bounding_radius(bodies[i]["shape"])
+                         - bounding_radius(bodies[j]["shape"]))
                 if reach < threshold:
                     raise NotImplementedError(
-                        f"oracle has no exact contact for bodies {i} ({kinds[0]}) and "
-                        f"{j} ({kinds[1]})")
+                        f"oracle has no exact contact for bodies {i} ({bodies[i]['shape']['type']}) "
+                        f"and {j} ({bodies[j]['shape']['type']})")
                 continue
+            y, n, gap, feature_a, feature_b = pair(shape_a, p[a], R[a], shape_b, p[b], R[b], threshold)
 
-            # keep the features within the margin plus the speculative reach
-            y, n, d = candidates
-            keep = d < threshold
-            k = int(keep.sum())
-            body_a += [a] * k
-            body_b += [b] * k
-            point.append(y[keep])
-            normal.append(n[keep])
-            gap.append(d[keep])
+            # the pair's manifold: within the threshold, id order, at most 4 points
+            if kinds in UNREDUCED:
+                keep = gap < threshold
+                y, n, gap, feature_a, feature_b = (x[keep] for x in (y, n, gap, feature_a, feature_b))
+            else:
+                # L: the pair's length scale, the sum of its bounded shapes' bounding radii
+                L = sum(r for r in map(bounding_radius, (shape_a, shape_b)) if np.isfinite(r))
+                y, n, gap, feature_a, feature_b = select_manifold(y, n, gap, feature_a, feature_b,
+                                                                  threshold, L)
+            out["body_a"] += [a] * len(gap)
+            out["body_b"] += [b] * len(gap)
+            out["point"].append(y)
+            out["normal"].append(n)
+            out["gap"].append(gap)
+            out["feature_a"].append(feature_a)
+            out["feature_b"].append(feature_b)
+
+    def joined(parts, empty):
+        return np.concatenate(parts) if parts else empty
 
     return {
-        "body_a": np.array(body_a, dtype=np.int64),
-        "body_b": np.array(body_b, dtype=np.int64),
-        "point": np.concatenate(point).reshape(-1, 3) if point else np.zeros((0, 3)),
-        "normal": np.concatenate(normal).reshape(-1, 3) if normal else np.zeros((0, 3)),
-        "gap": np.concatenate(gap) if gap else np.zeros(0),
+        "body_a": np.array(out["body_a"], dtype=np.int64),
+        "body_b": np.array(out["body_b"], dtype=np.int64),
+        "point": joined(out["point"], np.zeros((0, 3))),
+        "normal": joined(out["normal"], np.zeros((0, 3))),
+        "gap": joined(out["gap"], np.zeros(0)),
+        "feature_a": joined(out["feature_a"], np.zeros(0, dtype=np.uint64)).astype(np.uint64),
+        "feature_b": joined(out["feature_b"], np.zeros(0, dtype=np.uint64)).astype(np.uint64),
     }
