@@ -263,10 +263,9 @@ def test_tilted_stack_prefers_the_face_to_a_slightly_better_edge_axis():
     # a unit box on a unit box, tilted by theta = 3 mrad about (1, 1, 0), its lowest corner 1 mm
     # deep (and outside A's top face): the edge pair (A's top edge along y, B's bottom edge along
     # x) separates better than any face, but by less than FACE_PREFERENCE L, so the contact is a
-    # face contact on A's top face (4 points, normal exactly +z) instead of one edge-edge point
-    # the stack would rock on.  Its deepest point is where those two edges cross, and its plane
-    # distance differs from the edge-edge separation by the cosine of the tilt between the
-    # edge axis and +z: less than |sep_E| theta^2.
+    # face contact on A's top face (4 points) instead of one edge-edge point the stack would
+    # rock on.  Its deepest point is where those two edges cross; the edges are nearly
+    # perpendicular to +z, so that point is their edge-edge contact, gap sep_E to rounding.
     h = np.full(3, 0.5)
     L = 2 * np.linalg.norm(h)
     theta = 3e-3

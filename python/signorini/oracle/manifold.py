@@ -379,12 +379,17 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
     Output: (y (K, 3) m, n (K, 3) from A towards B, gap (K,) m, feature_a (K,), feature_b (K,)
             np.uint64), world frame, in clipping order (``select_manifold`` filters, sorts and
             reduces them).  K = 0 when any of sep_A, sep_B, sep_E is >= threshold.
-    Faces are preferred: with tol = FACE_PREFERENCE L (L = |h_A| + |h_B|), the reference face is
-    face_a of A unless sep_B > sep_A + tol (then face_b of B), and the contact is edge-edge if
-    sep_E > max(sep_A, sep_B) + tol:
+    Faces are preferred among nearly parallel axes (|a . b| >= cos 0.05), L = |h_A| + |h_B|:
+    the reference face is face_a of A unless sep_B > sep_A + tol_F (then face_b of B),
+    tol_F = FACE_PREFERENCE L if the two faces are nearly parallel, else 1e-9 L; the contact is
+    edge-edge if sep_E > max(sep_A, sep_B) + tol_E, tol_E = FACE_PREFERENCE L if the edge axis is
+    nearly parallel to the better face's normal, else 1e-9 L:
       face: the incident face is the other box's face with the least n_inc . n_ref; its loop is
             clipped (``clip_incident_face``); each point q has gap = n_ref . q - d_ref,
-            y = q - gap n_ref / 2, n = n_ref if the reference face is A's, else -n_ref.
+            y = q - gap n_ref / 2, n = n_ref if the reference face is A's, else -n_ref; except a
+            crossing of two edges whose cross product is within 0.05 rad of n_ref and whose
+            closest points lie on both edges, which is their edge-edge contact
+            (``_edge_crossing``).
       edge: A's edge along u_i supporting A in +L, B's edge along w_j supporting B in -L;
             y = midpoint of the closest points of their lines, gap = sep_E, n = L.
     """
@@ -406,7 +411,8 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
     n_fb = sat["B"]["normals"][sat["face_b"]]
     tol_F = tol if abs(n_fa @ n_fb) >= NEARLY_PARALLEL else 1e-9 * L_scale
     n_better = n_fb if sat["sep_B"] > sat["sep_A"] else n_fa
-    tol_E = tol if sat["L_edge"] is not None and abs(sat["L_edge"] @ n_better) >= NEARLY_PARALLEL else 1e-9 * L_scale
+    edge_parallel = sat["L_edge"] is not None and abs(sat["L_edge"] @ n_better) >= NEARLY_PARALLEL
+    tol_E = tol if edge_parallel else 1e-9 * L_scale
     a_is_ref = not sat["sep_B"] > sat["sep_A"] + tol_F
     if sat["sep_E"] > max(sat["sep_A"], sat["sep_B"]) + tol_E:
         # edge-edge: the supporting edge of A along +L and of B along -L
@@ -435,7 +441,8 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
     # a crossing of two nearly parallel edges keeps their exact edge-edge distance
     for k in range(len(gap)):
         if feature_parts(ref_id[k])[1] == EDGE and feature_parts(inc_id[k])[1] == EDGE:
-            crossing = _edge_crossing(ref, int(feature_parts(ref_id[k])[2]), inc, int(feature_parts(inc_id[k])[2]), n_ref)
+            crossing = _edge_crossing(ref, int(feature_parts(ref_id[k])[2]), inc,
+                                      int(feature_parts(inc_id[k])[2]), n_ref)
             if crossing is not None:
                 gap[k], y[k], n[k] = crossing
     if not a_is_ref:
