@@ -44,21 +44,6 @@ double median(std::vector<double> x) {
 
 Mat3 rot(double angle, const Vec3& axis) { return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix(); }
 
-/// A flat floor [-s, s]^2 at z = 0 of n x n cells, 2 n^2 triangles, facing +z.
-TriangleMesh floor_mesh(double s, int n) {
-  Points v((n + 1) * (n + 1), 3);
-  for (int i = 0; i <= n; ++i)
-    for (int j = 0; j <= n; ++j) v.row(i * (n + 1) + j) << -s + 2 * s * i / n, -s + 2 * s * j / n, 0.0;
-  Triangles f(2 * n * n, 3);
-  int k = 0;
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const int a = i * (n + 1) + j, b = a + (n + 1), c = b + 1, d = a + 1;
-      f.row(k++) << a, b, c;
-      f.row(k++) << a, c, d;
-    }
-  return TriangleMesh(v, f);
-}
 
 /// Lowest z of a hull's vertices at rotation R (m).
 double lowest_z(const ConvexHull& h, const Mat3& R) { return (h.vertices * R.transpose()).col(2).minCoeff(); }
@@ -233,7 +218,7 @@ BroadResult time_broad_phase(int n, double volume_per_body) {
 }  // namespace
 
 int main() {
-  const TriangleMesh floor = floor_mesh(5.0, 20);
+  const TriangleMesh floor = scenes::floor_mesh(5.0, 20);
   const collision::TriangleQuery floor_query(floor);
   std::printf("narrow phase: collision::collide(), threshold %.3g m; poses perturbed by <= %.0e m, <= %.0e rad\n",
               kThreshold, kShift, kTurn);

@@ -1,5 +1,6 @@
-// Seeded random scenes written once and shared by the broad-phase tests (tests/cpp/
-// test_broad_phase.cpp) and the collision benchmark (benchmarks/bench_collision.cpp): random
+// Seeded random scenes written once and shared by the C++ tests (tests/cpp/test_broad_phase.cpp,
+// test_contacts.cpp) and the collision benchmark (benchmarks/bench_collision.cpp): a tessellated
+// floor, random
 // rotations, random convex shapes, and a Model + State of bodies scattered in a cube, built
 // without a World so that the broad phase and the narrow phase can be driven stage by stage.
 #pragma once
@@ -13,6 +14,22 @@
 #include "signorini/world.hpp"
 
 namespace signorini::scenes {
+
+/// A flat floor [-s, s]^2 at z = 0 of n x n cells, 2 n^2 triangles, facing +z.
+inline TriangleMesh floor_mesh(double s, int n) {
+  Points v((n + 1) * (n + 1), 3);
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j) v.row(i * (n + 1) + j) << -s + 2 * s * i / n, -s + 2 * s * j / n, 0.0;
+  Triangles f(2 * n * n, 3);
+  int k = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const int a = i * (n + 1) + j, b = a + (n + 1), c = b + 1, d = a + 1;
+      f.row(k++) << a, b, c;
+      f.row(k++) << a, c, d;
+    }
+  return TriangleMesh(v, f);
+}
 
 /// Uniform random rotation (a normalised 4-d Gaussian as a quaternion).
 inline Mat3 random_rotation(std::mt19937_64& rng) {

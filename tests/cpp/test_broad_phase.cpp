@@ -52,21 +52,6 @@ std::vector<Pair> brute_force_pairs(const scenes::Scene& scene, const std::vecto
   return pairs;
 }
 
-/// A flat square floor [-s, s]^2 at z = 0 made of 2 n^2 triangles, facing +z.
-TriangleMesh floor_mesh(double s, int n) {
-  Points v((n + 1) * (n + 1), 3);
-  for (int i = 0; i <= n; ++i)
-    for (int j = 0; j <= n; ++j) v.row(i * (n + 1) + j) << -s + 2 * s * i / n, -s + 2 * s * j / n, 0.0;
-  Triangles f(2 * n * n, 3);
-  int k = 0;
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const int a = i * (n + 1) + j, b = a + (n + 1), c = b + 1, d = a + 1;
-      f.row(k++) << a, b, c;
-      f.row(k++) << a, c, d;
-    }
-  return TriangleMesh(v, f);
-}
 
 using Ids = std::vector<std::pair<FeatureId, FeatureId>>;
 
@@ -274,7 +259,7 @@ TEST(Resting, BoxOnATriangleMeshFloorKeepsFourContactsWithTheSameIds) {
   // a flat 4 x 4-cell grid of 32 triangles, [-2, 2]^2 at z = 0; the box covers interior edges
   World world;
   BodyDesc floor;
-  floor.shape = floor_mesh(2.0, 4);
+  floor.shape = scenes::floor_mesh(2.0, 4);
   floor.is_static = true;
   ASSERT_EQ(std::get<TriangleMesh>(floor.shape).faces.rows(), 32);
   world.add_body(floor);

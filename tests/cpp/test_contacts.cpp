@@ -7,9 +7,11 @@
 
 #include "collision/collision.hpp"
 #include "math/rotation.hpp"
+#include "random_scene.hpp"
 
 using namespace signorini;
 using collision::Pose;
+using scenes::floor_mesh;
 
 namespace {
 
@@ -23,21 +25,6 @@ std::vector<Contact> collide(const Shape& a, const Pose& pa, const Shape& b, con
 
 Mat3 rot_z(double angle) { return Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRotationMatrix(); }
 
-/// A flat square floor [-s, s]^2 at z = 0 made of 2 n^2 triangles.
-TriangleMesh floor_mesh(double s, int n) {
-  Points v((n + 1) * (n + 1), 3);
-  for (int i = 0; i <= n; ++i)
-    for (int j = 0; j <= n; ++j) v.row(i * (n + 1) + j) << -s + 2 * s * i / n, -s + 2 * s * j / n, 0.0;
-  Triangles f(2 * n * n, 3);
-  int k = 0;
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const int a = i * (n + 1) + j, b = a + (n + 1), c = b + 1, d = a + 1;
-      f.row(k++) << a, b, c;
-      f.row(k++) << a, c, d;
-    }
-  return TriangleMesh(v, f);
-}
 
 }  // namespace
 

@@ -126,6 +126,33 @@ struct ClipVertex {
   bool keep = true;  ///< false when made on an inactive side of a triangle-mesh face
 };
 
+/// Parameters s, t of the closest points p0 + s u and q0 + t w of two non-parallel lines.
+void closest_on_lines(const Vec3& p0, const Vec3& u, const Vec3& q0, const Vec3& w, double& s, double& t) {
+  const Vec3 r = p0 - q0;
+  const double uu = u.dot(u), ww = w.dot(w), uw = u.dot(w), ur = u.dot(r), wr = w.dot(r);
+  const double det = uw * uw - uu * ww;  // non-zero: the lines are not parallel
+  s = (ur * ww - uw * wr) / det;
+  t = (uw * ur - uu * wr) / det;
+}
+
+/// The edge-edge contact of the query e (A's edge e.edge_a against B's e.edge_b along e.axis, in
+/// A's frame): one point, midway between the closest points of the two edge lines.
+void edge_contact(const View& A, const View& B, const EdgeQuery& e, const Pose& pa, std::vector<Contact>& out) {
+  const auto& EA = A.topo->edges[e.edge_a];
+  const auto& EB = B.topo->edges[e.edge_b];
+  const Vec3 p0 = A.v[EA.v0], u = A.v[EA.v1] - p0;
+  const Vec3 q0 = B.v[EB.v0], w = B.v[EB.v1] - q0;
+  double s, t;
+  closest_on_lines(p0, u, q0, w, s, t);
+  Contact c;
+  c.point = pa.R * (0.5 * ((p0 + s * u) + (q0 + t * w))) + pa.p;
+  c.normal = pa.R * e.axis;
+  c.gap = e.separation;
+  c.feature_a = A.id(FeatureKind::Edge, e.edge_a);
+  c.feature_b = B.id(FeatureKind::Edge, e.edge_b);
+  out.push_back(c);
+}
+
 /// A clipped point where an incident edge crosses a side of the reference face: when the two edges
 /// are nearly perpendicular to n_ref (their cross product within 0.05 rad of it) and their closest
 /// points lie on both, the contact there is edge against edge, so its gap, point and normal become
@@ -142,10 +169,8 @@ void edge_crossing(const View& ref, FeatureId ref_edge, const View& inc, Feature
   L /= len;
   if (L.dot(n_ref) < 0.0) L = -L;
   if (L.dot(n_ref) < kNearlyParallel) return;
-  const Vec3 r = p0 - q0;
-  const double uu = u.dot(u), ww = w.dot(w), uw = u.dot(w), ur = u.dot(r), wr = w.dot(r);
-  const double det = uw * uw - uu * ww;
-  const double s = (ur * ww - uw * wr) / det, t = (uw * ur - uu * wr) / det;
+  double s, t;
+  closest_on_lines(p0, u, q0, w, s, t);
   if (s < 0.0 || s > 1.0 || t < 0.0 || t > 1.0) return;
   const Vec3 x_ref = p0 + s * u, x_inc = q0 + t * w;
   gap = L.dot(x_inc - x_ref);
@@ -267,22 +292,7 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   const double edge_tol = std::abs(e.axis.dot(n_face)) >= kNearlyParallel ? kFacePreference * L : 1e-9 * L;
   const double tol = kFacePreference * L;
   if (e.edge_a >= 0 && e.separation > std::max(fa.separation, fb.separation) + edge_tol) {
-    // edge-edge: one point, midway between the closest points of the two edge lines
-    const auto& EA = a.edges[e.edge_a];
-    const auto& EB = b.edges[e.edge_b];
-    const Vec3 p0 = A.v[EA.v0], u = A.v[EA.v1] - p0;
-    const Vec3 q0 = B.v[EB.v0], w = B.v[EB.v1] - q0;
-    const Vec3 r = p0 - q0;
-    const double uu = u.dot(u), ww = w.dot(w), uw = u.dot(w), ur = u.dot(r), wr = w.dot(r);
-    const double det = uw * uw - uu * ww;  // non-zero: the edges are not parallel
-    const double s = (ur * ww - uw * wr) / det, t = (uw * ur - uu * wr) / det;
-    Contact c;
-    c.point = pa.R * (0.5 * ((p0 + s * u) + (q0 + t * w))) + pa.p;
-    c.normal = pa.R * e.axis;
-    c.gap = e.separation;
-    c.feature_a = A.id(FeatureKind::Edge, e.edge_a);
-    c.feature_b = B.id(FeatureKind::Edge, e.edge_b);
-    out.push_back(c);
+    edge_contact(A, B, e, pa, out);
     return;
   }
   const double face_tol = std::abs(A.n[fa.face].dot(B.n[fb.face])) >= kNearlyParallel ? tol : 1e-9 * L;
@@ -344,21 +354,7 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
   }
   if (!(e.separation < threshold)) return;
   if (e.edge_a >= 0 && e.separation > std::max(sep_a, fb.separation) + tol) {
-    const auto& EA = tri.edges[e.edge_a];
-    const auto& EB = b.edges[e.edge_b];
-    const Vec3 p0 = A.v[EA.v0], u = A.v[EA.v1] - p0;
-    const Vec3 q0 = B.v[EB.v0], w = B.v[EB.v1] - q0;
-    const Vec3 r = p0 - q0;
-    const double uu = u.dot(u), ww = w.dot(w), uw = u.dot(w), ur = u.dot(r), wr = w.dot(r);
-    const double det = uw * uw - uu * ww;
-    const double s = (ur * ww - uw * wr) / det, t = (uw * ur - uu * wr) / det;
-    Contact c;
-    c.point = pa.R * (0.5 * ((p0 + s * u) + (q0 + t * w))) + pa.p;
-    c.normal = pa.R * e.axis;
-    c.gap = e.separation;
-    c.feature_a = A.id(FeatureKind::Edge, e.edge_a);
-    c.feature_b = B.id(FeatureKind::Edge, e.edge_b);
-    out.push_back(c);
+    edge_contact(A, B, e, pa, out);
     return;
   }
   if (fb.separation > sep_a + tol)
