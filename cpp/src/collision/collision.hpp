@@ -99,6 +99,12 @@ void finish_manifold(std::vector<Contact>& candidates, double threshold, double 
 void plane_contacts(const Plane& plane, const Pose& pa, const Shape& b, const Pose& pb, double threshold,
                     std::vector<Contact>& out);
 
+/// Contact of two rounded points: core points x_a, x_b (world) with radii r_a, r_b; normal along
+/// x_b - x_a (n_hint where they coincide), gap |x_b - x_a| - r_a - r_b, point midway between the
+/// surface witnesses. Spheres, and capsules as rounded segments, are all this.
+Contact rounded_contact(const Vec3& x_a, double r_a, const Vec3& x_b, double r_b, const Vec3& n_hint,
+                        FeatureId fa, FeatureId fb);
+
 /// Exact sphere-sphere contact, one candidate.
 void sphere_sphere(const Vec3& c_a, double r_a, const Vec3& c_b, double r_b, std::vector<Contact>& out);
 

@@ -154,17 +154,23 @@ void plane_contacts(const Plane& plane, const Pose& pa, const Shape& b, const Po
   }
 }
 
-void sphere_sphere(const Vec3& c_a, double r_a, const Vec3& c_b, double r_b, std::vector<Contact>& out) {
-  const Vec3 d = c_b - c_a;
+Contact rounded_contact(const Vec3& x_a, double r_a, const Vec3& x_b, double r_b, const Vec3& n_hint,
+                        FeatureId fa, FeatureId fb) {
+  const Vec3 d = x_b - x_a;
   const double dist = d.norm();
   Contact c;
-  // coincident centres have no direction: pick +z, as any unit vector is a valid normal there
-  c.normal = dist > 0.0 ? Vec3(d / dist) : Vec3::UnitZ();
+  c.normal = dist > 0.0 ? Vec3(d / dist) : n_hint;
   c.gap = dist - r_a - r_b;
-  c.point = 0.5 * ((c_a + r_a * c.normal) + (c_b - r_b * c.normal));
-  c.feature_a = feature_id(FeatureKind::Shape, 0);
-  c.feature_b = feature_id(FeatureKind::Shape, 0);
-  out.push_back(c);
+  c.point = 0.5 * ((x_a + r_a * c.normal) + (x_b - r_b * c.normal));
+  c.feature_a = fa;
+  c.feature_b = fb;
+  return c;
+}
+
+void sphere_sphere(const Vec3& c_a, double r_a, const Vec3& c_b, double r_b, std::vector<Contact>& out) {
+  // coincident centres have no direction: +z, as any unit vector is a valid normal there
+  out.push_back(rounded_contact(c_a, r_a, c_b, r_b, Vec3::UnitZ(), feature_id(FeatureKind::Shape, 0),
+                                feature_id(FeatureKind::Shape, 0)));
 }
 
 void item_sphere(const Item& item, const Vec3& c, double r, std::vector<Contact>& out) {

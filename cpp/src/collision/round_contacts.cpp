@@ -53,21 +53,6 @@ FeatureId segment_feature(double t, std::uint32_t part) {
                     : feature_id(FeatureKind::Edge, 0, part);
 }
 
-/// Contact between two rounded points: core points x_a, x_b with radii r_a, r_b (world); n_hint
-/// is the normal used when the cores coincide.
-Contact rounded(const Vec3& x_a, double r_a, const Vec3& x_b, double r_b, const Vec3& n_hint, FeatureId fa,
-                FeatureId fb) {
-  const Vec3 d = x_b - x_a;
-  const double dist = d.norm();
-  Contact c;
-  c.normal = dist > 0.0 ? Vec3(d / dist) : n_hint;
-  c.gap = dist - r_a - r_b;
-  c.point = 0.5 * ((x_a + r_a * c.normal) + (x_b - r_b * c.normal));
-  c.feature_a = fa;
-  c.feature_b = fb;
-  return c;
-}
-
 /// Closest point to x on a convex polytope's surface (x outside), in the polytope's frame.
 Vec3 closest_on_polytope(const Polytope& P, const Vec3& x) {
   double best = kInf;
@@ -119,7 +104,7 @@ void capsule_capsule(const Capsule& a, const Pose& pa, std::uint32_t part_a, con
       for (double s : {lo, hi}) {
         const Vec3 x_a = P0 + s * d1;
         const double t = std::clamp((x_a - Q0).dot(d2) / d2.squaredNorm(), 0.0, 1.0);
-        Contact c = rounded(x_a, a.radius, Q0 + t * d2, b.radius, pa.R.col(0), segment_feature(s, part_a),
+        Contact c = rounded_contact(x_a, a.radius, Q0 + t * d2, b.radius, pa.R.col(0), segment_feature(s, part_a),
                             segment_feature(t, part_b));
         if (c.gap < threshold) out.push_back(c);
       }
@@ -128,7 +113,7 @@ void capsule_capsule(const Capsule& a, const Pose& pa, std::uint32_t part_a, con
   }
   double s, t;
   closest_segments(P0, P1, Q0, Q1, s, t);
-  Contact c = rounded(P0 + s * d1, a.radius, Q0 + t * d2, b.radius, pa.R.col(0), segment_feature(s, part_a),
+  Contact c = rounded_contact(P0 + s * d1, a.radius, Q0 + t * d2, b.radius, pa.R.col(0), segment_feature(s, part_a),
                       segment_feature(t, part_b));
   if (c.gap < threshold) out.push_back(c);
 }
