@@ -7,8 +7,10 @@
 #include <vector>
 
 #include "signorini/contact.hpp"
+#include "signorini/model.hpp"
 #include "signorini/shapes.hpp"
 #include "signorini/solver.hpp"
+#include "signorini/state.hpp"
 #include "signorini/types.hpp"
 
 namespace signorini {
@@ -32,29 +34,7 @@ struct BodyDesc {
   Quat4 orientation = Quat4(1, 0, 0, 0); ///< (w, x, y, z), world-from-body
   Vec3 velocity = Vec3::Zero();          ///< m/s
   Vec3 angular_velocity = Vec3::Zero();  ///< rad/s, world frame
-};
-
-/// Static description of the bodies (written by add_body, read by every stage). One entry per body.
-struct Model {
-  std::vector<Shape> shape;      ///< body frame; a dynamic mesh is re-centred on its com
-  std::vector<bool> is_static;
-  std::vector<double> mass;      ///< kg (infinity for static)
-  std::vector<double> inv_mass;  ///< 1/kg (0 for static)
-  std::vector<Mat3> I_body;      ///< inertia about the com, body axes (kg m^2; zero for static)
-  std::vector<Mat3> I_body_inv;  ///< its inverse (zero for static)
-  std::vector<double> rho;       ///< bounding radius about the body origin (m; inf for a plane)
-  std::size_t size() const { return shape.size(); }
-};
-
-/// Dynamic state, one entry per body. Written by integrate (p, R, v, omega) and by the user.
-struct State {
-  std::vector<Vec3> p;      ///< com position, world (m)
-  std::vector<Mat3> R;      ///< rotation world-from-body
-  std::vector<Vec3> v;      ///< p_dot, world (m/s)
-  std::vector<Vec3> omega;  ///< angular velocity, world (rad/s)
-  std::vector<Vec3> f_ext;  ///< external force, world (N), applied every step
-  std::vector<Vec3> tau_ext;///< external torque about the com, world (N m), applied every step
-  double time = 0.0;        ///< s
+  Material material;                     ///< friction >= 0, restitution in [0, 1]
 };
 
 class World {

@@ -13,7 +13,8 @@
 
 #include "signorini/contact.hpp"
 #include "signorini/shapes.hpp"
-#include "signorini/world.hpp"
+#include "signorini/model.hpp"
+#include "signorini/state.hpp"
 
 namespace signorini::collision {
 

@@ -3,7 +3,8 @@
 
 #include <Eigen/Core>
 
-#include "signorini/world.hpp"
+#include "signorini/model.hpp"
+#include "signorini/state.hpp"
 
 namespace signorini::dynamics {
 

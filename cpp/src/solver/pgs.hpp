@@ -5,7 +5,8 @@
 
 #include "signorini/contact.hpp"
 #include "signorini/solver.hpp"
-#include "signorini/world.hpp"
+#include "signorini/model.hpp"
+#include "signorini/state.hpp"
 
 namespace signorini::solver {
 

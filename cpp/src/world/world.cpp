@@ -141,6 +141,7 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   model_.inv_mass.push_back(inv_mass);
   model_.I_body.push_back(I_body);
   model_.I_body_inv.push_back(I_body_inv);
+  model_.material.push_back(desc.material);
   state_.p.push_back(position);
   state_.R.push_back(R);
   state_.v.push_back(desc.velocity);
