@@ -71,13 +71,14 @@ inline py::object from_shape(const Shape& shape) {
 }
 
 /// Contacts as a dict of arrays: body_a, body_b (K,) int64; point, normal (K, 3); gap, alpha,
-/// impulse (K,); feature_a, feature_b (K,) uint64 (docs/conventions.md, "Feature ids").
+/// impulse, normal_velocity (K,); friction, force, slip (K, 3); feature_a, feature_b (K,) uint64
+/// (docs/conventions.md, "Feature ids" and "The Signorini certificate").
 inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
   const auto K = static_cast<py::ssize_t>(contacts.size());
   py::array_t<std::int64_t> a(K), b(K);
   py::array_t<std::uint64_t> fa(K), fb(K);
-  py::array_t<double> gap(K), alpha(K), impulse(K);
-  std::vector<Vec3> point, normal;
+  py::array_t<double> gap(K), alpha(K), impulse(K), vn(K);
+  std::vector<Vec3> point, normal, friction, force, slip;
   for (py::ssize_t i = 0; i < K; ++i) {
     const Contact& c = contacts[i];
     a.mutable_at(i) = c.body_a;
@@ -87,8 +88,12 @@ inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
     gap.mutable_at(i) = c.gap;
     alpha.mutable_at(i) = c.alpha;
     impulse.mutable_at(i) = c.impulse;
+    vn.mutable_at(i) = c.normal_velocity;
     point.push_back(c.point);
     normal.push_back(c.normal);
+    friction.push_back(c.friction);
+    force.push_back(c.force);
+    slip.push_back(c.slip);
   }
   py::dict d;
   d["body_a"] = a;
@@ -98,8 +103,39 @@ inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
   d["gap"] = gap;
   d["alpha"] = alpha;
   d["impulse"] = impulse;
+  d["friction"] = rows_of(friction);
+  d["force"] = rows_of(force);
+  d["normal_velocity"] = vn;
+  d["slip"] = rows_of(slip);
   d["feature_a"] = fa;
   d["feature_b"] = fb;
+  return d;
+}
+
+/// The warm-start cache as a dict of arrays: body_a, body_b (K,) int64; feature_a, feature_b (K,)
+/// uint64; alpha (K,) N; friction (K, 3) N, world.
+inline py::dict cache_arrays(const std::vector<CachedContact>& cache) {
+  const auto K = static_cast<py::ssize_t>(cache.size());
+  py::array_t<std::int64_t> a(K), b(K);
+  py::array_t<std::uint64_t> fa(K), fb(K);
+  py::array_t<double> alpha(K);
+  std::vector<Vec3> friction;
+  for (py::ssize_t i = 0; i < K; ++i) {
+    const CachedContact& c = cache[i];
+    a.mutable_at(i) = c.body_a;
+    b.mutable_at(i) = c.body_b;
+    fa.mutable_at(i) = c.feature_a;
+    fb.mutable_at(i) = c.feature_b;
+    alpha.mutable_at(i) = c.alpha;
+    friction.push_back(c.friction);
+  }
+  py::dict d;
+  d["body_a"] = a;
+  d["body_b"] = b;
+  d["feature_a"] = fa;
+  d["feature_b"] = fb;
+  d["alpha"] = alpha;
+  d["friction"] = rows_of(friction);
   return d;
 }
 

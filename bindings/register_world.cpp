@@ -9,21 +9,41 @@ using namespace signorini;
 using bindings::contact_arrays;
 
 void register_world(py::module_& m) {
+  py::enum_<FrictionCone>(m, "FrictionCone").value("pyramid", FrictionCone::Pyramid).value("cone", FrictionCone::Cone);
+  py::enum_<Gyroscopic>(m, "Gyroscopic")
+      .value("midpoint", Gyroscopic::Midpoint)
+      .value("implicit", Gyroscopic::Implicit)
+      .value("explicit", Gyroscopic::Explicit);
+
+  // solver settings: plain fields, validated by World (docs/conventions.md, "Defaults")
+  py::class_<SolverSettings>(m, "SolverSettings")
+      .def(py::init<>())
+      .def_readwrite("erp", &SolverSettings::erp)
+      .def_readwrite("tolerance", &SolverSettings::tolerance)
+      .def_readwrite("max_iterations", &SolverSettings::max_iterations)
+      .def_readwrite("slop", &SolverSettings::slop)
+      .def_readwrite("max_push_velocity", &SolverSettings::max_push_velocity)
+      .def_readwrite("restitution_threshold", &SolverSettings::restitution_threshold)
+      .def_readwrite("friction_cone", &SolverSettings::friction_cone)
+      .def_readwrite("gyroscopic", &SolverSettings::gyroscopic)
+      .def_readwrite("warm_start", &SolverSettings::warm_start)
+      .def_readwrite("substeps", &SolverSettings::substeps)
+      .def_readwrite("warn_velocity", &SolverSettings::warn_velocity);
+
   py::class_<World>(m, "World")
-      .def(py::init([](const Vec3& gravity, double margin, double erp, double tolerance, int max_iterations) {
+      .def(py::init([](const Vec3& gravity, double margin, const SolverSettings& solver) {
              WorldSettings s;
              s.gravity = gravity;
              s.contact_margin = margin;
-             s.solver.erp = erp;
-             s.solver.tolerance = tolerance;
-             s.solver.max_iterations = max_iterations;
+             s.solver = solver;
              return std::make_unique<World>(s);
            }),
-           py::arg("gravity"), py::arg("contact_margin"), py::arg("erp"), py::arg("tolerance"), py::arg("max_iterations"))
+           py::arg("gravity"), py::arg("contact_margin"), py::arg("solver"))
       .def(
           "add_body",
           [](World& w, const py::object& shape, bool is_static, std::optional<double> density, std::optional<double> mass,
-             const Vec3& position, const Quat4& orientation, const Vec3& velocity, const Vec3& angular_velocity) {
+             const Vec3& position, const Quat4& orientation, const Vec3& velocity, const Vec3& angular_velocity,
+             double friction, double restitution) {
             BodyDesc d;
             d.shape = bindings::to_shape(shape, "body " + std::to_string(w.num_bodies()));
             d.is_static = is_static;
@@ -33,16 +53,27 @@ void register_world(py::module_& m) {
             d.orientation = orientation;
             d.velocity = velocity;
             d.angular_velocity = angular_velocity;
+            d.material.friction = friction;
+            d.material.restitution = restitution;
             return w.add_body(d);
           },
           py::arg("shape"), py::arg("is_static"), py::arg("density"), py::arg("mass"), py::arg("position"),
-          py::arg("orientation"), py::arg("velocity"), py::arg("angular_velocity"))
+          py::arg("orientation"), py::arg("velocity"), py::arg("angular_velocity"), py::arg("friction"),
+          py::arg("restitution"))
       .def("step", &World::step, py::arg("dt"), py::arg("steps") = 1, py::call_guard<py::gil_scoped_release>())
       .def("set_position", &World::set_position)
       .def("set_orientation", &World::set_orientation)
       .def("set_velocity", &World::set_velocity)
       .def("set_angular_velocity", &World::set_angular_velocity)
       .def("set_external_wrench", &World::set_external_wrench)
+      .def("set_material", [](World& w, BodyIndex i, double friction, double restitution) {
+        w.set_material(i, Material{friction, restitution});
+      })
+      .def("set_solver", [](World& w, const SolverSettings& solver) {
+        WorldSettings s = w.settings();
+        s.solver = solver;
+        w.set_settings(s);
+      })
       .def("shape", [](const World& w, BodyIndex i) {
         if (i < 0 || static_cast<std::size_t>(i) >= w.num_bodies()) throw std::out_of_range("body index " + std::to_string(i) + " is out of range");
         return bindings::from_shape(w.model().shape[i]);
@@ -70,6 +101,16 @@ void register_world(py::module_& m) {
       .def_property_readonly("inv_masses", [](const World& w) { return py::array_t<double>(py::cast(w.model().inv_mass)); })
       .def_property_readonly("inertias", [](const World& w) { return bindings::stack_of(w.model().I_body); })
       .def_property_readonly("inv_inertias", [](const World& w) { return bindings::stack_of(w.model().I_body_inv); })
+      .def_property_readonly("frictions", [](const World& w) {
+        py::array_t<double> out(static_cast<py::ssize_t>(w.num_bodies()));
+        for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().material[i].friction;
+        return out;
+      })
+      .def_property_readonly("restitutions", [](const World& w) {
+        py::array_t<double> out(static_cast<py::ssize_t>(w.num_bodies()));
+        for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().material[i].restitution;
+        return out;
+      })
       .def_property_readonly("is_static", [](const World& w) {
         std::vector<bool> s(w.model().is_static.begin(), w.model().is_static.end());
         return py::array_t<bool>(py::cast(s));
@@ -77,9 +118,7 @@ void register_world(py::module_& m) {
       // settings
       .def_property_readonly("gravity", [](const World& w) { return w.settings().gravity; })
       .def_property_readonly("contact_margin", [](const World& w) { return w.settings().contact_margin; })
-      .def_property_readonly("erp", [](const World& w) { return w.settings().solver.erp; })
-      .def_property_readonly("tolerance", [](const World& w) { return w.settings().solver.tolerance; })
-      .def_property_readonly("max_iterations", [](const World& w) { return w.settings().solver.max_iterations; })
+      .def_property_readonly("solver", [](const World& w) { return w.settings().solver; })
       // last step
       .def_property_readonly("contacts", [](const World& w) { return contact_arrays(w.contacts()); })
       .def("detect_contacts", [](const World& w, double dt) { return contact_arrays(w.detect_contacts(dt)); }, py::arg("dt"))
@@ -87,11 +126,32 @@ void register_world(py::module_& m) {
         const SolverStats& s = w.solver_stats();
         py::dict d;
         d["iterations"] = s.iterations;
-        d["residual"] = s.residual;
+        d["restitution_iterations"] = s.restitution_iterations;
+        d["position_iterations"] = s.position_iterations;
         d["converged"] = s.converged;
         d["contacts"] = s.contacts;
+        d["residual"] = s.residual;
+        d["max_alpha_negative"] = s.max_alpha_negative;
+        d["max_penetration_velocity"] = s.max_penetration_velocity;
+        d["max_complementarity"] = s.max_complementarity;
+        d["max_cone_violation"] = s.max_cone_violation;
+        d["max_dissipation_violation"] = s.max_dissipation_violation;
+        d["max_overlap"] = s.max_overlap;
         return d;
       })
+      .def_property_readonly("step_report", [](const World& w) {
+        const StepReport& r = w.step_report();
+        py::dict d;
+        d["steps"] = r.steps;
+        d["flagged"] = r.flagged;
+        d["worst_penetration_velocity"] = r.worst_penetration_velocity;
+        d["worst_time"] = r.worst_time;
+        return d;
+      })
+      // per body (N x 3): summed contact force (N) and torque about the com (N m) of the last step
+      .def_property_readonly("contact_forces", [](const World& w) { return bindings::rows_of(w.contact_forces()); })
+      .def_property_readonly("contact_torques", [](const World& w) { return bindings::rows_of(w.contact_torques()); })
+      .def_property_readonly("warm_start_cache", [](const World& w) { return bindings::cache_arrays(w.warm_start_cache()); })
       .def("kinetic_energy", &World::kinetic_energy)
       .def("potential_energy", &World::potential_energy);
 }

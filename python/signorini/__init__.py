@@ -10,10 +10,10 @@
 the core against it; ``python -m signorini run`` runs a built-in scene.
 """
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
-from .world import BodyIndexError, Contacts, SolverStats, World, mass_properties, shape_dict
+from .world import BodyIndexError, Contacts, SolverStats, SolverWarning, World, mass_properties, shape_dict
 from .collision import Feature, collide, feature
 
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
            "Compound", "mass_properties", "Contacts", "SolverStats",
-           "BodyIndexError", "shape_dict", "collide", "feature", "Feature"]
+           "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature"]
 __version__ = "0.1.0"

@@ -6,6 +6,7 @@ and wraps the core's arrays into small result objects.
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +21,11 @@ class BodyIndexError(IndexError, ValueError):
     """A body index that is not in the world (both an IndexError and a ValueError)."""
 
 
+class SolverWarning(RuntimeWarning):
+    """A step ended with the contact solver unconverged and a contact still approaching faster
+    than ``warn_velocity`` allows (see ``World.solver_stats``)."""
+
+
 @dataclass(frozen=True)
 class Contacts:
     """Contacts of the last step, one row per contact (K rows).
@@ -28,8 +34,12 @@ class Contacts:
     point: (K, 3) world contact points y_i (m), midway between the witness points on A and B.
     normal: (K, 3) world unit normals n_i.
     gap: (K,) signed distances along n_i (m), negative when overlapping.
-    alpha: (K,) contact force magnitudes alpha_i (N), as in the lecture notes.
+    alpha: (K,) normal forces alpha_i >= 0 (N), as in the lecture notes.
     impulse: (K,) impulses dt * alpha_i (N s) applied as +impulse n on B and -impulse n on A.
+    friction: (K, 3) friction forces on B (N, world, tangent to n); A gets the opposite.
+    force: (K, 3) total contact forces on B, alpha n + friction (N, world).
+    normal_velocity: (K,) n . (v_B(y) - v_A(y)) after the solve (m/s; > 0 separating).
+    slip: (K, 3) tangential velocity of B's point against A's after the solve (m/s, world).
     feature_a, feature_b: (K,) uint64 feature ids of the point on A and on B, the same from one
         step to the next for the same contact: part * 2**32 + kind * 2**28 + index, kind 0 whole
         shape, 1 vertex, 2 edge, 3 face (see ``signorini.feature``).
@@ -42,6 +52,10 @@ class Contacts:
     gap: np.ndarray
     alpha: np.ndarray
     impulse: np.ndarray
+    friction: np.ndarray
+    force: np.ndarray
+    normal_velocity: np.ndarray
+    slip: np.ndarray
     feature_a: np.ndarray
     feature_b: np.ndarray
 
@@ -50,19 +64,74 @@ class Contacts:
 
     def as_dict(self) -> dict:
         """The arrays as a dict (the oracle's contact format)."""
-        return {k: getattr(self, k) for k in ("body_a", "body_b", "point", "normal", "gap", "alpha", "impulse",
-                                              "feature_a", "feature_b")}
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
 
 @dataclass(frozen=True)
 class SolverStats:
-    """What the last step's PGS did: sweeps used, whether it met the tolerance, the Signorini
-    residual max_i |min(delta_i alpha_i, w_i)| (m/s), and the number of contacts."""
+    """What the last step's contact solver did, and its Signorini certificate
+    (docs/conventions.md, "The Signorini certificate"; w_i = normal velocity + the row's target).
+
+    iterations, restitution_iterations, position_iterations: sweeps of each stage.
+    converged: the iterate stage met ``tolerance``. contacts: number of contacts.
+    residual: natural residual over all rows (m/s).
+    max_alpha_negative (N): push only. max_penetration_velocity (m/s): no approach beyond the gap.
+    max_complementarity (W): max |alpha_i w_i|. max_cone_violation (N): |f| <= mu alpha.
+    max_dissipation_violation (N): sliding friction opposite the slip, on the cone's edge.
+    max_overlap (m): the deepest overlap at the start of the step.
+    """
 
     iterations: int
-    residual: float
+    restitution_iterations: int
+    position_iterations: int
     converged: bool
     contacts: int
+    residual: float
+    max_alpha_negative: float
+    max_penetration_velocity: float
+    max_complementarity: float
+    max_cone_violation: float
+    max_dissipation_violation: float
+    max_overlap: float
+
+
+SOLVER_DEFAULTS = {
+    "erp": 0.2, "tolerance": 1e-6, "max_iterations": 20, "slop": 0.001, "max_push_velocity": 1.0,
+    "restitution_threshold": 0.5, "friction_cone": "pyramid", "gyroscopic": "midpoint",
+    "warm_start": True, "substeps": 1, "warn_velocity": 0.01,
+}
+
+
+def _solver_settings(who: str, current=None, **given):
+    """A _core.SolverSettings from keyword values (None = keep current or the default), checked
+    for type here and for range by the core."""
+    s = _core.SolverSettings()
+    for key, default in SOLVER_DEFAULTS.items():
+        value = given.get(key)
+        if value is None:
+            value = getattr(current, key) if current is not None else default
+            if key in ("friction_cone", "gyroscopic") and not isinstance(value, str):
+                value = value.name
+        if key in ("max_iterations", "substeps"):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise TypeError(f"{who}: {key} must be an integer, got {value!r}")
+            value = int(value)
+        elif key == "warm_start":
+            if not isinstance(value, (bool, np.bool_)):
+                raise TypeError(f"{who}: warm_start must be True or False, got {value!r}")
+            value = bool(value)
+        elif key == "friction_cone":
+            if value not in ("pyramid", "cone"):
+                raise ValueError(f"{who}: friction_cone must be 'pyramid' or 'cone', got {value!r}")
+            value = getattr(_core.FrictionCone, value)
+        elif key == "gyroscopic":
+            if value not in ("midpoint", "implicit", "explicit"):
+                raise ValueError(f"{who}: gyroscopic must be 'midpoint', 'implicit' or 'explicit', got {value!r}")
+            value = getattr(_core.Gyroscopic, value)
+        else:
+            value = _scalar(value, who, key)
+        setattr(s, key, value)
+    return s
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -101,46 +170,85 @@ def _solid(mesh) -> bool:
 
 
 class World:
-    """A rigid-body world stepped by the lecture's PGS contact solver.
+    """A rigid-body world stepped by the lecture's contact solver, with Coulomb friction,
+    restitution, warm starting and energy-safe position correction (docs/conventions.md).
 
     Parameters
     ----------
     gravity : (3,) m/s^2, world frame.
     contact_margin : m. Pairs closer than this (plus each body's speculative reach for the step)
         get contacts; those with a positive gap only stop an approach that would close it.
-    erp : Baumgarte factor in [0, 1]: the fraction of an overlap removed per step.
-    tolerance : PGS stops when no contact's velocity changes by more than this (m/s) in a sweep.
-    max_iterations : at most this many PGS sweeps per step.
+    erp : in [0, 1], the fraction of an overlap the position pass removes per step.
+    tolerance : a solver stage stops when no row's velocity changes by more than this (m/s).
+    max_iterations : at most this many sweeps per solver stage and step.
+    slop : overlap (m) the position pass leaves alone, so resting contacts are never stirred.
+    max_push_velocity : cap on the speed (m/s) at which overlapping bodies are pushed apart.
+    restitution_threshold : approach speeds (m/s) below this get no bounce.
+    friction_cone : "pyramid" (each tangent force within mu alpha) or "cone" (|f_t| <= mu alpha).
+    gyroscopic : "midpoint" (keeps energy and |L|), "implicit" (Catto 2015, dissipative) or
+        "explicit" (the lecture's; gains energy on fast spinners).
+    warm_start : start each step from the previous step's contact forces.
+    substeps : run each step as this many steps of dt / substeps.
+    warn_velocity : a step that ends unconverged with a contact still approaching faster than this
+        (m/s) raises a ``SolverWarning`` (once per ``step()`` call).
+
+    The defaults (``SOLVER_DEFAULTS``) stand a 10-box stack and a 210-box pyramid.
     """
 
     def __init__(self, gravity=(0.0, 0.0, -9.81), contact_margin: float = 0.005, erp: float = 0.2,
-                 tolerance: float = 1e-10, max_iterations: int = 100):
+                 tolerance: float = 1e-6, max_iterations: int = 20, *, slop: float = 0.001,
+                 max_push_velocity: float = 1.0,
+                 restitution_threshold: float = 0.5, friction_cone: str = "pyramid",
+                 gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 1,
+                 warn_velocity: float = 0.01):
         g = _vector(gravity, 3, "World", "gravity")
-        if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)):
-            raise TypeError(f"World: max_iterations must be an integer, got {max_iterations!r}")
-        self._core = _core.World(g, _scalar(contact_margin, "World", "contact_margin"),
-                                 _scalar(erp, "World", "erp"), _scalar(tolerance, "World", "tolerance"),
-                                 int(max_iterations))
+        solver = _solver_settings(
+            "World", erp=erp, tolerance=tolerance, max_iterations=max_iterations, slop=slop,
+            max_push_velocity=max_push_velocity, restitution_threshold=restitution_threshold,
+            friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
+            warn_velocity=warn_velocity)
+        self._core = _core.World(g, _scalar(contact_margin, "World", "contact_margin"), solver)
+
+    def set_solver(self, **settings) -> None:
+        """Changes solver settings by keyword (the names of the constructor's); the others stay."""
+        unknown = set(settings) - set(SOLVER_DEFAULTS)
+        if unknown:
+            raise TypeError(f"set_solver: unknown setting(s) {sorted(unknown)}; known: {sorted(SOLVER_DEFAULTS)}")
+        self._core.set_solver(_solver_settings("set_solver", self._core.solver, **settings))
+
+    @property
+    def solver(self) -> dict:
+        """The solver settings as a dict (the constructor's keywords)."""
+        s = self._core.solver
+        return {k: (getattr(s, k).name if k in ("friction_cone", "gyroscopic") else getattr(s, k))
+                for k in SOLVER_DEFAULTS}
 
     # bodies -----------------------------------------------------------------------------------
     def add_body(self, shape, *, density=None, mass=None, position=(0.0, 0.0, 0.0),
                  orientation=(1.0, 0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0),
-                 angular_velocity=(0.0, 0.0, 0.0)) -> int:
+                 angular_velocity=(0.0, 0.0, 0.0), friction: float = 0.5, restitution: float = 0.0) -> int:
         """Adds a dynamic body and returns its index.
 
         Exactly one of ``density`` (kg/m^3) or ``mass`` (kg). ``position`` (3,) is where the
         centre of mass goes (a mesh is re-centred on its centre of mass, axes unchanged);
         ``orientation`` is a quaternion (w, x, y, z), normalised if it is not unit length (a zero
-        one is an error); velocities are world-frame (m/s, rad/s). On any bad argument raises
-        ValueError or TypeError naming the body, and the world is unchanged.
+        one is an error); velocities are world-frame (m/s, rad/s). ``friction`` mu >= 0 and
+        ``restitution`` e in [0, 1] are the body's material; a contact uses sqrt(mu_A mu_B) and
+        max(e_A, e_B). On any bad argument raises ValueError or TypeError naming the body, and the
+        world is unchanged.
         """
-        return self._add(shape, False, density, mass, position, orientation, velocity, angular_velocity)
+        return self._add(shape, False, density, mass, position, orientation, velocity, angular_velocity,
+                         friction, restitution)
 
-    def add_static(self, shape, *, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0)) -> int:
-        """Adds a static body (inverse mass and inertia zero: it never moves) and returns its index."""
-        return self._add(shape, True, None, None, position, orientation, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    def add_static(self, shape, *, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0),
+                   friction: float = 0.5, restitution: float = 0.0) -> int:
+        """Adds a static body (inverse mass and inertia zero: it never moves) and returns its index.
+        ``friction`` and ``restitution`` as for ``add_body``."""
+        return self._add(shape, True, None, None, position, orientation, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+                         friction, restitution)
 
-    def _add(self, shape, is_static, density, mass, position, orientation, velocity, angular_velocity) -> int:
+    def _add(self, shape, is_static, density, mass, position, orientation, velocity, angular_velocity,
+             friction, restitution) -> int:
         who = f"body {self.num_bodies} ({type(shape).__name__})"
         if not isinstance(shape, Shape):
             raise TypeError(f"{who}: shape must be a Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, "
@@ -156,7 +264,8 @@ class World:
         return self._core.add_body(
             shape, is_static, _scalar(density, who, "density"), _scalar(mass, who, "mass"),
             _vector(position, 3, who, "position"), _vector(orientation, 4, who, "orientation"),
-            _vector(velocity, 3, who, "velocity"), _vector(angular_velocity, 3, who, "angular_velocity"))
+            _vector(velocity, 3, who, "velocity"), _vector(angular_velocity, 3, who, "angular_velocity"),
+            _scalar(friction, who, "friction"), _scalar(restitution, who, "restitution"))
 
     def _index(self, i) -> int:
         if isinstance(i, bool) or not isinstance(i, (int, np.integer)):
@@ -194,6 +303,15 @@ class World:
         self._core.set_external_wrench(i, _vector(force, 3, self._label(i), "force"),
                                        _vector(torque, 3, self._label(i), "torque"))
 
+    def set_material(self, i: int, friction=None, restitution=None) -> None:
+        """Sets body i's friction (mu >= 0) and/or restitution (e in [0, 1]); None keeps it."""
+        i = self._index(i)
+        who = self._label(i)
+        mu = _scalar(friction, who, "friction")
+        e = _scalar(restitution, who, "restitution")
+        self._core.set_material(i, float(self._core.frictions[i]) if mu is None else mu,
+                                float(self._core.restitutions[i]) if e is None else e)
+
     # stepping ---------------------------------------------------------------------------------
     def step(self, dt: float, steps: int = 1) -> None:
         """Advances ``steps`` steps of ``dt`` seconds (dt > 0 and finite)."""
@@ -203,6 +321,13 @@ class World:
         if steps < 0:
             raise ValueError(f"step: steps must be >= 0, got {steps}")
         self._core.step(dt, int(steps))
+        report = self._core.step_report
+        if report["flagged"]:
+            warnings.warn(
+                f"{report['flagged']} of {report['steps']} steps ended with the contact solver unconverged "
+                f"and a contact approaching faster than warn_velocity = {self._core.solver.warn_velocity:g} m/s "
+                f"(worst {report['worst_penetration_velocity']:.3g} m/s at t = {report['worst_time']:.6g} s); "
+                "raise max_iterations or substeps, or lower dt", SolverWarning, stacklevel=2)
 
     # state: read-only copies, (N, 3) / (N, 4) ---------------------------------------------------
     @property
@@ -250,6 +375,32 @@ class World:
         return _readonly(self._core.inertias)
 
     @property
+    def frictions(self) -> np.ndarray:
+        """(N,) friction coefficients mu."""
+        return _readonly(self._core.frictions)
+
+    @property
+    def restitutions(self) -> np.ndarray:
+        """(N,) restitution coefficients e."""
+        return _readonly(self._core.restitutions)
+
+    @property
+    def contact_forces(self) -> np.ndarray:
+        """(N, 3) summed contact force on each body in the last step (N, world), static ones too."""
+        return _readonly(self._core.contact_forces)
+
+    @property
+    def contact_torques(self) -> np.ndarray:
+        """(N, 3) summed contact torque about each body's com in the last step (N m, world)."""
+        return _readonly(self._core.contact_torques)
+
+    @property
+    def warm_start_cache(self) -> dict:
+        """The forces the next step starts from: body_a, body_b (K,), feature_a, feature_b (K,)
+        uint64, alpha (K,) N, friction (K, 3) N world, sorted by key."""
+        return {k: _readonly(v) for k, v in self._core.warm_start_cache.items()}
+
+    @property
     def is_static(self) -> np.ndarray:
         """(N,) bool."""
         return _readonly(self._core.is_static)
@@ -293,11 +444,13 @@ class World:
                 "inv_mass": float(c.inv_masses[i]),
                 "inertia": c.inertias[i],
                 "inv_inertia": inv_inertias[i],
+                "friction": float(c.frictions[i]),
+                "restitution": float(c.restitutions[i]),
             })
         return {
             "gravity": np.array(c.gravity),
-            "settings": {"contact_margin": c.contact_margin, "erp": c.erp, "tolerance": c.tolerance,
-                         "max_iterations": c.max_iterations},
+            "settings": {"contact_margin": c.contact_margin, **self.solver},
+            "cache": self.warm_start_cache,
             "bodies": bodies,
             "position": c.positions, "rotation": c.rotations, "velocity": c.velocities,
             "angular_velocity": c.angular_velocities, "force": c.forces, "torque": c.torques,

@@ -31,8 +31,23 @@ struct Contact {
   double gap = 0.0;            ///< signed distance along n_i (m); negative = overlap
   FeatureId feature_a = 0;     ///< feature of A the point comes from
   FeatureId feature_b = 0;     ///< feature of B the point comes from
-  double alpha = 0.0;          ///< contact force magnitude alpha_i >= 0 (N), as in the notes
+  // written by the solver (docs/conventions.md, step 3 f and "The Signorini certificate")
+  double alpha = 0.0;          ///< normal force alpha_i >= 0 (N), as in the notes
   double impulse = 0.0;        ///< dt * alpha_i (N s), applied as -impulse n on A and +impulse n on B
+  Vec3 friction = Vec3::Zero();///< friction force on B (N, world, tangent); A gets -friction
+  Vec3 force = Vec3::Zero();   ///< total contact force on B, alpha n + friction (N, world)
+  double normal_velocity = 0.0;///< n^T (v_B(y) - v_A(y)) after the solve (m/s)
+  Vec3 slip = Vec3::Zero();    ///< tangential relative velocity of B against A at y after the solve (m/s, world)
+};
+
+/// A contact of the previous step as the warm start remembers it (docs/conventions.md, step 3 b):
+/// matched by (body_a, body_b, feature_a, feature_b).
+struct CachedContact {
+  BodyIndex body_a = -1, body_b = -1;
+  FeatureId feature_a = 0, feature_b = 0;
+  double alpha = 0.0;           ///< normal force after the iterate stage (N)
+  Vec3 friction = Vec3::Zero(); ///< friction force on B (N, world)
+  int order = 0;                ///< position in that step's contact order (first wins on equal keys)
 };
 
 }  // namespace signorini

@@ -1,26 +1,64 @@
-// Settings and report of the Projected Gauss-Seidel contact solver.
+// Settings and report of the contact solver (docs/conventions.md, "One step" and "The Signorini
+// certificate"). The solver itself is internal (cpp/src/solver/); users see these two structs.
 #pragma once
 
 namespace signorini {
 
-struct SolverSettings {
-  /// Baumgarte factor: the fraction of an overlap (negative gap) removed per step, in [0, 1].
-  /// Positive gaps are always used whole (speculative contacts).
-  double erp = 0.2;
-  /// Stop sweeping when no contact changed its velocity delta_i |d alpha_i| by more than this (m/s).
-  double tolerance = 1e-10;
-  /// Upper bound on PGS sweeps per step.
-  int max_iterations = 100;
+/// How friction is bounded by the normal force alpha_n.
+enum class FrictionCone {
+  Pyramid,  ///< each tangent force in [-mu alpha_n, mu alpha_n] (the default; as Bullet, Box2D)
+  Cone,     ///< the tangent force vector in the disk |f_t| <= mu alpha_n (the circular cone)
 };
 
-/// What the last solve did. residual is the Signorini certificate max_i |min(delta_i alpha_i, w_i)|
-/// in m/s, with w_i the final relative normal velocity plus the gap bias (see docs/conventions.md):
-/// zero exactly when every contact pushes only, separates or rests, and never both.
+/// How the unconstrained angular velocity treats the gyroscopic term w x (I w).
+enum class Gyroscopic {
+  Midpoint,  ///< implicit midpoint rule, Newton iterated: keeps energy and |L| (the default)
+  Implicit,  ///< one Newton step of backward Euler (Catto 2015, Bullet): stable, dissipates
+  Explicit,  ///< the lecture's explicit term: gains energy on fast spinners
+};
+
+struct SolverSettings {
+  /// Fraction of an overlap (negative gap) the position pass removes per step, in [0, 1].
+  /// Positive gaps are always used whole (speculative contacts).
+  double erp = 0.2;
+  /// A stage stops after a sweep in which no row changed its velocity delta |d alpha| by more
+  /// than this (m/s).
+  double tolerance = 1e-6;
+  /// Upper bound on sweeps per stage (iterate, restitution, position pass) and step.
+  int max_iterations = 20;
+  /// Overlap the position pass leaves alone (m, >= 0): resting contacts sink this far at most
+  /// and are never pushed, so a settled stack is not stirred by pushes.
+  double slop = 0.001;
+  /// Cap on the speed at which the position pass pushes overlapping bodies apart (m/s, > 0).
+  double max_push_velocity = 1.0;
+  /// Approach speeds below this get no restitution (m/s, >= 0): resting contacts stay at rest.
+  double restitution_threshold = 0.5;
+  FrictionCone friction_cone = FrictionCone::Pyramid;
+  Gyroscopic gyroscopic = Gyroscopic::Midpoint;
+  /// Start each step from the previous step's forces, matched by body pair and feature ids.
+  bool warm_start = true;
+  /// Each step runs as this many steps of dt / substeps (>= 1), contacts re-detected each time.
+  int substeps = 1;
+  /// A step that ends unconverged with max_penetration_velocity above this (m/s) is counted in
+  /// World::step_report() (the Python layer warns).
+  double warn_velocity = 0.01;
+};
+
+/// What the last solve did, and how well its contacts satisfy the Signorini conditions (the
+/// certificate of docs/conventions.md, ContactBench's metrics, Le Lidec et al. 2023).
 struct SolverStats {
-  int iterations = 0;
-  double residual = 0.0;
-  bool converged = true;
+  int iterations = 0;              ///< sweeps of the iterate stage
+  int restitution_iterations = 0;  ///< sweeps of the restitution stage
+  int position_iterations = 0;     ///< sweeps of the position pass
+  bool converged = true;           ///< the iterate stage met the tolerance
   int contacts = 0;
+  double residual = 0.0;                   ///< natural residual over all rows (m/s)
+  double max_alpha_negative = 0.0;         ///< max(0, -min alpha_i) (N)
+  double max_penetration_velocity = 0.0;   ///< max(0, -min w_i) (m/s)
+  double max_complementarity = 0.0;        ///< max |alpha_i w_i| (W)
+  double max_cone_violation = 0.0;         ///< max(0, max |f_i| - mu_i alpha_i) (N)
+  double max_dissipation_violation = 0.0;  ///< sliding contacts: max |f_i + mu_i alpha_i s_i/|s_i|| (N)
+  double max_overlap = 0.0;                ///< max(0, -min gap_i) (m)
 };
 
 }  // namespace signorini

@@ -1,5 +1,7 @@
-// World: owns the static Model, the dynamic State and the collision caches, and runs the step as
-// the pipeline of docs/conventions.md: contacts -> unconstrained velocity -> PGS -> integrate.
+// World: owns the static Model, the dynamic State, the collision caches and the solver's arrays,
+// and runs the step as the pipeline of docs/conventions.md:
+//   contacts -> unconstrained velocity -> contact solve (prepare, warm start, iterate, restitution,
+//   position pass, store) -> integrate.
 #pragma once
 
 #include <memory>
@@ -16,6 +18,7 @@
 namespace signorini {
 
 namespace collision { class BroadPhase; }
+namespace solver { struct SolverData; }
 
 struct WorldSettings {
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  ///< m/s^2
@@ -35,6 +38,15 @@ struct BodyDesc {
   Vec3 velocity = Vec3::Zero();          ///< m/s
   Vec3 angular_velocity = Vec3::Zero();  ///< rad/s, world frame
   Material material;                     ///< friction >= 0, restitution in [0, 1]
+};
+
+/// What the last call of World::step did over its steps (and substeps).
+struct StepReport {
+  int steps = 0;                   ///< steps (substeps included) run by the call
+  int flagged = 0;                 ///< of those, steps that ended unconverged with
+                                   ///< max_penetration_velocity > warn_velocity
+  double worst_penetration_velocity = 0.0;  ///< the largest such figure (m/s)
+  double worst_time = 0.0;         ///< time at the start of that step (s)
 };
 
 class World {
@@ -57,6 +69,8 @@ class World {
   void set_velocity(BodyIndex i, const Vec3& v);
   void set_angular_velocity(BodyIndex i, const Vec3& omega);
   void set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torque);
+  /// Friction mu >= 0 and restitution e in [0, 1], both finite; static bodies too.
+  void set_material(BodyIndex i, const Material& material);
 
   const Model& model() const { return model_; }
   const State& state() const { return state_; }
@@ -64,9 +78,18 @@ class World {
   void set_settings(const WorldSettings& settings);
   std::size_t num_bodies() const { return model_.size(); }
 
-  /// Contacts of the last step (detected at its start), with their solved alpha and impulse.
+  /// Contacts of the last step (detected at its start), with their solved forces and velocities.
   const std::vector<Contact>& contacts() const { return contacts_; }
+  /// The last step's solver figures and Signorini certificate.
   const SolverStats& solver_stats() const { return stats_; }
+  /// What the last call of step() did (for warnings).
+  const StepReport& step_report() const { return report_; }
+  /// Per body, the summed contact force (N, world) and torque about its com (N m, world) of the
+  /// last step; static bodies included (the reaction on the ground).
+  const std::vector<Vec3>& contact_forces() const;
+  const std::vector<Vec3>& contact_torques() const;
+  /// The warm-start cache the next step starts from, sorted by key (docs/conventions.md, 3 b).
+  const std::vector<CachedContact>& warm_start_cache() const;
 
   /// Orientation of body i as a unit quaternion (w, x, y, z), w >= 0.
   Quat4 orientation(BodyIndex i) const;
@@ -84,17 +107,22 @@ class World {
   void check_index(BodyIndex i) const;
   /// A velocity for body i must be finite, and zero for a static body.
   void check_velocity(BodyIndex i, const char* what, const Vec3& x) const;
+  /// One step of dt (a substep of step()); on a non-finite result restores the state and throws.
+  void step_once(double dt);
 
   WorldSettings settings_;
   Model model_;
   State state_;
   std::vector<Contact> contacts_;
   SolverStats stats_;
+  StepReport report_;
   std::unique_ptr<collision::BroadPhase> broad_phase_;
+  std::unique_ptr<solver::SolverData> solver_;  ///< rows, forces and the warm-start cache
   // step scratch, kept between steps so that a step reuses its buffers instead of allocating
   State before_;                         ///< state at the start of the step (restored on failure)
   std::vector<Contact> contacts_next_;   ///< the step's contacts until it succeeds
   std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
+  std::vector<Vec3> v_move_, omega_move_;///< the velocities that move the poses
 };
 
 }  // namespace signorini

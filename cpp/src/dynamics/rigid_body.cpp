@@ -1,5 +1,8 @@
 #include "dynamics/rigid_body.hpp"
 
+#include <cmath>
+#include <stdexcept>
+
 #include "math/rotation.hpp"
 
 namespace signorini::dynamics {
@@ -16,8 +19,37 @@ Mat3 inverse_inertia_world(const Model& model, const State& state, std::size_t i
   return R * model.I_body_inv[i] * R.transpose();
 }
 
+Vec3 free_rotation(const Mat3& I, const Mat3& I_inv, const Vec3& w, double dt, Gyroscopic gyroscopic) {
+  switch (gyroscopic) {
+    case Gyroscopic::Explicit:
+      return w - dt * (I_inv * w.cross(I * w));
+    case Gyroscopic::Implicit: {
+      // one Newton step on f(w') = I (w' - w) + dt w' x (I w'), from w' = w
+      const Mat3 J = I + dt * (math::skew(w) * I - math::skew(I * w));
+      return w - J.inverse() * (dt * w.cross(I * w));
+    }
+    case Gyroscopic::Midpoint: {
+      // Newton on F(w') = I (w' - w) + dt m x (I m), m = (w + w') / 2
+      Vec3 w1 = w;
+      for (int k = 0; k < 10; ++k) {
+        const Vec3 m = 0.5 * (w + w1);
+        const Vec3 F = I * (w1 - w) + dt * m.cross(I * m);
+        const Mat3 J = I + 0.5 * dt * (math::skew(m) * I - math::skew(I * m));
+        const Vec3 step = J.inverse() * F;
+        w1 -= step;
+        if (step.lpNorm<Eigen::Infinity>() <= 1e-14 * w1.lpNorm<Eigen::Infinity>()) break;
+      }
+      // the gyroscopic term does no work: never leave with more energy than we came with
+      const double E0 = w.dot(I * w), E1 = w1.dot(I * w1);
+      if (E1 > E0) w1 *= std::sqrt(E0 / E1);
+      return w1;
+    }
+  }
+  throw std::logic_error("free_rotation: unknown gyroscopic option");
+}
+
 void unconstrained_velocity(const Model& model, const State& state, const Vec3& gravity, double dt,
-                            std::vector<Vec3>& v_star, std::vector<Vec3>& omega_star) {
+                            Gyroscopic gyroscopic, std::vector<Vec3>& v_star, std::vector<Vec3>& omega_star) {
   const std::size_t n = model.size();
   v_star.resize(n);
   omega_star.resize(n);
@@ -28,21 +60,29 @@ void unconstrained_velocity(const Model& model, const State& state, const Vec3& 
       continue;
     }
     const Mat3& R = state.R[i];
-    const Vec3& w = state.omega[i];
     // linear: m p_dot* = m p_dot + dt (m g + f_ext)
     v_star[i] = state.v[i] + dt * (gravity + model.inv_mass[i] * state.f_ext[i]);
-    // angular: I_w omega* = I_w omega + dt (tau_ext - omega x (I_w omega))
-    const Vec3 L = R * (model.I_body[i] * (R.transpose() * w));
-    const Vec3 torque = state.tau_ext[i] - w.cross(L);
-    omega_star[i] = w + dt * (R * (model.I_body_inv[i] * (R.transpose() * torque)));
+    if (gyroscopic == Gyroscopic::Explicit) {
+      // angular: I_w omega* = I_w omega + dt (tau_ext - omega x (I_w omega))
+      const Vec3& w = state.omega[i];
+      const Vec3 L = R * (model.I_body[i] * (R.transpose() * w));
+      const Vec3 torque = state.tau_ext[i] - w.cross(L);
+      omega_star[i] = w + dt * (R * (model.I_body_inv[i] * (R.transpose() * torque)));
+      continue;
+    }
+    // angular, body frame: the free rotation, then the external torque's impulse
+    const Vec3 w_body = R.transpose() * state.omega[i];
+    const Vec3 w1 = free_rotation(model.I_body[i], model.I_body_inv[i], w_body, dt, gyroscopic);
+    omega_star[i] = R * (w1 + dt * (model.I_body_inv[i] * (R.transpose() * state.tau_ext[i])));
   }
 }
 
-void integrate(const Model& model, State& state, double dt) {
+void integrate(const Model& model, State& state, const std::vector<Vec3>& v, const std::vector<Vec3>& omega,
+               double dt) {
   for (std::size_t i = 0; i < model.size(); ++i) {
     if (model.is_static[i]) continue;
-    state.R[i] = math::orthonormalize(math::rodrigues(state.omega[i], dt) * state.R[i]);
-    state.p[i] += dt * state.v[i];
+    state.R[i] = math::orthonormalize(math::rodrigues(omega[i], dt) * state.R[i]);
+    state.p[i] += dt * v[i];
   }
 }
 

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 
 #include "signorini/model.hpp"
+#include "signorini/solver.hpp"
 #include "signorini/state.hpp"
 
 namespace signorini::dynamics {
@@ -18,16 +19,28 @@ Mat36 jacobian(const Vec3& p, const Vec3& y);
 /// World inverse inertia R I_body^-1 R^T (zero for a static body).
 Mat3 inverse_inertia_world(const Model& model, const State& state, std::size_t i);
 
-/// Unconstrained velocity q_dot* for every body (static ones keep zero velocity):
+/// Unconstrained velocity q_dot* for every body (static ones keep zero velocity), world frame:
 ///   v* = v + dt (g + f_ext / m)
-///   omega* = omega + dt I_w^-1 (tau_ext - omega x (I_w omega)),   I_w = R I_body R^T
-/// The gyroscopic term has the physical sign (d(I_w omega)/dt = tau); the course README flips it.
+/// and the angular part from the body-frame Euler equation I w_dot + w x (I w) = tau_b
+/// (w = R^T omega, I = I_body), by `gyroscopic` (docs/conventions.md, step 2):
+///   Midpoint: I (w' - w) + dt m x (I m) = 0, m = (w + w') / 2, Newton iterated (<= 10 steps,
+///             until |step|_inf <= 1e-14 |w'|_inf); energy never above 1/2 w.I w; keeps 1/2 w.I w
+///             and |I w| to rounding.
+///   Implicit: one Newton step of backward Euler (Catto 2015): w' = w - (I + dt ([w]x I - [I w]x))^-1 dt w x (I w).
+///   Explicit: the lecture's omega* = omega + dt I_w^-1 (tau - omega x (I_w omega)), I_w = R I_body R^T.
+/// then w* = w' + dt I^-1 tau_b and omega* = R w*. The gyroscopic term has the physical sign
+/// (d(I_w omega)/dt = tau); the course README flips it.
 /// Outputs v_star, omega_star (one per body, world).
 void unconstrained_velocity(const Model& model, const State& state, const Vec3& gravity, double dt,
-                            std::vector<Vec3>& v_star, std::vector<Vec3>& omega_star);
+                            Gyroscopic gyroscopic, std::vector<Vec3>& v_star, std::vector<Vec3>& omega_star);
 
-/// Integrates poses with the end-of-step velocities already in state (v, omega):
+/// Free rotation of one body over dt in body coordinates: w (rad/s) -> w' by the chosen rule
+/// (no torque). I is the body inertia (kg m^2).
+Vec3 free_rotation(const Mat3& I, const Mat3& I_inv, const Vec3& w, double dt, Gyroscopic gyroscopic);
+
+/// Moves every dynamic body's pose with the velocities v, omega (N, world):
 /// R <- orthonormalize(exp([omega] dt) R), p <- p + dt v. Static bodies do not move.
-void integrate(const Model& model, State& state, double dt);
+void integrate(const Model& model, State& state, const std::vector<Vec3>& v, const std::vector<Vec3>& omega,
+               double dt);
 
 }  // namespace signorini::dynamics

@@ -10,7 +10,7 @@
 #include "geometry/polytope.hpp"
 #include "math/rotation.hpp"
 #include "signorini/mass_properties.hpp"
-#include "solver/pgs.hpp"
+#include "solver/contact_solver.hpp"
 
 namespace signorini {
 namespace {
@@ -41,9 +41,21 @@ Quat4 unit_quaternion(const std::string& who, const Quat4& q) {
   return q / norm;
 }
 
+void check_material(const std::string& who, const Material& m) {
+  if (!(std::isfinite(m.friction) && m.friction >= 0.0))
+    throw std::invalid_argument(who + ": friction must be finite and >= 0, got " + std::to_string(m.friction));
+  if (!(std::isfinite(m.restitution) && m.restitution >= 0.0 && m.restitution <= 1.0))
+    throw std::invalid_argument(who + ": restitution must be in [0, 1], got " + std::to_string(m.restitution));
+}
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument("World: " + what);
+}
+
 }  // namespace
 
-World::World(const WorldSettings& settings) : broad_phase_(std::make_unique<collision::BroadPhase>()) {
+World::World(const WorldSettings& settings)
+    : broad_phase_(std::make_unique<collision::BroadPhase>()), solver_(std::make_unique<solver::SolverData>()) {
   set_settings(settings);
 }
 
@@ -51,14 +63,21 @@ World::~World() = default;
 
 void World::set_settings(const WorldSettings& s) {
   require_finite("World", "gravity", s.gravity);
-  if (!(std::isfinite(s.contact_margin) && s.contact_margin >= 0.0))
-    throw std::invalid_argument("World: contact_margin must be finite and >= 0, got " + std::to_string(s.contact_margin));
-  if (!(std::isfinite(s.solver.erp) && s.solver.erp >= 0.0 && s.solver.erp <= 1.0))
-    throw std::invalid_argument("World: erp must be in [0, 1], got " + std::to_string(s.solver.erp));
-  if (!(std::isfinite(s.solver.tolerance) && s.solver.tolerance >= 0.0))
-    throw std::invalid_argument("World: tolerance must be finite and >= 0, got " + std::to_string(s.solver.tolerance));
-  if (s.solver.max_iterations < 1)
-    throw std::invalid_argument("World: max_iterations must be >= 1, got " + std::to_string(s.solver.max_iterations));
+  require(std::isfinite(s.contact_margin) && s.contact_margin >= 0.0,
+          "contact_margin must be finite and >= 0, got " + std::to_string(s.contact_margin));
+  const SolverSettings& q = s.solver;
+  require(std::isfinite(q.erp) && q.erp >= 0.0 && q.erp <= 1.0, "erp must be in [0, 1], got " + std::to_string(q.erp));
+  require(std::isfinite(q.tolerance) && q.tolerance >= 0.0,
+          "tolerance must be finite and >= 0, got " + std::to_string(q.tolerance));
+  require(q.max_iterations >= 1, "max_iterations must be >= 1, got " + std::to_string(q.max_iterations));
+  require(std::isfinite(q.slop) && q.slop >= 0.0, "slop must be finite and >= 0, got " + std::to_string(q.slop));
+  require(std::isfinite(q.max_push_velocity) && q.max_push_velocity > 0.0,
+          "max_push_velocity must be finite and > 0, got " + std::to_string(q.max_push_velocity));
+  require(std::isfinite(q.restitution_threshold) && q.restitution_threshold >= 0.0,
+          "restitution_threshold must be finite and >= 0, got " + std::to_string(q.restitution_threshold));
+  require(q.substeps >= 1, "substeps must be >= 1, got " + std::to_string(q.substeps));
+  require(std::isfinite(q.warn_velocity) && q.warn_velocity >= 0.0,
+          "warn_velocity must be finite and >= 0, got " + std::to_string(q.warn_velocity));
   settings_ = s;
 }
 
@@ -70,6 +89,7 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   require_finite(who, "velocity", desc.velocity);
   require_finite(who, "angular_velocity", desc.angular_velocity);
   const Mat3 R = math::quat_to_matrix(unit_quaternion(who, desc.orientation));
+  check_material(who, desc.material);
   const bool is_plane = std::holds_alternative<Plane>(desc.shape);
 
   Shape shape = desc.shape;
@@ -142,6 +162,8 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   model_.I_body.push_back(I_body);
   model_.I_body_inv.push_back(I_body_inv);
   model_.material.push_back(desc.material);
+  solver_->body_force.push_back(Vec3::Zero());
+  solver_->body_torque.push_back(Vec3::Zero());
   state_.p.push_back(position);
   state_.R.push_back(R);
   state_.v.push_back(desc.velocity);
@@ -165,31 +187,64 @@ void World::step(double dt, int steps) {
   if (!(std::isfinite(dt) && dt > 0.0))
     throw std::invalid_argument("step: dt must be positive and finite, got " + std::to_string(dt));
   if (steps < 0) throw std::invalid_argument("step: steps must be >= 0, got " + std::to_string(steps));
-  for (int s = 0; s < steps; ++s) {
-    before_ = state_;
-    // 1. contacts from the current state
-    detect_contacts(dt, contacts_next_);
-    // 2. unconstrained velocity q_dot*
-    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, dt, v_, omega_);
-    // 3. contact impulses by PGS: q_dot* -> q_dot^{t+1}
-    const SolverStats stats = solver::solve_pgs(model_, state_, dt, settings_.solver, contacts_next_, v_, omega_);
-    // 4. integrate poses with the new velocities
-    state_.v = v_;
-    state_.omega = omega_;
-    dynamics::integrate(model_, state_, dt);
-    state_.time += dt;
-    // a step that produced a non-finite number is undone and reported, never kept
-    for (std::size_t i = 0; i < model_.size(); ++i) {
-      if (state_.p[i].allFinite() && state_.v[i].allFinite() && state_.omega[i].allFinite() && state_.R[i].allFinite())
-        continue;
-      state_ = before_;
-      throw std::runtime_error(body_label(static_cast<BodyIndex>(i), model_.shape[i]) +
-                               ": state became non-finite at t = " + std::to_string(before_.time) +
-                               "; the step was undone (check forces, masses and dt)");
-    }
-    contacts_.swap(contacts_next_);
-    stats_ = stats;
+  report_ = StepReport();
+  const int n = settings_.solver.substeps;
+  const double h = dt / n;
+  for (int s = 0; s < steps; ++s)
+    for (int k = 0; k < n; ++k) step_once(h);
+}
+
+void World::step_once(double dt) {
+  before_ = state_;
+  // 1. contacts from the current state
+  detect_contacts(dt, contacts_next_);
+  // 2. unconstrained velocity q_dot*
+  dynamics::unconstrained_velocity(model_, state_, settings_.gravity, dt, settings_.solver.gyroscopic, v_, omega_);
+  // 3. contact solve: q_dot* -> q_dot^{t+1}, and the velocities that move the poses
+  const SolverStats stats =
+      solver::solve_contacts(model_, state_, dt, settings_.solver, contacts_next_, v_, omega_, *solver_);
+  v_move_.resize(v_.size());
+  omega_move_.resize(omega_.size());
+  for (std::size_t i = 0; i < v_.size(); ++i) {
+    v_move_[i] = solver_->v_pos[i] + solver_->v_p[i];
+    omega_move_[i] = solver_->omega_pos[i] + solver_->omega_p[i];
   }
+  // 4. integrate the poses; keep the new velocities
+  dynamics::integrate(model_, state_, v_move_, omega_move_, dt);
+  state_.v.swap(v_);
+  state_.omega.swap(omega_);
+  state_.time += dt;
+  // a step that produced a non-finite number is undone and reported, never kept
+  for (std::size_t i = 0; i < model_.size(); ++i) {
+    if (state_.p[i].allFinite() && state_.v[i].allFinite() && state_.omega[i].allFinite() && state_.R[i].allFinite())
+      continue;
+    state_ = before_;
+    throw std::runtime_error(body_label(static_cast<BodyIndex>(i), model_.shape[i]) +
+                             ": state became non-finite at t = " + std::to_string(before_.time) +
+                             "; the step was undone (check forces, masses and dt)");
+  }
+  // keep the step: contacts, stats, the warm-start cache
+  contacts_.swap(contacts_next_);
+  solver_->cache.swap(solver_->cache_next);
+  stats_ = stats;
+  ++report_.steps;
+  if (!stats.converged && stats.max_penetration_velocity > settings_.solver.warn_velocity) {
+    ++report_.flagged;
+    if (stats.max_penetration_velocity > report_.worst_penetration_velocity) {
+      report_.worst_penetration_velocity = stats.max_penetration_velocity;
+      report_.worst_time = before_.time;
+    }
+  }
+}
+
+const std::vector<Vec3>& World::contact_forces() const { return solver_->body_force; }
+const std::vector<Vec3>& World::contact_torques() const { return solver_->body_torque; }
+const std::vector<CachedContact>& World::warm_start_cache() const { return solver_->cache; }
+
+void World::set_material(BodyIndex i, const Material& material) {
+  check_index(i);
+  check_material(body_label(i, model_.shape[i]), material);
+  model_.material[i] = material;
 }
 
 void World::check_index(BodyIndex i) const {
