@@ -32,7 +32,7 @@ def test_box_dropped_on_plane_rests_at_half_height_and_does_not_sink():
 def test_torque_free_body_keeps_angular_momentum_with_the_explicit_term():
     # |L'| / |L| = sqrt(1 + dt^2 |omega x L|^2 / |L|^2) per step (see tests/cpp/test_dynamics.cpp);
     # at dt = 1/240 and |omega| ~ 1.3 rad/s that is below 1e-5, and with dt = 1e-3 below 1e-6
-    w = sg.World(gravity=(0, 0, 0))
+    w = sg.World(gravity=(0, 0, 0), gyroscopic="explicit")
     b = w.add_body(sg.Box((0.1, 0.3, 0.6)), density=500.0, orientation=(0.9, 0.3, 0.1, -0.2),
                    angular_velocity=(0.4, 1.0, -0.3))
     inertia = w.inertias[b]
@@ -78,8 +78,8 @@ def test_sphere_on_tilted_frictionless_plane_slides_with_g_sin_theta():
     theta = 0.3
     n = np.array([0.0, -math.sin(theta), math.cos(theta)])
     w = sg.World(gravity=(0, 0, -9.81))
-    w.add_static(sg.Plane(n, 0.0))
-    b = w.add_body(sg.Sphere(0.25), mass=3.0, position=0.25 * n)
+    w.add_static(sg.Plane(n, 0.0), friction=0.0)
+    b = w.add_body(sg.Sphere(0.25), mass=3.0, position=0.25 * n, friction=0.0)
     w.step(DT, 240)
     downhill = -np.array([0.0, math.cos(theta), math.sin(theta)])  # g minus its normal part, unit
     expected = 9.81 * math.sin(theta) * 1.0 * downhill
