@@ -495,16 +495,23 @@ def test_speculative_contact_does_not_stop_a_slow_approach():
     assert new["velocity"][1, 2] == -u - G * dt
 
 
-def test_overlap_is_pushed_out_with_erp():
-    # overlap d: b = erp (-d) / dt, so w = 0 gives v_z' = erp d / dt for a sphere at rest
-    dt, d = 0.01, 0.003
+def test_overlap_is_pushed_out_by_the_position_pass_not_the_velocity():
+    # overlap d: the velocity rows use b = max(gap, 0) / dt = 0, so the sphere at rest keeps
+    # v_z' = 0 (up to the rounding of g dt - dt alpha / m, ~ eps g dt); the position pass asks
+    # for b_pos = erp (d - slop) / dt and moves it up by dt b_pos = erp (d - slop) (positions
+    # ~0.5 m: ~eps).
+    dt, d, slop = 0.01, 0.003, 0.001
     snap = sphere_on_plane(gap=-d)
+    snap["settings"]["slop"] = slop
     new, info = o.step(snap, dt)
-    assert new["velocity"][1, 2] == pytest.approx(0.2 * d / dt, rel=1e-13)
+    assert abs(new["velocity"][1, 2]) < 4 * EPS * G * dt
+    assert new["position"][1, 2] - (0.5 - d) == pytest.approx(0.2 * (d - slop), rel=1e-12)
+    assert info["position_iterations"] >= 1 and info["max_overlap"] == pytest.approx(d, rel=1e-12)
 
 
-def test_pgs_reports_non_convergence():
-    # a box resting on 4 corners needs several sweeps; with 1 allowed it must say so
+def test_step_reports_non_convergence():
+    # a box resting on 4 corners needs several sweeps from a cold start; with 1 allowed the step
+    # must say so
     snap = make_snapshot([ground(), make_body({"type": "box", "half_extents": [0.5, 0.25, 0.125]})],
                          [[0, 0, 0], [0, 0, 0.125]], max_iterations=1)
     _, info = o.step(snap, 1 / 240)
@@ -615,10 +622,10 @@ def test_lcp_solve_recovers_a_planted_solution():
 
 # --------------------------------------------------------------------------- free motion
 
-def free_box(omega, R=None, h=(0.5, 0.3, 0.1)):
+def free_box(omega, R=None, h=(0.5, 0.3, 0.1), gyroscopic="explicit"):
     return make_snapshot([make_body({"type": "box", "half_extents": list(h)})], [[0, 0, 0]],
                          rotation=None if R is None else [R], angular_velocity=[omega],
-                         gravity=(0, 0, 0))
+                         gravity=(0, 0, 0), gyroscopic=gyroscopic)
 
 
 def angular_momentum(snap):
@@ -628,7 +635,8 @@ def angular_momentum(snap):
 
 
 def test_gyroscopic_term_keeps_angular_momentum_to_second_order():
-    # Torque-free, one step: I_w omega' = L - dt omega x L and L' = Q I_w Q^T omega' with
+    # The lecture's explicit term (gyroscopic="explicit"; the midpoint default and "implicit" are
+    # checked in test_oracle_solver.py).  Torque-free, one step: I_w omega' = L - dt omega x L and L' = Q I_w Q^T omega' with
     # Q = exp([omega']x dt); Q^T omega' = omega', so L' = Q (L - dt omega x L) and, as
     # omega x L is orthogonal to L,
     #   |L'| / |L| - 1 = sqrt(1 + dt^2 |omega x L|^2 / |L|^2) - 1.
@@ -651,7 +659,7 @@ def test_gyroscopic_term_keeps_angular_momentum_to_second_order():
 
 
 def test_gyroscopic_sign_makes_the_change_of_L_second_order():
-    # L' - L = Q (L - dt omega x L) - L = dt (omega' - omega) x L + O(dt^2) = O(dt^2), while the
+    # (the explicit term, as above)  L' - L = Q (L - dt omega x L) - L = dt (omega' - omega) x L + O(dt^2) = O(dt^2), while the
     # flipped sign (+ dt omega x L) gives L' - L = 2 dt omega x L + O(dt^2).  Halving dt must
     # divide the change by ~4 for the oracle, and by ~2 for the flipped sign.
     rng = np.random.default_rng(9)

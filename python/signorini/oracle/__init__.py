@@ -6,13 +6,21 @@ never ``signorini._core``), so it also loads as a standalone package.
 
 Modules, in the order of a step:
     mass      mass properties of spheres, boxes, capsules, cylinders, closed meshes, hulls, compounds
-    rigid     skew, Rodrigues, quaternions, the Jacobian J(y), unconstrained velocity, integrate
+    rigid     skew, Rodrigues, quaternions, the Jacobian J(y), the unconstrained velocity with
+              the gyroscopic options (midpoint, implicit, explicit), integrate
     contacts  exact contacts per shape pair (dispatch table ``PAIRS``), with feature ids
     manifold  feature ids, the box polytope, box-box SAT + face clipping, the 4-point reduction
     support   support mappings and the brute-force signed separation of two convex shapes
-    pgs       projected Gauss-Seidel on the Signorini conditions, and its residual
-    lcp       the same problem as an LCP, solved exactly by enumeration (small K)
-    step      one step and a rollout
+    solver    the staged contact solve of a step: prepare rows, warm start, iterate (PGS with
+              Coulomb friction, pyramid or cone), restitution, position pass (split impulse),
+              store, and the Signorini certificate; materials and the warm-start cache
+    pgs       the lecture's frictionless projected Gauss-Seidel (cold start, erp bias)
+    lcp       the frictionless problem as an LCP, solved exactly by enumeration (small K)
+    step      one step (contacts, unconstrained velocity, solve, integrate; substeps) and a rollout
+
+A snapshot (``World.snapshot()``, or built by hand) holds gravity, settings (defaults in
+``solver.DEFAULT_SETTINGS`` for missing keys), bodies (shape, static, mass, inv_mass, inertia,
+inv_inertia, friction, restitution), the state arrays and the optional warm-start cache.
 """
 
 from .contacts import (
@@ -69,6 +77,7 @@ from .mass import (
 )
 from .pgs import bias, contact_rows, pgs
 from .rigid import (
+    free_rotation,
     integrate,
     inverse_mass_blocks,
     jacobian,
@@ -79,7 +88,28 @@ from .rigid import (
     unconstrained_velocity,
     world_inertia,
 )
-from .step import copy_snapshot, rollout, step
+from .solver import (
+    DEFAULT_SETTINGS,
+    certificate,
+    contact_materials,
+    empty_cache,
+    iterate,
+    position_pass,
+    position_targets,
+    prepare_rows,
+    project_friction,
+    read_cache,
+    restitution,
+    restitutive_contacts,
+    solve_contacts,
+    solver_settings,
+    sort_cache,
+    speculative_bias,
+    store,
+    tangent_basis,
+    warm_start,
+)
+from .step import copy_snapshot, rollout, step, step_once
 from .support import (
     fibonacci_sphere,
     support_box,
@@ -92,18 +122,22 @@ from .support import (
 )
 
 __all__ = [
-    "EDGE", "FACE", "FACE_PREFERENCE", "PAIRS", "SHAPE", "VERTEX",
-    "bias", "bounding_radius", "box_box_separation", "box_corners", "box_edge",
-    "box_polytope", "clip_incident_face", "contact_box_box", "contact_box_sphere", "contact_jacobian",
-    "contact_lcp", "contact_plane_capsule", "contact_plane_cylinder", "contact_plane_points",
-    "contact_plane_sphere", "contact_rows", "contact_sphere_capsule", "contact_sphere_sphere",
-    "copy_snapshot", "detect_contacts", "feature_id", "feature_parts", "fibonacci_sphere",
-    "integrate", "inverse_mass_blocks", "inverse_mass_matrix", "jacobian", "lcp_solve",
+    "DEFAULT_SETTINGS", "EDGE", "FACE", "FACE_PREFERENCE", "PAIRS", "SHAPE", "VERTEX", "bias",
+    "bounding_radius", "box_box_separation", "box_corners", "box_edge", "box_polytope",
+    "certificate", "clip_incident_face", "contact_box_box", "contact_box_sphere",
+    "contact_jacobian", "contact_lcp", "contact_materials", "contact_plane_capsule",
+    "contact_plane_cylinder", "contact_plane_points", "contact_plane_sphere", "contact_rows",
+    "contact_sphere_capsule", "contact_sphere_sphere", "copy_snapshot", "detect_contacts",
+    "empty_cache", "feature_id", "feature_parts", "fibonacci_sphere", "free_rotation", "integrate",
+    "inverse_mass_blocks", "inverse_mass_matrix", "iterate", "jacobian", "lcp_solve",
     "mass_properties", "mass_properties_box", "mass_properties_capsule", "mass_properties_compound",
-    "mass_properties_cylinder", "mass_properties_hull", "mass_properties_mesh", "mass_properties_sphere",
-    "matrix_to_quat", "mesh_volume_integrals", "pgs", "plane_reach", "polytope_to_world",
-    "quat_to_matrix", "reduce_manifold", "rodrigues", "rollout", "select_manifold", "shape_volume",
-    "signed_area", "skew", "speculative_reach", "step", "support_box", "support_capsule",
-    "support_cylinder", "support_hull", "support_of", "support_separation", "support_sphere",
-    "unconstrained_velocity", "velocities_from_alpha", "world_inertia",
+    "mass_properties_cylinder", "mass_properties_hull", "mass_properties_mesh",
+    "mass_properties_sphere", "matrix_to_quat", "mesh_volume_integrals", "pgs", "plane_reach",
+    "polytope_to_world", "position_pass", "position_targets", "prepare_rows", "project_friction",
+    "quat_to_matrix", "read_cache", "reduce_manifold", "restitution", "restitutive_contacts",
+    "rodrigues", "rollout", "select_manifold", "shape_volume", "signed_area", "skew",
+    "solve_contacts", "solver_settings", "sort_cache", "speculative_bias", "speculative_reach",
+    "step", "step_once", "store", "support_box", "support_capsule", "support_cylinder",
+    "support_hull", "support_of", "support_separation", "support_sphere", "tangent_basis",
+    "unconstrained_velocity", "velocities_from_alpha", "warm_start", "world_inertia",
 ]

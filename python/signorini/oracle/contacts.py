@@ -41,6 +41,10 @@ from .manifold import (
 from .rigid import body_arrays
 
 
+# m, the documented default of the setting contact_margin (old snapshots may lack it)
+DEFAULT_CONTACT_MARGIN = 0.005
+
+
 def bounding_radius(shape):
     """rho: largest distance of the shape's surface from its COM, m.
 
@@ -364,7 +368,7 @@ def detect_contacts(snapshot, dt):
     static, _, _, _ = body_arrays(snapshot)
     p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
     R = np.asarray(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
-    margin = float(snapshot["settings"]["contact_margin"])
+    margin = float((snapshot.get("settings") or {}).get("contact_margin", DEFAULT_CONTACT_MARGIN))
     s = speculative_reach(snapshot, dt)
 
     out = {key: [] for key in ("body_a", "body_b", "point", "normal", "gap", "feature_a", "feature_b")}

@@ -6,7 +6,9 @@ complementary) gives the LCP
 with the Delassus matrix A = dt G M^-1 G^T (K, K), s/kg, and b = G q_dot* + b_bias (K,), m/s,
 where row i of G (K, 6N) holds g_i^A in body A's columns and g_i^B in body B's.
 A_ii = delta_i, and w_i is the relative normal velocity plus bias after the step.
-PGS is Gauss-Seidel on this LCP, so it converges to its solution.
+PGS is Gauss-Seidel on this LCP, so it converges to its solution.  With b_bias = max(gap, 0) / dt
+(``contact_lcp(..., b_bias="speculative")``) it is also the problem of the staged solver
+(``solver``) when friction and restitution are 0: its friction rows then stay at zero.
 """
 
 from itertools import combinations
@@ -15,6 +17,7 @@ import numpy as np
 
 from .pgs import bias, contact_rows
 from .rigid import inverse_mass_blocks
+from .solver import speculative_bias
 
 # enumeration visits 2^K active sets
 LCP_MAX_SIZE = 12
@@ -44,15 +47,26 @@ def inverse_mass_matrix(snapshot):
     return M_inv
 
 
-def contact_lcp(snapshot, contacts, v_star, omega_star, dt):
+def contact_lcp(snapshot, contacts, v_star, omega_star, dt, b_bias=None):
     """The LCP of one step: returns (A (K, K) s/kg, b (K,) m/s) with
-    A = dt G M^-1 G^T and b = G q_dot* + b_bias, b_bias as in the PGS (erp for overlap)."""
+    A = dt G M^-1 G^T and b = G q_dot* + b_bias.
+
+    b_bias (K,) m/s: None = the lecture's PGS rule (``pgs.bias``: gap / dt, erp for overlap), the
+    problem ``pgs`` solves; ``"speculative"`` = max(gap, 0) / dt (``solver.speculative_bias``), the
+    normal rows of the staged solver with friction 0 and no restitution; or an array.
+    """
     G = contact_jacobian(snapshot, contacts)
     M_inv = inverse_mass_matrix(snapshot)
     q_dot_star = np.hstack([np.asarray(omega_star, dtype=float).reshape(-1, 3),
                             np.asarray(v_star, dtype=float).reshape(-1, 3)]).reshape(-1)
     A = dt * G @ M_inv @ G.T
-    b = G @ q_dot_star + bias(contacts, float(snapshot["settings"]["erp"]), dt)
+    if b_bias is None:
+        b_bias = bias(contacts, float(snapshot["settings"]["erp"]), dt)
+    elif isinstance(b_bias, str):
+        if b_bias != "speculative":
+            raise ValueError(f"contact_lcp: b_bias must be None, 'speculative' or an array, got {b_bias!r}")
+        b_bias = speculative_bias(contacts, dt)
+    b = G @ q_dot_star + np.asarray(b_bias, dtype=float).reshape(-1)
     return A, b
 
 

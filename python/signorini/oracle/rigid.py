@@ -1,5 +1,6 @@
 """Rigid-body kinematics and the unconstrained update (docs/conventions.md, "Body",
-"Jacobian", "One step" items 2 and 4).
+"Jacobian", "One step" items 2 and 4), with the three gyroscopic options of item 2
+(``free_rotation``: "midpoint", the default, and "implicit"; "explicit" in ``unconstrained_velocity``).
 
 State layout (the snapshot dict, N bodies):
     position p          (N, 3)     COM, world, m
@@ -134,19 +135,77 @@ def inverse_mass_blocks(snapshot):
     return M_inv
 
 
-def unconstrained_velocity(snapshot, dt):
-    """Velocities after gravity, external forces and the gyroscopic term, before contacts.
+# step 2's options for the gyroscopic term w x (I w), and the midpoint rule's Newton limits
+GYROSCOPIC_OPTIONS = ("midpoint", "implicit", "explicit")
+GYROSCOPIC_DEFAULT = "midpoint"
+MIDPOINT_MAX_NEWTON = 10
+MIDPOINT_NEWTON_TOLERANCE = 1e-14
 
-    Per dynamic body (conventions, step 2), world frame:
-        v*     = v + dt (g + f / m)
-        omega* = omega + dt I_w^-1 (tau - omega x (I_w omega)),   I_w = R I_body R^T
-    so that I_w omega* = L + dt (tau - omega x L) with L = I_w omega (d(I_w omega)/dt = tau).
+
+def free_rotation(I_body, w, dt, gyroscopic=GYROSCOPIC_DEFAULT):
+    """One step dt of the torque-free Euler equation I w_dot + w x (I w) = 0, body frame.
+
+    Inputs: I_body (3, 3) kg m^2, body axes; w (3,) rad/s, body frame (w = R^T omega);
+            dt s; gyroscopic "midpoint" or "implicit" (the body-frame options of step 2).
+    Output: w' (3,) rad/s, body frame, before the external torque's impulse.
+
+    midpoint: the implicit midpoint rule  F(w') = I (w' - w) + dt m x (I m) = 0,  m = (w + w') / 2,
+              by Newton from w' = w with dF/dw' = I + dt/2 ([m]x I - [I m]x), at most 10 iterations,
+              stopping once |step|_inf <= 1e-14 |w'|_inf.  It keeps 1/2 w.I w and |I w|; if
+              rounding (or an early stop) left E' = 1/2 w'.I w' > E = 1/2 w.I w, w' is scaled by
+              sqrt(E / E') (the gyroscopic term does no work).
+    implicit: Catto's one Newton step of backward Euler,
+              w' = w - (I + dt ([w]x I - [I w]x))^-1 (dt w x (I w)).  Stable, but dissipates.
+    """
+    I = np.asarray(I_body, dtype=float)
+    w = np.asarray(w, dtype=float)
+    if gyroscopic == "implicit":
+        # one Newton step on I (w' - w) + dt w' x (I w') = 0, from w' = w
+        J = I + dt * (skew(w) @ I - skew(I @ w))
+        return w - np.linalg.solve(J, dt * np.cross(w, I @ w))
+    if gyroscopic != "midpoint":
+        raise ValueError(f"free_rotation: gyroscopic must be 'midpoint' or 'implicit', got {gyroscopic!r}")
+
+    # Newton on F(w') = I (w' - w) + dt m x (I m), m the midpoint velocity
+    w1 = w.copy()
+    for _ in range(MIDPOINT_MAX_NEWTON):
+        m = 0.5 * (w + w1)
+        F = I @ (w1 - w) + dt * np.cross(m, I @ m)
+        dF = I + 0.5 * dt * (skew(m) @ I - skew(I @ m))
+        step = np.linalg.solve(dF, F)
+        w1 = w1 - step
+        if np.max(np.abs(step)) <= MIDPOINT_NEWTON_TOLERANCE * np.max(np.abs(w1)):
+            break
+
+    # the gyroscopic term does no work: never leave with more energy than we came with
+    E0, E1 = w @ (I @ w), w1 @ (I @ w1)
+    if E1 > E0:
+        w1 = w1 * np.sqrt(E0 / E1)
+    return w1
+
+
+def unconstrained_velocity(snapshot, dt):
+    """Velocities after gravity, external forces and the gyroscopic term, before contacts
+    (conventions, "One step" item 2).
+
+    Per dynamic body, world frame:
+        v* = v + dt (g + f / m)
+    and the angular part by ``snapshot["settings"]["gyroscopic"]`` (default "midpoint"):
+        midpoint, implicit: in the body frame, w = R^T omega, tau_b = R^T tau,
+                            w' = ``free_rotation(I_body, w, dt, gyroscopic)``,
+                            w* = w' + dt I_body^-1 tau_b,  omega* = R w*
+        explicit:           the lecture's term, world frame,
+                            omega* = omega + dt I_w^-1 (tau - omega x (I_w omega)),  I_w = R I_body R^T
+                            (I_w omega* = L + dt (tau - omega x L), L = I_w omega; it gains energy)
     Static bodies never move: their v* and omega* are zero.
 
     Inputs: snapshot (see module doc), dt s.
     Outputs: v_star (N, 3) m/s, omega_star (N, 3) rad/s.
     """
     static, inv_mass, I_body, inv_I_body = body_arrays(snapshot)
+    gyroscopic = snapshot.get("settings", {}).get("gyroscopic", GYROSCOPIC_DEFAULT)
+    if gyroscopic not in GYROSCOPIC_OPTIONS:
+        raise ValueError(f"gyroscopic must be one of {GYROSCOPIC_OPTIONS}, got {gyroscopic!r}")
     g = np.asarray(snapshot["gravity"], dtype=float)
     R = np.asarray(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
     v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
@@ -157,11 +216,18 @@ def unconstrained_velocity(snapshot, dt):
     # linear: gravity plus external force
     v_star = v + dt * (g + inv_mass[:, None] * f)
 
-    # angular: torque minus the gyroscopic term omega x L, with L = I_w omega
-    I_w = world_inertia(R, I_body)
-    I_w_inv = world_inertia(R, inv_I_body)
-    L = np.einsum("nij,nj->ni", I_w, omega)
-    omega_star = omega + dt * np.einsum("nij,nj->ni", I_w_inv, tau - np.cross(omega, L))
+    if gyroscopic == "explicit":
+        # angular, world frame: torque minus the gyroscopic term omega x L, with L = I_w omega
+        I_w = world_inertia(R, I_body)
+        I_w_inv = world_inertia(R, inv_I_body)
+        L = np.einsum("nij,nj->ni", I_w, omega)
+        omega_star = omega + dt * np.einsum("nij,nj->ni", I_w_inv, tau - np.cross(omega, L))
+    else:
+        # angular, body frame: the free rotation, then the external torque's impulse
+        omega_star = np.zeros_like(omega)
+        for n in np.flatnonzero(~static):
+            w1 = free_rotation(I_body[n], R[n].T @ omega[n], dt, gyroscopic)
+            omega_star[n] = R[n] @ (w1 + dt * (inv_I_body[n] @ (R[n].T @ tau[n])))
 
     # static bodies never move
     v_star[static] = 0.0

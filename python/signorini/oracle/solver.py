@@ -1,0 +1,629 @@
+"""The staged contact solve of one step (docs/conventions.md, "Materials", "One step (dt)"
+item 3, "The Signorini certificate"), written from the spec in the core's order of operations:
+
+    a. prepare_rows      rows (normal, t1, t2 per contact), delta, bias b, mu, e, u
+    b. warm_start        the previous step's forces for contacts with the same key, applied
+    c. iterate           projected Gauss-Seidel sweeps over all rows (normal, then friction)
+    d. restitution       Newton's law on the normal rows of the contacts that hit fast
+    e. position_pass     split impulse: pseudo-velocities q_p that remove overlaps (never kept)
+    f. store, certificate  forces per contact and per body, the next cache, the certificate
+    solve_contacts       all of them in order
+
+Rows.  Contact i (bodies A, B, point y_i, normal n_i from A to B) gives rows 3i (direction
+d = n_i), 3i + 1 (t1_i) and 3i + 2 (t2_i).  With r_X = y_i - p_X at the start of the step:
+    J_A = -(r_A x d, d),  J_B = (r_B x d, d)           (6,) each, (omega, p_dot) layout
+    delta = dt (J_A . M_A^-1 J_A + J_B . M_B^-1 J_B)    s/kg
+    J q_dot = J_B . q_dot_B + J_A . q_dot_A            m/s
+alpha of a row is a force (N); a change d_alpha moves q_dot_X += dt d_alpha M_X^-1 J_X.
+Velocities are kept per body as q_dot (N, 6) = (omega, p_dot), world; static bodies have
+M^-1 = 0 and are never moved (they are skipped, not given 0 * change).
+
+A row whose delta is not > 0 (both bodies static: the narrow phase never makes one) is
+skipped by every stage and keeps alpha = 0.
+"""
+
+import numpy as np
+
+from .rigid import GYROSCOPIC_DEFAULT, GYROSCOPIC_OPTIONS, body_arrays, inverse_mass_blocks
+
+# the documented defaults (conventions, last paragraph); a snapshot without a key uses these
+DEFAULT_SETTINGS = {
+    "contact_margin": 0.005,        # m
+    "erp": 0.2,                     # fraction of an overlap removed per step
+    "tolerance": 1e-6,              # m/s
+    "max_iterations": 20,           # sweeps per stage
+    "slop": 0.001,                  # m, overlap the position pass leaves alone
+    "max_push_velocity": 1.0,       # m/s
+    "restitution_threshold": 0.5,   # m/s
+    "friction_cone": "pyramid",
+    "gyroscopic": GYROSCOPIC_DEFAULT,
+    "warm_start": True,
+    "substeps": 1,
+    "warn_velocity": 0.01,          # m/s
+}
+FRICTION_CONES = ("pyramid", "cone")
+DEFAULT_FRICTION = 0.5
+DEFAULT_RESTITUTION = 0.0
+# a contact slides (for max_dissipation_violation) when its slip speed exceeds this, m/s
+SLIDING_SPEED = 1e-3
+CACHE_KEYS = ("body_a", "body_b", "feature_a", "feature_b", "alpha", "friction")
+
+
+# --------------------------------------------------------------------------- inputs
+
+def solver_settings(snapshot):
+    """The snapshot's settings with the documented defaults for missing keys, checked.
+
+    Output: dict with every key of ``DEFAULT_SETTINGS``, numbers as float / int / bool.
+    Raises ValueError for an unknown friction_cone or gyroscopic, or substeps < 1.
+    """
+    given = snapshot.get("settings") or {}
+    s = {key: given.get(key, default) for key, default in DEFAULT_SETTINGS.items()}
+    for key in ("contact_margin", "erp", "tolerance", "slop", "max_push_velocity",
+                "restitution_threshold", "warn_velocity"):
+        s[key] = float(s[key])
+    s["max_iterations"] = int(s["max_iterations"])
+    s["substeps"] = int(s["substeps"])
+    s["warm_start"] = bool(s["warm_start"])
+    if s["friction_cone"] not in FRICTION_CONES:
+        raise ValueError(f"friction_cone must be one of {FRICTION_CONES}, got {s['friction_cone']!r}")
+    if s["gyroscopic"] not in GYROSCOPIC_OPTIONS:
+        raise ValueError(f"gyroscopic must be one of {GYROSCOPIC_OPTIONS}, got {s['gyroscopic']!r}")
+    if s["substeps"] < 1:
+        raise ValueError(f"substeps must be >= 1, got {s['substeps']}")
+    return s
+
+
+def empty_cache():
+    """A warm-start cache with no entries (the format of ``read_cache``)."""
+    return {"body_a": np.zeros(0, dtype=np.int64), "body_b": np.zeros(0, dtype=np.int64),
+            "feature_a": np.zeros(0, dtype=np.uint64), "feature_b": np.zeros(0, dtype=np.uint64),
+            "alpha": np.zeros(0), "friction": np.zeros((0, 3))}
+
+
+def read_cache(snapshot):
+    """The previous step's warm-start cache of the snapshot (missing or None = empty).
+
+    Output: dict body_a, body_b (C,) int64, feature_a, feature_b (C,) uint64, alpha (C,) N
+    (normal force after stage c), friction (C, 3) N (world friction force on B).
+    """
+    cache = snapshot.get("cache")
+    if cache is None or len(cache.get("alpha", ())) == 0:
+        return empty_cache()
+    return {"body_a": np.asarray(cache["body_a"], dtype=np.int64).reshape(-1),
+            "body_b": np.asarray(cache["body_b"], dtype=np.int64).reshape(-1),
+            "feature_a": np.asarray(cache["feature_a"], dtype=np.uint64).reshape(-1),
+            "feature_b": np.asarray(cache["feature_b"], dtype=np.uint64).reshape(-1),
+            "alpha": np.asarray(cache["alpha"], dtype=float).reshape(-1),
+            "friction": np.asarray(cache["friction"], dtype=float).reshape(-1, 3)}
+
+
+def contact_materials(snapshot, contacts):
+    """Per contact mu_i = sqrt(mu_A mu_B) and e_i = max(e_A, e_B) (conventions, "Materials").
+
+    Body keys "friction" (default 0.5) and "restitution" (default 0), static bodies too.
+    Outputs: mu (K,), e (K,), dimensionless.
+    """
+    bodies = snapshot["bodies"]
+    mu_body = np.array([float(b.get("friction", DEFAULT_FRICTION)) for b in bodies])
+    e_body = np.array([float(b.get("restitution", DEFAULT_RESTITUTION)) for b in bodies])
+    A = np.asarray(contacts["body_a"], dtype=np.int64)
+    B = np.asarray(contacts["body_b"], dtype=np.int64)
+    return np.sqrt(mu_body[A] * mu_body[B]), np.maximum(e_body[A], e_body[B])
+
+
+def speculative_bias(contacts, dt):
+    """b_i = max(gap_i, 0) / dt, (K,) m/s: a speculative contact may close its gap, no more;
+    an overlap is not pushed out by the velocity (the position pass does that)."""
+    return np.maximum(np.asarray(contacts["gap"], dtype=float), 0.0) / dt
+
+
+def tangent_basis(normal):
+    """t1, t2 of unit normals n (K, 3): with k the axis of the smallest |n_k| (first on ties),
+    t1 = unit(n x e_k), t2 = n x t1.  Outputs (K, 3) each; (n, t1, t2) is right-handed."""
+    n = np.asarray(normal, dtype=float).reshape(-1, 3)
+    e_k = np.eye(3)[np.argmin(np.abs(n), axis=1)]
+    t1 = np.cross(n, e_k)
+    t1 = t1 / np.linalg.norm(t1, axis=1)[:, None]
+    return t1, np.cross(n, t1)
+
+
+# --------------------------------------------------------------------------- a. prepare
+
+def prepare_rows(snapshot, contacts, q_dot_star, dt):
+    """Stage a: the rows of every contact and the contact constants.
+
+    Inputs: snapshot (positions and rotations at the start of the step, bodies), contacts dict
+            (K), q_dot_star (N, 6) unconstrained (omega, p_dot), dt s.
+    Output dict (row k = 3 i + j, j = 0 normal, 1 t1, 2 t2):
+        a, b         (3K,) int64 body indices of each row
+        direction    (3K, 3) d of each row: n_i, t1_i, t2_i
+        J_A, J_B     (3K, 6) as in the module doc
+        MJ_A, MJ_B   (3K, 6) M_A^-1 J_A, M_B^-1 J_B (1/kg, 1/(kg m))
+        delta        (3K,) s/kg
+        moves        (N,) bool, False for static bodies
+        bias         (K,) m/s, b_i = max(gap_i, 0) / dt
+        gap          (K,) m;  mu, e (K,) materials;  u (K,) m/s, J_n q_dot* (< 0 approaching)
+    """
+    p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
+    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
+    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
+    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
+    K = len(A)
+
+    # directions: normal, then the two tangents, contact by contact
+    t1, t2 = tangent_basis(n)
+    d = np.stack([n, t1, t2], axis=1).reshape(-1, 3)
+    a, b = np.repeat(A, 3), np.repeat(B, 3)
+    r_A, r_B = np.repeat(y - p[A], 3, axis=0), np.repeat(y - p[B], 3, axis=0)
+
+    # Jacobian rows, M^-1 J and delta
+    J_A = -np.hstack([np.cross(r_A, d), d])
+    J_B = np.hstack([np.cross(r_B, d), d])
+    M_inv = inverse_mass_blocks(snapshot)
+    MJ_A = np.einsum("kij,kj->ki", M_inv[a], J_A)
+    MJ_B = np.einsum("kij,kj->ki", M_inv[b], J_B)
+    delta = dt * (np.einsum("ki,ki->k", J_A, MJ_A) + np.einsum("ki,ki->k", J_B, MJ_B))
+
+    # contact constants: bias, materials, normal velocity before the solve
+    gap = np.asarray(contacts["gap"], dtype=float).reshape(-1)
+    mu, e = contact_materials(snapshot, contacts)
+    q = np.asarray(q_dot_star, dtype=float).reshape(-1, 6)
+    u = (np.einsum("ki,ki->k", J_B[0::3], q[B]) + np.einsum("ki,ki->k", J_A[0::3], q[A])
+         if K else np.zeros(0))
+    static, _, _, _ = body_arrays(snapshot)
+    return {"a": a, "b": b, "direction": d, "J_A": J_A, "J_B": J_B, "MJ_A": MJ_A, "MJ_B": MJ_B,
+            "delta": delta, "moves": ~static, "bias": speculative_bias(contacts, dt), "gap": gap,
+            "mu": mu, "e": e, "u": u}
+
+
+class _Sweep:
+    """The rows as Python lists (scalar NumPy indexing is slow) and the two row operations
+    every stage uses: the row velocity J q_dot and the update q_dot += dt d_alpha M^-1 J."""
+
+    def __init__(self, rows, dt):
+        self.a, self.b = rows["a"].tolist(), rows["b"].tolist()
+        self.J_A, self.J_B = list(rows["J_A"]), list(rows["J_B"])
+        self.MJ_A, self.MJ_B = list(rows["MJ_A"]), list(rows["MJ_B"])
+        self.delta = rows["delta"].tolist()
+        self.moves = rows["moves"].tolist()
+        self.dt = dt
+
+    def velocity(self, k, q_dot):
+        """J q_dot of row k, m/s."""
+        return float(self.J_B[k] @ q_dot[self.b[k]] + self.J_A[k] @ q_dot[self.a[k]])
+
+    def apply(self, k, d_alpha, q_dot):
+        """q_dot_X += dt d_alpha M_X^-1 J_X for the moving bodies of row k."""
+        s = self.dt * d_alpha
+        if self.moves[self.a[k]]:
+            q_dot[self.a[k]] += s * self.MJ_A[k]
+        if self.moves[self.b[k]]:
+            q_dot[self.b[k]] += s * self.MJ_B[k]
+
+    def update_normal(self, k, b, alpha, q_dot):
+        """gamma = J q_dot - delta alpha_k + b, alpha_k <- max(-gamma / delta, 0), applied.
+        alpha is the list of the stage's unknowns (modified); returns delta |d_alpha| (m/s)."""
+        delta = self.delta[k]
+        if not delta > 0.0:
+            return 0.0
+        gamma = self.velocity(k, q_dot) - delta * alpha[k] + b
+        alpha_new = max(-gamma / delta, 0.0)
+        d_alpha = alpha_new - alpha[k]
+        if d_alpha == 0.0:
+            return 0.0
+        alpha[k] = alpha_new
+        self.apply(k, d_alpha, q_dot)
+        return delta * abs(d_alpha)
+
+
+def project_friction(a1, a2, bound, friction_cone):
+    """The friction set of a contact: the pyramid clamps each of a1, a2 to [-bound, bound];
+    the cone scales (a1, a2) onto the disk |a| <= bound when outside it.  Floats in and out, N."""
+    if friction_cone == "cone":
+        s = np.hypot(a1, a2)
+        if s > bound:
+            k = bound / s if s > 0.0 else 0.0
+            a1, a2 = a1 * k, a2 * k
+        return float(a1), float(a2)
+    return min(max(a1, -bound), bound), min(max(a2, -bound), bound)
+
+
+# --------------------------------------------------------------------------- b. warm start
+
+def warm_start(rows, contacts, cache, q_dot, dt, friction_cone):
+    """Stage b: start each contact from the cached forces of the same key, and apply them.
+
+    A contact whose key (body_a, body_b, feature_a, feature_b) is in the cache (the first such
+    contact in contact order; the first cache entry of that key) gets alpha_n = the cached
+    normal force and alpha_t1 = f . t1, alpha_t2 = f . t2 from the cached friction force f,
+    projected onto its friction set of alpha_n (``project_friction``).  The rows' alpha are
+    then applied to q_dot in row order.  Other contacts start from zero.
+
+    Inputs: rows (``prepare_rows``), contacts (needs feature_a, feature_b when the cache is not
+            empty), cache (``read_cache``), q_dot (N, 6) modified in place, dt s, friction_cone.
+    Output: alpha (3K,) N, the rows' starting forces.
+    """
+    K = len(rows["mu"])
+    alpha = np.zeros(3 * K)
+    if len(cache["alpha"]) == 0 or K == 0:
+        return alpha
+    if "feature_a" not in contacts or "feature_b" not in contacts:
+        raise ValueError("warm start: the contacts need feature_a and feature_b to match the cache")
+
+    # the first cache entry of each key
+    index = {}
+    for j, key in enumerate(zip(cache["body_a"].tolist(), cache["body_b"].tolist(),
+                                cache["feature_a"].tolist(), cache["feature_b"].tolist())):
+        index.setdefault(key, j)
+
+    # the first contact of each key takes the entry, projected onto its own friction set
+    used = set()
+    keys = zip(np.asarray(contacts["body_a"]).tolist(), np.asarray(contacts["body_b"]).tolist(),
+               np.asarray(contacts["feature_a"], dtype=np.uint64).tolist(),
+               np.asarray(contacts["feature_b"], dtype=np.uint64).tolist())
+    d = rows["direction"]
+    for i, key in enumerate(keys):
+        j = index.get(key)
+        if j is None or j in used:
+            continue
+        used.add(j)
+        alpha_n = float(cache["alpha"][j])
+        f = cache["friction"][j]
+        a1, a2 = project_friction(float(f @ d[3 * i + 1]), float(f @ d[3 * i + 2]),
+                                  float(rows["mu"][i]) * alpha_n, friction_cone)
+        alpha[3 * i:3 * i + 3] = alpha_n, a1, a2
+
+    # apply them in row order
+    sweep = _Sweep(rows, dt)
+    for k in np.flatnonzero(alpha != 0.0).tolist():
+        sweep.apply(k, float(alpha[k]), q_dot)
+    return alpha
+
+
+# --------------------------------------------------------------------------- c. iterate
+
+def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone):
+    """Stage c: projected Gauss-Seidel sweeps over all rows in row order.
+
+    Per contact i, with its current alpha_n:
+        normal:  gamma = J q_dot - delta alpha + b_i, alpha <- max(-gamma / delta, 0)
+        pyramid: each tangent row in turn, gamma = J q_dot - delta alpha,
+                 alpha <- clamp(-gamma / delta, -mu alpha_n, mu alpha_n)
+        cone:    both tangent rows from the same q_dot with one scale delta_t = max(delta_1, delta_2):
+                 a_k = alpha_k - J_k q_dot / delta_t, (a_1, a_2) scaled onto the disk
+                 |a| <= mu alpha_n when outside it, then applied (t1, then t2)
+    At most max_iterations sweeps, stopping after a sweep whose largest delta |d_alpha| (each
+    row's own delta) is <= tolerance (m/s).
+
+    Why one delta_t for the cone (the conventions' text divides each row by its own delta_k):
+    a fixed point of a = P_disk(a - D^-1 v), D = diag(delta_1, delta_2), that slides has
+    a parallel to -D^-1 v, so friction opposes the slip only when delta_1 = delta_2; with a
+    scalar delta_t it is parallel to -v (Coulomb's maximal dissipation) whatever delta_t > 0.
+    delta_t = max(delta_1, delta_2) is at least half the largest eigenvalue of the contact's
+    2 x 2 tangent block (PSD: |c| <= sqrt(delta_1 delta_2)), so the projected step still
+    converges.  A box sliding down a slope along a direction between t1 and t2 with per-row
+    deltas yaws and accelerates 1% too fast; with delta_t it follows g (sin - mu cos) to rounding.
+    The pyramid is a box, separable per row, so its fixed points do not depend on the scales.
+
+    Inputs: rows, alpha (3K,) N modified in place, q_dot (N, 6) modified in place, dt s,
+            tolerance m/s, max_iterations, friction_cone.
+    Outputs: (iterations, converged); converged is True with 0 sweeps when there are no rows.
+    """
+    sweep = _Sweep(rows, dt)
+    K = len(rows["mu"])
+    bias, mu = rows["bias"].tolist(), rows["mu"].tolist()
+    delta = sweep.delta
+    x = alpha.tolist()
+    iterations, converged = 0, K == 0
+    while not converged and iterations < max_iterations:
+        iterations += 1
+        change = 0.0
+        for i in range(K):
+            n, k1, k2 = 3 * i, 3 * i + 1, 3 * i + 2
+            # normal: the lecture's projection onto alpha >= 0
+            change = max(change, sweep.update_normal(n, bias[i], x, q_dot))
+            # friction: Coulomb, bounded by mu times the current normal force
+            if not delta[k1] > 0.0:
+                continue
+            bound = mu[i] * x[n]
+            if friction_cone == "cone":
+                delta_t = max(delta[k1], delta[k2])
+                a1 = x[k1] - sweep.velocity(k1, q_dot) / delta_t
+                a2 = x[k2] - sweep.velocity(k2, q_dot) / delta_t
+                a1, a2 = project_friction(a1, a2, bound, "cone")
+                d1, d2 = a1 - x[k1], a2 - x[k2]
+                x[k1], x[k2] = a1, a2
+                if d1 != 0.0:
+                    sweep.apply(k1, d1, q_dot)
+                if d2 != 0.0:
+                    sweep.apply(k2, d2, q_dot)
+                change = max(change, delta[k1] * abs(d1), delta[k2] * abs(d2))
+            else:
+                for k in (k1, k2):
+                    gamma = sweep.velocity(k, q_dot) - delta[k] * x[k]
+                    a = min(max(-gamma / delta[k], -bound), bound)
+                    d_alpha = a - x[k]
+                    if d_alpha == 0.0:
+                        continue
+                    x[k] = a
+                    sweep.apply(k, d_alpha, q_dot)
+                    change = max(change, delta[k] * abs(d_alpha))
+        converged = change <= tolerance
+    alpha[:] = x
+    return iterations, converged
+
+
+# --------------------------------------------------------------------------- d. restitution
+
+def restitutive_contacts(rows, alpha, restitution_threshold):
+    """The contacts of stage d: e_i > 0, u_i < -restitution_threshold and alpha_n > 0 after
+    stage c.  Inputs: rows, alpha (3K,) N after c, threshold m/s.  Output (K,) bool."""
+    return (rows["e"] > 0.0) & (rows["u"] < -restitution_threshold) & (alpha[0::3] > 0.0)
+
+
+def restitution(rows, alpha, q_dot, restitutive, dt, tolerance, max_iterations):
+    """Stage d: Newton's law n^T (v_B - v_A) >= -e_i u_i on the restitutive contacts.
+
+    Their normal rows only (friction is not swept again), in contact order, same stopping rule:
+        gamma = J q_dot - delta alpha + e_i u_i, alpha <- max(-gamma / delta, 0)
+    so alpha_n ends as the total normal force (the stage c force plus the bounce).
+
+    Inputs: rows, alpha (3K,) N and q_dot (N, 6) modified in place, restitutive (K,) bool, dt s,
+            tolerance m/s, max_iterations.
+    Output: sweeps used (0 when no contact is restitutive).
+    """
+    contacts = np.flatnonzero(restitutive).tolist()
+    if not contacts:
+        return 0
+    sweep = _Sweep(rows, dt)
+    target = (rows["e"] * rows["u"]).tolist()
+    x = alpha.tolist()
+    sweeps, converged = 0, False
+    while not converged and sweeps < max_iterations:
+        sweeps += 1
+        change = 0.0
+        for i in contacts:
+            change = max(change, sweep.update_normal(3 * i, target[i], x, q_dot))
+        converged = change <= tolerance
+    alpha[:] = x
+    return sweeps
+
+
+# --------------------------------------------------------------------------- e. position pass
+
+def position_targets(rows, restitutive, dt, erp, slop, max_push_velocity):
+    """b_pos,i = max(push_i, bounce_i), (K,) m/s, the separation speed the position pass asks for:
+        push_i   = min(erp max(-gap_i - slop, 0) / dt, max_push_velocity)
+                   (an overlap up to slop is left alone, so resting contacts are not stirred)
+        bounce_i = e_i max(-u_i - max(gap_i, 0) / dt, 0) for a restitutive contact, else 0
+    (after the impact at t_c = gap / |u| the bodies separate at e |u| for the rest of the step)."""
+    gap = rows["gap"]
+    push = np.minimum(erp * np.maximum(-gap - slop, 0.0) / dt, max_push_velocity)
+    bounce = np.where(restitutive, rows["e"] * np.maximum(-rows["u"] - np.maximum(gap, 0.0) / dt, 0.0), 0.0)
+    return np.maximum(push, bounce)
+
+
+def position_pass(rows, b_pos, n_bodies, dt, tolerance, max_iterations):
+    """Stage e: pseudo-velocities q_p that separate the contacts at b_pos (split impulse).
+
+    q_p starts at zero and the normal rows of all contacts are swept in contact order, same
+    stopping rule, with pseudo-forces beta_i >= 0:
+        gamma = J q_p - delta beta_i - b_pos,i, beta_i <- max(-gamma / delta, 0),
+        q_p += dt d_beta M^-1 J.
+    q_p moves the poses (step 4) and is then dropped.  When every b_pos,i is 0 nothing is done.
+
+    Inputs: rows, b_pos (K,) m/s, n_bodies N, dt s, tolerance m/s, max_iterations.
+    Outputs: q_p (N, 6) (omega_p, v_p), beta (K,) N, sweeps used.
+    """
+    K = len(b_pos)
+    q_p = np.zeros((n_bodies, 6))
+    beta = np.zeros(K)
+    if not np.any(b_pos > 0.0):
+        return q_p, beta, 0
+    sweep = _Sweep(rows, dt)
+    x = np.zeros(3 * K).tolist()      # the normal rows' beta at 3 i (the tangent slots stay 0)
+    target = (-b_pos).tolist()
+    sweeps, converged = 0, False
+    while not converged and sweeps < max_iterations:
+        sweeps += 1
+        change = 0.0
+        for i in range(K):
+            change = max(change, sweep.update_normal(3 * i, target[i], x, q_p))
+        converged = change <= tolerance
+    beta[:] = x[0::3]
+    return q_p, beta, sweeps
+
+
+# --------------------------------------------------------------------------- f. store
+
+def sort_cache(cache):
+    """The cache sorted by key (body_a, body_b, feature_a, feature_b), one entry per key (the
+    first in the given order), as the core keeps it."""
+    order = np.lexsort((cache["feature_b"], cache["feature_a"], cache["body_b"], cache["body_a"]))
+    keys = list(zip(*(cache[k][order].tolist() for k in ("body_a", "body_b", "feature_a", "feature_b"))))
+    keep = [m for m in range(len(order)) if m == 0 or keys[m] != keys[m - 1]]
+    return {k: cache[k][order[keep]] for k in CACHE_KEYS}
+
+
+def store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt):
+    """Stage f: forces per contact and per body, velocities at the contacts, the next cache.
+
+    Inputs: rows, contacts, snapshot (positions at the start of the step), alpha (3K,) N after
+            stage d, alpha_iter (K,) N the normal forces after stage c, q_dot (N, 6) the kept
+            velocities, dt s.
+    Output dict:
+        alpha (K,) N;  impulse (K,) N s = dt alpha;  friction (K, 3) N, f_i = alpha_t1 t1 + alpha_t2 t2
+        on B (-f_i on A);  force (K, 3) N = alpha n + f on B;  normal_velocity (K,) m/s, J_n q_dot;
+        slip (K, 3) m/s, (v_B(y) - v_A(y)) - vn n;  body_force, body_torque (N, 3) N, N m: the summed
+        contact force on each body and its torque about the body's com (world; static bodies too);
+        cache: body_a, body_b, feature_a, feature_b, alpha (after c), friction (``sort_cache``);
+        empty when the contacts carry no feature ids.
+    """
+    p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
+    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
+    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
+    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    K, N = len(A), len(p)
+    d = rows["direction"].reshape(K, 3, 3)
+    n, t1, t2 = d[:, 0], d[:, 1], d[:, 2]
+    alpha_n = alpha[0::3].copy()
+
+    # forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2, on B (A gets the opposite)
+    friction = alpha[1::3, None] * t1 + alpha[2::3, None] * t2
+    force = alpha_n[:, None] * n + friction
+
+    # per body: summed force and its torque about the com, in contact order
+    body_force, body_torque = np.zeros((N, 3)), np.zeros((N, 3))
+    for i in range(K):
+        body_force[B[i]] += force[i]
+        body_torque[B[i]] += np.cross(y[i] - p[B[i]], force[i])
+        body_force[A[i]] -= force[i]
+        body_torque[A[i]] -= np.cross(y[i] - p[A[i]], force[i])
+
+    # velocities at the contacts after the solve: normal and slip
+    q = np.asarray(q_dot, dtype=float).reshape(-1, 6)
+    v_rel = ((np.cross(q[B, :3], y - p[B]) + q[B, 3:]) - (np.cross(q[A, :3], y - p[A]) + q[A, 3:])
+             if K else np.zeros((0, 3)))
+    normal_velocity = (np.einsum("ki,ki->k", rows["J_B"][0::3], q[B])
+                       + np.einsum("ki,ki->k", rows["J_A"][0::3], q[A])) if K else np.zeros(0)
+    slip = v_rel - normal_velocity[:, None] * n
+
+    # the cache for the next step: the normal force before restitution, the friction force
+    # (contacts without feature ids cannot be recognised next step: they leave no cache)
+    cache = empty_cache()
+    if K and "feature_a" in contacts and "feature_b" in contacts:
+        cache = sort_cache({
+            "body_a": A.copy(), "body_b": B.copy(),
+            "feature_a": np.asarray(contacts["feature_a"], dtype=np.uint64).reshape(-1),
+            "feature_b": np.asarray(contacts["feature_b"], dtype=np.uint64).reshape(-1),
+            "alpha": np.asarray(alpha_iter, dtype=float).copy(), "friction": friction.copy()})
+    return {"alpha": alpha_n, "impulse": dt * alpha_n, "friction": friction, "force": force,
+            "normal_velocity": normal_velocity, "slip": slip, "body_force": body_force,
+            "body_torque": body_torque, "cache": cache}
+
+
+def certificate(rows, alpha, q_dot, restitutive, friction, slip, friction_cone):
+    """The Signorini certificate of the step (conventions, "The Signorini certificate").
+
+    With the kept velocities q_dot: vn_i = J_n q_dot, w_i = vn_i + b_i, b_i = e_i u_i for a
+    restitutive contact, else max(gap_i, 0) / dt (``rows["bias"]``).
+        max_alpha_negative        max(0, -min alpha_i)                                     N
+        max_penetration_velocity  max(0, -min w_i)                                         m/s
+        max_complementarity       max |alpha_i w_i|                                        W
+        max_cone_violation        max(0, max |f_i| - mu_i alpha_i)                         N
+        max_dissipation_violation max over |s_i| > 1e-3 m/s of |f_i + mu_i alpha_i s_i / |s_i||  N
+        max_overlap               max(0, -min gap_i)                                       m
+        residual                  max over rows of delta |alpha - P(alpha - w / delta)|      m/s,
+                                  P onto [0, inf) (normal rows, w = w_i) or the friction set of the
+                                  final alpha_n (tangent rows, w = J q_dot; the cone projects the pair
+                                  and uses delta_t = max(delta_1, delta_2) for both, as ``iterate``)
+    Inputs: rows, alpha (3K,) N final, q_dot (N, 6) kept, restitutive (K,) bool, friction (K, 3) N,
+            slip (K, 3) m/s, friction_cone.  Output dict of floats; all 0 when there are no contacts.
+    """
+    K = len(rows["mu"])
+    out = {key: 0.0 for key in ("residual", "max_alpha_negative", "max_penetration_velocity",
+                                "max_complementarity", "max_cone_violation",
+                                "max_dissipation_violation", "max_overlap")}
+    if K == 0:
+        return out
+    q = np.asarray(q_dot, dtype=float).reshape(-1, 6)
+    a, b = rows["a"], rows["b"]
+    # every row's velocity J q_dot
+    v_row = np.einsum("ki,ki->k", rows["J_B"], q[b]) + np.einsum("ki,ki->k", rows["J_A"], q[a])
+    alpha_n, mu, delta = alpha[0::3], rows["mu"], rows["delta"]
+    w = v_row[0::3] + np.where(restitutive, rows["e"] * rows["u"], rows["bias"])
+
+    # the conditions, contact by contact
+    out["max_alpha_negative"] = max(0.0, float(-alpha_n.min()))
+    out["max_penetration_velocity"] = max(0.0, float(-w.min()))
+    out["max_complementarity"] = float(np.abs(alpha_n * w).max())
+    out["max_cone_violation"] = max(0.0, float((np.linalg.norm(friction, axis=1) - mu * alpha_n).max()))
+    s = np.linalg.norm(slip, axis=1)
+    sliding = s > SLIDING_SPEED
+    if np.any(sliding):
+        opposed = friction[sliding] + (mu * alpha_n)[sliding, None] * slip[sliding] / s[sliding, None]
+        out["max_dissipation_violation"] = float(np.linalg.norm(opposed, axis=1).max())
+    out["max_overlap"] = max(0.0, float(-rows["gap"].min()))
+
+    # natural residual, row by row
+    residual = 0.0
+    for i in range(K):
+        n, k1, k2 = 3 * i, 3 * i + 1, 3 * i + 2
+        if not delta[n] > 0.0:
+            continue
+        residual = max(residual, delta[n] * abs(alpha[n] - max(alpha[n] - w[i] / delta[n], 0.0)))
+        # friction rows: the pyramid scales each row by its own delta, the cone both by delta_t
+        d1, d2 = delta[k1], delta[k2]
+        if friction_cone == "cone":
+            d1 = d2 = max(d1, d2)
+        p1, p2 = project_friction(alpha[k1] - v_row[k1] / d1, alpha[k2] - v_row[k2] / d2,
+                                  mu[i] * alpha[n], friction_cone)
+        residual = max(residual, d1 * abs(alpha[k1] - p1), d2 * abs(alpha[k2] - p2))
+    out["residual"] = float(residual)
+    return out
+
+
+# --------------------------------------------------------------------------- all stages
+
+def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
+    """Stages a-f of step 3 for one step of dt.
+
+    Inputs: snapshot (state at the start of the step, bodies, settings, cache), contacts dict (K;
+            feature_a, feature_b needed for the warm start), v_star, omega_star (N, 3)
+            unconstrained velocities (m/s, rad/s, world), dt s.
+    Output dict:
+        velocity, angular_velocity (N, 3): the kept velocities (after d)
+        velocity_move, angular_velocity_move (N, 3): q_dot_pos + q_p, what moves the poses (step 4)
+        velocity_pos, angular_velocity_pos, velocity_p, angular_velocity_p (N, 3): the two parts
+        the ``store`` keys (alpha, impulse, friction, force, normal_velocity, slip, body_force,
+        body_torque, cache), the ``certificate`` keys,
+        mu, restitution, u (K,); restitutive (K,) bool; alpha_iter (K,) N; b_pos (K,) m/s;
+        beta (K,) N; alpha_rows (3K,) N; rows (``prepare_rows``);
+        iterations, restitution_iterations, position_iterations, converged, contacts (K).
+    """
+    s = solver_settings(snapshot)
+    N = len(snapshot["bodies"])
+    q_dot = np.hstack([np.asarray(omega_star, dtype=float).reshape(-1, 3),
+                       np.asarray(v_star, dtype=float).reshape(-1, 3)])
+
+    # a. prepare rows; b. warm start; c. iterate
+    rows = prepare_rows(snapshot, contacts, q_dot, dt)
+    if s["warm_start"]:
+        alpha = warm_start(rows, contacts, read_cache(snapshot), q_dot, dt, s["friction_cone"])
+    else:
+        alpha = np.zeros(3 * len(rows["mu"]))
+    iterations, converged = iterate(rows, alpha, q_dot, dt, s["tolerance"], s["max_iterations"],
+                                    s["friction_cone"])
+    alpha_iter = alpha[0::3].copy()
+    # the poses move with the velocities of c; d changes only the kept ones
+    q_dot_pos = q_dot.copy()
+
+    # d. restitution
+    restitutive = restitutive_contacts(rows, alpha, s["restitution_threshold"])
+    restitution_iterations = restitution(rows, alpha, q_dot, restitutive, dt, s["tolerance"],
+                                         s["max_iterations"])
+
+    # e. position pass
+    b_pos = position_targets(rows, restitutive, dt, s["erp"], s["slop"], s["max_push_velocity"])
+    q_p, beta, position_iterations = position_pass(rows, b_pos, N, dt, s["tolerance"],
+                                                   s["max_iterations"])
+
+    # f. store and certify
+    out = store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt)
+    out.update(certificate(rows, alpha, q_dot, restitutive, out["friction"], out["slip"],
+                           s["friction_cone"]))
+    q_move = q_dot_pos + q_p
+    out.update({
+        "velocity": q_dot[:, 3:].copy(), "angular_velocity": q_dot[:, :3].copy(),
+        "velocity_move": q_move[:, 3:].copy(), "angular_velocity_move": q_move[:, :3].copy(),
+        "velocity_pos": q_dot_pos[:, 3:].copy(), "angular_velocity_pos": q_dot_pos[:, :3].copy(),
+        "velocity_p": q_p[:, 3:].copy(), "angular_velocity_p": q_p[:, :3].copy(),
+        "mu": rows["mu"], "restitution": rows["e"], "u": rows["u"], "restitutive": restitutive,
+        "alpha_iter": alpha_iter, "b_pos": b_pos, "beta": beta, "alpha_rows": alpha, "rows": rows,
+        "iterations": iterations, "restitution_iterations": restitution_iterations,
+        "position_iterations": position_iterations, "converged": bool(converged),
+        "contacts": len(rows["mu"]),
+    })
+    return out
