@@ -636,8 +636,9 @@ def angular_momentum(snap):
 
 def test_gyroscopic_term_keeps_angular_momentum_to_second_order():
     # The lecture's explicit term (gyroscopic="explicit"; the midpoint default and "implicit" are
-    # checked in test_oracle_solver.py).  Torque-free, one step: I_w omega' = L - dt omega x L and L' = Q I_w Q^T omega' with
-    # Q = exp([omega']x dt); Q^T omega' = omega', so L' = Q (L - dt omega x L) and, as
+    # checked in test_oracle_solver.py).  Torque-free, one step: I_w omega' = L - dt omega x L
+    # and L' = Q I_w Q^T omega' with Q = exp([omega']x dt); Q^T omega' = omega', so
+    # L' = Q (L - dt omega x L) and, as
     # omega x L is orthogonal to L,
     #   |L'| / |L| - 1 = sqrt(1 + dt^2 |omega x L|^2 / |L|^2) - 1.
     # The rotation after the polar step differs from Q R by ~eps, so the measured relative
@@ -659,7 +660,8 @@ def test_gyroscopic_term_keeps_angular_momentum_to_second_order():
 
 
 def test_gyroscopic_sign_makes_the_change_of_L_second_order():
-    # (the explicit term, as above)  L' - L = Q (L - dt omega x L) - L = dt (omega' - omega) x L + O(dt^2) = O(dt^2), while the
+    # (the explicit term, as above)
+    # L' - L = Q (L - dt omega x L) - L = dt (omega' - omega) x L + O(dt^2) = O(dt^2), while the
     # flipped sign (+ dt omega x L) gives L' - L = 2 dt omega x L + O(dt^2).  Halving dt must
     # divide the change by ~4 for the oracle, and by ~2 for the flipped sign.
     rng = np.random.default_rng(9)

@@ -5,7 +5,8 @@ item 3, "The Signorini certificate"), written from the spec in the core's order 
     b. warm_start        the previous step's forces for contacts with the same key, applied
     c. iterate           projected Gauss-Seidel sweeps over all rows (normal, then friction)
     d. restitution       Newton's law on the normal rows of the contacts that hit fast
-    e. position_pass     split impulse: pseudo-velocities q_p that remove overlaps (never kept)
+    e. position_pass     split impulse: pseudo-velocities q_p that remove overlaps beyond the
+                         slop (never kept as velocity)
     f. store, certificate  forces per contact and per body, the next cache, the certificate
     solve_contacts       all of them in order
 
@@ -20,6 +21,10 @@ M^-1 = 0 and are never moved (they are skipped, not given 0 * change).
 
 A row whose delta is not > 0 (both bodies static: the narrow phase never makes one) is
 skipped by every stage and keeps alpha = 0.
+
+One departure from the conventions' text: the "cone" friction update scales both tangent rows
+of a contact by one delta_t = max(delta_1, delta_2) instead of each by its own delta_k, in
+``iterate`` and in the certificate's residual (the reason is in ``iterate``).
 """
 
 import numpy as np
