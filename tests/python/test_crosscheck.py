@@ -53,18 +53,20 @@ def test_contacts_match_the_oracle_feature_by_feature(scene):
 def test_pgs_reaches_the_exact_lcp_solution():
     # a ball on the plane with a second ball landing on it off-centre: a coupled 2-contact LCP with
     # a positive definite Delassus matrix, so its solution is unique and PGS must converge to it
+    # (frictionless, so that the LCP is the lecture's normal-only one)
     w = sg.World(gravity=(0, 0, -9.81), tolerance=1e-13, max_iterations=10000)
-    w.add_static(sg.Plane((0, 0, 1), 0.0))
-    w.add_body(sg.Sphere(0.3), mass=2.0, position=(0, 0, 0.3), velocity=(0, 0, -0.5))
+    w.add_static(sg.Plane((0, 0, 1), 0.0), friction=0.0)
+    w.add_body(sg.Sphere(0.3), mass=2.0, position=(0, 0, 0.3), velocity=(0, 0, -0.5), friction=0.0)
     d = np.array([0.2, 0.1, 1.0]) / np.linalg.norm([0.2, 0.1, 1.0])
-    w.add_body(sg.Sphere(0.2), mass=1.0, position=np.array([0, 0, 0.3]) + (0.5 - 1e-4) * d, velocity=(0, 0, -1.0))
+    w.add_body(sg.Sphere(0.2), mass=1.0, position=np.array([0, 0, 0.3]) + (0.5 - 1e-4) * d, velocity=(0, 0, -1.0),
+               friction=0.0)
     dt = 1 / 240
     snap = w.snapshot()
     w.step(dt)
     assert w.solver_stats.converged and len(w.contacts) == 2
     contacts = {k: getattr(w.contacts, k) for k in ("body_a", "body_b", "point", "normal", "gap")}
     v_star, omega_star = oracle.unconstrained_velocity(snap, dt)
-    A, b = oracle.contact_lcp(snap, contacts, v_star, omega_star, dt)
+    A, b = oracle.contact_lcp(snap, contacts, v_star, omega_star, dt, b_bias="speculative")
     x, _ = oracle.lcp_solve(A, b)
     assert np.allclose(w.contacts.alpha, x, rtol=1e-9, atol=1e-9 * np.abs(x).max())
 

@@ -176,8 +176,11 @@ int iterate(double dt, const SolverSettings& s, SolverData& d, std::vector<Vec3>
       const double bound = r[1].mu * alpha[0];
       if (!(r[1].delta > 0.0)) continue;
       if (s.friction_cone == FrictionCone::Cone) {
-        double a1 = -(row_velocity(r[1], v, omega) - r[1].delta * alpha[1]) / r[1].delta;
-        double a2 = -(row_velocity(r[2], v, omega) - r[2].delta * alpha[2]) / r[2].delta;
+        // one scale for both rows, so that the projection onto the disk acts on the slip itself
+        // (with each row's own delta the converged friction opposes a scaled slip, not the slip)
+        const double delta_t = std::max(r[1].delta, r[2].delta);
+        double a1 = alpha[1] - row_velocity(r[1], v, omega) / delta_t;
+        double a2 = alpha[2] - row_velocity(r[2], v, omega) / delta_t;
         clamp_to_disk(a1, a2, bound);
         const double d1 = a1 - alpha[1], d2 = a2 - alpha[2];
         alpha[1] = a1;
@@ -300,14 +303,16 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
     if (r[0].delta > 0.0) {
       stats.residual = std::max(stats.residual, r[0].delta * std::abs(alpha[0] - std::max(alpha[0] - w / r[0].delta, 0.0)));
       const double bound = mu * alpha[0];
-      double p1 = alpha[1] - vt1 / r[1].delta, p2 = alpha[2] - vt2 / r[2].delta;
       if (s.friction_cone == FrictionCone::Cone) {
+        const double delta_t = std::max(r[1].delta, r[2].delta);
+        double p1 = alpha[1] - vt1 / delta_t, p2 = alpha[2] - vt2 / delta_t;
         clamp_to_disk(p1, p2, bound);
+        stats.residual = std::max({stats.residual, delta_t * std::abs(alpha[1] - p1), delta_t * std::abs(alpha[2] - p2)});
       } else {
-        p1 = std::clamp(p1, -bound, bound);
-        p2 = std::clamp(p2, -bound, bound);
+        const double p1 = std::clamp(alpha[1] - vt1 / r[1].delta, -bound, bound);
+        const double p2 = std::clamp(alpha[2] - vt2 / r[2].delta, -bound, bound);
+        stats.residual = std::max({stats.residual, r[1].delta * std::abs(alpha[1] - p1), r[2].delta * std::abs(alpha[2] - p2)});
       }
-      stats.residual = std::max({stats.residual, r[1].delta * std::abs(alpha[1] - p1), r[2].delta * std::abs(alpha[2] - p2)});
     }
 
     // the cache for the next step's warm start: the force before restitution
