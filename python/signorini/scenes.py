@@ -9,6 +9,9 @@ Scenes:
   gravity (0, -0.98, 0), lands and slides down the slope (there is no friction yet).
 - ``boxes``: boxes and spheres dropped on the ground plane z = 0 under gravity (0, 0, -9.81);
   two spheres meet head on, one lands on a box, one on another sphere.
+- ``shapes``: every collidable shape on a triangle-mesh floor.
+- ``pile``: 100 mixed bodies of every dynamic shape type dropped into a walled pit (the solver's
+  energy and rest acceptance scene).
 """
 
 from __future__ import annotations
@@ -188,11 +191,76 @@ def _shapes() -> Scene:
     )
 
 
+def _pile() -> Scene:
+    """100 bodies of every dynamic shape type (spheres, boxes, capsules, cylinders, convex hulls,
+    convex meshes, compounds, decomposed tori) dropped from a 5 x 5 x 4 grid into a 1.6 m square pit
+    walled by static boxes, friction 0.5, no restitution."""
+    import signorini as sg
+
+    world = sg.World(gravity=(0.0, 0.0, -9.81))
+    world.add_static(sg.Plane(normal=(0.0, 0.0, 1.0), offset=0.0))
+    # four walls 0.1 m thick and 1 m high around the square |x|, |y| < 0.8
+    for axis in (0, 1):
+        for side in (-1.0, 1.0):
+            half = [0.9, 0.9, 0.5]
+            half[axis] = 0.05
+            centre = [0.0, 0.0, 0.5]
+            centre[axis] = side * 0.85
+            world.add_static(sg.Box(tuple(half)), position=tuple(centre))
+
+    rng = np.random.default_rng(2026)
+    ico_v, ico_f = meshes.icosphere(0.09, 1)
+    torus_v, torus_f = meshes.torus(0.09, 0.03, 24, 12)
+    legs = [(sg.Box((0.015, 0.015, 0.05)), ((sx * 0.07, sy * 0.07, -0.05), (1, 0, 0, 0)))
+            for sx in (-1, 1) for sy in (-1, 1)]
+
+    def shape(k: int):
+        kind = k % 8
+        if kind == 0:
+            return sg.Sphere(0.08)
+        if kind == 1:
+            return sg.Box((0.09, 0.07, 0.05))
+        if kind == 2:
+            return sg.Capsule(0.05, 0.07)
+        if kind == 3:
+            return sg.Cylinder(0.07, 0.05)
+        if kind == 4:
+            return sg.ConvexHull(rng.normal(size=(16, 3)) * 0.06)
+        if kind == 5:
+            return sg.Mesh(ico_v, ico_f)
+        if kind == 6:
+            return sg.Compound([(sg.Box((0.09, 0.09, 0.015)), ((0.0, 0.0, 0.015), (1, 0, 0, 0)))] + legs)
+        return sg.Mesh(torus_v, torus_f)
+
+    k = 0
+    for layer in range(4):
+        for i in range(5):
+            for j in range(5):
+                world.add_body(
+                    shape(k), density=500.0,
+                    position=(-0.56 + 0.28 * i, -0.56 + 0.28 * j, 0.25 + 0.3 * layer),
+                    orientation=axis_angle_quaternion(rng.normal(size=3), rng.uniform(0.0, math.pi)),
+                    velocity=tuple(rng.uniform(-0.5, 0.5, size=3)),
+                    angular_velocity=tuple(rng.uniform(-2.0, 2.0, size=3)),
+                )
+                k += 1
+    return Scene(
+        name="pile",
+        world=world,
+        dt=1.0 / 240.0,
+        steps=2400,
+        description="100 spheres, boxes, capsules, cylinders, hulls, convex meshes, compound tables and "
+        "decomposed tori dropped into a walled pit, g = 9.81 m/s^2, friction 0.5",
+        snapshot_times=(0.0, 0.4, 1.0, 3.0, 10.0),
+    )
+
+
 # name -> builder; each call builds a fresh world
 SCENES: dict[str, Callable[[], Scene]] = {
     "torus": _torus,
     "boxes": _boxes,
     "shapes": _shapes,
+    "pile": _pile,
 }
 
 
