@@ -197,15 +197,18 @@ BroadResult time_broad_phase(int n, double volume_per_body) {
   scenes::register_bodies(scene, broad_phase);
   std::size_t pairs = 0, steps = 0;
   // warm-up step: the first refit builds the tree
-  broad_phase.pairs(scene.model, scene.state, collision::speculative_reach(scene.model, scene.state, dt, gravity), margin);
+  std::vector<double> reach;
+  std::vector<std::pair<BodyIndex, BodyIndex>> found;
+  collision::speculative_reach(scene.model, scene.state, dt, gravity, reach);
+  broad_phase.pairs(scene.model, scene.state, reach, margin, found);
   std::vector<double> per_body;
   for (int r = 0; r < kRepetitions; ++r) {
     double elapsed = 0.0;
     for (int s = 0; s < 20; ++s) {
       scenes::drift(scene, dt, side);
-      const std::vector<double> reach = collision::speculative_reach(scene.model, scene.state, dt, gravity);
+      collision::speculative_reach(scene.model, scene.state, dt, gravity, reach);
       const Clock::time_point start = Clock::now();
-      const auto found = broad_phase.pairs(scene.model, scene.state, reach, margin);
+      broad_phase.pairs(scene.model, scene.state, reach, margin, found);
       elapsed += std::chrono::duration<double>(Clock::now() - start).count();
       pairs += found.size();
       ++steps;

@@ -35,6 +35,21 @@ bool same_bits(const Contact& a, const Contact& b) {
          a.feature_b == b.feature_b && same_bits(a.alpha, b.alpha) && same_bits(a.impulse, b.impulse);
 }
 
+/// The speculative reach of every body of the scene (collision::speculative_reach, returned).
+std::vector<double> reach_of(const scenes::Scene& scene, double dt, const Vec3& gravity) {
+  std::vector<double> reach;
+  collision::speculative_reach(scene.model, scene.state, dt, gravity, reach);
+  return reach;
+}
+
+/// The broad phase's pairs (BroadPhase::pairs, returned).
+std::vector<Pair> pairs_of(collision::BroadPhase& broad_phase, const scenes::Scene& scene,
+                           const std::vector<double>& reach, double margin) {
+  std::vector<Pair> out;
+  broad_phase.pairs(scene.model, scene.state, reach, margin, out);
+  return out;
+}
+
 /// Every pair (i < j, not both static) whose narrow phase gives at least one contact with
 /// threshold margin + reach_i + reach_j, by trying all of them.
 std::vector<Pair> brute_force_pairs(const scenes::Scene& scene, const std::vector<double>& reach, double margin) {
@@ -115,8 +130,8 @@ TEST(BroadPhase, FindsEveryPairThatBruteForceFindsOnRandomScenes) {
         scenes::random_scene(seed, 200, scenes::Mix::AllConvex, 4.5, 0.05, 0.4, 5.0, 8.0, 0.2);
     collision::BroadPhase broad_phase;
     scenes::register_bodies(scene, broad_phase);
-    const std::vector<double> reach = collision::speculative_reach(scene.model, scene.state, dt, gravity);
-    const std::vector<Pair> broad = broad_phase.pairs(scene.model, scene.state, reach, margin);
+    const std::vector<double> reach = reach_of(scene, dt, gravity);
+    const std::vector<Pair> broad = pairs_of(broad_phase, scene, reach, margin);
     const std::vector<Pair> brute = brute_force_pairs(scene, reach, margin);
     ASSERT_FALSE(brute.empty()) << "seed " << seed << ": the scene has no contacts to find";
     EXPECT_TRUE(std::is_sorted(broad.begin(), broad.end())) << "seed " << seed;
@@ -131,7 +146,7 @@ TEST(BroadPhase, FindsEveryPairThatBruteForceFindsOnRandomScenes) {
                                   << p.second << ") " << shape_name(scene.model.shape[p.first]) << " - "
                                   << shape_name(scene.model.shape[p.second]);
     // context: how many of the brute-force pairs bare AABBs (no reach, no margin) would miss
-    const std::vector<Pair> bare = broad_phase.pairs(scene.model, scene.state, std::vector<double>(scene.size(), 0.0), 0.0);
+    const std::vector<Pair> bare = pairs_of(broad_phase, scene, std::vector<double>(scene.size(), 0.0), 0.0);
     const std::set<Pair> bare_found(bare.begin(), bare.end());
     std::size_t need_growth = 0;
     for (const Pair& p : brute) need_growth += bare_found.count(p) ? 0 : 1;
@@ -154,8 +169,8 @@ TEST(BroadPhase, KeepsFindingThemWhileBodiesMove) {
   collision::BroadPhase broad_phase;
   scenes::register_bodies(scene, broad_phase);
   for (int step = 0; step <= 30; ++step) {
-    const std::vector<double> reach = collision::speculative_reach(scene.model, scene.state, dt, gravity);
-    const std::vector<Pair> broad = broad_phase.pairs(scene.model, scene.state, reach, margin);
+    const std::vector<double> reach = reach_of(scene, dt, gravity);
+    const std::vector<Pair> broad = pairs_of(broad_phase, scene, reach, margin);
     if (step % 10 == 0) {
       const std::set<Pair> found(broad.begin(), broad.end());
       for (const Pair& p : brute_force_pairs(scene, reach, margin))

@@ -17,7 +17,7 @@
 
 namespace signorini {
 
-namespace collision { class BroadPhase; }
+namespace collision { class BroadPhase; struct Scratch; }
 namespace solver { struct SolverData; }
 
 struct WorldSettings {
@@ -117,6 +117,8 @@ class World {
   SolverStats stats_;
   StepReport report_;
   std::unique_ptr<collision::BroadPhase> broad_phase_;
+  std::unique_ptr<collision::Scratch> scratch_;  ///< the narrow phase's buffers (contact detection
+                                                 ///< is const but reuses them: one World per thread)
   std::unique_ptr<solver::SolverData> solver_;  ///< rows, forces and the warm-start cache
   // step scratch, kept between steps so that a step reuses its buffers instead of allocating
   State before_;                         ///< state at the start of the step (restored on failure)

@@ -31,8 +31,9 @@ class TriangleQuery {
   explicit TriangleQuery(const TriangleMesh& mesh);
   ~TriangleQuery();
   /// Indices of the triangles whose OBBRSS leaves overlap the axis-aligned box [lo, hi] (mesh
-  /// frame, m), in increasing order, written into out (cleared first).
-  void overlapping(const Vec3& lo, const Vec3& hi, std::vector<int>& out) const;
+  /// frame, m), in increasing order, written into out (cleared first); stack is the traversal's
+  /// scratch. Allocates nothing once out and stack have grown.
+  void overlapping(const Vec3& lo, const Vec3& hi, std::vector<int>& out, std::vector<int>& stack) const;
 
  private:
   struct Impl;
@@ -65,11 +66,29 @@ struct Distance {
   Vec3 normal, w_a, w_b;
 };
 
+struct PolytopeScratch;  // polytope_contacts.cpp: both polytopes placed in one frame, clip polygons
+
+/// Buffers the narrow phase reuses from query to query. The World owns one and hands it to every
+/// step, so that contact detection allocates nothing once they have grown to the scene's size; a
+/// query without a World (collide() of two shapes) makes its own. One per thread.
+struct Scratch {
+  Scratch();
+  ~Scratch();
+  std::vector<double> reach;                           ///< (N) speculative reach per body (m)
+  std::vector<std::pair<BodyIndex, BodyIndex>> pairs;  ///< candidate body pairs of the step
+  std::vector<Contact> candidates;                     ///< one pair's points before the manifold
+  std::vector<Item> items_a, items_b;                  ///< the pair's convex items
+  std::vector<int> triangles, bvh_stack;               ///< candidate triangles; BVH traversal
+  Polytope triangle;                                   ///< the current triangle as a polytope
+  std::unique_ptr<PolytopeScratch> polytope;
+};
+
 /// What a narrow-phase query may use besides the two shapes: the triangle queries of static
-/// triangle meshes (null: built on the spot).
+/// triangle meshes (null: built on the spot) and scratch buffers (null: made for the query).
 struct Services {
   const TriangleQuery* triangles_a = nullptr;
   const TriangleQuery* triangles_b = nullptr;
+  Scratch* scratch = nullptr;
 };
 
 /// Empty when the narrow phase can collide shapes a and b; otherwise why not ("unsupported pair
@@ -98,7 +117,7 @@ void finish_manifold(std::vector<Contact>& candidates, double threshold, double 
 
 /// Plane (A) against any bounded shape B.
 void plane_contacts(const Plane& plane, const Pose& pa, const Shape& b, const Pose& pb, double threshold,
-                    std::vector<Contact>& out);
+                    Scratch& scratch, std::vector<Contact>& out);
 
 /// Contact of two rounded points: core points x_a, x_b (world) with radii r_a, r_b; normal along
 /// x_b - x_a (n_hint where they coincide), gap |x_b - x_a| - r_a - r_b, point midway between the
@@ -119,14 +138,15 @@ void plane_item(const Vec3& n, double offset, const Item& b, std::vector<Contact
 
 /// Two convex polytopes (boxes, hulls, mesh pieces) by separating axes and face clipping.
 void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
-                       const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out);
+                       const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,
+                       std::vector<Contact>& out);
 
 /// One triangle of a static mesh (as a two-faced polytope, A) against a polytope B: one-sided
 /// separating axes (its front face, B's faces, edge axes from its active edges only), clipping
 /// that drops cuts along inactive edges. Features of A carry the triangle index as part.
 void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, const Pose& pa,
                        std::uint32_t triangle, const Polytope& b, const Pose& pb, std::uint32_t part_b,
-                       double threshold, std::vector<Contact>& out);
+                       double threshold, PolytopeScratch& scratch, std::vector<Contact>& out);
 
 /// Capsule (segment p0 p1, radius r) against capsule, exact; 2 points when parallel and overlapping.
 void capsule_capsule(const Capsule& a, const Pose& pa, std::uint32_t part_a, const Capsule& b,
@@ -146,7 +166,7 @@ void convex_by_support(const Item& a, const Item& b, double threshold, std::vect
 /// Static triangle mesh (A) against item B: candidate triangles from the BVH, a convex test per
 /// triangle (inactive edges give no edge contacts), merged.
 void trimesh_item(const TriangleMesh& a, const Pose& pa, const TriangleQuery& query, const Item& b,
-                  double threshold, std::vector<Contact>& out);
+                  double threshold, Scratch& scratch, std::vector<Contact>& out);
 
 /// Candidate pairs from bounding volumes. Holds one FCL object per non-plane body: dynamic ones in
 /// a DynamicAABBTree updated incrementally each step, static ones in a second tree built once.
@@ -160,9 +180,10 @@ class BroadPhase {
   /// Moves static body i (rare; rebuilds its tree entry).
   void move_static(BodyIndex i, const Vec3& p, const Mat3& R);
   /// Pairs (i, j), i < j, whose AABBs, grown by reach[i] + margin/2 and reach[j] + margin/2,
-  /// overlap; at least one of them dynamic; planes excluded. Sorted lexicographically.
-  std::vector<std::pair<BodyIndex, BodyIndex>> pairs(const Model& model, const State& state,
-                                                     const std::vector<double>& reach, double margin);
+  /// overlap; at least one of them dynamic; planes excluded. Sorted lexicographically, written into
+  /// out (cleared first; its capacity is reused).
+  void pairs(const Model& model, const State& state, const std::vector<double>& reach, double margin,
+             std::vector<std::pair<BodyIndex, BodyIndex>>& out);
   /// The triangle query of body i if it is a TriangleMesh, else null.
   const TriangleQuery* triangles(BodyIndex i) const;
 
@@ -172,8 +193,9 @@ class BroadPhase {
 };
 
 /// Speculative reach of every body for a step of dt: s_b = dt (|v| + dt |g| + |omega| rho) for a
-/// dynamic body, 0 for a static one (m).
-std::vector<double> speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity);
+/// dynamic body, 0 for a static one (m); written into reach (resized to N).
+void speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity,
+                       std::vector<double>& reach);
 
 /// Speculative reach of body b towards a plane of world normal n: only the approach speed counts,
 /// dt (max(0, -n . v) + dt max(0, -n . g) + |omega| rho) (m), so a body sliding along a plane does
@@ -182,8 +204,8 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
                    const Vec3& gravity);
 
 /// All contacts for the current state, in the order of docs/conventions.md, written into out
-/// (cleared first).
+/// (cleared first), using and growing the scratch buffers.
 void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
-                     double margin, BroadPhase& broad_phase, std::vector<Contact>& out);
+                     double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& out);
 
 }  // namespace signorini::collision

@@ -137,7 +137,7 @@ void plane_item(const Vec3& n, double offset, const Item& b, std::vector<Contact
 }
 
 void plane_contacts(const Plane& plane, const Pose& pa, const Shape& b, const Pose& pb, double threshold,
-                    std::vector<Contact>& out) {
+                    Scratch& scratch, std::vector<Contact>& out) {
   (void)threshold;  // the manifold filters; kept for symmetry with the other pair tests
   const Vec3 n = pa.R * plane.normal;
   const double offset = plane.offset + n.dot(pa.p);
@@ -146,11 +146,10 @@ void plane_contacts(const Plane& plane, const Pose& pa, const Shape& b, const Po
       point_on_plane(n, offset, pb.R * mesh->vertex(i) + pb.p,
                      feature_id(FeatureKind::Vertex, static_cast<std::uint32_t>(i)), out);
   } else {
-    thread_local std::vector<Item> items;
-    std::vector<std::shared_ptr<const Polytope>> keep;
-    items.clear();
-    items_of(b, pb, items, keep);
-    for (const Item& it : items) plane_item(n, offset, it, out);
+    std::vector<std::shared_ptr<const Polytope>> keep;  // stays empty: the world prepares meshes
+    scratch.items_b.clear();
+    items_of(b, pb, scratch.items_b, keep);
+    for (const Item& it : scratch.items_b) plane_item(n, offset, it, out);
   }
 }
 

@@ -67,15 +67,11 @@ std::shared_ptr<fcl::CollisionGeometryd> make_geometry(const Shape& shape) {
   return std::make_shared<fcl::Sphered>(bounding_radius(shape));
 }
 
-struct PairCollector {
-  std::vector<std::pair<BodyIndex, BodyIndex>> pairs;
-};
-
 bool collect_pair(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* data) {
-  auto* collector = static_cast<PairCollector*>(data);
+  auto* pairs = static_cast<std::vector<std::pair<BodyIndex, BodyIndex>>*>(data);
   const BodyIndex i = static_cast<Proxy*>(o1)->index();
   const BodyIndex j = static_cast<Proxy*>(o2)->index();
-  collector->pairs.emplace_back(std::min(i, j), std::max(i, j));
+  pairs->emplace_back(std::min(i, j), std::max(i, j));
   return false;  // keep going
 }
 
@@ -94,17 +90,32 @@ TriangleQuery::TriangleQuery(const TriangleMesh& mesh) : impl_(std::make_unique<
 
 TriangleQuery::~TriangleQuery() = default;
 
-void TriangleQuery::overlapping(const Vec3& lo, const Vec3& hi, std::vector<int>& out) const {
+void TriangleQuery::overlapping(const Vec3& lo, const Vec3& hi, std::vector<int>& out,
+                                std::vector<int>& stack) const {
   out.clear();
-  // every triangle that meets the box: FCL's BVH traversal with an exact triangle-box test
-  fcl::CollisionObjectd box(std::make_shared<fcl::Boxd>(hi - lo), Mat3::Identity(), 0.5 * (lo + hi));
-  box.computeAABB();
-  fcl::CollisionRequestd request(std::numeric_limits<int>::max() / 2, false);
-  fcl::CollisionResultd result;
-  fcl::collide(impl_->mesh.get(), &box, request, result);
-  for (std::size_t k = 0; k < result.numContacts(); ++k) out.push_back(result.getContact(k).b1);
+  // FCL's tree, walked here with an explicit stack: fcl::collide() allocates its result and
+  // contact lists on every call, and a step must not allocate. Leaves hold one triangle each; the
+  // per-triangle tests that follow are exact, so the leaf's box overlap is test enough.
+  fcl::OBBRSSd box;
+  box.obb.axis.setIdentity();
+  box.obb.To = 0.5 * (lo + hi);
+  box.obb.extent = 0.5 * (hi - lo);
+  const fcl::BVHModel<fcl::OBBRSSd>& bvh = *impl_->bvh;
+  if (bvh.getNumBVs() == 0) return;
+  stack.clear();
+  stack.push_back(0);
+  while (!stack.empty()) {
+    const auto& node = bvh.getBV(stack.back());
+    stack.pop_back();
+    if (!node.bv.obb.overlap(box.obb)) continue;
+    if (node.isLeaf()) {
+      out.push_back(node.primitiveId());
+    } else {
+      stack.push_back(node.rightChild());
+      stack.push_back(node.leftChild());
+    }
+  }
   std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
 }
 
 struct BroadPhase::Impl {
@@ -148,9 +159,8 @@ void BroadPhase::move_static(BodyIndex i, const Vec3& p, const Mat3& R) {
   impl_->static_dirty = true;
 }
 
-std::vector<std::pair<BodyIndex, BodyIndex>> BroadPhase::pairs(const Model& model, const State& state,
-                                                              const std::vector<double>& reach,
-                                                              double margin) {
+void BroadPhase::pairs(const Model& model, const State& state, const std::vector<double>& reach, double margin,
+                       std::vector<std::pair<BodyIndex, BodyIndex>>& out) {
   Impl& m = *impl_;
   // static bodies: grown once by margin/2, refitted only when one moved or the margin changed
   if (m.static_dirty || m.static_margin != margin) {
@@ -169,12 +179,11 @@ std::vector<std::pair<BodyIndex, BodyIndex>> BroadPhase::pairs(const Model& mode
     m.proxy[i]->grow_aabb(reach[i] + 0.5 * margin);
   }
   m.dynamic_tree.update();
-  PairCollector collector;
-  m.dynamic_tree.collide(&collector, collect_pair);
-  m.dynamic_tree.collide(&m.static_tree, &collector, collect_pair);
-  std::sort(collector.pairs.begin(), collector.pairs.end());
-  collector.pairs.erase(std::unique(collector.pairs.begin(), collector.pairs.end()), collector.pairs.end());
-  return collector.pairs;
+  out.clear();
+  m.dynamic_tree.collide(&out, collect_pair);
+  m.dynamic_tree.collide(&m.static_tree, &out, collect_pair);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
 }
 
 const TriangleQuery* BroadPhase::triangles(BodyIndex i) const { return impl_->triangles.at(i).get(); }

@@ -29,7 +29,7 @@ void flip(std::vector<Contact>& out, std::size_t from) {
   }
 }
 
-void item_pair(const Item& a, const Item& b, double threshold, std::vector<Contact>& out) {
+void item_pair(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
   const Sphere* sphere_a = a.sphere;
   const Sphere* sphere_b = b.sphere;
   const Capsule* capsule_a = a.capsule;
@@ -39,10 +39,10 @@ void item_pair(const Item& a, const Item& b, double threshold, std::vector<Conta
     item_sphere(a, b.pose.p, sphere_b->radius, out);
     for (std::size_t k = first; k < out.size(); ++k) out[k].feature_b = feature_id(FeatureKind::Shape, 0, b.part);
   } else if (sphere_a) {
-    item_pair(b, a, threshold, out);
+    item_pair(b, a, threshold, scratch, out);
     flip(out, first);
   } else if (a.polytope && b.polytope) {
-    polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, out);
+    polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, *scratch.polytope, out);
   } else if (capsule_a && capsule_b) {
     capsule_capsule(*capsule_a, a.pose, a.part, *capsule_b, b.pose, b.part, threshold, out);
   } else if (a.polytope && capsule_b) {
@@ -158,22 +158,26 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
   if (static_only(b)) {
     // the static-only shape is always A inside; the caller's A and B are restored after
     const std::size_t first = out.size();
-    collide(b, pose_b, a, pose_a, threshold, {services.triangles_b, services.triangles_a}, out);
+    collide(b, pose_b, a, pose_a, threshold, {services.triangles_b, services.triangles_a, services.scratch}, out);
     flip(out, first);
     return;
   }
-  thread_local std::vector<Contact> candidates;
-  thread_local std::vector<Item> items_a, items_b;
-  std::vector<std::shared_ptr<const Polytope>> keep;
+  std::unique_ptr<Scratch> own_scratch;
+  if (!services.scratch) own_scratch = std::make_unique<Scratch>();
+  Scratch& s = services.scratch ? *services.scratch : *own_scratch;
+  std::vector<Contact>& candidates = s.candidates;
+  std::vector<Item>& items_a = s.items_a;
+  std::vector<Item>& items_b = s.items_b;
+  std::vector<std::shared_ptr<const Polytope>> keep;  // a convex Mesh the world has not prepared
   candidates.clear();
-  items_b.clear();
   if (const auto* plane = std::get_if<Plane>(&a)) {
-    plane_contacts(*plane, pose_a, b, pose_b, threshold, candidates);
+    plane_contacts(*plane, pose_a, b, pose_b, threshold, s, candidates);
     // a mesh on a plane keeps all its touching vertices (the lecture's vertex contacts): 4 of a
     // ring-shaped footprint, chosen anew each step as it slides, let a torus rock for seconds
     finish_manifold(candidates, threshold, pair_scale(a, b), out, !std::holds_alternative<Mesh>(b));
     return;
   }
+  items_b.clear();
   items_of(b, pose_b, items_b, keep);
   if (const auto* mesh = std::get_if<TriangleMesh>(&a)) {
     std::unique_ptr<TriangleQuery> own;
@@ -182,23 +186,23 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
       own = std::make_unique<TriangleQuery>(*mesh);
       query = own.get();
     }
-    for (const Item& ib : items_b) trimesh_item(*mesh, pose_a, *query, ib, threshold, candidates);
+    for (const Item& ib : items_b) trimesh_item(*mesh, pose_a, *query, ib, threshold, s, candidates);
   } else {
     items_a.clear();
     items_of(a, pose_a, items_a, keep);
     for (const Item& ia : items_a)
-      for (const Item& ib : items_b) item_pair(ia, ib, threshold, candidates);
+      for (const Item& ib : items_b) item_pair(ia, ib, threshold, s, candidates);
   }
   finish_manifold(candidates, threshold, pair_scale(a, b), out);
 }
 
-std::vector<double> speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity) {
-  std::vector<double> reach(model.size(), 0.0);
+void speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity,
+                       std::vector<double>& reach) {
+  reach.assign(model.size(), 0.0);
   for (std::size_t i = 0; i < model.size(); ++i) {
     if (model.is_static[i]) continue;
     reach[i] = dt * (state.v[i].norm() + dt * gravity.norm() + state.omega[i].norm() * model.rho[i]);
   }
-  return reach;
 }
 
 double plane_reach(const Model& model, const State& state, BodyIndex b, const Vec3& n, double dt,
@@ -209,10 +213,12 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 }
 
 void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
-                     double margin, BroadPhase& broad_phase, std::vector<Contact>& contacts) {
-  const std::vector<double> reach = speculative_reach(model, state, dt, gravity);
+                     double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& contacts) {
+  std::vector<double>& reach = scratch.reach;
+  speculative_reach(model, state, dt, gravity, reach);
   // candidate pairs: the broad phase's, plus every plane against every dynamic body
-  std::vector<std::pair<BodyIndex, BodyIndex>> pairs = broad_phase.pairs(model, state, reach, margin);
+  std::vector<std::pair<BodyIndex, BodyIndex>>& pairs = scratch.pairs;
+  broad_phase.pairs(model, state, reach, margin, pairs);
   const BodyIndex n = static_cast<BodyIndex>(model.size());
   for (BodyIndex k = 0; k < n; ++k) {
     if (!is_plane(model.shape[k])) continue;
@@ -231,7 +237,7 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
       threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
     const std::size_t first = contacts.size();
     collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
-            {broad_phase.triangles(a), broad_phase.triangles(b)}, contacts);
+            {broad_phase.triangles(a), broad_phase.triangles(b), &scratch}, contacts);
     for (std::size_t k = first; k < contacts.size(); ++k) {
       contacts[k].body_a = a;
       contacts[k].body_b = b;

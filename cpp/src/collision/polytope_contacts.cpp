@@ -182,8 +182,8 @@ void edge_crossing(const View& ref, FeatureId ref_edge, const View& inc, Feature
 /// tracking feature ids; appends the clipped points below the threshold as contacts. The reference
 /// face is `ref` face f; `ref_is_a` says whether the reference polytope is A.
 void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double threshold,
-                const Mat3& R_a, const Vec3& p_a, std::vector<Contact>& out,
-                const std::array<bool, 3>* ref_active = nullptr) {
+                const Mat3& R_a, const Vec3& p_a, std::vector<ClipVertex>& poly, std::vector<ClipVertex>& next,
+                std::vector<Contact>& out, const std::array<bool, 3>* ref_active = nullptr) {
   const Vec3& n_ref = ref.n[f];
   // incident face: among the faces around the incident shape's deepest vertex along -n_ref, the
   // most anti-parallel (first on ties). For a box that is its most anti-parallel face; on a hull
@@ -203,7 +203,6 @@ void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double t
     }
   }
   const auto& inc_loop = inc.topo->faces[g];
-  thread_local std::vector<ClipVertex> poly, next;
   poly.clear();
   for (std::size_t k = 0; k < inc_loop.size(); ++k)
     poly.push_back({inc.v[inc_loop[k]], ref.id(FeatureKind::Face, f), inc.id(FeatureKind::Vertex, inc_loop[k]),
@@ -272,10 +271,22 @@ double radius_of(const Polytope& P) { return P.vertices.rowwise().norm().maxCoef
 
 }  // namespace
 
+/// The narrow phase's buffers for polytope pairs (a member of Scratch): both polytopes placed in
+/// A's frame, and the incident polygon being clipped.
+struct PolytopeScratch {
+  View A, B;
+  std::vector<ClipVertex> poly, next;
+};
+
+Scratch::Scratch() : polytope(std::make_unique<PolytopeScratch>()) {}
+Scratch::~Scratch() = default;
+
 void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
-                       const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out) {
+                       const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,
+                       std::vector<Contact>& out) {
   // everything in A's frame: B placed by R_ab = R_a^T R_b, t_ab = R_a^T (p_b - p_a)
-  thread_local View A, B;
+  View& A = scratch.A;
+  View& B = scratch.B;
   A.place(a, Mat3::Identity(), Vec3::Zero(), part_a);
   B.place(b, pa.R.transpose() * pb.R, pa.R.transpose() * (pb.p - pa.p), part_b);
   const FaceQuery fa = face_query(A, B);
@@ -297,15 +308,16 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   }
   const double face_tol = std::abs(A.n[fa.face].dot(B.n[fb.face])) >= kNearlyParallel ? tol : 1e-9 * L;
   if (fb.separation > fa.separation + face_tol)
-    clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, out);
+    clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, out);
   else
-    clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, out);
+    clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, out);
 }
 
 void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, const Pose& pa,
                        std::uint32_t triangle, const Polytope& b, const Pose& pb, std::uint32_t part_b,
-                       double threshold, std::vector<Contact>& out) {
-  thread_local View A, B;
+                       double threshold, PolytopeScratch& scratch, std::vector<Contact>& out) {
+  View& A = scratch.A;
+  View& B = scratch.B;
   A.place(tri, Mat3::Identity(), Vec3::Zero(), triangle);
   B.place(b, pa.R.transpose() * pb.R, pa.R.transpose() * (pb.p - pa.p), part_b);
   // one-sided: only the front face pushes, and a body whose centre is behind it is left alone
@@ -358,9 +370,9 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
     return;
   }
   if (fb.separation > sep_a + tol)
-    clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, out);
+    clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, out);
   else
-    clip_faces(A, 0, B, true, threshold, pa.R, pa.p, out, &active);
+    clip_faces(A, 0, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, out, &active);
 }
 
 }  // namespace signorini::collision

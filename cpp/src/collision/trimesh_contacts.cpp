@@ -88,18 +88,19 @@ void triangle_sphere(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, c
 }  // namespace
 
 void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery& query, const Item& b,
-                  double threshold, std::vector<Contact>& out) {
+                  double threshold, Scratch& scratch, std::vector<Contact>& out) {
   // B's bounding box in the mesh frame, grown by the threshold
   const Vec3 centre = pa.R.transpose() * (b.pose.p - pa.p);
   const double reach = b.radius() + std::max(threshold, 0.0);
-  thread_local std::vector<int> triangles;
-  query.overlapping(centre - Vec3::Constant(reach), centre + Vec3::Constant(reach), triangles);
-  thread_local Polytope tri;
+  std::vector<int>& triangles = scratch.triangles;
+  query.overlapping(centre - Vec3::Constant(reach), centre + Vec3::Constant(reach), triangles, scratch.bvh_stack);
+  Polytope& tri = scratch.triangle;
   for (int t : triangles) {
     const auto index = static_cast<std::uint32_t>(t);
     if (b.polytope) {
       triangle_polytope_of(mesh, t, tri);
-      triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, b.pose, b.part, threshold, out);
+      triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, b.pose, b.part, threshold,
+                        *scratch.polytope, out);
     } else if (const Sphere* s = b.sphere) {
       triangle_sphere(mesh, t, pa, centre, s->radius, b.part, out);
     } else if (const Capsule* cap = b.capsule) {

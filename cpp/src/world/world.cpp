@@ -55,7 +55,9 @@ void require(bool ok, const std::string& what) {
 }  // namespace
 
 World::World(const WorldSettings& settings)
-    : broad_phase_(std::make_unique<collision::BroadPhase>()), solver_(std::make_unique<solver::SolverData>()) {
+    : broad_phase_(std::make_unique<collision::BroadPhase>()),
+      scratch_(std::make_unique<collision::Scratch>()),
+      solver_(std::make_unique<solver::SolverData>()) {
   set_settings(settings);
 }
 
@@ -180,7 +182,8 @@ std::vector<Contact> World::detect_contacts(double dt) const {
 }
 
 void World::detect_contacts(double dt, std::vector<Contact>& out) const {
-  collision::detect_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_, out);
+  collision::detect_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_,
+                             *scratch_, out);
 }
 
 void World::step(double dt, int steps) {
