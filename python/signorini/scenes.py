@@ -12,6 +12,15 @@ Scenes:
 - ``shapes``: every collidable shape on a triangle-mesh floor.
 - ``pile``: 100 mixed bodies of every dynamic shape type dropped into a walled pit (the solver's
   energy and rest acceptance scene).
+- ``pyramid``: 210 unit boxes of 1 kg stacked in a pyramid with a base row of 20, 1 mm apart in a
+  row, on the ground z = 0 (the solver's stacking acceptance scene; 10 s).
+- ``rain``: 1,000 spheres and 200 boxes rained from a grid into a walled bin (5 s).
+- ``hull_pile``: 200 convex hulls of seeded random 16-point clouds dropped into a walled bin (5 s).
+
+The last three are the scenes of ``benchmarks/bench_solver.py``; their builders (``pyramid``,
+``rain``, ``hull_pile``) take sizes as keywords, so tests can build small versions, and every body
+and the ground carry friction 0.5 and restitution 0. The benchmark mirrors the built world (shapes,
+poses, masses) into pybullet, so each scene is written only here.
 """
 
 from __future__ import annotations
@@ -24,7 +33,7 @@ import numpy as np
 
 from . import meshes
 
-__all__ = ["Scene", "SCENES", "build", "DEFAULT_SCENE", "axis_angle_quaternion"]
+__all__ = ["Scene", "SCENES", "build", "DEFAULT_SCENE", "axis_angle_quaternion", "pyramid", "rain", "hull_pile"]
 
 DEFAULT_SCENE = "torus"
 
@@ -255,12 +264,132 @@ def _pile() -> Scene:
     )
 
 
+def _walled_bin(world, half_width: float, height: float, thickness: float, friction: float) -> None:
+    """The ground plane z = 0 and four static box walls around the square |x|, |y| < half_width,
+    ``thickness`` (m) thick and ``height`` (m) high; friction as given, restitution 0."""
+    import signorini as sg
+
+    world.add_static(sg.Plane(normal=(0.0, 0.0, 1.0), offset=0.0), friction=friction, restitution=0.0)
+    for axis in (0, 1):
+        for side in (-1.0, 1.0):
+            half = [half_width + thickness, half_width + thickness, 0.5 * height]
+            half[axis] = 0.5 * thickness
+            centre = [0.0, 0.0, 0.5 * height]
+            centre[axis] = side * (half_width + 0.5 * thickness)
+            world.add_static(sg.Box(tuple(half)), position=tuple(centre), friction=friction, restitution=0.0)
+
+
+def _grid(count: int, half_width: float, spacing: float, z0: float):
+    """``count`` grid points (x, y, z) filling layers of the square |x|, |y| <= half_width - spacing/2
+    at ``spacing`` (m), from height z0 up: the layer, then the row, then the column varies slowest."""
+    per_row = max(1, int((2.0 * half_width) // spacing))
+    start = -0.5 * spacing * (per_row - 1)
+    points = []
+    for k in range(count):
+        layer, rest = divmod(k, per_row * per_row)
+        i, j = divmod(rest, per_row)
+        points.append((start + spacing * i, start + spacing * j, z0 + spacing * layer))
+    return points
+
+
+def pyramid(base: int = 20, gap: float = 0.001, friction: float = 0.5) -> Scene:
+    """A pyramid of unit boxes (half extents 0.5 m, 1 kg) on the ground z = 0: rows of base,
+    base - 1, ..., 1 boxes, each row centred on x = 0 with ``gap`` (m) between neighbours and
+    resting exactly on the row below (210 boxes for base 20), friction ``friction``, restitution 0.
+    Nothing moves if the solver holds the stack: every box should stay where it starts (10 s)."""
+    import signorini as sg
+
+    world = sg.World(gravity=(0.0, 0.0, -9.81))
+    world.add_static(sg.Plane(normal=(0.0, 0.0, 1.0), offset=0.0), friction=friction, restitution=0.0)
+    for row in range(base):
+        m = base - row
+        for j in range(m):
+            world.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0,
+                           position=((j - 0.5 * (m - 1)) * (1.0 + gap), 0.0, 0.5 + row),
+                           friction=friction, restitution=0.0)
+    return Scene(
+        name="pyramid",
+        world=world,
+        dt=1.0 / 240.0,
+        steps=2400,
+        description=f"{base * (base + 1) // 2} unit boxes of 1 kg in a pyramid with a base row of {base}, "
+        f"{gap * 1000:g} mm apart, on the ground, friction {friction:g}; it should stand still",
+        snapshot_times=(0.0, 1.0, 5.0, 10.0),
+    )
+
+
+def rain(spheres: int = 1000, boxes: int = 200, seed: int = 240, friction: float = 0.5) -> Scene:
+    """``spheres`` spheres (radius 0.1 m) and ``boxes`` boxes (half extents 0.12 x 0.08 x 0.06 m,
+    random orientations), density 500, rained from rest off a jittered grid (0.36 m spacing,
+    bodies at most 0.157 m from their centre, so none overlap) into a 4 m square bin walled 1 m
+    high; the boxes are spread evenly through the grid. Friction ``friction``, restitution 0 (5 s)."""
+    import signorini as sg
+
+    world = sg.World(gravity=(0.0, 0.0, -9.81))
+    _walled_bin(world, half_width=2.0, height=1.0, thickness=0.2, friction=friction)
+    rng = np.random.default_rng(seed)
+    total = spheres + boxes
+    # every (total / boxes)-th grid slot is a box
+    is_box = np.zeros(total, dtype=bool)
+    if boxes:
+        is_box[np.floor(np.arange(boxes) * total / boxes).astype(int)] = True
+    for k, (x, y, z) in enumerate(_grid(total, half_width=2.0, spacing=0.36, z0=0.4)):
+        dx, dy = rng.uniform(-0.02, 0.02, size=2)
+        if is_box[k]:
+            shape = sg.Box((0.12, 0.08, 0.06))
+            orientation = axis_angle_quaternion(rng.normal(size=3), rng.uniform(0.0, math.pi))
+        else:
+            shape = sg.Sphere(0.1)
+            orientation = (1.0, 0.0, 0.0, 0.0)
+        world.add_body(shape, density=500.0, position=(x + dx, y + dy, z), orientation=orientation,
+                       friction=friction, restitution=0.0)
+    return Scene(
+        name="rain",
+        world=world,
+        dt=1.0 / 240.0,
+        steps=1200,
+        description=f"{spheres} spheres and {boxes} boxes rained into a 4 m walled bin, g = 9.81 m/s^2, "
+        f"friction {friction:g}",
+        snapshot_times=(0.0, 0.5, 1.0, 2.0, 5.0),
+    )
+
+
+def hull_pile(hulls: int = 200, points: int = 16, seed: int = 417, friction: float = 0.5) -> Scene:
+    """``hulls`` convex hulls, each of ``points`` seeded random points in a ball of radius 0.12 m
+    (uniform directions, radii uniform in [0.06, 0.12] m), density 500, dropped from rest with
+    random orientations off a 0.5 m grid (a hull lies within 0.24 m of its centre of mass, so
+    none overlap) into a 3 m square bin walled 1 m high. Friction ``friction``, restitution 0 (5 s)."""
+    import signorini as sg
+
+    world = sg.World(gravity=(0.0, 0.0, -9.81))
+    _walled_bin(world, half_width=1.5, height=1.0, thickness=0.2, friction=friction)
+    rng = np.random.default_rng(seed)
+    for x, y, z in _grid(hulls, half_width=1.5, spacing=0.5, z0=0.4):
+        d = rng.normal(size=(points, 3))
+        cloud = d / np.linalg.norm(d, axis=1, keepdims=True) * rng.uniform(0.06, 0.12, size=(points, 1))
+        world.add_body(sg.ConvexHull(cloud), density=500.0, position=(x, y, z),
+                       orientation=axis_angle_quaternion(rng.normal(size=3), rng.uniform(0.0, math.pi)),
+                       friction=friction, restitution=0.0)
+    return Scene(
+        name="hull_pile",
+        world=world,
+        dt=1.0 / 240.0,
+        steps=1200,
+        description=f"{hulls} convex hulls of {points} random points dropped into a 3 m walled bin, "
+        f"g = 9.81 m/s^2, friction {friction:g}",
+        snapshot_times=(0.0, 0.5, 1.0, 2.0, 5.0),
+    )
+
+
 # name -> builder; each call builds a fresh world
 SCENES: dict[str, Callable[[], Scene]] = {
     "torus": _torus,
     "boxes": _boxes,
     "shapes": _shapes,
     "pile": _pile,
+    "pyramid": pyramid,
+    "rain": rain,
+    "hull_pile": hull_pile,
 }
 
 

@@ -45,16 +45,48 @@ def lowest_gap(world, plane_index, body):
     return float(np.min(meshes.posed(v, p, q) @ n - plane.offset))
 
 
-@pytest.mark.parametrize("name", sorted(scenes.SCENES))
+# the registry's scenes, and the small versions the solver benchmark's smoke test builds
+SMALL_SCENES = {
+    "pyramid-base-5": lambda: scenes.pyramid(base=5),
+    "rain-40-10": lambda: scenes.rain(spheres=40, boxes=10),
+    "hull_pile-20": lambda: scenes.hull_pile(hulls=20),
+}
+
+
+@pytest.mark.parametrize("name", sorted(scenes.SCENES) + sorted(SMALL_SCENES))
 def test_scenes_start_without_overlap(name):
     # resting on the ground (gap 0) is allowed, overlapping anything is not
-    scene = scenes.build(name)
+    scene = SMALL_SCENES[name]() if name in SMALL_SCENES else scenes.build(name)
     world = scene.world
     if isinstance(world.shape(0), sg.Plane):
         for body in np.flatnonzero(~np.asarray(world.is_static)):
             assert lowest_gap(world, 0, body) >= -1e-12
     contacts = world.detect_contacts(scene.dt)
     assert len(contacts) == 0 or contacts.gap.min() >= -1e-12
+
+
+def test_benchmark_scenes_have_the_bodies_of_issue_7():
+    # pyramid: rows of 20, 19, ..., 1 unit boxes of 1 kg, 1 mm apart, each row on the one below
+    world = scenes.build("pyramid").world
+    assert world.num_bodies == 1 + 210 and isinstance(world.shape(0), sg.Plane)
+    np.testing.assert_array_equal(world.masses[1:], 1.0)
+    z = world.positions[1:, 2]
+    np.testing.assert_array_equal(np.bincount(np.rint(z - 0.5).astype(int)), np.arange(20, 0, -1))
+    base = np.sort(world.positions[1:21, 0])
+    np.testing.assert_allclose(np.diff(base), 1.001, rtol=1e-12)
+    # rain: 1,000 spheres and 200 boxes in the bin's footprint; hull pile: 200 hulls of <= 16 points
+    world = scenes.build("rain").world
+    kinds = [type(world.shape(i)).__name__ for i in range(world.num_bodies) if not world.is_static[i]]
+    assert kinds.count("Sphere") == 1000 and kinds.count("Box") == 200
+    assert np.abs(world.positions[~np.asarray(world.is_static), :2]).max() < 2.0 - 0.157
+    world = scenes.build("hull_pile").world
+    hulls = [world.shape(i) for i in range(world.num_bodies) if not world.is_static[i]]
+    assert len(hulls) == 200 and all(isinstance(h, sg.ConvexHull) and len(h.vertices) <= 16 for h in hulls)
+    # every body and the ground: friction 0.5, restitution 0
+    for name in ("pyramid", "rain", "hull_pile"):
+        world = scenes.build(name).world
+        np.testing.assert_array_equal(world.frictions, 0.5)
+        np.testing.assert_array_equal(world.restitutions, 0.0)
 
 
 def test_torus_scene_is_the_assignment_setting():
