@@ -279,7 +279,7 @@ def test_bad_materials_name_the_body_and_leave_the_world_unchanged(kwargs, match
     assert w.frictions[0] == 0.5 and w.restitutions[0] == 0.0
 
 
-@pytest.mark.parametrize("kwargs", [{"slop": -1.0}, {"max_push_velocity": 0.0}, {"substeps": 0},
+@pytest.mark.parametrize("kwargs", [{"slop": -1.0}, {"max_push_velocity": 0.0}, {"substeps": -1},
                                     {"restitution_threshold": -1.0}, {"friction_cone": "square"},
                                     {"gyroscopic": "rk4"}])
 def test_bad_solver_settings_are_refused(kwargs):

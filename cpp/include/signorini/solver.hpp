@@ -37,8 +37,14 @@ struct SolverSettings {
   Gyroscopic gyroscopic = Gyroscopic::Midpoint;
   /// Start each step from the previous step's forces, matched by body pair and feature ids.
   bool warm_start = true;
-  /// Each step runs as this many steps of dt / substeps (>= 1), contacts re-detected each time.
-  int substeps = 1;
+  /// Each step runs as n steps of dt / n, contacts re-detected each time: n = substeps when it is
+  /// >= 1; 0 (the default) picks the fewest that keep each at most auto_substep, so that dt = 1/60 s
+  /// runs as 4 substeps of 1/240 s and costs what 4 such steps cost (substep_count()).
+  int substeps = 0;
+  /// The longest substep the automatic choice allows (s).
+  static constexpr double auto_substep = 1.0 / 240.0;
+  /// The number of substeps a step of dt runs.
+  int substep_count(double dt) const;
   /// A step that ends unconverged with max_penetration_velocity above this (m/s) is counted in
   /// World::step_report() (the Python layer warns).
   double warn_velocity = 0.01;

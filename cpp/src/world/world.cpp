@@ -1,5 +1,6 @@
 #include "signorini/world.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -77,7 +78,7 @@ void World::set_settings(const WorldSettings& s) {
           "max_push_velocity must be finite and > 0, got " + std::to_string(q.max_push_velocity));
   require(std::isfinite(q.restitution_threshold) && q.restitution_threshold >= 0.0,
           "restitution_threshold must be finite and >= 0, got " + std::to_string(q.restitution_threshold));
-  require(q.substeps >= 1, "substeps must be >= 1, got " + std::to_string(q.substeps));
+  require(q.substeps >= 0, "substeps must be >= 1, or 0 for automatic, got " + std::to_string(q.substeps));
   require(std::isfinite(q.warn_velocity) && q.warn_velocity >= 0.0,
           "warn_velocity must be finite and >= 0, got " + std::to_string(q.warn_velocity));
   settings_ = s;
@@ -191,10 +192,16 @@ void World::step(double dt, int steps) {
     throw std::invalid_argument("step: dt must be positive and finite, got " + std::to_string(dt));
   if (steps < 0) throw std::invalid_argument("step: steps must be >= 0, got " + std::to_string(steps));
   report_ = StepReport();
-  const int n = settings_.solver.substeps;
+  const int n = settings_.solver.substep_count(dt);
   const double h = dt / n;
   for (int s = 0; s < steps; ++s)
     for (int k = 0; k < n; ++k) step_once(h);
+}
+
+int SolverSettings::substep_count(double dt) const {
+  if (substeps >= 1) return substeps;
+  // 1e-9: dt = k / 240 gives k substeps despite its rounding; capped so that a huge dt stays an int
+  return static_cast<int>(std::clamp(std::ceil(dt / auto_substep - 1e-9), 1.0, 1e6));
 }
 
 void World::step_once(double dt) {

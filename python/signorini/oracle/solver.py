@@ -43,9 +43,10 @@ DEFAULT_SETTINGS = {
     "friction_cone": "pyramid",
     "gyroscopic": GYROSCOPIC_DEFAULT,
     "warm_start": True,
-    "substeps": 1,
+    "substeps": 0,                  # 0: automatic, the fewest substeps of at most AUTO_SUBSTEP
     "warn_velocity": 0.01,          # m/s
 }
+AUTO_SUBSTEP = 1.0 / 240.0         # s, the longest automatic substep
 FRICTION_CONES = ("pyramid", "cone")
 DEFAULT_FRICTION = 0.5
 DEFAULT_RESTITUTION = 0.0
@@ -60,7 +61,7 @@ def solver_settings(snapshot):
     """The snapshot's settings with the documented defaults for missing keys, checked.
 
     Output: dict with every key of ``DEFAULT_SETTINGS``, numbers as float / int / bool.
-    Raises ValueError for an unknown friction_cone or gyroscopic, or substeps < 1.
+    Raises ValueError for an unknown friction_cone or gyroscopic, or substeps < 0.
     """
     given = snapshot.get("settings") or {}
     s = {key: given.get(key, default) for key, default in DEFAULT_SETTINGS.items()}
@@ -74,9 +75,17 @@ def solver_settings(snapshot):
         raise ValueError(f"friction_cone must be one of {FRICTION_CONES}, got {s['friction_cone']!r}")
     if s["gyroscopic"] not in GYROSCOPIC_OPTIONS:
         raise ValueError(f"gyroscopic must be one of {GYROSCOPIC_OPTIONS}, got {s['gyroscopic']!r}")
-    if s["substeps"] < 1:
-        raise ValueError(f"substeps must be >= 1, got {s['substeps']}")
+    if s["substeps"] < 0:
+        raise ValueError(f"substeps must be >= 1, or 0 for automatic, got {s['substeps']}")
     return s
+
+
+def substep_count(settings, dt):
+    """Substeps of a step of dt s: settings["substeps"] when >= 1, else the fewest that keep each
+    at most AUTO_SUBSTEP (1e-9 absorbs the rounding of dt = k / 240)."""
+    if settings["substeps"] >= 1:
+        return settings["substeps"]
+    return int(min(max(np.ceil(dt / AUTO_SUBSTEP - 1e-9), 1), 10**6))
 
 
 def empty_cache():

@@ -3,7 +3,8 @@
     2. unconstrained velocities, gyroscopic option        (unconstrained_velocity)
     3. the staged contact solve a-f                       (solver.solve_contacts)
     4. integrate the poses with q_dot_pos + q_p; keep the velocities after restitution (integrate)
-with ``substeps`` = n > 1 running all of it n times with dt / n.
+with n substeps (``substeps``, or automatic: the fewest of at most 1/240 s) running all of it n
+times with dt / n.
 """
 
 import copy
@@ -12,7 +13,7 @@ import numpy as np
 
 from .contacts import detect_contacts
 from .rigid import integrate, unconstrained_velocity
-from .solver import solve_contacts, solver_settings
+from .solver import solve_contacts, solver_settings, substep_count
 
 # the per-contact and per-step figures of the solve that ``step`` reports in its info
 INFO_KEYS = (
@@ -84,7 +85,7 @@ def step(snapshot, dt, contacts=None):
               Python layer's SolverWarning).
     """
     settings = solver_settings(snapshot)
-    n = settings["substeps"]
+    n = substep_count(settings, dt)
     if contacts is not None and n != 1:
         raise ValueError(f"step: contacts can be given only with substeps = 1, got substeps = {n}")
     state, info, flagged = snapshot, None, 0
