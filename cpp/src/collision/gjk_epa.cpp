@@ -1,8 +1,9 @@
 // GJK with the signed-volumes subalgorithm, and EPA; see gjk_epa.hpp for the contract.
 //
-// Notation: D = B - A (Minkowski difference), z = b - a its points, v the point of the current
-// simplex closest to the origin, w the support of D along -v. Every vertex keeps the support
-// points a, b it came from, so that witnesses are the same barycentric combination of them.
+// Notation: D = B - A (Minkowski difference of the cores), z = b - a its points, v the point of the
+// current simplex closest to the origin, w the support of D along -v, c the shift of D for EPA.
+// Every vertex keeps the support points a, b it came from, so that witnesses are the same
+// barycentric combination of them.
 #include "collision/gjk_epa.hpp"
 
 #include <array>
@@ -16,22 +17,34 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kGjkMaxIterations = 128;
 constexpr int kEnclosingMaxIterations = 64;
-constexpr int kEpaMaxIterations = 128;
+constexpr int kEpaMaxIterations = 256;
 constexpr double kGjkTolerance = 1e-12;  // duality gap, relative to L + |p_b - p_a|
 constexpr double kEpaTolerance = 1e-10;  // support beyond the closest face, relative to L
-constexpr double kInflation = 1e-6;      // mu, relative to L
+constexpr double kShift = 1e-10;         // mu, relative to L
+constexpr double kNear = 1e-6;           // a GJK stall below this gap (relative to L) goes to EPA
 
-/// A vertex of D: z = b - a + 2 mu d, with a = s_A(-d), b = s_B(d) the support points of the
-/// items themselves (mu = 0 outside EPA).
+/// A vertex of D: z = b - a - c, with a = s_A(-d), b = s_B(d) the support points of the items'
+/// cores and c the shift of D (0 outside EPA).
 struct Vertex {
   Vec3 z, a, b;
 };
 
-Vertex support_of_difference(const Item& A, const Item& B, const Vec3& d, double mu) {
+/// The radius by which an item rounds its core: a sphere is a point and a capsule a segment with
+/// a radius. GJK and EPA run on the cores and the radii are added at the end, which makes sphere
+/// and capsule pairs exact for GJK and spares EPA the doubly curved surfaces it converges slowly on
+/// (measured: 128 expansions left 1e-4 m on two overlapping spheres).
+double rounding(const Item& it) {
+  if (it.sphere) return it.sphere->radius;
+  if (it.capsule) return it.capsule->radius;
+  return 0.0;
+}
+
+/// Support points of the cores along -d (A, rounded by r_a) and d (B, rounded by r_b).
+Vertex support_of_difference(const Item& A, double r_a, const Item& B, double r_b, const Vec3& d, const Vec3& c) {
   Vertex v;
-  v.a = support_point(A, -d);
-  v.b = support_point(B, d);
-  v.z = v.b - v.a + (2.0 * mu) * d;
+  v.a = support_point(A, -d) + r_a * d;
+  v.b = support_point(B, d) - r_b * d;
+  v.z = v.b - v.a - c;
   return v;
 }
 
@@ -143,8 +156,7 @@ struct Simplex {
   /// Replaces the simplex by the smallest sub-simplex holding its point closest to the origin
   /// (barycentric coordinates > 0); returns that point. enclosed: a tetrahedron holds the origin.
   Vec3 reduce(bool& enclosed) {
-    Vec3 s[4];
-    for (int k = 0; k < n; ++k) s[k] = p[k].z;
+    Vec3 s[4] = {p[0].z, p[1].z, p[2].z, p[3].z};
     Lambda lam{};
     switch (n) {
       case 1: lam[0] = 1.0; break;
@@ -163,6 +175,14 @@ struct Simplex {
     enclosed = n == 4 && m == 4;
     n = m;
     if (enclosed) v = Vec3::Zero();
+    if (n == 3) {
+      // the origin projected onto the triangle's plane: v is a sum of vertices |z| ~ scale that
+      // nearly cancel, so near contact its direction would carry ~1e-16 scale / |v| of rounding;
+      // the normal of the plane (a cross product of edges) does not
+      const Vec3 nrm = (p[1].z - p[0].z).cross(p[2].z - p[0].z);
+      const double nn = nrm.squaredNorm();
+      if (nn > 0.0) v = nrm * ((p[0].z.dot(nrm) + p[1].z.dot(nrm) + p[2].z.dot(nrm)) / (3.0 * nn));
+    }
     return v;
   }
 
@@ -272,36 +292,55 @@ Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats) {
   const double L = a.radius() + b.radius();
   const Vec3 centres = b.pose.p - a.pose.p;
   const double scale = L + centres.norm();
-  const double mu = kInflation * L;
+  const double mu = kShift * L;
+  const Vec3 zero = Vec3::Zero();
+  const double r_a = rounding(a), r_b = rounding(b);
+  // the result for the cores, with the radii put back
+  auto rounded = [&](Distance d) {
+    d.gap -= r_a + r_b;
+    d.w_a += r_a * d.normal;
+    d.w_b -= r_b * d.normal;
+    return d;
+  };
   const double tol_gjk = kGjkTolerance * scale;
 
   // ---- GJK on D itself ----
   Simplex S;
   const double cn = centres.norm();
-  S.p[0] = support_of_difference(a, b, cn > 0.0 ? Vec3(-centres / cn) : Vec3(-Vec3::UnitX()), 0.0);
+  S.p[0] = support_of_difference(a, r_a, b, r_b, cn > 0.0 ? Vec3(-centres / cn) : Vec3(-Vec3::UnitX()), zero);
   S.n = 1;
   Vec3 v = S.p[0].z;
   bool enclosed = false;
   bool separated = false;
+  Vertex w_last{Vec3::Constant(kInf), Vec3::Zero(), Vec3::Zero()};  // set when GJK stalls
+  Vec3 n0 = cn > 0.0 ? Vec3(centres / cn) : Vec3(Vec3::UnitZ());  // the last direction of v
   for (;;) {
     const double vv = v.squaredNorm(), vn = std::sqrt(vv);
-    if (vn <= mu) break;  // touching or overlapping: EPA
+    if (vn <= mu) {
+      if (vn > 0.0) n0 = v / vn;
+      break;  // touching or overlapping: EPA
+    }
+    n0 = v / vn;
     if (st.gjk_iterations >= kGjkMaxIterations) {
       st.converged = false;
+      st.stop = "GJK iteration cap";
       separated = true;  // |v| is still the distance of two points of the shapes
       break;
     }
     ++st.gjk_iterations;
-    const Vertex w = support_of_difference(a, b, -v / vn, 0.0);
+    const Vertex w = support_of_difference(a, r_a, b, r_b, -v / vn, zero);
     // the duality gap |v| - v.w/|v| bounds the error of |v|
     if (vv - v.dot(w.z) <= tol_gjk * vn) {
       separated = true;
+      st.stop = "duality gap";
       break;
     }
     bool repeated = false;
     for (int k = 0; k < S.n; ++k) repeated = repeated || S.p[k].z == w.z;
     if (repeated) {
       separated = true;
+      st.stop = "repeated support";
+      w_last = w;
       break;
     }
     const Simplex previous = S;
@@ -312,9 +351,23 @@ Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats) {
       // no progress (rounding): the previous simplex is as close as GJK gets
       S = previous;
       separated = true;
+      st.stop = "no progress";
+      w_last = w;
       break;
     }
     v = v_new;
+  }
+  st.simplex = S.n;
+  // a stall short of the duality gap near contact (rounding turns v's direction by ~1e-16 scale
+  // / |v|): EPA on D shifted by more than |v| decides instead
+  double shift = mu;
+  if (separated && std::isfinite(w_last.z.x())) {
+    const double vn = v.norm();
+    if (vn - v.dot(w_last.z) / vn > tol_gjk && vn <= kNear * L) {
+      separated = false;
+      shift = std::max(mu, 0.75 * vn);
+      n0 = v / vn;
+    }
   }
   if (separated) {
     Distance d;
@@ -322,50 +375,77 @@ Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats) {
     const double vn = v.norm();
     d.gap = vn;
     d.normal = v / vn;
-    return d;
+    return rounded(d);
   }
 
-  // ---- touching or overlapping: GJK on D' = D + ball(2 mu) until a tetrahedron holds the origin ----
+  // ---- touching or overlapping: D' = D - c, c = 2 mu n0, holds the origin ~mu deep ----
+  // n0: GJK's last direction of v, else the line between interior points of B and A (v's
+  // direction is noisy when its simplex is a segment). GJK on D' runs until a tetrahedron holds
+  // the origin; a separating plane means c was not inside D, and the next n0 is tried.
   st.used_epa = true;
-  // the fallback if EPA cannot start: GJK's gap, with the line of centres as normal
-  Distance fallback;
+  Distance fallback;  // if EPA cannot start: GJK's gap along its last direction
   S.witnesses(fallback.w_a, fallback.w_b);
   fallback.gap = enclosed ? 0.0 : v.norm();
-  fallback.normal = v.norm() > 0.0 ? Vec3(v.normalized()) : (cn > 0.0 ? Vec3(centres / cn) : Vec3(Vec3::UnitZ()));
+  fallback.normal = n0;
+  auto interior = [](const Item& it) {
+    return it.polytope ? Vec3(it.pose.R * it.polytope->centroid + it.pose.p) : it.pose.p;
+  };
+  Vec3 q = interior(b) - interior(a);
+  const Vec3 candidates[2] = {n0, q.norm() > 0.0 ? Vec3(q.normalized()) : Vec3(-n0)};
+  const Simplex S0 = S;
   const double tiny = 1e-14 * scale;
-  for (int it = 0; !enclosed; ++it) {
-    if (it >= kEnclosingMaxIterations) {
-      st.converged = false;
-      return fallback;
-    }
-    const double vn = v.norm();
-    if (vn <= tiny || S.n == 4) {
-      // the origin on the simplex: blow it up to a tetrahedron by supports normal to it
-      if (S.n == 1) S.p[S.n++] = support_of_difference(a, b, perpendicular(S.p[0].z + Vec3(1e-300, 0, 0)), mu);
-      if (S.n == 2) {
-        const Vec3 t = S.p[1].z - S.p[0].z;
-        Vec3 e = perpendicular(t.squaredNorm() > 0.0 ? t : Vec3(Vec3::UnitX()));
-        S.p[S.n++] = support_of_difference(a, b, e, mu);
-        if ((S.p[1].z - S.p[0].z).cross(S.p[2].z - S.p[0].z).squaredNorm() == 0.0)
-          S.p[2] = support_of_difference(a, b, -e, mu);
+  Vec3 c = Vec3::Zero();
+  bool started = false;
+  for (int attempt = 0; attempt < 2 && !started; ++attempt) {
+    c = (2.0 * shift) * candidates[attempt];
+    S = S0;
+    for (int k = 0; k < S.n; ++k) S.p[k].z -= c;
+    v = S.reduce(enclosed);
+    bool missed = false;
+    for (int it = 0; !enclosed && !missed; ++it) {
+      if (it >= kEnclosingMaxIterations) {
+        missed = true;
+        break;
       }
-      if (S.n == 3) {
+      const double vn = v.norm();
+      if (vn <= tiny) {
+        // the origin on the simplex: blow it up to a tetrahedron by supports normal to it
+        if (S.n == 1) S.p[S.n++] = support_of_difference(a, r_a, b, r_b, candidates[attempt], c);
+        if (S.n == 2) {
+          const Vec3 t = S.p[1].z - S.p[0].z;
+          const Vec3 e = perpendicular(t.squaredNorm() > 0.0 ? t : Vec3(Vec3::UnitX()));
+          S.p[S.n++] = support_of_difference(a, r_a, b, r_b, e, c);
+          if ((S.p[1].z - S.p[0].z).cross(S.p[2].z - S.p[0].z).squaredNorm() == 0.0)
+            S.p[2] = support_of_difference(a, r_a, b, r_b, -e, c);
+        }
         Vec3 nrm = (S.p[1].z - S.p[0].z).cross(S.p[2].z - S.p[0].z);
         if (!(nrm.squaredNorm() > 0.0)) {
-          st.converged = false;
-          return fallback;
+          missed = true;
+          break;
         }
         nrm.normalize();
-        if (nrm.dot(S.p[0].z) > 0.0) nrm = -nrm;  // towards the origin's side
-        S.p[S.n++] = support_of_difference(a, b, nrm, mu);
+        if (nrm.dot(S.p[0].z) > 0.0) nrm = -nrm;  // away from the triangle, on the origin's side
+        S.p[3] = support_of_difference(a, r_a, b, r_b, nrm, c);
+        S.n = 4;
+        enclosed = true;  // the origin inside the tetrahedron or on its boundary
+        break;
       }
-      break;  // a tetrahedron with the origin inside or on its boundary
+      const Vertex w = support_of_difference(a, r_a, b, r_b, -v / vn, c);
+      if (v.dot(w.z) > 0.0) {
+        missed = true;  // a plane separates D' from the origin: c is not inside D
+        break;
+      }
+      S.p[S.n++] = w;
+      const double vv = v.squaredNorm();
+      v = S.reduce(enclosed);
+      if (!enclosed && !(v.squaredNorm() < vv)) v = Vec3::Zero();  // stalled on the simplex: blow up
     }
-    const Vertex w = support_of_difference(a, b, -v / vn, mu);
-    S.p[S.n++] = w;
-    const double vv = v.squaredNorm();
-    v = S.reduce(enclosed);
-    if (!enclosed && !(v.squaredNorm() < vv)) v = Vec3::Zero();  // stalled on the simplex: blow up
+    started = enclosed && !missed;
+  }
+  if (!started) {
+    st.converged = false;
+    st.stop = "no shift puts the origin inside";
+    return rounded(fallback);
   }
 
   // ---- EPA on D' from that tetrahedron ----
@@ -380,7 +460,8 @@ Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats) {
   ok = E.add_face(1, 3, 2) && ok;
   if (!ok || !E.link_new(0)) {
     st.converged = false;
-    return fallback;
+    st.stop = "EPA start degenerate";
+    return rounded(fallback);
   }
   const double tol_epa = kEpaTolerance * L;
   const double eps_visible = 1e-15 * scale;
@@ -393,10 +474,11 @@ Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats) {
     best = f;
     const Vec3 m = E.faces[f].m;
     const double delta = E.faces[f].delta;
-    const Vertex w = support_of_difference(a, b, m, mu);
+    const Vertex w = support_of_difference(a, r_a, b, r_b, m, c);
     if (m.dot(w.z) - delta <= tol_epa) break;  // converged
     if (it >= kEpaMaxIterations) {
       st.converged = false;
+      st.stop = "EPA iteration cap";
       break;
     }
     ++st.epa_iterations;
@@ -421,12 +503,35 @@ Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats) {
     sound = sound && E.link_new(first);
     if (!sound) {
       st.converged = false;
+      st.stop = "EPA polytope damaged";
       break;  // the polytope is damaged: keep the best face so far
     }
   }
   if (best < 0) {
     st.converged = false;
-    return fallback;
+    st.stop = "EPA polytope damaged";
+    return rounded(fallback);
+  }
+
+  // the shift tilts g by c . n: among the faces that could still be the best without it, the one
+  // whose normal n supports the unshifted D best, by g(n) = n . s_D(-n) (one support each; a
+  // near-tie of two facets would otherwise cost up to |c| of gap)
+  double gap = -E.faces[best].delta - c.dot(E.faces[best].m);
+  const double reach = 2.0 * c.norm();
+  if (reach > 0.0) {
+    const double limit = E.faces[best].delta + reach;
+    int chosen = best;
+    double g_best = -kInf;
+    for (std::size_t k = 0; k < E.faces.size(); ++k) {
+      const Face& G = E.faces[k];
+      if (!(G.alive || static_cast<int>(k) == best) || !(G.delta <= limit)) continue;
+      const double g = -G.m.dot(support_of_difference(a, r_a, b, r_b, G.m, zero).z);
+      if (g > g_best) g_best = g, chosen = static_cast<int>(k);
+    }
+    // g(n) is a lower bound; for EPA's own closest face, converged, gap (above) bounds the signed
+    // distance from above to within the tolerance: then the middle of the two
+    gap = chosen == best && gap >= g_best ? 0.5 * (gap + g_best) : g_best;
+    best = chosen;
   }
 
   // the origin projected onto the best face, in barycentric coordinates of its vertices
@@ -444,11 +549,11 @@ Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats) {
   if (sum > 0.0) l0 /= sum, l1 /= sum, l2 /= sum;
   else l0 = 1.0, l1 = l2 = 0.0;
   Distance d;
-  d.gap = 2.0 * mu - F.delta;
+  d.gap = gap;
   d.normal = -F.m;
   d.w_a = l0 * V0.a + l1 * V1.a + l2 * V2.a;
   d.w_b = l0 * V0.b + l1 * V1.b + l2 * V2.b;
-  return d;
+  return rounded(d);
 }
 
 }  // namespace signorini::collision
