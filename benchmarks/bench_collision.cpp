@@ -3,6 +3,8 @@
 //
 //     build/bench/signorini_bench_collision
 //
+// Cylinder rows go through the support-function path (collision/gjk_epa.hpp).
+//
 // Narrow phase: for each pair, collision::collide() is called over a pool of seeded random small
 // perturbations of one touching configuration (so that the branch predictor does not learn one
 // pose, while every call still has contacts), for >= 0.2 s per repetition; the table shows the
@@ -152,8 +154,17 @@ std::vector<PairCase> pair_cases(const TriangleMesh& floor, const collision::Tri
                    {Vec3(0.2, -0.3, 0.5 - dip), rot(0.3, Vec3::UnitZ())}, {}, ""});
   cases.push_back({"cylinder-plane (standing)", Plane(Vec3::UnitZ(), 0.0), Cylinder(0.3, 0.5), {Vec3::Zero(), I},
                    {Vec3(0.1, 0.2, 0.5 - dip), I}, {}, ""});
-  cases.push_back({"cylinder-box (support search)", Cylinder(0.3, 0.5), ground, {Vec3(0.1, 0.2, 0.5 - dip), I}, on_ground,
+  // cylinders against everything but planes and spheres: the support-function path (GJK / EPA)
+  cases.push_back({"cylinder-box (GJK/EPA)", Cylinder(0.3, 0.5), ground, {Vec3(0.1, 0.2, 0.5 - dip), I}, on_ground,
                    {}, ""});
+  cases.push_back({"cylinder-box lying (GJK/EPA)", Cylinder(0.3, 0.5), ground, {Vec3(0.1, 0.2, 0.3 - dip), along_x},
+                   on_ground, {}, ""});
+  cases.push_back({"cylinder-cylinder crossed", Cylinder(0.3, 0.5), Cylinder(0.3, 0.5), {Vec3::Zero(), along_x},
+                   {Vec3(0.05, -0.05, 0.6 - dip), along_y}, {}, ""});
+  cases.push_back({"cylinder-cylinder side by side", Cylinder(0.3, 0.5), Cylinder(0.3, 0.5), {Vec3::Zero(), along_x},
+                   {Vec3(0.1, 0.0, 0.6 - dip), along_x}, {}, ""});
+  cases.push_back({"cylinder-capsule", Cylinder(0.3, 0.5), Capsule(0.2, 0.5), {Vec3::Zero(), I},
+                   {Vec3(0.1, 0.05, 0.7 - dip), along_y}, {}, ""});
 
   // two hulls of 30 random points in a unit cube, B stacked on A with 1 cm of overlap along z
   std::mt19937_64 rng(7);
@@ -164,11 +175,20 @@ std::vector<PairCase> pair_cases(const TriangleMesh& floor, const collision::Tri
   cases.push_back({"hull-hull (30 pts each)", hull_a, hull_b, {Vec3::Zero(), Ra}, {Vec3(0.05, -0.05, zb), Rb}, {}, ""});
   cases.push_back({"hull-box (30 pts)", hull_a, ground, {Vec3(0.2, 0.1, -lowest_z(hull_a, Ra) - 0.01), Ra}, on_ground,
                    {}, ""});
+  // a standing cylinder on a 42-point hull, 1 mm into it
+  const ConvexHull hull_42 = scenes::random_hull(rng, 42, Vec3(0.4, 0.4, 0.4));
+  const double z42 = touching_height(hull_42, {Vec3::Zero(), I}, Cylinder(0.3, 0.5), {Vec3(0.05, 0.0, 0.0), I}) - 0.001;
+  cases.push_back({"cylinder on hull (42 pts)", hull_42, Cylinder(0.3, 0.5), {Vec3::Zero(), I},
+                   {Vec3(0.05, 0.0, z42), I}, {}, ""});
 
   cases.push_back({"box-trimesh (800 tris)", floor, unit, {Vec3::Zero(), I},
                    {Vec3(0.13, -0.07, 0.5 - dip), rot(0.2, Vec3::UnitZ())}, {&floor_query, nullptr}, ""});
   cases.push_back({"  same, query built per call", floor, unit, {Vec3::Zero(), I},
                    {Vec3(0.13, -0.07, 0.5 - dip), rot(0.2, Vec3::UnitZ())}, {}, ""});
+  cases.push_back({"cylinder-trimesh standing", floor, Cylinder(0.1, 0.2), {Vec3::Zero(), I},
+                   {Vec3(0.13, -0.07, 0.2 - dip), I}, {&floor_query, nullptr}, ""});
+  cases.push_back({"cylinder-trimesh lying", floor, Cylinder(0.1, 0.2), {Vec3::Zero(), I},
+                   {Vec3(0.13, -0.07, 0.1 - dip), along_x}, {&floor_query, nullptr}, ""});
 
   // a plate with a post and a ball on top, its plate face down on the ground box
   std::vector<Compound::Part> parts;

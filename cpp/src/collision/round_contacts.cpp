@@ -1,14 +1,15 @@
 // Pairs with a capsule or a cylinder. Capsules are segments with a radius, so their pairs are exact
 // closest-point problems (Ericson, Real-Time Collision Detection, 5.1.9) plus separating axes when a
 // segment enters a polytope. Cylinders have no such closed form against boxes, hulls, capsules or
-// other cylinders: the signed distance is the maximum of the support-plane gap over directions
-// (see support_distance for why not FCL's), and the manifold comes from the supporting features of
-// both shapes along its normal.
+// other cylinders: the signed distance comes from their support mappings by GJK and EPA
+// (gjk_epa.hpp, which says why not FCL's), and the manifold from the supporting features of both
+// shapes along its normal.
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include "collision/collision.hpp"
+#include "collision/gjk_epa.hpp"
 
 namespace signorini::collision {
 namespace {
@@ -343,12 +344,14 @@ Vec3 support_point(const Item& it, const Vec3& d) {
   if (it.sphere) return p + it.sphere->radius * d;
   if (it.capsule) return p + (R.col(2).dot(d) >= 0.0 ? 1.0 : -1.0) * it.capsule->half_length * R.col(2) + it.capsule->radius * d;
   if (it.cylinder) {
+    // the rim point along d's part normal to the axis, taken in the body's x y coordinates: d - (a.d) a
+    // would keep a rounding residue along a that dividing by a small |u| blows up (3e-6 m measured
+    // for d within 1e-11 rad of the axis)
     const Vec3 a = R.col(2);
-    const double c = a.dot(d);
-    Vec3 u = d - c * a;
-    const double un = u.norm();
+    const double c = a.dot(d), x = R.col(0).dot(d), y = R.col(1).dot(d);
+    const double un = std::hypot(x, y);
     const Vec3 centre = p + (c >= 0.0 ? 1.0 : -1.0) * it.cylinder->half_height * a;
-    return un > 1e-15 ? Vec3(centre + it.cylinder->radius * u / un) : centre;
+    return un > 0.0 ? Vec3(centre + (it.cylinder->radius / un) * (x * R.col(0) + y * R.col(1))) : centre;
   }
   const Polytope& P = *it.polytope;
   const Vec3 dl = R.transpose() * d;
@@ -358,68 +361,10 @@ Vec3 support_point(const Item& it, const Vec3& d) {
   return R * P.vertex(best) + p;
 }
 
-/// g(d) = (s_B(-d) - s_A(d)) . d: the gap between the support planes of A (normal d) and B (-d).
-/// Its maximum over unit d is the signed distance of A and B (minus the penetration depth when
-/// they overlap).
-double support_gap(const Item& a, const Item& b, const Vec3& d) {
-  return (support_point(b, -d) - support_point(a, d)).dot(d);
-}
-
-/// Pattern search for the maximum of g on the unit sphere from d (16 directions on a cone that
-/// shrinks from rho_start to rho_end (rad); g is not smooth where the support jumps, at rims and edges, and the many
-/// directions let the search climb along such ridges). Updates d and g.
-void climb(const Item& a, const Item& b, Vec3& d, double& g, double rho_start, double rho_end) {
-  for (double rho = rho_start; rho > rho_end;) {
-    const Vec3 e1 = (std::abs(d.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(d).normalized();
-    const Vec3 e2 = d.cross(e1);
-    bool moved = false;
-    for (int k = 0; k < 16; ++k) {
-      const double phi = k * kPi / 8.0;
-      const Vec3 t = (std::cos(rho) * d + std::sin(rho) * (std::cos(phi) * e1 + std::sin(phi) * e2)).normalized();
-      const double gt = support_gap(a, b, t);
-      if (gt > g) {
-        g = gt;
-        d = t;
-        moved = true;
-      }
-    }
-    if (!moved) rho *= 0.6;
-  }
-}
-
-/// The signed distance of two convex items and its direction (A -> B): the maximum of g over the
-/// unit sphere. Seeds: 64 directions spread over the sphere (a Fibonacci lattice), the line of
-/// centres and both shapes' axes; the best three are climbed. Written here rather than through
-/// FCL: measured here, libccd's EPA inside libfcl aborts the process (an assertion in
-/// ComputeVisiblePatch) on some touching cylinder pairs, reverses the normal of exactly touching
-/// ones and leaves up to ~1e-3 m of GJK tolerance in the gap; g is exact for these shapes.
-Distance support_distance(const Item& a, const Item& b) {
-  std::vector<std::pair<double, Vec3>> seeds;
-  auto add = [&](const Vec3& d) {
-    if (d.norm() > 0.0) seeds.emplace_back(support_gap(a, b, d.normalized()), d.normalized());
-  };
-  add(b.pose.p - a.pose.p);
-  for (int k = 0; k < 3; ++k)
-    for (double s : {1.0, -1.0}) add(s * a.pose.R.col(k)), add(s * b.pose.R.col(k));
-  const double golden = kPi * (3.0 - std::sqrt(5.0));
-  for (int k = 0; k < 64; ++k) {
-    const double z = 1.0 - (2.0 * k + 1.0) / 64.0, r = std::sqrt(1.0 - z * z);
-    add(Vec3(r * std::cos(golden * k), r * std::sin(golden * k), z));
-  }
-  std::stable_sort(seeds.begin(), seeds.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
-  // the best three seeds climbed to 1e-3 rad, the winner on to 1e-11 rad
-  Distance best{-std::numeric_limits<double>::infinity(), Vec3::UnitZ(), Vec3::Zero(), Vec3::Zero()};
-  for (std::size_t k = 0; k < std::min<std::size_t>(3, seeds.size()); ++k) {
-    Vec3 d = seeds[k].second;
-    double g = seeds[k].first;
-    climb(a, b, d, g, 0.25, 1e-3);
-    if (g > best.gap) best.gap = g, best.normal = d;
-  }
-  climb(a, b, best.normal, best.gap, 1e-3, 1e-11);
-  best.w_a = support_point(a, best.normal);
-  best.w_b = support_point(b, -best.normal);
-  return best;
-}
+/// The signed distance of two convex items and its direction (A -> B): GJK for separated items,
+/// EPA for touching and overlapping ones, on their support mappings (gjk_epa.hpp, which also says
+/// why not FCL's libccd).
+Distance support_distance(const Item& a, const Item& b) { return gjk_epa(a, b); }
 
 void convex_by_support(const Item& a, const Item& b, double threshold, std::vector<Contact>& out) {
   const Distance dist = support_distance(a, b);

@@ -1,0 +1,559 @@
+// GJK with the signed-volumes subalgorithm, and EPA; see gjk_epa.hpp for the contract.
+//
+// Notation: D = B - A (Minkowski difference of the cores), z = b - a its points, v the point of the
+// current simplex closest to the origin, w the support of D along -v, c the shift of D for EPA.
+// Every vertex keeps the support points a, b it came from, so that witnesses are the same
+// barycentric combination of them.
+#include "collision/gjk_epa.hpp"
+
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace signorini::collision {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kGjkMaxIterations = 128;
+constexpr int kEnclosingMaxIterations = 64;
+constexpr int kEpaMaxIterations = 256;
+constexpr double kGjkTolerance = 1e-12;  // duality gap, relative to L + |p_b - p_a|
+constexpr double kEpaTolerance = 1e-10;  // support beyond the closest face, relative to L
+constexpr double kShift = 1e-10;         // mu, relative to L
+constexpr double kNear = 1e-6;           // a GJK stall below this gap (relative to L) goes to EPA
+
+/// A vertex of D: z = b - a - c, with a = s_A(-d), b = s_B(d) the support points of the items'
+/// cores and c the shift of D (0 outside EPA).
+struct Vertex {
+  Vec3 z, a, b;
+};
+
+/// The radius by which an item rounds its core: a sphere is a point and a capsule a segment with
+/// a radius. GJK and EPA run on the cores and the radii are added at the end, which makes sphere
+/// and capsule pairs exact for GJK and spares EPA the doubly curved surfaces it converges slowly on
+/// (measured: 128 expansions left 1e-4 m on two overlapping spheres).
+double rounding(const Item& it) {
+  if (it.sphere) return it.sphere->radius;
+  if (it.capsule) return it.capsule->radius;
+  return 0.0;
+}
+
+/// Support points of the cores along -d (A, rounded by r_a) and d (B, rounded by r_b).
+Vertex support_of_difference(const Item& A, double r_a, const Item& B, double r_b, const Vec3& d, const Vec3& c) {
+  Vertex v;
+  v.a = support_point(A, -d) + r_a * d;
+  v.b = support_point(B, d) - r_b * d;
+  v.z = v.b - v.a - c;
+  return v;
+}
+
+using Lambda = std::array<double, 4>;
+
+bool same_sign(double x, double y) { return (x > 0.0 && y > 0.0) || (x < 0.0 && y < 0.0); }
+
+// ---- signed-volumes distance subalgorithm (Montanari, Petrinic, Barbieri 2017, section 3) ----
+// Each returns the squared distance of the origin to the sub-simplex of s with the given vertex
+// indices and writes the barycentric coordinates of its closest point into lam (0 elsewhere).
+
+/// S1D: segment s_i s_j.
+double s1d(const Vec3* s, int i, int j, Lambda& lam) {
+  lam.fill(0.0);
+  const Vec3 t = s[j] - s[i];
+  const double tt = t.squaredNorm();
+  const double u = tt > 0.0 ? -s[i].dot(t) / tt : 0.0;
+  if (!(u > 0.0)) {
+    lam[i] = 1.0;
+    return s[i].squaredNorm();
+  }
+  if (u >= 1.0) {
+    lam[j] = 1.0;
+    return s[j].squaredNorm();
+  }
+  lam[i] = 1.0 - u;
+  lam[j] = u;
+  return (lam[i] * s[i] + lam[j] * s[j]).squaredNorm();
+}
+
+/// S2D: triangle s_i s_j s_k. The origin is projected onto its plane and the signed areas of the
+/// sub-triangles are taken in the coordinate plane where the triangle's projection is largest.
+double s2d(const Vec3* s, int i, int j, int k, Lambda& lam) {
+  const Vec3 n = (s[j] - s[i]).cross(s[k] - s[i]);
+  int ax = 0;
+  if (std::abs(n.y()) > std::abs(n[ax])) ax = 1;
+  if (std::abs(n.z()) > std::abs(n[ax])) ax = 2;
+  const double mu_max = n[ax];
+  if (mu_max != 0.0) {
+    const Vec3 p0 = n * (s[i].dot(n) / n.squaredNorm());
+    const int x = (ax + 1) % 3, y = (ax + 2) % 3;
+    auto area = [x, y](const Vec3& p, const Vec3& q, const Vec3& r) {
+      return (q[x] - p[x]) * (r[y] - p[y]) - (q[y] - p[y]) * (r[x] - p[x]);
+    };
+    const double c0 = area(p0, s[j], s[k]), c1 = area(s[i], p0, s[k]), c2 = area(s[i], s[j], p0);
+    if (same_sign(c0, mu_max) && same_sign(c1, mu_max) && same_sign(c2, mu_max)) {
+      lam.fill(0.0);
+      lam[i] = c0 / mu_max;
+      lam[j] = c1 / mu_max;
+      lam[k] = c2 / mu_max;
+      return (lam[i] * s[i] + lam[j] * s[j] + lam[k] * s[k]).squaredNorm();
+    }
+    // the closest point lies on an edge facing the projection (opposite a negative coordinate)
+    double best = kInf;
+    Lambda tmp;
+    const double c[3] = {c0, c1, c2};
+    const int e[3][2] = {{j, k}, {i, k}, {i, j}};
+    for (int m = 0; m < 3; ++m) {
+      if (same_sign(c[m], mu_max)) continue;
+      const double d2 = s1d(s, e[m][0], e[m][1], tmp);
+      if (d2 < best) best = d2, lam = tmp;
+    }
+    return best;
+  }
+  // a degenerate (collinear) triangle: its best edge
+  double best = kInf;
+  Lambda tmp;
+  const int e[3][2] = {{j, k}, {i, k}, {i, j}};
+  for (const auto& ed : e) {
+    const double d2 = s1d(s, ed[0], ed[1], tmp);
+    if (d2 < best) best = d2, lam = tmp;
+  }
+  return best;
+}
+
+/// Signed volume (times 6) of the tetrahedron p q r t.
+double volume(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& t) {
+  return (q - p).dot((r - p).cross(t - p));
+}
+
+/// S3D: tetrahedron s_0..s_3. The cofactors C_j are the signed volumes with vertex j replaced by
+/// the origin; their sum is the tetrahedron's. The origin is inside when all share its sign.
+double s3d(const Vec3* s, Lambda& lam) {
+  const Vec3 o = Vec3::Zero();
+  const double c[4] = {volume(o, s[1], s[2], s[3]), volume(s[0], o, s[2], s[3]), volume(s[0], s[1], o, s[3]),
+                       volume(s[0], s[1], s[2], o)};
+  const double det = c[0] + c[1] + c[2] + c[3];
+  if (same_sign(c[0], det) && same_sign(c[1], det) && same_sign(c[2], det) && same_sign(c[3], det)) {
+    for (int m = 0; m < 4; ++m) lam[m] = c[m] / det;
+    return 0.0;
+  }
+  // the closest point lies on a face facing the origin (all four when the tetrahedron is flat)
+  double best = kInf;
+  Lambda tmp;
+  const int f[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  for (int m = 0; m < 4; ++m) {
+    if (same_sign(c[m], det)) continue;
+    const double d2 = s2d(s, f[m][0], f[m][1], f[m][2], tmp);
+    if (d2 < best) best = d2, lam = tmp;
+  }
+  return best;
+}
+
+/// A GJK simplex of 1 to 4 vertices.
+struct Simplex {
+  std::array<Vertex, 4> p;
+  int n = 0;
+
+  /// Replaces the simplex by the smallest sub-simplex holding its point closest to the origin
+  /// (barycentric coordinates > 0); returns that point. enclosed: a tetrahedron holds the origin.
+  Vec3 reduce(bool& enclosed) {
+    Vec3 s[4] = {p[0].z, p[1].z, p[2].z, p[3].z};
+    Lambda lam{};
+    switch (n) {
+      case 1: lam[0] = 1.0; break;
+      case 2: s1d(s, 0, 1, lam); break;
+      case 3: s2d(s, 0, 1, 2, lam); break;
+      default: s3d(s, lam); break;
+    }
+    int m = 0;
+    Vec3 v = Vec3::Zero();
+    for (int k = 0; k < n; ++k) {
+      if (!(lam[k] > 0.0)) continue;
+      v += lam[k] * p[k].z;
+      lambda[m] = lam[k];
+      p[m++] = p[k];
+    }
+    enclosed = n == 4 && m == 4;
+    n = m;
+    if (enclosed) v = Vec3::Zero();
+    if (n == 3) {
+      // the origin projected onto the triangle's plane: v is a sum of vertices |z| ~ scale that
+      // nearly cancel, so near contact its direction would carry ~1e-16 scale / |v| of rounding;
+      // the normal of the plane (a cross product of edges) does not
+      const Vec3 nrm = (p[1].z - p[0].z).cross(p[2].z - p[0].z);
+      const double nn = nrm.squaredNorm();
+      if (nn > 0.0) v = nrm * ((p[0].z.dot(nrm) + p[1].z.dot(nrm) + p[2].z.dot(nrm)) / (3.0 * nn));
+    }
+    return v;
+  }
+
+  /// The witnesses: the barycentric combination (after reduce) of the support points.
+  void witnesses(Vec3& w_a, Vec3& w_b) const {
+    w_a.setZero();
+    w_b.setZero();
+    for (int k = 0; k < n; ++k) {
+      w_a += lambda[k] * p[k].a;
+      w_b += lambda[k] * p[k].b;
+    }
+  }
+
+  std::array<double, 4> lambda{1.0, 0.0, 0.0, 0.0};
+};
+
+/// A unit vector perpendicular to unit-or-not t (t != 0).
+Vec3 perpendicular(const Vec3& t) {
+  const Vec3 e = std::abs(t.x()) < 0.57 ? Vec3::UnitX() : (std::abs(t.y()) < 0.57 ? Vec3::UnitY() : Vec3::UnitZ());
+  return t.cross(e).normalized();
+}
+
+// ---- EPA ----
+
+struct Face {
+  int v[3];         ///< vertex indices, counter-clockwise seen from outside
+  int adj[3];       ///< neighbour across edge k (v[k] -> v[k+1])
+  int adj_edge[3];  ///< which edge of that neighbour it is
+  Vec3 m;           ///< unit outward normal
+  double delta;     ///< m . z on the face: distance of its plane from the origin
+  bool alive;
+};
+
+struct Epa {
+  std::vector<Vertex> verts;
+  std::vector<Face> faces;
+  std::vector<std::pair<int, int>> horizon;  // (face, edge) left standing next to removed faces
+
+  /// Appends face (i, j, k); false when it is degenerate (no normal).
+  bool add_face(int i, int j, int k) {
+    Face f;
+    f.v[0] = i, f.v[1] = j, f.v[2] = k;
+    f.adj[0] = f.adj[1] = f.adj[2] = -1;
+    f.adj_edge[0] = f.adj_edge[1] = f.adj_edge[2] = -1;
+    const Vec3& z0 = verts[i].z;
+    const Vec3 c = (verts[j].z - z0).cross(verts[k].z - z0);
+    const double len = c.norm();
+    f.alive = true;
+    if (!(len > 0.0)) {
+      f.m = Vec3::UnitZ();
+      f.delta = kInf;
+      faces.push_back(f);
+      return false;
+    }
+    f.m = c / len;
+    f.delta = (f.m.dot(z0) + f.m.dot(verts[j].z) + f.m.dot(verts[k].z)) / 3.0;
+    faces.push_back(f);
+    return true;
+  }
+
+  /// Links the faces from index `first` on, across matching reversed edges, to each other and to
+  /// the faces in `others` (their open edge given). False if some edge finds no partner.
+  bool link_new(std::size_t first) {
+    for (std::size_t x = first; x < faces.size(); ++x)
+      for (int e = 0; e < 3; ++e) {
+        if (faces[x].adj[e] >= 0) continue;
+        const int u = faces[x].v[e], w = faces[x].v[(e + 1) % 3];
+        bool found = false;
+        for (std::size_t y = first; y < faces.size() && !found; ++y)
+          for (int g = 0; g < 3; ++g)
+            if (faces[y].v[g] == w && faces[y].v[(g + 1) % 3] == u) {
+              faces[x].adj[e] = static_cast<int>(y), faces[x].adj_edge[e] = g;
+              faces[y].adj[g] = static_cast<int>(x), faces[y].adj_edge[g] = e;
+              found = true;
+              break;
+            }
+        if (!found) return false;
+      }
+    return true;
+  }
+
+  /// Depth-first walk over the faces that see w, removing them and collecting the horizon
+  /// (the edges between removed faces and faces left standing).
+  void silhouette(int f, int e, const Vec3& w, double eps) {
+    Face& F = faces[f];
+    if (!F.alive) return;
+    if (F.m.dot(w - verts[F.v[0]].z) > eps) {
+      F.alive = false;
+      const int e1 = (e + 1) % 3, e2 = (e + 2) % 3;
+      const int f1 = F.adj[e1], g1 = F.adj_edge[e1], f2 = F.adj[e2], g2 = F.adj_edge[e2];
+      silhouette(f1, g1, w, eps);
+      silhouette(f2, g2, w, eps);
+    } else {
+      horizon.emplace_back(f, e);
+    }
+  }
+};
+
+thread_local Epa t_epa;
+
+}  // namespace
+
+Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats) {
+  GjkEpaStats local;
+  GjkEpaStats& st = stats ? *stats : local;
+  st = GjkEpaStats{};
+  const double L = a.radius() + b.radius();
+  const Vec3 centres = b.pose.p - a.pose.p;
+  const double scale = L + centres.norm();
+  const double mu = kShift * L;
+  const Vec3 zero = Vec3::Zero();
+  const double r_a = rounding(a), r_b = rounding(b);
+  // the result for the cores, with the radii put back
+  auto rounded = [&](Distance d) {
+    d.gap -= r_a + r_b;
+    d.w_a += r_a * d.normal;
+    d.w_b -= r_b * d.normal;
+    return d;
+  };
+  const double tol_gjk = kGjkTolerance * scale;
+
+  // ---- GJK on D itself ----
+  Simplex S;
+  const double cn = centres.norm();
+  S.p[0] = support_of_difference(a, r_a, b, r_b, cn > 0.0 ? Vec3(-centres / cn) : Vec3(-Vec3::UnitX()), zero);
+  S.n = 1;
+  Vec3 v = S.p[0].z;
+  bool enclosed = false;
+  bool separated = false;
+  Vertex w_last{Vec3::Constant(kInf), Vec3::Zero(), Vec3::Zero()};  // set when GJK stalls
+  Vec3 n0 = cn > 0.0 ? Vec3(centres / cn) : Vec3(Vec3::UnitZ());  // the last direction of v
+  for (;;) {
+    const double vv = v.squaredNorm(), vn = std::sqrt(vv);
+    if (vn <= mu) {
+      if (vn > 0.0) n0 = v / vn;
+      break;  // touching or overlapping: EPA
+    }
+    n0 = v / vn;
+    if (st.gjk_iterations >= kGjkMaxIterations) {
+      st.converged = false;
+      st.stop = "GJK iteration cap";
+      separated = true;  // |v| is still the distance of two points of the shapes
+      break;
+    }
+    ++st.gjk_iterations;
+    const Vertex w = support_of_difference(a, r_a, b, r_b, -v / vn, zero);
+    // the duality gap |v| - v.w/|v| bounds the error of |v|
+    if (vv - v.dot(w.z) <= tol_gjk * vn) {
+      separated = true;
+      st.stop = "duality gap";
+      break;
+    }
+    bool repeated = false;
+    for (int k = 0; k < S.n; ++k) repeated = repeated || S.p[k].z == w.z;
+    if (repeated) {
+      separated = true;
+      st.stop = "repeated support";
+      w_last = w;
+      break;
+    }
+    const Simplex previous = S;
+    S.p[S.n++] = w;
+    const Vec3 v_new = S.reduce(enclosed);
+    if (enclosed) break;
+    if (!(v_new.squaredNorm() < vv)) {
+      // no progress (rounding): the previous simplex is as close as GJK gets
+      S = previous;
+      separated = true;
+      st.stop = "no progress";
+      w_last = w;
+      break;
+    }
+    v = v_new;
+  }
+  st.simplex = S.n;
+  // a stall short of the duality gap near contact (rounding turns v's direction by ~1e-16 scale
+  // / |v|): EPA on D shifted by more than |v| decides instead
+  double shift = mu;
+  if (separated && std::isfinite(w_last.z.x())) {
+    const double vn = v.norm();
+    if (vn - v.dot(w_last.z) / vn > tol_gjk && vn <= kNear * L) {
+      separated = false;
+      shift = std::max(mu, 0.75 * vn);
+      n0 = v / vn;
+    }
+  }
+  if (separated) {
+    Distance d;
+    S.witnesses(d.w_a, d.w_b);
+    const double vn = v.norm();
+    d.gap = vn;
+    d.normal = v / vn;
+    return rounded(d);
+  }
+
+  // ---- touching or overlapping: D' = D - c, c = 2 mu n0, holds the origin ~mu deep ----
+  // n0: GJK's last direction of v, else the line between interior points of B and A (v's
+  // direction is noisy when its simplex is a segment). GJK on D' runs until a tetrahedron holds
+  // the origin; a separating plane means c was not inside D, and the next n0 is tried.
+  st.used_epa = true;
+  Distance fallback;  // if EPA cannot start: GJK's gap along its last direction
+  S.witnesses(fallback.w_a, fallback.w_b);
+  fallback.gap = enclosed ? 0.0 : v.norm();
+  fallback.normal = n0;
+  auto interior = [](const Item& it) {
+    return it.polytope ? Vec3(it.pose.R * it.polytope->centroid + it.pose.p) : it.pose.p;
+  };
+  Vec3 q = interior(b) - interior(a);
+  const Vec3 candidates[2] = {n0, q.norm() > 0.0 ? Vec3(q.normalized()) : Vec3(-n0)};
+  const Simplex S0 = S;
+  const double tiny = 1e-14 * scale;
+  Vec3 c = Vec3::Zero();
+  bool started = false;
+  for (int attempt = 0; attempt < 2 && !started; ++attempt) {
+    c = (2.0 * shift) * candidates[attempt];
+    S = S0;
+    for (int k = 0; k < S.n; ++k) S.p[k].z -= c;
+    v = S.reduce(enclosed);
+    bool missed = false;
+    for (int it = 0; !enclosed && !missed; ++it) {
+      if (it >= kEnclosingMaxIterations) {
+        missed = true;
+        break;
+      }
+      const double vn = v.norm();
+      if (vn <= tiny) {
+        // the origin on the simplex: blow it up to a tetrahedron by supports normal to it
+        if (S.n == 1) S.p[S.n++] = support_of_difference(a, r_a, b, r_b, candidates[attempt], c);
+        if (S.n == 2) {
+          const Vec3 t = S.p[1].z - S.p[0].z;
+          const Vec3 e = perpendicular(t.squaredNorm() > 0.0 ? t : Vec3(Vec3::UnitX()));
+          S.p[S.n++] = support_of_difference(a, r_a, b, r_b, e, c);
+          if ((S.p[1].z - S.p[0].z).cross(S.p[2].z - S.p[0].z).squaredNorm() == 0.0)
+            S.p[2] = support_of_difference(a, r_a, b, r_b, -e, c);
+        }
+        Vec3 nrm = (S.p[1].z - S.p[0].z).cross(S.p[2].z - S.p[0].z);
+        if (!(nrm.squaredNorm() > 0.0)) {
+          missed = true;
+          break;
+        }
+        nrm.normalize();
+        if (nrm.dot(S.p[0].z) > 0.0) nrm = -nrm;  // away from the triangle, on the origin's side
+        S.p[3] = support_of_difference(a, r_a, b, r_b, nrm, c);
+        S.n = 4;
+        enclosed = true;  // the origin inside the tetrahedron or on its boundary
+        break;
+      }
+      const Vertex w = support_of_difference(a, r_a, b, r_b, -v / vn, c);
+      if (v.dot(w.z) > 0.0) {
+        missed = true;  // a plane separates D' from the origin: c is not inside D
+        break;
+      }
+      S.p[S.n++] = w;
+      const double vv = v.squaredNorm();
+      v = S.reduce(enclosed);
+      if (!enclosed && !(v.squaredNorm() < vv)) v = Vec3::Zero();  // stalled on the simplex: blow up
+    }
+    started = enclosed && !missed;
+  }
+  if (!started) {
+    st.converged = false;
+    st.stop = "no shift puts the origin inside";
+    return rounded(fallback);
+  }
+
+  // ---- EPA on D' from that tetrahedron ----
+  Epa& E = t_epa;
+  E.verts.clear();
+  E.faces.clear();
+  for (int k = 0; k < 4; ++k) E.verts.push_back(S.p[k]);
+  if (volume(E.verts[0].z, E.verts[1].z, E.verts[2].z, E.verts[3].z) > 0.0) std::swap(E.verts[1], E.verts[2]);
+  bool ok = E.add_face(0, 1, 2);
+  ok = E.add_face(0, 3, 1) && ok;
+  ok = E.add_face(0, 2, 3) && ok;
+  ok = E.add_face(1, 3, 2) && ok;
+  if (!ok || !E.link_new(0)) {
+    st.converged = false;
+    st.stop = "EPA start degenerate";
+    return rounded(fallback);
+  }
+  const double tol_epa = kEpaTolerance * L;
+  const double eps_visible = 1e-15 * scale;
+  int best = -1;
+  for (int it = 0;; ++it) {
+    int f = -1;
+    for (std::size_t k = 0; k < E.faces.size(); ++k)
+      if (E.faces[k].alive && (f < 0 || E.faces[k].delta < E.faces[f].delta)) f = static_cast<int>(k);
+    if (f < 0) break;
+    best = f;
+    const Vec3 m = E.faces[f].m;
+    const double delta = E.faces[f].delta;
+    const Vertex w = support_of_difference(a, r_a, b, r_b, m, c);
+    if (m.dot(w.z) - delta <= tol_epa) break;  // converged
+    if (it >= kEpaMaxIterations) {
+      st.converged = false;
+      st.stop = "EPA iteration cap";
+      break;
+    }
+    ++st.epa_iterations;
+    // remove the faces that see w and close the hole with faces fanning out from w
+    const int wi = static_cast<int>(E.verts.size());
+    E.verts.push_back(w);
+    E.horizon.clear();
+    E.faces[f].alive = false;
+    for (int e = 0; e < 3; ++e) E.silhouette(E.faces[f].adj[e], E.faces[f].adj_edge[e], w.z, eps_visible);
+    bool sound = E.horizon.size() >= 3;
+    const std::size_t first = E.faces.size();
+    for (std::size_t h = 0; h < E.horizon.size() && sound; ++h) {
+      const auto [g, e] = E.horizon[h];
+      const int u = E.faces[g].v[e], x = E.faces[g].v[(e + 1) % 3];
+      sound = E.add_face(x, u, wi);
+      Face& nf = E.faces.back();
+      nf.adj[0] = g, nf.adj_edge[0] = e;
+      E.faces[g].adj[e] = static_cast<int>(E.faces.size() - 1), E.faces[g].adj_edge[e] = 0;
+      // a new face nearer than the one it replaces means rounding has bent the polytope
+      sound = sound && nf.delta >= delta - tol_epa;
+    }
+    sound = sound && E.link_new(first);
+    if (!sound) {
+      st.converged = false;
+      st.stop = "EPA polytope damaged";
+      break;  // the polytope is damaged: keep the best face so far
+    }
+  }
+  if (best < 0) {
+    st.converged = false;
+    st.stop = "EPA polytope damaged";
+    return rounded(fallback);
+  }
+
+  // the shift tilts g by c . n: among the faces that could still be the best without it, the one
+  // whose normal n supports the unshifted D best, by g(n) = n . s_D(-n) (one support each; a
+  // near-tie of two facets would otherwise cost up to |c| of gap)
+  double gap = -E.faces[best].delta - c.dot(E.faces[best].m);
+  const double reach = 2.0 * c.norm();
+  if (reach > 0.0) {
+    const double limit = E.faces[best].delta + reach;
+    int chosen = best;
+    double g_best = -kInf;
+    for (std::size_t k = 0; k < E.faces.size(); ++k) {
+      const Face& G = E.faces[k];
+      if (!(G.alive || static_cast<int>(k) == best) || !(G.delta <= limit)) continue;
+      const double g = -G.m.dot(support_of_difference(a, r_a, b, r_b, G.m, zero).z);
+      if (g > g_best) g_best = g, chosen = static_cast<int>(k);
+    }
+    // g(n) is a lower bound; for EPA's own closest face, converged, gap (above) bounds the signed
+    // distance from above to within the tolerance: then the middle of the two
+    gap = chosen == best && gap >= g_best ? 0.5 * (gap + g_best) : g_best;
+    best = chosen;
+  }
+
+  // the origin projected onto the best face, in barycentric coordinates of its vertices
+  const Face& F = E.faces[best];
+  const Vertex& V0 = E.verts[F.v[0]];
+  const Vertex& V1 = E.verts[F.v[1]];
+  const Vertex& V2 = E.verts[F.v[2]];
+  const Vec3 p = F.delta * F.m;
+  const double area = (V1.z - V0.z).cross(V2.z - V0.z).dot(F.m);
+  double l0 = (V1.z - p).cross(V2.z - p).dot(F.m) / area;
+  double l1 = (V2.z - p).cross(V0.z - p).dot(F.m) / area;
+  double l2 = (V0.z - p).cross(V1.z - p).dot(F.m) / area;
+  l0 = std::max(l0, 0.0), l1 = std::max(l1, 0.0), l2 = std::max(l2, 0.0);
+  const double sum = l0 + l1 + l2;
+  if (sum > 0.0) l0 /= sum, l1 /= sum, l2 /= sum;
+  else l0 = 1.0, l1 = l2 = 0.0;
+  Distance d;
+  d.gap = gap;
+  d.normal = -F.m;
+  d.w_a = l0 * V0.a + l1 * V1.a + l2 * V2.a;
+  d.w_b = l0 * V0.b + l1 * V1.b + l2 * V2.b;
+  return rounded(d);
+}
+
+}  // namespace signorini::collision
