@@ -79,7 +79,7 @@ def _run(args: argparse.Namespace) -> int:
     record = output.run(scene, steps=args.steps, dt=args.dt)
 
     # write the record and the picture next to each other
-    files = [output.save_npz(args.out / f"{scene.name}.npz", record)]
+    files = [output.save_trajectory(args.out / f"{scene.name}.npz", record)]
     if not args.no_plot:
         files.append(output.plot(args.out / f"{scene.name}.png", record, scene))
     print(output.format_summary(record, files))

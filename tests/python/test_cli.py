@@ -41,7 +41,7 @@ def test_run_boxes_writes_record_and_picture(tmp_path):
         assert data["velocities"].shape == (51, n, 3)
         assert data["angular_velocities"].shape == (51, n, 3)
         assert data["kinetic_energy"].shape == data["potential_energy"].shape == (51,)
-        for name in ("num_contacts", "min_gap", "iterations", "residual", "converged"):
+        for name in ("num_contacts", "min_gap", "solver_iterations", "solver_residual", "solver_converged"):
             assert data[name].shape == (50,), name
         assert data["masses"].shape == data["is_static"].shape == (n,)
         np.testing.assert_allclose(data["time"], np.arange(51) * float(data["dt"]), rtol=1e-12, atol=1e-12)
