@@ -198,9 +198,10 @@ def body_names(world, names=None) -> list[str]:
     return [f"{shape_params(world.shape(i))['type']}_{i}" for i in range(n)]
 
 
-def plane_patch(normal, offset: float, centre, half: float) -> tuple[np.ndarray, np.ndarray]:
+def plane_patch(normal, offset: float, centre, half: float, cells: int = 16) -> tuple[np.ndarray, np.ndarray]:
     """A square (2 half) x (2 half) m on the plane n . x = offset, centred on the projection of
-    centre (3,): (vertices (4, 3), faces (2, 3)) facing along n."""
+    centre (3,), as a grid of cells x cells squares (so a near camera clips it cell by cell):
+    (vertices ((cells + 1)^2, 3), faces (2 cells^2, 3)) facing along n."""
     n = np.asarray(normal, dtype=np.float64)
     n = n / np.linalg.norm(n)
     c = np.asarray(centre, dtype=np.float64)
@@ -208,8 +209,14 @@ def plane_patch(normal, offset: float, centre, half: float) -> tuple[np.ndarray,
     e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(n, e1)
-    v = np.array([c + half * (a * e1 + b * e2) for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
-    return v, np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int64)
+    u = np.linspace(-half, half, cells + 1)
+    a, b = np.meshgrid(u, u, indexing="ij")
+    v = c + a.reshape(-1, 1) * e1 + b.reshape(-1, 1) * e2
+    i, j = np.meshgrid(np.arange(cells), np.arange(cells), indexing="ij")
+    p0 = (i * (cells + 1) + j).ravel()
+    p1, p2, p3 = p0 + cells + 1, p0 + cells + 2, p0 + 1
+    faces = np.concatenate([np.stack([p0, p1, p2], 1), np.stack([p0, p2, p3], 1)]).astype(np.int64)
+    return v, faces
 
 
 # recording
