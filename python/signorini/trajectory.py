@@ -262,6 +262,22 @@ class Recorder:
         """Steps observed so far."""
         return self._steps
 
+    @property
+    def frames(self) -> int:
+        """Frames recorded so far."""
+        return len(self._frames["time"])
+
+    def frame(self, f: int) -> dict:
+        """Frame f as recorded so far, without building a Record: time (s), positions (N, 3),
+        orientations (N, 4), velocities (N, 3), angular_velocities (N, 3) and contacts (a dict of
+        ``CONTACT_KEYS`` arrays, or None when contacts are not recorded)."""
+        out = {k: self._frames[k][f] for k in ("time", "positions", "orientations", "velocities",
+                                               "angular_velocities")}
+        out["contacts"] = None
+        if self.with_contacts and f > 0:
+            out["contacts"] = {k: self._contacts[k][f - 1] for k in CONTACT_KEYS}
+        return out
+
     def _frame(self) -> None:
         """Append the world's current state as a frame."""
         w = self.world
@@ -444,6 +460,8 @@ def load_trajectory(path) -> Record:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such trajectory file")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"{path}: not a signorini trajectory (not an .npz file: no zip archive inside)")
     try:
         with np.load(path, allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}
