@@ -95,7 +95,8 @@ def default_camera(record: Record, fov: float = 40.0, follow: bool | None = None
     h = math.cos(turn) * h + math.sin(turn) * np.cross(up, h)
     elevation = math.radians(25.0)
     direction = math.cos(elevation) * h + math.sin(elevation) * up
-    offset = 1.15 * radius / math.sin(math.radians(0.5 * fov)) * direction
+    # the bounding sphere just fits the view's height (a box's corners rarely all face the eye)
+    offset = 0.9 * radius / math.sin(math.radians(0.5 * fov)) * direction
     return {"target": targets[0], "targets": targets, "eye": targets[0] + offset, "offset": offset,
             "up": up, "fov": float(fov), "follow": bool(follow)}
 

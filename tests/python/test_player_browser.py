@@ -174,11 +174,11 @@ def test_player_controls_toggle_layers_and_play(browser, page_file):
 
 
 def test_player_screenshot_for_the_readme(browser, tmp_path):
-    """The torus scene mid-slide with its contacts and forces; written to docs/ on request."""
-    record = output.run(scenes.build("torus"), steps=360, progress=False, stride=2)
-    path = write_html(tmp_path / "torus.html", record)
+    """The shapes scene settled, with contact points, normals and forces; written to docs/ on request."""
+    record = output.run(scenes.build("shapes"), steps=360, progress=False, stride=2)
+    path = write_html(tmp_path / "shapes.html", record)
     page, errors, _ = open_page(browser, path)
-    scrub(page, record.frame_at(0.6))
+    scrub(page, record.frame_at(1.2))
     page.check("#show-normals")
     settle(page)
     picture = tmp_path / "player.png"
