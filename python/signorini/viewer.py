@@ -16,6 +16,7 @@ velocity, angular velocity, its contacts). ``serve_forever()`` blocks until Ctrl
 
 from __future__ import annotations
 
+import math
 import threading
 import time as _time
 
@@ -256,4 +257,5 @@ def _force_scale_of(record: Record, camera: dict) -> float:
         return scale
     masses = [m for m, s in zip(record.masses, record.is_static) if not s]
     weight = max(masses, default=1.0) * max(float(np.linalg.norm(record.gravity)), 1.0)
-    return 0.2 * float(np.linalg.norm(camera["offset"])) * 0.35 / weight
+    half_height = float(np.linalg.norm(camera["offset"])) * math.sin(math.radians(0.5 * camera["fov"]))
+    return 0.2 * half_height / weight

@@ -12,14 +12,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
+from playwright import sync_api as playwright
 
 from signorini import output, scenes
 from signorini.player import write_html
 from signorini.trajectory import load_trajectory
 
 from browser import launch
-
-playwright = pytest.importorskip("playwright.sync_api")
 
 WIDTH, HEIGHT = 960, 600
 DOCS = Path(__file__).resolve().parents[2] / "docs"

@@ -6,6 +6,7 @@ import urllib.request
 
 import numpy as np
 import pytest
+from playwright import sync_api as playwright
 
 from signorini import output, scenes
 from signorini.viewer import Viewer
@@ -76,7 +77,6 @@ def test_live_scene_steps_the_simulator_and_can_be_scrubbed_back():
 
 
 def test_a_browser_connects_to_the_viewer(replay):
-    playwright = pytest.importorskip("playwright.sync_api")
     with playwright.sync_playwright() as p:
         browser = launch(p)
         try:
