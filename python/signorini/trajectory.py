@@ -354,7 +354,7 @@ class Recorder:
             self.observe()
             if progress is not None:
                 progress(1)
-        if self.dt is None or steps:
+        if steps:
             self.dt = float(dt)
 
     def record(self) -> Record:

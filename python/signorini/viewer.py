@@ -104,7 +104,7 @@ class Viewer:
         self.info = gui.add_markdown("*click a body to see its state*")
         self.play_button.on_click(lambda _: self.toggle())
         self.step_button.on_click(lambda _: self.step_once())
-        self.timeline.on_update(lambda _: self._scrub())
+        self.timeline.on_update(self._scrub)
         self.speed_slider.on_update(lambda _: setattr(self, "speed", float(self.speed_slider.value)))
         for box in (self.show_points, self.show_normals, self.show_forces):
             box.on_update(lambda _: self.show(self.frame))
@@ -151,15 +151,13 @@ class Viewer:
                     self.normals.points = np.stack([p, p + self._normal_length * c["normal"]], axis=1).astype(np.float32)
                     self.forces.points = np.stack([p, p + self._force_scale * c["force"]], axis=1).astype(np.float32)
                 self.timeline.max = max(self.frames - 1, 1)
-                if self.timeline.value != f:
-                    self._ignore_scrub = True
-                    self.timeline.value = f
+                self.timeline.value = f  # calls _scrub with no client: ignored there
                 self.clock.content = f"t = {d['time']:.3f} s, frame {f + 1} / {self.frames}, {k} contacts"
                 self._describe()
 
-    def _scrub(self) -> None:
-        if getattr(self, "_ignore_scrub", False):
-            self._ignore_scrub = False
+    def _scrub(self, event) -> None:
+        """The timeline moved: by a person (pause and show it) or by ``show`` itself (no client)."""
+        if event.client is None:
             return
         self.playing = False
         self.show(int(self.timeline.value))

@@ -92,3 +92,39 @@ def test_a_browser_connects_to_the_viewer(replay):
             assert errors == []
         finally:
             browser.close()
+
+
+def test_the_view_command_serves_a_trajectory_until_stopped(tmp_path, record):
+    """``python -m signorini view FILE`` as a user runs it: it serves, then Ctrl-C ends it cleanly."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    import signorini
+
+    path = record.save(tmp_path / "boxes.npz")
+    port = free_port()
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(Path(signorini.__file__).resolve().parent.parent),
+                                         env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    process = subprocess.Popen([sys.executable, "-m", "signorini", "view", str(path), "--port", str(port)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2) as response:
+                    assert response.status == 200
+                    break
+            except OSError:
+                assert process.poll() is None, process.communicate()[1]
+                assert time.monotonic() < deadline, "the viewer did not start serving"
+                time.sleep(0.2)
+    finally:
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=30)
+    assert process.returncode == 0, err
+    assert f"http://127.0.0.1:{port}" in out
