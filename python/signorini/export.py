@@ -2,12 +2,14 @@
 
 Both take a ``trajectory.Record`` and need no simulator:
 
-- ``write_gltf(path, record)`` (pygltflib): one node per body, named as the body, holding its draw
-  mesh (body-frame vertices, m, as float32) and its frame-0 pose; one animation ("motion") with a
-  translation and a rotation channel per dynamic body, linear samplers over the frame times (s,
-  float32); rotations as glTF quaternions (x, y, z, w). Static bodies are plain nodes. glTF's up
-  axis is +Y: the poses are written in the simulator's world frame unchanged (the viewer's up may
-  differ from gravity's), so keyframes equal the trajectory within float32 rounding.
+- ``write_gltf(path, record)`` (pygltflib): one node per body (nodes 0..N-1, in body order), named
+  as the body, holding its draw mesh (body-frame vertices, m, as float32) and its frame-0 pose;
+  one animation ("motion") with a translation and a rotation channel per dynamic body, linear
+  samplers over the frame times (s, float32); rotations as glTF quaternions (x, y, z, w). Static
+  bodies are plain nodes. The bodies are children of a root node "world" (node N) whose rotation
+  turns the simulator's up (against gravity) onto glTF's +Y, so Blender and web viewers show the
+  scene upright while the body nodes keep the simulator's world-frame poses: keyframes equal the
+  trajectory within float32 rounding.
 - ``write_usd(path, record)`` (usd-core): a stage with ``/World``, one ``Xform`` per body
   (``/World/<name>``) with ``xformOp:translate`` (double3, m) and ``xformOp:orient`` (quatd, w x y
   z) time-sampled at every frame, time code = the frame's step number, ``timeCodesPerSecond`` =
@@ -72,6 +74,10 @@ def write_gltf(path, record: Record) -> Path:
             node.mesh = len(meshes_) - 1
         nodes.append(node)
 
+    # a root turning the simulator's up onto glTF's +Y
+    nodes.append(g.Node(name="world", children=list(range(record.num_bodies)),
+                        rotation=[float(x) for x in _rotation_onto(up_direction(record), np.array([0.0, 1.0, 0.0]))]))
+
     # the motion: one translation and one rotation channel per dynamic body
     animation = g.Animation(name="motion", channels=[], samplers=[])
     if record.frames > 1:
@@ -86,7 +92,7 @@ def write_gltf(path, record: Record) -> Path:
 
     gltf = g.GLTF2(
         asset=g.Asset(generator="signorini", version="2.0"),
-        scene=0, scenes=[g.Scene(name=record.scene, nodes=list(range(len(nodes))))],
+        scene=0, scenes=[g.Scene(name=record.scene, nodes=[len(nodes) - 1])],
         nodes=nodes, meshes=meshes_, materials=materials, accessors=accessors, bufferViews=views,
         buffers=[g.Buffer(byteLength=len(blob))],
         animations=[animation] if animation.channels else [],
@@ -94,6 +100,18 @@ def write_gltf(path, record: Record) -> Path:
     gltf.set_binary_blob(bytes(blob))
     gltf.save_binary(str(path))
     return path
+
+
+def _rotation_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The shortest rotation taking unit vector a onto unit vector b, as a quaternion (x, y, z, w)."""
+    axis = np.cross(a, b)
+    c = float(a @ b)
+    if c < -1.0 + 1e-12:
+        # opposite: half a turn about any axis perpendicular to a
+        perpendicular = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+        return np.append(perpendicular / np.linalg.norm(perpendicular), 0.0)
+    q = np.append(axis, 1.0 + c)
+    return q / np.linalg.norm(q)
 
 
 def write_usd(path, record: Record) -> Path:

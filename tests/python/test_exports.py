@@ -34,7 +34,12 @@ def test_gltf_has_one_animated_node_per_dynamic_body(tmp_path, record):
 
     path = write_gltf(tmp_path / "run.glb", record)
     gltf = pygltflib.GLTF2().load(str(path))
-    assert [n.name for n in gltf.nodes] == record.names
+    n = record.num_bodies
+    assert [node.name for node in gltf.nodes] == record.names + ["world"]
+    # the root turns the simulator's up, +z here, onto glTF's +y: -90 degrees about x
+    root = gltf.nodes[n]
+    assert gltf.scenes[0].nodes == [n] and root.children == list(range(n))
+    np.testing.assert_allclose(root.rotation, [-np.sqrt(0.5), 0.0, 0.0, np.sqrt(0.5)], atol=1e-12)
     (animation,) = gltf.animations
     animated = {}
     for channel in animation.channels:
@@ -50,7 +55,7 @@ def test_gltf_has_one_animated_node_per_dynamic_body(tmp_path, record):
         # glTF quaternions are (x, y, z, w)
         np.testing.assert_allclose(rotation, record.orientations[:, i][:, [1, 2, 3, 0]], atol=1e-6)
     # each node's mesh is the body's draw mesh
-    for i, node in enumerate(gltf.nodes):
+    for i, node in enumerate(gltf.nodes[:n]):
         primitive = gltf.meshes[node.mesh].primitives[0]
         np.testing.assert_allclose(accessor_array(gltf, primitive.attributes.POSITION), record.draw_meshes[i][0],
                                    atol=1e-6)
