@@ -38,10 +38,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from array import array
 import math
 import time as _time
+import warnings
 import zipfile
+from array import array
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -342,18 +343,31 @@ class Recorder:
 
     def step(self, dt: float, steps: int = 1, progress=None) -> None:
         """Advance the world ``steps`` single steps of dt (s), observing each; ``progress`` is an
-        optional callable called with 1 after each step (a tqdm bar's ``update``)."""
+        optional callable called with 1 after each step (a tqdm bar's ``update``).
+
+        The world warns once per ``World.step`` call; stepping one step at a time would repeat
+        a warning for every flagged step, so warnings of one category are gathered and given
+        once, the first one's text with how many steps raised it.
+        """
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
             raise ValueError(f"Recorder.step: steps must be an integer >= 0, got {steps!r}")
         if not (isinstance(dt, (int, float, np.number)) and math.isfinite(dt) and dt > 0):
             raise ValueError(f"Recorder.step: dt must be a finite number > 0, got {dt!r}")
-        for _ in range(int(steps)):
-            start = _time.perf_counter()
-            self.world.step(dt=dt, steps=1)
-            self.wall_time += _time.perf_counter() - start
-            self.observe()
-            if progress is not None:
-                progress(1)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            for _ in range(int(steps)):
+                start = _time.perf_counter()
+                self.world.step(dt=dt, steps=1)
+                self.wall_time += _time.perf_counter() - start
+                self.observe()
+                if progress is not None:
+                    progress(1)
+        first: dict = {}
+        for w in caught:
+            first.setdefault(w.category, [w.message, 0])[1] += 1
+        for category, (message, count) in first.items():
+            more = f" [{count} of {steps} recorded steps warned; this is the first]" if count > 1 else ""
+            warnings.warn(f"{message}{more}", category, stacklevel=2)
         if steps:
             self.dt = float(dt)
 

@@ -159,3 +159,15 @@ def test_bad_files_give_errors_naming_them(tmp_path, boxes_record):
                 dst.writestr(item, src.read(item.filename))
     with pytest.raises(ValueError, match="broken.npz.*missing positions"):
         load_trajectory(broken)
+
+
+def test_solver_warnings_of_a_recorded_run_are_given_once():
+    """A stack solved with one sweep a step flags every step: one warning says how many."""
+    w = sg.World(gravity=(0, 0, -9.81), max_iterations=1, tolerance=1e-12, warn_velocity=1e-9)
+    w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
+    for k in range(4):
+        w.add_body(sg.Box((0.1, 0.1, 0.1)), mass=1.0, position=(0.01 * k, 0, 0.1 + 0.2 * k))
+    with pytest.warns(sg.SolverWarning) as caught:
+        Recorder(w).step(1 / 240, 30)
+    assert len(caught) == 1
+    assert "[30 of 30 recorded steps warned; this is the first]" in str(caught[0].message)
