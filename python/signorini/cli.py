@@ -225,9 +225,15 @@ def _view(args: argparse.Namespace) -> int:
         print(f"python -m signorini: error: {args.source!r} is neither a scene ({known}) nor a trajectory file",
               file=sys.stderr)
         return 2
-    viewer = Viewer(source, host=args.host, port=args.port, verbose=True)
-    print(f"signorini viewer of {args.source} at http://{args.host}:{viewer.port} (Ctrl-C stops)")
-    viewer.serve_forever()
+    viewer = None
+    try:
+        viewer = Viewer(source, host=args.host, port=args.port, verbose=True)
+        print(f"signorini viewer of {args.source} at http://{args.host}:{viewer.port} (Ctrl-C stops)", flush=True)
+        viewer.serve_forever()
+    except KeyboardInterrupt:
+        # Ctrl-C while the viewer was still being set up
+        if viewer is not None:
+            viewer.stop()
     return 0
 
 

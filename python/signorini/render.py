@@ -120,9 +120,17 @@ def _view(camera: dict, width: int, height: int):
 
 
 def render_frame(record: Record, f: int, camera: dict | None = None, size=(640, 480),
-                 contacts: bool = True, forces: bool = True, supersample: int = 2) -> np.ndarray:
-    """Picture of frame f as (height, width, 3) uint8 RGB; see the module docstring."""
-    from PIL import Image, ImageDraw
+                 contacts: bool = True, forces: bool = True, supersample: int = 2,
+                 force_scale: float | None = None) -> np.ndarray:
+    """Picture of frame f as (height, width, 3) uint8 RGB; see the module docstring.
+
+    ``camera`` defaults to ``default_camera(record)`` and ``force_scale`` (m per N) to
+    ``_force_scale(record)``; pass both when drawing many frames, they cost a pass over the run.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.collections import LineCollection, PolyCollection
+    from matplotlib.figure import Figure
+    from PIL import Image
 
     camera = camera_at(camera or default_camera(record), f)
     width, height = int(size[0]), int(size[1])
@@ -161,32 +169,39 @@ def render_frame(record: Record, f: int, camera: dict | None = None, size=(640, 
         pixels, depth = pixels.reshape(-1, 3, 2), depth.reshape(-1, 3)
         visible = np.all(depth > 1e-3, axis=1)
         shade = 0.35 + 0.65 * np.abs(facing[visible])
-        base = np.array(colours[i], dtype=np.float64)
-        rgb = np.clip(base[None, :] * shade[:, None], 0, 255).astype(int)
-        polygons.extend(pixels[visible])
+        polygons.append(pixels[visible])
         # scenery is painted first: a floor's few large triangles would otherwise cover what stands on it
-        depths.extend(depth[visible].mean(axis=1) + (1e9 if record.is_static[i] else 0.0))
-        fills.extend(map(tuple, rgb))
+        depths.append(depth[visible].mean(axis=1) + (1e9 if record.is_static[i] else 0.0))
+        fills.append(np.clip(np.array(colours[i]) / 255.0 * shade[:, None], 0.0, 1.0))
 
-    image = Image.new("RGB", (W, H), (255, 255, 255))
-    draw = ImageDraw.Draw(image)
-    for j in np.argsort(depths)[::-1]:
-        draw.polygon([tuple(p) for p in polygons[j]], fill=fills[j])
+    # painted far to near in one call (Agg), on a canvas of W x H pixels with y down
+    figure = Figure(figsize=(W / 100.0, H / 100.0), dpi=100)
+    FigureCanvasAgg(figure)
+    axes = figure.add_axes((0.0, 0.0, 1.0, 1.0))
+    axes.set_xlim(0, W)
+    axes.set_ylim(H, 0)
+    axes.set_axis_off()
+    if polygons:
+        order = np.argsort(np.concatenate(depths))[::-1]
+        colour = np.concatenate(fills)[order]
+        axes.add_collection(PolyCollection(np.concatenate(polygons)[order], facecolors=colour, edgecolors=colour,
+                                           linewidths=0.3, antialiaseds=False))
 
     # contact points and force arrows on top
     c = record.frame_contacts(f)
     if len(c["gap"]):
-        scale = _force_scale(record)
+        scale = _force_scale(record) if force_scale is None else force_scale
         if forces and scale > 0:
             start, _ = project(c["point"])
             end, _ = project(c["point"] + scale * c["force"])
-            for a, b in zip(start, end):
-                draw.line([tuple(a), tuple(b)], fill=(200, 0, 0), width=max(1, s))
+            axes.add_collection(LineCollection(np.stack([start, end], axis=1), colors=(0.8, 0.0, 0.0),
+                                               linewidths=0.6 * s))
         if contacts:
             points, _ = project(c["point"])
-            r = 2.5 * s
-            for x, y in points:
-                draw.ellipse([x - r, y - r, x + r, y + r], fill=(0, 0, 0))
+            axes.scatter(points[:, 0], points[:, 1], s=(2.0 * s) ** 2, c="black", linewidths=0)
+    figure.canvas.draw()
+    rgba = np.asarray(figure.canvas.buffer_rgba())
+    image = Image.fromarray(rgba[:, :, :3].copy())
     if s > 1:
         image = image.resize((width, height), Image.LANCZOS)
     return np.asarray(image, dtype=np.uint8)
@@ -234,13 +249,14 @@ def write_video(path, record: Record, fps: float = 30.0, size=(640, 480), progre
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     camera = default_camera(record)
+    scale = _force_scale(record)
     frames = video_frames(record, fps)
     writer = imageio.get_writer(path, fps=fps, codec="libx264", quality=7, macro_block_size=2,
                                 ffmpeg_log_level="error")
     try:
         for f in tqdm(frames, unit="frame", desc=f"video {path.name}", leave=False, delay=1.0,
                       disable=not progress):
-            writer.append_data(render_frame(record, int(f), camera, (width, height)))
+            writer.append_data(render_frame(record, int(f), camera, (width, height), force_scale=scale))
     finally:
         writer.close()
     return path

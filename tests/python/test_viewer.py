@@ -127,4 +127,4 @@ def test_the_view_command_serves_a_trajectory_until_stopped(tmp_path, record):
         process.send_signal(signal.SIGINT)
         out, err = process.communicate(timeout=30)
     assert process.returncode == 0, err
-    assert f"http://127.0.0.1:{port}" in out
+    assert f"http://127.0.0.1:{port}" in out + err
