@@ -143,9 +143,10 @@ def test_bad_output_options_exit_2(tmp_path, args, message):
 
 
 def test_work_longer_than_a_second_shows_a_progress_bar(tmp_path):
-    # 0.5 s of the shapes scene drawn at 960 pictures per second: seconds of rendering, so the
-    # video's bar appears (test_every_scene_writes_every_output checks that --quiet hides bars)
+    # 0.5 s of the shapes scene drawn at 240 pictures per second: 121 pictures, a few seconds of
+    # rendering, so the video's bar appears (test_every_scene_writes_every_output checks that
+    # --quiet hides bars)
     result = run_cli("run", "shapes", "--steps", "120", "--out", str(tmp_path), "--no-plot", "--no-html",
-                     "--video", "--fps", "960", "--size", "64x48")
+                     "--video", "--fps", "240", "--size", "64x48")
     assert result.returncode == 0, result.stderr
     assert "video shapes.mp4" in result.stderr and "frame" in result.stderr
