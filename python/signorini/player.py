@@ -28,6 +28,7 @@ import base64
 import html
 import importlib.util
 import json
+import math
 from importlib import resources
 from pathlib import Path
 
@@ -136,11 +137,22 @@ label {{ user-select: none; }}
 """
 
 
-def write_html(path, record: Record, title: str | None = None) -> Path:
-    """Write the single-file player of a record to path (.html); returns the path."""
+def write_html(path, record: Record, title: str | None = None, max_frame_bytes: float = 40e6) -> Path:
+    """Write the single-file player of a record to path (.html); returns the path.
+
+    Poses take 40 bytes per body and frame; when all frames would take more than
+    ``max_frame_bytes``, every k-th frame (and the last) is kept, so a thousand bodies over
+    thousands of frames still give a page a browser opens quickly.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     title = title or f"signorini: {record.scene}"
+    k = math.ceil(record.frames * record.num_bodies * 40 / max_frame_bytes)
+    if k > 1:
+        keep = list(range(0, record.frames, k))
+        if keep[-1] != record.frames - 1:
+            keep.append(record.frames - 1)
+        record = record.select_frames(keep)
     data = json.dumps(_data(record, title), separators=(",", ":")).replace("</", "<\\/")
     player = resources.files("signorini").joinpath("player.js").read_text(encoding="utf-8")
     page = PAGE.format(title=html.escape(title), three=three_js(), data=data, player=player)

@@ -153,6 +153,23 @@ class Record:
         """``save_trajectory(path, self)``."""
         return save_trajectory(path, self)
 
+    def select_frames(self, frames) -> "Record":
+        """A record of only the given frames (increasing indices), with their contacts; the step
+        arrays, the scene and the stride's meaning (frame_step) are kept as they are."""
+        idx = np.asarray(frames, dtype=np.int64)
+        if idx.ndim != 1 or idx.size == 0 or np.any(np.diff(idx) <= 0) or idx[0] < 0 or idx[-1] >= self.frames:
+            raise ValueError(f"select_frames: need increasing frame indices in [0, {self.frames}), got {frames!r}")
+        contacts = None
+        if self.contacts is not None:
+            o = self.contacts["offsets"]
+            rows = np.concatenate([np.arange(o[f], o[f + 1]) for f in idx]).astype(np.int64)
+            counts = o[idx + 1] - o[idx]
+            contacts = {k: self.contacts[k][rows] for k in CONTACT_KEYS}
+            contacts["offsets"] = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        frame_fields = ("frame_step", "time", "positions", "orientations", "velocities", "angular_velocities",
+                        "kinetic_energy", "potential_energy")
+        return dataclasses.replace(self, contacts=contacts, **{k: getattr(self, k)[idx] for k in frame_fields})
+
 
 # the scene: shape parameters, names, meshes for drawing
 

@@ -171,3 +171,36 @@ def test_solver_warnings_of_a_recorded_run_are_given_once():
         Recorder(w).step(1 / 240, 30)
     assert len(caught) == 1
     assert "[30 of 30 recorded steps warned; this is the first]" in str(caught[0].message)
+
+
+def test_select_frames_keeps_poses_and_their_contacts(boxes_record):
+    r = boxes_record
+    keep = [0, 2, 5, r.frames - 1]
+    s = r.select_frames(keep)
+    assert s.frames == 4 and s.steps == r.steps
+    np.testing.assert_array_equal(s.positions, r.positions[keep])
+    np.testing.assert_array_equal(s.frame_step, r.frame_step[keep])
+    for j, f in enumerate(keep):
+        for k in CONTACT_KEYS:
+            np.testing.assert_array_equal(s.frame_contacts(j)[k], r.frame_contacts(f)[k])
+    with pytest.raises(ValueError, match="increasing"):
+        r.select_frames([3, 1])
+
+
+def test_html_player_thins_frames_of_very_large_runs(tmp_path, boxes_record):
+    import json
+    import re
+
+    from signorini.player import write_html
+
+    r = boxes_record
+    full = write_html(tmp_path / "full.html", r)
+    thin = write_html(tmp_path / "thin.html", r, max_frame_bytes=r.num_bodies * 40 * 5)
+
+    def frames(path):
+        text = path.read_text(encoding="utf-8")
+        data = re.search(r'<script id="signorini-data" type="application/json">(.*?)</script>', text, re.S).group(1)
+        return json.loads(data)["frames"]
+
+    assert frames(full) == r.frames
+    assert r.frames == 15 and frames(thin) == 6  # every 3rd: frames 0, 3, 6, 9, 12 and the last, 14
