@@ -2,6 +2,7 @@
 and a scene simulated live; a real headless Chromium connects to it."""
 
 import socket
+import threading
 import urllib.request
 
 import numpy as np
@@ -111,20 +112,22 @@ def test_the_view_command_serves_a_trajectory_until_stopped(tmp_path, record):
     env["PYTHONPATH"] = os.pathsep.join([str(Path(signorini.__file__).resolve().parent.parent),
                                          env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     process = subprocess.Popen([sys.executable, "-m", "signorini", "view", str(path), "--port", str(port)],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env)
+    # the command prints its address once the viewer is built, then serves until Ctrl-C
+    lines = []
+    reader = threading.Thread(target=lambda: lines.extend(process.stdout), daemon=True)
+    reader.start()
     try:
         deadline = time.monotonic() + 60
-        while True:
-            try:
-                with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2) as response:
-                    assert response.status == 200
-                    break
-            except OSError:
-                assert process.poll() is None, process.communicate()[1]
-                assert time.monotonic() < deadline, "the viewer did not start serving"
-                time.sleep(0.2)
+        while not any("Ctrl-C stops" in line for line in lines):
+            assert process.poll() is None, "".join(lines)
+            assert time.monotonic() < deadline, "the viewer did not start"
+            time.sleep(0.1)
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=10) as response:
+            assert response.status == 200
     finally:
         process.send_signal(signal.SIGINT)
-        out, err = process.communicate(timeout=30)
-    assert process.returncode == 0, err
-    assert f"http://127.0.0.1:{port}" in out + err
+        process.wait(timeout=30)
+        reader.join(timeout=5)
+    assert process.returncode == 0, "".join(lines)
+    assert any(f"http://127.0.0.1:{port}" in line for line in lines)
