@@ -7,13 +7,17 @@
     w.step(dt=1/240, steps=240)
 
 ``signorini.oracle`` re-derives each step in plain NumPy; ``python -m signorini.compare`` checks
-the core against it; ``python -m signorini run`` runs a built-in scene.
+the core against it; ``python -m signorini run`` runs a built-in scene. ``sg.Recorder(world)``
+records a run with its scene into one file (``sg.load_trajectory``), which the HTML player,
+the viewer (``python -m signorini view``) and the video, glTF and USD exports read.
 """
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 from .world import BodyIndexError, Contacts, SolverStats, SolverWarning, World, mass_properties, shape_dict
 from .collision import Feature, collide, feature
+from .trajectory import Record, Recorder, load_trajectory, save_trajectory
 
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
            "Compound", "mass_properties", "Contacts", "SolverStats",
-           "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature"]
+           "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
+           "Record", "Recorder", "load_trajectory", "save_trajectory"]
 __version__ = "0.1.0"

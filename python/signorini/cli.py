@@ -1,10 +1,22 @@
-"""Command line: ``python -m signorini run [SCENE] [--out DIR] [--steps N] [--dt DT]`` and
-``python -m signorini list``.
+"""Command line.
 
-``run`` builds a built-in scene (default ``torus``), runs it while recording, writes
-``<out>/<scene>.npz`` (the record, see ``signorini.output``) and ``<out>/<scene>.png`` (energy,
-contacts, solver effort and 3-D snapshots), and prints a short summary. Bad arguments (an unknown
-scene, steps < 1, dt <= 0) are reported by argparse with exit code 2.
+    python -m signorini run [SCENE] [--out DIR] [--steps N] [--dt DT] [--stride S] [--quiet]
+                            [--html PATH | --no-html] [--no-plot] [--video [PATH]] [--fps F]
+                            [--size WxH] [--gltf [PATH]] [--usd [PATH]]
+    python -m signorini export TRAJECTORY [--out DIR] [--html ...] [--video ...] [--gltf ...] [--usd ...] [--png]
+    python -m signorini view SCENE_OR_TRAJECTORY [--host H] [--port P]
+    python -m signorini list
+
+``run`` builds a built-in scene (default ``torus``), runs it while recording (a progress bar once a
+run takes more than a second, unless ``--quiet``), and writes into ``--out``: ``<scene>.npz``, the
+trajectory with its scene (``signorini.trajectory``), ``<scene>.png`` (energy, contacts, solver
+effort and 3-D snapshots) and ``<scene>.html`` (the offline player, ``signorini.player``); on
+request an MP4 (``signorini.render``), a binary glTF and a USD stage (``signorini.export``), each at
+the path given or ``<out>/<scene>.<ext>``. It prints a summary naming every file written.
+``export`` writes the same files from a saved trajectory, without the simulator; ``view`` serves
+the interactive viewer (``signorini.viewer``) of a scene (simulated live) or a trajectory file.
+Bad arguments (an unknown scene, steps or stride < 1, dt <= 0, a bad size) exit with code 2 and
+argparse's message; a missing or unreadable trajectory file exits with code 2 naming the file.
 """
 
 from __future__ import annotations
@@ -27,14 +39,41 @@ def _scene_name(text: str) -> str:
     return text
 
 
-def _positive_int(text: str) -> int:
-    """argparse type: an integer >= 1 (number of steps)."""
+def _positive_int(text: str, what: str = "steps") -> int:
+    """argparse type: an integer >= 1 (number of steps, stride)."""
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"steps must be an integer >= 1, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"{what} must be an integer >= 1, got {text!r}") from None
     if value < 1:
-        raise argparse.ArgumentTypeError(f"steps must be an integer >= 1, got {value}")
+        raise argparse.ArgumentTypeError(f"{what} must be an integer >= 1, got {value}")
+    return value
+
+
+def _stride(text: str) -> int:
+    """argparse type: a frame stride, an integer >= 1."""
+    return _positive_int(text, "stride")
+
+
+def _size(text: str) -> tuple[int, int]:
+    """argparse type: WIDTHxHEIGHT in pixels, both even and >= 16 (H.264 with yuv420p)."""
+    try:
+        width, height = (int(x) for x in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size must be WIDTHxHEIGHT in pixels, e.g. 640x480, got {text!r}") from None
+    if width < 16 or height < 16 or width % 2 or height % 2:
+        raise argparse.ArgumentTypeError(f"size must be even and at least 16x16 pixels, got {text!r}")
+    return width, height
+
+
+def _fps(text: str) -> float:
+    """argparse type: frames per second of simulated time, a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"fps must be a number > 0, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"fps must be a finite number > 0, got {text}")
     return value
 
 
@@ -49,14 +88,33 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _add_outputs(p: argparse.ArgumentParser, html_default: bool) -> None:
+    """The output options shared by ``run`` and ``export``."""
+    html = p.add_mutually_exclusive_group()
+    html.add_argument("--html", type=Path, metavar="PATH",
+                      help="the offline HTML player (default <out>/<scene>.html" + ("" if html_default else ", only when asked")
+                      + ")")
+    if html_default:
+        html.add_argument("--no-html", action="store_true", help="write no HTML player")
+    p.add_argument("--video", nargs="?", const="", type=str, metavar="PATH",
+                   help="an MP4 video (PATH default <out>/<scene>.mp4)")
+    p.add_argument("--fps", type=_fps, default=30.0, help="video frames per simulated second (default 30)")
+    p.add_argument("--size", type=_size, default=(640, 480), help="video size WIDTHxHEIGHT (default 640x480)")
+    p.add_argument("--gltf", nargs="?", const="", type=str, metavar="PATH",
+                   help="a binary glTF with one animated node per body (PATH default <out>/<scene>.glb)")
+    p.add_argument("--usd", nargs="?", const="", type=str, metavar="PATH",
+                   help="a USD stage with one time-sampled Xform per body (PATH default <out>/<scene>.usda)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
 def make_parser() -> argparse.ArgumentParser:
-    """The argument parser, with the ``run`` and ``list`` sub-commands."""
+    """The argument parser, with the ``run``, ``export``, ``view`` and ``list`` sub-commands."""
     parser = argparse.ArgumentParser(
         prog="python -m signorini", description="signorini: rigid bodies with contact."
     )
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    run = commands.add_parser("run", help="run a built-in scene, write <out>/<scene>.npz and .png")
+    run = commands.add_parser("run", help="run a built-in scene, write <out>/<scene>.npz, .png and .html")
     run.add_argument(
         "scene", nargs="?", default=scenes.DEFAULT_SCENE, type=_scene_name,
         help=f"scene name (default {scenes.DEFAULT_SCENE}; see 'list')",
@@ -64,25 +122,118 @@ def make_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default="signorini-out", type=Path, help="output folder (default signorini-out/)")
     run.add_argument("--steps", type=_positive_int, help="number of steps (default: the scene's)")
     run.add_argument("--dt", type=_positive_float, help="time step in seconds (default: the scene's)")
-    run.add_argument("--no-plot", action="store_true", help="write the .npz only")
+    run.add_argument("--stride", type=_stride, default=1, help="keep every S-th step as a frame (default 1)")
+    run.add_argument("--no-plot", action="store_true", help="write no PNG")
+    _add_outputs(run, html_default=True)
+
+    export = commands.add_parser("export", help="write the player, video, glTF or USD of a saved trajectory")
+    export.add_argument("trajectory", type=Path, help="a .npz written by 'run' or Record.save")
+    export.add_argument("--out", type=Path, help="output folder (default: the trajectory's)")
+    export.add_argument("--png", action="store_true", help="also the summary plot")
+    _add_outputs(export, html_default=False)
+
+    view = commands.add_parser("view", help="serve the interactive viewer of a scene or a trajectory")
+    view.add_argument("source", help="a built-in scene name (simulated live) or a trajectory .npz")
+    view.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1; 0.0.0.0 for all)")
+    view.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
 
     commands.add_parser("list", help="list the built-in scenes")
     return parser
 
 
-def _run(args: argparse.Namespace) -> int:
-    """Build, run, save, plot and summarise one scene."""
+def _default(value, out: Path, stem: str, ext: str):
+    """The path of an optional output: None when not asked, <out>/<stem>.<ext> when asked without a path."""
+    if value is None:
+        return None
+    return Path(value) if value else out / f"{stem}.{ext}"
+
+
+def _write_outputs(args, record, out: Path, html_default: bool, scene=None) -> list:
+    """Write the files the options ask for; returns their paths in the order written."""
     from . import output
 
-    # build and run
-    scene = scenes.build(args.scene)
-    record = output.run(scene, steps=args.steps, dt=args.dt)
+    files = []
+    if getattr(args, "png", False) or (scene is not None and not getattr(args, "no_plot", True)):
+        files.append(output.plot(out / f"{record.scene}.png", record, scene))
+    html = args.html or (out / f"{record.scene}.html" if html_default and not getattr(args, "no_html", False) else None)
+    if html is not None:
+        from .player import write_html
 
-    # write the record and the picture next to each other
-    files = [output.save_npz(args.out / f"{scene.name}.npz", record)]
-    if not args.no_plot:
-        files.append(output.plot(args.out / f"{scene.name}.png", record, scene))
+        files.append(write_html(html, record))
+    video = _default(args.video, out, record.scene, "mp4")
+    if video is not None:
+        from .render import write_video
+
+        files.append(write_video(video, record, fps=args.fps, size=args.size, progress=not args.quiet))
+    gltf = _default(args.gltf, out, record.scene, "glb")
+    if gltf is not None:
+        from .export import write_gltf
+
+        files.append(write_gltf(gltf, record))
+    usd = _default(args.usd, out, record.scene, "usda")
+    if usd is not None:
+        from .export import write_usd
+
+        files.append(write_usd(usd, record))
+    return files
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Build, run, save, draw and summarise one scene."""
+    from . import output
+
+    scene = scenes.build(args.scene)
+    record = output.run(scene, steps=args.steps, dt=args.dt, progress=not args.quiet, stride=args.stride)
+    files = [output.save_trajectory(args.out / f"{scene.name}.npz", record)]
+    files += _write_outputs(args, record, args.out, html_default=True, scene=scene)
     print(output.format_summary(record, files))
+    return 0
+
+
+def _load(path) -> "object":
+    """A trajectory file, or exit 2 with a message naming the file."""
+    from .trajectory import load_trajectory
+
+    try:
+        return load_trajectory(path)
+    except (FileNotFoundError, ValueError) as e:
+        print(f"python -m signorini: error: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
+
+
+def _export(args: argparse.Namespace) -> int:
+    """Write the asked-for files of a saved trajectory (the HTML player when nothing is asked)."""
+    record = _load(args.trajectory)
+    out = args.out or args.trajectory.parent
+    nothing = not (args.html or args.png or args.video is not None or args.gltf is not None or args.usd is not None)
+    files = _write_outputs(args, record, out, html_default=nothing)
+    for path in files:
+        print(f"written      {path}")
+    return 0
+
+
+def _view(args: argparse.Namespace) -> int:
+    """Serve the viewer of a scene name or a trajectory file until Ctrl-C."""
+    from .viewer import Viewer
+
+    if args.source in scenes.SCENES:
+        source = scenes.build(args.source)
+    elif Path(args.source).suffix == ".npz" or Path(args.source).exists():
+        source = _load(args.source)
+    else:
+        known = ", ".join(sorted(scenes.SCENES))
+        print(f"python -m signorini: error: {args.source!r} is neither a scene ({known}) nor a trajectory file",
+              file=sys.stderr)
+        return 2
+    viewer = None
+    try:
+        viewer = Viewer(source, host=args.host, port=args.port, verbose=True)
+        print(f"signorini viewer of {args.source} at http://{args.host}:{viewer.port} (Ctrl-C stops)", flush=True)
+        viewer.serve_forever()
+    except KeyboardInterrupt:
+        # Ctrl-C while the viewer was still being set up
+        if viewer is not None:
+            viewer.stop()
     return 0
 
 
@@ -99,8 +250,9 @@ def _list() -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (argparse exits with 2 on bad arguments)."""
     args = make_parser().parse_args(argv)
-    if args.command == "run":
-        return _run(args)
+    commands = {"run": _run, "export": _export, "view": _view}
+    if args.command in commands:
+        return commands[args.command](args)
     return _list()
 
 

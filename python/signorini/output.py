@@ -1,93 +1,38 @@
-"""Run a scene while recording it; save the record; summarise and plot it.
+"""Run a scene while recording it; summarise and plot the record.
 
-A ``Record`` holds, for a run of T steps of a world with N bodies (static bodies included):
-
-- state arrays, T + 1 rows (row 0 is the state before the first step, row k the state after step k):
-  ``time`` (T+1,) s; ``positions`` (T+1, N, 3) COM, world, m; ``orientations`` (T+1, N, 4)
-  (w, x, y, z) world-from-body; ``velocities`` (T+1, N, 3) m/s; ``angular_velocities``
-  (T+1, N, 3) rad/s, world; ``kinetic_energy`` and ``potential_energy`` (T+1,) J (potential
-  relative to the origin, -sum m g . p, as ``World.potential_energy``);
-- step arrays, T rows (row k describes step k + 1, the step that ended at ``time[k + 1]``):
-  ``num_contacts`` (T,) int64; ``min_gap`` (T,) m, the smallest contact gap of the step (its
-  contacts are found from the state at the start of the step; NaN when it had none), so the
-  largest penetration is ``-min_gap`` where that is positive; ``iterations`` (T,) int64 PGS sweeps;
-  ``residual`` (T,) m/s, the complementarity residual; ``converged`` (T,) bool;
-- per body: ``masses`` (N,) kg (inf for static bodies), ``is_static`` (N,) bool;
-- ``scene`` (str), ``dt`` (s) and ``wall_time`` (s, the time spent stepping).
-
-The plot is drawn with matplotlib's Agg backend, so no display is needed.
+``run(scene)`` steps a built-in scene (``signorini.scenes``) through a ``trajectory.Recorder`` and
+returns its ``Record`` (shapes and units in ``signorini.trajectory``: frames of poses,
+velocities and energy, per-step contact counts and the solver's certificate, optional contacts,
+and the scene's shapes and names), which ``save_trajectory`` writes to one .npz.
+``summary`` and ``format_summary`` give the headline numbers; ``plot`` draws energy, contacts,
+solver effort and 3-D snapshots into a PNG with matplotlib's Agg backend (no display needed),
+from the record alone.
 """
 
 from __future__ import annotations
 
 import math
 import sys
-import time as _time
-from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from . import meshes
+from .trajectory import Record, Recorder, load_trajectory, save_trajectory
 
-__all__ = ["Record", "run", "save_npz", "load_npz", "summary", "format_summary", "plot"]
-
-
-@dataclass
-class Record:
-    """What ``run`` recorded; shapes and units in the module docstring."""
-
-    scene: str
-    dt: float
-    wall_time: float
-    time: np.ndarray
-    positions: np.ndarray
-    orientations: np.ndarray
-    velocities: np.ndarray
-    angular_velocities: np.ndarray
-    kinetic_energy: np.ndarray
-    potential_energy: np.ndarray
-    num_contacts: np.ndarray
-    min_gap: np.ndarray
-    iterations: np.ndarray
-    residual: np.ndarray
-    converged: np.ndarray
-    masses: np.ndarray
-    is_static: np.ndarray
-
-    @property
-    def steps(self) -> int:
-        """Number of recorded steps T."""
-        return len(self.time) - 1
-
-    @property
-    def num_bodies(self) -> int:
-        """Number of bodies N, static ones included."""
-        return self.positions.shape[1]
-
-    @property
-    def total_energy(self) -> np.ndarray:
-        """Kinetic plus potential energy (T+1,), J."""
-        return self.kinetic_energy + self.potential_energy
-
-    @property
-    def step_time(self) -> np.ndarray:
-        """Time at the end of each step (T,), s: the time axis of the step arrays."""
-        return self.time[1:]
-
-    @property
-    def penetration(self) -> np.ndarray:
-        """Largest penetration of each step (T,), m: max(-min_gap, 0), 0 for steps without contacts."""
-        return np.where(np.isnan(self.min_gap), 0.0, np.maximum(-np.nan_to_num(self.min_gap), 0.0))
+__all__ = ["Record", "run", "save_trajectory", "load_trajectory", "summary", "format_summary", "plot"]
 
 
-def run(scene, steps: int | None = None, dt: float | None = None, progress: bool | None = None) -> Record:
-    """Step a scene's world one step at a time, recording state, energy, contacts and solver stats.
+def run(scene, steps: int | None = None, dt: float | None = None, progress: bool | None = None,
+        stride: int = 1, contacts: bool = True) -> Record:
+    """Step a scene's world one step at a time, recording it.
 
-    Inputs: scene (``scenes.Scene``; its world is advanced in place), steps (default
-    ``scene.steps``), dt (s, default ``scene.dt``), progress (show a tqdm bar; default: only
-    when stdout is a terminal). Output: a ``Record`` of ``steps`` steps.
+    Inputs: scene (``scenes.Scene``; its world is advanced in place; its optional ``names`` name
+    the bodies), steps (default ``scene.steps``), dt (s, default ``scene.dt``), progress (a tqdm
+    bar on stderr that appears once the run has taken a second; default: only when stderr is a
+    terminal), stride (a frame every ``stride`` steps), contacts (record each frame's contacts).
+    Output: a ``Record`` of ``steps`` steps.
     """
     world = scene.world
     steps = scene.steps if steps is None else int(steps)
@@ -97,96 +42,17 @@ def run(scene, steps: int | None = None, dt: float | None = None, progress: bool
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a finite number > 0, got {dt}")
 
-    # preallocate: state rows 0..T, step rows 0..T-1
-    n = world.num_bodies
-    time = np.empty(steps + 1)
-    positions = np.empty((steps + 1, n, 3))
-    orientations = np.empty((steps + 1, n, 4))
-    velocities = np.empty((steps + 1, n, 3))
-    angular_velocities = np.empty((steps + 1, n, 3))
-    kinetic = np.empty(steps + 1)
-    potential = np.empty(steps + 1)
-    num_contacts = np.zeros(steps, dtype=np.int64)
-    min_gap = np.full(steps, np.nan)
-    iterations = np.zeros(steps, dtype=np.int64)
-    residual = np.zeros(steps)
-    converged = np.zeros(steps, dtype=bool)
-
-    def record_state(k: int) -> None:
-        time[k] = world.time
-        positions[k] = world.positions
-        orientations[k] = world.orientations
-        velocities[k] = world.velocities
-        angular_velocities[k] = world.angular_velocities
-        kinetic[k] = world.kinetic_energy()
-        potential[k] = world.potential_energy()
-
-    # a progress bar only for a person watching a terminal
+    recorder = Recorder(world, stride=stride, contacts=contacts, names=getattr(scene, "names", None),
+                        scene=scene.name)
+    # a progress bar only for a person watching a terminal, and only for runs longer than a second
     if progress is None:
-        progress = sys.stdout.isatty()
-    bar = tqdm(total=steps, unit="step", desc=scene.name, leave=False) if progress else None
-
-    # step, then read back the state, the contacts of that step and its solver report
-    record_state(0)
-    wall = 0.0
-    for k in range(steps):
-        start = _time.perf_counter()
-        world.step(dt=dt, steps=1)
-        wall += _time.perf_counter() - start
-        record_state(k + 1)
-        gap = np.asarray(world.contacts.gap)
-        num_contacts[k] = gap.size
-        if gap.size:
-            min_gap[k] = gap.min()
-        stats = world.solver_stats
-        iterations[k] = stats.iterations
-        residual[k] = stats.residual
-        converged[k] = stats.converged
-        if bar is not None:
-            bar.update(1)
-    if bar is not None:
-        bar.close()
-
-    return Record(
-        scene=scene.name,
-        dt=dt,
-        wall_time=wall,
-        time=time,
-        positions=positions,
-        orientations=orientations,
-        velocities=velocities,
-        angular_velocities=angular_velocities,
-        kinetic_energy=kinetic,
-        potential_energy=potential,
-        num_contacts=num_contacts,
-        min_gap=min_gap,
-        iterations=iterations,
-        residual=residual,
-        converged=converged,
-        masses=np.asarray(world.masses, dtype=np.float64).copy(),
-        is_static=np.asarray(world.is_static, dtype=bool).copy(),
-    )
-
-
-def save_npz(path, record: Record) -> Path:
-    """Write every field of the record to a compressed .npz (names as in ``Record``); returns the path.
-
-    ``scene`` is stored as a 0-d unicode array, so ``np.load`` needs no pickling.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(path, **{f.name: np.asarray(getattr(record, f.name)) for f in fields(Record)})
-    return path
-
-
-def load_npz(path) -> Record:
-    """Read a record written by ``save_npz``."""
-    with np.load(path, allow_pickle=False) as data:
-        values = {f.name: data[f.name] for f in fields(Record)}
-    values["scene"] = str(values["scene"])
-    values["dt"] = float(values["dt"])
-    values["wall_time"] = float(values["wall_time"])
-    return Record(**values)
+        progress = sys.stderr.isatty()
+    if progress:
+        with tqdm(total=steps, unit="step", desc=scene.name, leave=False, delay=1.0) as bar:
+            recorder.step(dt, steps, progress=bar.update)
+    else:
+        recorder.step(dt, steps)
+    return recorder.record()
 
 
 def summary(record: Record, window: float = 1.0) -> dict:
@@ -263,16 +129,15 @@ def _snapshot_indices(record: Record, times) -> list[int]:
     return sorted({int(np.argmin(np.abs(t - x))) for x in np.linspace(t[0], t[-1], count)})
 
 
-def _up_direction(world) -> np.ndarray:
-    """Unit 'up' for the camera: against gravity if the world tells it, else the first plane normal, else z."""
-    gravity = getattr(world, "gravity", None)
-    if gravity is not None and np.linalg.norm(gravity) > 0:
-        g = np.asarray(gravity, dtype=np.float64)
+def up_direction(record: Record) -> np.ndarray:
+    """Unit 'up' (3,) for a camera: against gravity if there is any, else the first plane's normal,
+    else z."""
+    g = np.asarray(record.gravity, dtype=np.float64)
+    if np.linalg.norm(g) > 0:
         return -g / np.linalg.norm(g)
-    for i in range(world.num_bodies):
-        shape = world.shape(i)
-        if meshes.render_mesh(shape) is None:
-            n = np.asarray(shape.normal, dtype=np.float64)
+    for params in record.shapes:
+        if params["type"] == "plane":
+            n = np.asarray(params["normal"], dtype=np.float64)
             return n / np.linalg.norm(n)
     return np.array([0.0, 0.0, 1.0])
 
@@ -329,12 +194,12 @@ def _plane_in_box(normal: np.ndarray, offset: float, lo: np.ndarray, hi: np.ndar
     return points[np.argsort(angle)]
 
 
-def plot(path_png, record: Record, scene) -> Path:
+def plot(path_png, record: Record, scene=None) -> Path:
     """Draw a run: energy, contacts and solver effort over time, and 3-D snapshots of the bodies.
 
-    Inputs: path_png (file to write), record (from ``run``), scene (the ``Scene`` that was run;
-    only ``name``, ``description``, ``snapshot_times`` and ``world.shape(i)`` / ``world.num_bodies``
-    are used, so a scene rebuilt with ``scenes.build`` works as well). Output: the path written.
+    Inputs: path_png (file to write), record (from ``run`` or ``load_trajectory``: the bodies are
+    drawn from its shapes), scene (optional: the ``Scene`` that was run, for its ``description``
+    and ``snapshot_times``). Output: the path written.
     Snapshots are drawn at ``scene.snapshot_times`` (s; four evenly spaced when None), each centred
     on the dynamic bodies, all with the same scale and view size (the largest extent of the dynamic
     bodies per axis over the snapshots), planes clipped to the view as patches, and each dynamic
@@ -346,14 +211,13 @@ def plot(path_png, record: Record, scene) -> Path:
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    world = scene.world
     n = record.num_bodies
-    shapes = [world.shape(i) for i in range(n)]
-    render = [meshes.render_mesh(s) for s in shapes]
+    # planes are drawn as patches clipped to each view, everything else as its draw mesh
+    render = [None if p["type"] == "plane" else record.draw_meshes[i] for i, p in enumerate(record.shapes)]
     planes = [
-        (np.asarray(s.normal, dtype=np.float64) / np.linalg.norm(s.normal), float(s.offset))
-        for s, r in zip(shapes, render)
-        if r is None
+        (np.asarray(p["normal"], dtype=np.float64) / np.linalg.norm(p["normal"]), float(p["offset"]))
+        for p in record.shapes
+        if p["type"] == "plane"
     ]
     dynamic = [i for i in range(n) if not record.is_static[i]]
     rows = _snapshot_indices(record, getattr(scene, "snapshot_times", None))
@@ -417,7 +281,7 @@ def plot(path_png, record: Record, scene) -> Path:
     half = 0.5 * extent * 1.15 + 0.05 * max(float(extent.max()), 1e-3)
     half = np.maximum(half, 0.3 * half.max())
 
-    up = _up_direction(world)
+    up = up_direction(record)
     elev, azim, vertical = _camera(up, planes)
     colours = plt.get_cmap("tab10")
 

@@ -48,7 +48,9 @@ class Scene:
     - dt: time step (s);
     - steps: number of steps of a full run (the simulated time is dt * steps);
     - description: one line for ``python -m signorini list`` and the plot title;
-    - snapshot_times: times (s) of the 3-D snapshots in the plot, or None for evenly spaced ones.
+    - snapshot_times: times (s) of the 3-D snapshots in the plot, or None for evenly spaced ones;
+    - names: one name per body (recorded trajectories, the player and the exports use them), or
+      None for "<kind>_<index>".
     """
 
     name: str
@@ -57,6 +59,7 @@ class Scene:
     steps: int
     description: str
     snapshot_times: tuple[float, ...] | None = None
+    names: tuple[str, ...] | None = None
 
     @property
     def duration(self) -> float:
@@ -105,6 +108,7 @@ def _torus() -> Scene:
         description="torus mesh tumbles onto a 45-degree plane (CSC417 setting), g = 0.98 m/s^2; "
         "no friction: it lands, wobbles down flat and slides",
         snapshot_times=(0.0, 0.3, 0.9, 2.0, 5.0),
+        names=("ground", "torus"),
     )
 
 
@@ -147,6 +151,8 @@ def _boxes() -> Scene:
         description="two boxes and five spheres dropped on the ground, g = 9.81 m/s^2; "
         "spheres meet head on and land on a box and on a sphere",
         snapshot_times=(0.0, 0.3, 0.6, 1.0, 2.0),
+        names=("ground", "tilted_cube", "flat_box", "sphere_left", "sphere_right", "small_sphere",
+               "resting_sphere", "falling_sphere"),
     )
 
 
@@ -197,6 +203,8 @@ def _shapes() -> Scene:
         description="boxes stacked three high, a capsule, a cylinder, a convex hull, a compound table and a "
         "decomposed torus on a triangle-mesh floor, g = 9.81 m/s^2",
         snapshot_times=(0.0, 0.3, 1.0, 3.0),
+        names=("floor", "box_bottom", "box_middle", "box_top", "capsule", "cylinder", "hull", "table", "ball",
+               "torus"),
     )
 
 

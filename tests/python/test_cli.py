@@ -41,16 +41,18 @@ def test_run_boxes_writes_record_and_picture(tmp_path):
         assert data["velocities"].shape == (51, n, 3)
         assert data["angular_velocities"].shape == (51, n, 3)
         assert data["kinetic_energy"].shape == data["potential_energy"].shape == (51,)
-        for name in ("num_contacts", "min_gap", "iterations", "residual", "converged"):
+        for name in ("num_contacts", "min_gap", "solver_iterations", "solver_residual", "solver_converged"):
             assert data[name].shape == (50,), name
         assert data["masses"].shape == data["is_static"].shape == (n,)
         np.testing.assert_allclose(data["time"], np.arange(51) * float(data["dt"]), rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(np.linalg.norm(data["orientations"], axis=2), 1.0, rtol=1e-9)
         assert np.all(np.isfinite(data["positions"]))
 
-    # the summary names the scene and the files
+    # the summary names the scene and the files, the HTML player among them
+    html = out / "boxes.html"
+    assert html.is_file() and html.read_text(encoding="utf-8").startswith("<!DOCTYPE html>")
     assert "boxes" in result.stdout
-    assert str(npz) in result.stdout and str(png) in result.stdout
+    assert str(npz) in result.stdout and str(png) in result.stdout and str(html) in result.stdout
 
 
 def test_unknown_scene_exits_2_naming_it(tmp_path):
@@ -78,3 +80,73 @@ def test_list_names_every_scene():
     assert result.returncode == 0, result.stderr
     for name in scenes.SCENES:
         assert name in result.stdout
+
+
+@pytest.mark.parametrize("scene", sorted(scenes.SCENES))
+def test_every_scene_writes_every_output(tmp_path, scene):
+    out = tmp_path / "out"
+    result = run_cli("run", scene, "--steps", "24", "--stride", "2", "--out", str(out), "--quiet", "--no-plot",
+                     "--video", "--fps", "60", "--size", "160x120", "--gltf", "--usd", str(tmp_path / "stage.usda"))
+    assert result.returncode == 0, result.stderr
+    files = [out / f"{scene}.npz", out / f"{scene}.html", out / f"{scene}.mp4", out / f"{scene}.glb",
+             tmp_path / "stage.usda"]
+    for path in files:
+        assert path.is_file() and path.stat().st_size > 0, path
+        assert str(path) in result.stdout, path
+    assert not (out / f"{scene}.png").exists()
+    assert "%|" not in result.stderr and "it/s" not in result.stderr  # --quiet: no progress bar
+    from signorini.trajectory import load_trajectory
+
+    record = load_trajectory(out / f"{scene}.npz")
+    assert record.frames == 13 and record.steps == 24 and record.scene == scene
+
+
+def test_export_writes_from_a_saved_trajectory(tmp_path):
+    assert run_cli("run", "boxes", "--steps", "10", "--out", str(tmp_path), "--no-plot", "--no-html").returncode == 0
+    assert not (tmp_path / "boxes.html").exists()
+    result = run_cli("export", str(tmp_path / "boxes.npz"), "--out", str(tmp_path / "again"), "--gltf")
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "again" / "boxes.glb").is_file() and not (tmp_path / "again" / "boxes.html").exists()
+    # with nothing asked, the player next to the trajectory
+    result = run_cli("export", str(tmp_path / "boxes.npz"))
+    assert result.returncode == 0, result.stderr
+    assert str(tmp_path / "boxes.html") in result.stdout and (tmp_path / "boxes.html").is_file()
+
+
+@pytest.mark.parametrize("command", ["export", "view"])
+def test_missing_or_corrupt_trajectory_exits_2_naming_it(tmp_path, command):
+    result = run_cli(command, str(tmp_path / "nowhere.npz"))
+    assert result.returncode == 2
+    assert "nowhere.npz" in result.stderr and "no such trajectory file" in result.stderr
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"PK\x03\x04 this is not a zip archive")
+    result = run_cli(command, str(bad))
+    assert result.returncode == 2
+    assert "bad.npz" in result.stderr and "not" in result.stderr
+
+
+def test_view_of_an_unknown_name_exits_2():
+    result = run_cli("view", "no-such-scene")
+    assert result.returncode == 2
+    assert "no-such-scene" in result.stderr and "neither a scene" in result.stderr
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--stride", "0"], "stride must be"), (["--stride", "x"], "stride must be"),
+    (["--video", "--size", "641x480"], "size must be"), (["--video", "--fps", "0"], "fps must be"),
+])
+def test_bad_output_options_exit_2(tmp_path, args, message):
+    result = run_cli("run", "boxes", "--out", str(tmp_path), *args)
+    assert result.returncode == 2
+    assert message in result.stderr
+    assert not any(tmp_path.iterdir())
+
+
+def test_work_longer_than_a_second_shows_a_progress_bar(tmp_path):
+    # 0.5 s of the shapes scene drawn at 240 pictures per second: 121 pictures, a few seconds of
+    # rendering, so the video's bar appears (test_every_scene_writes_every_output checks that
+    # --quiet hides bars)
+    result = run_cli("run", "shapes", "--steps", "120", "--out", str(tmp_path), "--no-plot", "--no-html",
+                     "--video", "--fps", "240", "--size", "64x48")
+    assert result.returncode == 0, result.stderr
+    assert "video shapes.mp4" in result.stderr and "frame" in result.stderr

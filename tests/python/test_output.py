@@ -63,7 +63,11 @@ class BallisticWorld:
         for _ in range(steps):
             self._k += 1
             self.time += dt
-            self.contacts = SimpleNamespace(gap=np.asarray(self._gaps(self._k), dtype=float))
+            gap = np.asarray(self._gaps(self._k), dtype=float)
+            k = len(gap)
+            self.contacts = SimpleNamespace(gap=gap, body_a=np.zeros(k, int), body_b=np.ones(k, int),
+                                            point=np.zeros((k, 3)), normal=np.tile([0.0, 0.0, 1.0], (k, 1)),
+                                            force=np.zeros((k, 3)))
             self.solver_stats = SimpleNamespace(iterations=self._k % 5, residual=1e-12 * self._k, converged=True)
 
     def kinetic_energy(self):
@@ -130,11 +134,11 @@ def test_run_overrides_steps_and_dt_and_rejects_bad_ones():
 
 def test_save_and_load_round_trip(tmp_path):
     record = output.run(make_scene(steps=12), progress=False)
-    path = output.save_npz(tmp_path / "sub" / "run.npz", record)
+    path = output.save_trajectory(tmp_path / "sub" / "run.npz", record)
     with np.load(path, allow_pickle=False) as data:
         assert data["positions"].shape == (13, 4, 3)
         assert str(data["scene"]) == "ballistic"
-    back = output.load_npz(path)
+    back = output.load_trajectory(path)
     assert back.scene == "ballistic" and back.dt == record.dt
     np.testing.assert_array_equal(back.orientations, record.orientations)
     np.testing.assert_array_equal(back.min_gap, record.min_gap)

@@ -1,0 +1,160 @@
+"""A single-file HTML player for a recorded run: open it in any browser, offline.
+
+``write_html(path, record)`` writes one .html file holding everything the page needs: three.js,
+the player script (``player.js`` beside this module) and the record's scene and motion. Data
+passed to the page (JSON; arrays as base64 little-endian float32 / uint32, frame-major):
+
+- ``names`` (N,), ``static`` (N,), ``colours`` (N,) "#rrggbb", ``up`` (3,) unit against gravity;
+- ``meshes``: per body {``v``: (n_i * 3) float32 body-frame vertices, m; ``f``: (k_i * 3) uint32};
+- ``time`` (F,) s; ``pos`` (F * N * 3) m world; ``quat`` (F * N * 4) (w, x, y, z) world-from-body;
+- ``contacts``: null or {``offsets`` (F + 1,), ``point``, ``normal``, ``force`` (C * 3)} (m, unit,
+  N); ``force_scale`` m of arrow per N; ``normal_length`` m;
+- ``camera``: {``targets`` (F * 3), ``offset`` (3,), ``up``, ``fov``, ``follow``} from
+  ``render.default_camera``.
+
+The page plays, pauses and scrubs the timeline, orbits (drag), pans (right drag or shift drag) and
+zooms (wheel) the camera, and toggles contact points, normals, force arrows and following the
+bodies. Keys: space play/pause, arrows one frame, Home / End. ``window.signoriniPlayer`` exposes
+``seek(frame)``, ``frame``, ``frames``, ``screenBox(body)`` for scripts and tests.
+
+three.js: the page embeds ``static/three.js`` (three.js r97, MIT licence) as shipped inside the
+``pythreejs`` package on PyPI, read from the installed package at write time (never fetched from
+a CDN); the package is located without importing it.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import importlib.util
+import json
+import math
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .render import _force_scale, body_colours, default_camera
+from .trajectory import Record
+
+__all__ = ["write_html", "three_js"]
+
+
+def three_js() -> str:
+    """The three.js source shipped inside the ``pythreejs`` package (UMD build, defines THREE)."""
+    spec = importlib.util.find_spec("pythreejs")
+    if spec is None or not spec.submodule_search_locations:
+        raise RuntimeError("the HTML player needs three.js from the 'pythreejs' package: pip install pythreejs")
+    for folder in spec.submodule_search_locations:
+        path = Path(folder) / "static" / "three.js"
+        if path.is_file():
+            return path.read_text(encoding="utf-8")
+    raise RuntimeError("the 'pythreejs' package has no static/three.js: reinstall pythreejs")
+
+
+def _b64(a, dtype) -> str:
+    return base64.b64encode(np.ascontiguousarray(a, dtype=dtype).tobytes()).decode("ascii")
+
+
+def _data(record: Record, title: str) -> dict:
+    """The JSON object the page reads; see the module docstring."""
+    camera = default_camera(record)
+    size = float(np.linalg.norm(camera["offset"]))
+    contacts = None
+    if record.contacts is not None:
+        c = record.contacts
+        contacts = {"offsets": _b64(c["offsets"], "<u4"), "point": _b64(c["point"], "<f4"),
+                    "normal": _b64(c["normal"], "<f4"), "force": _b64(c["force"], "<f4")}
+    return {
+        "title": title,
+        "scene": record.scene,
+        "dt": record.dt,
+        "stride": record.stride,
+        "names": list(record.names),
+        "static": [bool(x) for x in record.is_static],
+        "colours": ["#%02x%02x%02x" % c for c in body_colours(record)],
+        "masses": [float(m) if np.isfinite(m) else None for m in record.masses],
+        "meshes": [{"v": _b64(v, "<f4"), "f": _b64(f, "<u4")} for v, f in record.draw_meshes],
+        "frames": record.frames,
+        "time": _b64(record.time, "<f4"),
+        "pos": _b64(record.positions, "<f4"),
+        "quat": _b64(record.orientations, "<f4"),
+        "vel": _b64(record.velocities, "<f4"),
+        "contacts": contacts,
+        "force_scale": _force_scale(record),
+        "normal_length": 0.06 * size,
+        "camera": {"targets": _b64(camera["targets"], "<f4"), "offset": [float(x) for x in camera["offset"]],
+                   "up": [float(x) for x in camera["up"]], "fov": camera["fov"], "follow": camera["follow"]},
+    }
+
+
+PAGE = """<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>{title}</title>
+<style>
+html, body {{ margin: 0; height: 100%; overflow: hidden; font: 13px system-ui, sans-serif; background: #fff; }}
+#view {{ position: absolute; inset: 0 0 44px 0; }}
+#view canvas {{ display: block; }}
+#bar {{ position: absolute; left: 0; right: 0; bottom: 0; height: 44px; display: flex; align-items: center;
+        gap: 10px; padding: 0 10px; box-sizing: border-box; background: #f2f2f2; border-top: 1px solid #ccc; }}
+#timeline {{ flex: 1; }}
+#clock {{ font-variant-numeric: tabular-nums; min-width: 9em; }}
+#title {{ position: absolute; left: 10px; top: 8px; color: #333; pointer-events: none; }}
+#info {{ position: absolute; right: 10px; top: 8px; color: #333; white-space: pre; text-align: right;
+         font: 12px ui-monospace, monospace; pointer-events: none; }}
+label {{ user-select: none; }}
+</style>
+</head>
+<body>
+<div id="view"></div>
+<div id="title">{title}</div>
+<div id="info"></div>
+<div id="bar">
+  <button id="play" title="play / pause (space)">play</button>
+  <input id="timeline" type="range" min="0" max="0" value="0" step="1" title="timeline (arrows, Home, End)">
+  <span id="clock"></span>
+  <select id="speed" title="playback speed">
+    <option value="0.25">0.25x</option><option value="0.5">0.5x</option><option value="1" selected>1x</option>
+    <option value="2">2x</option><option value="4">4x</option>
+  </select>
+  <label><input id="show-contacts" type="checkbox" checked> contacts</label>
+  <label><input id="show-normals" type="checkbox"> normals</label>
+  <label><input id="show-forces" type="checkbox" checked> forces</label>
+  <label><input id="follow" type="checkbox"> follow</label>
+</div>
+<script>
+{three}
+</script>
+<script id="signorini-data" type="application/json">{data}</script>
+<script>
+{player}
+</script>
+</body>
+</html>
+"""
+
+
+def write_html(path, record: Record, title: str | None = None, max_frame_bytes: float = 40e6) -> Path:
+    """Write the single-file player of a record to path (.html); returns the path.
+
+    Poses take 40 bytes per body and frame; when all frames would take more than
+    ``max_frame_bytes``, every k-th frame (and the last) is kept, so a thousand bodies over
+    thousands of frames still give a page a browser opens quickly.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    title = title or f"signorini: {record.scene}"
+    k = math.ceil(record.frames * record.num_bodies * 40 / max_frame_bytes)
+    if k > 1:
+        keep = list(range(0, record.frames, k))
+        if keep[-1] != record.frames - 1:
+            keep.append(record.frames - 1)
+        record = record.select_frames(keep)
+    data = json.dumps(_data(record, title), separators=(",", ":")).replace("</", "<\\/")
+    player = resources.files("signorini").joinpath("player.js").read_text(encoding="utf-8")
+    page = PAGE.format(title=html.escape(title), three=three_js(), data=data, player=player)
+    path.write_text(page, encoding="utf-8")
+    return path
