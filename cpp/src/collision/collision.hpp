@@ -51,6 +51,10 @@ struct Item {
   const Polytope* polytope = nullptr;  ///< boxes, hulls and mesh pieces
   Pose pose;
   std::uint32_t part = 0;
+  /// A ball that holds the item: centre (world, m) and radius (m), set by items_of. Two items whose
+  /// balls are farther apart than the threshold cannot give a contact (the mid phase).
+  Vec3 ball_centre = Vec3::Zero();
+  double ball_radius = 0.0;
   /// Largest distance of the item's surface from its own origin (m).
   double radius() const;
 };
@@ -66,21 +70,40 @@ struct Distance {
   Vec3 normal, w_a, w_b;
 };
 
+/// A shape's supporting feature along a world direction: a face polygon (with its outward
+/// normal), a segment, or a point; world coordinates, with ids (convex_by_support).
+struct SupportFeature {
+  std::vector<Vec3> points;
+  std::vector<FeatureId> ids;
+  Vec3 normal = Vec3::Zero();  ///< set for faces
+  bool is_face = false;
+};
+
+// buffers private to one file, held by Scratch through these pointers
 struct PolytopeScratch;  // polytope_contacts.cpp: both polytopes placed in one frame, clip polygons
+struct EpaScratch;       // gjk_epa.cpp: the expanding polytope's vertices, faces and horizon
+PolytopeScratch* new_polytope_scratch();
+EpaScratch* new_epa_scratch();
+struct ScratchDeleter {
+  void operator()(PolytopeScratch* p) const;
+  void operator()(EpaScratch* p) const;
+};
 
 /// Buffers the narrow phase reuses from query to query. The World owns one and hands it to every
 /// step, so that contact detection allocates nothing once they have grown to the scene's size; a
 /// query without a World (collide() of two shapes) makes its own. One per thread.
 struct Scratch {
   Scratch();
-  ~Scratch();
   std::vector<double> reach;                           ///< (N) speculative reach per body (m)
   std::vector<std::pair<BodyIndex, BodyIndex>> pairs;  ///< candidate body pairs of the step
   std::vector<Contact> candidates;                     ///< one pair's points before the manifold
   std::vector<Item> items_a, items_b;                  ///< the pair's convex items
   std::vector<int> triangles, bvh_stack;               ///< candidate triangles; BVH traversal
   Polytope triangle;                                   ///< the current triangle as a polytope
-  std::unique_ptr<PolytopeScratch> polytope;
+  SupportFeature feature_a, feature_b;                 ///< convex_by_support: both features
+  std::vector<std::pair<Vec3, std::pair<FeatureId, FeatureId>>> clip, clip_next;  ///< and its clip
+  std::unique_ptr<PolytopeScratch, ScratchDeleter> polytope;
+  std::unique_ptr<EpaScratch, ScratchDeleter> epa;
 };
 
 /// What a narrow-phase query may use besides the two shapes: the triangle queries of static
@@ -161,7 +184,7 @@ void polytope_capsule(const Polytope& a, const Pose& pa, std::uint32_t part_a, c
 /// the signed distance as the maximum of the support-plane gap over directions, then the
 /// supporting features of both along its normal clipped against each other (a face against
 /// whatever faces it), or the single pair of support points.
-void convex_by_support(const Item& a, const Item& b, double threshold, std::vector<Contact>& out);
+void convex_by_support(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out);
 
 /// Static triangle mesh (A) against item B: candidate triangles from the BVH, a convex test per
 /// triangle (inactive edges give no edge contacts), merged.

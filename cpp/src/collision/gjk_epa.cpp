@@ -281,11 +281,19 @@ struct Epa {
   }
 };
 
-thread_local Epa t_epa;
-
 }  // namespace
 
+/// The EPA buffers a Scratch holds (reused from pair to pair).
+struct EpaScratch : Epa {};
+EpaScratch* new_epa_scratch() { return new EpaScratch(); }
+void ScratchDeleter::operator()(EpaScratch* p) const { delete p; }
+
 Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats) {
+  EpaScratch epa;
+  return gjk_epa(a, b, epa, stats);
+}
+
+Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* stats) {
   GjkEpaStats local;
   GjkEpaStats& st = stats ? *stats : local;
   st = GjkEpaStats{};
@@ -449,7 +457,7 @@ Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats) {
   }
 
   // ---- EPA on D' from that tetrahedron ----
-  Epa& E = t_epa;
+  Epa& E = epa;
   E.verts.clear();
   E.faces.clear();
   for (int k = 0; k < 4; ++k) E.verts.push_back(S.p[k]);

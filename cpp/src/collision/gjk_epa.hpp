@@ -53,6 +53,8 @@ struct GjkEpaStats {
 /// shapes or makes them touch), w_a, w_b = witness points on A and B (world, m), barycentric in the
 /// support points of the final simplex or face; w_b - w_a = gap * normal to rounding for a GJK
 /// result, to within the tolerances for an EPA one.
+Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* stats = nullptr);
+/// The same with buffers of its own (allocates: for tests and one-off queries).
 Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats = nullptr);
 
 }  // namespace signorini::collision

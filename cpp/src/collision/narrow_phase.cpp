@@ -51,13 +51,29 @@ void item_pair(const Item& a, const Item& b, double threshold, Scratch& scratch,
     polytope_capsule(*b.polytope, b.pose, b.part, *capsule_a, a.pose, a.part, threshold, out);
     flip(out, first);
   } else {
-    convex_by_support(a, b, threshold, out);
+    convex_by_support(a, b, threshold, scratch, out);
   }
 }
 
 }  // namespace
 
 namespace {
+
+/// Sets the item's bounding ball: about the centroid for a polytope (O(vertices), cheap beside the
+/// separating axes it can save), about the origin for the round shapes.
+void set_ball(Item& it) {
+  if (it.polytope) {
+    const Polytope& P = *it.polytope;
+    double r2 = 0.0;
+    for (Eigen::Index i = 0; i < P.vertices.rows(); ++i)
+      r2 = std::max(r2, (P.vertex(static_cast<int>(i)) - P.centroid).squaredNorm());
+    it.ball_centre = it.pose.R * P.centroid + it.pose.p;
+    it.ball_radius = std::sqrt(r2);
+  } else {
+    it.ball_centre = it.pose.p;
+    it.ball_radius = it.radius();
+  }
+}
 
 void add_primitive(const Primitive& p, const Pose& pose, std::uint32_t part, std::vector<Item>& items) {
   Item it;
@@ -73,10 +89,13 @@ void add_primitive(const Primitive& p, const Pose& pose, std::uint32_t part, std
         if constexpr (std::is_same_v<T, ConvexHull>) it.hull = &s, it.polytope = s.polytope.get();
       },
       p);
+  set_ball(it);
   items.push_back(it);
 }
 
 }  // namespace
+
+Scratch::Scratch() : polytope(new_polytope_scratch()), epa(new_epa_scratch()) {}
 
 double Item::radius() const {
   if (sphere) return sphere->radius;
@@ -100,6 +119,7 @@ void items_of(const Shape& shape, const Pose& pose, std::vector<Item>& items,
       Item it;
       it.polytope = keep.back().get();
       it.pose = pose;
+      set_ball(it);
       items.push_back(it);
     } else {
       for (std::size_t k = 0; k < m->pieces.size(); ++k) {
@@ -107,6 +127,7 @@ void items_of(const Shape& shape, const Pose& pose, std::vector<Item>& items,
         it.polytope = m->pieces[k].get();
         it.pose = pose;
         it.part = static_cast<std::uint32_t>(k);
+        set_ball(it);
         items.push_back(it);
       }
     }
@@ -121,7 +142,9 @@ void items_of(const Shape& shape, const Pose& pose, std::vector<Item>& items,
           if constexpr (std::is_same_v<T, Cylinder>) it.cylinder = &s;
           if constexpr (std::is_same_v<T, Box>) it.box = &s, it.polytope = s.polytope.get();
           if constexpr (std::is_same_v<T, ConvexHull>) it.hull = &s, it.polytope = s.polytope.get();
-          if (it.sphere || it.capsule || it.cylinder || it.polytope) items.push_back(it);
+          if (!(it.sphere || it.capsule || it.cylinder || it.polytope)) return;
+          set_ball(it);
+          items.push_back(it);
         },
         shape);
   }
@@ -190,8 +213,13 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
   } else {
     items_a.clear();
     items_of(a, pose_a, items_a, keep);
+    // the mid phase: item pairs whose bounding balls are farther apart than the threshold are
+    // skipped (they give no contact); compounds and decomposed meshes have many such pairs
+    const double reach = std::max(threshold, 0.0);
     for (const Item& ia : items_a)
-      for (const Item& ib : items_b) item_pair(ia, ib, threshold, s, candidates);
+      for (const Item& ib : items_b)
+        if ((ib.ball_centre - ia.ball_centre).norm() <= ia.ball_radius + ib.ball_radius + reach)
+          item_pair(ia, ib, threshold, s, candidates);
   }
   finish_manifold(candidates, threshold, pair_scale(a, b), out);
 }

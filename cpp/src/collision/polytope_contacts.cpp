@@ -278,8 +278,8 @@ struct PolytopeScratch {
   std::vector<ClipVertex> poly, next;
 };
 
-Scratch::Scratch() : polytope(std::make_unique<PolytopeScratch>()) {}
-Scratch::~Scratch() = default;
+PolytopeScratch* new_polytope_scratch() { return new PolytopeScratch(); }
+void ScratchDeleter::operator()(PolytopeScratch* p) const { delete p; }
 
 void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
                        const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,

@@ -253,19 +253,14 @@ void polytope_capsule(const Polytope& P, const Pose& pa, std::uint32_t part_a, c
 
 namespace {
 
-/// A shape's supporting feature along a world direction: a face polygon (with its outward normal),
-/// a segment, or a point; world coordinates, with ids.
-struct Support {
-  std::vector<Vec3> points;
-  std::vector<FeatureId> ids;
-  Vec3 normal = Vec3::Zero();  ///< set for faces
-  bool is_face = false;
-};
-
 constexpr double kFaceCos = 0.995;  // a face within ~5.7 degrees of the normal supports as a face
 
-Support support_feature(const Item& it, const Vec3& dir) {
-  Support s;
+/// Writes into s the supporting feature of item `it` along world direction dir.
+void support_feature(const Item& it, const Vec3& dir, SupportFeature& s) {
+  s.points.clear();
+  s.ids.clear();
+  s.normal = Vec3::Zero();
+  s.is_face = false;
   const Mat3& R = it.pose.R;
   const Vec3& p = it.pose.p;
   if (it.polytope) {
@@ -281,14 +276,14 @@ Support support_feature(const Item& it, const Vec3& dir) {
       }
       s.normal = R * P.normals[face];
       s.is_face = true;
-      return s;
+      return;
     }
     int best = 0;
     for (Eigen::Index i = 1; i < P.vertices.rows(); ++i)
       if (P.vertex(static_cast<int>(i)).dot(d) > P.vertex(best).dot(d)) best = static_cast<int>(i);
     s.points.push_back(R * P.vertex(best) + p);
     s.ids.push_back(feature_id(FeatureKind::Vertex, best, it.part));
-    return s;
+    return;
   }
   const Vec3 a = R.col(2);
   const double c = a.dot(dir);
@@ -332,7 +327,6 @@ Support support_feature(const Item& it, const Vec3& dir) {
     s.points.push_back(p + sphere->radius * dir.normalized());
     s.ids.push_back(feature_id(FeatureKind::Shape, 0, it.part));
   }
-  return s;
 }
 
 }  // namespace
@@ -361,16 +355,14 @@ Vec3 support_point(const Item& it, const Vec3& d) {
   return R * P.vertex(best) + p;
 }
 
-/// The signed distance of two convex items and its direction (A -> B): GJK for separated items,
-/// EPA for touching and overlapping ones, on their support mappings (gjk_epa.hpp, which also says
-/// why not FCL's libccd).
-Distance support_distance(const Item& a, const Item& b) { return gjk_epa(a, b); }
-
-void convex_by_support(const Item& a, const Item& b, double threshold, std::vector<Contact>& out) {
-  const Distance dist = support_distance(a, b);
+void convex_by_support(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
+  const Distance dist = gjk_epa(a, b, *scratch.epa);
   if (!(dist.gap < threshold)) return;
   const Vec3 n = dist.normal;
-  const Support sa = support_feature(a, n), sb = support_feature(b, -n);
+  SupportFeature& sa = scratch.feature_a;
+  SupportFeature& sb = scratch.feature_b;
+  support_feature(a, n, sa);
+  support_feature(b, -n, sb);
   const bool ref_is_a = sa.is_face && (!sb.is_face || sa.normal.dot(n) >= -sb.normal.dot(n));
   if (!sa.is_face && !sb.is_face) {
     // no face on either side (edge against edge, a rim against a rim): FCL's single point
@@ -383,13 +375,15 @@ void convex_by_support(const Item& a, const Item& b, double threshold, std::vect
     out.push_back(c);
     return;
   }
-  const Support& ref = ref_is_a ? sa : sb;
-  const Support& inc = ref_is_a ? sb : sa;
+  const SupportFeature& ref = ref_is_a ? sa : sb;
+  const SupportFeature& inc = ref_is_a ? sb : sa;
   const std::uint32_t ref_part = ref_is_a ? a.part : b.part, inc_part = ref_is_a ? b.part : a.part;
   const Vec3& n_ref = ref.normal;
   const double d_ref = n_ref.dot(ref.points[0]);
   // the incident feature clipped by the reference face's side planes (side k: internal id 256 + k)
-  std::vector<std::pair<Vec3, std::pair<FeatureId, FeatureId>>> poly, next;
+  auto& poly = scratch.clip;
+  auto& next = scratch.clip_next;
+  poly.clear();
   for (std::size_t i = 0; i < inc.points.size(); ++i)
     poly.push_back({inc.points[i], {feature_id(FeatureKind::Face, 0, ref_part), inc.ids[i]}});
   const std::size_t m = ref.points.size();

@@ -122,7 +122,7 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       face.pose = pa;
       face.part = index;
       const std::size_t first = out.size();
-      convex_by_support(face, b, threshold, out);
+      convex_by_support(face, b, threshold, scratch, out);
       const Vec3 n_world = pa.R * mesh.normals[t];
       out.erase(std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
                                [&](const Contact& c) { return c.normal.dot(n_world) <= 0.0; }),

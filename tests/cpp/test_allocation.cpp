@@ -1,0 +1,122 @@
+// No heap allocation inside World::step() after warm-up (the solver's rows and cache, the collision
+// scratch buffers and the broad phase's pair list are owned by the World and reused). This file is
+// its own executable: it replaces the global operator new/delete with counting versions, which
+// would otherwise count for every test of the main suite.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <random>
+
+#include "random_scene.hpp"
+#include "signorini/world.hpp"
+
+namespace {
+std::atomic<bool> counting{false};
+std::atomic<long> allocations{0};
+}  // namespace
+
+// every form of operator new goes through these two; the deletes only have to match malloc/free
+void* operator new(std::size_t size) {
+  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size ? size : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) { return operator new(size); }
+void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
+  try {
+    return operator new(size);
+  } catch (...) {
+    return nullptr;
+  }
+}
+void* operator new[](std::size_t size, const std::nothrow_t& tag) noexcept { return operator new(size, tag); }
+void* operator new(std::size_t size, std::align_val_t align) {
+  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
+  const std::size_t a = static_cast<std::size_t>(align);
+  if (void* p = std::aligned_alloc(a, (size + a - 1) / a * a)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size, std::align_val_t align) { return operator new(size, align); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+
+namespace signorini {
+namespace {
+
+/// Heap allocations made by f().
+template <class F>
+long allocations_during(F&& f) {
+  allocations = 0;
+  counting = true;
+  f();
+  counting = false;
+  return allocations.load();
+}
+
+/// A busy scene: 64 bodies of every convex kind (spheres, boxes, capsules, cylinders, hulls,
+/// compounds) dropped into a pit of static boxes on a plane, half of it tessellated as a triangle
+/// mesh floor, so every pair family of the narrow phase and both broad-phase trees are exercised.
+void build_pit(World& w) {
+  BodyDesc ground;
+  ground.is_static = true;
+  ground.shape = Plane(Vec3(0, 0, 1), 0.0);
+  w.add_body(ground);
+  BodyDesc floor;
+  floor.is_static = true;
+  floor.shape = scenes::floor_mesh(0.6, 6);
+  floor.position = Vec3(0.0, 0.0, 0.001);
+  w.add_body(floor);
+  for (int axis = 0; axis < 2; ++axis)
+    for (double side : {-1.0, 1.0}) {
+      BodyDesc wall;
+      wall.is_static = true;
+      Vec3 half(0.8, 0.8, 0.4), centre(0.0, 0.0, 0.4);
+      half[axis] = 0.05;
+      centre[axis] = side * 0.75;
+      wall.shape = Box(half);
+      wall.position = centre;
+      w.add_body(wall);
+    }
+  std::mt19937_64 rng(11);
+  for (int k = 0; k < 64; ++k) {
+    BodyDesc d;
+    d.shape = k % 6 == 5 ? Shape(Compound({{Box(Vec3(0.06, 0.06, 0.02)), Vec3(0, 0, 0.02), Mat3::Identity()},
+                                           {Sphere(0.03), Vec3(0, 0, -0.03), Mat3::Identity()}}))
+                         : scenes::random_shape(rng, scenes::Mix::AllConvex, k, 0.03, 0.07);
+    d.density = 500.0;
+    d.position = Vec3(-0.45 + 0.3 * (k % 4), -0.45 + 0.3 * ((k / 4) % 4), 0.2 + 0.25 * (k / 16));
+    const Eigen::Quaterniond q(scenes::random_rotation(rng));
+    d.orientation = Quat4(q.w(), q.x(), q.y(), q.z());
+    d.angular_velocity = scenes::random_vector(rng, 2.0);
+    w.add_body(d);
+  }
+}
+
+TEST(Allocation, StepsOfABusyPileAllocateNothingAfterWarmUp) {
+  World w;
+  build_pit(w);
+  const double dt = 1.0 / 240.0;
+  w.step(dt, 720);  // 3 s: the pile has landed and its buffers have grown to its size
+  ASSERT_GT(w.contacts().size(), 100u);
+  const long n = allocations_during([&] { w.step(dt, 240); });
+  EXPECT_EQ(n, 0) << "heap allocations during 240 steps after warm-up";
+  EXPECT_GT(w.contacts().size(), 100u);
+}
+
+TEST(Allocation, TheCounterSeesAnAllocation) {
+  // the counter itself works: a fresh vector of a runtime size allocates once
+  volatile std::size_t size = 16;
+  const long n = allocations_during([&] { std::vector<double> x(size); x[0] = 1.0; });
+  EXPECT_EQ(n, 1);
+}
+
+}  // namespace
+}  // namespace signorini
