@@ -215,16 +215,7 @@ def _pile() -> Scene:
     import signorini as sg
 
     world = sg.World(gravity=(0.0, 0.0, -9.81))
-    world.add_static(sg.Plane(normal=(0.0, 0.0, 1.0), offset=0.0))
-    # four walls 0.1 m thick and 1 m high around the square |x|, |y| < 0.8
-    for axis in (0, 1):
-        for side in (-1.0, 1.0):
-            half = [0.9, 0.9, 0.5]
-            half[axis] = 0.05
-            centre = [0.0, 0.0, 0.5]
-            centre[axis] = side * 0.85
-            world.add_static(sg.Box(tuple(half)), position=tuple(centre))
-
+    _walled_bin(world, half_width=0.8, height=1.0, thickness=0.1, friction=0.5)
     rng = np.random.default_rng(2026)
     ico_v, ico_f = meshes.icosphere(0.09, 1)
     torus_v, torus_f = meshes.torus(0.09, 0.03, 24, 12)
