@@ -180,8 +180,8 @@ void capsule_capsule(const Capsule& a, const Pose& pa, std::uint32_t part_a, con
 void polytope_capsule(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Capsule& b,
                       const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out);
 
-/// Any two items without a closed-form test (a cylinder against a box, hull, capsule or cylinder):
-/// the signed distance as the maximum of the support-plane gap over directions, then the
+/// Any two items without a closed-form test (a cylinder against a box, hull, capsule, cylinder or
+/// triangle): the signed distance by GJK / EPA on the support mappings (gjk_epa.hpp), then the
 /// supporting features of both along its normal clipped against each other (a face against
 /// whatever faces it), or the single pair of support points.
 void convex_by_support(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out);

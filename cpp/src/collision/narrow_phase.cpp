@@ -154,11 +154,11 @@ std::string unsupported_pair(const Shape& a, const Shape& b) {
   // the dispatch table (docs/conventions.md):
   //              Plane   TriMesh  Sphere  Capsule  Box/Hull/piece  Cylinder
   // Plane        static  static   exact   exact    exact           exact
-  // TriMesh              static   exact   exact    SAT/triangle    support search
+  // TriMesh              static   exact   exact    SAT/triangle    GJK/EPA + clip
   // Sphere                        exact   exact    exact           exact
-  // Capsule                               exact    exact + SAT     support search + clip
-  // Box/Hull/piece                                 SAT + clip      support search + clip
-  // Cylinder                                                       support search + clip
+  // Capsule                               exact    exact + SAT     GJK/EPA + clip
+  // Box/Hull/piece                                 SAT + clip      GJK/EPA + clip
+  // Cylinder                                                       GJK/EPA + clip
   // A non-convex Mesh without pieces collides with planes only. Compounds: part by part.
   if (is_plane(a) || is_plane(b)) return {};
   if (static_only(a) && static_only(b)) return {};

@@ -1,8 +1,8 @@
 // Static triangle meshes against convex items: the BVH (fcl_queries.cpp) names the candidate
 // triangles, each is tested as a one-sided convex piece, and all points go into one manifold.
 // Interior edges of flat or concave regions are inactive: they never produce edge normals, so a box
-// sliding over a tessellated floor meets no ghost contacts. (Cylinders go through the support
-// search, which does not know about inactive edges.)
+// sliding over a tessellated floor meets no ghost contacts. (Cylinders go through GJK / EPA on the
+// support mappings, which does not know about inactive edges.)
 #include <algorithm>
 #include <cmath>
 
@@ -113,7 +113,7 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
                                [&](const Contact& c) { return c.normal.dot(n_world) <= 0.0; }),
                 out.end());
     } else if (b.cylinder) {
-      // no closed form: the support-function search, the triangle as a flat polytope; only
+      // no closed form: GJK / EPA on the support mappings, the triangle as a flat polytope; only
       // contacts pushing out of the front side, and none for a centre behind the triangle
       triangle_polytope_of(mesh, t, tri);
       if (mesh.normals[t].dot(centre - tri.vertex(0)) < 0.0) continue;
