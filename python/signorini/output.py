@@ -64,7 +64,9 @@ def summary(record: Record, window: float = 1.0) -> dict:
     energy), what the drift is compared with), max_penetration_last (m, over the last ``window``
     seconds; 0 if no overlap), contact_steps (steps with contacts), iterations_median and
     iterations_max (over steps with contacts; 0 when there were none), max_residual (m/s),
-    not_converged (steps whose PGS stopped at max_iterations).
+    not_converged (steps whose PGS stopped at max_iterations), certificate_run and
+    certificate_last: the largest of each Signorini certificate figure (``CERTIFICATE``) over the
+    run and over the last ``window`` seconds (those the record holds).
     """
     energy = record.total_energy
     scale = max(abs(float(energy[0])), float(np.max(record.kinetic_energy)))
@@ -88,7 +90,21 @@ def summary(record: Record, window: float = 1.0) -> dict:
         "iterations_max": int(iterations.max()) if iterations.size else 0,
         "max_residual": float(record.residual.max()) if record.steps else 0.0,
         "not_converged": int(np.count_nonzero(with_contacts & ~record.converged)),
+        "certificate_run": {k: float(record.solver[k].max()) if record.steps else 0.0
+                            for k, _, _ in CERTIFICATE if k in record.solver},
+        "certificate_last": {k: float(record.solver[k][late].max()) if late.any() else 0.0
+                             for k, _, _ in CERTIFICATE if k in record.solver},
     }
+
+
+# the Signorini certificate figures of World.solver_stats: key, label, unit
+CERTIFICATE = (
+    ("residual", "residual", "m/s"),
+    ("max_penetration_velocity", "penetration velocity", "m/s"),
+    ("max_complementarity", "complementarity", "W"),
+    ("max_cone_violation", "cone", "N"),
+    ("max_dissipation_violation", "dissipation", "N"),
+)
 
 
 def format_summary(record: Record, files=()) -> str:
@@ -108,6 +124,10 @@ def format_summary(record: Record, files=()) -> str:
         f"over {s['contact_steps']} steps with contacts; max residual {s['max_residual']:.2e} m/s, "
         f"{s['not_converged']} not converged",
     ]
+    if s["certificate_run"]:
+        lines.append("certificate  largest over the run / the last {:g} s: ".format(s["window"]) + ", ".join(
+            f"{label} {s['certificate_run'][k]:.2e} / {s['certificate_last'][k]:.2e} {unit}"
+            for k, label, unit in CERTIFICATE if k in s["certificate_run"]))
     for i, path in enumerate(files):
         lines.append(f"{'written' if i == 0 else '':<12} {path}")
     return "\n".join(lines)

@@ -1,15 +1,18 @@
-"""Recording, saving, summarising and plotting, on a stand-in world (no compiled core needed).
+"""Recording, saving, summarising and plotting, mostly on a stand-in world.
 
 The stand-in moves bodies ballistically (exact in closed form) and reports a scripted contact list,
-so every recorded number here is known in advance.
+so every recorded number there is known in advance. The certificate summary is checked on the real
+core, against the figures the world reports step by step.
 """
 
+import warnings
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from signorini import meshes, output
+import signorini as sg
+from signorini import meshes, output, scenes
 
 
 class BallisticWorld:
@@ -182,3 +185,24 @@ def test_plane_patch_is_the_cut_of_the_view_box():
     assert hexagon.shape == (6, 3)
     sides = np.linalg.norm(np.roll(hexagon, 1, axis=0) - hexagon, axis=1)
     np.testing.assert_allclose(sides, np.sqrt(0.5))
+
+
+def test_summary_reports_the_certificate_of_every_step():
+    # the boxes scene run by output.run and, bit-identically, step by step by hand: the summary's
+    # certificate figures are the largest the world reported over the run and over the last second
+    steps = 240
+    by_hand = scenes.build("boxes")
+    seen = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sg.SolverWarning)
+        for _ in range(steps):
+            by_hand.world.step(by_hand.dt)
+            seen.append(by_hand.world.solver_stats)
+        record = output.run(scenes.build("boxes"), steps=steps, progress=False)
+    s = output.summary(record, window=0.5)
+    last = [stats for k, stats in enumerate(seen) if (k + 1) * by_hand.dt > steps * by_hand.dt - 0.5 - 1e-12]
+    for key, _, _ in output.CERTIFICATE:
+        assert s["certificate_run"][key] == max(getattr(stats, key) for stats in seen), key
+        assert s["certificate_last"][key] == max(getattr(stats, key) for stats in last), key
+    assert s["certificate_run"]["max_cone_violation"] > 0  # the impacts: the pyramid's corners
+    assert "certificate  largest over the run" in output.format_summary(record)
