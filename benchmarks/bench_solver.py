@@ -10,7 +10,8 @@ world, so each scene is written once):
 - ``hull_pile``: 200 convex hulls of seeded 16-point clouds dropped into a walled bin (5 s).
 
 Both engines run in this process with dt 1/240 and 10 solver sweeps: signorini with
-``set_solver(max_iterations=10)`` (its other settings at their defaults), pybullet (optional:
+``set_solver(max_iterations=10, substeps=1)`` (one solve per step, as pybullet's
+``numSubSteps=0``; its other settings at their defaults), pybullet (optional:
 ``pip install pybullet``; it is not a dependency of signorini) in DIRECT mode with
 ``setPhysicsEngineParameter(numSolverIterations=10, fixedTimeStep=1/240, numSubSteps=0)``.
 pybullet's bodies are classic rigid bodies (``useMaximalCoordinates=True``) with sleeping
@@ -107,7 +108,7 @@ class SignoriniRun:
 
     def __init__(self, world):
         self.world = world
-        world.set_solver(max_iterations=SWEEPS)
+        world.set_solver(max_iterations=SWEEPS, substeps=1)
         self.start = world.positions.copy()
         self.dynamic = ~np.asarray(world.is_static)
         self.cert = dict.fromkeys(CERTIFICATE + ("iterations",), 0.0)

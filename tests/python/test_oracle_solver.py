@@ -516,18 +516,48 @@ def test_midpoint_at_50_rad_s_and_dt_1_60_stays_finite_and_never_gains():
 
 # --------------------------------------------------------------------------- steps and substeps
 
-def test_substeps_are_steps_of_dt_over_n():
-    # n substeps run the whole step n times with dt / n: the same numbers as two steps by hand
+def test_substeps_solve_the_step_contacts_carried_along():
+    # n substeps: contacts detected once for the whole step, then n solves of dt / n, the second
+    # on the contacts carried along by the motion: the same numbers as the two substeps by hand
     snap = sphere_on_plane(gap=0.002, velocity=(0.5, 0.0, -1.0))
-    two, info = o.step({**snap, "settings": {**snap["settings"], "substeps": 2}}, 0.02)
-    one, _ = o.step(snap, 0.01)
-    one, info_one = o.step(one, 0.01)
+    two_settings = {**snap, "settings": {**snap["settings"], "substeps": 2}}
+    two, info = o.step(two_settings, 0.02)
+    contacts = o.detect_contacts(snap, 0.02)
+    half, _ = o.step_once(two_settings, 0.01, contacts)
+    by_hand, info_hand = o.step_once(half, 0.01, o.carry_contacts(contacts, snap, half))
     for key in ("position", "rotation", "velocity", "angular_velocity"):
-        np.testing.assert_array_equal(two[key], one[key])
-    np.testing.assert_array_equal(info["alpha"], info_one["alpha"])
+        np.testing.assert_array_equal(two[key], by_hand[key])
+    np.testing.assert_array_equal(info["alpha"], info_hand["alpha"])
     np.testing.assert_array_equal(info["impulse"], 0.01 * info["alpha"])
-    with pytest.raises(ValueError):
-        o.step({**snap, "settings": {"substeps": 2}}, 0.02, contacts=o.detect_contacts(snap, 0.01))
+    # the same contacts given explicitly give the same step
+    given, _ = o.step(two_settings, 0.02, contacts=contacts)
+    np.testing.assert_array_equal(given["position"], two["position"])
+
+
+def test_carried_contacts_follow_their_bodies():
+    # a sphere rolled by 0.2 rad about y while moving 0.1 m along x and 1 mm down: to first order
+    # its bottom point moves along x only, so the gap closes by exactly the 1 mm (a rotated material
+    # point would have lifted r (1 - cos 0.2) = 5 mm, a false gap); the anchor on the sphere moves
+    # with its centre, the plane's stays
+    snap = sphere_on_plane(gap=0.002)
+    contacts = o.detect_contacts(snap, 0.01)
+    roll = np.array([np.cos(0.1), 0, np.sin(0.1), 0])  # 0.2 rad about y
+    moved = {**snap, "position": snap["position"] + np.array([[0, 0, 0], [0.1, 0, -0.001]]),
+             "rotation": np.stack([np.eye(3), o.quat_to_matrix(roll)])}
+    carried = o.carry_contacts(contacts, snap, moved)
+    assert carried["gap"][0] == pytest.approx(contacts["gap"][0] - 0.001, abs=1e-15)
+    np.testing.assert_allclose(carried["anchor_a"][0], contacts["point"][0], atol=1e-15)
+    np.testing.assert_allclose(carried["anchor_b"][0], contacts["point"][0] + [0.1, 0, -0.001], atol=1e-15)
+    np.testing.assert_array_equal(carried["normal"], contacts["normal"])
+    # a box corner turning towards the plane closes its gap by the turn times its lever arm
+    box = make_snapshot([plane(), make_body({"type": "box", "half_extents": np.array([0.5, 0.5, 0.5])})],
+                        [[0, 0, 0], [0, 0, 0.502]])
+    corners = o.detect_contacts(box, 0.01)
+    tilt = {**box, "rotation": np.stack([np.eye(3), o.quat_to_matrix(np.array([np.cos(0.005), np.sin(0.005), 0, 0]))])}
+    tilted = o.carry_contacts(corners, box, tilt)
+    # about x by 0.01 rad: a corner at y = +0.5 goes down by 0.5 sin(0.01), one at y = -0.5 up
+    y = corners["point"][:, 1]
+    np.testing.assert_allclose(tilted["gap"] - corners["gap"], y * np.sin(0.01), rtol=0, atol=1e-15)
 
 
 def test_contacts_without_feature_ids():

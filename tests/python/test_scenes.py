@@ -133,6 +133,6 @@ def test_boxes_spheres_meeting_head_on_stop():
     np.testing.assert_allclose(v[3], 0.0, atol=1e-3)
     np.testing.assert_allclose(v[4], 0.0, atol=1e-3)
     assert record.positions[-1, 4, 0] - record.positions[-1, 3, 0] == pytest.approx(0.3, abs=1e-3)
-    # nothing sinks into the ground
+    # nothing sinks into the ground deeper than the 1 mm slop (where resting contacts settle)
     for body in range(1, record.num_bodies):
-        assert lowest_gap(scene.world, 0, body) > -1e-3
+        assert lowest_gap(scene.world, 0, body) >= -1e-3 - 1e-12

@@ -107,7 +107,8 @@ class World {
   void check_index(BodyIndex i) const;
   /// A velocity for body i must be finite, and zero for a static body.
   void check_velocity(BodyIndex i, const char* what, const Vec3& x) const;
-  /// One step of dt (a substep of step()); on a non-finite result restores the state and throws.
+  /// One step of dt: contacts detected once, then the substeps; on a non-finite result restores
+  /// the state and the warm-start cache and throws.
   void step_once(double dt);
 
   WorldSettings settings_;
@@ -122,7 +123,10 @@ class World {
   std::unique_ptr<solver::SolverData> solver_;  ///< rows, forces and the warm-start cache
   // step scratch, kept between steps so that a step reuses its buffers instead of allocating
   State before_;                         ///< state at the start of the step (restored on failure)
-  std::vector<Contact> contacts_next_;   ///< the step's contacts until it succeeds
+  std::vector<CachedContact> cache_before_;  ///< warm-start cache at the start of the step (likewise)
+  std::vector<Contact> contacts_base_;   ///< the step's contacts as detected
+  std::vector<Contact> contacts_next_;   ///< a substep's contacts (carried), kept when the step succeeds
+  std::vector<Vec3> anchor_a_, anchor_b_;///< a carried contact's point moved with A and with B
   std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
   std::vector<Vec3> v_move_, omega_move_;///< the velocities that move the poses
 };

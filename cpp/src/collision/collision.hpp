@@ -226,6 +226,17 @@ void speculative_reach(const Model& model, const State& state, double dt, const 
 double plane_reach(const Model& model, const State& state, BodyIndex b, const Vec3& n, double dt,
                    const Vec3& gravity);
 
+/// The contacts detected at state `detected`, carried to state `now` by the motion of their bodies
+/// (a substep, docs/conventions.md "One step"), to first order, as the velocity constraint
+/// linearises it: with each body's displacement dp = p - p_0 and turn dtheta = vee of the skew part
+/// of R R_0^T, and the witness points w_A = y - gap/2 n, w_B = y + gap/2 n,
+/// gap <- gap + n . ((dp_B + dtheta_B x (w_B - p_B0)) - (dp_A + dtheta_A x (w_A - p_A0)))
+/// (a rolling ball keeps its gap; the turn's second-order lift of its material point would open a
+/// false gap). The normal stays; the lever arms stay as detected: anchor_X = y + dp_X, where the
+/// solver applies the force on X (K, world, m); y <- (anchor_a + anchor_b) / 2. Written into out.
+void carry_contacts(const std::vector<Contact>& at_detection, const State& detected, const State& now,
+                    std::vector<Contact>& out, std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b);
+
 /// All contacts for the current state, in the order of docs/conventions.md, written into out
 /// (cleared first), using and growing the scratch buffers.
 void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,

@@ -240,6 +240,28 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
                state.omega[b].norm() * model.rho[b]);
 }
 
+void carry_contacts(const std::vector<Contact>& at_detection, const State& detected, const State& now,
+                    std::vector<Contact>& out, std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b) {
+  out = at_detection;
+  anchor_a.resize(out.size());
+  anchor_b.resize(out.size());
+  // the first-order motion of the point x of body i since detection: dp + dtheta x (x - p_0)
+  auto moved = [&](int i, const Vec3& x) -> Vec3 {
+    const Mat3 turn = now.R[i] * detected.R[i].transpose();
+    const Vec3 dtheta(0.5 * (turn(2, 1) - turn(1, 2)), 0.5 * (turn(0, 2) - turn(2, 0)), 0.5 * (turn(1, 0) - turn(0, 1)));
+    return (now.p[i] - detected.p[i]) + dtheta.cross(x - detected.p[i]);
+  };
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    Contact& c = out[k];
+    const Vec3 half = 0.5 * c.gap * c.normal;
+    const int a = c.body_a, b = c.body_b;
+    c.gap += c.normal.dot(moved(b, c.point + half) - moved(a, c.point - half));
+    anchor_a[k] = c.point + (now.p[a] - detected.p[a]);
+    anchor_b[k] = c.point + (now.p[b] - detected.p[b]);
+    c.point = 0.5 * (anchor_a[k] + anchor_b[k]);
+  }
+}
+
 void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
                      double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& contacts) {
   std::vector<double>& reach = scratch.reach;

@@ -39,17 +39,17 @@ void apply(const Row& r, double s, std::vector<Vec3>& v, std::vector<Vec3>& omeg
   }
 }
 
-/// The row of direction d (unit, world) at point y between bodies a and b:
-/// J_A = -(r_A x d, d), J_B = (r_B x d, d), delta = dt (J_A M_A^-1 J_A + J_B M_B^-1 J_B).
+/// The row of direction d (unit, world) between bodies a and b, acting at y_a on A and y_b on B:
+/// J_A = -(r_A x d, d), J_B = (r_B x d, d), r_X = y_X - p_X, delta = dt (J_A M_A^-1 J_A + J_B M_B^-1 J_B).
 void make_row(const Model& model, const State& state, const Mat3& IinvA, const Mat3& IinvB, int a, int b,
-              const Vec3& y, const Vec3& d, double dt, Row& r) {
+              const Vec3& y_a, const Vec3& y_b, const Vec3& d, double dt, Row& r) {
   r.a = a;
   r.b = b;
   r.a_moves = !model.is_static[a];
   r.b_moves = !model.is_static[b];
-  r.JA_ang = -(y - state.p[a]).cross(d);
+  r.JA_ang = -(y_a - state.p[a]).cross(d);
   r.JA_lin = -d;
-  r.JB_ang = (y - state.p[b]).cross(d);
+  r.JB_ang = (y_b - state.p[b]).cross(d);
   r.JB_lin = d;
   r.MJA_ang = IinvA * r.JA_ang;
   r.MJA_lin = model.inv_mass[a] * r.JA_lin;
@@ -75,7 +75,8 @@ void clamp_to_disk(double& a1, double& a2, double bound) {
 // ---- a. prepare ---------------------------------------------------------------------------------
 /// Rows (normal, t1, t2 per contact), pair materials, and u_i = J_n q_dot* (before the solve).
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
-             const std::vector<Vec3>& v, const std::vector<Vec3>& omega, SolverData& d) {
+             const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, const std::vector<Vec3>& v,
+             const std::vector<Vec3>& omega, SolverData& d) {
   const std::size_t K = contacts.size();
   d.rows.resize(3 * K);
   d.alpha.assign(3 * K, 0.0);
@@ -92,9 +93,11 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
     Vec3 t1, t2;
     tangent_basis(c.normal, t1, t2);
     Row* r = &d.rows[3 * i];
-    make_row(model, state, IinvA, IinvB, a, b, c.point, c.normal, dt, r[0]);
-    make_row(model, state, IinvA, IinvB, a, b, c.point, t1, dt, r[1]);
-    make_row(model, state, IinvA, IinvB, a, b, c.point, t2, dt, r[2]);
+    const Vec3& y_a = anchor_a ? (*anchor_a)[i] : c.point;
+    const Vec3& y_b = anchor_b ? (*anchor_b)[i] : c.point;
+    make_row(model, state, IinvA, IinvB, a, b, y_a, y_b, c.normal, dt, r[0]);
+    make_row(model, state, IinvA, IinvB, a, b, y_a, y_b, t1, dt, r[1]);
+    make_row(model, state, IinvA, IinvB, a, b, y_a, y_b, t2, dt, r[2]);
     // a speculative contact may close its gap, no more; an overlap is left to the position pass
     r[0].bias = std::max(c.gap, 0.0) / dt;
     for (int k = 1; k <= 2; ++k) {
@@ -344,7 +347,7 @@ void tangent_basis(const Vec3& n, Vec3& t1, Vec3& t2) {
 
 SolverStats solve_contacts(const Model& model, const State& state, double dt, const SolverSettings& settings,
                            std::vector<Contact>& contacts, std::vector<Vec3>& v, std::vector<Vec3>& omega,
-                           SolverData& data) {
+                           SolverData& data, const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b) {
   const std::size_t N = model.size(), K = contacts.size();
   SolverStats stats;
   stats.contacts = static_cast<int>(K);
@@ -354,7 +357,7 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   data.omega_p.assign(N, Vec3::Zero());
 
   // a. prepare rows; b. warm start; c. iterate
-  prepare(model, state, dt, contacts, v, omega, data);
+  prepare(model, state, dt, contacts, anchor_a, anchor_b, v, omega, data);
   if (settings.warm_start) warm_start(dt, settings, contacts, data, v, omega);
   stats.iterations = iterate(dt, settings, data, v, omega, stats.converged);
   data.alpha_iter.resize(K);

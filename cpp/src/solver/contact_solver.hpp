@@ -64,8 +64,11 @@ void tangent_basis(const Vec3& n, Vec3& t1, Vec3& t2);
 ///      data.body_force, data.body_torque; data.cache_next (the caller swaps it into
 ///      data.cache once the step is kept);
 ///      returns the stats and the Signorini certificate.
+///      anchor_a, anchor_b (K, world), optional: where the force acts on A and on B (a substep's
+///      contacts carried with each body); null: contacts[i].point for both.
 SolverStats solve_contacts(const Model& model, const State& state, double dt, const SolverSettings& settings,
                            std::vector<Contact>& contacts, std::vector<Vec3>& v, std::vector<Vec3>& omega,
-                           SolverData& data);
+                           SolverData& data, const std::vector<Vec3>* anchor_a = nullptr,
+                           const std::vector<Vec3>* anchor_b = nullptr);
 
 }  // namespace signorini::solver

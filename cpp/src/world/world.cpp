@@ -192,59 +192,70 @@ void World::step(double dt, int steps) {
     throw std::invalid_argument("step: dt must be positive and finite, got " + std::to_string(dt));
   if (steps < 0) throw std::invalid_argument("step: steps must be >= 0, got " + std::to_string(steps));
   report_ = StepReport();
-  const int n = settings_.solver.substep_count(dt);
-  const double h = dt / n;
-  for (int s = 0; s < steps; ++s)
-    for (int k = 0; k < n; ++k) step_once(h);
+  for (int s = 0; s < steps; ++s) step_once(dt);
 }
 
 int SolverSettings::substep_count(double dt) const {
   if (substeps >= 1) return substeps;
-  // 1e-9: dt = k / 240 gives k substeps despite its rounding; capped so that a huge dt stays an int
+  // 1e-9: dt = k / 960 gives k substeps despite its rounding; capped so that a huge dt stays an int
   return static_cast<int>(std::clamp(std::ceil(dt / auto_substep - 1e-9), 1.0, 1e6));
 }
 
 void World::step_once(double dt) {
   before_ = state_;
-  // 1. contacts from the current state
-  detect_contacts(dt, contacts_next_);
-  // 2. unconstrained velocity q_dot*
-  dynamics::unconstrained_velocity(model_, state_, settings_.gravity, dt, settings_.solver.gyroscopic, v_, omega_);
-  // 3. contact solve: q_dot* -> q_dot^{t+1}, and the velocities that move the poses
-  const SolverStats stats =
-      solver::solve_contacts(model_, state_, dt, settings_.solver, contacts_next_, v_, omega_, *solver_);
-  v_move_.resize(v_.size());
-  omega_move_.resize(omega_.size());
-  for (std::size_t i = 0; i < v_.size(); ++i) {
-    v_move_[i] = solver_->v_pos[i] + solver_->v_p[i];
-    omega_move_[i] = solver_->omega_pos[i] + solver_->omega_p[i];
-  }
-  // 4. integrate the poses; keep the new velocities
-  dynamics::integrate(model_, state_, v_move_, omega_move_, dt);
-  state_.v.swap(v_);
-  state_.omega.swap(omega_);
-  state_.time += dt;
-  // a step that produced a non-finite number is undone and reported, never kept
-  for (std::size_t i = 0; i < model_.size(); ++i) {
-    if (state_.p[i].allFinite() && state_.v[i].allFinite() && state_.omega[i].allFinite() && state_.R[i].allFinite())
-      continue;
-    state_ = before_;
-    throw std::runtime_error(body_label(static_cast<BodyIndex>(i), model_.shape[i]) +
-                             ": state became non-finite at t = " + std::to_string(before_.time) +
-                             "; the step was undone (check forces, masses and dt)");
-  }
-  // keep the step: contacts, stats, the warm-start cache
-  contacts_.swap(contacts_next_);
-  solver_->cache.swap(solver_->cache_next);
-  stats_ = stats;
-  ++report_.steps;
-  if (!stats.converged && stats.max_penetration_velocity > settings_.solver.warn_velocity) {
-    ++report_.flagged;
-    if (stats.max_penetration_velocity > report_.worst_penetration_velocity) {
-      report_.worst_penetration_velocity = stats.max_penetration_velocity;
-      report_.worst_time = before_.time;
+  cache_before_ = solver_->cache;
+  // 1. contacts from the state at the start of the step, reaching as far as the whole step moves
+  detect_contacts(dt, contacts_base_);
+  const int n = settings_.solver.substep_count(dt);
+  const double h = dt / n;
+  SolverStats stats;
+  for (int k = 0; k < n; ++k) {
+    // a substep solves the step's contacts carried along by the motion since detection
+    if (k == 0)
+      contacts_next_ = contacts_base_;
+    else
+      collision::carry_contacts(contacts_base_, before_, state_, contacts_next_, anchor_a_, anchor_b_);
+    // 2. unconstrained velocity q_dot*
+    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, settings_.solver.gyroscopic, v_, omega_);
+    // 3. contact solve: q_dot* -> q_dot^{t+1}, and the velocities that move the poses
+    stats = solver::solve_contacts(model_, state_, h, settings_.solver, contacts_next_, v_, omega_, *solver_,
+                                   k == 0 ? nullptr : &anchor_a_, k == 0 ? nullptr : &anchor_b_);
+    v_move_.resize(v_.size());
+    omega_move_.resize(omega_.size());
+    for (std::size_t i = 0; i < v_.size(); ++i) {
+      v_move_[i] = solver_->v_pos[i] + solver_->v_p[i];
+      omega_move_[i] = solver_->omega_pos[i] + solver_->omega_p[i];
+    }
+    // 4. integrate the poses; keep the new velocities
+    dynamics::integrate(model_, state_, v_move_, omega_move_, h);
+    state_.v.swap(v_);
+    state_.omega.swap(omega_);
+    state_.time += h;
+    // a step that produced a non-finite number is undone and reported, never kept
+    for (std::size_t i = 0; i < model_.size(); ++i) {
+      if (state_.p[i].allFinite() && state_.v[i].allFinite() && state_.omega[i].allFinite() &&
+          state_.R[i].allFinite())
+        continue;
+      state_ = before_;
+      solver_->cache.swap(cache_before_);
+      throw std::runtime_error(body_label(static_cast<BodyIndex>(i), model_.shape[i]) +
+                               ": state became non-finite at t = " + std::to_string(before_.time) +
+                               "; the step was undone (check forces, masses and dt)");
+    }
+    // the next substep (and step) warm-starts from this one
+    solver_->cache.swap(solver_->cache_next);
+    ++report_.steps;
+    if (!stats.converged && stats.max_penetration_velocity > settings_.solver.warn_velocity) {
+      ++report_.flagged;
+      if (stats.max_penetration_velocity > report_.worst_penetration_velocity) {
+        report_.worst_penetration_velocity = stats.max_penetration_velocity;
+        report_.worst_time = state_.time - h;
+      }
     }
   }
+  // keep the step: the last substep's contacts and stats
+  contacts_.swap(contacts_next_);
+  stats_ = stats;
 }
 
 const std::vector<Vec3>& World::contact_forces() const { return solver_->body_force; }

@@ -16,7 +16,8 @@ Modules, in the order of a step:
               store, and the Signorini certificate; materials and the warm-start cache
     pgs       the lecture's frictionless projected Gauss-Seidel (cold start, erp bias)
     lcp       the frictionless problem as an LCP, solved exactly by enumeration (small K)
-    step      one step (contacts, unconstrained velocity, solve, integrate; substeps) and a rollout
+    step      one step (contacts, then substeps of velocity, solve, integrate on the contacts
+              carried along: carry_contacts) and a rollout
 
 A snapshot (``World.snapshot()``, or built by hand) holds gravity, settings (defaults in
 ``solver.DEFAULT_SETTINGS`` for missing keys), bodies (shape, static, mass, inv_mass, inertia,
@@ -109,7 +110,7 @@ from .solver import (
     tangent_basis,
     warm_start,
 )
-from .step import copy_snapshot, rollout, step, step_once
+from .step import carry_contacts, copy_snapshot, rollout, step, step_once
 from .support import (
     fibonacci_sphere,
     support_box,
@@ -137,7 +138,7 @@ __all__ = [
     "quat_to_matrix", "read_cache", "reduce_manifold", "restitution", "restitutive_contacts",
     "rodrigues", "rollout", "select_manifold", "shape_volume", "signed_area", "skew",
     "solve_contacts", "solver_settings", "sort_cache", "speculative_bias", "speculative_reach",
-    "step", "step_once", "store", "support_box", "support_capsule", "support_cylinder",
+    "carry_contacts", "step", "step_once", "store", "support_box", "support_capsule", "support_cylinder",
     "support_hull", "support_of", "support_separation", "support_sphere", "tangent_basis",
     "unconstrained_velocity", "velocities_from_alpha", "warm_start", "world_inertia",
 ]

@@ -36,7 +36,7 @@ DEFAULT_SETTINGS = {
     "contact_margin": 0.005,        # m
     "erp": 0.2,                     # fraction of an overlap removed per step
     "tolerance": 1e-6,              # m/s
-    "max_iterations": 20,           # sweeps per stage
+    "max_iterations": 30,           # sweeps per stage
     "slop": 0.001,                  # m, overlap the position pass leaves alone
     "max_push_velocity": 1.0,       # m/s
     "restitution_threshold": 0.5,   # m/s
@@ -46,7 +46,7 @@ DEFAULT_SETTINGS = {
     "substeps": 0,                  # 0: automatic, the fewest substeps of at most AUTO_SUBSTEP
     "warn_velocity": 0.01,          # m/s
 }
-AUTO_SUBSTEP = 1.0 / 240.0         # s, the longest automatic substep
+AUTO_SUBSTEP = 1.0 / 960.0         # s, the longest automatic substep
 FRICTION_CONES = ("pyramid", "cone")
 DEFAULT_FRICTION = 0.5
 DEFAULT_RESTITUTION = 0.0
@@ -82,7 +82,7 @@ def solver_settings(snapshot):
 
 def substep_count(settings, dt):
     """Substeps of a step of dt s: settings["substeps"] when >= 1, else the fewest that keep each
-    at most AUTO_SUBSTEP (1e-9 absorbs the rounding of dt = k / 240)."""
+    at most AUTO_SUBSTEP (1e-9 absorbs the rounding of dt = k / 960)."""
     if settings["substeps"] >= 1:
         return settings["substeps"]
     return int(min(max(np.ceil(dt / AUTO_SUBSTEP - 1e-9), 1), 10**6))
@@ -144,11 +144,21 @@ def tangent_basis(normal):
 
 # --------------------------------------------------------------------------- a. prepare
 
+def contact_anchors(contacts):
+    """Where each contact's force acts on A and on B (K, 3) each: anchor_a and anchor_b when the
+    contacts carry them (a substep), else the contact point for both."""
+    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    y_A = np.asarray(contacts["anchor_a"], dtype=float).reshape(-1, 3) if "anchor_a" in contacts else y
+    y_B = np.asarray(contacts["anchor_b"], dtype=float).reshape(-1, 3) if "anchor_b" in contacts else y
+    return y_A, y_B
+
+
 def prepare_rows(snapshot, contacts, q_dot_star, dt):
     """Stage a: the rows of every contact and the contact constants.
 
     Inputs: snapshot (positions and rotations at the start of the step, bodies), contacts dict
-            (K), q_dot_star (N, 6) unconstrained (omega, p_dot), dt s.
+            (K; optional anchor_a, anchor_b (K, 3): where the force acts on A and on B, else the
+            point for both), q_dot_star (N, 6) unconstrained (omega, p_dot), dt s.
     Output dict (row k = 3 i + j, j = 0 normal, 1 t1, 2 t2):
         a, b         (3K,) int64 body indices of each row
         direction    (3K, 3) d of each row: n_i, t1_i, t2_i
@@ -162,7 +172,7 @@ def prepare_rows(snapshot, contacts, q_dot_star, dt):
     p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
     A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
     B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
-    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    y_A, y_B = contact_anchors(contacts)
     n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
     K = len(A)
 
@@ -170,7 +180,7 @@ def prepare_rows(snapshot, contacts, q_dot_star, dt):
     t1, t2 = tangent_basis(n)
     d = np.stack([n, t1, t2], axis=1).reshape(-1, 3)
     a, b = np.repeat(A, 3), np.repeat(B, 3)
-    r_A, r_B = np.repeat(y - p[A], 3, axis=0), np.repeat(y - p[B], 3, axis=0)
+    r_A, r_B = np.repeat(y_A - p[A], 3, axis=0), np.repeat(y_B - p[B], 3, axis=0)
 
     # Jacobian rows, M^-1 J and delta
     J_A = -np.hstack([np.cross(r_A, d), d])
@@ -478,7 +488,7 @@ def store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt):
     p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
     A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
     B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
-    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    y_A, y_B = contact_anchors(contacts)
     K, N = len(A), len(p)
     d = rows["direction"].reshape(K, 3, 3)
     n, t1, t2 = d[:, 0], d[:, 1], d[:, 2]
@@ -492,13 +502,13 @@ def store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt):
     body_force, body_torque = np.zeros((N, 3)), np.zeros((N, 3))
     for i in range(K):
         body_force[B[i]] += force[i]
-        body_torque[B[i]] += np.cross(y[i] - p[B[i]], force[i])
+        body_torque[B[i]] += np.cross(y_B[i] - p[B[i]], force[i])
         body_force[A[i]] -= force[i]
-        body_torque[A[i]] -= np.cross(y[i] - p[A[i]], force[i])
+        body_torque[A[i]] -= np.cross(y_A[i] - p[A[i]], force[i])
 
     # velocities at the contacts after the solve: normal and slip
     q = np.asarray(q_dot, dtype=float).reshape(-1, 6)
-    v_rel = ((np.cross(q[B, :3], y - p[B]) + q[B, 3:]) - (np.cross(q[A, :3], y - p[A]) + q[A, 3:])
+    v_rel = ((np.cross(q[B, :3], y_B - p[B]) + q[B, 3:]) - (np.cross(q[A, :3], y_A - p[A]) + q[A, 3:])
              if K else np.zeros((0, 3)))
     normal_velocity = (np.einsum("ki,ki->k", rows["J_B"][0::3], q[B])
                        + np.einsum("ki,ki->k", rows["J_A"][0::3], q[A])) if K else np.zeros(0)

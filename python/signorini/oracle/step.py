@@ -63,13 +63,50 @@ def step_once(snapshot, dt, contacts=None):
     return new, info
 
 
+def carry_contacts(contacts, detected, now):
+    """The contacts detected at snapshot ``detected`` carried to snapshot ``now`` by the motion of
+    their bodies (a substep), to first order, as the velocity constraint linearises it: with each
+    body's displacement dp = p - p_0 and turn dtheta = vee of the skew part of R R_0^T, and the
+    witness points w_A = y - gap/2 n, w_B = y + gap/2 n,
+    gap <- gap + n . ((dp_B + dtheta_B x (w_B - p_B0)) - (dp_A + dtheta_A x (w_A - p_A0))).
+    The normal stays; the lever arms stay as detected: anchor_X = y + dp_X, where the solver applies
+    the force on X; y <- (anchor_a + anchor_b) / 2.
+
+    Inputs: contacts dict (K contacts), two snapshots (position (N, 3), rotation (N, 3, 3)).
+    Output: a new contacts dict, the same but for point (K, 3), gap (K,), and with anchor_a,
+            anchor_b (K, 3).
+    """
+    a = np.asarray(contacts["body_a"], dtype=np.int64)
+    b = np.asarray(contacts["body_b"], dtype=np.int64)
+    n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
+    gap = np.asarray(contacts["gap"], dtype=float)
+    point = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    half = 0.5 * gap[:, None] * n
+    p0, p = np.asarray(detected["position"], float), np.asarray(now["position"], float)
+    turn = np.einsum("kij,klj->kil", np.asarray(now["rotation"], float), np.asarray(detected["rotation"], float))
+    dtheta = 0.5 * np.stack([turn[:, 2, 1] - turn[:, 1, 2], turn[:, 0, 2] - turn[:, 2, 0],
+                             turn[:, 1, 0] - turn[:, 0, 1]], axis=1)
+    dp = p - p0
+
+    def moved(i, x):  # the first-order motion of the point x of body i since detection
+        return dp[i] + np.cross(dtheta[i], x - p0[i])
+
+    out = dict(contacts)
+    out["gap"] = gap + np.einsum("ki,ki->k", n, moved(b, point + half) - moved(a, point - half))
+    out["anchor_a"], out["anchor_b"] = point + dp[a], point + dp[b]
+    out["point"] = 0.5 * (out["anchor_a"] + out["anchor_b"])
+    return out
+
+
 def step(snapshot, dt, contacts=None):
-    """Advance the snapshot by one step of dt seconds (``substeps`` = n steps of dt / n, contacts
-    re-detected each time; the info is the last substep's).
+    """Advance the snapshot by one step of dt seconds: contacts detected once (reaching as far as
+    the whole step moves), then n substeps of dt / n (``substeps``, or automatic), each solving the
+    step's contacts carried along by the motion since detection (``carry_contacts``); the info is
+    the last substep's.
 
     Inputs: snapshot dict (settings, bodies with friction and restitution, optional cache; missing
-            keys take the documented defaults), dt s, contacts dict (detected from the current state
-            when None; only with substeps = 1, else ValueError).
+            keys take the documented defaults), dt s, contacts dict (the step's; detected from the
+            current state when None).
     Outputs: (new_snapshot, info)
         new_snapshot: a copy with position (N, 3), rotation (N, 3, 3), velocity (N, 3),
                       angular_velocity (N, 3) and cache (the warm start of the next step) updated;
@@ -86,11 +123,11 @@ def step(snapshot, dt, contacts=None):
     """
     settings = solver_settings(snapshot)
     n = substep_count(settings, dt)
-    if contacts is not None and n != 1:
-        raise ValueError(f"step: contacts can be given only with substeps = 1, got substeps = {n}")
+    if contacts is None:
+        contacts = detect_contacts(snapshot, dt)
     state, info, flagged = snapshot, None, 0
-    for _ in range(n):
-        state, info = step_once(state, dt / n, contacts)
+    for k in range(n):
+        state, info = step_once(state, dt / n, contacts if k == 0 else carry_contacts(contacts, snapshot, state))
         # the substeps the Python layer warns about: unconverged and approaching too fast
         flagged += (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
     info["flagged"] = int(flagged)
