@@ -66,26 +66,24 @@ def _size(text: str) -> tuple[int, int]:
     return width, height
 
 
-def _fps(text: str) -> float:
-    """argparse type: frames per second of simulated time, a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"fps must be a number > 0, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"fps must be a finite number > 0, got {text}")
-    return value
+def _positive_number(what: str, unit: str = ""):
+    """argparse type: a finite number > 0, the error naming it (``what``) and its unit."""
+    suffix = f" ({unit})" if unit else ""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} must be a number > 0{suffix}, got {text!r}") from None
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"{what} must be a finite number > 0{suffix}, got {text}")
+        return value
+
+    return parse
 
 
-def _positive_float(text: str) -> float:
-    """argparse type: a finite number > 0 (time step, s)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"dt must be a number > 0 (seconds), got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"dt must be a finite number > 0 (seconds), got {text}")
-    return value
+_positive_float = _positive_number("dt", "seconds")  # time step, s
+_fps = _positive_number("fps")                        # frames per second of simulated time
 
 
 def _add_outputs(p: argparse.ArgumentParser, html_default: bool) -> None:
