@@ -3,8 +3,8 @@
     2. unconstrained velocities, gyroscopic option        (unconstrained_velocity)
     3. the staged contact solve a-f                       (solver.solve_contacts)
     4. integrate the poses with q_dot_pos + q_p; keep the velocities after restitution (integrate)
-with n substeps (``substeps``, or automatic: the fewest of at most 1/240 s) running all of it n
-times with dt / n.
+with 1 once per step and 2-4 in n substeps of dt / n (``substeps``, or automatic: the fewest of
+at most 1/960 s), each on the step's contacts carried along by the motion (carry_contacts).
 """
 
 import copy
