@@ -179,7 +179,8 @@ class World:
     contact_margin : m. Pairs closer than this (plus each body's speculative reach for the step)
         get contacts; those with a positive gap only stop an approach that would close it.
     erp : in [0, 1], the fraction of an overlap the position pass removes per step.
-    tolerance : a solver stage stops when no row's velocity changes by more than this (m/s).
+    tolerance : a solver stage stops when no row's velocity changes by more than this (m/s);
+        0 runs every sweep up to ``max_iterations``.
     max_iterations : at most this many sweeps per solver stage and substep.
     slop : overlap (m) the position pass leaves alone, so resting contacts are never stirred.
     max_push_velocity : cap on the speed (m/s) at which overlapping bodies are pushed apart.

@@ -272,3 +272,60 @@ TEST(NarrowPhase, UnsupportedPairsAreNamedAndThrow) {
   std::vector<Contact> out;
   EXPECT_THROW(collision::collide(L, {}, Sphere(1.0), {}, 0.0, {}, out), std::invalid_argument);
 }
+
+// The box-box edge query tests 18 candidate edge pairs instead of all 144: it must give the same
+// manifold, bit for bit, as the general polytope test, on random poses (separated, touching,
+// overlapping) and on the degenerate ones of a stack (aligned, turned by right angles, tilted by a
+// hair, edges crossing exactly).
+TEST(Manifold, BoxPairsMatchTheGeneralPolytopeTestBitForBit) {
+  std::mt19937_64 rng(20261123);
+  std::uniform_real_distribution<double> size(0.05, 2.0), unit(0.0, 1.0);
+  collision::Scratch scratch;
+  const auto same = [](const std::vector<Contact>& x, const std::vector<Contact>& y) {
+    if (x.size() != y.size()) return false;
+    for (std::size_t k = 0; k < x.size(); ++k)
+      if (x[k].point != y[k].point || x[k].normal != y[k].normal || x[k].gap != y[k].gap ||
+          x[k].feature_a != y[k].feature_a || x[k].feature_b != y[k].feature_b)
+        return false;
+    return true;
+  };
+  int pairs = 0, touching = 0, edges = 0;
+  for (int n = 0; n < 20000; ++n) {
+    const Box a(Vec3(size(rng), size(rng), size(rng))), b(Vec3(size(rng), size(rng), size(rng)));
+    Pose pa{scenes::random_vector(rng, 1.0), scenes::random_rotation(rng)};
+    Pose pb;
+    switch (n % 4) {
+      case 0:  // anywhere near A
+        pb = {pa.p + scenes::random_vector(rng, 2.0), scenes::random_rotation(rng)};
+        break;
+      case 1:  // stacked on A's top face, tilted by at most a hair
+        pb = {pa.p + pa.R * Vec3(0.3 * (unit(rng) - 0.5), 0.3 * (unit(rng) - 0.5),
+                                 a.half_extents.z() + b.half_extents.z() + 1e-3 * (unit(rng) - 0.5)),
+              pa.R * scenes::small_rotation(rng, 1e-6 * (n % 3))};
+        break;
+      case 2: {  // turned by right angles about A's axes
+        const Mat3 turn = rot_z(0.5 * kPi * (n % 3)) * Eigen::AngleAxisd(0.5 * kPi * (n % 2), Vec3::UnitX()).toRotationMatrix();
+        pb = {pa.p + pa.R * scenes::random_vector(rng, 1.5), pa.R * turn};
+        break;
+      }
+      default:  // crossed edges: B's edge above A's top edge, turned about the edge normal
+        pb = {pa.p + pa.R * Vec3(0.0, a.half_extents.y() + 0.2 * (unit(rng) - 0.5),
+                                 a.half_extents.z() + 0.5 * (unit(rng) - 0.2)),
+              pa.R * rot_z(2.0 * kPi * unit(rng)) * Eigen::AngleAxisd(0.25 * kPi, Vec3::UnitX()).toRotationMatrix()};
+    }
+    for (const double threshold : {1e-6, 0.05}) {
+      std::vector<Contact> fast, general;
+      collision::polytope_polytope(*a.polytope, pa, 0, *b.polytope, pb, 0, threshold, *scratch.polytope, fast, true);
+      collision::polytope_polytope(*a.polytope, pa, 0, *b.polytope, pb, 0, threshold, *scratch.polytope, general, false);
+      ASSERT_TRUE(same(fast, general)) << "pair " << n << ", threshold " << threshold << ": " << fast.size()
+                                       << " contacts from the box test, " << general.size() << " from the general one";
+      ++pairs;
+      touching += !general.empty();
+      edges += general.size() == 1;
+    }
+  }
+  // the sample must exercise every outcome: no contact, face manifolds and edge-edge points
+  EXPECT_GT(touching, pairs / 4);
+  EXPECT_GT(edges, 100);
+  EXPECT_LT(touching, pairs);
+}

@@ -160,9 +160,11 @@ void item_sphere(const Item& a, const Vec3& c, double r, std::vector<Contact>& o
 void plane_item(const Vec3& n, double offset, const Item& b, std::vector<Contact>& out);
 
 /// Two convex polytopes (boxes, hulls, mesh pieces) by separating axes and face clipping.
+/// boxes: both are box polytopes (geometry::box_polytope's numbering), whose edge axes are then
+/// found among 18 candidate pairs rather than all 144, with the same result.
 void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
                        const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,
-                       std::vector<Contact>& out);
+                       std::vector<Contact>& out, bool boxes = false);
 
 /// One triangle of a static mesh (as a two-faced polytope, A) against a polytope B: one-sided
 /// separating axes (its front face, B's faces, edge axes from its active edges only), clipping

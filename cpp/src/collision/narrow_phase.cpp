@@ -42,7 +42,8 @@ void item_pair(const Item& a, const Item& b, double threshold, Scratch& scratch,
     item_pair(b, a, threshold, scratch, out);
     flip(out, first);
   } else if (a.polytope && b.polytope) {
-    polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, *scratch.polytope, out);
+    polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, *scratch.polytope, out,
+                      a.box && b.box);
   } else if (capsule_a && capsule_b) {
     capsule_capsule(*capsule_a, a.pose, a.part, *capsule_b, b.pose, b.part, threshold, out);
   } else if (a.polytope && capsule_b) {
