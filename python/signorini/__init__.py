@@ -15,9 +15,13 @@ from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sp
 from .world import BodyIndexError, Contacts, SolverStats, SolverWarning, World, mass_properties, shape_dict
 from .collision import Feature, collide, feature
 from .trajectory import Record, Recorder, load_trajectory, save_trajectory
+from . import meshfile
+from .meshfile import load_mesh
+from .scenefile import SceneFileError, load_scene, read_scene, save_scene
 
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
            "Compound", "mass_properties", "Contacts", "SolverStats",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
-           "Record", "Recorder", "load_trajectory", "save_trajectory"]
+           "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "load_scene", "read_scene",
+           "save_scene", "SceneFileError"]
 __version__ = "0.1.0"

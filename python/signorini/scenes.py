@@ -1,7 +1,13 @@
 """Built-in scenes, written once and used by the command line, the tests and the benchmarks.
 
-``SCENES`` maps a scene name to a builder that takes no arguments and returns a fresh ``Scene``
-(a new ``World`` each time, so scenes can be run side by side). ``build(name)`` looks one up.
+Each built-in scene is a scene file shipped in the package (``signorini/data/scenes/<name>.toml``,
+meshes in ``<name>.meshes/``; format in ``signorini.scenefile``). ``SCENES`` maps a name to its
+file and ``build(name)`` reads it into a fresh ``Scene`` (a new ``World`` each time, so scenes can
+be run side by side). A scene file is the whole scene as data: every body with its pose, the
+random clouds and piles as drawn, and the convex pieces of decomposed meshes, so a scene is the
+same on every machine and with every numpy or CoACD version, loads without decomposing anything,
+and a user can read or copy it. The generators below wrote the files once
+(``python -m signorini.scenes`` writes them again); a test checks the shipped files against them.
 
 Scenes:
 - ``torus`` (the default): the CSC417 rigid-body assignment setting. A torus mesh tumbles onto a
@@ -27,13 +33,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
 from . import meshes
 
-__all__ = ["Scene", "SCENES", "build", "DEFAULT_SCENE", "axis_angle_quaternion", "pyramid", "rain", "hull_pile"]
+__all__ = ["Scene", "SCENES", "GENERATORS", "SCENE_DIR", "build", "write_scene_files", "DEFAULT_SCENE",
+           "axis_angle_quaternion", "pyramid", "rain", "hull_pile"]
 
 DEFAULT_SCENE = "torus"
 
@@ -383,8 +391,8 @@ def hull_pile(hulls: int = 200, points: int = 16, seed: int = 417, friction: flo
     )
 
 
-# name -> builder; each call builds a fresh world
-SCENES: dict[str, Callable[[], Scene]] = {
+#: name -> the generator of its shipped scene file (``python -m signorini.scenes`` writes them again)
+GENERATORS: dict[str, Callable[[], Scene]] = {
     "torus": _torus,
     "boxes": _boxes,
     "shapes": _shapes,
@@ -394,12 +402,39 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "hull_pile": hull_pile,
 }
 
+#: the folder of the shipped scene files (package data)
+SCENE_DIR = Path(__file__).resolve().parent / "data" / "scenes"
+
+#: name -> shipped scene file; ``build(name)`` reads it
+SCENES: dict[str, Path] = {name: SCENE_DIR / f"{name}.toml" for name in GENERATORS}
+
 
 def build(name: str = DEFAULT_SCENE) -> Scene:
-    """A fresh ``Scene`` by registry name; ValueError naming the scene and the known ones."""
+    """A fresh ``Scene`` (a new World each call) read from the shipped scene file of a built-in
+    scene; ValueError naming the scene and the known ones."""
+    from .scenefile import read_scene
+
     try:
-        builder = SCENES[name]
+        path = SCENES[name]
     except KeyError:
         known = ", ".join(sorted(SCENES))
         raise ValueError(f"unknown scene {name!r} (known scenes: {known})") from None
-    return builder()
+    return read_scene(path)
+
+
+def write_scene_files(folder: Path = SCENE_DIR, names=None) -> list[Path]:
+    """Runs the generators and writes their scene files (and mesh files) into ``folder``; returns
+    the paths. The shipped files are written by this once and checked against it by the tests."""
+    from .scenefile import save_scene
+
+    return [save_scene(GENERATORS[name](), Path(folder) / f"{name}.toml") for name in (names or GENERATORS)]
+
+
+if __name__ == "__main__":
+    # python -m signorini.scenes: the shipped scene files and the scene file JSON Schema, again
+    from .scenefile import SCHEMA_PATH, schema_text
+
+    for written in write_scene_files():
+        print(f"written      {written}")
+    SCHEMA_PATH.write_text(schema_text())
+    print(f"written      {SCHEMA_PATH}")
