@@ -79,7 +79,7 @@ else:  # pragma: no cover - Python < 3.11
     import tomli as tomllib
 
 __all__ = ["SceneFile", "SceneFileError", "load_scene", "read_scene", "save_scene", "scene_schema",
-           "read_scene_info", "FORMAT"]
+           "FORMAT", "SCHEMA_PATH", "schema_text"]
 
 #: the format version this module writes (``format = 1`` at the top of a file)
 FORMAT = 1
@@ -303,15 +303,6 @@ def _body_name(raw: dict, loc) -> str:
         if isinstance(name, str):
             return f" (body {name!r})"
     return ""
-
-
-def read_scene_info(path) -> dict:
-    """The [scene] table of a file and its body count, without building anything (for listings):
-    {"name", "description", "dt", "steps", "bodies"}; SceneFileError for a bad file."""
-    path = Path(path)
-    model, _ = _parse(path)
-    return {"name": model.scene.name or path.stem, "description": model.scene.description,
-            "dt": model.scene.dt, "steps": model.scene.steps, "bodies": len(model.bodies)}
 
 
 def _mesh_arrays(spec: _MeshData, base: Path, where: str):

@@ -40,7 +40,7 @@ import numpy as np
 
 from . import meshes
 
-__all__ = ["Scene", "SCENES", "GENERATORS", "SCENE_DIR", "build", "write_scene_files", "DEFAULT_SCENE",
+__all__ = ["Scene", "SCENES", "GENERATORS", "SCENE_DIR", "build", "scene_info", "write_scene_files", "DEFAULT_SCENE",
            "axis_angle_quaternion", "pyramid", "rain", "hull_pile"]
 
 DEFAULT_SCENE = "torus"
@@ -420,6 +420,25 @@ def build(name: str = DEFAULT_SCENE) -> Scene:
         known = ", ".join(sorted(SCENES))
         raise ValueError(f"unknown scene {name!r} (known scenes: {known})") from None
     return read_scene(path)
+
+
+def scene_info(name: str) -> dict:
+    """A built-in scene's [scene] table and body count, read from its file without building it
+    (for ``python -m signorini list``): {"name", "description", "dt", "steps", "bodies"}."""
+    import sys
+
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover
+        import tomli as tomllib
+    if name not in SCENES:
+        raise ValueError(f"unknown scene {name!r} (known scenes: {', '.join(sorted(SCENES))})")
+    with open(SCENES[name], "rb") as f:
+        raw = tomllib.load(f)
+    info = raw.get("scene", {})
+    return {"name": info.get("name", name), "description": info.get("description", ""),
+            "dt": float(info.get("dt", 1.0 / 240.0)), "steps": int(info.get("steps", 240)),
+            "bodies": len(raw.get("bodies", []))}
 
 
 def write_scene_files(folder: Path = SCENE_DIR, names=None) -> list[Path]:
