@@ -21,11 +21,12 @@ from . import meshfile
 from .meshfile import load_mesh
 
 if TYPE_CHECKING:
+    from .mjcf import MJCFError, load_mjcf, read_mjcf
     from .scenefile import SceneFileError, load_scene, read_scene, save_scene
 
 # imported when first used: pydantic takes a tenth of a second to import
 _LAZY = {"load_scene": "scenefile", "read_scene": "scenefile", "save_scene": "scenefile",
-         "SceneFileError": "scenefile"}
+         "SceneFileError": "scenefile", "load_mjcf": "mjcf", "read_mjcf": "mjcf", "MJCFError": "mjcf"}
 
 
 def __getattr__(name: str):
@@ -40,5 +41,5 @@ __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "Co
            "Compound", "mass_properties", "Contacts", "SolverStats",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "load_scene", "read_scene",
-           "save_scene", "SceneFileError"]
+           "save_scene", "SceneFileError", "load_mjcf", "read_mjcf", "MJCFError"]
 __version__ = "0.1.0"

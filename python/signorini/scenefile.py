@@ -51,7 +51,8 @@ Exactness: a body is written with the values it was added with (shape, density o
 velocities) as long as its state is still the one it was added with, so loading a saved scene and
 stepping it is bit-identical to stepping the original. A body that has moved since is written with
 its current position and velocities (exact) and the quaternion of its rotation matrix (to the last
-bit or two). The warm-start cache and the time are state, not scene: ``World.save_state`` keeps those.
+bit or two); so is a compound part with a turned pose (a Compound keeps its parts' rotation
+matrices, not the quaternions they were given). The warm-start cache and the time are state, not scene: ``World.save_state`` keeps those.
 
 Errors: a missing or malformed file, an unknown key (every table forbids extra keys), a wrong type,
 an unknown material or a value the core rejects each raise ``SceneFileError`` (a ValueError) naming
