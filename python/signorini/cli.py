@@ -25,8 +25,12 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Optional, Union
 
 from . import scenes
+
+if TYPE_CHECKING:
+    from .trajectory import Record
 
 __all__ = ["main", "make_parser"]
 
@@ -39,7 +43,7 @@ def _scene_name(text: str) -> str:
     return text
 
 
-def _read_scene(source: str):
+def _read_scene(source: str) -> "scenes.Scene":
     """The Scene of a built-in name or a scene file, or exit 2 naming the file and the problem."""
     if source in scenes.SCENES:
         return scenes.build(source)
@@ -79,7 +83,7 @@ def _size(text: str) -> tuple[int, int]:
     return width, height
 
 
-def _positive_number(what: str, unit: str = ""):
+def _positive_number(what: str, unit: str = "") -> Callable[[str], float]:
     """argparse type: a finite number > 0, the error naming it (``what``) and its unit."""
     suffix = f" ({unit})" if unit else ""
 
@@ -170,14 +174,15 @@ def make_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _default(value, out: Path, stem: str, ext: str):
+def _default(value: Optional[str], out: Path, stem: str, ext: str) -> Optional[Path]:
     """The path of an optional output: None when not asked, <out>/<stem>.<ext> when asked without a path."""
     if value is None:
         return None
     return Path(value) if value else out / f"{stem}.{ext}"
 
 
-def _write_outputs(args, record, out: Path, html_default: bool, scene=None) -> list:
+def _write_outputs(args: argparse.Namespace, record: "Record", out: Path, html_default: bool,
+                   scene: Optional["scenes.Scene"] = None) -> list[Path]:
     """Write the files the options ask for; returns their paths in the order written."""
     from . import output
 
@@ -219,7 +224,7 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _load(path) -> "object":
+def _load(path: Union[str, Path]) -> "Record":
     """A trajectory file, or exit 2 with a message naming the file."""
     from .trajectory import load_trajectory
 
@@ -245,6 +250,7 @@ def _view(args: argparse.Namespace) -> int:
     """Serve the viewer of a scene name or a trajectory file until Ctrl-C."""
     from .viewer import Viewer
 
+    source: object
     if args.source in scenes.SCENES or args.source.lower().endswith(".toml"):
         source = _read_scene(args.source)
     elif Path(args.source).suffix == ".npz" or Path(args.source).exists():

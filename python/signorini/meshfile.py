@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import zipfile
 from pathlib import Path
-from typing import Union
+from typing import Any, Union
 
 import numpy as np
 
@@ -114,7 +114,7 @@ def write_npz_mesh(path: PathLike, vertices, faces, pieces=()) -> Path:
     """Writes vertices (n, 3) float64, faces (k, 3) int64 and convex pieces [(n_i, 3)] to an .npz
     mesh file that ``load_mesh`` reads back exactly; returns the path."""
     path = Path(path)
-    arrays = {"vertices": np.asarray(vertices, dtype=np.float64), "faces": np.asarray(faces, dtype=np.int64),
+    arrays: dict[str, Any] = {"vertices": np.asarray(vertices, dtype=np.float64), "faces": np.asarray(faces, dtype=np.int64),
               "piece_count": np.int64(len(pieces))}
     arrays.update({f"piece_{k}": np.asarray(p, dtype=np.float64) for k, p in enumerate(pieces)})
     with open(path, "wb") as f:

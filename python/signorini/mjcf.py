@@ -45,7 +45,7 @@ import xml.etree.ElementTree as ET
 import xml.parsers.expat as expat
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
+from typing import Collection, Optional
 
 import numpy as np
 
@@ -137,17 +137,17 @@ def _matrix_quat(R) -> np.ndarray:
     t = np.trace(R)
     if t > 0:
         s = 2.0 * math.sqrt(1.0 + t)
-        q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
+        c = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
     elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
         s = 2.0 * math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
-        q = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
+        c = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
     elif R[1, 1] > R[2, 2]:
         s = 2.0 * math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
-        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
+        c = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
     else:
         s = 2.0 * math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
-        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
-    q = np.array(q)
+        c = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
+    q = np.array(c)
     return q / np.linalg.norm(q)
 
 
@@ -211,8 +211,8 @@ class _Reader:
     def skip(self, el: ET.Element, why: str = "") -> None:
         self.unsupported.append(f"{self.where(el)}{' (' + why + ')' if why else ''}")
 
-    def check_attrs(self, el: ET.Element, known: set, ignored: set = frozenset()) -> None:
-        extra = sorted(set(el.attrib) - known - ignored)
+    def check_attrs(self, el: ET.Element, known: Collection[str], ignored: Collection[str] = frozenset()) -> None:
+        extra = sorted(set(el.attrib) - set(known) - set(ignored))
         if extra:
             self.skip(el, f"attribute{'s' if len(extra) > 1 else ''} {', '.join(extra)}")
 
@@ -231,6 +231,13 @@ class _Reader:
             raise self.error(el, f"{key}={text!r} must be finite")
         return values
 
+    def given(self, el: ET.Element, attrs: dict, key: str, count=None) -> np.ndarray:
+        """``numbers`` of an attribute the caller knows is there."""
+        values = self.numbers(el, attrs, key, count)
+        if values is None:
+            raise self.error(el, f"{key} is missing")
+        return values
+
     def pose(self, el: ET.Element, attrs: dict) -> _Pose:
         """pos and the one orientation attribute given (quat, euler, axisangle, xyaxes, zaxis)."""
         p = self.numbers(el, attrs, "pos", 3)
@@ -240,23 +247,23 @@ class _Reader:
         q = np.array([1.0, 0.0, 0.0, 0.0])
         try:
             if given == ["quat"]:
-                q = self.numbers(el, attrs, "quat", 4)
+                q = self.given(el, attrs, "quat", 4)
                 if not np.any(q):
                     raise ValueError("quat is zero")
                 q = q / np.linalg.norm(q)
             elif given == ["axisangle"]:
-                a = self.numbers(el, attrs, "axisangle", 4)
+                a = self.given(el, attrs, "axisangle", 4)
                 q = _axis_angle(a[:3], a[3] * self.angle_scale)
             elif given == ["euler"]:
-                e = self.numbers(el, attrs, "euler", 3) * self.angle_scale
+                e = self.given(el, attrs, "euler", 3) * self.angle_scale
                 for axis, angle in zip(self.eulerseq, e):
                     qi = _axis_angle(np.eye(3)["xyz".index(axis.lower())], angle)
                     # lower case: axes that turn with the frame (post-multiply); upper case: fixed axes
                     q = _qmul(q, qi) if axis.islower() else _qmul(qi, q)
             elif given == ["zaxis"]:
-                q = _z_to(self.numbers(el, attrs, "zaxis", 3))
+                q = _z_to(self.given(el, attrs, "zaxis", 3))
             elif given == ["xyaxes"]:
-                xy = self.numbers(el, attrs, "xyaxes", 6)
+                xy = self.given(el, attrs, "xyaxes", 6)
                 x = xy[:3] / np.linalg.norm(xy[:3])
                 y = xy[3:] - (xy[3:] @ x) * x
                 y = y / np.linalg.norm(y)
@@ -307,7 +314,7 @@ class _Reader:
             if g is not None:
                 settings["gravity"] = g
             if "timestep" in el.attrib:
-                dt = float(self.numbers(el, el.attrib, "timestep", 1)[0])
+                dt = float(self.given(el, el.attrib, "timestep", 1)[0])
             cone = el.get("cone")
             if cone is not None:
                 if cone not in ("pyramidal", "elliptic"):
@@ -428,7 +435,7 @@ class _Reader:
                 raise self.error(mesh_el, str(e)) from None
             vertices = vertices * scale
         elif "vertex" in mattrs:
-            vertices = self.numbers(mesh_el, mattrs, "vertex").reshape(-1, 3) * scale
+            vertices = self.given(mesh_el, mattrs, "vertex").reshape(-1, 3) * scale
             faces = None
         else:
             raise self.error(mesh_el, "a mesh needs a file or vertex")
@@ -615,6 +622,7 @@ def _check_inertial(reader: _Reader, el: ET.Element, volume: float, com, inertia
         R = _qrot(pose.q)
         I_given = R @ np.diag(diag) @ R.T
     else:
+        assert full is not None
         xx, yy, zz, xy, xz, yz = full
         I_given = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
     I_geoms = (m / volume) * np.asarray(inertia)

@@ -69,7 +69,7 @@ from pathlib import Path
 from typing import Annotated, Any, Dict, List, Literal, Optional, Tuple, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
 from . import meshfile
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
@@ -83,11 +83,17 @@ __all__ = ["SceneFile", "SceneFileError", "load_scene", "read_scene", "save_scen
            "FORMAT", "SCHEMA_PATH", "schema_text"]
 
 #: the format version this module writes (``format = 1`` at the top of a file)
-FORMAT = 1
+FORMAT: Literal[1] = 1
 
-Vec3 = Tuple[float, float, float]
-Quat = Tuple[float, float, float, float]
-Face = Tuple[int, int, int]
+# strict scalars: a number given as a string ("0.5") or a boolean given as 1 is an error, not a
+# silent conversion (an int is still a float)
+Float = Annotated[float, Strict()]
+Int = Annotated[int, Strict()]
+Bool = Annotated[bool, Strict()]
+Str = Annotated[str, Strict()]
+Vec3 = Tuple[Float, Float, Float]
+Quat = Tuple[Float, Float, Float, Float]
+Face = Tuple[Int, Int, Int]
 
 
 class SceneFileError(ValueError):
@@ -103,7 +109,7 @@ class _Table(BaseModel):
 class SphereShape(_Table):
     """A ball of ``radius`` (m) centred on the body's origin."""
     type: Literal["sphere"]
-    radius: float
+    radius: Float
 
 
 class BoxShape(_Table):
@@ -115,22 +121,22 @@ class BoxShape(_Table):
 class CapsuleShape(_Table):
     """A segment on the z axis from -half_length to +half_length, swept by a ball of ``radius`` (m)."""
     type: Literal["capsule"]
-    radius: float
-    half_length: float
+    radius: Float
+    half_length: Float
 
 
 class CylinderShape(_Table):
     """A cylinder of ``radius`` (m) on the z axis from -half_height to +half_height (m)."""
     type: Literal["cylinder"]
-    radius: float
-    half_height: float
+    radius: Float
+    half_height: Float
 
 
 class PlaneShape(_Table):
     """The half space n . x <= offset (static only); bodies live on the side n . x > offset."""
     type: Literal["plane"]
     normal: Vec3
-    offset: float = 0.0
+    offset: Float = 0.0
 
 
 class HullShape(_Table):
@@ -140,9 +146,9 @@ class HullShape(_Table):
 
 
 class _MeshData(_Table):
-    file: Optional[str] = Field(None, description="mesh file (.obj .stl .ply .off .glb .npz), relative to "
+    file: Optional[Str] = Field(None, description="mesh file (.obj .stl .ply .off .glb .npz), relative to "
                                                    "the scene file's folder")
-    scale: float = Field(1.0, description="multiplies every coordinate of the file (e.g. 0.001 for mm)")
+    scale: Float = Field(1.0, description="multiplies every coordinate of the file (e.g. 0.001 for mm)")
     vertices: Optional[List[Vec3]] = Field(None, description="inline vertices (n, 3), m (instead of file)")
     faces: Optional[List[Face]] = Field(None, description="inline triangles (k, 3), counter-clockwise seen from "
                                                           "outside (instead of file)")
@@ -190,20 +196,20 @@ AnyShape = Annotated[Union[SphereShape, BoxShape, CapsuleShape, CylinderShape, P
 # bodies, materials, world, scene ---------------------------------------------------------------
 class Material(_Table):
     """Friction coefficient mu >= 0 and restitution e in [0, 1]; a contact uses sqrt(mu_A mu_B), max(e_A, e_B)."""
-    friction: float = 0.5
-    restitution: float = 0.0
+    friction: Float = 0.5
+    restitution: Float = 0.0
 
 
 class Body(_Table):
     """One body: a static one never moves; a dynamic one takes exactly one of density and mass."""
-    name: Optional[str] = None
+    name: Optional[Str] = None
     shape: AnyShape
-    static: bool = False
-    density: Optional[float] = Field(None, description="kg/m^3 (dynamic bodies)")
-    mass: Optional[float] = Field(None, description="kg (dynamic bodies)")
-    material: Optional[str] = Field(None, description="a name in [materials]")
-    friction: Optional[float] = Field(None, description="overrides the material's (default 0.5)")
-    restitution: Optional[float] = Field(None, description="overrides the material's (default 0)")
+    static: Bool = False
+    density: Optional[Float] = Field(None, description="kg/m^3 (dynamic bodies)")
+    mass: Optional[Float] = Field(None, description="kg (dynamic bodies)")
+    material: Optional[Str] = Field(None, description="a name in [materials]")
+    friction: Optional[Float] = Field(None, description="overrides the material's (default 0.5)")
+    restitution: Optional[Float] = Field(None, description="overrides the material's (default 0)")
     position: Vec3 = Field((0.0, 0.0, 0.0), description="centre of mass, world, m")
     orientation: Quat = Field((1.0, 0.0, 0.0, 0.0), description="quaternion (w, x, y, z), world-from-body")
     velocity: Vec3 = Field((0.0, 0.0, 0.0), description="m/s, world")
@@ -213,27 +219,27 @@ class Body(_Table):
 class WorldSettings(_Table):
     """The ``World`` constructor's keywords (see ``signorini.World``)."""
     gravity: Vec3 = (0.0, 0.0, -9.81)
-    contact_margin: float = 0.005
-    erp: float = 0.2
-    tolerance: float = 1e-6
-    max_iterations: int = 30
-    slop: float = 0.001
-    max_push_velocity: float = 1.0
-    restitution_threshold: float = 0.5
+    contact_margin: Float = 0.005
+    erp: Float = 0.2
+    tolerance: Float = 1e-6
+    max_iterations: Int = 30
+    slop: Float = 0.001
+    max_push_velocity: Float = 1.0
+    restitution_threshold: Float = 0.5
     friction_cone: Literal["pyramid", "cone"] = "pyramid"
     gyroscopic: Literal["midpoint", "implicit", "explicit"] = "midpoint"
-    warm_start: bool = True
-    substeps: int = 0
-    warn_velocity: float = 0.01
+    warm_start: Bool = True
+    substeps: Int = 0
+    warn_velocity: Float = 0.01
 
 
 class SceneInfo(_Table):
     """How to run the scene: its name, a one-line description, the time step (s) and step count."""
-    name: Optional[str] = None
-    description: str = ""
-    dt: float = 1.0 / 240.0
-    steps: int = 240
-    snapshot_times: Optional[List[float]] = None
+    name: Optional[Str] = None
+    description: Str = ""
+    dt: Float = 1.0 / 240.0
+    steps: Int = 240
+    snapshot_times: Optional[List[Float]] = None
 
 
 class SceneFile(_Table):
@@ -242,7 +248,7 @@ class SceneFile(_Table):
     format: Literal[1] = FORMAT
     scene: SceneInfo = SceneInfo()
     world: WorldSettings = WorldSettings()
-    materials: Dict[str, Material] = {}
+    materials: Dict[Str, Material] = {}
     bodies: List[Body] = []
 
 

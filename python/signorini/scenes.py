@@ -34,7 +34,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
+
+if TYPE_CHECKING:
+    from .world import World
 
 import numpy as np
 
@@ -62,7 +65,7 @@ class Scene:
     """
 
     name: str
-    world: object
+    world: "World"
     dt: float
     steps: int
     description: str
@@ -233,7 +236,7 @@ def _pile() -> Scene:
     legs = [(sg.Box((0.015, 0.015, 0.05)), ((sx * 0.07, sy * 0.07, -0.05), (1, 0, 0, 0)))
             for sx in (-1, 1) for sy in (-1, 1)]
 
-    def shape(k: int):
+    def shape(k: int) -> object:
         kind = k % 8
         if kind == 0:
             return sg.Sphere(0.08)
@@ -289,7 +292,7 @@ def _walled_bin(world, half_width: float, height: float, thickness: float, frict
             world.add_static(sg.Box(tuple(half)), position=tuple(centre), friction=friction, restitution=0.0)
 
 
-def _grid(count: int, half_width: float, spacing: float, z0: float):
+def _grid(count: int, half_width: float, spacing: float, z0: float) -> list[tuple[float, float, float]]:
     """``count`` grid points (x, y, z) filling layers of the square |x|, |y| <= half_width - spacing/2
     at ``spacing`` (m), from height z0 up: the layer, then the row, then the column varies slowest."""
     per_row = max(1, int((2.0 * half_width) // spacing))
@@ -345,6 +348,7 @@ def rain(spheres: int = 1000, boxes: int = 200, seed: int = 240, friction: float
         is_box[np.floor(np.arange(boxes) * total / boxes).astype(int)] = True
     for k, (x, y, z) in enumerate(_grid(total, half_width=2.0, spacing=0.36, z0=0.4)):
         dx, dy = rng.uniform(-0.02, 0.02, size=2)
+        shape: object
         if is_box[k]:
             shape = sg.Box((0.12, 0.08, 0.06))
             orientation = axis_angle_quaternion(rng.normal(size=3), rng.uniform(0.0, math.pi))

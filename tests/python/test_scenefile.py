@@ -168,6 +168,9 @@ BAD = [
     ("[[bodies]]\nshape = { type = 'plane', normal = [0, 0, 1] }\nmass = 1\n", r"bodies\[0\]: .*plane"),
     ("[world]\nerp = 2.0\n", r"world: .*erp"),
     ("format = 2\n", r"format: Input should be 1"),
+    ("[[bodies]]\nshape = { type = 'sphere', radius = '0.5' }\nmass = 1\n", r"bodies\[0\]\.shape\.radius: Input should be a valid number"),
+    ("[[bodies]]\nstatic = 1\nshape = { type = 'plane', normal = [0, 0, 1] }\n", r"bodies\[0\]\.static: Input should be a valid boolean"),
+    ("[world]\nmax_iterations = 30.0\n", r"world\.max_iterations: Input should be a valid integer"),
     ("[scene\nname = 'x'\n", r"not valid TOML"),
 ]
 
