@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -15,6 +17,17 @@ from . import _core
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 
 Shape = (Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, TriangleMesh, Compound)
+
+
+class _Given(NamedTuple):
+    """A body's arguments as add_body converted them (shape after any decomposition)."""
+    shape: object
+    density: Optional[float]
+    mass: Optional[float]
+    position: np.ndarray
+    orientation: np.ndarray
+    velocity: np.ndarray
+    angular_velocity: np.ndarray
 
 
 class BodyIndexError(IndexError, ValueError):
@@ -212,6 +225,9 @@ class World:
             friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
             warn_velocity=warn_velocity)
         self._core = _core.World(g, _scalar(contact_margin, "World", "contact_margin"), solver)
+        # what each body was added with, in index order (save_scene writes a body that has not
+        # moved with these values, so a saved scene steps bit for bit like the original)
+        self._given: list[_Given] = []
 
     def set_solver(self, **settings) -> None:
         """Changes solver settings by keyword (the names of the constructor's); the others stay."""
@@ -265,11 +281,14 @@ class World:
                 shape = decompose(shape)
             except ValueError as e:
                 raise ValueError(f"{who}: {e}") from None
-        return self._core.add_body(
-            shape, is_static, _scalar(density, who, "density"), _scalar(mass, who, "mass"),
-            _vector(position, 3, who, "position"), _vector(orientation, 4, who, "orientation"),
-            _vector(velocity, 3, who, "velocity"), _vector(angular_velocity, 3, who, "angular_velocity"),
-            _scalar(friction, who, "friction"), _scalar(restitution, who, "restitution"))
+        given = _Given(shape, _scalar(density, who, "density"), _scalar(mass, who, "mass"),
+                       _vector(position, 3, who, "position"), _vector(orientation, 4, who, "orientation"),
+                       _vector(velocity, 3, who, "velocity"), _vector(angular_velocity, 3, who, "angular_velocity"))
+        index = self._core.add_body(shape, is_static, given.density, given.mass, given.position, given.orientation,
+                                    given.velocity, given.angular_velocity, _scalar(friction, who, "friction"),
+                                    _scalar(restitution, who, "restitution"))
+        self._given.append(given)
+        return index
 
     def _index(self, i) -> int:
         if isinstance(i, bool) or not isinstance(i, (int, np.integer)):
@@ -459,6 +478,12 @@ class World:
             "position": c.positions, "rotation": c.rotations, "velocity": c.velocities,
             "angular_velocity": c.angular_velocities, "force": c.forces, "torque": c.torques,
         }
+
+    def save_scene(self, path) -> Path:
+        """Writes this world to a TOML scene file (``signorini.save_scene``); returns the path."""
+        from .scenefile import save_scene
+
+        return save_scene(self, path)
 
     def __repr__(self) -> str:
         return f"World({self.num_bodies} bodies, t={self.time:g} s)"
