@@ -329,3 +329,50 @@ TEST(Manifold, BoxPairsMatchTheGeneralPolytopeTestBitForBit) {
   EXPECT_GT(edges, 100);
   EXPECT_LT(touching, pairs);
 }
+
+// The dispatch table over item kinds: every slot of the four kinds has a test that finds the contact
+// of two items overlapping by 1 cm along x (normal from A to B, gap -1 cm), and an item whose kind
+// nobody set is refused by name instead of giving no contacts.
+TEST(NarrowPhase, EveryItemKindPairHasATestAndAnUnsetKindThrows) {
+  const Sphere sphere(0.5);
+  const Capsule capsule(0.5, 0.3);    // radius, half length along z
+  const Cylinder cylinder(0.5, 0.3);  // radius, half height along z
+  const Box box(Vec3(0.5, 0.5, 0.5));
+  auto item = [&](collision::ItemKind kind, const Vec3& p) {
+    collision::Item it;
+    it.kind = kind;
+    it.pose = {p, Mat3::Identity()};
+    switch (kind) {
+      case collision::ItemKind::Sphere: it.sphere = &sphere; break;
+      case collision::ItemKind::Capsule: it.capsule = &capsule; break;
+      case collision::ItemKind::Cylinder: it.cylinder = &cylinder; break;
+      default: it.box = &box, it.polytope = box.polytope.get();
+    }
+    return it;
+  };
+  using K = collision::ItemKind;
+  collision::Scratch scratch;
+  for (K ka : {K::Sphere, K::Capsule, K::Cylinder, K::Polytope})
+    for (K kb : {K::Sphere, K::Capsule, K::Cylinder, K::Polytope}) {
+      // every kind reaches 0.5 m from its centre along x
+      const collision::Item a = item(ka, Vec3::Zero()), b = item(kb, Vec3(0.99, 0.0, 0.0));
+      std::vector<Contact> out;
+      ASSERT_NO_THROW(collision::contact_items(a, b, 1e-6, scratch, out))
+          << collision::item_kind_name(ka) << " - " << collision::item_kind_name(kb);
+      ASSERT_FALSE(out.empty()) << collision::item_kind_name(ka) << " - " << collision::item_kind_name(kb);
+      for (const Contact& c : out) {
+        EXPECT_NEAR(c.gap, -0.01, 1e-9) << collision::item_kind_name(ka) << " - " << collision::item_kind_name(kb);
+        EXPECT_NEAR(c.normal.x(), 1.0, 1e-9) << collision::item_kind_name(ka) << " - " << collision::item_kind_name(kb);
+      }
+    }
+  collision::Item unset;
+  unset.sphere = &sphere;  // geometry without a kind: a bug in whoever built the item
+  std::vector<Contact> out;
+  try {
+    collision::contact_items(item(K::Polytope, Vec3::Zero()), unset, 1e-6, scratch, out);
+    FAIL() << "an unset item kind gave " << out.size() << " contacts instead of an error";
+  } catch (const std::logic_error& e) {
+    EXPECT_NE(std::string(e.what()).find("unsupported item pair Polytope - unknown item kind"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(out.empty());
+}

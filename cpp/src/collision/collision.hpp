@@ -40,9 +40,18 @@ class TriangleQuery {
   std::unique_ptr<Impl> impl_;
 };
 
+/// The kinds of convex item the narrow phase's dispatch table is indexed by (narrow_phase.cpp).
+/// Boxes, hulls and mesh pieces are all polytopes; a box is also flagged (Item::box) for its
+/// faster edge axes.
+/// Unset marks an item nobody has filled in; the table has no slot for it.
+enum class ItemKind : std::uint8_t { Sphere, Capsule, Cylinder, Polytope, Unset };
+constexpr int kItemKinds = 4;  ///< the kinds with a row and a column in the table
+const char* item_kind_name(ItemKind kind);
+
 /// One convex piece of a body as the pair tests see it: a primitive, or a polytope (a convex mesh
 /// or a mesh piece), with its pose and part number (for the feature ids).
 struct Item {
+  ItemKind kind = ItemKind::Unset;     ///< which of the pointers below holds the geometry
   const Sphere* sphere = nullptr;      ///< exactly one of sphere, capsule, cylinder, polytope is
   const Capsule* capsule = nullptr;    ///< the item's geometry; box and hull are set as well as
   const Cylinder* cylinder = nullptr;  ///< polytope for boxes and hulls (their exact tests)
@@ -181,6 +190,11 @@ void capsule_capsule(const Capsule& a, const Pose& pa, std::uint32_t part_a, con
 /// the polytope), the segment clipped to the face it lies on.
 void polytope_capsule(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Capsule& b,
                       const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out);
+
+/// The contact test of item A against item B: the slot of the dispatch table for their kinds
+/// (narrow_phase.cpp). Appends candidate contacts (normal from A to B) to out. A pair of kinds
+/// without a test throws std::logic_error naming both kinds.
+void contact_items(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out);
 
 /// Any two items without a closed-form test (a cylinder against a box, hull, capsule, cylinder or
 /// triangle): the signed distance by GJK / EPA on the support mappings (gjk_epa.hpp), then the
