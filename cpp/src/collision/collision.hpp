@@ -98,6 +98,24 @@ struct ScratchDeleter {
   void operator()(EpaScratch* p) const;
 };
 
+/// A face that proved a pair of polytope items apart at the last detection (temporal coherence,
+/// lecture 002): the next detection tries that face's axis first, and a pair still separated along
+/// it by at least the threshold is done without the full separating-axis test. Any face normal of
+/// either polytope bounds the test's own maximum from below, so a stale or mismatched entry can
+/// only cost time, never change a result (the key still has to match for it to be tried).
+struct SeparatingFace {
+  BodyIndex body_a = -1, body_b = -1;  ///< the pair as collide() saw it (A first)
+  std::uint32_t part_a = 0, part_b = 0;
+  bool of_b = false;                   ///< the face is B's (else A's)
+  int face = -1;                       ///< its index in that polytope's faces
+  bool operator<(const SeparatingFace& o) const {
+    if (body_a != o.body_a) return body_a < o.body_a;
+    if (body_b != o.body_b) return body_b < o.body_b;
+    if (part_a != o.part_a) return part_a < o.part_a;
+    return part_b < o.part_b;
+  }
+};
+
 /// Buffers the narrow phase reuses from query to query. The World owns one and hands it to every
 /// step, so that contact detection allocates nothing once they have grown to the scene's size; a
 /// query without a World (collide() of two shapes) makes its own. One per thread.
@@ -113,6 +131,11 @@ struct Scratch {
   std::vector<std::pair<Vec3, std::pair<FeatureId, FeatureId>>> clip, clip_next;  ///< and its clip
   std::unique_ptr<PolytopeScratch, ScratchDeleter> polytope;
   std::unique_ptr<EpaScratch, ScratchDeleter> epa;
+  /// The separating-face cache: the last detection's entries (sorted by key) and this one's
+  /// (written in pair order, so sorted too). Used only when body_a >= 0, which detect_contacts sets
+  /// to the pair being collided; collide() on its own keeps no cache.
+  std::vector<SeparatingFace> separating, separating_next;
+  BodyIndex body_a = -1, body_b = -1;
 };
 
 /// What a narrow-phase query may use besides the two shapes: the triangle queries of static
@@ -171,9 +194,15 @@ void plane_item(const Vec3& n, double offset, const Item& b, std::vector<Contact
 /// Two convex polytopes (boxes, hulls, mesh pieces) by separating axes and face clipping.
 /// boxes: both are box polytopes (geometry::box_polytope's numbering), whose edge axes are then
 /// found among 18 candidate pairs rather than all 144, with the same result.
+/// separated, optional: set to the face (of_b, face) whose axis separated the pair by at least the
+/// threshold when that is why no contact was made; face = -1 otherwise.
 void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
                        const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,
-                       std::vector<Contact>& out, bool boxes = false);
+                       std::vector<Contact>& out, bool boxes = false, SeparatingFace* separated = nullptr);
+
+/// The separation of polytope b from a along face f of a (world poses): min over b's vertices of
+/// n_f . x - offset_f, the value of that face in the separating-axis test.
+double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope& b, const Pose& pb);
 
 /// One triangle of a static mesh (as a two-faced polytope, A) against a polytope B: one-sided
 /// separating axes (its front face, B's faces, edge axes from its active edges only), clipping

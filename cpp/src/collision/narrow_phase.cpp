@@ -55,10 +55,32 @@ void contact_item_sphere(const Item& a, const Item& b, double, Scratch&, std::ve
   for (std::size_t k = first; k < out.size(); ++k) out[k].feature_b = feature_id(FeatureKind::Shape, 0, b.part);
 }
 
+/// Separating axes and face clipping, with the separating-face cache of a detection (Scratch):
+/// a pair that a face proved apart last time is first tried along that face alone.
 void contact_polytope_polytope(const Item& a, const Item& b, double threshold, Scratch& scratch,
                                std::vector<Contact>& out) {
+  const bool cached = scratch.body_a >= 0;
+  SeparatingFace key;
+  if (cached) {
+    key.body_a = scratch.body_a, key.body_b = scratch.body_b, key.part_a = a.part, key.part_b = b.part;
+    const auto it = std::lower_bound(scratch.separating.begin(), scratch.separating.end(), key);
+    if (it != scratch.separating.end() && !(key < *it)) {
+      const Polytope& P = it->of_b ? *b.polytope : *a.polytope;
+      if (it->face >= 0 && static_cast<std::size_t>(it->face) < P.normals.size()) {
+        const double s = it->of_b ? face_separation(*b.polytope, b.pose, it->face, *a.polytope, a.pose)
+                                  : face_separation(*a.polytope, a.pose, it->face, *b.polytope, b.pose);
+        // rounding between this and the full test's value of the same face stays far below slack
+        const double slack = 1e-9 * (a.ball_radius + b.ball_radius) + 1e-12 * (a.pose.p.norm() + b.pose.p.norm());
+        if (s >= threshold + slack) {
+          scratch.separating_next.push_back(*it);
+          return;
+        }
+      }
+    }
+  }
   polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, *scratch.polytope, out,
-                    a.box && b.box);
+                    a.box && b.box, cached ? &key : nullptr);
+  if (cached && key.face >= 0) scratch.separating_next.push_back(key);
 }
 
 void contact_capsule_capsule(const Item& a, const Item& b, double threshold, Scratch&, std::vector<Contact>& out) {
@@ -353,6 +375,7 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
   std::sort(pairs.begin(), pairs.end());
 
   contacts.clear();
+  scratch.separating_next.clear();
   for (const auto& [i, j] : pairs) {
     // a static-only shape (plane, triangle mesh) is always A
     const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
@@ -361,6 +384,8 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
     if (const auto* plane = std::get_if<Plane>(&model.shape[a]))
       threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
     const std::size_t first = contacts.size();
+    scratch.body_a = a;
+    scratch.body_b = b;
     collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
             {broad_phase.triangles(a), broad_phase.triangles(b), &scratch}, contacts);
     for (std::size_t k = first; k < contacts.size(); ++k) {
@@ -368,6 +393,11 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
       contacts[k].body_b = b;
     }
   }
+  scratch.body_a = scratch.body_b = -1;
+  // keys were written in pair order, parts in order within a pair: sorted (a static-only shape
+  // taken as A can reorder two pairs' keys, so sort to be sure; it is nearly sorted)
+  std::sort(scratch.separating_next.begin(), scratch.separating_next.end());
+  std::swap(scratch.separating, scratch.separating_next);
 }
 
 }  // namespace signorini::collision

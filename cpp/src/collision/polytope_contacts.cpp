@@ -373,7 +373,8 @@ void ScratchDeleter::operator()(PolytopeScratch* p) const { delete p; }
 
 void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
                        const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,
-                       std::vector<Contact>& out, bool boxes) {
+                       std::vector<Contact>& out, bool boxes, SeparatingFace* separated) {
+  if (separated) separated->face = -1;
   // everything in A's frame: B placed by R_ab = R_a^T R_b, t_ab = R_a^T (p_b - p_a)
   View& A = scratch.A;
   View& B = scratch.B;
@@ -382,9 +383,15 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   A.place(a, Mat3::Identity(), Vec3::Zero(), part_a);
   B.place(b, R_ab, t_ab, part_b);
   const FaceQuery fa = face_query(A, B);
-  if (!(fa.separation < threshold)) return;
+  if (!(fa.separation < threshold)) {
+    if (separated) separated->of_b = false, separated->face = fa.face;
+    return;
+  }
   const FaceQuery fb = face_query(B, A);
-  if (!(fb.separation < threshold)) return;
+  if (!(fb.separation < threshold)) {
+    if (separated) separated->of_b = true, separated->face = fb.face;
+    return;
+  }
   // faces are preferred: B's face only when better than A's by tol, an edge only when better than
   // both by tol (tol = 5e-4 L). Two stacked boxes tilted by a hair have an edge axis that beats the
   // face axis by ~0.2 L theta; taking it would leave one contact point and the stack would rock.
@@ -406,6 +413,14 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, out);
   else
     clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, out);
+}
+
+double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope& b, const Pose& pb) {
+  const Vec3 n = pa.R * a.normals[f];                // world
+  const Vec3 n_b = pb.R.transpose() * n;             // in b's frame
+  double m = kInf;
+  for (Eigen::Index i = 0; i < b.vertices.rows(); ++i) m = std::min(m, n_b.dot(b.vertex(static_cast<int>(i))));
+  return m + n.dot(pb.p) - (a.offsets[f] + n.dot(pa.p));
 }
 
 void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, const Pose& pa,
