@@ -117,36 +117,102 @@ void edge_pair(const View& A, const View& B, int i, int j, EdgeQuery& q) {
   if (minkowski_face(A.n[ea.f0], A.n[ea.f1], -B.n[eb.f0], -B.n[eb.f1])) edge_pair_axis(A, B, i, j, q);
 }
 
+/// The largest of M . w over unit M in the cone spanned by unit a and b (a Gauss-map arc, less than
+/// a half turn): |w| projected into the plane of a and b when that projection lies in the cone,
+/// else the larger end.
+double arc_max(const Vec3& a, const Vec3& b, const Vec3& w) {
+  const double c = a.dot(b), aw = a.dot(w), bw = b.dot(w), det = 1.0 - c * c;
+  if (!(det > 1e-12)) return w.norm();  // a and b (nearly) parallel: the plain bound
+  const double alpha = (aw - c * bw) / det, beta = (bw - c * aw) / det;
+  if (alpha >= 0.0 && beta >= 0.0) return std::sqrt(std::max(alpha * aw + beta * bw, 0.0));
+  return std::max(aw, bw);
+}
+
 /// The largest separation over the edge pairs of A and B that span a face of the Minkowski
-/// difference (Gauss-map pruning). The arc test of minkowski_face is split into its two halves:
-/// which side of each A arc's great circle (normal b x a) every -B face normal lies on, and which
-/// side of each -B arc's circle (d x c) every A face normal lies on, computed once per (edge, face)
-/// rather than once per edge pair (E_A F_B + F_A E_B products instead of 4 E_A E_B). The products
-/// are the same numbers minkowski_face computes, so the pairs kept are the same.
-EdgeQuery edge_query(const View& A, const View& B, std::vector<double>& side_a, std::vector<double>& side_b) {
+/// difference (Gauss-map pruning), among the pairs that could reach `bound` (below it, an edge
+/// axis can neither beat the faces nor reach the threshold: the caller says which).
+/// Edges that cannot reach it are dropped first: if edge i of A supports A along L with B at
+/// separation s, every point of B, its centroid c_B too, has L . (c_B - p_i) >= s, so s is at most
+/// the largest L . (c_B - p_i) over the edge's Gauss-map arc (likewise for B's edges with c_A);
+/// edges facing away from the other body go.
+/// The arc test of minkowski_face is then split in two halves. First, which side of each A arc's
+/// great circle (normal b x a) every -B face normal lies on, once per (edge, face) rather than per
+/// edge pair: a B edge can only pass when its two faces lie on opposite sides, which most do not.
+/// For B with at most 64 faces the sides are bit masks, and the second half (A's normals against
+/// the -B arc's circle, d x c) is computed only for the pairs left; otherwise it is tabled like the
+/// first. The products are the ones minkowski_face computes, so the pairs kept are the same.
+/// Buffers of edge_query (members of PolytopeScratch): the kept edges of A and B, A's Gauss-map
+/// sides (kept E_A x F_B), B's arc circle normals (kept E_B) and sides (F_A x kept E_B).
+struct EdgeBuffers {
+  std::vector<int> edges_a, edges_b;
+  std::vector<double> side_a, side_b;
+  std::vector<Vec3> dxc;
+};
+
+EdgeQuery edge_query(const View& A, const View& B, double bound, EdgeBuffers& scratch) {
   EdgeQuery q;
   const auto& ea = A.topo->edges;
   const auto& eb = B.topo->edges;
-  const std::size_t na = ea.size(), nb = eb.size(), fa = A.n.size(), fb = B.n.size();
-  // side_a[f * na + i] = (-n_B f) . (b_i x a_i); side_b[g * nb + j] = n_A g . (d_j x c_j)
+  const std::size_t fa = A.n.size(), fb = B.n.size();
+  // edges that can reach the bound (slack: rounding of the bound's own arithmetic)
+  const double slack = 1e-9 * ((A.centroid - B.centroid).norm() + 1.0);
+  std::vector<int>& ka = scratch.edges_a;
+  std::vector<int>& kb = scratch.edges_b;
+  ka.clear();
+  kb.clear();
+  for (std::size_t i = 0; i < ea.size(); ++i)
+    if (arc_max(A.n[ea[i].f0], A.n[ea[i].f1], B.centroid - A.v[ea[i].v0]) >= bound - slack) ka.push_back(static_cast<int>(i));
+  for (std::size_t j = 0; j < eb.size(); ++j)
+    if (arc_max(B.n[eb[j].f0], B.n[eb[j].f1], A.centroid - B.v[eb[j].v0]) >= bound - slack) kb.push_back(static_cast<int>(j));
+  const std::size_t na = ka.size(), nb = kb.size();
+  if (na == 0 || nb == 0) return q;
+  // side_a[f * na + i] = (-n_B f) . (b_i x a_i); dxc[j] = d_j x c_j (over the kept edges)
+  std::vector<double>& side_a = scratch.side_a;
+  std::vector<Vec3>& dxc = scratch.dxc;
   side_a.resize(fb * na);
-  side_b.resize(fa * nb);
   for (std::size_t i = 0; i < na; ++i) {
-    const Vec3 bxa = A.n[ea[i].f1].cross(A.n[ea[i].f0]);
+    const auto& e = ea[ka[i]];
+    const Vec3 bxa = A.n[e.f1].cross(A.n[e.f0]);
     for (std::size_t f = 0; f < fb; ++f) side_a[f * na + i] = (-B.n[f]).dot(bxa);
   }
-  for (std::size_t j = 0; j < nb; ++j) {
-    const Vec3 dxc = (-B.n[eb[j].f1]).cross(-B.n[eb[j].f0]);
-    for (std::size_t g = 0; g < fa; ++g) side_b[g * nb + j] = A.n[g].dot(dxc);
+  dxc.resize(nb);
+  for (std::size_t j = 0; j < nb; ++j) dxc[j] = (-B.n[eb[kb[j]].f1]).cross(-B.n[eb[kb[j]].f0]);
+  if (fb <= 64) {
+    for (std::size_t i = 0; i < na; ++i) {
+      std::uint64_t above = 0, below = 0;  // B faces with (-n_B) . (b x a) > 0, < 0
+      for (std::size_t f = 0; f < fb; ++f) {
+        const double x = side_a[f * na + i];
+        above |= std::uint64_t(x > 0.0) << f;
+        below |= std::uint64_t(x < 0.0) << f;
+      }
+      const Vec3& a = A.n[ea[ka[i]].f0];
+      const Vec3& b = A.n[ea[ka[i]].f1];
+      for (std::size_t j = 0; j < nb; ++j) {
+        const auto& e = eb[kb[j]];
+        const std::uint64_t m0 = std::uint64_t(1) << e.f0, m1 = std::uint64_t(1) << e.f1;
+        // cba * dba < 0: c and d strictly on opposite sides
+        if (!(((above & m0) && (below & m1)) || ((below & m0) && (above & m1)))) continue;
+        const double cba = side_a[e.f0 * na + i];
+        const double adc = a.dot(dxc[j]), bdc = b.dot(dxc[j]);
+        if (adc * bdc < 0.0 && cba * bdc > 0.0) edge_pair_axis(A, B, ka[i], kb[j], q);
+      }
+    }
+    return q;
   }
+  // side_b[g * nb + j] = n_A g . (d_j x c_j)
+  std::vector<double>& side_b = scratch.side_b;
+  side_b.resize(fa * nb);
+  for (std::size_t j = 0; j < nb; ++j)
+    for (std::size_t g = 0; g < fa; ++g) side_b[g * nb + j] = A.n[g].dot(dxc[j]);
   for (std::size_t i = 0; i < na; ++i) {
-    const double* adc_row = &side_b[ea[i].f0 * nb];  // a . (d x c) for every j
-    const double* bdc_row = &side_b[ea[i].f1 * nb];  // b . (d x c)
+    const auto& e = ea[ka[i]];
+    const double* adc_row = &side_b[e.f0 * nb];  // a . (d x c) for every j
+    const double* bdc_row = &side_b[e.f1 * nb];  // b . (d x c)
     for (std::size_t j = 0; j < nb; ++j) {
-      const double cba = side_a[eb[j].f0 * na + i], dba = side_a[eb[j].f1 * na + i];
+      const double cba = side_a[eb[kb[j]].f0 * na + i], dba = side_a[eb[kb[j]].f1 * na + i];
       if (!(cba * dba < 0.0)) continue;
       const double adc = adc_row[j], bdc = bdc_row[j];
-      if (adc * bdc < 0.0 && cba * bdc > 0.0) edge_pair_axis(A, B, static_cast<int>(i), static_cast<int>(j), q);
+      if (adc * bdc < 0.0 && cba * bdc > 0.0) edge_pair_axis(A, B, ka[i], kb[j], q);
     }
   }
   return q;
@@ -361,12 +427,13 @@ double radius_of(const Polytope& P) { return P.vertices.rowwise().norm().maxCoef
 }  // namespace
 
 /// The narrow phase's buffers for polytope pairs (a member of Scratch): both polytopes placed in
-/// A's frame, and the incident polygon being clipped.
+/// A's frame, the edge query's buffers, and the incident polygon being clipped.
 struct PolytopeScratch {
   View A, B;
+  EdgeBuffers edges;
   std::vector<ClipVertex> poly, next;
-  std::vector<double> side_a, side_b;  ///< edge_query's Gauss-map sides (E_A F_B, F_A E_B)
 };
+
 
 PolytopeScratch* new_polytope_scratch() { return new PolytopeScratch(); }
 void ScratchDeleter::operator()(PolytopeScratch* p) const { delete p; }
@@ -399,7 +466,7 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   // an edge axis matters when it beats both faces by at least 1e-9 L, or reaches the threshold
   const double edge_bound = std::min(std::max(fa.separation, fb.separation) + 1e-9 * L, threshold);
   const EdgeQuery e = boxes ? box_edge_query(A, B, R_ab, t_ab, edge_bound)
-                           : edge_query(A, B, scratch.side_a, scratch.side_b);
+                           : edge_query(A, B, edge_bound, scratch.edges);
   if (!(e.separation < threshold)) return;
   const Vec3& n_face = fb.separation > fa.separation ? B.n[fb.face] : A.n[fa.face];
   const double edge_tol = std::abs(e.axis.dot(n_face)) >= kNearlyParallel ? kFacePreference * L : 1e-9 * L;
