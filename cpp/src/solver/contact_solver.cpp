@@ -26,27 +26,27 @@ bool same_key(const CachedContact& x, const CachedContact& y) { return !key_less
 
 using Velocities = std::vector<BodyVelocity>;
 
-/// J q_dot = J_B . q_dot_B + J_A . q_dot_A (m/s).
-inline double row_velocity(const Row& r, const Velocities& qd) {
-  const BodyVelocity& A = qd[r.a];
-  const BodyVelocity& B = qd[r.b];
+/// J q_dot = J_B . q_dot_B + J_A . q_dot_A (m/s), from A's and B's velocities.
+inline double row_velocity(const Row& r, const BodyVelocity& A, const BodyVelocity& B) {
   return r.JB_ang.dot(B.omega) + r.J_lin.dot(B.v - A.v) + r.JA_ang.dot(A.omega);
 }
 
+inline double row_velocity(const Row& r, const Velocities& qd) { return row_velocity(r, qd[r.a], qd[r.b]); }
+
 /// q_dot_X += d_alpha dt M_X^-1 J_X for both sides, for a force change d_alpha (N). Static bodies
 /// are skipped rather than given 0 * d_alpha, which an overflowing d_alpha would turn into NaN.
-inline void apply(const Row& r, double d_alpha, Velocities& qd) {
+inline void apply(const Row& r, double d_alpha, BodyVelocity& A, BodyVelocity& B) {
   if (r.a_moves) {
-    BodyVelocity& A = qd[r.a];
     A.omega += d_alpha * r.dMJA_ang;
     A.v -= (d_alpha * r.dinv_mass_a) * r.J_lin;
   }
   if (r.b_moves) {
-    BodyVelocity& B = qd[r.b];
     B.omega += d_alpha * r.dMJB_ang;
     B.v += (d_alpha * r.dinv_mass_b) * r.J_lin;
   }
 }
+
+inline void apply(const Row& r, double d_alpha, Velocities& qd) { apply(r, d_alpha, qd[r.a], qd[r.b]); }
 
 /// The row of direction d (unit, world) between bodies a and b, acting at lever arms r_a = y_a - p_a
 /// on A and r_b = y_b - p_b on B: J_A = -(r_a x d, d), J_B = (r_b x d, d),
@@ -153,15 +153,55 @@ void warm_start(const SolverSettings& s, const std::vector<Contact>& contacts, S
 // ---- c. iterate ---------------------------------------------------------------------------------
 /// One normal-row update: gamma = J q_dot - delta alpha + bias, alpha <- max(-gamma / delta, 0).
 /// Returns delta |d_alpha| (m/s).
-inline double update_normal(const Row& r, double bias, double& alpha, Velocities& qd) {
+inline double update_normal(const Row& r, double bias, double& alpha, BodyVelocity& A, BodyVelocity& B) {
   if (!(r.delta > 0.0)) return 0.0;  // both bodies static: never produced by the narrow phase
-  const double gamma = row_velocity(r, qd) - r.delta * alpha + bias;
+  // the row's own terms first, so that only one addition waits for the velocities
+  const double gamma = row_velocity(r, A, B) + (bias - r.delta * alpha);
   const double alpha_new = std::max(-gamma * r.inv_delta, 0.0);
   const double d_alpha = alpha_new - alpha;
   if (d_alpha == 0.0) return 0.0;
   alpha = alpha_new;
-  apply(r, d_alpha, qd);
+  apply(r, d_alpha, A, B);
   return r.delta * std::abs(d_alpha);
+}
+
+inline double update_normal(const Row& r, double bias, double& alpha, Velocities& qd) {
+  return update_normal(r, bias, alpha, qd[r.a], qd[r.b]);
+}
+
+/// One contact's three rows in a sweep (normal, then its two friction rows) on the velocities A, B
+/// of its bodies; change = max(change, the rows' delta |d_alpha|).
+inline void contact_rows(const SolverSettings& s, const Row* r, double* alpha, BodyVelocity& A, BodyVelocity& B,
+                         double& change) {
+  // normal: the lecture's projection onto alpha >= 0
+  change = std::max(change, update_normal(r[0], r[0].bias, alpha[0], A, B));
+  // friction: Coulomb, bounded by mu times the current normal force
+  const double bound = r[1].mu * alpha[0];
+  if (!(r[1].delta > 0.0)) return;
+  if (s.friction_cone == FrictionCone::Cone) {
+    // one scale for both rows, so that the projection onto the disk acts on the slip itself
+    // (with each row's own delta the converged friction opposes a scaled slip, not the slip)
+    const double delta_t = std::max(r[1].delta, r[2].delta);
+    double a1 = alpha[1] - row_velocity(r[1], A, B) / delta_t;
+    double a2 = alpha[2] - row_velocity(r[2], A, B) / delta_t;
+    clamp_to_disk(a1, a2, bound);
+    const double d1 = a1 - alpha[1], d2 = a2 - alpha[2];
+    alpha[1] = a1;
+    alpha[2] = a2;
+    if (d1 != 0.0) apply(r[1], d1, A, B);
+    if (d2 != 0.0) apply(r[2], d2, A, B);
+    change = std::max({change, r[1].delta * std::abs(d1), r[2].delta * std::abs(d2)});
+    return;
+  }
+  for (int k = 1; k <= 2; ++k) {
+    const double gamma = row_velocity(r[k], A, B) - r[k].delta * alpha[k];
+    const double a = std::clamp(-gamma * r[k].inv_delta, -bound, bound);
+    const double da = a - alpha[k];
+    if (da == 0.0) continue;
+    alpha[k] = a;
+    apply(r[k], da, A, B);
+    change = std::max(change, r[k].delta * std::abs(da));
+  }
 }
 
 /// PGS sweeps over all rows (normal, then its two friction rows, contact by contact).
@@ -177,35 +217,12 @@ int iterate(const SolverSettings& s, SolverData& d, bool& converged) {
     for (std::size_t i = 0; i < K; ++i) {
       const Row* r = &d.rows[3 * i];
       double* alpha = &d.alpha[3 * i];
-      // normal: the lecture's projection onto alpha >= 0
-      change = std::max(change, update_normal(r[0], r[0].bias, alpha[0], qd));
-      // friction: Coulomb, bounded by mu times the current normal force
-      const double bound = r[1].mu * alpha[0];
-      if (!(r[1].delta > 0.0)) continue;
-      if (s.friction_cone == FrictionCone::Cone) {
-        // one scale for both rows, so that the projection onto the disk acts on the slip itself
-        // (with each row's own delta the converged friction opposes a scaled slip, not the slip)
-        const double delta_t = std::max(r[1].delta, r[2].delta);
-        double a1 = alpha[1] - row_velocity(r[1], qd) / delta_t;
-        double a2 = alpha[2] - row_velocity(r[2], qd) / delta_t;
-        clamp_to_disk(a1, a2, bound);
-        const double d1 = a1 - alpha[1], d2 = a2 - alpha[2];
-        alpha[1] = a1;
-        alpha[2] = a2;
-        if (d1 != 0.0) apply(r[1], d1, qd);
-        if (d2 != 0.0) apply(r[2], d2, qd);
-        change = std::max({change, r[1].delta * std::abs(d1), r[2].delta * std::abs(d2)});
-      } else {
-        for (int k = 1; k <= 2; ++k) {
-          const double gamma = row_velocity(r[k], qd) - r[k].delta * alpha[k];
-          const double a = std::clamp(-gamma * r[k].inv_delta, -bound, bound);
-          const double da = a - alpha[k];
-          if (da == 0.0) continue;
-          alpha[k] = a;
-          apply(r[k], da, qd);
-          change = std::max(change, r[k].delta * std::abs(da));
-        }
-      }
+      // the contact's two bodies, held locally through its three rows (the same arithmetic; the
+      // velocities need not go through memory between rows) and stored back after
+      BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
+      contact_rows(s, r, alpha, A, B, change);
+      if (r[0].a_moves) qd[r[0].a] = A;
+      if (r[0].b_moves) qd[r[0].b] = B;
     }
     converged = s.tolerance > 0.0 && change <= s.tolerance;
   }
@@ -331,10 +348,13 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
     e.friction = c.friction;
     e.order = static_cast<int>(i);
   }
-  // sorted by key (first in contact order on equal keys), one entry per key
-  std::sort(d.cache_next.begin(), d.cache_next.end(), [](const CachedContact& x, const CachedContact& y) {
+  // sorted by key (first in contact order on equal keys), one entry per key; the narrow phase
+  // lists contacts by body pair and feature ids, so this is usually sorted already
+  const auto before = [](const CachedContact& x, const CachedContact& y) {
     return key_less(x, y) || (same_key(x, y) && x.order < y.order);
-  });
+  };
+  if (!std::is_sorted(d.cache_next.begin(), d.cache_next.end(), before))
+    std::sort(d.cache_next.begin(), d.cache_next.end(), before);
   d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(), same_key), d.cache_next.end());
 }
 
