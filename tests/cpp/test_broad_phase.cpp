@@ -309,3 +309,24 @@ TEST(SeparatingFaceCache, DetectionWithTheCacheIsBitIdenticalToDetectionWithout)
   EXPECT_GT(compared, 1000u);
   EXPECT_GT(hits_possible, 1000u) << "the cache held few separating faces: nothing was tested";
 }
+
+TEST(BroadPhase, BoxesAreTightAroundRotatedShapesNotTheirBoundingSpheres) {
+  // a long thin capsule (half length 1 m, radius 5 cm) turned 30 degrees about z, with small
+  // spheres where its bounding sphere's box reaches but the capsule does not, and one sphere
+  // touching its end: only that one is a candidate pair
+  scenes::Scene scene;
+  const Mat3 R = Eigen::AngleAxisd(M_PI / 6.0, Vec3::UnitZ()).toRotationMatrix() *
+                 Eigen::AngleAxisd(M_PI / 2.0, Vec3::UnitY()).toRotationMatrix();  // axis along (cos 30, sin 30, 0)
+  scene.add(Capsule(0.05, 1.0), false, Vec3::Zero(), R, Vec3::Zero(), Vec3::Zero());
+  for (const Vec3& p : {Vec3(0.0, 0.0, 0.9), Vec3(0.0, 0.0, -0.9), Vec3(-0.5, 0.8, 0.0), Vec3(0.5, -0.8, 0.0),
+                        Vec3(0.8, 0.5, 0.7), Vec3(-0.8, -0.5, -0.7)})
+    scene.add(Sphere(0.05), false, p, Mat3::Identity(), Vec3::Zero(), Vec3::Zero());
+  const Vec3 end = 1.05 * Vec3(std::cos(M_PI / 6.0), std::sin(M_PI / 6.0), 0.0);
+  scene.add(Sphere(0.05), false, end + Vec3(0.04, 0.0, 0.0), Mat3::Identity(), Vec3::Zero(), Vec3::Zero());
+  collision::BroadPhase broad_phase;
+  scenes::register_bodies(scene, broad_phase);
+  const std::vector<double> reach(scene.size(), 0.0);
+  const std::vector<Pair> pairs = pairs_of(broad_phase, scene, reach, 0.005);
+  ASSERT_EQ(pairs.size(), 1u);
+  EXPECT_EQ(pairs[0], Pair(0, 7));
+}

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <type_traits>
+#include <variant>
 
 #include <fcl/fcl.h>
 
@@ -14,14 +16,76 @@
 namespace signorini::collision {
 namespace {
 
-/// A CollisionObject whose world AABB can be grown by a margin (the base keeps it protected).
+/// World bounds lo, hi (m) of points x = R v + p over the rows v of V, grown into lo, hi.
+void grow_by_points(const Points& V, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    const Vec3 x = R * V.row(i).transpose() + p;
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
+}
+
+/// Grows lo, hi by the tight world box of a convex primitive at pose (p, R).
+void grow_by_primitive(const Primitive& shape, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
+  Vec3 e = Vec3::Zero();  // half extents about p, for the closed forms
+  if (const auto* s = std::get_if<Sphere>(&shape)) {
+    e = Vec3::Constant(s->radius);
+  } else if (const auto* b = std::get_if<Box>(&shape)) {
+    e = R.cwiseAbs() * b->half_extents;
+  } else if (const auto* c = std::get_if<Capsule>(&shape)) {
+    e = c->half_length * R.col(2).cwiseAbs() + Vec3::Constant(c->radius);
+  } else if (const auto* c = std::get_if<Cylinder>(&shape)) {
+    // the caps are disks of normal a: along axis i a disk reaches r sqrt(1 - a_i^2)
+    const Vec3 a = R.col(2);
+    for (int i = 0; i < 3; ++i) e[i] = c->half_height * std::abs(a[i]) + c->radius * std::sqrt(std::max(0.0, 1.0 - a[i] * a[i]));
+  } else if (const auto* h = std::get_if<ConvexHull>(&shape)) {
+    grow_by_points(h->vertices, R, p, lo, hi);
+    return;
+  } else {
+    throw std::logic_error("broad phase: no bounding box for this primitive");
+  }
+  lo = lo.cwiseMin(p - e);
+  hi = hi.cwiseMax(p + e);
+}
+
+/// The tight world box of a shape at pose (p, R): the rotated shape's own extent, not the box of
+/// its bounding sphere (which FCL 0.7 takes for any rotated geometry, and which makes a long thin
+/// body pair with everything within its length).
+void tight_aabb(const Shape& shape, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
+  lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  hi = -lo;
+  if (const auto* c = std::get_if<Compound>(&shape)) {
+    for (const Compound::Part& part : c->parts) grow_by_primitive(part.shape, R * part.rotation, R * part.position + p, lo, hi);
+  } else if (const auto* m = std::get_if<Mesh>(&shape)) {
+    grow_by_points(m->vertices, R, p, lo, hi);
+  } else if (const auto* t = std::get_if<TriangleMesh>(&shape)) {
+    grow_by_points(t->vertices, R, p, lo, hi);
+  } else if (std::holds_alternative<Plane>(shape)) {
+    throw std::logic_error("broad phase: a plane has no bounding box");
+  } else {
+    std::visit(
+        [&](const auto& s) {
+          using T = std::decay_t<decltype(s)>;
+          if constexpr (std::is_same_v<T, Sphere> || std::is_same_v<T, Box> || std::is_same_v<T, Capsule> ||
+                        std::is_same_v<T, Cylinder> || std::is_same_v<T, ConvexHull>)
+            grow_by_primitive(Primitive(s), R, p, lo, hi);
+        },
+        shape);
+  }
+}
+
+/// A CollisionObject whose world AABB is set by signorini (tight, and grown by a margin); the
+/// base keeps it protected.
 class Proxy : public fcl::CollisionObjectd {
  public:
   Proxy(const std::shared_ptr<fcl::CollisionGeometryd>& geometry, BodyIndex index)
       : fcl::CollisionObjectd(geometry), index_(index) {}
-  void set_pose(const Vec3& p, const Mat3& R) {
+  void set_pose(const Shape& shape, const Vec3& p, const Mat3& R) {
     setTransform(R, p);
-    computeAABB();
+    Vec3 lo, hi;
+    tight_aabb(shape, R, p, lo, hi);
+    aabb.min_ = lo;
+    aabb.max_ = hi;
   }
   void grow_aabb(double by) {
     aabb.min_ -= Vec3::Constant(by);
@@ -141,7 +205,7 @@ void BroadPhase::add_body(BodyIndex i, const Shape& shape, bool is_static, const
     return;
   }
   auto proxy = std::make_unique<Proxy>(make_geometry(shape), i);
-  proxy->set_pose(p, R);
+  proxy->set_pose(shape, p, R);
   if (is_static) {
     impl_->static_tree.registerObject(proxy.get());
     impl_->static_dirty = true;
@@ -155,7 +219,7 @@ void BroadPhase::add_body(BodyIndex i, const Shape& shape, bool is_static, const
 void BroadPhase::move_static(BodyIndex i, const Vec3& p, const Mat3& R) {
   Proxy* proxy = impl_->proxy.at(i).get();
   if (!proxy) return;
-  proxy->set_pose(p, R);
+  proxy->setTransform(R, p);  // the box is refitted from the shape at the next pairs()
   impl_->static_dirty = true;
 }
 
@@ -166,7 +230,7 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
   if (m.static_dirty || m.static_margin != margin) {
     for (BodyIndex i = 0; i < static_cast<BodyIndex>(m.proxy.size()); ++i) {
       if (!m.proxy[i] || !model.is_static[i]) continue;
-      m.proxy[i]->set_pose(state.p[i], state.R[i]);
+      m.proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
       m.proxy[i]->grow_aabb(0.5 * margin);
     }
     m.static_tree.update();
@@ -175,7 +239,7 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
   }
   // dynamic bodies: new pose, AABB grown by their reach, incremental tree refit
   for (BodyIndex i : m.dynamic_bodies) {
-    m.proxy[i]->set_pose(state.p[i], state.R[i]);
+    m.proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
     m.proxy[i]->grow_aabb(reach[i] + 0.5 * margin);
   }
   m.dynamic_tree.update();
