@@ -12,12 +12,13 @@ records a run with its scene into one file (``sg.load_trajectory``), which the H
 the viewer (``python -m signorini view``) and the video, glTF and USD exports read.
 """
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
-from .world import BodyIndexError, Contacts, SolverStats, SolverWarning, World, mass_properties, shape_dict
+from .world import (BodyIndexError, Contacts, SavedState, SolverStats, SolverWarning, World, mass_properties,
+                    shape_dict)
 from .collision import Feature, collide, feature
 from .trajectory import Record, Recorder, load_trajectory, save_trajectory
 
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
-           "Compound", "mass_properties", "Contacts", "SolverStats",
+           "Compound", "mass_properties", "Contacts", "SolverStats", "SavedState",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory"]
 __version__ = "0.1.0"
