@@ -559,9 +559,9 @@ class World:
         dt = _scalar(dt, "step", "dt")
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
             raise TypeError(f"step: steps must be an integer, got {steps!r}")
-        if steps < 0:
-            raise ValueError(f"step: steps must be >= 0, got {steps}")
-        self._core.step(dt, int(steps))
+        if not -2**31 <= steps < 2**31:
+            raise ValueError(f"step: steps must be a 32-bit integer, got {steps}")
+        self._core.step(dt, int(steps))  # the core checks the values (dt > 0 and finite, steps >= 0)
         report = self._core.step_report
         if report["flagged"]:
             warnings.warn(

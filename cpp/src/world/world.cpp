@@ -404,6 +404,8 @@ std::vector<Contact> World::detect_contacts(double dt) const {
 }
 
 void World::detect_contacts(double dt, std::vector<Contact>& out) const {
+  if (!(std::isfinite(dt) && dt > 0.0))
+    throw std::invalid_argument("detect_contacts: dt must be positive and finite, got " + std::to_string(dt));
   collision::detect_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_,
                              *scratch_, out);
 }
