@@ -29,9 +29,12 @@ class SolverWarning(RuntimeWarning):
 
 @dataclass(frozen=True)
 class Contacts:
-    """Contacts of the last step, one row per contact (K rows).
+    """Contacts of the last step, one row per contact (K rows). From ``World.contacts`` the arrays
+    are read-only views of the core's list for that step; from ``detect_contacts`` and ``collide``
+    they are copies.
 
-    body_a, body_b: (K,) int64 body indices; the normal points from A to B (a plane is always A).
+    body_a, body_b: (K,) integer body indices (int32 views, int64 copies); the normal points from A
+    to B (a plane is always A).
     point: (K, 3) world contact points y_i (m), midway between the witness points on A and B.
     normal: (K, 3) world unit normals n_i.
     gap: (K,) signed distances along n_i (m), negative when overlapping.

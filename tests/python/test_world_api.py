@@ -590,3 +590,14 @@ def test_explicit_inertia_matches_the_shape_and_is_not_recentred():
     a.step(DT, 50)
     b.step(DT, 50)
     assert fingerprint(a) == fingerprint(b)
+
+
+def test_readme_scripting_further_snippet_runs():
+    import pathlib
+    text = (pathlib.Path(__file__).parents[2] / "README.md").read_text()
+    start = text.index("```python", text.index("### Scripting further")) + len("```python")
+    namespace = {}
+    exec(text[start:text.index("```", start)], namespace)
+    w, w2 = namespace["w"], namespace["w2"]
+    assert w.names == ["ground", "", ""] and w.enabled.tolist() == [True, True, False]
+    assert w2.num_bodies == 4 and w2.find("box") == 1 and w2.is_kinematic.tolist() == [False, False, True, False]
