@@ -261,7 +261,9 @@ def mixed_world():
     w.disable_collision(3, 2)
     w.step(DT, 30)
     w.apply_impulse(4, (0.3, 0, 0), point=(1.0, 0.1, 0.4))
-    assert w.is_kinematic[paddle]
+    w.set_kinematic(5)  # a kinematic body with a mass of its own
+    w.set_velocity(5, (0.0, 0.0, -0.2))
+    assert w.is_kinematic[paddle] and np.isfinite(w.masses[5])
     return w
 
 
