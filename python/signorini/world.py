@@ -707,11 +707,12 @@ class World:
     # the oracle's view --------------------------------------------------------------------------
     def snapshot(self) -> dict:
         """The whole world as plain NumPy data (copies), the input format of ``signorini.oracle``.
-        Linear in the body count."""
+        Linear in the body count. One-step forces and pending impulses (``apply_force``,
+        ``apply_impulse``) are not part of it (``save_state`` has them)."""
         c = self._core
         masses, inv_masses, inertias, inv_inertias = c.masses, c.inv_masses, c.inertias, c.inv_inertias
         frictions, restitutions, statics = c.frictions, c.restitutions, c.is_static
-        kinematic, enabled = c.is_kinematic, c.enabled
+        kinematic, enabled, groups, masks = c.is_kinematic, c.enabled, c.groups, c.masks
         bodies = [{
             "shape": shape_dict(c.shape(i)),
             "static": bool(statics[i]),
@@ -723,12 +724,15 @@ class World:
             "inv_inertia": inv_inertias[i],
             "friction": float(frictions[i]),
             "restitution": float(restitutions[i]),
+            "group": int(groups[i]),
+            "mask": int(masks[i]),
         } for i in range(c.num_bodies)]
         return {
             "gravity": np.array(c.gravity),
             "settings": {"contact_margin": c.contact_margin, **self.solver},
             "cache": self.warm_start_cache,
             "bodies": bodies,
+            "excluded_pairs": list(c.excluded_pairs),
             "position": np.array(c.positions), "rotation": np.array(c.rotations),
             "velocity": np.array(c.velocities), "angular_velocity": np.array(c.angular_velocities),
             "force": np.array(c.forces), "torque": np.array(c.torques),

@@ -603,3 +603,22 @@ def test_readme_scripting_further_snippet_runs():
     w, w2 = namespace["w"], namespace["w2"]
     assert w.names == ["ground", "", ""] and w.enabled.tolist() == [True, True, False]
     assert w2.num_bodies == 4 and w2.find("box") == 1 and w2.is_kinematic.tolist() == [False, False, True, False]
+
+
+# ---- the oracle follows kinematic, disabled and filtered bodies ----------------------------------
+
+def test_kinematic_disabled_and_filtered_bodies_agree_with_the_oracle():
+    from signorini import compare
+    w = sg.World(tolerance=0.0)  # every stage to its sweep limit: no stopping test on rounding
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    w.add_body(sg.Box((0.2, 0.2, 0.2)), density=500.0, position=(0.0, 0, 0.2), friction=0.3)
+    w.add_body(sg.Box((0.05, 0.5, 0.3)), kinematic=True, position=(-0.3, 0, 0.31), velocity=(0.8, 0, 0),
+               angular_velocity=(0, 0, 0.3))
+    w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.0, 0, 0.6), group=2, mask=2)  # falls through the box
+    w.add_body(sg.Sphere(0.1), mass=1.0, position=(1.0, 0, 0.1), velocity=(1, 0, 0), enabled=False)
+    w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.3, 0.6, 0.1))
+    w.disable_collision(0, 5)  # and this one falls through the ground
+    report = compare.lockstep(w, DT, 120)
+    assert report.largest < 1e-10, "\n".join(report.lines())
+    assert w.solver_stats.contacts > 0 and w.positions[3][2] < 0 and w.positions[5][2] < 0
+    assert w.positions[4].tolist() == [1.0, 0, 0.1]

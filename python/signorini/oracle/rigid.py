@@ -121,6 +121,16 @@ def body_arrays(snapshot):
     return static, inv_mass, I_body, inv_I_body
 
 
+def motion_flags(snapshot):
+    """(kinematic (N,) bool, enabled (N,) bool) from the body dicts ("kinematic" default False,
+    "enabled" default True). A kinematic body moves with its own velocity only and has inv_mass 0
+    and inv_inertia 0 in the snapshot; a disabled body neither moves nor collides."""
+    bodies = snapshot["bodies"]
+    kinematic = np.array([bool(b.get("kinematic", False)) for b in bodies], dtype=bool)
+    enabled = np.array([bool(b.get("enabled", True)) for b in bodies], dtype=bool)
+    return kinematic, enabled
+
+
 def inverse_mass_blocks(snapshot):
     """M^-1 per body, (N, 6, 6): diag(R I_body^-1 R^T, m^-1 I3) in the (omega, p_dot) layout.
 
@@ -197,7 +207,8 @@ def unconstrained_velocity(snapshot, dt):
         explicit:           the lecture's term, world frame,
                             omega* = omega + dt I_w^-1 (tau - omega x (I_w omega)),  I_w = R I_body R^T
                             (I_w omega* = L + dt (tau - omega x L), L = I_w omega; it gains energy)
-    Static bodies never move: their v* and omega* are zero.
+    Static bodies never move: their v* and omega* are zero. Kinematic and disabled bodies keep
+    v and omega (``motion_flags``).
 
     Inputs: snapshot (see module doc), dt s.
     Outputs: v_star (N, 3) m/s, omega_star (N, 3) rad/s.
@@ -225,13 +236,19 @@ def unconstrained_velocity(snapshot, dt):
     else:
         # angular, body frame: the free rotation, then the external torque's impulse
         omega_star = np.zeros_like(omega)
-        for n in np.flatnonzero(~static):
+        kinematic, enabled = motion_flags(snapshot)
+        for n in np.flatnonzero(~static & ~kinematic & enabled):
             w1 = free_rotation(I_body[n], R[n].T @ omega[n], dt, gyroscopic)
             omega_star[n] = R[n] @ (w1 + dt * (inv_I_body[n] @ (R[n].T @ tau[n])))
 
-    # static bodies never move
+    # static bodies never move; kinematic ones keep their velocity (no gravity, no forces), and so
+    # do disabled ones (they are frozen)
     v_star[static] = 0.0
     omega_star[static] = 0.0
+    kinematic, enabled = motion_flags(snapshot)
+    keep = (kinematic | ~enabled) & ~static
+    v_star[keep] = v[keep]
+    omega_star[keep] = omega[keep]
     return v_star, omega_star
 
 
@@ -241,12 +258,13 @@ def integrate(snapshot, velocity, angular_velocity, dt):
         R <- exp([omega]x dt) R            (Rodrigues)
         R <- 1.5 R - 0.5 R R^T R           (one polar Newton step, keeps R orthonormal)
         p <- p + dt v
-    Static bodies keep their position and rotation.
+    Static and disabled bodies keep their position and rotation.
 
     Inputs: snapshot, velocity (N, 3) m/s, angular_velocity (N, 3) rad/s (world), dt s.
     Outputs: position (N, 3) m, rotation (N, 3, 3) world-from-body.
     """
     static = np.array([bool(b["static"]) for b in snapshot["bodies"]], dtype=bool)
+    static = static | ~motion_flags(snapshot)[1]
     p = np.array(snapshot["position"], dtype=float).reshape(-1, 3)
     R = np.array(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
     v = np.asarray(velocity, dtype=float).reshape(-1, 3)
