@@ -125,6 +125,11 @@ void register_world(py::module_& m) {
       .def_property_readonly("angular_velocities", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().omega); })
       .def_property_readonly("forces", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().f_ext); })
       .def_property_readonly("torques", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().tau_ext); })
+      // the next step's one-step force and torque, and pending impulse and angular impulse (N x 3)
+      .def_property_readonly("step_forces", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().f_step); })
+      .def_property_readonly("step_torques", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().tau_step); })
+      .def_property_readonly("impulses", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().impulse); })
+      .def_property_readonly("angular_impulses", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().angular_impulse); })
       // model
       .def_property_readonly("masses", [](const World& w) { return py::array_t<double>(py::cast(w.model().mass)); })
       .def_property_readonly("inv_masses", [](const World& w) { return py::array_t<double>(py::cast(w.model().inv_mass)); })

@@ -707,8 +707,9 @@ class World:
     # the oracle's view --------------------------------------------------------------------------
     def snapshot(self) -> dict:
         """The whole world as plain NumPy data (copies), the input format of ``signorini.oracle``.
-        Linear in the body count. One-step forces and pending impulses (``apply_force``,
-        ``apply_impulse``) are not part of it (``save_state`` has them)."""
+        Linear in the body count. ``step_force``, ``step_torque`` (N, 3): the next step's one-step
+        force and torque (``apply_force``); ``impulse``, ``angular_impulse`` (N, 3): pending
+        impulses about the centres of mass (``apply_impulse``)."""
         c = self._core
         masses, inv_masses, inertias, inv_inertias = c.masses, c.inv_masses, c.inertias, c.inv_inertias
         frictions, restitutions, statics = c.frictions, c.restitutions, c.is_static
@@ -736,6 +737,8 @@ class World:
             "position": np.array(c.positions), "rotation": np.array(c.rotations),
             "velocity": np.array(c.velocities), "angular_velocity": np.array(c.angular_velocities),
             "force": np.array(c.forces), "torque": np.array(c.torques),
+            "step_force": np.array(c.step_forces), "step_torque": np.array(c.step_torques),
+            "impulse": np.array(c.impulses), "angular_impulse": np.array(c.angular_impulses),
         }
 
     def __repr__(self) -> str:

@@ -622,3 +622,20 @@ def test_kinematic_disabled_and_filtered_bodies_agree_with_the_oracle():
     assert report.largest < 1e-10, "\n".join(report.lines())
     assert w.solver_stats.contacts > 0 and w.positions[3][2] < 0 and w.positions[5][2] < 0
     assert w.positions[4].tolist() == [1.0, 0, 0.1]
+
+
+def test_impulses_and_one_step_forces_agree_with_an_oracle_rollout():
+    from signorini import compare
+    w = sg.World(tolerance=0.0, substeps=2)
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    box = w.add_body(sg.Box((0.3, 0.2, 0.1)), density=500.0, position=(0, 0, 0.1), orientation=(1, 0, 0, 0.2))
+    ball = w.add_body(sg.Sphere(0.1), mass=1.0, position=(1.0, 0, 0.1))
+    w.step(DT, 20)
+    w.apply_impulse(box, (0.8, 0.3, 0.5), point=(0.25, 0.1, 0.15))
+    w.apply_force(ball, (30.0, 0, 0), point=(1.0, 0.0, 0.2))
+    w.set_external_wrench(ball, force=(0, 1.0, 0))
+    snap = w.snapshot()
+    assert np.any(snap["impulse"]) and np.any(snap["step_force"])
+    report = compare.free(w, DT, 120)
+    assert report.largest < 1e-8, "\n".join(report.lines())
+    assert w.velocities[ball][0] > 0.1  # the one-step force did push it

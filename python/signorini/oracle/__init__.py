@@ -22,7 +22,8 @@ Modules, in the order of a step:
 A snapshot (``World.snapshot()``, or built by hand) holds gravity, settings (defaults in
 ``solver.DEFAULT_SETTINGS`` for missing keys), bodies (shape, static, mass, inv_mass, inertia,
 inv_inertia, friction, restitution; optional kinematic, enabled, group, mask), the state arrays,
-the optional warm-start cache and the optional excluded_pairs [(i, j)].
+the optional warm-start cache, the optional excluded_pairs [(i, j)] and the optional one-step
+step_force, step_torque and pending impulse, angular_impulse arrays (N, 3).
 """
 
 from .contacts import (
@@ -80,6 +81,7 @@ from .mass import (
 )
 from .pgs import bias, contact_rows, pgs
 from .rigid import (
+    apply_impulses,
     free_rotation,
     motion_flags,
     integrate,
@@ -126,7 +128,7 @@ from .support import (
 )
 
 __all__ = [
-    "DEFAULT_SETTINGS", "EDGE", "FACE", "FACE_PREFERENCE", "PAIRS", "SHAPE", "VERTEX", "bias",
+    "DEFAULT_SETTINGS", "apply_impulses", "EDGE", "FACE", "FACE_PREFERENCE", "PAIRS", "SHAPE", "VERTEX", "bias",
     "bounding_radius", "box_box_separation", "box_corners", "box_edge", "box_polytope",
     "certificate", "motion_flags", "pair_filter", "clip_incident_face", "contact_box_box", "contact_box_sphere",
     "contact_jacobian", "contact_lcp", "contact_materials", "contact_plane_capsule",

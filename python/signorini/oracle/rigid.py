@@ -198,7 +198,8 @@ def unconstrained_velocity(snapshot, dt):
     """Velocities after gravity, external forces and the gyroscopic term, before contacts
     (conventions, "One step" item 2).
 
-    Per dynamic body, world frame:
+    Per dynamic body, world frame, with f = force + step_force and tau = torque + step_torque
+    (the one-step keys are optional):
         v* = v + dt (g + f / m)
     and the angular part by ``snapshot["settings"]["gyroscopic"]`` (default "midpoint"):
         midpoint, implicit: in the body frame, w = R^T omega, tau_b = R^T tau,
@@ -221,8 +222,11 @@ def unconstrained_velocity(snapshot, dt):
     R = np.asarray(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
     v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
     omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
-    f = np.asarray(snapshot["force"], dtype=float).reshape(-1, 3)
-    tau = np.asarray(snapshot["torque"], dtype=float).reshape(-1, 3)
+    # the persistent wrench plus the one-step one (apply_force), when the snapshot has it
+    f = np.asarray(snapshot["force"], dtype=float).reshape(-1, 3) + np.asarray(
+        snapshot.get("step_force", 0.0), dtype=float)
+    tau = np.asarray(snapshot["torque"], dtype=float).reshape(-1, 3) + np.asarray(
+        snapshot.get("step_torque", 0.0), dtype=float)
 
     # linear: gravity plus external force
     v_star = v + dt * (g + inv_mass[:, None] * f)
@@ -250,6 +254,30 @@ def unconstrained_velocity(snapshot, dt):
     v_star[keep] = v[keep]
     omega_star[keep] = omega[keep]
     return v_star, omega_star
+
+
+def apply_impulses(snapshot):
+    """Pending impulses J (``impulse``, N s) and angular impulses L (``angular_impulse``, N m s about
+    the com), world frame, applied at the start of a step to enabled dynamic bodies:
+        v += J / m,   omega += I_w^-1 L,   I_w^-1 = R I_body^-1 R^T
+    Returns a copy with them applied and zeroed (the snapshot itself when it has none)."""
+    if "impulse" not in snapshot and "angular_impulse" not in snapshot:
+        return snapshot
+    J = np.asarray(snapshot.get("impulse", 0.0), dtype=float) * np.ones((len(snapshot["bodies"]), 3))
+    L = np.asarray(snapshot.get("angular_impulse", 0.0), dtype=float) * np.ones_like(J)
+    static, inv_mass, _, inv_I_body = body_arrays(snapshot)
+    kinematic, enabled = motion_flags(snapshot)
+    R = np.asarray(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
+    new = dict(snapshot)
+    v = np.array(snapshot["velocity"], dtype=float).reshape(-1, 3)
+    omega = np.array(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
+    for n in np.flatnonzero(~static & ~kinematic & enabled):
+        if np.any(J[n]) or np.any(L[n]):
+            v[n] = v[n] + inv_mass[n] * J[n]
+            omega[n] = omega[n] + (R[n] @ inv_I_body[n] @ R[n].T) @ L[n]
+    new["velocity"], new["angular_velocity"] = v, omega
+    new["impulse"], new["angular_impulse"] = np.zeros_like(J), np.zeros_like(L)
+    return new
 
 
 def integrate(snapshot, velocity, angular_velocity, dt):
