@@ -35,13 +35,13 @@ void require_finite(const std::string& who, const char* what, const Eigen::Vecto
     throw std::invalid_argument(who + ": " + what + " must be finite, got " + fmt(x));
 }
 
-/// Unit quaternion from a user's one: finite, non-zero; a non-unit one is normalised.
+/// Unit quaternion from a user's one (math::unit_quaternion), errors prefixed with who.
 Quat4 unit_quaternion(const std::string& who, const Quat4& q) {
-  require_finite(who, "orientation", q);
-  const double norm = q.norm();
-  if (!(norm > 1e-12))
-    throw std::invalid_argument(who + ": orientation quaternion " + fmt(q) + " is zero; use (1, 0, 0, 0) for no rotation");
-  return q / norm;
+  try {
+    return math::unit_quaternion(q);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(who + ": " + e.what());
+  }
 }
 
 void check_material(const std::string& who, const Material& m) {
