@@ -1,13 +1,26 @@
 #!/usr/bin/env bash
-# Installs what signorini needs on Debian bookworm, as root, skipping what is already there:
-# the compiler, CMake, ninja, Eigen 3.4, FCL 0.7 and libccd, Qhull, GoogleTest and Chromium (the
-# browser tests open the HTML player in it, headless) (Debian packages), then the Python build tools,
-# the runtime and test dependencies and the package itself (editable, built by scikit-build-core
-# into the cached build/ folder, so a warm rebuild only recompiles what changed).
+# Installs what signorini needs on Debian bookworm, as root, skipping what is already there, and the
+# package itself (editable, built by scikit-build-core into the cached build/ folder, so a warm
+# rebuild only recompiles what changed; the build shows its progress).
+#   bash scripts/install.sh           # runtime: what 'python3 -m signorini run' needs (README command 1)
+#   bash scripts/install.sh --test    # and the test tools: GoogleTest, Chromium, pytest, scipy,
+#                                     # playwright, mujoco, pybind11-stubgen (README command 2)
+# Runtime: the compiler, CMake, ninja, Eigen 3.4, FCL 0.7 and libccd, Qhull (Debian packages), the
+# Python build tools and the pyproject dependencies. Test: GoogleTest and Chromium (the browser
+# tests open the HTML player in it, headless; playwright drives it, so no browser download) and
+# the pyproject 'test' extra.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libqhull-dev libgtest-dev chromium)
+with_tests=0
+case "${1:-}" in
+  --test) with_tests=1 ;;
+  "") ;;
+  *) echo "usage: bash scripts/install.sh [--test]" >&2; exit 2 ;;
+esac
+
+packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libqhull-dev)
+[ "$with_tests" = 1 ] && packages+=(libgtest-dev chromium)
 python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip)
 # the extension compiles against Python.h
 python3 -c 'import os, sysconfig; raise SystemExit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \
@@ -19,15 +32,25 @@ done
 if [ ${#missing[@]} -gt 0 ]; then
   echo "signorini: installing Debian packages: ${missing[*]}"
   apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}"
 fi
 
 # a Debian system Python marks itself externally managed; this project installs into it on purpose
 export PIP_BREAK_SYSTEM_PACKAGES=1 PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_ROOT_USER_ACTION=ignore
-# runtime (pyproject dependencies), then test-only (the test extra); playwright drives Debian's
-# chromium, so no 'playwright install' browser download
-python3 -m pip install -q "scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.22" "matplotlib>=3.6" "tqdm>=4.60" \
-  "coacd>=1.0" "pythreejs>=2.4" "pillow>=9" "imageio>=2.20" "imageio-ffmpeg>=0.4.8" "pygltflib>=1.15" \
-  "usd-core>=23.0" "viser>=1.0" \
-  "pytest>=7" "scipy>=1.8" "playwright>=1.40" "trimesh>=4"
-python3 -m pip install -q --no-build-isolation -e .
+runtime=("scikit-build-core>=0.10" "pybind11>=2.12" "numpy>=1.22" "matplotlib>=3.6" "tqdm>=4.60" "coacd>=1.0"
+         "pythreejs>=2.4" "pillow>=9" "imageio>=2.20" "imageio-ffmpeg>=0.4.8" "pygltflib>=1.15" "usd-core>=23.0"
+         "viser>=1.0" "trimesh>=4" "pydantic>=2" "tomli-w>=1")
+tests=("pytest>=7" "scipy>=1.8" "playwright>=1.40" "mujoco>=3" "pybind11-stubgen>=2.5")
+# runs a command showing only its lines that match a pattern; its exit status is the command's (pipefail)
+show() { local pattern=$1; shift; "$@" 2>&1 | { grep --line-buffered -E "$pattern" || true; }; }
+
+[ "$with_tests" = 1 ] || tests=()
+echo "signorini: Python dependencies (runtime$([ "$with_tests" = 1 ] && echo ' and test'))"
+# what pip downloads and installs, not the 'already satisfied' lines
+show '^(Collecting|Downloading|Installing|Successfully|ERROR|error)' \
+  python3 -m pip install "${runtime[@]}" "${tests[@]}"
+# the build shows CMake's configure lines and ninja's [k/n] progress (pip -v passes them through)
+echo "signorini: building the C++ core and the bindings (cached in build/)"
+show '^\s*\[[0-9]+/[0-9]+\]|^-- (Configuring done|Build files)|^\*\*\*|[Ee]rror|Successfully installed' \
+  python3 -m pip install -v --no-build-isolation -e .
+python3 -c "import signorini._core" || { echo "signorini: the build failed; run 'python3 -m pip install -v --no-build-isolation -e .' to see why" >&2; exit 1; }

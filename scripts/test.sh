@@ -3,7 +3,7 @@
 # (GoogleTest under ctest, bindings off) and the Python suite (pytest).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/install.sh
+bash scripts/install.sh --test
 cmake -S . -B build/cpp -G Ninja -DCMAKE_BUILD_TYPE=Release -DSIGNORINI_BUILD_TESTS=ON \
   -DSIGNORINI_BUILD_PYTHON=OFF >/dev/null
 cmake --build build/cpp

@@ -11,14 +11,36 @@ the core against it; ``python -m signorini run`` runs a built-in scene. ``sg.Rec
 records a run with its scene into one file (``sg.load_trajectory``), which the HTML player,
 the viewer (``python -m signorini view``) and the video, glTF and USD exports read.
 """
+from typing import TYPE_CHECKING
+
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 from .world import (BodyIndexError, Contacts, SavedState, SolverStats, SolverWarning, World, mass_properties,
                     shape_dict)
 from .collision import Feature, collide, feature
 from .trajectory import Record, Recorder, load_trajectory, save_trajectory
+from . import meshfile
+from .meshfile import load_mesh
+
+if TYPE_CHECKING:
+    from .mjcf import MJCFError, load_mjcf, read_mjcf
+    from .scenefile import SceneFileError, load_scene, read_scene, save_scene
+
+# imported when first used: pydantic takes a tenth of a second to import
+_LAZY = {"load_scene": "scenefile", "read_scene": "scenefile", "save_scene": "scenefile",
+         "SceneFileError": "scenefile", "load_mjcf": "mjcf", "read_mjcf": "mjcf", "MJCFError": "mjcf"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module 'signorini' has no attribute {name!r}")
+
 
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
            "Compound", "mass_properties", "Contacts", "SolverStats", "SavedState",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
-           "Record", "Recorder", "load_trajectory", "save_trajectory"]
+           "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "load_scene", "read_scene",
+           "save_scene", "SceneFileError", "load_mjcf", "read_mjcf", "MJCFError"]
 __version__ = "0.1.0"

@@ -1,13 +1,13 @@
 """Command line.
 
-    python -m signorini run [SCENE] [--out DIR] [--steps N] [--dt DT] [--stride S] [--quiet]
+    python -m signorini run [SCENE | FILE.toml] [--out DIR] [--steps N] [--dt DT] [--stride S] [--quiet]
                             [--html PATH | --no-html] [--no-plot] [--video [PATH]] [--fps F]
                             [--size WxH] [--gltf [PATH]] [--usd [PATH]]
     python -m signorini export TRAJECTORY [--out DIR] [--html ...] [--video ...] [--gltf ...] [--usd ...] [--png]
-    python -m signorini view SCENE_OR_TRAJECTORY [--host H] [--port P]
+    python -m signorini view SCENE_OR_FILE_OR_TRAJECTORY [--host H] [--port P]
     python -m signorini list
 
-``run`` builds a built-in scene (default ``torus``), runs it while recording (a progress bar once a
+``run`` builds a built-in scene (default ``torus``) or reads a scene file (``signorini.scenefile``), runs it while recording (a progress bar once a
 run takes more than a second, unless ``--quiet``), and writes into ``--out``: ``<scene>.npz``, the
 trajectory with its scene (``signorini.trajectory``), ``<scene>.png`` (energy, contacts, solver
 effort and 3-D snapshots) and ``<scene>.html`` (the offline player, ``signorini.player``); on
@@ -25,18 +25,35 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Optional, Union
 
 from . import scenes
+
+if TYPE_CHECKING:
+    from .trajectory import Record
 
 __all__ = ["main", "make_parser"]
 
 
 def _scene_name(text: str) -> str:
-    """argparse type: a registered scene name."""
-    if text not in scenes.SCENES:
+    """argparse type: a built-in scene name or the path of a scene file (.toml)."""
+    if text not in scenes.SCENES and not text.lower().endswith(".toml"):
         known = ", ".join(sorted(scenes.SCENES))
-        raise argparse.ArgumentTypeError(f"unknown scene {text!r} (known scenes: {known})")
+        raise argparse.ArgumentTypeError(f"unknown scene {text!r} (known scenes: {known}; or a scene file .toml)")
     return text
+
+
+def _read_scene(source: str) -> "scenes.Scene":
+    """The Scene of a built-in name or a scene file, or exit 2 naming the file and the problem."""
+    if source in scenes.SCENES:
+        return scenes.build(source)
+    from .scenefile import read_scene
+
+    try:
+        return read_scene(source)
+    except (FileNotFoundError, ValueError) as e:
+        print(f"python -m signorini: error: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
 
 
 def _positive_int(text: str, what: str = "steps") -> int:
@@ -66,7 +83,7 @@ def _size(text: str) -> tuple[int, int]:
     return width, height
 
 
-def _positive_number(what: str, unit: str = ""):
+def _positive_number(what: str, unit: str = "") -> Callable[[str], float]:
     """argparse type: a finite number > 0, the error naming it (``what``) and its unit."""
     suffix = f" ({unit})" if unit else ""
 
@@ -108,14 +125,22 @@ def _add_outputs(p: argparse.ArgumentParser, html_default: bool) -> None:
 def make_parser() -> argparse.ArgumentParser:
     """The argument parser, with the ``run``, ``export``, ``view`` and ``list`` sub-commands."""
     parser = argparse.ArgumentParser(
-        prog="python -m signorini", description="signorini: rigid bodies with contact."
+        prog="python -m signorini", description="signorini: rigid bodies with contact.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n  python -m signorini list\n  python -m signorini run torus --out out\n"
+               "  python -m signorini run my_scene.toml --video\n  python -m signorini COMMAND --help",
     )
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    run = commands.add_parser("run", help="run a built-in scene, write <out>/<scene>.npz, .png and .html")
+    run = commands.add_parser(
+        "run", help="run a built-in scene or a scene file, write <out>/<scene>.npz, .png and .html",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n  python -m signorini run                       # the torus, into signorini-out/\n"
+               "  python -m signorini run boxes --steps 240 --out out --video --gltf\n"
+               "  python -m signorini run path/to/scene.toml --quiet   # any scene file (signorini.scenefile)")
     run.add_argument(
         "scene", nargs="?", default=scenes.DEFAULT_SCENE, type=_scene_name,
-        help=f"scene name (default {scenes.DEFAULT_SCENE}; see 'list')",
+        help=f"a built-in scene name (default {scenes.DEFAULT_SCENE}; see 'list') or a scene file .toml",
     )
     run.add_argument("--out", default="signorini-out", type=Path, help="output folder (default signorini-out/)")
     run.add_argument("--steps", type=_positive_int, help="number of steps (default: the scene's)")
@@ -124,29 +149,40 @@ def make_parser() -> argparse.ArgumentParser:
     run.add_argument("--no-plot", action="store_true", help="write no PNG")
     _add_outputs(run, html_default=True)
 
-    export = commands.add_parser("export", help="write the player, video, glTF or USD of a saved trajectory")
+    export = commands.add_parser(
+        "export", help="write the player, video, glTF or USD of a saved trajectory",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n  python -m signorini export out/boxes.npz               # out/boxes.html\n"
+               "  python -m signorini export out/boxes.npz --gltf --usd --out exported")
     export.add_argument("trajectory", type=Path, help="a .npz written by 'run' or Record.save")
     export.add_argument("--out", type=Path, help="output folder (default: the trajectory's)")
     export.add_argument("--png", action="store_true", help="also the summary plot")
     _add_outputs(export, html_default=False)
 
-    view = commands.add_parser("view", help="serve the interactive viewer of a scene or a trajectory")
-    view.add_argument("source", help="a built-in scene name (simulated live) or a trajectory .npz")
+    view = commands.add_parser(
+        "view", help="serve the interactive viewer of a scene or a trajectory",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n  python -m signorini view boxes               # simulated live, http://127.0.0.1:8080\n"
+               "  python -m signorini view out/boxes.npz        # a saved trajectory\n"
+               "  python -m signorini view my_scene.toml --host 0.0.0.0 --port 9000")
+    view.add_argument("source", help="a built-in scene name or a scene file .toml (simulated live), or a trajectory .npz")
     view.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1; 0.0.0.0 for all)")
     view.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
 
-    commands.add_parser("list", help="list the built-in scenes")
+    commands.add_parser("list", help="list the built-in scenes", formatter_class=argparse.RawDescriptionHelpFormatter,
+                        epilog="example:\n  python -m signorini list | head -2")
     return parser
 
 
-def _default(value, out: Path, stem: str, ext: str):
+def _default(value: Optional[str], out: Path, stem: str, ext: str) -> Optional[Path]:
     """The path of an optional output: None when not asked, <out>/<stem>.<ext> when asked without a path."""
     if value is None:
         return None
     return Path(value) if value else out / f"{stem}.{ext}"
 
 
-def _write_outputs(args, record, out: Path, html_default: bool, scene=None) -> list:
+def _write_outputs(args: argparse.Namespace, record: "Record", out: Path, html_default: bool,
+                   scene: Optional["scenes.Scene"] = None) -> list[Path]:
     """Write the files the options ask for; returns their paths in the order written."""
     from . import output
 
@@ -180,7 +216,7 @@ def _run(args: argparse.Namespace) -> int:
     """Build, run, save, draw and summarise one scene."""
     from . import output
 
-    scene = scenes.build(args.scene)
+    scene = _read_scene(args.scene)
     record = output.run(scene, steps=args.steps, dt=args.dt, progress=not args.quiet, stride=args.stride)
     files = [output.save_trajectory(args.out / f"{scene.name}.npz", record)]
     files += _write_outputs(args, record, args.out, html_default=True, scene=scene)
@@ -188,7 +224,7 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _load(path) -> "object":
+def _load(path: Union[str, Path]) -> "Record":
     """A trajectory file, or exit 2 with a message naming the file."""
     from .trajectory import load_trajectory
 
@@ -214,8 +250,9 @@ def _view(args: argparse.Namespace) -> int:
     """Serve the viewer of a scene name or a trajectory file until Ctrl-C."""
     from .viewer import Viewer
 
-    if args.source in scenes.SCENES:
-        source = scenes.build(args.source)
+    source: object
+    if args.source in scenes.SCENES or args.source.lower().endswith(".toml"):
+        source = _read_scene(args.source)
     elif Path(args.source).suffix == ".npz" or Path(args.source).exists():
         source = _load(args.source)
     else:
@@ -236,22 +273,31 @@ def _view(args: argparse.Namespace) -> int:
 
 
 def _list() -> int:
-    """Print each scene with its step, length and description."""
+    """Print each scene with its step, length and description, read from the scene files' [scene]
+    tables (nothing is built, so this is instant)."""
     for name in sorted(scenes.SCENES):
-        scene = scenes.build(name)
+        info = scenes.scene_info(name)
         default = " (default)" if name == scenes.DEFAULT_SCENE else ""
-        print(f"{name}{default}: {scene.world.num_bodies} bodies, {scene.steps} steps of "
-              f"{scene.dt:.6g} s = {scene.duration:.3g} s\n    {scene.description}")
+        print(f"{name}{default}: {info['bodies']} bodies, {info['steps']} steps of "
+              f"{info['dt']:.6g} s = {info['dt'] * info['steps']:.3g} s\n    {info['description']}", flush=True)
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit status (argparse exits with 2 on bad arguments)."""
-    args = make_parser().parse_args(argv)
+    """Entry point; returns the exit status (argparse exits with 2 on bad arguments). Output cut
+    short by a closed pipe (``... list | head -1``) ends quietly."""
     commands = {"run": _run, "export": _export, "view": _view}
-    if args.command in commands:
-        return commands[args.command](args)
-    return _list()
+    try:
+        args = make_parser().parse_args(argv)
+        if args.command in commands:
+            return commands[args.command](args)
+        return _list()
+    except BrokenPipeError:
+        # the reader went away: point stdout at devnull so the interpreter's final flush is quiet
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":

@@ -19,8 +19,6 @@ import math
 
 import numpy as np
 
-from .oracle.mass import mesh_volume_integrals
-from .oracle.rigid import quat_to_matrix
 
 __all__ = [
     "torus",
@@ -251,12 +249,17 @@ def cylinder_mesh_volume(radius: float, half_height: float, n: int = 32) -> floa
 
 
 def signed_volume(vertices, faces) -> float:
-    """Signed enclosed volume (m^3) of a closed triangle mesh: the oracle's divergence-theorem
-    volume (sum over faces of det(v0, v1, v2) / 6), positive when the faces are outward oriented.
+    """Signed enclosed volume (m^3) of a closed triangle mesh by the divergence theorem: the sum
+    over faces of det(v0, v1, v2) / 6, positive when the faces are outward oriented. For tests
+    and documentation (the simulator's mass properties come from the core; this module does not
+    import the oracle, which checks the core independently).
 
     Inputs: vertices (n, 3), faces (k, 3).
     """
-    return float(mesh_volume_integrals(vertices, faces)[0])
+    X = np.asarray(vertices, dtype=np.float64)
+    F = np.asarray(faces, dtype=np.int64)
+    v0, v1, v2 = X[F[:, 0]], X[F[:, 1]], X[F[:, 2]]
+    return float(np.einsum("ki,ki->k", v0, np.cross(v1, v2)).sum() / 6.0)
 
 
 # drawing helpers: used by the plots only, never by the simulation
@@ -265,9 +268,13 @@ def signed_volume(vertices, faces) -> float:
 def posed(vertices, position, orientation) -> np.ndarray:
     """World coordinates (n, 3) of body-frame vertices (n, 3) for a body at position (3,) (m)
     with orientation (4,) (w, x, y, z): x = R X + p."""
-    return np.asarray(vertices, dtype=np.float64) @ quat_to_matrix(orientation).T + np.asarray(
-        position, dtype=np.float64
-    )
+    w, x, y, z = np.asarray(orientation, dtype=np.float64) / np.linalg.norm(orientation)
+    R = np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+    return np.asarray(vertices, dtype=np.float64) @ R.T + np.asarray(position, dtype=np.float64)
 
 
 def render_mesh(shape, sphere_subdivisions: int = 2) -> tuple[np.ndarray, np.ndarray] | None:

@@ -1,7 +1,13 @@
 """Built-in scenes, written once and used by the command line, the tests and the benchmarks.
 
-``SCENES`` maps a scene name to a builder that takes no arguments and returns a fresh ``Scene``
-(a new ``World`` each time, so scenes can be run side by side). ``build(name)`` looks one up.
+Each built-in scene is a scene file shipped in the package (``signorini/data/scenes/<name>.toml``,
+meshes in ``<name>.meshes/``; format in ``signorini.scenefile``). ``SCENES`` maps a name to its
+file and ``build(name)`` reads it into a fresh ``Scene`` (a new ``World`` each time, so scenes can
+be run side by side). A scene file is the whole scene as data: every body with its pose, the
+random clouds and piles as drawn, and the convex pieces of decomposed meshes, so a scene is the
+same on every machine and with every numpy or CoACD version, loads without decomposing anything,
+and a user can read or copy it. The generators below wrote the files once
+(``python -m signorini.scenes`` writes them again); a test checks the shipped files against them.
 
 Scenes:
 - ``torus`` (the default): the CSC417 rigid-body assignment setting. A torus mesh tumbles onto a
@@ -27,13 +33,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable
+
+if TYPE_CHECKING:
+    from .world import World
 
 import numpy as np
 
 from . import meshes
 
-__all__ = ["Scene", "SCENES", "build", "DEFAULT_SCENE", "axis_angle_quaternion", "pyramid", "rain", "hull_pile"]
+__all__ = ["Scene", "SCENES", "GENERATORS", "SCENE_DIR", "build", "scene_info", "write_scene_files", "DEFAULT_SCENE",
+           "axis_angle_quaternion", "pyramid", "rain", "hull_pile"]
 
 DEFAULT_SCENE = "torus"
 
@@ -54,7 +65,7 @@ class Scene:
     """
 
     name: str
-    world: object
+    world: "World"
     dt: float
     steps: int
     description: str
@@ -225,7 +236,7 @@ def _pile() -> Scene:
     legs = [(sg.Box((0.015, 0.015, 0.05)), ((sx * 0.07, sy * 0.07, -0.05), (1, 0, 0, 0)))
             for sx in (-1, 1) for sy in (-1, 1)]
 
-    def shape(k: int):
+    def shape(k: int) -> object:
         kind = k % 8
         if kind == 0:
             return sg.Sphere(0.08)
@@ -281,7 +292,7 @@ def _walled_bin(world, half_width: float, height: float, thickness: float, frict
             world.add_static(sg.Box(tuple(half)), position=tuple(centre), friction=friction, restitution=0.0)
 
 
-def _grid(count: int, half_width: float, spacing: float, z0: float):
+def _grid(count: int, half_width: float, spacing: float, z0: float) -> list[tuple[float, float, float]]:
     """``count`` grid points (x, y, z) filling layers of the square |x|, |y| <= half_width - spacing/2
     at ``spacing`` (m), from height z0 up: the layer, then the row, then the column varies slowest."""
     per_row = max(1, int((2.0 * half_width) // spacing))
@@ -337,6 +348,7 @@ def rain(spheres: int = 1000, boxes: int = 200, seed: int = 240, friction: float
         is_box[np.floor(np.arange(boxes) * total / boxes).astype(int)] = True
     for k, (x, y, z) in enumerate(_grid(total, half_width=2.0, spacing=0.36, z0=0.4)):
         dx, dy = rng.uniform(-0.02, 0.02, size=2)
+        shape: object
         if is_box[k]:
             shape = sg.Box((0.12, 0.08, 0.06))
             orientation = axis_angle_quaternion(rng.normal(size=3), rng.uniform(0.0, math.pi))
@@ -383,8 +395,8 @@ def hull_pile(hulls: int = 200, points: int = 16, seed: int = 417, friction: flo
     )
 
 
-# name -> builder; each call builds a fresh world
-SCENES: dict[str, Callable[[], Scene]] = {
+#: name -> the generator of its shipped scene file (``python -m signorini.scenes`` writes them again)
+GENERATORS: dict[str, Callable[[], Scene]] = {
     "torus": _torus,
     "boxes": _boxes,
     "shapes": _shapes,
@@ -394,12 +406,58 @@ SCENES: dict[str, Callable[[], Scene]] = {
     "hull_pile": hull_pile,
 }
 
+#: the folder of the shipped scene files (package data)
+SCENE_DIR = Path(__file__).resolve().parent / "data" / "scenes"
+
+#: name -> shipped scene file; ``build(name)`` reads it
+SCENES: dict[str, Path] = {name: SCENE_DIR / f"{name}.toml" for name in GENERATORS}
+
 
 def build(name: str = DEFAULT_SCENE) -> Scene:
-    """A fresh ``Scene`` by registry name; ValueError naming the scene and the known ones."""
+    """A fresh ``Scene`` (a new World each call) read from the shipped scene file of a built-in
+    scene; ValueError naming the scene and the known ones."""
+    from .scenefile import read_scene
+
     try:
-        builder = SCENES[name]
+        path = SCENES[name]
     except KeyError:
         known = ", ".join(sorted(SCENES))
         raise ValueError(f"unknown scene {name!r} (known scenes: {known})") from None
-    return builder()
+    return read_scene(path)
+
+
+def scene_info(name: str) -> dict:
+    """A built-in scene's [scene] table and body count, read from its file without building it
+    (for ``python -m signorini list``): {"name", "description", "dt", "steps", "bodies"}."""
+    import sys
+
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover
+        import tomli as tomllib
+    if name not in SCENES:
+        raise ValueError(f"unknown scene {name!r} (known scenes: {', '.join(sorted(SCENES))})")
+    with open(SCENES[name], "rb") as f:
+        raw = tomllib.load(f)
+    info = raw.get("scene", {})
+    return {"name": info.get("name", name), "description": info.get("description", ""),
+            "dt": float(info.get("dt", 1.0 / 240.0)), "steps": int(info.get("steps", 240)),
+            "bodies": len(raw.get("bodies", []))}
+
+
+def write_scene_files(folder: Path = SCENE_DIR, names=None) -> list[Path]:
+    """Runs the generators and writes their scene files (and mesh files) into ``folder``; returns
+    the paths. The shipped files are written by this once and checked against it by the tests."""
+    from .scenefile import save_scene
+
+    return [save_scene(GENERATORS[name](), Path(folder) / f"{name}.toml") for name in (names or GENERATORS)]
+
+
+if __name__ == "__main__":
+    # python -m signorini.scenes: the shipped scene files and the scene file JSON Schema, again
+    from .scenefile import SCHEMA_PATH, schema_text
+
+    for written in write_scene_files():
+        print(f"written      {written}")
+    SCHEMA_PATH.write_text(schema_text())
+    print(f"written      {SCHEMA_PATH}")

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -16,6 +18,17 @@ from . import _core
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 
 Shape = (Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, TriangleMesh, Compound)
+
+
+class _Given(NamedTuple):
+    """A body's arguments as add_body converted them (shape after any decomposition)."""
+    shape: object
+    density: Optional[float]
+    mass: Optional[float]
+    position: np.ndarray
+    orientation: np.ndarray
+    velocity: np.ndarray
+    angular_velocity: np.ndarray
 
 
 BodyIndexError = _core.BodyIndexError
@@ -250,7 +263,8 @@ class World:
     contact_margin : m. Pairs closer than this (plus each body's speculative reach for the step)
         get contacts; those with a positive gap only stop an approach that would close it.
     erp : in [0, 1], the fraction of an overlap the position pass removes per step.
-    tolerance : a solver stage stops when no row's velocity changes by more than this (m/s).
+    tolerance : a solver stage stops when no row's velocity changes by more than this (m/s);
+        0 runs every sweep up to ``max_iterations``.
     max_iterations : at most this many sweeps per solver stage and substep.
     slop : overlap (m) the position pass leaves alone, so resting contacts are never stirred.
     max_push_velocity : cap on the speed (m/s) at which overlapping bodies are pushed apart.
@@ -282,6 +296,9 @@ class World:
             friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
             warn_velocity=warn_velocity)
         self._core = _core.World(g, _scalar(contact_margin, "World", "contact_margin"), solver)
+        # what each body was added with, in index order (save_scene writes a body that has not
+        # moved with these values, so a saved scene steps bit for bit like the original)
+        self._given: list[_Given] = []
 
     def set_solver(self, **settings) -> None:
         """Changes solver settings by keyword (the names of the constructor's); the others stay."""
@@ -362,7 +379,10 @@ class World:
                 shape = decompose(shape)
             except ValueError as e:
                 raise ValueError(f"{who}: {e}") from None
-        return self._core.add_body(shape, *args)
+        index = self._core.add_body(shape, *args)
+        # what it was added with (save_scene writes a body that has not moved with these values)
+        self._given.append(_Given(shape, *args[2:4], *args[5:9]))
+        return index
 
     def remove_body(self, i: int) -> None:
         """Removes body i. Indices behave like a Python list's: every body after i moves down one
@@ -372,7 +392,9 @@ class World:
 
         State arrays read before (``positions``...) still point at valid memory but no longer
         match the bodies: read them again. Costs O(N) (the broad phase is rebuilt)."""
-        self._core.remove_body(self._index(i))
+        i = self._index(i)
+        self._core.remove_body(i)
+        del self._given[i]
 
     def _index(self, i) -> int:
         """i as an int (the core checks the range and raises BodyIndexError)."""
@@ -537,7 +559,7 @@ class World:
                    "mask": int(masks[i])} for i in range(c.num_bodies)]
         return {"version": 1, "gravity": np.array(c.gravity), "contact_margin": c.contact_margin,
                 "solver": self.solver, "bodies": bodies, "excluded_pairs": list(c.excluded_pairs),
-                "state": self.save_state()}
+                "state": self.save_state(), "given": [tuple(g) for g in self._given]}
 
     def __setstate__(self, d: dict) -> None:
         if d.get("version") != 1:
@@ -555,6 +577,7 @@ class World:
         for i, j in d["excluded_pairs"]:
             c.set_pair_collision(i, j, False)
         self.restore_state(d["state"])
+        self._given = [_Given(*g) for g in d.get("given", ())]  # for save_scene
 
     # stepping ---------------------------------------------------------------------------------
     def step(self, dt: float, steps: int = 1) -> None:
@@ -740,6 +763,12 @@ class World:
             "step_force": np.array(c.step_forces), "step_torque": np.array(c.step_torques),
             "impulse": np.array(c.impulses), "angular_impulse": np.array(c.angular_impulses),
         }
+
+    def save_scene(self, path) -> Path:
+        """Writes this world to a TOML scene file (``signorini.save_scene``); returns the path."""
+        from .scenefile import save_scene
+
+        return save_scene(self, path)
 
     def __repr__(self) -> str:
         return f"World({self.num_bodies} bodies, t={self.time:g} s)"

@@ -150,3 +150,69 @@ def test_work_longer_than_a_second_shows_a_progress_bar(tmp_path):
                      "--video", "--fps", "240", "--size", "64x48")
     assert result.returncode == 0, result.stderr
     assert "video shapes.mp4" in result.stderr and "frame" in result.stderr
+
+
+def test_list_reads_the_scene_files_without_building_any_scene(monkeypatch, capsys):
+    from signorini import cli
+
+    def no_building(*args, **kwargs):
+        raise AssertionError("list built a scene")
+
+    monkeypatch.setattr(scenes, "build", no_building)
+    monkeypatch.setattr(scenes, "GENERATORS", {})
+    assert cli.main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name in scenes.SCENES:
+        info = scenes.scene_info(name)
+        assert f"{name}" in out and f"{info['bodies']} bodies" in out and info["description"] in out
+    assert "rain: 1205 bodies, 1200 steps" in out
+
+
+@pytest.mark.parametrize("args", [["list"], ["--help"], ["run", "--help"]])
+def test_a_closed_pipe_ends_quietly(args):
+    # the reader closes its end before anything is written: every write fails with EPIPE
+    package_root = str(Path(signorini.__file__).resolve().parent.parent)
+    env = dict(os.environ, PYTHONPATH=package_root)
+    p = subprocess.Popen([sys.executable, "-m", "signorini", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         env=env)
+    p.stdout.close()
+    stderr = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 0
+    assert "Traceback" not in stderr and "BrokenPipeError" not in stderr, stderr
+
+
+def test_list_piped_into_head_prints_one_line_and_no_traceback():
+    package_root = str(Path(signorini.__file__).resolve().parent.parent)
+    result = subprocess.run(f"{sys.executable} -m signorini list | head -1", shell=True, capture_output=True, text=True,
+                            env=dict(os.environ, PYTHONPATH=package_root), timeout=120)
+    assert result.stdout.count("\n") == 1 and result.stderr == ""
+
+
+@pytest.mark.parametrize("command", ["run", "export", "view", "list"])
+def test_every_command_help_shows_an_example(command):
+    result = run_cli(command, "--help")
+    assert result.returncode == 0
+    assert "example" in result.stdout and f"python -m signorini {command}" in result.stdout
+
+
+def test_run_a_scene_file(tmp_path):
+    (tmp_path / "drop.toml").write_text(
+        "[scene]\ndescription = 'a ball dropped'\ndt = 0.01\nsteps = 30\n"
+        "[[bodies]]\nname = 'ground'\nstatic = true\nshape = { type = 'plane', normal = [0, 0, 1] }\n"
+        "[[bodies]]\nname = 'ball'\nshape = { type = 'sphere', radius = 0.1 }\nmass = 1\nposition = [0, 0, 1]\n")
+    result = run_cli("run", str(tmp_path / "drop.toml"), "--out", str(tmp_path / "out"), "--no-plot", "--quiet")
+    assert result.returncode == 0, result.stderr
+    from signorini.trajectory import load_trajectory
+
+    record = load_trajectory(tmp_path / "out" / "drop.npz")
+    assert record.steps == 30 and record.scene == "drop"
+    assert record.positions[-1, 1, 2] < 1.0          # the ball fell
+
+
+def test_a_bad_scene_file_exits_2_naming_the_file_and_key(tmp_path):
+    (tmp_path / "bad.toml").write_text("[[bodies]]\nshape = { type = 'sphere', radius = 0.1 }\nmass = 1\nspin = 3\n")
+    result = run_cli("run", str(tmp_path / "bad.toml"), "--out", str(tmp_path / "out"))
+    assert result.returncode == 2
+    assert "bad.toml" in result.stderr and "bodies[0].spin" in result.stderr and "Traceback" not in result.stderr
+    result = run_cli("run", str(tmp_path / "missing.toml"), "--out", str(tmp_path / "out"))
+    assert result.returncode == 2 and "missing.toml" in result.stderr and "does not exist" in result.stderr

@@ -204,3 +204,13 @@ def test_render_mesh_by_shape_attributes():
     assert meshes.render_mesh(SimpleNamespace(normal=(0, 0, 1), offset=0.0)) is None
     with pytest.raises(TypeError, match="str"):
         meshes.render_mesh("not a shape")
+
+
+def test_meshes_module_does_not_import_the_oracle():
+    # the oracle checks the core independently; drawing and test meshes must not lean on it
+    import subprocess
+    import sys
+
+    code = "import sys, signorini.meshes; print('signorini.oracle' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"

@@ -639,3 +639,19 @@ def test_impulses_and_one_step_forces_agree_with_an_oracle_rollout():
     report = compare.free(w, DT, 120)
     assert report.largest < 1e-8, "\n".join(report.lines())
     assert w.velocities[ball][0] > 0.1  # the one-step force did push it
+
+
+def test_scene_files_keep_names_and_follow_remove_body_and_pickling(tmp_path):
+    w = sg.World()
+    w.add_static(sg.Plane((0, 0, 1), 0.0), name="ground")
+    w.add_body(sg.Sphere(0.2), mass=1.0, position=(0, 0, 1), name="gone")
+    w.add_body(sg.Box((0.2, 0.2, 0.2)), density=500.0, position=(1, 0, 0.5), name="box")
+    w.remove_body(1)
+    copy = pickle.loads(pickle.dumps(w))
+    for world, name in ((w, "a.toml"), (copy, "b.toml")):
+        loaded = sg.load_scene(world.save_scene(tmp_path / name))
+        assert loaded.names == ["ground", "box"] and loaded.find("box") == 1
+        assert loaded.masses[1] == world.masses[1] and np.array_equal(loaded.positions, world.positions)
+        world.step(DT, 30)
+        loaded.step(DT, 30)
+        assert np.array_equal(loaded.positions, world.positions)

@@ -22,7 +22,8 @@ struct SolverSettings {
   /// Positive gaps are always used whole (speculative contacts).
   double erp = 0.2;
   /// A stage stops after a sweep in which no row changed its velocity delta |d alpha| by more
-  /// than this (m/s).
+  /// than this (m/s). 0 runs every sweep up to max_iterations (whether a sweep changes nothing at
+  /// all is decided by rounding; the oracle comparison needs both sides to run the same sweeps).
   double tolerance = 1e-6;
   /// Upper bound on sweeps per stage (iterate, restitution, position pass) and step.
   int max_iterations = 30;

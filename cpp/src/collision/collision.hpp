@@ -40,9 +40,18 @@ class TriangleQuery {
   std::unique_ptr<Impl> impl_;
 };
 
+/// The kinds of convex item the narrow phase's dispatch table is indexed by (narrow_phase.cpp).
+/// Boxes, hulls and mesh pieces are all polytopes; a box is also flagged (Item::box) for its
+/// faster edge axes.
+/// Unset marks an item nobody has filled in; the table has no slot for it.
+enum class ItemKind : std::uint8_t { Sphere, Capsule, Cylinder, Polytope, Unset };
+constexpr int kItemKinds = 4;  ///< the kinds with a row and a column in the table
+const char* item_kind_name(ItemKind kind);
+
 /// One convex piece of a body as the pair tests see it: a primitive, or a polytope (a convex mesh
 /// or a mesh piece), with its pose and part number (for the feature ids).
 struct Item {
+  ItemKind kind = ItemKind::Unset;     ///< which of the pointers below holds the geometry
   const Sphere* sphere = nullptr;      ///< exactly one of sphere, capsule, cylinder, polytope is
   const Capsule* capsule = nullptr;    ///< the item's geometry; box and hull are set as well as
   const Cylinder* cylinder = nullptr;  ///< polytope for boxes and hulls (their exact tests)
@@ -89,6 +98,24 @@ struct ScratchDeleter {
   void operator()(EpaScratch* p) const;
 };
 
+/// A face that proved a pair of polytope items apart at the last detection (temporal coherence,
+/// lecture 002): the next detection tries that face's axis first, and a pair still separated along
+/// it by at least the threshold is done without the full separating-axis test. Any face normal of
+/// either polytope bounds the test's own maximum from below, so a stale or mismatched entry can
+/// only cost time, never change a result (the key still has to match for it to be tried).
+struct SeparatingFace {
+  BodyIndex body_a = -1, body_b = -1;  ///< the pair as collide() saw it (A first)
+  std::uint32_t part_a = 0, part_b = 0;
+  bool of_b = false;                   ///< the face is B's (else A's)
+  int face = -1;                       ///< its index in that polytope's faces
+  bool operator<(const SeparatingFace& o) const {
+    if (body_a != o.body_a) return body_a < o.body_a;
+    if (body_b != o.body_b) return body_b < o.body_b;
+    if (part_a != o.part_a) return part_a < o.part_a;
+    return part_b < o.part_b;
+  }
+};
+
 /// Buffers the narrow phase reuses from query to query. The World owns one and hands it to every
 /// step, so that contact detection allocates nothing once they have grown to the scene's size; a
 /// query without a World (collide() of two shapes) makes its own. One per thread.
@@ -104,6 +131,11 @@ struct Scratch {
   std::vector<std::pair<Vec3, std::pair<FeatureId, FeatureId>>> clip, clip_next;  ///< and its clip
   std::unique_ptr<PolytopeScratch, ScratchDeleter> polytope;
   std::unique_ptr<EpaScratch, ScratchDeleter> epa;
+  /// The separating-face cache: the last detection's entries (sorted by key) and this one's
+  /// (written in pair order, so sorted too). Used only when body_a >= 0, which detect_contacts sets
+  /// to the pair being collided; collide() on its own keeps no cache.
+  std::vector<SeparatingFace> separating, separating_next;
+  BodyIndex body_a = -1, body_b = -1;
 };
 
 /// What a narrow-phase query may use besides the two shapes: the triangle queries of static
@@ -160,9 +192,17 @@ void item_sphere(const Item& a, const Vec3& c, double r, std::vector<Contact>& o
 void plane_item(const Vec3& n, double offset, const Item& b, std::vector<Contact>& out);
 
 /// Two convex polytopes (boxes, hulls, mesh pieces) by separating axes and face clipping.
+/// boxes: both are box polytopes (geometry::box_polytope's numbering), whose edge axes are then
+/// found among 18 candidate pairs rather than all 144, with the same result.
+/// separated, optional: set to the face (of_b, face) whose axis separated the pair by at least the
+/// threshold when that is why no contact was made; face = -1 otherwise.
 void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
                        const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,
-                       std::vector<Contact>& out);
+                       std::vector<Contact>& out, bool boxes = false, SeparatingFace* separated = nullptr);
+
+/// The separation of polytope b from a along face f of a (world poses): min over b's vertices of
+/// n_f . x - offset_f, the value of that face in the separating-axis test.
+double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope& b, const Pose& pb);
 
 /// One triangle of a static mesh (as a two-faced polytope, A) against a polytope B: one-sided
 /// separating axes (its front face, B's faces, edge axes from its active edges only), clipping
@@ -179,6 +219,11 @@ void capsule_capsule(const Capsule& a, const Pose& pa, std::uint32_t part_a, con
 /// the polytope), the segment clipped to the face it lies on.
 void polytope_capsule(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Capsule& b,
                       const Pose& pb, std::uint32_t part_b, double threshold, std::vector<Contact>& out);
+
+/// The contact test of item A against item B: the slot of the dispatch table for their kinds
+/// (narrow_phase.cpp). Appends candidate contacts (normal from A to B) to out. A pair of kinds
+/// without a test throws std::logic_error naming both kinds.
+void contact_items(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out);
 
 /// Any two items without a closed-form test (a cylinder against a box, hull, capsule, cylinder or
 /// triangle): the signed distance by GJK / EPA on the support mappings (gjk_epa.hpp), then the

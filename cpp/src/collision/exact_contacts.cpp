@@ -6,6 +6,7 @@
 #include <cmath>
 #include <type_traits>
 #include <limits>
+#include <stdexcept>
 #include <variant>
 
 #include "collision/collision.hpp"
@@ -133,6 +134,8 @@ void plane_item(const Vec3& n, double offset, const Item& b, std::vector<Contact
     for (Eigen::Index i = 0; i < P.vertices.rows(); ++i)
       point_on_plane(n, offset, pb.R * P.vertex(static_cast<int>(i)) + pb.p,
                      feature_id(FeatureKind::Vertex, static_cast<std::uint32_t>(i), part), out);
+  } else {
+    throw std::logic_error(std::string("plane_item: no plane test for a ") + item_kind_name(b.kind) + " item");
   }
 }
 
@@ -236,6 +239,8 @@ void item_sphere(const Item& item, const Vec3& c, double r, std::vector<Contact>
       for (const auto& loop : P->faces)
         for (std::size_t k = 1; k + 1 < loop.size(); ++k) f(P->vertex(loop[0]), P->vertex(loop[k]), P->vertex(loop[k + 1]));
     }, c_l, r, part, out);
+  } else {
+    throw std::logic_error(std::string("item_sphere: no sphere test for a ") + item_kind_name(item.kind) + " item");
   }
 }
 

@@ -1,7 +1,8 @@
-// The narrow phase: the dispatch table over shape pairs, the world-free collide(), and the contact
+// The narrow phase: the dispatch table over item kinds, the world-free collide(), and the contact
 // list of a state in the order of docs/conventions.md (pairs by index, features in id order, a
 // static-only shape always A).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <variant>
@@ -29,31 +30,104 @@ void flip(std::vector<Contact>& out, std::size_t from) {
   }
 }
 
-void item_pair(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
-  const Sphere* sphere_a = a.sphere;
-  const Sphere* sphere_b = b.sphere;
-  const Capsule* capsule_a = a.capsule;
-  const Capsule* capsule_b = b.capsule;
-  const std::size_t first = out.size();
-  if (sphere_b) {
-    item_sphere(a, b.pose.p, sphere_b->radius, out);
-    for (std::size_t k = first; k < out.size(); ++k) out[k].feature_b = feature_id(FeatureKind::Shape, 0, b.part);
-  } else if (sphere_a) {
-    item_pair(b, a, threshold, scratch, out);
-    flip(out, first);
-  } else if (a.polytope && b.polytope) {
-    polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, *scratch.polytope, out);
-  } else if (capsule_a && capsule_b) {
-    capsule_capsule(*capsule_a, a.pose, a.part, *capsule_b, b.pose, b.part, threshold, out);
-  } else if (a.polytope && capsule_b) {
-    polytope_capsule(*a.polytope, a.pose, a.part, *capsule_b, b.pose, b.part, threshold, out);
-  } else if (capsule_a && b.polytope) {
-    polytope_capsule(*b.polytope, b.pose, b.part, *capsule_a, a.pose, a.part, threshold, out);
-    flip(out, first);
-  } else {
-    convex_by_support(a, b, threshold, scratch, out);
-  }
+// ---- the dispatch table -------------------------------------------------------------------------
+// One test per pair of item kinds, named contact_<a>_<b> (A's kind, then B's); the normal points
+// from A to B. Every slot starts as contact_unsupported, which throws naming both kinds, and only
+// the pairs listed in make_table() are filled in, so a kind added without its tests fails loudly
+// instead of giving no contacts. The same table, with the tests' methods, is in docs/conventions.md
+// ("Contact generation").
+//              Sphere   Capsule        Cylinder   Polytope (box, hull, mesh piece)
+// Sphere       exact    exact          exact      exact (closest point)
+// Capsule      exact    exact          GJK/EPA    exact + separating axes
+// Cylinder     exact    GJK/EPA        GJK/EPA    GJK/EPA + feature clipping
+// Polytope     exact    exact + SAT    GJK/EPA    separating axes + face clipping
+using ContactFn = void (*)(const Item&, const Item&, double, Scratch&, std::vector<Contact>&);
+
+void contact_unsupported(const Item& a, const Item& b, double, Scratch&, std::vector<Contact>&) {
+  throw std::logic_error(std::string("narrow phase: unsupported item pair ") + item_kind_name(a.kind) + " - " +
+                         item_kind_name(b.kind) + " (no contact test in the dispatch table)");
 }
+
+/// Any item (A) against a sphere (B): the item's closest point (item_sphere).
+void contact_item_sphere(const Item& a, const Item& b, double, Scratch&, std::vector<Contact>& out) {
+  const std::size_t first = out.size();
+  item_sphere(a, b.pose.p, b.sphere->radius, out);
+  for (std::size_t k = first; k < out.size(); ++k) out[k].feature_b = feature_id(FeatureKind::Shape, 0, b.part);
+}
+
+/// Separating axes and face clipping, with the separating-face cache of a detection (Scratch):
+/// a pair that a face proved apart last time is first tried along that face alone.
+void contact_polytope_polytope(const Item& a, const Item& b, double threshold, Scratch& scratch,
+                               std::vector<Contact>& out) {
+  const bool cached = scratch.body_a >= 0;
+  SeparatingFace key;
+  if (cached) {
+    key.body_a = scratch.body_a, key.body_b = scratch.body_b, key.part_a = a.part, key.part_b = b.part;
+    const auto it = std::lower_bound(scratch.separating.begin(), scratch.separating.end(), key);
+    if (it != scratch.separating.end() && !(key < *it)) {
+      const Polytope& P = it->of_b ? *b.polytope : *a.polytope;
+      if (it->face >= 0 && static_cast<std::size_t>(it->face) < P.normals.size()) {
+        const double s = it->of_b ? face_separation(*b.polytope, b.pose, it->face, *a.polytope, a.pose)
+                                  : face_separation(*a.polytope, a.pose, it->face, *b.polytope, b.pose);
+        // rounding between this and the full test's value of the same face stays far below slack
+        const double slack = 1e-9 * (a.ball_radius + b.ball_radius) + 1e-12 * (a.pose.p.norm() + b.pose.p.norm());
+        if (s >= threshold + slack) {
+          scratch.separating_next.push_back(*it);
+          return;
+        }
+      }
+    }
+  }
+  polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, *scratch.polytope, out,
+                    a.box && b.box, cached ? &key : nullptr);
+  if (cached && key.face >= 0) scratch.separating_next.push_back(key);
+}
+
+void contact_capsule_capsule(const Item& a, const Item& b, double threshold, Scratch&, std::vector<Contact>& out) {
+  capsule_capsule(*a.capsule, a.pose, a.part, *b.capsule, b.pose, b.part, threshold, out);
+}
+
+void contact_polytope_capsule(const Item& a, const Item& b, double threshold, Scratch&, std::vector<Contact>& out) {
+  polytope_capsule(*a.polytope, a.pose, a.part, *b.capsule, b.pose, b.part, threshold, out);
+}
+
+/// Pairs with a cylinder and no closed form: GJK/EPA on the support mappings, then clipping.
+void contact_by_support(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
+  convex_by_support(a, b, threshold, scratch, out);
+}
+
+/// The test of (B, A) run with the items exchanged, its normals reversed and ids swapped.
+template <ContactFn f>
+void swapped(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
+  const std::size_t first = out.size();
+  f(b, a, threshold, scratch, out);
+  flip(out, first);
+}
+
+using Table = std::array<std::array<ContactFn, kItemKinds>, kItemKinds>;
+
+Table make_table() {
+  Table t;
+  for (auto& row : t) row.fill(&contact_unsupported);
+  auto set = [&t](ItemKind a, ItemKind b, ContactFn f) { t[static_cast<int>(a)][static_cast<int>(b)] = f; };
+  using K = ItemKind;
+  for (K a : {K::Sphere, K::Capsule, K::Cylinder, K::Polytope}) set(a, K::Sphere, &contact_item_sphere);
+  set(K::Sphere, K::Capsule, &swapped<contact_item_sphere>);
+  set(K::Sphere, K::Cylinder, &swapped<contact_item_sphere>);
+  set(K::Sphere, K::Polytope, &swapped<contact_item_sphere>);
+  set(K::Capsule, K::Capsule, &contact_capsule_capsule);
+  set(K::Polytope, K::Capsule, &contact_polytope_capsule);
+  set(K::Capsule, K::Polytope, &swapped<contact_polytope_capsule>);
+  set(K::Polytope, K::Polytope, &contact_polytope_polytope);
+  set(K::Cylinder, K::Capsule, &contact_by_support);
+  set(K::Capsule, K::Cylinder, &contact_by_support);
+  set(K::Cylinder, K::Cylinder, &contact_by_support);
+  set(K::Cylinder, K::Polytope, &contact_by_support);
+  set(K::Polytope, K::Cylinder, &contact_by_support);
+  return t;
+}
+
+const Table kTable = make_table();
 
 }  // namespace
 
@@ -82,11 +156,12 @@ void add_primitive(const Primitive& p, const Pose& pose, std::uint32_t part, std
   std::visit(
       [&](const auto& s) {
         using T = std::decay_t<decltype(s)>;
-        if constexpr (std::is_same_v<T, Sphere>) it.sphere = &s;
-        if constexpr (std::is_same_v<T, Capsule>) it.capsule = &s;
-        if constexpr (std::is_same_v<T, Cylinder>) it.cylinder = &s;
-        if constexpr (std::is_same_v<T, Box>) it.box = &s, it.polytope = s.polytope.get();
-        if constexpr (std::is_same_v<T, ConvexHull>) it.hull = &s, it.polytope = s.polytope.get();
+        if constexpr (std::is_same_v<T, Sphere>) it.kind = ItemKind::Sphere, it.sphere = &s;
+        if constexpr (std::is_same_v<T, Capsule>) it.kind = ItemKind::Capsule, it.capsule = &s;
+        if constexpr (std::is_same_v<T, Cylinder>) it.kind = ItemKind::Cylinder, it.cylinder = &s;
+        if constexpr (std::is_same_v<T, Box>) it.kind = ItemKind::Polytope, it.box = &s, it.polytope = s.polytope.get();
+        if constexpr (std::is_same_v<T, ConvexHull>)
+          it.kind = ItemKind::Polytope, it.hull = &s, it.polytope = s.polytope.get();
       },
       p);
   set_ball(it);
@@ -96,6 +171,23 @@ void add_primitive(const Primitive& p, const Pose& pose, std::uint32_t part, std
 }  // namespace
 
 Scratch::Scratch() : polytope(new_polytope_scratch()), epa(new_epa_scratch()) {}
+
+const char* item_kind_name(ItemKind kind) {
+  switch (kind) {
+    case ItemKind::Sphere: return "Sphere";
+    case ItemKind::Capsule: return "Capsule";
+    case ItemKind::Cylinder: return "Cylinder";
+    case ItemKind::Polytope: return "Polytope";
+    case ItemKind::Unset: break;
+  }
+  return "unknown item kind";
+}
+
+void contact_items(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
+  const int i = static_cast<int>(a.kind), j = static_cast<int>(b.kind);
+  if (i < 0 || i >= kItemKinds || j < 0 || j >= kItemKinds) contact_unsupported(a, b, threshold, scratch, out);
+  kTable[i][j](a, b, threshold, scratch, out);
+}
 
 double Item::radius() const {
   if (sphere) return sphere->radius;
@@ -117,6 +209,7 @@ void items_of(const Shape& shape, const Pose& pose, std::vector<Item>& items,
       // a convex mesh that the world has not prepared (collide() on user shapes): built here
       keep.push_back(std::make_shared<const Polytope>(polytope_from_triangles(m->vertices, m->faces)));
       Item it;
+      it.kind = ItemKind::Polytope;
       it.polytope = keep.back().get();
       it.pose = pose;
       set_ball(it);
@@ -124,6 +217,7 @@ void items_of(const Shape& shape, const Pose& pose, std::vector<Item>& items,
     } else {
       for (std::size_t k = 0; k < m->pieces.size(); ++k) {
         Item it;
+        it.kind = ItemKind::Polytope;
         it.polytope = m->pieces[k].get();
         it.pose = pose;
         it.part = static_cast<std::uint32_t>(k);
@@ -137,12 +231,15 @@ void items_of(const Shape& shape, const Pose& pose, std::vector<Item>& items,
           using T = std::decay_t<decltype(s)>;
           Item it;
           it.pose = pose;
-          if constexpr (std::is_same_v<T, Sphere>) it.sphere = &s;
-          if constexpr (std::is_same_v<T, Capsule>) it.capsule = &s;
-          if constexpr (std::is_same_v<T, Cylinder>) it.cylinder = &s;
-          if constexpr (std::is_same_v<T, Box>) it.box = &s, it.polytope = s.polytope.get();
-          if constexpr (std::is_same_v<T, ConvexHull>) it.hull = &s, it.polytope = s.polytope.get();
-          if (!(it.sphere || it.capsule || it.cylinder || it.polytope)) return;
+          if constexpr (std::is_same_v<T, Sphere>) it.kind = ItemKind::Sphere, it.sphere = &s;
+          if constexpr (std::is_same_v<T, Capsule>) it.kind = ItemKind::Capsule, it.capsule = &s;
+          if constexpr (std::is_same_v<T, Cylinder>) it.kind = ItemKind::Cylinder, it.cylinder = &s;
+          if constexpr (std::is_same_v<T, Box>) it.kind = ItemKind::Polytope, it.box = &s, it.polytope = s.polytope.get();
+          if constexpr (std::is_same_v<T, ConvexHull>)
+            it.kind = ItemKind::Polytope, it.hull = &s, it.polytope = s.polytope.get();
+          // planes and triangle meshes are static-only: collide() handles them before items
+          if (!(it.sphere || it.capsule || it.cylinder || it.polytope))
+            throw std::logic_error("items_of: a " + shape_name(shape) + " has no convex items");
           set_ball(it);
           items.push_back(it);
         },
@@ -219,7 +316,7 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
     for (const Item& ia : items_a)
       for (const Item& ib : items_b)
         if ((ib.ball_centre - ia.ball_centre).norm() <= ia.ball_radius + ib.ball_radius + reach)
-          item_pair(ia, ib, threshold, s, candidates);
+          contact_items(ia, ib, threshold, s, candidates);
   }
   finish_manifold(candidates, threshold, pair_scale(a, b), out);
 }
@@ -281,6 +378,7 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
               pairs.end());
 
   contacts.clear();
+  scratch.separating_next.clear();
   for (const auto& [i, j] : pairs) {
     // a static-only shape (plane, triangle mesh) is always A
     const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
@@ -289,6 +387,8 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
     if (const auto* plane = std::get_if<Plane>(&model.shape[a]))
       threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
     const std::size_t first = contacts.size();
+    scratch.body_a = a;
+    scratch.body_b = b;
     collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
             {broad_phase.triangles(a), broad_phase.triangles(b), &scratch}, contacts);
     for (std::size_t k = first; k < contacts.size(); ++k) {
@@ -296,6 +396,11 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
       contacts[k].body_b = b;
     }
   }
+  scratch.body_a = scratch.body_b = -1;
+  // keys were written in pair order, parts in order within a pair: sorted (a static-only shape
+  // taken as A can reorder two pairs' keys, so sort to be sure; it is nearly sorted)
+  std::sort(scratch.separating_next.begin(), scratch.separating_next.end());
+  std::swap(scratch.separating, scratch.separating_next);
 }
 
 }  // namespace signorini::collision

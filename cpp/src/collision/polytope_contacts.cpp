@@ -86,33 +86,122 @@ bool minkowski_face(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) 
   return cba * dba < 0.0 && adc * bdc < 0.0 && cba * bdc > 0.0;
 }
 
-EdgeQuery edge_query(const View& A, const View& B) {
+/// The rest of edge_pair once the pair is known to span a face of the Minkowski difference: their
+/// unit axis L (pointing away from A's centroid) and the separation L . (p_B - p_A) replace q's if
+/// larger (so the first pair in (i, j) order wins ties).
+void edge_pair_axis(const View& A, const View& B, int i, int j, EdgeQuery& q) {
+  const auto& ea = A.topo->edges[i];
+  const auto& eb = B.topo->edges[j];
+  const Vec3& pa = A.v[ea.v0];
+  const Vec3 ua = A.v[ea.v1] - pa;
+  const Vec3& pb = B.v[eb.v0];
+  const Vec3 ub = B.v[eb.v1] - pb;
+  Vec3 L = ua.cross(ub);
+  const double len = L.norm();
+  if (!(len > 1e-9 * ua.norm() * ub.norm())) return;  // parallel edges: a face axis covers them
+  L /= len;
+  if (L.dot(pa - A.centroid) < 0.0) L = -L;
+  const double s = L.dot(pb - pa);
+  if (s > q.separation || (s == q.separation && (i < q.edge_a || (i == q.edge_a && j < q.edge_b)))) {
+    q.separation = s;
+    q.edge_a = i;
+    q.edge_b = j;
+    q.axis = L;
+  }
+}
+
+/// Edge i of A against edge j of B: the Gauss-map test, then edge_pair_axis.
+void edge_pair(const View& A, const View& B, int i, int j, EdgeQuery& q) {
+  const auto& ea = A.topo->edges[i];
+  const auto& eb = B.topo->edges[j];
+  if (minkowski_face(A.n[ea.f0], A.n[ea.f1], -B.n[eb.f0], -B.n[eb.f1])) edge_pair_axis(A, B, i, j, q);
+}
+
+/// The largest separation over the edge pairs of A and B that span a face of the Minkowski
+/// difference (Gauss-map pruning). The arc test of minkowski_face is split into its two halves:
+/// which side of each A arc's great circle (normal b x a) every -B face normal lies on, and which
+/// side of each -B arc's circle (d x c) every A face normal lies on, computed once per (edge, face)
+/// rather than once per edge pair (E_A F_B + F_A E_B products instead of 4 E_A E_B). The products
+/// are the same numbers minkowski_face computes, so the pairs kept are the same.
+EdgeQuery edge_query(const View& A, const View& B, std::vector<double>& side_a, std::vector<double>& side_b) {
   EdgeQuery q;
   const auto& ea = A.topo->edges;
   const auto& eb = B.topo->edges;
-  for (std::size_t i = 0; i < ea.size(); ++i) {
-    const Vec3& pa = A.v[ea[i].v0];
-    const Vec3 ua = A.v[ea[i].v1] - pa;
-    const Vec3& na0 = A.n[ea[i].f0];
-    const Vec3& na1 = A.n[ea[i].f1];
-    for (std::size_t j = 0; j < eb.size(); ++j) {
-      if (!minkowski_face(na0, na1, -B.n[eb[j].f0], -B.n[eb[j].f1])) continue;
-      const Vec3& pb = B.v[eb[j].v0];
-      const Vec3 ub = B.v[eb[j].v1] - pb;
-      Vec3 L = ua.cross(ub);
-      const double len = L.norm();
-      if (!(len > 1e-9 * ua.norm() * ub.norm())) continue;  // parallel edges: a face axis covers them
-      L /= len;
-      if (L.dot(pa - A.centroid) < 0.0) L = -L;
-      const double s = L.dot(pb - pa);
-      if (s > q.separation) {
-        q.separation = s;
-        q.edge_a = static_cast<int>(i);
-        q.edge_b = static_cast<int>(j);
-        q.axis = L;
-      }
+  const std::size_t na = ea.size(), nb = eb.size(), fa = A.n.size(), fb = B.n.size();
+  // side_a[f * na + i] = (-n_B f) . (b_i x a_i); side_b[g * nb + j] = n_A g . (d_j x c_j)
+  side_a.resize(fb * na);
+  side_b.resize(fa * nb);
+  for (std::size_t i = 0; i < na; ++i) {
+    const Vec3 bxa = A.n[ea[i].f1].cross(A.n[ea[i].f0]);
+    for (std::size_t f = 0; f < fb; ++f) side_a[f * na + i] = (-B.n[f]).dot(bxa);
+  }
+  for (std::size_t j = 0; j < nb; ++j) {
+    const Vec3 dxc = (-B.n[eb[j].f1]).cross(-B.n[eb[j].f0]);
+    for (std::size_t g = 0; g < fa; ++g) side_b[g * nb + j] = A.n[g].dot(dxc);
+  }
+  for (std::size_t i = 0; i < na; ++i) {
+    const double* adc_row = &side_b[ea[i].f0 * nb];  // a . (d x c) for every j
+    const double* bdc_row = &side_b[ea[i].f1 * nb];  // b . (d x c)
+    for (std::size_t j = 0; j < nb; ++j) {
+      const double cba = side_a[eb[j].f0 * na + i], dba = side_a[eb[j].f1 * na + i];
+      if (!(cba * dba < 0.0)) continue;
+      const double adc = adc_row[j], bdc = bdc_row[j];
+      if (adc * bdc < 0.0 && cba * bdc > 0.0) edge_pair_axis(A, B, static_cast<int>(i), static_cast<int>(j), q);
     }
   }
+  return q;
+}
+
+/// A box's edges by direction: edge[k][c] is the edge along body axis k whose vertex with the
+/// k-bit cleared has the index c (vertex numbering of docs/polytope_numbering.md: bit m of a
+/// vertex index is the sign of its m-th coordinate).
+struct BoxEdges {
+  int edge[3][8];
+  explicit BoxEdges(const Polytope& box) {
+    for (std::size_t e = 0; e < box.edges.size(); ++e) {
+      const int v0 = box.edges[e].v0, v1 = box.edges[e].v1, bit = v0 ^ v1;
+      const int k = bit == 1 ? 0 : bit == 2 ? 1 : 2;
+      edge[k][v0 & ~bit] = static_cast<int>(e);
+    }
+  }
+  /// The edge along axis k that supports the box in direction w (body frame): its other two
+  /// coordinates have the signs of w's (ties, w_m = 0, are broken to the negative side; such a
+  /// direction lies on the boundary of the edge's normal cone, where no edge pair spans a face of
+  /// the Minkowski difference, so the choice does not matter).
+  int support(int k, const Vec3& w) const {
+    int c = 0;
+    for (int m = 0; m < 3; ++m)
+      if (m != k && w[m] > 0.0) c |= 1 << m;
+    return edge[k][c];
+  }
+};
+
+/// edge_query for two boxes, with the same result: a box has 3 edge directions of 4 parallel
+/// edges, and for a pair of directions (k of A, m of B) only the edges that support A along +-L
+/// and B along -+L (L = e_k x R_ab e_m) can span a face of the Minkowski difference, so 2 of the
+/// 16 parallel pairs are tested (18 pairs instead of 144). Written by hand because the general
+/// test's cost is most of a box stack's contact detection.
+/// Directions whose separation, |L . t_ab| - r_A(L) - r_B(L) for unit L (the box projection
+/// formula), lies below `bound` by more than rounding are skipped: the caller passes a bound that
+/// such an axis can neither win nor return at (an edge must beat the faces, or reach the threshold).
+EdgeQuery box_edge_query(const View& A, const View& B, const Mat3& R_ab, const Vec3& t_ab, double bound) {
+  const BoxEdges ea(*A.topo), eb(*B.topo);
+  const Vec3 h_a = A.topo->vertex(7), h_b = B.topo->vertex(7);  // vertex 7 = (+h_x, +h_y, +h_z)
+  // rounding of the formula against edge_pair's separation: a few ulps of the lengths involved
+  const double slack = 1e-12 * (t_ab.norm() + h_a.norm() + h_b.norm());
+  EdgeQuery q;
+  for (int k = 0; k < 3; ++k)
+    for (int m = 0; m < 3; ++m) {
+      Vec3 L = Vec3::Unit(k).cross(R_ab.col(m));
+      const Vec3 L_b = R_ab.transpose() * L;  // L in B's body frame
+      const double len = L.norm();
+      if (len > 1e-6) {
+        const double separation = (std::abs(L.dot(t_ab)) - h_a.dot(L.cwiseAbs()) - h_b.dot(L_b.cwiseAbs())) / len;
+        if (separation + slack < bound) continue;
+      }
+      for (const double sign : {1.0, -1.0})
+        edge_pair(A, B, ea.support(k, sign * L), eb.support(m, -sign * L_b), q);
+    }
   return q;
 }
 
@@ -276,6 +365,7 @@ double radius_of(const Polytope& P) { return P.vertices.rowwise().norm().maxCoef
 struct PolytopeScratch {
   View A, B;
   std::vector<ClipVertex> poly, next;
+  std::vector<double> side_a, side_b;  ///< edge_query's Gauss-map sides (E_A F_B, F_A E_B)
 };
 
 PolytopeScratch* new_polytope_scratch() { return new PolytopeScratch(); }
@@ -283,22 +373,34 @@ void ScratchDeleter::operator()(PolytopeScratch* p) const { delete p; }
 
 void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
                        const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,
-                       std::vector<Contact>& out) {
+                       std::vector<Contact>& out, bool boxes, SeparatingFace* separated) {
+  if (separated) separated->face = -1;
   // everything in A's frame: B placed by R_ab = R_a^T R_b, t_ab = R_a^T (p_b - p_a)
   View& A = scratch.A;
   View& B = scratch.B;
+  const Mat3 R_ab = pa.R.transpose() * pb.R;
+  const Vec3 t_ab = pa.R.transpose() * (pb.p - pa.p);
   A.place(a, Mat3::Identity(), Vec3::Zero(), part_a);
-  B.place(b, pa.R.transpose() * pb.R, pa.R.transpose() * (pb.p - pa.p), part_b);
+  B.place(b, R_ab, t_ab, part_b);
   const FaceQuery fa = face_query(A, B);
-  if (!(fa.separation < threshold)) return;
+  if (!(fa.separation < threshold)) {
+    if (separated) separated->of_b = false, separated->face = fa.face;
+    return;
+  }
   const FaceQuery fb = face_query(B, A);
-  if (!(fb.separation < threshold)) return;
-  const EdgeQuery e = edge_query(A, B);
-  if (!(e.separation < threshold)) return;
+  if (!(fb.separation < threshold)) {
+    if (separated) separated->of_b = true, separated->face = fb.face;
+    return;
+  }
   // faces are preferred: B's face only when better than A's by tol, an edge only when better than
   // both by tol (tol = 5e-4 L). Two stacked boxes tilted by a hair have an edge axis that beats the
   // face axis by ~0.2 L theta; taking it would leave one contact point and the stack would rock.
   const double L = radius_of(a) + radius_of(b);
+  // an edge axis matters when it beats both faces by at least 1e-9 L, or reaches the threshold
+  const double edge_bound = std::min(std::max(fa.separation, fb.separation) + 1e-9 * L, threshold);
+  const EdgeQuery e = boxes ? box_edge_query(A, B, R_ab, t_ab, edge_bound)
+                           : edge_query(A, B, scratch.side_a, scratch.side_b);
+  if (!(e.separation < threshold)) return;
   const Vec3& n_face = fb.separation > fa.separation ? B.n[fb.face] : A.n[fa.face];
   const double edge_tol = std::abs(e.axis.dot(n_face)) >= kNearlyParallel ? kFacePreference * L : 1e-9 * L;
   const double tol = kFacePreference * L;
@@ -311,6 +413,14 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, out);
   else
     clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, out);
+}
+
+double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope& b, const Pose& pb) {
+  const Vec3 n = pa.R * a.normals[f];                // world
+  const Vec3 n_b = pb.R.transpose() * n;             // in b's frame
+  double m = kInf;
+  for (Eigen::Index i = 0; i < b.vertices.rows(); ++i) m = std::min(m, n_b.dot(b.vertex(static_cast<int>(i))));
+  return m + n.dot(pb.p) - (a.offsets[f] + n.dot(pa.p));
 }
 
 void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, const Pose& pa,

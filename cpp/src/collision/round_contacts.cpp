@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "collision/collision.hpp"
 #include "collision/gjk_epa.hpp"
@@ -326,6 +327,8 @@ void support_feature(const Item& it, const Vec3& dir, SupportFeature& s) {
   } else if (const Sphere* sphere = it.sphere) {
     s.points.push_back(p + sphere->radius * dir.normalized());
     s.ids.push_back(feature_id(FeatureKind::Shape, 0, it.part));
+  } else {
+    throw std::logic_error(std::string("support_feature: no support mapping for a ") + item_kind_name(it.kind) + " item");
   }
 }
 
@@ -347,6 +350,8 @@ Vec3 support_point(const Item& it, const Vec3& d) {
     const Vec3 centre = p + (c >= 0.0 ? 1.0 : -1.0) * it.cylinder->half_height * a;
     return un > 0.0 ? Vec3(centre + (it.cylinder->radius / un) * (x * R.col(0) + y * R.col(1))) : centre;
   }
+  if (!it.polytope)
+    throw std::logic_error(std::string("support_point: no support mapping for a ") + item_kind_name(it.kind) + " item");
   const Polytope& P = *it.polytope;
   const Vec3 dl = R.transpose() * d;
   int best = 0;

@@ -118,6 +118,7 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       triangle_polytope_of(mesh, t, tri);
       if (mesh.normals[t].dot(centre - tri.vertex(0)) < 0.0) continue;
       Item face;
+      face.kind = ItemKind::Polytope;
       face.polytope = &tri;
       face.pose = pa;
       face.part = index;

@@ -9,6 +9,9 @@
 namespace signorini::solver {
 namespace {
 
+/// tangent_basis treats components of a unit normal that differ by less than this as tied.
+constexpr double kTangentTie = 1e-9;
+
 /// Below this slip speed (m/s) a contact counts as sticking for the maximum-dissipation check.
 constexpr double kSlidingSpeed = 1e-3;
 
@@ -21,42 +24,48 @@ bool key_less(const CachedContact& x, const CachedContact& y) {
 
 bool same_key(const CachedContact& x, const CachedContact& y) { return !key_less(x, y) && !key_less(y, x); }
 
+using Velocities = std::vector<BodyVelocity>;
+
 /// J q_dot = J_B . q_dot_B + J_A . q_dot_A (m/s).
-double row_velocity(const Row& r, const std::vector<Vec3>& v, const std::vector<Vec3>& omega) {
-  return r.JB_ang.dot(omega[r.b]) + r.JB_lin.dot(v[r.b]) + r.JA_ang.dot(omega[r.a]) + r.JA_lin.dot(v[r.a]);
+inline double row_velocity(const Row& r, const Velocities& qd) {
+  const BodyVelocity& A = qd[r.a];
+  const BodyVelocity& B = qd[r.b];
+  return r.JB_ang.dot(B.omega) + r.J_lin.dot(B.v - A.v) + r.JA_ang.dot(A.omega);
 }
 
-/// q_dot_X += s M_X^-1 J_X for both sides, s = dt d_alpha (N s). Static bodies are skipped rather
-/// than given 0 * s, which an overflowing s would turn into NaN.
-void apply(const Row& r, double s, std::vector<Vec3>& v, std::vector<Vec3>& omega) {
+/// q_dot_X += d_alpha dt M_X^-1 J_X for both sides, for a force change d_alpha (N). Static bodies
+/// are skipped rather than given 0 * d_alpha, which an overflowing d_alpha would turn into NaN.
+inline void apply(const Row& r, double d_alpha, Velocities& qd) {
   if (r.a_moves) {
-    omega[r.a] += s * r.MJA_ang;
-    v[r.a] += s * r.MJA_lin;
+    BodyVelocity& A = qd[r.a];
+    A.omega += d_alpha * r.dMJA_ang;
+    A.v -= (d_alpha * r.dinv_mass_a) * r.J_lin;
   }
   if (r.b_moves) {
-    omega[r.b] += s * r.MJB_ang;
-    v[r.b] += s * r.MJB_lin;
+    BodyVelocity& B = qd[r.b];
+    B.omega += d_alpha * r.dMJB_ang;
+    B.v += (d_alpha * r.dinv_mass_b) * r.J_lin;
   }
 }
 
-/// The row of direction d (unit, world) between bodies a and b, acting at y_a on A and y_b on B:
-/// J_A = -(r_A x d, d), J_B = (r_B x d, d), r_X = y_X - p_X, delta = dt (J_A M_A^-1 J_A + J_B M_B^-1 J_B).
-void make_row(const Model& model, const State& state, const Mat3& IinvA, const Mat3& IinvB, int a, int b,
-              const Vec3& y_a, const Vec3& y_b, const Vec3& d, double dt, Row& r) {
+/// The row of direction d (unit, world) between bodies a and b, acting at lever arms r_a = y_a - p_a
+/// on A and r_b = y_b - p_b on B: J_A = -(r_a x d, d), J_B = (r_b x d, d),
+/// delta = dt (J_A M_A^-1 J_A + J_B M_B^-1 J_B).
+void make_row(const Model& model, const std::vector<Mat3>& I_inv, int a, int b, const Vec3& r_a, const Vec3& r_b,
+              const Vec3& d, double dt, Row& r) {
   r.a = a;
   r.b = b;
   r.a_moves = !model.is_static[a];
   r.b_moves = !model.is_static[b];
-  r.JA_ang = -(y_a - state.p[a]).cross(d);
-  r.JA_lin = -d;
-  r.JB_ang = (y_b - state.p[b]).cross(d);
-  r.JB_lin = d;
-  r.MJA_ang = IinvA * r.JA_ang;
-  r.MJA_lin = model.inv_mass[a] * r.JA_lin;
-  r.MJB_ang = IinvB * r.JB_ang;
-  r.MJB_lin = model.inv_mass[b] * r.JB_lin;
-  r.delta = dt * (r.JB_ang.dot(r.MJB_ang) + r.JB_lin.dot(r.MJB_lin) + r.JA_ang.dot(r.MJA_ang) +
-                  r.JA_lin.dot(r.MJA_lin));
+  r.J_lin = d;
+  r.JA_ang = -r_a.cross(d);
+  r.JB_ang = r_b.cross(d);
+  r.dMJA_ang = dt * (I_inv[a] * r.JA_ang);
+  r.dMJB_ang = dt * (I_inv[b] * r.JB_ang);
+  r.dinv_mass_a = dt * model.inv_mass[a];
+  r.dinv_mass_b = dt * model.inv_mass[b];
+  r.delta = r.JB_ang.dot(r.dMJB_ang) + r.JA_ang.dot(r.dMJA_ang) + (r.dinv_mass_a + r.dinv_mass_b) * d.squaredNorm();
+  r.inv_delta = r.delta > 0.0 ? 1.0 / r.delta : 0.0;
   r.bias = 0.0;
   r.normal = -1;
   r.mu = 0.0;
@@ -75,8 +84,7 @@ void clamp_to_disk(double& a1, double& a2, double bound) {
 // ---- a. prepare ---------------------------------------------------------------------------------
 /// Rows (normal, t1, t2 per contact), pair materials, and u_i = J_n q_dot* (before the solve).
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
-             const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, const std::vector<Vec3>& v,
-             const std::vector<Vec3>& omega, SolverData& d) {
+             const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d) {
   const std::size_t K = contacts.size();
   d.rows.resize(3 * K);
   d.alpha.assign(3 * K, 0.0);
@@ -85,34 +93,31 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
   for (std::size_t i = 0; i < K; ++i) {
     const Contact& c = contacts[i];
     const int a = c.body_a, b = c.body_b;
-    const Mat3 IinvA = dynamics::inverse_inertia_world(model, state, a);
-    const Mat3 IinvB = dynamics::inverse_inertia_world(model, state, b);
     const Material& ma = model.material[a];
     const Material& mb = model.material[b];
     const double mu = std::sqrt(ma.friction * mb.friction);
     Vec3 t1, t2;
     tangent_basis(c.normal, t1, t2);
     Row* r = &d.rows[3 * i];
-    const Vec3& y_a = anchor_a ? (*anchor_a)[i] : c.point;
-    const Vec3& y_b = anchor_b ? (*anchor_b)[i] : c.point;
-    make_row(model, state, IinvA, IinvB, a, b, y_a, y_b, c.normal, dt, r[0]);
-    make_row(model, state, IinvA, IinvB, a, b, y_a, y_b, t1, dt, r[1]);
-    make_row(model, state, IinvA, IinvB, a, b, y_a, y_b, t2, dt, r[2]);
+    const Vec3 r_a = (anchor_a ? (*anchor_a)[i] : c.point) - state.p[a];
+    const Vec3 r_b = (anchor_b ? (*anchor_b)[i] : c.point) - state.p[b];
+    make_row(model, d.I_inv, a, b, r_a, r_b, c.normal, dt, r[0]);
+    make_row(model, d.I_inv, a, b, r_a, r_b, t1, dt, r[1]);
+    make_row(model, d.I_inv, a, b, r_a, r_b, t2, dt, r[2]);
     // a speculative contact may close its gap, no more; an overlap is left to the position pass
     r[0].bias = std::max(c.gap, 0.0) / dt;
     for (int k = 1; k <= 2; ++k) {
       r[k].normal = static_cast<int>(3 * i);
       r[k].mu = mu;
     }
-    d.u[i] = row_velocity(r[0], v, omega);
+    d.u[i] = row_velocity(r[0], d.qd);
     d.e[i] = std::max(ma.restitution, mb.restitution);
   }
 }
 
 // ---- b. warm start ------------------------------------------------------------------------------
 /// Forces of the previous step for contacts with the same key, clamped to the friction set, applied.
-void warm_start(double dt, const SolverSettings& s, const std::vector<Contact>& contacts, SolverData& d,
-                std::vector<Vec3>& v, std::vector<Vec3>& omega) {
+void warm_start(const SolverSettings& s, const std::vector<Contact>& contacts, SolverData& d) {
   if (d.cache.empty()) return;
   d.cache_used.assign(d.cache.size(), 0);
   CachedContact key;
@@ -129,7 +134,7 @@ void warm_start(double dt, const SolverSettings& s, const std::vector<Contact>& 
     d.cache_used[j] = 1;
     const Row* r = &d.rows[3 * i];
     const double alpha_n = it->alpha;
-    double a1 = it->friction.dot(r[1].JB_lin), a2 = it->friction.dot(r[2].JB_lin);
+    double a1 = it->friction.dot(r[1].J_lin), a2 = it->friction.dot(r[2].J_lin);
     const double bound = r[1].mu * alpha_n;
     if (s.friction_cone == FrictionCone::Cone) {
       clamp_to_disk(a1, a2, bound);
@@ -142,28 +147,27 @@ void warm_start(double dt, const SolverSettings& s, const std::vector<Contact>& 
     d.alpha[3 * i + 2] = a2;
   }
   for (std::size_t k = 0; k < d.rows.size(); ++k)
-    if (d.alpha[k] != 0.0) apply(d.rows[k], dt * d.alpha[k], v, omega);
+    if (d.alpha[k] != 0.0) apply(d.rows[k], d.alpha[k], d.qd);
 }
 
 // ---- c. iterate ---------------------------------------------------------------------------------
 /// One normal-row update: gamma = J q_dot - delta alpha + bias, alpha <- max(-gamma / delta, 0).
 /// Returns delta |d_alpha| (m/s).
-double update_normal(const Row& r, double bias, double dt, double& alpha, std::vector<Vec3>& v,
-                     std::vector<Vec3>& omega) {
+inline double update_normal(const Row& r, double bias, double& alpha, Velocities& qd) {
   if (!(r.delta > 0.0)) return 0.0;  // both bodies static: never produced by the narrow phase
-  const double gamma = row_velocity(r, v, omega) - r.delta * alpha + bias;
-  const double alpha_new = std::max(-gamma / r.delta, 0.0);
+  const double gamma = row_velocity(r, qd) - r.delta * alpha + bias;
+  const double alpha_new = std::max(-gamma * r.inv_delta, 0.0);
   const double d_alpha = alpha_new - alpha;
   if (d_alpha == 0.0) return 0.0;
   alpha = alpha_new;
-  apply(r, dt * d_alpha, v, omega);
+  apply(r, d_alpha, qd);
   return r.delta * std::abs(d_alpha);
 }
 
 /// PGS sweeps over all rows (normal, then its two friction rows, contact by contact).
 /// Returns the sweeps used; converged tells whether the last one met the tolerance.
-int iterate(double dt, const SolverSettings& s, SolverData& d, std::vector<Vec3>& v, std::vector<Vec3>& omega,
-            bool& converged) {
+int iterate(const SolverSettings& s, SolverData& d, bool& converged) {
+  Velocities& qd = d.qd;
   const std::size_t K = d.rows.size() / 3;
   converged = K == 0;
   int sweeps = 0;
@@ -174,7 +178,7 @@ int iterate(double dt, const SolverSettings& s, SolverData& d, std::vector<Vec3>
       const Row* r = &d.rows[3 * i];
       double* alpha = &d.alpha[3 * i];
       // normal: the lecture's projection onto alpha >= 0
-      change = std::max(change, update_normal(r[0], r[0].bias, dt, alpha[0], v, omega));
+      change = std::max(change, update_normal(r[0], r[0].bias, alpha[0], qd));
       // friction: Coulomb, bounded by mu times the current normal force
       const double bound = r[1].mu * alpha[0];
       if (!(r[1].delta > 0.0)) continue;
@@ -182,28 +186,28 @@ int iterate(double dt, const SolverSettings& s, SolverData& d, std::vector<Vec3>
         // one scale for both rows, so that the projection onto the disk acts on the slip itself
         // (with each row's own delta the converged friction opposes a scaled slip, not the slip)
         const double delta_t = std::max(r[1].delta, r[2].delta);
-        double a1 = alpha[1] - row_velocity(r[1], v, omega) / delta_t;
-        double a2 = alpha[2] - row_velocity(r[2], v, omega) / delta_t;
+        double a1 = alpha[1] - row_velocity(r[1], qd) / delta_t;
+        double a2 = alpha[2] - row_velocity(r[2], qd) / delta_t;
         clamp_to_disk(a1, a2, bound);
         const double d1 = a1 - alpha[1], d2 = a2 - alpha[2];
         alpha[1] = a1;
         alpha[2] = a2;
-        if (d1 != 0.0) apply(r[1], dt * d1, v, omega);
-        if (d2 != 0.0) apply(r[2], dt * d2, v, omega);
+        if (d1 != 0.0) apply(r[1], d1, qd);
+        if (d2 != 0.0) apply(r[2], d2, qd);
         change = std::max({change, r[1].delta * std::abs(d1), r[2].delta * std::abs(d2)});
       } else {
         for (int k = 1; k <= 2; ++k) {
-          const double gamma = row_velocity(r[k], v, omega) - r[k].delta * alpha[k];
-          const double a = std::clamp(-gamma / r[k].delta, -bound, bound);
+          const double gamma = row_velocity(r[k], qd) - r[k].delta * alpha[k];
+          const double a = std::clamp(-gamma * r[k].inv_delta, -bound, bound);
           const double da = a - alpha[k];
           if (da == 0.0) continue;
           alpha[k] = a;
-          apply(r[k], dt * da, v, omega);
+          apply(r[k], da, qd);
           change = std::max(change, r[k].delta * std::abs(da));
         }
       }
     }
-    converged = change <= s.tolerance;
+    converged = s.tolerance > 0.0 && change <= s.tolerance;
   }
   return sweeps;
 }
@@ -211,7 +215,7 @@ int iterate(double dt, const SolverSettings& s, SolverData& d, std::vector<Vec3>
 // ---- d. restitution -----------------------------------------------------------------------------
 /// Newton's law on the contacts that approached faster than the threshold and pushed:
 /// n^T (v_B - v_A) >= -e u. Returns the sweeps used.
-int restitution(double dt, const SolverSettings& s, SolverData& d, std::vector<Vec3>& v, std::vector<Vec3>& omega) {
+int restitution(const SolverSettings& s, SolverData& d) {
   const std::size_t K = d.u.size();
   d.restitutive.assign(K, 0);
   bool any = false;
@@ -227,8 +231,8 @@ int restitution(double dt, const SolverSettings& s, SolverData& d, std::vector<V
     double change = 0.0;
     for (std::size_t i = 0; i < K; ++i)
       if (d.restitutive[i])
-        change = std::max(change, update_normal(d.rows[3 * i], d.e[i] * d.u[i], dt, d.alpha[3 * i], v, omega));
-    converged = change <= s.tolerance;
+        change = std::max(change, update_normal(d.rows[3 * i], d.e[i] * d.u[i], d.alpha[3 * i], d.qd));
+    converged = s.tolerance > 0.0 && change <= s.tolerance;
   }
   return sweeps;
 }
@@ -256,16 +260,15 @@ int position_pass(double dt, const SolverSettings& s, const std::vector<Contact>
     ++sweeps;
     double change = 0.0;
     for (std::size_t i = 0; i < K; ++i)
-      change = std::max(change, update_normal(d.rows[3 * i], -d.b_pos[i], dt, d.beta[i], d.v_p, d.omega_p));
-    converged = change <= s.tolerance;
+      change = std::max(change, update_normal(d.rows[3 * i], -d.b_pos[i], d.beta[i], d.qd_p));
+    converged = s.tolerance > 0.0 && change <= s.tolerance;
   }
   return sweeps;
 }
 
 // ---- f. store -----------------------------------------------------------------------------------
 /// Forces and velocities per contact, summed forces per body, the next cache, the certificate.
-void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d,
-           const std::vector<Vec3>& v, const std::vector<Vec3>& omega, SolverStats& stats) {
+void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats) {
   const std::size_t K = contacts.size();
   d.cache_next.resize(K);
   for (std::size_t i = 0; i < K; ++i) {
@@ -275,19 +278,19 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
     // forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2 (on B; A gets the opposite)
     c.alpha = alpha[0];
     c.impulse = dt * alpha[0];
-    c.friction = alpha[1] * r[1].JB_lin + alpha[2] * r[2].JB_lin;
+    c.friction = alpha[1] * r[1].J_lin + alpha[2] * r[2].J_lin;
     c.force = alpha[0] * c.normal + c.friction;
     for (int k = 0; k < 3; ++k) {
-      d.body_force[r[k].a] += alpha[k] * r[k].JA_lin;
+      d.body_force[r[k].a] -= alpha[k] * r[k].J_lin;
       d.body_torque[r[k].a] += alpha[k] * r[k].JA_ang;
-      d.body_force[r[k].b] += alpha[k] * r[k].JB_lin;
+      d.body_force[r[k].b] += alpha[k] * r[k].J_lin;
       d.body_torque[r[k].b] += alpha[k] * r[k].JB_ang;
     }
     // velocities after the solve: normal and slip
-    const double vn = row_velocity(r[0], v, omega);
-    const double vt1 = row_velocity(r[1], v, omega), vt2 = row_velocity(r[2], v, omega);
+    const double vn = row_velocity(r[0], d.qd);
+    const double vt1 = row_velocity(r[1], d.qd), vt2 = row_velocity(r[2], d.qd);
     c.normal_velocity = vn;
-    c.slip = vt1 * r[1].JB_lin + vt2 * r[2].JB_lin;
+    c.slip = vt1 * r[1].J_lin + vt2 * r[2].J_lin;
 
     // the certificate: w_i against the row's own target
     const double b = d.restitutive[i] ? d.e[i] * d.u[i] : r[0].bias;
@@ -338,9 +341,12 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
 }  // namespace
 
 void tangent_basis(const Vec3& n, Vec3& t1, Vec3& t2) {
-  int k = 0;
-  if (std::abs(n[1]) < std::abs(n[k])) k = 1;
-  if (std::abs(n[2]) < std::abs(n[k])) k = 2;
+  // the first axis within kTangentTie of the smallest |n_k|: a normal of a stack or a wall has two
+  // components that are zero up to rounding, and choosing between them by their rounding noise
+  // would turn the friction pyramid by 90 degrees from one computation of the normal to the next
+  const Vec3 m = n.cwiseAbs();
+  const double least = m.minCoeff() + kTangentTie;
+  const int k = m[0] <= least ? 0 : m[1] <= least ? 1 : 2;
   t1 = n.cross(Vec3::Unit(k)).normalized();
   t2 = n.cross(t1);
 }
@@ -353,23 +359,41 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   stats.contacts = static_cast<int>(K);
   data.body_force.assign(N, Vec3::Zero());
   data.body_torque.assign(N, Vec3::Zero());
-  data.v_p.assign(N, Vec3::Zero());
-  data.omega_p.assign(N, Vec3::Zero());
+  data.qd_p.assign(N, BodyVelocity());
+  data.qd.resize(N);
+  data.I_inv.resize(N);
+  for (std::size_t i = 0; i < N; ++i) {
+    data.I_inv[i] = dynamics::inverse_inertia_world(model, state, i);
+    data.qd[i].omega = omega[i];
+    data.qd[i].v = v[i];
+  }
 
   // a. prepare rows; b. warm start; c. iterate
-  prepare(model, state, dt, contacts, anchor_a, anchor_b, v, omega, data);
-  if (settings.warm_start) warm_start(dt, settings, contacts, data, v, omega);
-  stats.iterations = iterate(dt, settings, data, v, omega, stats.converged);
+  prepare(model, state, dt, contacts, anchor_a, anchor_b, data);
+  if (settings.warm_start) warm_start(settings, contacts, data);
+  stats.iterations = iterate(settings, data, stats.converged);
   data.alpha_iter.resize(K);
   for (std::size_t i = 0; i < K; ++i) data.alpha_iter[i] = data.alpha[3 * i];
   // the poses move with the velocities of c; d changes only the kept ones
-  data.v_pos = v;
-  data.omega_pos = omega;
+  data.v_pos.resize(N);
+  data.omega_pos.resize(N);
+  for (std::size_t i = 0; i < N; ++i) {
+    data.v_pos[i] = data.qd[i].v;
+    data.omega_pos[i] = data.qd[i].omega;
+  }
   // d. restitution; e. position pass
-  stats.restitution_iterations = restitution(dt, settings, data, v, omega);
+  stats.restitution_iterations = restitution(settings, data);
   stats.position_iterations = position_pass(dt, settings, contacts, data);
   // f. store
-  store(dt, settings, contacts, data, v, omega, stats);
+  store(dt, settings, contacts, data, stats);
+  data.v_p.resize(N);
+  data.omega_p.resize(N);
+  for (std::size_t i = 0; i < N; ++i) {
+    v[i] = data.qd[i].v;
+    omega[i] = data.qd[i].omega;
+    data.v_p[i] = data.qd_p[i].v;
+    data.omega_p[i] = data.qd_p[i].omega;
+  }
   stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
   stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);
   stats.max_cone_violation = std::max(stats.max_cone_violation, 0.0);

@@ -133,10 +133,14 @@ def speculative_bias(contacts, dt):
 
 
 def tangent_basis(normal):
-    """t1, t2 of unit normals n (K, 3): with k the axis of the smallest |n_k| (first on ties),
-    t1 = unit(n x e_k), t2 = n x t1.  Outputs (K, 3) each; (n, t1, t2) is right-handed."""
+    """t1, t2 of unit normals n (K, 3): with k the first axis whose |n_k| is within 1e-9 of the
+    smallest (components equal up to rounding noise count as tied, so the noise never turns the
+    friction pyramid), t1 = unit(n x e_k), t2 = n x t1.  Outputs (K, 3) each; (n, t1, t2) is
+    right-handed."""
     n = np.asarray(normal, dtype=float).reshape(-1, 3)
-    e_k = np.eye(3)[np.argmin(np.abs(n), axis=1)]
+    m = np.abs(n)
+    tied = m <= m.min(axis=1, keepdims=True) + 1e-9
+    e_k = np.eye(3)[np.argmax(tied, axis=1)]
     t1 = np.cross(n, e_k)
     t1 = t1 / np.linalg.norm(t1, axis=1)[:, None]
     return t1, np.cross(n, t1)
@@ -374,7 +378,7 @@ def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone):
                     x[k] = a
                     sweep.apply(k, d_alpha, q_dot)
                     change = max(change, delta[k] * abs(d_alpha))
-        converged = change <= tolerance
+        converged = tolerance > 0.0 and change <= tolerance
     alpha[:] = x
     return iterations, converged
 
@@ -410,7 +414,7 @@ def restitution(rows, alpha, q_dot, restitutive, dt, tolerance, max_iterations):
         change = 0.0
         for i in contacts:
             change = max(change, sweep.update_normal(3 * i, target[i], x, q_dot))
-        converged = change <= tolerance
+        converged = tolerance > 0.0 and change <= tolerance
     alpha[:] = x
     return sweeps
 
@@ -455,7 +459,7 @@ def position_pass(rows, b_pos, n_bodies, dt, tolerance, max_iterations):
         change = 0.0
         for i in range(K):
             change = max(change, sweep.update_normal(3 * i, target[i], x, q_p))
-        converged = change <= tolerance
+        converged = tolerance > 0.0 and change <= tolerance
     beta[:] = x[0::3]
     return q_p, beta, sweeps
 

@@ -1,0 +1,122 @@
+"""Mesh files: OBJ, STL, PLY, OFF and GLB read through trimesh, and the exact ``.npz`` mesh file of
+scene files.
+
+``load_mesh(path)`` gives a ``Mesh`` (a dynamic body's shape; closed, outward triangles) or, with
+``static=True``, a ``TriangleMesh`` (terrain, bowls; need not be closed). trimesh merges the
+duplicated corners of formats that store each triangle on its own (STL), so a cube read from STL
+has 8 vertices, not 36. A GLB holding several meshes gives their union, each placed by its node.
+
+The ``.npz`` mesh file holds the arrays exactly (float64 vertices, int64 faces, and the convex
+pieces of a decomposed mesh: ``piece_count`` and ``piece_<k>``), so a scene saved with its meshes
+loads bit for bit, without decomposing again. It is what ``save_scene`` writes.
+
+Every error names the file and the problem.
+"""
+from __future__ import annotations
+
+import os
+import zipfile
+from pathlib import Path
+from typing import Any, Union
+
+import numpy as np
+
+from ._core import Mesh, TriangleMesh
+
+__all__ = ["load_mesh", "read_mesh_arrays", "write_npz_mesh", "MESH_SUFFIXES"]
+
+#: suffixes load_mesh reads (trimesh's readers, and signorini's exact .npz)
+MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".npz")
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def _mesh_error(path: Path, problem: str) -> ValueError:
+    return ValueError(f"mesh file {str(path)!r}: {problem}")
+
+
+def read_mesh_arrays(path: PathLike, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """(vertices (n, 3) float64 m, faces (k, 3) int64, convex pieces [(n_i, 3) float64]) of a mesh file.
+
+    Inputs: path of an .obj, .stl, .ply, .off, .glb (through trimesh) or .npz (``write_npz_mesh``)
+    file; scale (> 0) multiplies every coordinate (and the pieces' vertices). Pieces come only from
+    .npz files. Raises FileNotFoundError for a missing file and ValueError naming the file for an
+    unknown suffix, an unreadable or empty file, or a bad scale.
+    """
+    path = Path(path)
+    if isinstance(scale, bool) or not isinstance(scale, (int, float, np.integer, np.floating)) \
+            or not (np.isfinite(scale) and scale > 0):
+        raise _mesh_error(path, f"scale must be a finite number > 0, got {scale!r}")
+    if not path.is_file():
+        raise FileNotFoundError(f"mesh file {str(path)!r} does not exist" if not path.exists()
+                                else f"mesh file {str(path)!r} is not a file")
+    suffix = path.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise _mesh_error(path, f"unknown mesh format {suffix or '(no suffix)'!r}; "
+                                f"known: {', '.join(MESH_SUFFIXES)}")
+    pieces: list[np.ndarray] = []
+    if suffix == ".npz":
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                vertices = np.array(data["vertices"], dtype=np.float64)
+                faces = np.array(data["faces"], dtype=np.int64)
+                count = int(data["piece_count"]) if "piece_count" in data.files else 0
+                pieces = [np.array(data[f"piece_{k}"], dtype=np.float64) for k in range(count)]
+        except KeyError as e:
+            raise _mesh_error(path, f"not a signorini mesh file: no array {e.args[0]!r}") from None
+        except (OSError, ValueError, zipfile.BadZipFile) as e:
+            raise _mesh_error(path, f"unreadable as .npz: {e}") from None
+    else:
+        import trimesh
+
+        if path.stat().st_size == 0:
+            raise _mesh_error(path, "the file is empty")
+        try:
+            # force="mesh": a GLB scene becomes one mesh, each geometry placed by its node
+            loaded = trimesh.load(str(path), force="mesh", process=True)
+        except Exception as e:  # trimesh raises many types for broken files
+            raise _mesh_error(path, f"unreadable as {suffix[1:].upper()}: {type(e).__name__}: {e}") from None
+        if not isinstance(loaded, trimesh.Trimesh):
+            raise _mesh_error(path, f"holds no triangle mesh (read as {type(loaded).__name__})")
+        vertices = np.array(loaded.vertices, dtype=np.float64)
+        faces = np.array(loaded.faces, dtype=np.int64)
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
+        raise _mesh_error(path, f"vertices must be (n, 3) and faces (k, 3), got {vertices.shape} and {faces.shape}")
+    if len(vertices) == 0 or len(faces) == 0:
+        raise _mesh_error(path, f"holds no triangles ({len(vertices)} vertices, {len(faces)} faces)")
+    if scale != 1.0:
+        vertices = vertices * float(scale)
+        pieces = [p * float(scale) for p in pieces]
+    return vertices, faces, pieces
+
+
+def load_mesh(path: PathLike, scale: float = 1.0, static: bool = False) -> Mesh | TriangleMesh:
+    """The mesh in a file, as a ``Mesh`` (``static=False``) or a ``TriangleMesh`` (``static=True``).
+
+    Inputs: path of an OBJ, STL, PLY, OFF or GLB file (read by trimesh; corners shared by several
+    triangles are merged) or a signorini .npz mesh file (exact arrays, with convex pieces when it
+    has them); scale (> 0) multiplies every coordinate (e.g. 0.001 for a file in millimetres).
+    Coordinates are metres after scaling, in the file's own frame. Raises FileNotFoundError for a
+    missing file and ValueError naming the file for an unreadable, empty or invalid one.
+    """
+    path = Path(path)
+    vertices, faces, pieces = read_mesh_arrays(path, scale)
+    try:
+        if static:
+            return TriangleMesh(vertices, faces)
+        mesh = Mesh(vertices, faces)
+        return mesh.with_pieces(pieces) if pieces else mesh
+    except ValueError as e:
+        raise _mesh_error(path, str(e)) from None
+
+
+def write_npz_mesh(path: PathLike, vertices, faces, pieces=()) -> Path:
+    """Writes vertices (n, 3) float64, faces (k, 3) int64 and convex pieces [(n_i, 3)] to an .npz
+    mesh file that ``load_mesh`` reads back exactly; returns the path."""
+    path = Path(path)
+    arrays: dict[str, Any] = {"vertices": np.asarray(vertices, dtype=np.float64), "faces": np.asarray(faces, dtype=np.int64),
+              "piece_count": np.int64(len(pieces))}
+    arrays.update({f"piece_{k}": np.asarray(p, dtype=np.float64) for k, p in enumerate(pieces)})
+    with open(path, "wb") as f:
+        np.savez(f, **arrays)
+    return path
