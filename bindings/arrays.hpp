@@ -4,7 +4,9 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "signorini/contact.hpp"
@@ -47,6 +49,69 @@ inline py::array_t<double> stack_of(const std::vector<Mat3>& xs) {
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) o(i, r, c) = xs[i](r, c);
   return out;
+}
+
+/// A read-only NumPy view of memory owned by `owner` (the array's base keeps it alive): shape and
+/// strides in elements of T... given in bytes for strides. Empty arrays get their own (empty) data.
+template <class T>
+py::array readonly_view(const py::handle& owner, const T* data, std::vector<py::ssize_t> shape,
+                        std::vector<py::ssize_t> strides) {
+  py::array a(py::dtype::of<T>(), std::move(shape), std::move(strides), data, owner);
+  py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+  return a;
+}
+
+/// (N, 3) read-only view of a vector of Vec3 (24-byte rows), base `owner`.
+inline py::array vec3_view(const py::handle& owner, const std::vector<Vec3>& xs) {
+  return readonly_view(owner, xs.empty() ? nullptr : xs[0].data(), {static_cast<py::ssize_t>(xs.size()), 3},
+                       {static_cast<py::ssize_t>(sizeof(Vec3)), sizeof(double)});
+}
+
+/// (N, 4) read-only view of a vector of Quat4, base `owner`.
+inline py::array quat_view(const py::handle& owner, const std::vector<Quat4>& xs) {
+  return readonly_view(owner, xs.empty() ? nullptr : xs[0].data(), {static_cast<py::ssize_t>(xs.size()), 4},
+                       {static_cast<py::ssize_t>(sizeof(Quat4)), sizeof(double)});
+}
+
+/// (N, 3, 3) read-only view of a vector of column-major Mat3 (row stride 1 double, column stride 3).
+inline py::array mat3_view(const py::handle& owner, const std::vector<Mat3>& xs) {
+  return readonly_view(owner, xs.empty() ? nullptr : xs[0].data(), {static_cast<py::ssize_t>(xs.size()), 3, 3},
+                       {static_cast<py::ssize_t>(sizeof(Mat3)), sizeof(double), 3 * sizeof(double)});
+}
+
+/// Contacts as a dict of read-only views into the shared list (which the base, a capsule holding
+/// it, keeps alive and unchanged): body_a, body_b (K,) int32; point, normal, friction, force,
+/// slip (K, 3); gap, alpha, impulse, normal_velocity (K,); feature_a, feature_b (K,) uint64.
+inline py::dict contact_views(std::shared_ptr<const std::vector<Contact>> list) {
+  const std::vector<Contact>& cs = *list;
+  py::capsule owner(new std::shared_ptr<const std::vector<Contact>>(std::move(list)),
+                    [](void* p) { delete static_cast<std::shared_ptr<const std::vector<Contact>>*>(p); });
+  const auto K = static_cast<py::ssize_t>(cs.size());
+  const py::ssize_t row = sizeof(Contact);
+  const Contact* c0 = cs.empty() ? nullptr : cs.data();
+  // field addresses of the first contact (null for an empty list: the views get their own data)
+  auto scalar = [&](const auto* field) {
+    using T = std::remove_cv_t<std::remove_pointer_t<decltype(field)>>;
+    return readonly_view<T>(owner, c0 ? field : nullptr, {K}, {row});
+  };
+  auto vector3 = [&](const Vec3* field) { return readonly_view<double>(owner, c0 ? field->data() : nullptr, {K, 3}, {row, sizeof(double)}); };
+  static const Contact blank;
+  const Contact& c = c0 ? *c0 : blank;
+  py::dict d;
+  d["body_a"] = scalar(&c.body_a);
+  d["body_b"] = scalar(&c.body_b);
+  d["point"] = vector3(&c.point);
+  d["normal"] = vector3(&c.normal);
+  d["gap"] = scalar(&c.gap);
+  d["alpha"] = scalar(&c.alpha);
+  d["impulse"] = scalar(&c.impulse);
+  d["friction"] = vector3(&c.friction);
+  d["force"] = vector3(&c.force);
+  d["normal_velocity"] = scalar(&c.normal_velocity);
+  d["slip"] = vector3(&c.slip);
+  d["feature_a"] = scalar(&c.feature_a);
+  d["feature_b"] = scalar(&c.feature_b);
+  return d;
 }
 
 /// A Python shape object (Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, TriangleMesh,

@@ -97,18 +97,70 @@ Compound::Part compound_part(const py::handle& item, std::size_t i) {
   }
 }
 
+// ---- pickling: each shape as its constructor's arguments; the derived polytopes of hulls and
+// mesh pieces are kept exactly as they are (a re-run of Qhull could order faces differently, and a
+// pickled world must step bit-identically)
+
+py::tuple polytope_state(const Polytope& p) {
+  py::list faces, face_edges;
+  for (const auto& f : p.faces) faces.append(py::cast(f));
+  for (const auto& f : p.face_edges) face_edges.append(py::cast(f));
+  py::array_t<int> edges({static_cast<py::ssize_t>(p.edges.size()), py::ssize_t(4)});
+  for (std::size_t k = 0; k < p.edges.size(); ++k) {
+    const Polytope::Edge& e = p.edges[k];
+    edges.mutable_at(k, 0) = e.v0;
+    edges.mutable_at(k, 1) = e.v1;
+    edges.mutable_at(k, 2) = e.f0;
+    edges.mutable_at(k, 3) = e.f1;
+  }
+  return py::make_tuple(p.vertices, faces, bindings::rows_of(p.normals), py::cast(p.offsets),
+                        edges, face_edges, p.centroid);
+}
+
+std::shared_ptr<const Polytope> polytope_from_state(const py::handle& state) {
+  const auto t = py::reinterpret_borrow<py::tuple>(state);
+  if (t.size() != 7) throw py::value_error("polytope state must have 7 items");
+  auto p = std::make_shared<Polytope>();
+  p->vertices = points(t[0], "Polytope", "vertices");
+  p->faces = t[1].cast<std::vector<std::vector<int>>>();
+  const Points normals = points(t[2], "Polytope", "normals");
+  for (Eigen::Index k = 0; k < normals.rows(); ++k) p->normals.push_back(normals.row(k).transpose());
+  p->offsets = t[3].cast<std::vector<double>>();
+  const auto edges = py::array_t<int, py::array::c_style | py::array::forcecast>::ensure(t[4]);
+  if (!edges || edges.ndim() != 2 || edges.shape(1) != 4) throw py::value_error("polytope edges must have shape (E, 4)");
+  for (py::ssize_t k = 0; k < edges.shape(0); ++k)
+    p->edges.push_back({edges.at(k, 0), edges.at(k, 1), edges.at(k, 2), edges.at(k, 3)});
+  p->face_edges = t[5].cast<std::vector<std::vector<int>>>();
+  p->centroid = t[6].cast<Vec3>();
+  return p;
+}
+
+/// A compound part's primitive from its Python object.
+Primitive primitive(const py::handle& s) {
+  if (py::isinstance<Sphere>(s)) return s.cast<Sphere>();
+  if (py::isinstance<Box>(s)) return s.cast<Box>();
+  if (py::isinstance<Capsule>(s)) return s.cast<Capsule>();
+  if (py::isinstance<Cylinder>(s)) return s.cast<Cylinder>();
+  if (py::isinstance<ConvexHull>(s)) return s.cast<ConvexHull>();
+  throw py::type_error("Compound: a part must be a Sphere, Box, Capsule, Cylinder or ConvexHull");
+}
+
 }  // namespace
 
 void register_shapes(py::module_& m) {
   py::class_<Sphere>(m, "Sphere", "Ball of the given radius (m), centred at the body origin.")
       .def(py::init<double>(), py::arg("radius"))
       .def_readonly("radius", &Sphere::radius)
-      .def("__repr__", [](const Sphere& s) { return "Sphere(radius=" + std::to_string(s.radius) + ")"; });
+      .def("__repr__", [](const Sphere& s) { return "Sphere(radius=" + std::to_string(s.radius) + ")"; })
+      .def(py::pickle([](const Sphere& s) { return py::make_tuple(s.radius); },
+                      [](const py::tuple& t) { return Sphere(t[0].cast<double>()); }));
 
   py::class_<Box>(m, "Box", "Box with half extents (a, b, c) (m) along the body axes.")
       .def(py::init([](const py::object& h) { return Box(vec3(h, "Box", "half_extents")); }), py::arg("half_extents"))
       .def_readonly("half_extents", &Box::half_extents)
-      .def("__repr__", [](const Box& b) { return "Box(half_extents=" + str(b.half_extents) + ")"; });
+      .def("__repr__", [](const Box& b) { return "Box(half_extents=" + str(b.half_extents) + ")"; })
+      .def(py::pickle([](const Box& b) { return py::make_tuple(b.half_extents); },
+                      [](const py::tuple& t) { return Box(t[0].cast<Vec3>()); }));
 
   py::class_<Plane>(m, "Plane",
                     "Static plane n . x = offset (n normalised); bodies live on the side n . x > offset.")
@@ -116,7 +168,13 @@ void register_shapes(py::module_& m) {
            py::arg("normal"), py::arg("offset") = 0.0)
       .def_readonly("normal", &Plane::normal)
       .def_readonly("offset", &Plane::offset)
-      .def("__repr__", [](const Plane& p) { return "Plane(normal=" + str(p.normal) + ", offset=" + std::to_string(p.offset) + ")"; });
+      .def("__repr__", [](const Plane& p) { return "Plane(normal=" + str(p.normal) + ", offset=" + std::to_string(p.offset) + ")"; })
+      .def(py::pickle([](const Plane& p) { return py::make_tuple(p.normal, p.offset); },
+                      [](const py::tuple& t) {
+                        Plane p(t[0].cast<Vec3>(), t[1].cast<double>());
+                        p.normal = t[0].cast<Vec3>();  // as stored: normalising again may move the last bit
+                        return p;
+                      }));
 
   py::class_<Mesh>(m, "Mesh",
                    "Triangle mesh: vertices (n, 3) in m, faces (k, 3) vertex indices, counter-clockwise seen "
@@ -162,7 +220,18 @@ void register_shapes(py::module_& m) {
         std::string s = "Mesh(" + std::to_string(mesh.vertices.rows()) + " vertices, " + std::to_string(mesh.faces.rows()) + " faces";
         if (!mesh.pieces.empty()) s += ", " + std::to_string(mesh.pieces.size()) + (mesh.pieces.size() == 1 ? " convex piece" : " convex pieces");
         return s + ")";
-      });
+      })
+      .def(py::pickle(
+          [](const Mesh& mesh) {
+            py::list pieces;
+            for (const auto& piece : mesh.pieces) pieces.append(polytope_state(*piece));
+            return py::make_tuple(mesh.vertices, mesh.faces, pieces);
+          },
+          [](const py::tuple& t) {
+            Mesh mesh(points(t[0], "Mesh", "vertices"), triangles(t[1], "Mesh"));
+            for (const py::handle& piece : t[2].cast<py::list>()) mesh.pieces.push_back(polytope_from_state(piece));
+            return mesh;
+          }));
 
   py::class_<Capsule>(m, "Capsule",
                       "Points within `radius` (m) of the segment from (0, 0, -half_length) to (0, 0, +half_length) "
@@ -172,7 +241,9 @@ void register_shapes(py::module_& m) {
       .def_readonly("half_length", &Capsule::half_length)
       .def("__repr__", [](const Capsule& c) {
         return "Capsule(radius=" + std::to_string(c.radius) + ", half_length=" + std::to_string(c.half_length) + ")";
-      });
+      })
+      .def(py::pickle([](const Capsule& c) { return py::make_tuple(c.radius, c.half_length); },
+                      [](const py::tuple& t) { return Capsule(t[0].cast<double>(), t[1].cast<double>()); }));
 
   py::class_<Cylinder>(m, "Cylinder",
                        "Solid cylinder of `radius` (m) around the body z axis, from z = -half_height to +half_height (m).")
@@ -181,7 +252,9 @@ void register_shapes(py::module_& m) {
       .def_readonly("half_height", &Cylinder::half_height)
       .def("__repr__", [](const Cylinder& c) {
         return "Cylinder(radius=" + std::to_string(c.radius) + ", half_height=" + std::to_string(c.half_height) + ")";
-      });
+      })
+      .def(py::pickle([](const Cylinder& c) { return py::make_tuple(c.radius, c.half_height); },
+                      [](const py::tuple& t) { return Cylinder(t[0].cast<double>(), t[1].cast<double>()); }));
 
   py::class_<ConvexHull>(m, "ConvexHull",
                          "Convex hull (Qhull) of (n, 3) points (m, body frame), n >= 4, not all coplanar. "
@@ -192,7 +265,16 @@ void register_shapes(py::module_& m) {
       .def("__repr__", [](const ConvexHull& h) {
         return "ConvexHull(" + std::to_string(h.vertices.rows()) + " vertices, " + std::to_string(h.faces.rows()) +
                " triangles, " + std::to_string(h.polytope->faces.size()) + " faces)";
-      });
+      })
+      .def(py::pickle(
+          [](const ConvexHull& h) { return py::make_tuple(h.vertices, h.faces, polytope_state(*h.polytope)); },
+          [](const py::tuple& t) {
+            ConvexHull h(points(t[0], "ConvexHull", "vertices"));
+            h.vertices = points(t[0], "ConvexHull", "vertices");  // exactly as stored, in their order
+            h.faces = triangles(t[1], "ConvexHull");
+            h.polytope = polytope_from_state(t[2]);
+            return h;
+          }));
 
   py::class_<TriangleMesh>(m, "TriangleMesh",
                            "Static triangle mesh of any shape (terrain, bowls, ramps): vertices (n, 3) in m, faces "
@@ -219,7 +301,11 @@ void register_shapes(py::module_& m) {
           "normals", [](const TriangleMesh& t) { return bindings::rows_of(t.normals); }, "(k, 3) unit face normals.")
       .def("__repr__", [](const TriangleMesh& t) {
         return "TriangleMesh(" + std::to_string(t.vertices.rows()) + " vertices, " + std::to_string(t.faces.rows()) + " faces)";
-      });
+      })
+      .def(py::pickle([](const TriangleMesh& t) { return py::make_tuple(t.vertices, t.faces); },
+                      [](const py::tuple& t) {
+                        return TriangleMesh(points(t[0], "TriangleMesh", "vertices"), triangles(t[1], "TriangleMesh"));
+                      }));
 
   py::class_<Compound>(m, "Compound",
                        "Convex parts on one body: a list of (shape, (position, orientation)), shape a Sphere, Box, "
@@ -260,7 +346,26 @@ void register_shapes(py::module_& m) {
         for (std::size_t i = 0; i < c.parts.size(); ++i)
           s += (i ? ", " : " ") + std::visit([](const auto& x) { return shape_name(Shape(x)); }, c.parts[i].shape);
         return s + ")";
-      });
+      })
+      .def(py::pickle(
+          [](const Compound& c) {
+            py::list parts;  // (primitive, position, rotation matrix): the rotation as stored, no quaternion round trip
+            for (const Compound::Part& p : c.parts)
+              parts.append(py::make_tuple(std::visit([](const auto& x) { return py::cast(x); }, p.shape), p.position, p.rotation));
+            return py::make_tuple(parts);
+          },
+          [](const py::tuple& t) {
+            std::vector<Compound::Part> parts;
+            for (const py::handle& item : t[0].cast<py::list>()) {
+              const auto part = item.cast<py::tuple>();
+              parts.push_back(Compound::Part{primitive(part[0]), part[1].cast<Vec3>(), part[2].cast<Mat3>()});
+            }
+            try {
+              return Compound(std::move(parts));
+            } catch (const std::invalid_argument& e) {
+              throw py::value_error(e.what());
+            }
+          }));
 
   m.def(
       "mass_properties",

@@ -1,6 +1,11 @@
-// World: construction, bodies, stepping, state and contact arrays (copies, shapes in comments).
+// World: construction, bodies, stepping, state and contact arrays (state and contacts as read-only
+// zero-copy views, model arrays as copies; shapes in comments), saved states.
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
+
+#include <cstdint>
+#include <optional>
+#include <string>
 
 #include "arrays.hpp"
 #include "signorini/world.hpp"
@@ -30,6 +35,10 @@ void register_world(py::module_& m) {
       .def_readwrite("substeps", &SolverSettings::substeps)
       .def_readwrite("warn_velocity", &SolverSettings::warn_velocity);
 
+  // an index that is not in the world: both an IndexError and a ValueError
+  py::register_exception<BodyIndexError>(m, "BodyIndexError",
+                                         py::make_tuple(py::handle(PyExc_IndexError), py::handle(PyExc_ValueError)));
+
   py::class_<World>(m, "World")
       .def(py::init([](const Vec3& gravity, double margin, const SolverSettings& solver) {
              WorldSettings s;
@@ -41,31 +50,59 @@ void register_world(py::module_& m) {
            py::arg("gravity"), py::arg("contact_margin"), py::arg("solver"))
       .def(
           "add_body",
-          [](World& w, const py::object& shape, bool is_static, std::optional<double> density, std::optional<double> mass,
-             const Vec3& position, const Quat4& orientation, const Vec3& velocity, const Vec3& angular_velocity,
-             double friction, double restitution) {
+          [](World& w, const py::object& shape, bool is_static, bool is_kinematic, std::optional<double> density,
+             std::optional<double> mass, std::optional<Mat3> inertia, const Vec3& position, const Quat4& orientation,
+             const Vec3& velocity, const Vec3& angular_velocity, double friction, double restitution,
+             const std::string& name, std::uint32_t group, std::uint32_t mask, bool enabled) {
             BodyDesc d;
             d.shape = bindings::to_shape(shape, "body " + std::to_string(w.num_bodies()));
             d.is_static = is_static;
+            d.is_kinematic = is_kinematic;
             d.density = density;
             d.mass = mass;
+            d.inertia = inertia;
             d.position = position;
             d.orientation = orientation;
             d.velocity = velocity;
             d.angular_velocity = angular_velocity;
             d.material.friction = friction;
             d.material.restitution = restitution;
+            d.name = name;
+            d.filter = CollisionFilter{group, mask};
+            d.enabled = enabled;
             return w.add_body(d);
           },
-          py::arg("shape"), py::arg("is_static"), py::arg("density"), py::arg("mass"), py::arg("position"),
-          py::arg("orientation"), py::arg("velocity"), py::arg("angular_velocity"), py::arg("friction"),
-          py::arg("restitution"))
+          py::arg("shape"), py::arg("is_static"), py::arg("is_kinematic"), py::arg("density"), py::arg("mass"),
+          py::arg("inertia"), py::arg("position"), py::arg("orientation"), py::arg("velocity"),
+          py::arg("angular_velocity"), py::arg("friction"), py::arg("restitution"), py::arg("name"),
+          py::arg("group"), py::arg("mask"), py::arg("enabled"))
+      .def("remove_body", &World::remove_body, py::arg("i"))
       .def("step", &World::step, py::arg("dt"), py::arg("steps") = 1, py::call_guard<py::gil_scoped_release>())
       .def("set_position", &World::set_position)
       .def("set_orientation", &World::set_orientation)
       .def("set_velocity", &World::set_velocity)
       .def("set_angular_velocity", &World::set_angular_velocity)
       .def("set_external_wrench", &World::set_external_wrench)
+      .def("set_positions", &World::set_positions)
+      .def("set_orientations", &World::set_orientations)
+      .def("set_velocities", &World::set_velocities)
+      .def("set_angular_velocities", &World::set_angular_velocities)
+      .def("apply_impulse", [](World& w, BodyIndex i, const Vec3& J, std::optional<Vec3> point) {
+        w.apply_impulse(i, J, point ? *point : w.state().p.at(i));
+      })
+      .def("apply_force", [](World& w, BodyIndex i, const Vec3& f, std::optional<Vec3> point) {
+        w.apply_force(i, f, point ? *point : w.state().p.at(i));
+      })
+      .def("set_kinematic", &World::set_kinematic)
+      .def("set_enabled", &World::set_enabled)
+      .def("set_collision_filter", [](World& w, BodyIndex i, std::uint32_t group, std::uint32_t mask) {
+        w.set_collision_filter(i, CollisionFilter{group, mask});
+      })
+      .def("set_pair_collision", &World::set_pair_collision)
+      .def("find", &World::find)
+      .def("label", &World::label)
+      .def("save_state", [](const World& w) { return py::bytes(w.save_state()); })
+      .def("restore_state", [](World& w, const py::bytes& b) { w.restore_state(std::string(b)); })
       .def("set_material", [](World& w, BodyIndex i, double friction, double restitution) {
         w.set_material(i, Material{friction, restitution});
       })
@@ -80,22 +117,19 @@ void register_world(py::module_& m) {
       })
       .def_property_readonly("num_bodies", &World::num_bodies)
       .def_property_readonly("time", [](const World& w) { return w.state().time; })
-      // state (N x 3, N x 3 x 3, N x 4): copies taken now
-      .def_property_readonly("positions", [](const World& w) { return bindings::rows_of(w.state().p); })
-      .def_property_readonly("rotations", [](const World& w) { return bindings::stack_of(w.state().R); })
-      .def_property_readonly("orientations", [](const World& w) {
-        py::array_t<double> q({static_cast<py::ssize_t>(w.num_bodies()), py::ssize_t(4)});
-        auto o = q.mutable_unchecked<2>();
-        for (std::size_t i = 0; i < w.num_bodies(); ++i) {
-          const Quat4 qi = w.orientation(static_cast<BodyIndex>(i));
-          for (int c = 0; c < 4; ++c) o(i, c) = qi[c];
-        }
-        return q;
-      })
-      .def_property_readonly("velocities", [](const World& w) { return bindings::rows_of(w.state().v); })
-      .def_property_readonly("angular_velocities", [](const World& w) { return bindings::rows_of(w.state().omega); })
-      .def_property_readonly("forces", [](const World& w) { return bindings::rows_of(w.state().f_ext); })
-      .def_property_readonly("torques", [](const World& w) { return bindings::rows_of(w.state().tau_ext); })
+      // state (N x 3, N x 3 x 3, N x 4): read-only views of the core's arrays, base = this World
+      .def_property_readonly("positions", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().p); })
+      .def_property_readonly("rotations", [](const py::object& self) { return bindings::mat3_view(self, self.cast<const World&>().state().R); })
+      .def_property_readonly("orientations", [](const py::object& self) { return bindings::quat_view(self, self.cast<const World&>().state().q); })
+      .def_property_readonly("velocities", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().v); })
+      .def_property_readonly("angular_velocities", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().omega); })
+      .def_property_readonly("forces", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().f_ext); })
+      .def_property_readonly("torques", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().tau_ext); })
+      // the next step's one-step force and torque, and pending impulse and angular impulse (N x 3)
+      .def_property_readonly("step_forces", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().f_step); })
+      .def_property_readonly("step_torques", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().tau_step); })
+      .def_property_readonly("impulses", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().impulse); })
+      .def_property_readonly("angular_impulses", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().angular_impulse); })
       // model
       .def_property_readonly("masses", [](const World& w) { return py::array_t<double>(py::cast(w.model().mass)); })
       .def_property_readonly("inv_masses", [](const World& w) { return py::array_t<double>(py::cast(w.model().inv_mass)); })
@@ -115,12 +149,32 @@ void register_world(py::module_& m) {
         std::vector<bool> s(w.model().is_static.begin(), w.model().is_static.end());
         return py::array_t<bool>(py::cast(s));
       })
+      .def_property_readonly("is_kinematic", [](const World& w) {
+        std::vector<bool> s(w.model().is_kinematic.begin(), w.model().is_kinematic.end());
+        return py::array_t<bool>(py::cast(s));
+      })
+      .def_property_readonly("enabled", [](const World& w) {
+        std::vector<bool> s(w.model().enabled.begin(), w.model().enabled.end());
+        return py::array_t<bool>(py::cast(s));
+      })
+      .def_property_readonly("groups", [](const World& w) {
+        py::array_t<std::uint32_t> out(static_cast<py::ssize_t>(w.num_bodies()));
+        for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().filter[i].group;
+        return out;
+      })
+      .def_property_readonly("masks", [](const World& w) {
+        py::array_t<std::uint32_t> out(static_cast<py::ssize_t>(w.num_bodies()));
+        for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().filter[i].mask;
+        return out;
+      })
+      .def_property_readonly("names", [](const World& w) { return w.model().name; })
+      .def_property_readonly("excluded_pairs", [](const World& w) { return w.model().excluded_pairs; })
       // settings
       .def_property_readonly("gravity", [](const World& w) { return w.settings().gravity; })
       .def_property_readonly("contact_margin", [](const World& w) { return w.settings().contact_margin; })
       .def_property_readonly("solver", [](const World& w) { return w.settings().solver; })
       // last step
-      .def_property_readonly("contacts", [](const World& w) { return contact_arrays(w.contacts()); })
+      .def_property_readonly("contacts", [](const World& w) { return bindings::contact_views(w.shared_contacts()); })
       .def("detect_contacts", [](const World& w, double dt) { return contact_arrays(w.detect_contacts(dt)); }, py::arg("dt"))
       .def_property_readonly("solver_stats", [](const World& w) {
         const SolverStats& s = w.solver_stats();

@@ -14,7 +14,8 @@ the viewer (``python -m signorini view``) and the video, glTF and USD exports re
 from typing import TYPE_CHECKING
 
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
-from .world import BodyIndexError, Contacts, SolverStats, SolverWarning, World, mass_properties, shape_dict
+from .world import (BodyIndexError, Contacts, SavedState, SolverStats, SolverWarning, World, mass_properties,
+                    shape_dict)
 from .collision import Feature, collide, feature
 from .trajectory import Record, Recorder, load_trajectory, save_trajectory
 from . import meshfile
@@ -38,7 +39,7 @@ def __getattr__(name: str):
 
 
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
-           "Compound", "mass_properties", "Contacts", "SolverStats",
+           "Compound", "mass_properties", "Contacts", "SolverStats", "SavedState",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "load_scene", "read_scene",
            "save_scene", "SceneFileError", "load_mjcf", "read_mjcf", "MJCFError"]

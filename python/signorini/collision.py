@@ -39,17 +39,12 @@ def feature(feature_id) -> Feature:
 
 
 def _pose(pose, who: str):
-    """(position (3,), quaternion (4,)) from a user's pose, or a clear error."""
+    """(position (3,), quaternion (4,)) arrays from a user's pose, or a clear TypeError / ValueError."""
     if not isinstance(pose, (tuple, list)) or len(pose) != 2:
         raise TypeError(f"collide: {who} must be a pair (position, orientation), orientation a quaternion "
                         f"(w, x, y, z), got {pose!r}")
-    position = _vector(pose[0], 3, "collide", f"{who} position")
-    orientation = _vector(pose[1], 4, "collide", f"{who} orientation")
-    if not (np.all(np.isfinite(position)) and np.all(np.isfinite(orientation))):
-        raise ValueError(f"collide: {who} must be finite, got {pose!r}")
-    if not np.linalg.norm(orientation) > 1e-12:
-        raise ValueError(f"collide: {who} orientation is a zero quaternion; use (1, 0, 0, 0) for no rotation")
-    return position, orientation
+    # the core checks the values (finite, non-zero quaternion)
+    return _vector(pose[0], 3, "collide", f"{who} position"), _vector(pose[1], 4, "collide", f"{who} orientation")
 
 
 def collide(shape_a, pose_a, shape_b, pose_b, margin: float = 0.0) -> Contacts:

@@ -389,8 +389,8 @@ def read_scene(path):
             material = model.materials[body.material] if body.material is not None else Material()
             friction = material.friction if body.friction is None else body.friction
             restitution = material.restitution if body.restitution is None else body.restitution
-            # part A's body names: kwargs = {"name": body.name} wires them into the world
-            kwargs: dict[str, Any] = {}
+            # the body's name, into the world (find, errors naming the body)
+            kwargs: dict[str, Any] = {"name": body.name} if body.name else {}
             if body.static:
                 # checked here because add_static takes none of these (the world stays unchanged)
                 for field in ("density", "mass"):
@@ -581,7 +581,7 @@ def save_scene(world_or_scene, path) -> Path:
             info["snapshot_times"] = [float(t) for t in scene.snapshot_times]
     else:
         world, info = world_or_scene, {}
-        # part A's body names: w.name(i)
+        # the world's body names
         names = [world.name(i) for i in range(world.num_bodies)] if hasattr(world, "name") else None
     settings = {"gravity": _floats(world.gravity), "contact_margin": float(world._core.contact_margin),
                 **world.solver}

@@ -1,8 +1,9 @@
-"""The World facade: argument checking and NumPy-friendly results around ``signorini._core``.
+"""The World facade: type conversion and NumPy-friendly results around ``signorini._core``.
 
 No physics lives here: every number is computed by the C++ core. This layer turns Python
-arguments into the exact shapes the core takes, with errors that name the body and the problem,
-and wraps the core's arrays into small result objects.
+arguments into the exact types and shapes the core takes; the core checks the values (finite,
+in range, a valid body index...) and its errors name the body and the problem. The state and
+contact arrays are read-only views of the core's storage, not copies.
 """
 from __future__ import annotations
 
@@ -30,8 +31,8 @@ class _Given(NamedTuple):
     angular_velocity: np.ndarray
 
 
-class BodyIndexError(IndexError, ValueError):
-    """A body index that is not in the world (both an IndexError and a ValueError)."""
+BodyIndexError = _core.BodyIndexError
+BodyIndexError.__doc__ = "A body index that is not in the world (both an IndexError and a ValueError)."
 
 
 class SolverWarning(RuntimeWarning):
@@ -41,9 +42,12 @@ class SolverWarning(RuntimeWarning):
 
 @dataclass(frozen=True)
 class Contacts:
-    """Contacts of the last step, one row per contact (K rows).
+    """Contacts of the last step, one row per contact (K rows). From ``World.contacts`` the arrays
+    are read-only views of the core's list for that step; from ``detect_contacts`` and ``collide``
+    they are copies.
 
-    body_a, body_b: (K,) int64 body indices; the normal points from A to B (a plane is always A).
+    body_a, body_b: (K,) integer body indices (int32 views, int64 copies); the normal points from A
+    to B (a plane is always A).
     point: (K, 3) world contact points y_i (m), midway between the witness points on A and B.
     normal: (K, 3) world unit normals n_i.
     gap: (K,) signed distances along n_i (m), negative when overlapping.
@@ -108,6 +112,23 @@ class SolverStats:
     max_overlap: float
 
 
+@dataclass(frozen=True)
+class SavedState:
+    """A world's dynamic state from ``World.save_state()``, for ``World.restore_state()``: time,
+    poses, velocities, persistent and one-step forces, pending impulses, kinematic and enabled
+    flags, the warm-start cache and the last step's contacts (opaque bytes written and checked by
+    the core). Picklable. ``num_bodies`` and ``time`` are for reading only."""
+
+    data: bytes
+    num_bodies: int
+    time: float
+
+    def __repr__(self) -> str:
+        return f"SavedState({self.num_bodies} bodies, t={self.time:g} s, {len(self.data)} bytes)"
+
+
+ALL_BITS = 0xFFFFFFFF
+
 SOLVER_DEFAULTS = {
     "erp": 0.2, "tolerance": 1e-6, "max_iterations": 30, "slop": 0.001, "max_push_velocity": 1.0,
     "restitution_threshold": 0.5, "friction_cone": "pyramid", "gyroscopic": "midpoint",
@@ -163,6 +184,56 @@ def _vector(x, n: int, who: str, what: str) -> np.ndarray:
     if a.shape != (n,):
         raise ValueError(f"{who}: {what} must have shape ({n},), got shape {a.shape}")
     return a
+
+
+def _rows(x, cols: int, who: str, what: str) -> np.ndarray:
+    """x as a C-contiguous float64 array of shape (n, cols) (a single row may be given as (cols,))."""
+    if isinstance(x, (str, bytes)):
+        raise TypeError(f"{who}: {what} must be numbers of shape (n, {cols}), got {x!r}")
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{who}: {what} must be numbers of shape (n, {cols}), got {x!r}") from None
+    if a.shape == (cols,):
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] != cols:
+        raise ValueError(f"{who}: {what} must have shape (n, {cols}), got shape {a.shape}")
+    return np.ascontiguousarray(a)
+
+
+def _indices(x, who: str) -> np.ndarray:
+    """x as an int64 array of shape (n,) (one integer gives one index); the core checks the range."""
+    a = np.asarray(x)
+    if a.ndim == 0:
+        a = a.reshape(1)
+    if a.dtype == np.bool_ or not (a.dtype.kind in "iu" or (a.size == 0 and a.dtype.kind == "f")):
+        raise TypeError(f"{who}: indices must be integers, got {x!r}")
+    if a.ndim != 1:
+        raise ValueError(f"{who}: indices must have shape (n,), got shape {a.shape}")
+    if a.dtype.kind == "u" and a.size and a.max() > np.iinfo(np.int64).max:
+        raise BodyIndexError(f"{who}: index {a.max()} is out of range")
+    return np.ascontiguousarray(a, dtype=np.int64)
+
+
+def _bits(x, who: str, what: str) -> int:
+    """x as a 32-bit unsigned integer (collision filter bits)."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)) or not 0 <= x <= ALL_BITS:
+        raise TypeError(f"{who}: {what} must be an integer of 32 bits (0 to 0xFFFFFFFF), got {x!r}")
+    return int(x)
+
+
+def _flag(x, who: str, what: str) -> bool:
+    if not isinstance(x, (bool, np.bool_)):
+        raise TypeError(f"{who}: {what} must be True or False, got {x!r}")
+    return bool(x)
+
+
+def _name(x, who: str) -> str:
+    if x is None:
+        return ""
+    if not isinstance(x, str):
+        raise TypeError(f"{who}: name must be a string, got {x!r}")
+    return x
 
 
 def _scalar(x, who: str, what: str):
@@ -244,35 +315,62 @@ class World:
                 for k in SOLVER_DEFAULTS}
 
     # bodies -----------------------------------------------------------------------------------
-    def add_body(self, shape, *, density=None, mass=None, position=(0.0, 0.0, 0.0),
+    def add_body(self, shape, *, density=None, mass=None, inertia=None, position=(0.0, 0.0, 0.0),
                  orientation=(1.0, 0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0),
-                 angular_velocity=(0.0, 0.0, 0.0), friction: float = 0.5, restitution: float = 0.0) -> int:
-        """Adds a dynamic body and returns its index.
+                 angular_velocity=(0.0, 0.0, 0.0), friction: float = 0.5, restitution: float = 0.0,
+                 kinematic: bool = False, name: str | None = None, group: int = 1, mask: int = ALL_BITS,
+                 enabled: bool = True) -> int:
+        """Adds a dynamic (or kinematic) body and returns its index.
 
         Exactly one of ``density`` (kg/m^3) or ``mass`` (kg). ``position`` (3,) is where the
         centre of mass goes (a mesh is re-centred on its centre of mass, axes unchanged);
         ``orientation`` is a quaternion (w, x, y, z), normalised if it is not unit length (a zero
         one is an error); velocities are world-frame (m/s, rad/s). ``friction`` mu >= 0 and
         ``restitution`` e in [0, 1] are the body's material; a contact uses sqrt(mu_A mu_B) and
-        max(e_A, e_B). On any bad argument raises ValueError or TypeError naming the body, and the
-        world is unchanged.
+        max(e_A, e_B).
+
+        ``inertia`` (3, 3) kg m^2 about the centre of mass, body axes, with ``mass``: replaces the
+        shape's mass properties; the shape's origin is then the centre of mass (nothing re-centred).
+        ``kinematic=True``: the body moves with the velocity you give it (``set_velocity``), feels
+        no gravity or forces, and pushes dynamic bodies as an infinite mass would; a mass is
+        optional (needed only to make it dynamic later). ``name``: unique in the world
+        (``find``). ``group`` / ``mask``: collision filter bits (see ``set_collision_filter``).
+        ``enabled=False`` adds it disabled (``set_enabled``).
+
+        On any bad argument raises ValueError or TypeError naming the body, and the world is
+        unchanged.
         """
-        return self._add(shape, False, density, mass, position, orientation, velocity, angular_velocity,
-                         friction, restitution)
+        return self._add(shape, False, kinematic, density, mass, inertia, position, orientation, velocity,
+                         angular_velocity, friction, restitution, name, group, mask, enabled)
 
     def add_static(self, shape, *, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0),
-                   friction: float = 0.5, restitution: float = 0.0) -> int:
+                   friction: float = 0.5, restitution: float = 0.0, name: str | None = None, group: int = 1,
+                   mask: int = ALL_BITS, enabled: bool = True) -> int:
         """Adds a static body (inverse mass and inertia zero: it never moves) and returns its index.
-        ``friction`` and ``restitution`` as for ``add_body``."""
-        return self._add(shape, True, None, None, position, orientation, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
-                         friction, restitution)
+        ``friction``, ``restitution``, ``name``, ``group``, ``mask`` and ``enabled`` as for
+        ``add_body``."""
+        return self._add(shape, True, False, None, None, None, position, orientation, (0.0, 0.0, 0.0),
+                         (0.0, 0.0, 0.0), friction, restitution, name, group, mask, enabled)
 
-    def _add(self, shape, is_static, density, mass, position, orientation, velocity, angular_velocity,
-             friction, restitution) -> int:
+    def _add(self, shape, is_static, kinematic, density, mass, inertia, position, orientation, velocity,
+             angular_velocity, friction, restitution, name, group, mask, enabled) -> int:
         who = f"body {self.num_bodies} ({type(shape).__name__})"
         if not isinstance(shape, Shape):
             raise TypeError(f"{who}: shape must be a Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, "
                             f"TriangleMesh or Compound, got {type(shape).__name__}")
+        kinematic = _flag(kinematic, who, "kinematic")
+        if inertia is not None:
+            try:
+                inertia = np.asarray(inertia, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise TypeError(f"{who}: inertia must be a (3, 3) array of numbers, got {inertia!r}") from None
+            if inertia.shape != (3, 3):
+                raise ValueError(f"{who}: inertia must have shape (3, 3), got shape {inertia.shape}")
+        args = (is_static, kinematic, _scalar(density, who, "density"), _scalar(mass, who, "mass"), inertia,
+                _vector(position, 3, who, "position"), _vector(orientation, 4, who, "orientation"),
+                _vector(velocity, 3, who, "velocity"), _vector(angular_velocity, 3, who, "angular_velocity"),
+                _scalar(friction, who, "friction"), _scalar(restitution, who, "restitution"), _name(name, who),
+                _bits(group, who, "group"), _bits(mask, who, "mask"), _flag(enabled, who, "enabled"))
         if (not is_static and isinstance(shape, Mesh) and not shape.pieces and not shape.is_convex()
                 and _solid(shape)):
             # a dynamic non-convex mesh collides with other bodies through convex pieces
@@ -281,28 +379,59 @@ class World:
                 shape = decompose(shape)
             except ValueError as e:
                 raise ValueError(f"{who}: {e}") from None
-        given = _Given(shape, _scalar(density, who, "density"), _scalar(mass, who, "mass"),
-                       _vector(position, 3, who, "position"), _vector(orientation, 4, who, "orientation"),
-                       _vector(velocity, 3, who, "velocity"), _vector(angular_velocity, 3, who, "angular_velocity"))
-        index = self._core.add_body(shape, is_static, given.density, given.mass, given.position, given.orientation,
-                                    given.velocity, given.angular_velocity, _scalar(friction, who, "friction"),
-                                    _scalar(restitution, who, "restitution"))
-        self._given.append(given)
+        index = self._core.add_body(shape, *args)
+        # what it was added with (save_scene writes a body that has not moved with these values)
+        self._given.append(_Given(shape, *args[2:4], *args[5:9]))
         return index
 
+    def remove_body(self, i: int) -> None:
+        """Removes body i. Indices behave like a Python list's: every body after i moves down one
+        index (body i + 1 becomes body i, ...), names follow their bodies, and the warm-start cache,
+        the last step's contacts and disabled pairs are renumbered (those of body i dropped), so
+        the next step goes on as if body i had never been there.
+
+        State arrays read before (``positions``...) still point at valid memory but no longer
+        match the bodies: read them again. Costs O(N) (the broad phase is rebuilt)."""
+        i = self._index(i)
+        self._core.remove_body(i)
+        del self._given[i]
+
     def _index(self, i) -> int:
-        if isinstance(i, bool) or not isinstance(i, (int, np.integer)):
+        """i as an int (the core checks the range and raises BodyIndexError)."""
+        if isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer)):
             raise TypeError(f"body index must be an integer, got {i!r}")
-        if not 0 <= i < self.num_bodies:
+        i = int(i)
+        if not -2**31 <= i < 2**31:
             raise BodyIndexError(f"body index {i} is out of range: the world has {self.num_bodies} bodies")
-        return int(i)
+        return i
 
     def _label(self, i: int) -> str:
-        return f"body {i} ({type(self._core.shape(i)).__name__})"
+        """How errors name body i, "body 3 'ball' (Sphere)" (BodyIndexError when there is no body i)."""
+        return self._core.label(i)
 
     def shape(self, i: int):
         """The shape of body i (a mesh body's vertices are centred on its centre of mass)."""
         return self._core.shape(self._index(i))
+
+    def name(self, i: int) -> str:
+        """Body i's name ("" when it has none)."""
+        i = self._index(i)
+        self._label(i)
+        return self._core.names[i]
+
+    @property
+    def names(self) -> list:
+        """Every body's name ("" for unnamed ones), in index order."""
+        return self._core.names
+
+    def find(self, name: str) -> int:
+        """The index of the body called ``name``; KeyError when there is none."""
+        if not isinstance(name, str):
+            raise TypeError(f"find: name must be a string, got {name!r}")
+        i = self._core.find(name) if name else -1
+        if i < 0:
+            raise KeyError(f"no body is named {name!r}")
+        return i
 
     def set_position(self, i: int, position) -> None:
         i = self._index(i)
@@ -320,11 +449,79 @@ class World:
         i = self._index(i)
         self._core.set_angular_velocity(i, _vector(angular_velocity, 3, self._label(i), "angular_velocity"))
 
+    def set_positions(self, indices, positions) -> None:
+        """Sets the positions (n, 3) of bodies ``indices`` (n,) in one call; every row is checked
+        before any is written (on an error the world is unchanged)."""
+        self._core.set_positions(_indices(indices, "set_positions"), _rows(positions, 3, "set_positions", "positions"))
+
+    def set_orientations(self, indices, orientations) -> None:
+        """Sets the orientations (n, 4), quaternions (w, x, y, z), of bodies ``indices`` in one call."""
+        self._core.set_orientations(_indices(indices, "set_orientations"),
+                                    _rows(orientations, 4, "set_orientations", "orientations"))
+
+    def set_velocities(self, indices, velocities) -> None:
+        """Sets the linear velocities (n, 3) of bodies ``indices`` in one call (m/s, world)."""
+        self._core.set_velocities(_indices(indices, "set_velocities"),
+                                  _rows(velocities, 3, "set_velocities", "velocities"))
+
+    def set_angular_velocities(self, indices, angular_velocities) -> None:
+        """Sets the angular velocities (n, 3) of bodies ``indices`` in one call (rad/s, world)."""
+        self._core.set_angular_velocities(_indices(indices, "set_angular_velocities"),
+                                          _rows(angular_velocities, 3, "set_angular_velocities",
+                                                "angular_velocities"))
+
     def set_external_wrench(self, i: int, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0)) -> None:
-        """Sets a world-frame force (N, at the centre of mass) and torque (N m) applied every step."""
+        """Sets a world-frame force (N, at the centre of mass) and torque (N m) applied every step
+        until changed (persistent; ``apply_force`` adds a force for one step only)."""
         i = self._index(i)
         self._core.set_external_wrench(i, _vector(force, 3, self._label(i), "force"),
                                        _vector(torque, 3, self._label(i), "torque"))
+
+    def apply_impulse(self, i: int, impulse, point=None) -> None:
+        """Applies an impulse J (3,) N s, world, at world ``point`` (m; None: the centre of mass)
+        at the start of the next step: v += J / m and omega += I_w^-1 ((point - x) x J). Calls before
+        a step add up. Dynamic bodies only (a disabled one ignores it)."""
+        i = self._index(i)
+        who = self._label(i)
+        self._core.apply_impulse(i, _vector(impulse, 3, who, "impulse"),
+                                 None if point is None else _vector(point, 3, who, "point"))
+
+    def apply_force(self, i: int, force, point=None) -> None:
+        """Applies a force F (3,) N, world, at world ``point`` (m; None: the centre of mass) during
+        the next step only (the first step of the next ``step()`` call), with the torque
+        (point - x) x F, on top of the persistent ``set_external_wrench``. Dynamic bodies only."""
+        i = self._index(i)
+        who = self._label(i)
+        self._core.apply_force(i, _vector(force, 3, who, "force"),
+                               None if point is None else _vector(point, 3, who, "point"))
+
+    def set_kinematic(self, i: int, kinematic: bool = True) -> None:
+        """Makes body i kinematic (moved by its velocity only, an infinite mass for the bodies it
+        pushes, no gravity) or dynamic again (it needs a mass). Its velocity is kept."""
+        i = self._index(i)
+        self._core.set_kinematic(i, _flag(kinematic, self._label(i), "kinematic"))
+
+    def set_enabled(self, i: int, enabled: bool) -> None:
+        """Disables (False) or enables body i. A disabled body keeps its pose and velocity, feels
+        no gravity or forces and collides with nothing; enabled again, it carries on from there."""
+        i = self._index(i)
+        self._core.set_enabled(i, _flag(enabled, self._label(i), "enabled"))
+
+    def set_collision_filter(self, i: int, group: int = 1, mask: int = ALL_BITS) -> None:
+        """Collision filter bits of body i (32 each): bodies a and b collide only when
+        ``group_a & mask_b`` and ``group_b & mask_a`` are both non-zero (Box2D's category and
+        mask bits). The defaults (1, all bits) collide with everything."""
+        i = self._index(i)
+        who = self._label(i)
+        self._core.set_collision_filter(i, _bits(group, who, "group"), _bits(mask, who, "mask"))
+
+    def disable_collision(self, i: int, j: int) -> None:
+        """Bodies i and j never collide with each other (whatever their filter bits say)."""
+        self._core.set_pair_collision(self._index(i), self._index(j), False)
+
+    def enable_collision(self, i: int, j: int) -> None:
+        """Undoes ``disable_collision(i, j)``: the pair collides again if their filter bits allow."""
+        self._core.set_pair_collision(self._index(i), self._index(j), True)
 
     def set_material(self, i: int, friction=None, restitution=None) -> None:
         """Sets body i's friction (mu >= 0) and/or restitution (e in [0, 1]); None keeps it."""
@@ -335,15 +532,62 @@ class World:
         self._core.set_material(i, float(self._core.frictions[i]) if mu is None else mu,
                                 float(self._core.restitutions[i]) if e is None else e)
 
+    # saved states and pickling ----------------------------------------------------------------------
+    def save_state(self) -> SavedState:
+        """The dynamic state (see ``SavedState``): after ``restore_state`` of it, the following
+        steps are bit-identical to those that followed the save."""
+        return SavedState(self._core.save_state(), self.num_bodies, self.time)
+
+    def restore_state(self, state: SavedState) -> None:
+        """Puts back a ``save_state()`` of this world (or of one built the same way, such as its
+        unpickled copy). A state of a different world (body count, shape kinds, static flags or
+        masses) raises ValueError and changes nothing. State views stay valid and show the
+        restored values."""
+        if not isinstance(state, SavedState):
+            raise TypeError(f"restore_state: expected a SavedState from World.save_state(), got {type(state).__name__}")
+        self._core.restore_state(state.data)
+
+    def __getstate__(self) -> dict:
+        """The model (settings; per body its shape as stored, static and kinematic flags, mass and
+        inertia, material, name, filter bits; disabled pairs) and the saved state."""
+        c = self._core
+        masses, inertias, statics, kinematic = c.masses, c.inertias, c.is_static, c.is_kinematic
+        frictions, restitutions, names, groups, masks = c.frictions, c.restitutions, c.names, c.groups, c.masks
+        bodies = [{"shape": c.shape(i), "static": bool(statics[i]), "kinematic": bool(kinematic[i]),
+                   "mass": float(masses[i]), "inertia": inertias[i], "friction": float(frictions[i]),
+                   "restitution": float(restitutions[i]), "name": names[i], "group": int(groups[i]),
+                   "mask": int(masks[i])} for i in range(c.num_bodies)]
+        return {"version": 1, "gravity": np.array(c.gravity), "contact_margin": c.contact_margin,
+                "solver": self.solver, "bodies": bodies, "excluded_pairs": list(c.excluded_pairs),
+                "state": self.save_state(), "given": [tuple(g) for g in self._given]}
+
+    def __setstate__(self, d: dict) -> None:
+        if d.get("version") != 1:
+            raise ValueError(f"World: cannot unpickle version {d.get('version')!r} (this is version 1)")
+        self.__init__(gravity=d["gravity"], contact_margin=d["contact_margin"], **d["solver"])
+        c = self._core
+        zero, unit = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
+        for b in d["bodies"]:
+            # the shape as the world stored it (already centred), with its exact mass and inertia;
+            # poses, velocities and flags come with the saved state
+            has_mass = not b["static"] and bool(np.isfinite(b["mass"]))
+            c.add_body(b["shape"], b["static"], b["kinematic"], None, b["mass"] if has_mass else None,
+                       b["inertia"] if has_mass else None, zero, unit, zero, zero, b["friction"],
+                       b["restitution"], b["name"], b["group"], b["mask"], True)
+        for i, j in d["excluded_pairs"]:
+            c.set_pair_collision(i, j, False)
+        self.restore_state(d["state"])
+        self._given = [_Given(*g) for g in d.get("given", ())]  # for save_scene
+
     # stepping ---------------------------------------------------------------------------------
     def step(self, dt: float, steps: int = 1) -> None:
         """Advances ``steps`` steps of ``dt`` seconds (dt > 0 and finite)."""
         dt = _scalar(dt, "step", "dt")
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
             raise TypeError(f"step: steps must be an integer, got {steps!r}")
-        if steps < 0:
-            raise ValueError(f"step: steps must be >= 0, got {steps}")
-        self._core.step(dt, int(steps))
+        if not -2**31 <= steps < 2**31:
+            raise ValueError(f"step: steps must be a 32-bit integer, got {steps}")
+        self._core.step(dt, int(steps))  # the core checks the values (dt > 0 and finite, steps >= 0)
         report = self._core.step_report
         if report["flagged"]:
             warnings.warn(
@@ -352,7 +596,10 @@ class World:
                 f"(worst {report['worst_penetration_velocity']:.3g} m/s at t = {report['worst_time']:.6g} s); "
                 "raise max_iterations or substeps, or lower dt", SolverWarning, stacklevel=2)
 
-    # state: read-only copies, (N, 3) / (N, 4) ---------------------------------------------------
+    # state: read-only views of the core's arrays, (N, 3) / (N, 4) / (N, 3, 3) ------------------
+    # They share memory with the world (np.shares_memory holds across reads), show every later
+    # step, setter and restore_state, and keep the world alive. Adding or removing a body changes
+    # the body count: views taken before stay valid memory but no longer match; read them again.
     @property
     def num_bodies(self) -> int:
         return self._core.num_bodies
@@ -364,28 +611,38 @@ class World:
 
     @property
     def positions(self) -> np.ndarray:
-        """(N, 3) centre-of-mass positions, world (m)."""
-        return _readonly(self._core.positions)
+        """(N, 3) centre-of-mass positions, world (m); a read-only view."""
+        return self._core.positions
 
     @property
     def orientations(self) -> np.ndarray:
-        """(N, 4) unit quaternions (w, x, y, z) with w >= 0, world-from-body."""
-        return _readonly(self._core.orientations)
+        """(N, 4) unit quaternions (w, x, y, z) with w >= 0, world-from-body; a read-only view."""
+        return self._core.orientations
 
     @property
     def rotations(self) -> np.ndarray:
-        """(N, 3, 3) rotation matrices R, world-from-body."""
-        return _readonly(self._core.rotations)
+        """(N, 3, 3) rotation matrices R, world-from-body; a read-only view."""
+        return self._core.rotations
 
     @property
     def velocities(self) -> np.ndarray:
-        """(N, 3) linear velocities of the centres of mass, world (m/s)."""
-        return _readonly(self._core.velocities)
+        """(N, 3) linear velocities of the centres of mass, world (m/s); a read-only view."""
+        return self._core.velocities
 
     @property
     def angular_velocities(self) -> np.ndarray:
-        """(N, 3) angular velocities, world (rad/s)."""
-        return _readonly(self._core.angular_velocities)
+        """(N, 3) angular velocities, world (rad/s); a read-only view."""
+        return self._core.angular_velocities
+
+    @property
+    def forces(self) -> np.ndarray:
+        """(N, 3) persistent external forces (``set_external_wrench``), world (N); a read-only view."""
+        return self._core.forces
+
+    @property
+    def torques(self) -> np.ndarray:
+        """(N, 3) persistent external torques about the centres of mass, world (N m); a read-only view."""
+        return self._core.torques
 
     @property
     def masses(self) -> np.ndarray:
@@ -429,13 +686,30 @@ class World:
         return _readonly(self._core.is_static)
 
     @property
+    def is_kinematic(self) -> np.ndarray:
+        """(N,) bool: bodies moved by their velocity only."""
+        return _readonly(self._core.is_kinematic)
+
+    @property
+    def enabled(self) -> np.ndarray:
+        """(N,) bool: False for disabled bodies (``set_enabled``)."""
+        return _readonly(self._core.enabled)
+
+    @property
+    def collision_filters(self) -> tuple:
+        """(groups, masks): two (N,) uint32 arrays of collision filter bits."""
+        return _readonly(self._core.groups), _readonly(self._core.masks)
+
+    @property
     def gravity(self) -> np.ndarray:
         return _readonly(np.array(self._core.gravity))
 
     @property
     def contacts(self) -> Contacts:
-        """Contacts of the last step (found at its start) with their solved forces and impulses."""
-        return Contacts(**{k: _readonly(v) for k, v in self._core.contacts.items()})
+        """Contacts of the last step (found at its start) with their solved forces and impulses:
+        read-only views of the core's contact list (body_a, body_b int32). Unlike the state views,
+        they belong to the step they came from: later steps never change them."""
+        return Contacts(**self._core.contacts)
 
     @property
     def solver_stats(self) -> SolverStats:
@@ -455,28 +729,39 @@ class World:
 
     # the oracle's view --------------------------------------------------------------------------
     def snapshot(self) -> dict:
-        """The whole world as plain NumPy data, the input format of ``signorini.oracle``."""
+        """The whole world as plain NumPy data (copies), the input format of ``signorini.oracle``.
+        Linear in the body count. ``step_force``, ``step_torque`` (N, 3): the next step's one-step
+        force and torque (``apply_force``); ``impulse``, ``angular_impulse`` (N, 3): pending
+        impulses about the centres of mass (``apply_impulse``)."""
         c = self._core
-        inv_inertias = c.inv_inertias
-        bodies = []
-        for i in range(c.num_bodies):
-            bodies.append({
-                "shape": shape_dict(c.shape(i)),
-                "static": bool(c.is_static[i]),
-                "mass": float(c.masses[i]),
-                "inv_mass": float(c.inv_masses[i]),
-                "inertia": c.inertias[i],
-                "inv_inertia": inv_inertias[i],
-                "friction": float(c.frictions[i]),
-                "restitution": float(c.restitutions[i]),
-            })
+        masses, inv_masses, inertias, inv_inertias = c.masses, c.inv_masses, c.inertias, c.inv_inertias
+        frictions, restitutions, statics = c.frictions, c.restitutions, c.is_static
+        kinematic, enabled, groups, masks = c.is_kinematic, c.enabled, c.groups, c.masks
+        bodies = [{
+            "shape": shape_dict(c.shape(i)),
+            "static": bool(statics[i]),
+            "kinematic": bool(kinematic[i]),
+            "enabled": bool(enabled[i]),
+            "mass": float(masses[i]),
+            "inv_mass": float(inv_masses[i]),
+            "inertia": inertias[i],
+            "inv_inertia": inv_inertias[i],
+            "friction": float(frictions[i]),
+            "restitution": float(restitutions[i]),
+            "group": int(groups[i]),
+            "mask": int(masks[i]),
+        } for i in range(c.num_bodies)]
         return {
             "gravity": np.array(c.gravity),
             "settings": {"contact_margin": c.contact_margin, **self.solver},
             "cache": self.warm_start_cache,
             "bodies": bodies,
-            "position": c.positions, "rotation": c.rotations, "velocity": c.velocities,
-            "angular_velocity": c.angular_velocities, "force": c.forces, "torque": c.torques,
+            "excluded_pairs": list(c.excluded_pairs),
+            "position": np.array(c.positions), "rotation": np.array(c.rotations),
+            "velocity": np.array(c.velocities), "angular_velocity": np.array(c.angular_velocities),
+            "force": np.array(c.forces), "torque": np.array(c.torques),
+            "step_force": np.array(c.step_forces), "step_torque": np.array(c.step_torques),
+            "impulse": np.array(c.impulses), "angular_impulse": np.array(c.angular_impulses),
         }
 
     def save_scene(self, path) -> Path:

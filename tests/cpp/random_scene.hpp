@@ -97,8 +97,11 @@ struct Scene {
     state.R.push_back(R);
     state.v.push_back(is_static ? Vec3(Vec3::Zero()) : v);
     state.omega.push_back(is_static ? Vec3(Vec3::Zero()) : omega);
-    state.f_ext.push_back(Vec3::Zero());
-    state.tau_ext.push_back(Vec3::Zero());
+    state.q.push_back(Quat4(1, 0, 0, 0));  // not read by collision
+    for (std::vector<Vec3>* x : {&state.f_ext, &state.tau_ext, &state.f_step, &state.tau_step, &state.impulse,
+                                 &state.angular_impulse})
+      x->push_back(Vec3::Zero());
+    model.push_defaults();
   }
   std::size_t size() const { return model.size(); }
 };

@@ -26,6 +26,9 @@ void one_box(Model& model, State& state, const Vec3& h, const Mat3& R, const Vec
   state.omega.push_back(omega);
   state.f_ext.push_back(Vec3::Zero());
   state.tau_ext.push_back(Vec3::Zero());
+  state.f_step.push_back(Vec3::Zero());
+  state.tau_step.push_back(Vec3::Zero());
+  model.push_defaults();
 }
 
 }  // namespace
@@ -103,6 +106,10 @@ TEST(Solver, SingleContactClosedForm) {
   state.omega = state.v;
   state.f_ext = state.v;
   state.tau_ext = state.v;
+  state.f_step = state.v;
+  state.tau_step = state.v;
+  model.push_defaults();
+  model.push_defaults();
   const double dt = 0.01, g = 9.81;
   std::vector<Contact> contacts(1);
   contacts[0].body_a = 0;

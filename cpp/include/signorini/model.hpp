@@ -2,7 +2,11 @@
 // material setter, read by every stage of the step (collision, dynamics, solver).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "signorini/shapes.hpp"
@@ -17,6 +21,14 @@ struct Material {
   double restitution = 0.0;  ///< Newton's coefficient e in [0, 1] (dimensionless)
 };
 
+/// Which bodies may touch (Box2D's category and mask bits, Bullet's group and mask): bodies i and
+/// j collide when (group_i & mask_j) != 0 and (group_j & mask_i) != 0. The defaults collide with
+/// everything.
+struct CollisionFilter {
+  std::uint32_t group = 1;            ///< the categories the body belongs to (bits)
+  std::uint32_t mask = 0xFFFFFFFFu;   ///< the categories it collides with (bits)
+};
+
 /// One entry per body, in the order added (static bodies included).
 struct Model {
   std::vector<Shape> shape;      ///< body frame; a dynamic mesh is re-centred on its com
@@ -27,7 +39,37 @@ struct Model {
   std::vector<Mat3> I_body_inv;  ///< its inverse (zero for static)
   std::vector<double> rho;       ///< bounding radius about the body origin (m; inf for a plane)
   std::vector<Material> material;///< friction and restitution
+  /// moved by its own velocity only (no gravity, no forces, no contact impulses): infinite mass in
+  /// the solver (inv_mass and I_body_inv zero while kinematic; mass and I_body keep the body's own,
+  /// infinity and zero when it was added without a mass)
+  std::vector<bool> is_kinematic;
+  std::vector<bool> enabled;     ///< a disabled body neither moves nor collides
+  std::vector<CollisionFilter> filter;
+  std::vector<std::string> name; ///< "" when unnamed; otherwise unique in the world
+  /// pairs (i, j), i < j, that never collide whatever their filters say; sorted
+  std::vector<std::pair<int, int>> excluded_pairs;
+
   std::size_t size() const { return shape.size(); }
+
+  /// true when bodies i and j may get contacts: both enabled, at least one of them moved by
+  /// contacts (finite mass: two static or kinematic bodies cannot push each other), their filters
+  /// match and the pair is not excluded. O(log of the excluded pairs); allocates nothing.
+  bool can_collide(int i, int j) const {
+    if (!enabled[i] || !enabled[j]) return false;
+    if (inv_mass[i] == 0.0 && inv_mass[j] == 0.0) return false;
+    if (!(filter[i].group & filter[j].mask) || !(filter[j].group & filter[i].mask)) return false;
+    return excluded_pairs.empty() ||
+           !std::binary_search(excluded_pairs.begin(), excluded_pairs.end(), std::make_pair(std::min(i, j), std::max(i, j)));
+  }
+
+  /// Appends the defaults of the fields after `material` for one body (for models built by hand:
+  /// dynamic or static as is_static says, enabled, colliding with everything, unnamed).
+  void push_defaults() {
+    is_kinematic.push_back(false);
+    enabled.push_back(true);
+    filter.push_back(CollisionFilter());
+    name.emplace_back();
+  }
 };
 
 }  // namespace signorini

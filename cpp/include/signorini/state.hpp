@@ -8,14 +8,25 @@
 
 namespace signorini {
 
+/// Python sees p, q, R, v, omega, f_ext and tau_ext without copies: each vector is N contiguous
+/// entries of 3, 4 or 9 doubles (Mat3 column-major), and the World keeps their storage in place
+/// while the body count does not change (steps, setters and restore_state write into it).
 struct State {
   std::vector<Vec3> p;       ///< com position, world (m)                      (N)
   std::vector<Mat3> R;       ///< rotation world-from-body                      (N)
+  std::vector<Quat4> q;      ///< R as a unit quaternion (w, x, y, z), w >= 0; written with R by the
+                             ///< World after each step and by the setters       (N)
   std::vector<Vec3> v;       ///< p_dot, world (m/s)                            (N)
   std::vector<Vec3> omega;   ///< angular velocity, world (rad/s)               (N)
   std::vector<Vec3> f_ext;   ///< external force at the com, world (N), every step        (N)
   std::vector<Vec3> tau_ext; ///< external torque about the com, world (N m), every step  (N)
+  std::vector<Vec3> f_step;  ///< force at the com, world (N), the next step only (then zeroed)  (N)
+  std::vector<Vec3> tau_step;///< torque about the com, world (N m), the next step only          (N)
+  std::vector<Vec3> impulse;         ///< impulse at the com, world (N s), added to m v at the start
+                                     ///< of the next step (then zeroed)          (N)
+  std::vector<Vec3> angular_impulse; ///< angular impulse about the com, world (N m s), likewise (N)
   double time = 0.0;         ///< s
+
 };
 
 }  // namespace signorini

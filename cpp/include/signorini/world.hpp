@@ -6,6 +6,9 @@
 
 #include <memory>
 #include <optional>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "signorini/contact.hpp"
@@ -26,13 +29,29 @@ struct WorldSettings {
   SolverSettings solver;
 };
 
+/// A body index that is not in the world (std::out_of_range; Python's BodyIndexError).
+struct BodyIndexError : std::out_of_range {
+  using std::out_of_range::out_of_range;
+};
+
 /// What a user asks for when adding a body. Exactly one of density and mass is given for a dynamic
-/// body; neither for a static one. A non-unit orientation quaternion is normalised.
+/// body; neither for a static one; either or neither for a kinematic one (without, it has infinite
+/// mass and can never become dynamic). A non-unit orientation quaternion is normalised.
 struct BodyDesc {
   Shape shape = Sphere(1.0);
   bool is_static = false;
+  /// moved by its velocity only (set_velocity, set_angular_velocity): no gravity or forces,
+  /// infinite mass for the contacts it makes with dynamic bodies, which it pushes
+  bool is_kinematic = false;
   std::optional<double> density;  ///< kg/m^3
   std::optional<double> mass;     ///< kg
+  /// Inertia about the centre of mass, body axes (kg m^2), symmetric positive definite; given
+  /// together with mass it replaces the shape's mass properties: the body origin is then taken as
+  /// the centre of mass and the shape is used as it is (not re-centred).
+  std::optional<Mat3> inertia;
+  std::string name;               ///< "" or unique in the world (find())
+  CollisionFilter filter;         ///< group and mask bits
+  bool enabled = true;
   Vec3 position = Vec3::Zero();          ///< centre of mass, world (m); a mesh is re-centred on it
   Quat4 orientation = Quat4(1, 0, 0, 0); ///< (w, x, y, z), world-from-body
   Vec3 velocity = Vec3::Zero();          ///< m/s
@@ -60,6 +79,11 @@ class World {
   /// std::invalid_argument naming the body index and the problem, and the world is unchanged.
   BodyIndex add_body(const BodyDesc& desc);
 
+  /// Removes body i. Bodies after it move down one index (like erasing from a list); contacts,
+  /// the warm-start cache and excluded pairs are renumbered, those of body i dropped. Storage of
+  /// the state arrays stays in place (no reallocation).
+  void remove_body(BodyIndex i);
+
   /// Advances `steps` steps of dt seconds. dt must be positive and finite.
   void step(double dt, int steps = 1);
 
@@ -69,8 +93,43 @@ class World {
   void set_velocity(BodyIndex i, const Vec3& v);
   void set_angular_velocity(BodyIndex i, const Vec3& omega);
   void set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torque);
+  /// Batch setters: row k of values (n x 3, or n x 4 quaternions) goes to body bodies[k] (n indices;
+  /// a repeated index takes its last row). Every entry is checked as the single setters check it
+  /// before any is written: on an error nothing changes.
+  void set_positions(const Indices& bodies, const Points& values);
+  void set_orientations(const Indices& bodies, const Quats& values);
+  void set_velocities(const Indices& bodies, const Points& values);
+  void set_angular_velocities(const Indices& bodies, const Points& values);
   /// Friction mu >= 0 and restitution e in [0, 1], both finite; static bodies too.
   void set_material(BodyIndex i, const Material& material);
+  /// For the next step only (then zeroed; the first step of the next step() call): an impulse J
+  /// (N s, world) at world point x (m) adds J / m to v and I_w^-1 ((x - p) x J) to omega at the start
+  /// of the step; a force F (N) at x acts through the whole step with torque (x - p) x F. Several
+  /// calls add up. Dynamic bodies only (a disabled body ignores them).
+  void apply_impulse(BodyIndex i, const Vec3& impulse, const Vec3& point);
+  void apply_force(BodyIndex i, const Vec3& force, const Vec3& point);
+  /// Makes a dynamic body kinematic (its velocity kept, from now on moved by it alone) or a kinematic
+  /// one dynamic again (needs a finite mass). Static bodies cannot change.
+  void set_kinematic(BodyIndex i, bool kinematic);
+  /// A disabled body keeps its pose and velocity, feels no forces and collides with nothing.
+  void set_enabled(BodyIndex i, bool enabled);
+  void set_collision_filter(BodyIndex i, const CollisionFilter& filter);
+  /// Bodies i and j (i != j) never collide (disable), or collide again as their filters say (enable).
+  void set_pair_collision(BodyIndex i, BodyIndex j, bool collide);
+  /// Index of the body named `name`, or -1.
+  BodyIndex find(const std::string& name) const;
+  /// "body 3 'ball' (Sphere)", or "body 3 (Sphere)" for an unnamed body: how errors name body i.
+  std::string label(BodyIndex i) const;
+
+  /// Everything the next step reads that the user or a step can change, as bytes: time, poses,
+  /// velocities, persistent and one-step wrenches, pending impulses, kinematic and enabled flags,
+  /// the warm-start cache, and the last step's contacts, body forces and solver figures (with each
+  /// body's shape kind, static flag and mass, to recognise the world it belongs to).
+  std::string save_state() const;
+  /// Restores a save_state() of this world (or of one built the same way): stepping on is then
+  /// bit-identical. A state of another world (body count, shape kinds, static flags or masses
+  /// differ) or damaged bytes throw std::invalid_argument and change nothing.
+  void restore_state(const std::string& saved);
 
   const Model& model() const { return model_; }
   const State& state() const { return state_; }
@@ -79,7 +138,10 @@ class World {
   std::size_t num_bodies() const { return model_.size(); }
 
   /// Contacts of the last step (detected at its start), with their solved forces and velocities.
-  const std::vector<Contact>& contacts() const { return contacts_; }
+  const std::vector<Contact>& contacts() const { return *contacts_; }
+  /// The same list, shared: a holder keeps it valid and unchanged (the World moves to a new list
+  /// at the next step when it is held, and reuses it when not).
+  std::shared_ptr<const std::vector<Contact>> shared_contacts() const { return contacts_; }
   /// The last step's solver figures and Signorini certificate.
   const SolverStats& solver_stats() const { return stats_; }
   /// What the last call of step() did (for warnings).
@@ -105,6 +167,14 @@ class World {
 
  private:
   void check_index(BodyIndex i) const;
+  /// The indices of a batch setter as BodyIndex, checked: as many as `rows`, each in range.
+  void check_batch(const char* who, const Indices& bodies, Eigen::Index rows) const;
+  /// contacts_ ready to be written: a new list when someone holds the current one.
+  std::vector<Contact>& own_contacts();
+  void set_kinematic_flag(BodyIndex i, bool kinematic);
+  /// Appends x to a state vector; when it is full, the old storage is kept in retired_ rather than
+  /// freed, so that a NumPy view of it never dangles.
+  template <class T> void push_keeping(std::vector<T>& v, const T& x);
   /// A velocity for body i must be finite, and zero for a static body.
   void check_velocity(BodyIndex i, const char* what, const Vec3& x) const;
   /// One step of dt: contacts detected once, then the substeps; on a non-finite result restores
@@ -114,8 +184,10 @@ class World {
   WorldSettings settings_;
   Model model_;
   State state_;
-  std::vector<Contact> contacts_;
+  std::shared_ptr<std::vector<Contact>> contacts_;
   SolverStats stats_;
+  std::unordered_map<std::string, BodyIndex> by_name_;
+  std::vector<std::shared_ptr<void>> retired_;  ///< outgrown state storage (see push_keeping)
   StepReport report_;
   std::unique_ptr<collision::BroadPhase> broad_phase_;
   std::unique_ptr<collision::Scratch> scratch_;  ///< the narrow phase's buffers (contact detection

@@ -283,7 +283,8 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
                     std::vector<Contact>& out, std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b);
 
 /// All contacts for the current state, in the order of docs/conventions.md, written into out
-/// (cleared first), using and growing the scratch buffers.
+/// (cleared first), using and growing the scratch buffers. Only pairs that model.can_collide
+/// allows (enabled bodies, matching filter bits, not excluded, not two infinite masses).
 void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
                      double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& out);
 

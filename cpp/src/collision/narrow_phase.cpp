@@ -373,6 +373,9 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
       if (!model.is_static[b]) pairs.emplace_back(std::min(k, b), std::max(k, b));
   }
   std::sort(pairs.begin(), pairs.end());
+  // collision filtering: disabled bodies, filter bits, excluded pairs, two infinite masses
+  pairs.erase(std::remove_if(pairs.begin(), pairs.end(), [&](const auto& p) { return !model.can_collide(p.first, p.second); }),
+              pairs.end());
 
   contacts.clear();
   scratch.separating_next.clear();

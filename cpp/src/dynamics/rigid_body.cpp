@@ -59,28 +59,36 @@ void unconstrained_velocity(const Model& model, const State& state, const Vec3& 
       omega_star[i].setZero();
       continue;
     }
+    if (model.is_kinematic[i] || !model.enabled[i]) {
+      // moved by its own velocity only (kinematic), or frozen (disabled): no gravity, no forces
+      v_star[i] = state.v[i];
+      omega_star[i] = state.omega[i];
+      continue;
+    }
     const Mat3& R = state.R[i];
+    const Vec3 f = state.f_ext[i] + state.f_step[i];
+    const Vec3 tau = state.tau_ext[i] + state.tau_step[i];
     // linear: m p_dot* = m p_dot + dt (m g + f_ext)
-    v_star[i] = state.v[i] + dt * (gravity + model.inv_mass[i] * state.f_ext[i]);
+    v_star[i] = state.v[i] + dt * (gravity + model.inv_mass[i] * f);
     if (gyroscopic == Gyroscopic::Explicit) {
       // angular: I_w omega* = I_w omega + dt (tau_ext - omega x (I_w omega))
       const Vec3& w = state.omega[i];
       const Vec3 L = R * (model.I_body[i] * (R.transpose() * w));
-      const Vec3 torque = state.tau_ext[i] - w.cross(L);
+      const Vec3 torque = tau - w.cross(L);
       omega_star[i] = w + dt * (R * (model.I_body_inv[i] * (R.transpose() * torque)));
       continue;
     }
     // angular, body frame: the free rotation, then the external torque's impulse
     const Vec3 w_body = R.transpose() * state.omega[i];
     const Vec3 w1 = free_rotation(model.I_body[i], model.I_body_inv[i], w_body, dt, gyroscopic);
-    omega_star[i] = R * (w1 + dt * (model.I_body_inv[i] * (R.transpose() * state.tau_ext[i])));
+    omega_star[i] = R * (w1 + dt * (model.I_body_inv[i] * (R.transpose() * tau)));
   }
 }
 
 void integrate(const Model& model, State& state, const std::vector<Vec3>& v, const std::vector<Vec3>& omega,
                double dt) {
   for (std::size_t i = 0; i < model.size(); ++i) {
-    if (model.is_static[i]) continue;
+    if (model.is_static[i] || !model.enabled[i]) continue;
     state.R[i] = math::orthonormalize(math::rodrigues(omega[i], dt) * state.R[i]);
     state.p[i] += dt * v[i];
   }

@@ -31,12 +31,6 @@ std::string fmt(const Vec3& x) {
   return s.str();
 }
 
-std::string fmt_quat(const Quat4& q) {
-  std::ostringstream s;
-  s << "(" << q[0] << ", " << q[1] << ", " << q[2] << ", " << q[3] << ")";
-  return s.str();
-}
-
 }  // namespace
 
 Sphere::Sphere(double r) : radius(r) {
@@ -187,12 +181,7 @@ TriangleMesh::TriangleMesh(Points v, Triangles f) : vertices(std::move(v)), face
 }
 
 Compound::Part Compound::make_part(Primitive shape, const Vec3& position, const Quat4& q) {
-  if (!q.allFinite()) throw std::invalid_argument("orientation quaternion must be finite, got " + fmt_quat(q));
-  const double norm = q.norm();
-  if (!(norm > 1e-12))
-    throw std::invalid_argument("orientation quaternion " + fmt_quat(q) +
-                                " is zero; use (1, 0, 0, 0) for no rotation");
-  return Part{std::move(shape), position, math::quat_to_matrix(q / norm)};
+  return Part{std::move(shape), position, math::quat_to_matrix(math::unit_quaternion(q))};
 }
 
 Quat4 Compound::Part::orientation() const { return math::matrix_to_quat(rotation); }

@@ -1,6 +1,9 @@
 #include "math/rotation.hpp"
 
 #include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <string>
 
 #include <Eigen/Geometry>
 
@@ -37,6 +40,19 @@ Mat3 orthonormalize(const Mat3& R) {
 
 Mat3 quat_to_matrix(const Quat4& q) {
   return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+}
+
+Quat4 unit_quaternion(const Quat4& q) {
+  auto text = [&q]() {
+    std::ostringstream s;
+    s << "(" << q[0] << ", " << q[1] << ", " << q[2] << ", " << q[3] << ")";
+    return s.str();
+  };
+  if (!q.allFinite()) throw std::invalid_argument("orientation quaternion must be finite, got " + text());
+  const double norm = q.norm();
+  if (!(norm > 1e-12))
+    throw std::invalid_argument("orientation quaternion " + text() + " is zero; use (1, 0, 0, 0) for no rotation");
+  return q / norm;
 }
 
 Quat4 matrix_to_quat(const Mat3& R) {

@@ -17,6 +17,12 @@ Mat3 rodrigues(const Vec3& omega, double dt);
 /// R back to the rotation group (error e -> O(e^2)).
 Mat3 orthonormalize(const Mat3& R);
 
+/// A user's orientation quaternion (w, x, y, z) made unit: it must be finite and non-zero (norm >
+/// 1e-12); a non-unit one is normalised. Otherwise std::invalid_argument "orientation quaternion
+/// (w, x, y, z) must be finite" or "... is zero; use (1, 0, 0, 0) for no rotation" (callers prefix
+/// who it belongs to). The one check of user quaternions for bodies, setters and compound parts.
+Quat4 unit_quaternion(const Quat4& q);
+
 /// Unit quaternion (w, x, y, z) -> rotation matrix. q must be unit length.
 Mat3 quat_to_matrix(const Quat4& q);
 

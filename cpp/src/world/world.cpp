@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 #include "collision/collision.hpp"
 #include "dynamics/rigid_body.hpp"
@@ -16,8 +18,8 @@
 namespace signorini {
 namespace {
 
-std::string body_label(BodyIndex i, const Shape& shape) {
-  return "body " + std::to_string(i) + " (" + shape_name(shape) + ")";
+std::string body_label(BodyIndex i, const std::string& name, const Shape& shape) {
+  return "body " + std::to_string(i) + (name.empty() ? "" : " '" + name + "'") + " (" + shape_name(shape) + ")";
 }
 
 std::string fmt(const Eigen::VectorXd& x) {
@@ -33,13 +35,13 @@ void require_finite(const std::string& who, const char* what, const Eigen::Vecto
     throw std::invalid_argument(who + ": " + what + " must be finite, got " + fmt(x));
 }
 
-/// Unit quaternion from a user's one: finite, non-zero; a non-unit one is normalised.
+/// Unit quaternion from a user's one (math::unit_quaternion), errors prefixed with who.
 Quat4 unit_quaternion(const std::string& who, const Quat4& q) {
-  require_finite(who, "orientation", q);
-  const double norm = q.norm();
-  if (!(norm > 1e-12))
-    throw std::invalid_argument(who + ": orientation quaternion " + fmt(q) + " is zero; use (1, 0, 0, 0) for no rotation");
-  return q / norm;
+  try {
+    return math::unit_quaternion(q);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(who + ": " + e.what());
+  }
 }
 
 void check_material(const std::string& who, const Material& m) {
@@ -53,10 +55,126 @@ void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("World: " + what);
 }
 
+/// Copies src into dst element by element: dst keeps its storage (NumPy views of it stay live).
+template <class T>
+void copy_into(std::vector<T>& dst, const std::vector<T>& src) {
+  if (dst.size() != src.size()) throw std::logic_error("copy_into: sizes differ");
+  std::copy(src.begin(), src.end(), dst.begin());
+}
+
+/// The whole state copied in place (same body count).
+void copy_state(State& dst, const State& src) {
+  copy_into(dst.p, src.p);
+  copy_into(dst.R, src.R);
+  copy_into(dst.q, src.q);
+  copy_into(dst.v, src.v);
+  copy_into(dst.omega, src.omega);
+  copy_into(dst.f_ext, src.f_ext);
+  copy_into(dst.tau_ext, src.tau_ext);
+  copy_into(dst.f_step, src.f_step);
+  copy_into(dst.tau_step, src.tau_step);
+  copy_into(dst.impulse, src.impulse);
+  copy_into(dst.angular_impulse, src.angular_impulse);
+  dst.time = src.time;
+}
+
+/// Erases entry i of v in place (later entries move down one; the storage stays).
+template <class T>
+void erase_at(std::vector<T>& v, BodyIndex i) {
+  v.erase(v.begin() + i);
+}
+
+/// Body index after removing body `gone`: the same below it, one less above it.
+BodyIndex renumber(BodyIndex k, BodyIndex gone) { return k > gone ? k - 1 : k; }
+
+// ---- saved states: a flat little-endian byte string -----------------------------------------
+constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '1'};
+
+struct Writer {
+  std::string out;
+  template <class T>
+  void pod(const T& x) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    out.append(reinterpret_cast<const char*>(&x), sizeof(T));
+  }
+  template <class M>
+  void mat(const M& x) {
+    for (Eigen::Index k = 0; k < x.size(); ++k) pod(x.data()[k]);
+  }
+  template <class M>
+  void mats(const std::vector<M>& xs) {
+    for (const M& x : xs) mat(x);
+  }
+};
+
+struct Reader {
+  const std::string& in;
+  std::size_t at = 0;
+  template <class T>
+  T pod() {
+    static_assert(std::is_trivially_copyable_v<T>);
+    if (in.size() - at < sizeof(T)) throw std::invalid_argument("restore_state: the saved state is truncated");
+    T x;
+    std::memcpy(&x, in.data() + at, sizeof(T));
+    at += sizeof(T);
+    return x;
+  }
+  template <class M>
+  void mat(M& x) {
+    for (Eigen::Index k = 0; k < x.size(); ++k) x.data()[k] = pod<double>();
+  }
+  template <class M>
+  void mats(std::vector<M>& xs, std::size_t n) {
+    xs.resize(n);
+    for (M& x : xs) mat(x);
+  }
+  /// A count of items of at least `bytes` each that the rest of the input can hold.
+  std::size_t count(std::size_t bytes) {
+    const auto n = pod<std::uint64_t>();
+    if (n > (in.size() - at) / bytes) throw std::invalid_argument("restore_state: the saved state is damaged");
+    return static_cast<std::size_t>(n);
+  }
+};
+
+void write_contact(Writer& w, const Contact& c) {
+  w.pod(c.body_a);
+  w.pod(c.body_b);
+  w.mat(c.point);
+  w.mat(c.normal);
+  w.pod(c.gap);
+  w.pod(c.feature_a);
+  w.pod(c.feature_b);
+  w.pod(c.alpha);
+  w.pod(c.impulse);
+  w.mat(c.friction);
+  w.mat(c.force);
+  w.pod(c.normal_velocity);
+  w.mat(c.slip);
+}
+
+Contact read_contact(Reader& r) {
+  Contact c;
+  c.body_a = r.pod<BodyIndex>();
+  c.body_b = r.pod<BodyIndex>();
+  r.mat(c.point);
+  r.mat(c.normal);
+  c.gap = r.pod<double>();
+  c.feature_a = r.pod<FeatureId>();
+  c.feature_b = r.pod<FeatureId>();
+  c.alpha = r.pod<double>();
+  c.impulse = r.pod<double>();
+  r.mat(c.friction);
+  r.mat(c.force);
+  c.normal_velocity = r.pod<double>();
+  r.mat(c.slip);
+  return c;
+}
+
 }  // namespace
 
 World::World(const WorldSettings& settings)
-    : broad_phase_(std::make_unique<collision::BroadPhase>()),
+    : contacts_(std::make_shared<std::vector<Contact>>()),
+      broad_phase_(std::make_unique<collision::BroadPhase>()),
       scratch_(std::make_unique<collision::Scratch>()),
       solver_(std::make_unique<solver::SolverData>()) {
   set_settings(settings);
@@ -87,7 +205,10 @@ void World::set_settings(const WorldSettings& s) {
 BodyIndex World::add_body(const BodyDesc& desc) {
   // validate everything first: the world changes only once nothing can fail
   const BodyIndex index = static_cast<BodyIndex>(model_.size());
-  const std::string who = body_label(index, desc.shape);
+  const std::string who = body_label(index, desc.name, desc.shape);
+  if (!desc.name.empty() && by_name_.count(desc.name))
+    throw std::invalid_argument(who + ": the name '" + desc.name + "' is taken by body " +
+                                std::to_string(by_name_.at(desc.name)));
   require_finite(who, "position", desc.position);
   require_finite(who, "velocity", desc.velocity);
   require_finite(who, "angular_velocity", desc.angular_velocity);
@@ -100,11 +221,33 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   double mass = std::numeric_limits<double>::infinity();
   double inv_mass = 0.0;
   Mat3 I_body = Mat3::Zero(), I_body_inv = Mat3::Zero();
+  if (desc.is_static && desc.is_kinematic)
+    throw std::invalid_argument(who + ": a body is static or kinematic, not both");
   if (desc.is_static) {
-    if (desc.density || desc.mass)
-      throw std::invalid_argument(who + ": a static body takes neither mass nor density");
+    if (desc.density || desc.mass || desc.inertia)
+      throw std::invalid_argument(who + ": a static body takes neither mass nor density nor inertia");
     if (desc.velocity.squaredNorm() > 0.0 || desc.angular_velocity.squaredNorm() > 0.0)
       throw std::invalid_argument(who + ": a static body cannot have a velocity");
+  } else if (desc.is_kinematic && !desc.density && !desc.mass) {
+    if (desc.inertia) throw std::invalid_argument(who + ": inertia needs a mass");
+    if (is_plane || static_only(desc.shape))
+      throw std::invalid_argument(who + ": a " + shape_name(desc.shape) + " can only be static; use add_static");
+  } else if (desc.inertia) {
+    if (is_plane || static_only(desc.shape))
+      throw std::invalid_argument(who + ": a " + shape_name(desc.shape) + " can only be static; use add_static");
+    if (!desc.mass || desc.density) throw std::invalid_argument(who + ": an inertia goes with a mass, not a density");
+    if (!(std::isfinite(*desc.mass) && *desc.mass > 0.0))
+      throw std::invalid_argument(who + ": mass must be positive and finite, got " + std::to_string(*desc.mass));
+    const Mat3& I = *desc.inertia;
+    if (!I.allFinite()) throw std::invalid_argument(who + ": inertia must be finite");
+    if (!((I - I.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * I.cwiseAbs().maxCoeff()))
+      throw std::invalid_argument(who + ": inertia must be symmetric");
+    if (Eigen::LLT<Mat3>(I).info() != Eigen::Success || !(I.trace() > 0.0))
+      throw std::invalid_argument(who + ": inertia must be positive definite");
+    mass = *desc.mass;
+    inv_mass = 1.0 / mass;
+    I_body = I;
+    I_body_inv = I.inverse();
   } else {
     if (is_plane) throw std::invalid_argument(who + ": a plane is unbounded and can only be static; use add_static");
     if (static_only(desc.shape))
@@ -165,15 +308,93 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   model_.I_body.push_back(I_body);
   model_.I_body_inv.push_back(I_body_inv);
   model_.material.push_back(desc.material);
+  model_.is_kinematic.push_back(false);
+  model_.enabled.push_back(desc.enabled);
+  model_.filter.push_back(desc.filter);
+  model_.name.push_back(desc.name);
+  if (desc.is_kinematic) set_kinematic_flag(index, true);
+  if (!desc.name.empty()) by_name_[desc.name] = index;
   solver_->body_force.push_back(Vec3::Zero());
   solver_->body_torque.push_back(Vec3::Zero());
-  state_.p.push_back(position);
-  state_.R.push_back(R);
-  state_.v.push_back(desc.velocity);
-  state_.omega.push_back(desc.angular_velocity);
-  state_.f_ext.push_back(Vec3::Zero());
-  state_.tau_ext.push_back(Vec3::Zero());
+  push_keeping(state_.p, position);
+  push_keeping(state_.R, R);
+  push_keeping(state_.q, math::matrix_to_quat(R));
+  push_keeping(state_.v, desc.velocity);
+  push_keeping(state_.omega, desc.angular_velocity);
+  for (std::vector<Vec3>* x : {&state_.f_ext, &state_.tau_ext, &state_.f_step, &state_.tau_step, &state_.impulse,
+                               &state_.angular_impulse})
+    push_keeping(*x, Vec3(Vec3::Zero()));
   return index;
+}
+
+template <class T>
+void World::push_keeping(std::vector<T>& v, const T& x) {
+  if (v.size() == v.capacity() && v.capacity() > 0) {
+    std::vector<T> bigger;
+    bigger.reserve(2 * v.capacity());
+    bigger.assign(v.begin(), v.end());
+    retired_.push_back(std::make_shared<std::vector<T>>(std::move(v)));
+    v = std::move(bigger);
+  }
+  v.push_back(x);
+}
+
+void World::set_kinematic_flag(BodyIndex i, bool kinematic) {
+  model_.is_kinematic[i] = kinematic;
+  model_.inv_mass[i] = kinematic ? 0.0 : 1.0 / model_.mass[i];
+  model_.I_body_inv[i] = kinematic ? Mat3(Mat3::Zero()) : Mat3(model_.I_body[i].inverse());
+}
+
+void World::remove_body(BodyIndex i) {
+  check_index(i);
+  // the broad phase of the bodies that stay, built first: nothing has changed if it throws
+  auto broad_phase = std::make_unique<collision::BroadPhase>();
+  for (BodyIndex j = 0, k = 0; j < static_cast<BodyIndex>(model_.size()); ++j)
+    if (j != i) broad_phase->add_body(k++, model_.shape[j], model_.is_static[j], state_.p[j], state_.R[j]);
+  // model, state and per-body solver output: later bodies move down one
+  erase_at(model_.shape, i);
+  erase_at(model_.is_static, i);
+  erase_at(model_.mass, i);
+  erase_at(model_.inv_mass, i);
+  erase_at(model_.I_body, i);
+  erase_at(model_.I_body_inv, i);
+  erase_at(model_.rho, i);
+  erase_at(model_.material, i);
+  erase_at(model_.is_kinematic, i);
+  erase_at(model_.enabled, i);
+  erase_at(model_.filter, i);
+  erase_at(model_.name, i);
+  for (std::vector<Vec3>* x : {&state_.p, &state_.v, &state_.omega, &state_.f_ext, &state_.tau_ext, &state_.f_step,
+                               &state_.tau_step, &state_.impulse, &state_.angular_impulse, &solver_->body_force,
+                               &solver_->body_torque})
+    erase_at(*x, i);
+  erase_at(state_.R, i);
+  erase_at(state_.q, i);
+  broad_phase_ = std::move(broad_phase);
+  // names, excluded pairs, the warm-start cache and the last contacts: renumbered, body i's dropped
+  by_name_.clear();
+  for (BodyIndex j = 0; j < static_cast<BodyIndex>(model_.name.size()); ++j)
+    if (!model_.name[j].empty()) by_name_[model_.name[j]] = j;
+  auto& pairs = model_.excluded_pairs;
+  pairs.erase(std::remove_if(pairs.begin(), pairs.end(), [i](const auto& p) { return p.first == i || p.second == i; }),
+              pairs.end());
+  for (auto& p : pairs) p = {renumber(p.first, i), renumber(p.second, i)};
+  auto& cache = solver_->cache;
+  cache.erase(std::remove_if(cache.begin(), cache.end(), [i](const CachedContact& c) { return c.body_a == i || c.body_b == i; }),
+              cache.end());
+  for (CachedContact& c : cache) {
+    c.body_a = renumber(c.body_a, i);
+    c.body_b = renumber(c.body_b, i);
+  }
+  if (contacts_.use_count() > 1) contacts_ = std::make_shared<std::vector<Contact>>(*contacts_);
+  auto& contacts = *contacts_;
+  contacts.erase(std::remove_if(contacts.begin(), contacts.end(),
+                                [i](const Contact& c) { return c.body_a == i || c.body_b == i; }),
+                 contacts.end());
+  for (Contact& c : contacts) {
+    c.body_a = renumber(c.body_a, i);
+    c.body_b = renumber(c.body_b, i);
+  }
 }
 
 std::vector<Contact> World::detect_contacts(double dt) const {
@@ -183,6 +404,8 @@ std::vector<Contact> World::detect_contacts(double dt) const {
 }
 
 void World::detect_contacts(double dt, std::vector<Contact>& out) const {
+  if (!(std::isfinite(dt) && dt > 0.0))
+    throw std::invalid_argument("detect_contacts: dt must be positive and finite, got " + std::to_string(dt));
   collision::detect_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_,
                              *scratch_, out);
 }
@@ -201,9 +424,26 @@ int SolverSettings::substep_count(double dt) const {
   return static_cast<int>(std::clamp(std::ceil(dt / auto_substep - 1e-9), 1.0, 1e6));
 }
 
+std::vector<Contact>& World::own_contacts() {
+  if (contacts_.use_count() > 1) contacts_ = std::make_shared<std::vector<Contact>>();
+  return *contacts_;
+}
+
 void World::step_once(double dt) {
   before_ = state_;
   cache_before_ = solver_->cache;
+  // 0. pending impulses change the velocities of dynamic bodies at the start of the step
+  for (std::size_t i = 0; i < model_.size(); ++i) {
+    Vec3& J = state_.impulse[i];
+    Vec3& L = state_.angular_impulse[i];
+    if (J.squaredNorm() == 0.0 && L.squaredNorm() == 0.0) continue;
+    if (model_.enabled[i] && !model_.is_static[i] && !model_.is_kinematic[i]) {
+      state_.v[i] += model_.inv_mass[i] * J;
+      state_.omega[i] += dynamics::inverse_inertia_world(model_, state_, i) * L;
+    }
+    J.setZero();
+    L.setZero();
+  }
   // 1. contacts from the state at the start of the step, reaching as far as the whole step moves
   detect_contacts(dt, contacts_base_);
   const int n = settings_.solver.substep_count(dt);
@@ -228,17 +468,17 @@ void World::step_once(double dt) {
     }
     // 4. integrate the poses; keep the new velocities
     dynamics::integrate(model_, state_, v_move_, omega_move_, h);
-    state_.v.swap(v_);
-    state_.omega.swap(omega_);
+    copy_into(state_.v, v_);  // copied, not swapped: the state's storage stays where views see it
+    copy_into(state_.omega, omega_);
     state_.time += h;
     // a step that produced a non-finite number is undone and reported, never kept
     for (std::size_t i = 0; i < model_.size(); ++i) {
       if (state_.p[i].allFinite() && state_.v[i].allFinite() && state_.omega[i].allFinite() &&
           state_.R[i].allFinite())
         continue;
-      state_ = before_;
+      copy_state(state_, before_);
       solver_->cache.swap(cache_before_);
-      throw std::runtime_error(body_label(static_cast<BodyIndex>(i), model_.shape[i]) +
+      throw std::runtime_error(label(static_cast<BodyIndex>(i)) +
                                ": state became non-finite at t = " + std::to_string(before_.time) +
                                "; the step was undone (check forces, masses and dt)");
     }
@@ -253,9 +493,15 @@ void World::step_once(double dt) {
       }
     }
   }
-  // keep the step: the last substep's contacts and stats
-  contacts_.swap(contacts_next_);
+  // keep the step: the last substep's contacts and stats; quaternions of the new rotations; the
+  // one-step forces are spent
+  own_contacts().swap(contacts_next_);
   stats_ = stats;
+  for (std::size_t i = 0; i < model_.size(); ++i) {
+    if (!model_.is_static[i] && model_.enabled[i]) state_.q[i] = math::matrix_to_quat(state_.R[i]);
+    state_.f_step[i].setZero();
+    state_.tau_step[i].setZero();
+  }
 }
 
 const std::vector<Vec3>& World::contact_forces() const { return solver_->body_force; }
@@ -264,32 +510,38 @@ const std::vector<CachedContact>& World::warm_start_cache() const { return solve
 
 void World::set_material(BodyIndex i, const Material& material) {
   check_index(i);
-  check_material(body_label(i, model_.shape[i]), material);
+  check_material(label(i), material);
   model_.material[i] = material;
+}
+
+std::string World::label(BodyIndex i) const {
+  check_index(i);
+  return body_label(i, model_.name[i], model_.shape[i]);
 }
 
 void World::check_index(BodyIndex i) const {
   if (i < 0 || static_cast<std::size_t>(i) >= model_.size())
-    throw std::out_of_range("body index " + std::to_string(i) + " is out of range: the world has " +
-                            std::to_string(model_.size()) + " bodies");
+    throw BodyIndexError("body index " + std::to_string(i) + " is out of range: the world has " +
+                         std::to_string(model_.size()) + " bodies");
 }
 
 void World::set_position(BodyIndex i, const Vec3& p) {
   check_index(i);
-  require_finite(body_label(i, model_.shape[i]), "position", p);
+  require_finite(label(i), "position", p);
   state_.p[i] = p;
   if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
 }
 
 void World::set_orientation(BodyIndex i, const Quat4& q) {
   check_index(i);
-  state_.R[i] = math::quat_to_matrix(unit_quaternion(body_label(i, model_.shape[i]), q));
+  state_.R[i] = math::quat_to_matrix(unit_quaternion(label(i), q));
+  state_.q[i] = math::matrix_to_quat(state_.R[i]);
   if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
 }
 
 void World::check_velocity(BodyIndex i, const char* what, const Vec3& x) const {
   check_index(i);
-  const std::string who = body_label(i, model_.shape[i]);
+  const std::string who = label(i);
   require_finite(who, what, x);
   if (model_.is_static[i] && x.squaredNorm() > 0.0)
     throw std::invalid_argument(who + ": a static body cannot have a velocity");
@@ -305,24 +557,280 @@ void World::set_angular_velocity(BodyIndex i, const Vec3& omega) {
   state_.omega[i] = omega;
 }
 
+void World::check_batch(const char* who, const Indices& bodies, Eigen::Index rows) const {
+  if (bodies.size() != rows)
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(bodies.size()) + " indices but " +
+                                std::to_string(rows) + " rows of values");
+  for (Eigen::Index k = 0; k < bodies.size(); ++k)
+    if (bodies[k] < 0 || static_cast<std::size_t>(bodies[k]) >= model_.size())
+      throw BodyIndexError(std::string(who) + ": indices[" + std::to_string(k) + "] = " + std::to_string(bodies[k]) +
+                           " is out of range: the world has " + std::to_string(model_.size()) + " bodies");
+}
+
+void World::set_positions(const Indices& bodies, const Points& values) {
+  check_batch("set_positions", bodies, values.rows());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k)
+    require_finite(label(static_cast<BodyIndex>(bodies[k])), "position", values.row(k).transpose());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k) {
+    const auto i = static_cast<BodyIndex>(bodies[k]);
+    state_.p[i] = values.row(k).transpose();
+    if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+  }
+}
+
+void World::set_orientations(const Indices& bodies, const Quats& values) {
+  check_batch("set_orientations", bodies, values.rows());
+  std::vector<Mat3> R(bodies.size());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k)
+    R[k] = math::quat_to_matrix(unit_quaternion(label(static_cast<BodyIndex>(bodies[k])), values.row(k).transpose()));
+  for (Eigen::Index k = 0; k < bodies.size(); ++k) {
+    const auto i = static_cast<BodyIndex>(bodies[k]);
+    state_.R[i] = R[k];
+    state_.q[i] = math::matrix_to_quat(R[k]);
+    if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+  }
+}
+
+void World::set_velocities(const Indices& bodies, const Points& values) {
+  check_batch("set_velocities", bodies, values.rows());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k)
+    check_velocity(static_cast<BodyIndex>(bodies[k]), "velocity", values.row(k).transpose());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k) state_.v[bodies[k]] = values.row(k).transpose();
+}
+
+void World::set_angular_velocities(const Indices& bodies, const Points& values) {
+  check_batch("set_angular_velocities", bodies, values.rows());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k)
+    check_velocity(static_cast<BodyIndex>(bodies[k]), "angular_velocity", values.row(k).transpose());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k) state_.omega[bodies[k]] = values.row(k).transpose();
+}
+
 void World::set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torque) {
   check_index(i);
-  const std::string who = body_label(i, model_.shape[i]);
+  const std::string who = label(i);
   require_finite(who, "force", force);
   require_finite(who, "torque", torque);
   state_.f_ext[i] = force;
   state_.tau_ext[i] = torque;
 }
 
+void World::apply_impulse(BodyIndex i, const Vec3& impulse, const Vec3& point) {
+  check_index(i);
+  const std::string who = label(i);
+  require_finite(who, "impulse", impulse);
+  require_finite(who, "point", point);
+  if (model_.is_static[i] || model_.is_kinematic[i])
+    throw std::invalid_argument(who + ": a " + (model_.is_static[i] ? "static" : "kinematic") +
+                                " body takes no impulses (it has infinite mass); set its velocity instead");
+  state_.impulse[i] += impulse;
+  state_.angular_impulse[i] += (point - state_.p[i]).cross(impulse);
+}
+
+void World::apply_force(BodyIndex i, const Vec3& force, const Vec3& point) {
+  check_index(i);
+  const std::string who = label(i);
+  require_finite(who, "force", force);
+  require_finite(who, "point", point);
+  if (model_.is_static[i] || model_.is_kinematic[i])
+    throw std::invalid_argument(who + ": a " + (model_.is_static[i] ? "static" : "kinematic") +
+                                " body takes no forces (it has infinite mass); set its velocity instead");
+  state_.f_step[i] += force;
+  state_.tau_step[i] += (point - state_.p[i]).cross(force);
+}
+
+void World::set_kinematic(BodyIndex i, bool kinematic) {
+  check_index(i);
+  const std::string who = label(i);
+  if (model_.is_static[i]) throw std::invalid_argument(who + ": a static body cannot become kinematic or dynamic");
+  if (!kinematic && !std::isfinite(model_.mass[i]))
+    throw std::invalid_argument(who + ": it was added without a mass, so it can only be kinematic");
+  if (model_.is_kinematic[i] == kinematic) return;
+  set_kinematic_flag(i, kinematic);
+  if (kinematic) {
+    state_.f_step[i].setZero();
+    state_.tau_step[i].setZero();
+    state_.impulse[i].setZero();
+    state_.angular_impulse[i].setZero();
+  }
+}
+
+void World::set_enabled(BodyIndex i, bool enabled) {
+  check_index(i);
+  model_.enabled[i] = enabled;
+}
+
+void World::set_collision_filter(BodyIndex i, const CollisionFilter& filter) {
+  check_index(i);
+  model_.filter[i] = filter;
+}
+
+void World::set_pair_collision(BodyIndex i, BodyIndex j, bool collide) {
+  check_index(i);
+  check_index(j);
+  if (i == j) throw std::invalid_argument(label(i) + ": a body never collides with itself; give two different bodies");
+  const std::pair<int, int> key(std::min(i, j), std::max(i, j));
+  auto& pairs = model_.excluded_pairs;
+  const auto it = std::lower_bound(pairs.begin(), pairs.end(), key);
+  const bool listed = it != pairs.end() && *it == key;
+  if (!collide && !listed) pairs.insert(it, key);
+  if (collide && listed) pairs.erase(it);
+}
+
+BodyIndex World::find(const std::string& name) const {
+  const auto it = by_name_.find(name);
+  return it == by_name_.end() ? -1 : it->second;
+}
+
+std::string World::save_state() const {
+  Writer w;
+  w.out.append(kStateMagic, sizeof kStateMagic);
+  const std::size_t n = model_.size();
+  w.pod(static_cast<std::uint64_t>(n));
+  // the world it belongs to
+  for (std::size_t i = 0; i < n; ++i) {
+    w.pod(static_cast<std::uint8_t>(model_.shape[i].index()));
+    w.pod(static_cast<std::uint8_t>(model_.is_static[i]));
+    w.pod(model_.mass[i]);
+  }
+  // flags and state
+  for (std::size_t i = 0; i < n; ++i) {
+    w.pod(static_cast<std::uint8_t>(model_.is_kinematic[i]));
+    w.pod(static_cast<std::uint8_t>(model_.enabled[i]));
+  }
+  w.pod(state_.time);
+  w.mats(state_.p);
+  w.mats(state_.R);
+  w.mats(state_.q);
+  const solver::SolverData& solved = *solver_;
+  for (const std::vector<Vec3>* x : {&state_.v, &state_.omega, &state_.f_ext, &state_.tau_ext, &state_.f_step,
+                                     &state_.tau_step, &state_.impulse, &state_.angular_impulse,
+                                     &solved.body_force, &solved.body_torque})
+    w.mats(*x);
+  // warm-start cache, last contacts, last solver figures
+  w.pod(static_cast<std::uint64_t>(solver_->cache.size()));
+  for (const CachedContact& c : solver_->cache) {
+    w.pod(c.body_a);
+    w.pod(c.body_b);
+    w.pod(c.feature_a);
+    w.pod(c.feature_b);
+    w.pod(c.alpha);
+    w.mat(c.friction);
+    w.pod(c.order);
+  }
+  w.pod(static_cast<std::uint64_t>(contacts_->size()));
+  for (const Contact& c : *contacts_) write_contact(w, c);
+  for (int x : {stats_.iterations, stats_.restitution_iterations, stats_.position_iterations, stats_.contacts,
+                static_cast<int>(stats_.converged)})
+    w.pod(x);
+  for (double x : {stats_.residual, stats_.max_alpha_negative, stats_.max_penetration_velocity,
+                   stats_.max_complementarity, stats_.max_cone_violation, stats_.max_dissipation_violation,
+                   stats_.max_overlap})
+    w.pod(x);
+  return std::move(w.out);
+}
+
+void World::restore_state(const std::string& saved) {
+  // read and check everything first: the world changes only once nothing can fail
+  Reader r{saved};
+  const std::string bad = "restore_state: not a saved state of this world: ";
+  if (saved.size() < sizeof kStateMagic || std::memcmp(saved.data(), kStateMagic, sizeof kStateMagic) != 0)
+    throw std::invalid_argument("restore_state: not a saved state (no header)");
+  r.at = sizeof kStateMagic;
+  const std::size_t n = r.pod<std::uint64_t>();
+  if (n != model_.size())
+    throw std::invalid_argument(bad + "it has " + std::to_string(n) + " bodies, the world has " +
+                                std::to_string(model_.size()));
+  static const char* kinds[] = {"Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh", "Compound"};
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto kind = r.pod<std::uint8_t>();
+    const bool is_static = r.pod<std::uint8_t>() != 0;
+    const double mass = r.pod<double>();
+    const std::string who = label(static_cast<BodyIndex>(i));
+    if (kind != model_.shape[i].index())
+      throw std::invalid_argument(bad + who + " is a " + (kind < 9 ? kinds[kind] : "?") + " there");
+    if (is_static != model_.is_static[i])
+      throw std::invalid_argument(bad + who + " is " + (is_static ? "static" : "not static") + " there");
+    if (!(mass == model_.mass[i]))
+      throw std::invalid_argument(bad + who + " has mass " + std::to_string(mass) + " kg there, " +
+                                  std::to_string(model_.mass[i]) + " kg here");
+  }
+  std::vector<char> kinematic(n), enabled(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    kinematic[i] = r.pod<std::uint8_t>() != 0;
+    enabled[i] = r.pod<std::uint8_t>() != 0;
+    if (kinematic[i] && model_.is_static[i]) throw std::invalid_argument("restore_state: the saved state is damaged");
+    if (!kinematic[i] && !model_.is_static[i] && !std::isfinite(model_.mass[i]))
+      throw std::invalid_argument(bad + label(static_cast<BodyIndex>(i)) + " is dynamic there but has no mass here");
+  }
+  State s;
+  s.time = r.pod<double>();
+  r.mats(s.p, n);
+  r.mats(s.R, n);
+  r.mats(s.q, n);
+  std::vector<Vec3> body_force, body_torque;
+  for (std::vector<Vec3>* x : {&s.v, &s.omega, &s.f_ext, &s.tau_ext, &s.f_step, &s.tau_step, &s.impulse,
+                               &s.angular_impulse, &body_force, &body_torque})
+    r.mats(*x, n);
+  std::vector<CachedContact> cache(r.count(sizeof(CachedContact::alpha)));
+  for (CachedContact& c : cache) {
+    c.body_a = r.pod<BodyIndex>();
+    c.body_b = r.pod<BodyIndex>();
+    c.feature_a = r.pod<FeatureId>();
+    c.feature_b = r.pod<FeatureId>();
+    c.alpha = r.pod<double>();
+    r.mat(c.friction);
+    c.order = r.pod<int>();
+  }
+  auto contacts = std::make_shared<std::vector<Contact>>(r.count(sizeof(double)));
+  for (Contact& c : *contacts) c = read_contact(r);
+  SolverStats stats;
+  for (int* x : {&stats.iterations, &stats.restitution_iterations, &stats.position_iterations, &stats.contacts})
+    *x = r.pod<int>();
+  stats.converged = r.pod<int>() != 0;
+  for (double* x : {&stats.residual, &stats.max_alpha_negative, &stats.max_penetration_velocity,
+                    &stats.max_complementarity, &stats.max_cone_violation, &stats.max_dissipation_violation,
+                    &stats.max_overlap})
+    *x = r.pod<double>();
+  if (r.at != saved.size()) throw std::invalid_argument("restore_state: the saved state has trailing bytes");
+  const auto in_range = [n](BodyIndex k) { return k >= 0 && static_cast<std::size_t>(k) < n; };
+  for (const CachedContact& c : cache)
+    if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
+  for (const Contact& c : *contacts)
+    if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
+  if (!std::isfinite(s.time)) throw std::invalid_argument("restore_state: the saved state is damaged (time)");
+  for (std::size_t i = 0; i < n; ++i)
+    if (!(s.p[i].allFinite() && s.R[i].allFinite() && s.q[i].allFinite() && s.v[i].allFinite() &&
+          s.omega[i].allFinite() && s.f_ext[i].allFinite() && s.tau_ext[i].allFinite()))
+      throw std::invalid_argument("restore_state: the saved state is damaged (" + label(static_cast<BodyIndex>(i)) +
+                                  " is not finite)");
+
+  // commit: in place, so that views of the state stay live
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto b = static_cast<BodyIndex>(i);
+    if (!model_.is_static[i]) {
+      if (model_.is_kinematic[i] != static_cast<bool>(kinematic[i])) set_kinematic_flag(b, kinematic[i]);
+    } else if (s.p[i] != state_.p[i] || s.R[i] != state_.R[i]) {
+      broad_phase_->move_static(b, s.p[i], s.R[i]);
+    }
+    model_.enabled[i] = enabled[i];
+  }
+  copy_state(state_, s);
+  copy_into(solver_->body_force, body_force);
+  copy_into(solver_->body_torque, body_torque);
+  solver_->cache = std::move(cache);
+  contacts_ = std::move(contacts);
+  stats_ = stats;
+}
+
 Quat4 World::orientation(BodyIndex i) const {
   check_index(i);
-  return math::matrix_to_quat(state_.R[i]);
+  return state_.q[i];
 }
 
 double World::kinetic_energy() const {
   double T = 0.0;
   for (std::size_t i = 0; i < model_.size(); ++i) {
-    if (model_.is_static[i]) continue;
+    if (model_.is_static[i] || model_.is_kinematic[i]) continue;
     const Mat3& R = state_.R[i];
     const Vec3& w = state_.omega[i];
     T += 0.5 * model_.mass[i] * state_.v[i].squaredNorm() + 0.5 * w.dot(R * (model_.I_body[i] * (R.transpose() * w)));
@@ -333,7 +841,7 @@ double World::kinetic_energy() const {
 double World::potential_energy() const {
   double V = 0.0;
   for (std::size_t i = 0; i < model_.size(); ++i)
-    if (!model_.is_static[i]) V -= model_.mass[i] * settings_.gravity.dot(state_.p[i]);
+    if (!model_.is_static[i] && !model_.is_kinematic[i]) V -= model_.mass[i] * settings_.gravity.dot(state_.p[i]);
   return V;
 }
 

@@ -21,7 +21,9 @@ Modules, in the order of a step:
 
 A snapshot (``World.snapshot()``, or built by hand) holds gravity, settings (defaults in
 ``solver.DEFAULT_SETTINGS`` for missing keys), bodies (shape, static, mass, inv_mass, inertia,
-inv_inertia, friction, restitution), the state arrays and the optional warm-start cache.
+inv_inertia, friction, restitution; optional kinematic, enabled, group, mask), the state arrays,
+the optional warm-start cache, the optional excluded_pairs [(i, j)] and the optional one-step
+step_force, step_torque and pending impulse, angular_impulse arrays (N, 3).
 """
 
 from .contacts import (
@@ -36,6 +38,7 @@ from .contacts import (
     contact_sphere_capsule,
     contact_sphere_sphere,
     detect_contacts,
+    pair_filter,
     plane_reach,
     speculative_reach,
 )
@@ -78,7 +81,9 @@ from .mass import (
 )
 from .pgs import bias, contact_rows, pgs
 from .rigid import (
+    apply_impulses,
     free_rotation,
+    motion_flags,
     integrate,
     inverse_mass_blocks,
     jacobian,
@@ -123,9 +128,9 @@ from .support import (
 )
 
 __all__ = [
-    "DEFAULT_SETTINGS", "EDGE", "FACE", "FACE_PREFERENCE", "PAIRS", "SHAPE", "VERTEX", "bias",
+    "DEFAULT_SETTINGS", "apply_impulses", "EDGE", "FACE", "FACE_PREFERENCE", "PAIRS", "SHAPE", "VERTEX", "bias",
     "bounding_radius", "box_box_separation", "box_corners", "box_edge", "box_polytope",
-    "certificate", "clip_incident_face", "contact_box_box", "contact_box_sphere",
+    "certificate", "motion_flags", "pair_filter", "clip_incident_face", "contact_box_box", "contact_box_sphere",
     "contact_jacobian", "contact_lcp", "contact_materials", "contact_plane_capsule",
     "contact_plane_cylinder", "contact_plane_points", "contact_plane_sphere", "contact_rows",
     "contact_sphere_capsule", "contact_sphere_sphere", "copy_snapshot", "detect_contacts",

@@ -38,7 +38,7 @@ from .manifold import (
     feature_id,
     select_manifold,
 )
-from .rigid import body_arrays
+from .rigid import body_arrays, motion_flags
 
 
 # m, the documented default of the setting contact_margin (old snapshots may lack it)
@@ -349,10 +349,29 @@ PAIRS = {
 UNREDUCED = {("plane", "mesh")}
 
 
+def pair_filter(snapshot):
+    """A function (i, j) -> bool: may bodies i and j touch? Both enabled, not both of infinite
+    mass (static or kinematic: inv_mass 0), their filter bits matching as in Box2D,
+    (group_i & mask_j) and (group_j & mask_i) non-zero (defaults group 1, mask all bits), and the
+    pair not in ``snapshot["excluded_pairs"]``."""
+    bodies = snapshot["bodies"]
+    _, inv_mass, _, _ = body_arrays(snapshot)
+    _, enabled = motion_flags(snapshot)
+    group = [int(b.get("group", 1)) for b in bodies]
+    mask = [int(b.get("mask", 0xFFFFFFFF)) for b in bodies]
+    excluded = {(min(i, j), max(i, j)) for i, j in snapshot.get("excluded_pairs", ())}
+
+    def allowed(i, j):
+        return bool(enabled[i] and enabled[j] and (inv_mass[i] > 0 or inv_mass[j] > 0)
+                    and group[i] & mask[j] and group[j] & mask[i] and (min(i, j), max(i, j)) not in excluded)
+    return allowed
+
+
 def detect_contacts(snapshot, dt):
     """All contacts of the current state, in the order the PGS sweeps them.
 
-    Pairs (i, j), i < j, lexicographic; static-static pairs skipped; within a pair the
+    Pairs (i, j), i < j, lexicographic; static-static pairs and those ``pair_filter`` refuses
+    skipped; within a pair the
     manifold's points in (feature_a, feature_b) order (plane - mesh: vertex order).  A candidate
     becomes a contact when gap < contact_margin + s_A + s_B (speculative reach
     ``speculative_reach``; against a plane only the approach counts, ``plane_reach``).
@@ -370,12 +389,13 @@ def detect_contacts(snapshot, dt):
     R = np.asarray(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
     margin = float((snapshot.get("settings") or {}).get("contact_margin", DEFAULT_CONTACT_MARGIN))
     s = speculative_reach(snapshot, dt)
+    allowed = pair_filter(snapshot)
 
     out = {key: [] for key in ("body_a", "body_b", "point", "normal", "gap", "feature_a", "feature_b")}
     N = len(bodies)
     for i in range(N):
         for j in range(i + 1, N):
-            if static[i] and static[j]:
+            if (static[i] and static[j]) or not allowed(i, j):
                 continue
 
             # choose A and B: a plane is always A, otherwise the lower index

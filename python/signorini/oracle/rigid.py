@@ -121,6 +121,16 @@ def body_arrays(snapshot):
     return static, inv_mass, I_body, inv_I_body
 
 
+def motion_flags(snapshot):
+    """(kinematic (N,) bool, enabled (N,) bool) from the body dicts ("kinematic" default False,
+    "enabled" default True). A kinematic body moves with its own velocity only and has inv_mass 0
+    and inv_inertia 0 in the snapshot; a disabled body neither moves nor collides."""
+    bodies = snapshot["bodies"]
+    kinematic = np.array([bool(b.get("kinematic", False)) for b in bodies], dtype=bool)
+    enabled = np.array([bool(b.get("enabled", True)) for b in bodies], dtype=bool)
+    return kinematic, enabled
+
+
 def inverse_mass_blocks(snapshot):
     """M^-1 per body, (N, 6, 6): diag(R I_body^-1 R^T, m^-1 I3) in the (omega, p_dot) layout.
 
@@ -188,7 +198,8 @@ def unconstrained_velocity(snapshot, dt):
     """Velocities after gravity, external forces and the gyroscopic term, before contacts
     (conventions, "One step" item 2).
 
-    Per dynamic body, world frame:
+    Per dynamic body, world frame, with f = force + step_force and tau = torque + step_torque
+    (the one-step keys are optional):
         v* = v + dt (g + f / m)
     and the angular part by ``snapshot["settings"]["gyroscopic"]`` (default "midpoint"):
         midpoint, implicit: in the body frame, w = R^T omega, tau_b = R^T tau,
@@ -197,7 +208,8 @@ def unconstrained_velocity(snapshot, dt):
         explicit:           the lecture's term, world frame,
                             omega* = omega + dt I_w^-1 (tau - omega x (I_w omega)),  I_w = R I_body R^T
                             (I_w omega* = L + dt (tau - omega x L), L = I_w omega; it gains energy)
-    Static bodies never move: their v* and omega* are zero.
+    Static bodies never move: their v* and omega* are zero. Kinematic and disabled bodies keep
+    v and omega (``motion_flags``).
 
     Inputs: snapshot (see module doc), dt s.
     Outputs: v_star (N, 3) m/s, omega_star (N, 3) rad/s.
@@ -210,8 +222,11 @@ def unconstrained_velocity(snapshot, dt):
     R = np.asarray(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
     v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
     omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
-    f = np.asarray(snapshot["force"], dtype=float).reshape(-1, 3)
-    tau = np.asarray(snapshot["torque"], dtype=float).reshape(-1, 3)
+    # the persistent wrench plus the one-step one (apply_force), when the snapshot has it
+    f = np.asarray(snapshot["force"], dtype=float).reshape(-1, 3) + np.asarray(
+        snapshot.get("step_force", 0.0), dtype=float)
+    tau = np.asarray(snapshot["torque"], dtype=float).reshape(-1, 3) + np.asarray(
+        snapshot.get("step_torque", 0.0), dtype=float)
 
     # linear: gravity plus external force
     v_star = v + dt * (g + inv_mass[:, None] * f)
@@ -225,14 +240,44 @@ def unconstrained_velocity(snapshot, dt):
     else:
         # angular, body frame: the free rotation, then the external torque's impulse
         omega_star = np.zeros_like(omega)
-        for n in np.flatnonzero(~static):
+        kinematic, enabled = motion_flags(snapshot)
+        for n in np.flatnonzero(~static & ~kinematic & enabled):
             w1 = free_rotation(I_body[n], R[n].T @ omega[n], dt, gyroscopic)
             omega_star[n] = R[n] @ (w1 + dt * (inv_I_body[n] @ (R[n].T @ tau[n])))
 
-    # static bodies never move
+    # static bodies never move; kinematic ones keep their velocity (no gravity, no forces), and so
+    # do disabled ones (they are frozen)
     v_star[static] = 0.0
     omega_star[static] = 0.0
+    kinematic, enabled = motion_flags(snapshot)
+    keep = (kinematic | ~enabled) & ~static
+    v_star[keep] = v[keep]
+    omega_star[keep] = omega[keep]
     return v_star, omega_star
+
+
+def apply_impulses(snapshot):
+    """Pending impulses J (``impulse``, N s) and angular impulses L (``angular_impulse``, N m s about
+    the com), world frame, applied at the start of a step to enabled dynamic bodies:
+        v += J / m,   omega += I_w^-1 L,   I_w^-1 = R I_body^-1 R^T
+    Returns a copy with them applied and zeroed (the snapshot itself when it has none)."""
+    if "impulse" not in snapshot and "angular_impulse" not in snapshot:
+        return snapshot
+    J = np.asarray(snapshot.get("impulse", 0.0), dtype=float) * np.ones((len(snapshot["bodies"]), 3))
+    L = np.asarray(snapshot.get("angular_impulse", 0.0), dtype=float) * np.ones_like(J)
+    static, inv_mass, _, inv_I_body = body_arrays(snapshot)
+    kinematic, enabled = motion_flags(snapshot)
+    R = np.asarray(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
+    new = dict(snapshot)
+    v = np.array(snapshot["velocity"], dtype=float).reshape(-1, 3)
+    omega = np.array(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
+    for n in np.flatnonzero(~static & ~kinematic & enabled):
+        if np.any(J[n]) or np.any(L[n]):
+            v[n] = v[n] + inv_mass[n] * J[n]
+            omega[n] = omega[n] + (R[n] @ inv_I_body[n] @ R[n].T) @ L[n]
+    new["velocity"], new["angular_velocity"] = v, omega
+    new["impulse"], new["angular_impulse"] = np.zeros_like(J), np.zeros_like(L)
+    return new
 
 
 def integrate(snapshot, velocity, angular_velocity, dt):
@@ -241,12 +286,13 @@ def integrate(snapshot, velocity, angular_velocity, dt):
         R <- exp([omega]x dt) R            (Rodrigues)
         R <- 1.5 R - 0.5 R R^T R           (one polar Newton step, keeps R orthonormal)
         p <- p + dt v
-    Static bodies keep their position and rotation.
+    Static and disabled bodies keep their position and rotation.
 
     Inputs: snapshot, velocity (N, 3) m/s, angular_velocity (N, 3) rad/s (world), dt s.
     Outputs: position (N, 3) m, rotation (N, 3, 3) world-from-body.
     """
     static = np.array([bool(b["static"]) for b in snapshot["bodies"]], dtype=bool)
+    static = static | ~motion_flags(snapshot)[1]
     p = np.array(snapshot["position"], dtype=float).reshape(-1, 3)
     R = np.array(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
     v = np.asarray(velocity, dtype=float).reshape(-1, 3)

@@ -1,4 +1,5 @@
 """One full step and a rollout (docs/conventions.md, "One step (dt)"):
+    0. pending impulses                                   (apply_impulses)
     1. contacts from the current state                   (detect_contacts)
     2. unconstrained velocities, gyroscopic option        (unconstrained_velocity)
     3. the staged contact solve a-f                       (solver.solve_contacts)
@@ -12,7 +13,7 @@ import copy
 import numpy as np
 
 from .contacts import detect_contacts
-from .rigid import integrate, unconstrained_velocity
+from .rigid import apply_impulses, integrate, unconstrained_velocity
 from .solver import solve_contacts, solver_settings, substep_count
 
 # the per-contact and per-step figures of the solve that ``step`` reports in its info
@@ -29,6 +30,9 @@ def copy_snapshot(snapshot):
     new = copy.deepcopy(snapshot)
     for key in ("position", "velocity", "angular_velocity", "force", "torque"):
         new[key] = np.array(snapshot[key], dtype=float).reshape(-1, 3)
+    for key in ("step_force", "step_torque", "impulse", "angular_impulse"):  # optional
+        if key in snapshot:
+            new[key] = np.array(snapshot[key], dtype=float).reshape(-1, 3)
     new["rotation"] = np.array(snapshot["rotation"], dtype=float).reshape(-1, 3, 3)
     return new
 
@@ -123,6 +127,8 @@ def step(snapshot, dt, contacts=None):
     """
     settings = solver_settings(snapshot)
     n = substep_count(settings, dt)
+    # 0. pending impulses change the velocities first (before the contacts look ahead)
+    snapshot = apply_impulses(snapshot)
     if contacts is None:
         contacts = detect_contacts(snapshot, dt)
     state, info, flagged = snapshot, None, 0
@@ -131,6 +137,10 @@ def step(snapshot, dt, contacts=None):
         # the substeps the Python layer warns about: unconverged and approaching too fast
         flagged += (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
     info["flagged"] = int(flagged)
+    # the one-step force and torque are spent
+    for key in ("step_force", "step_torque"):
+        if key in state:
+            state[key] = np.zeros_like(np.asarray(state[key], dtype=float))
     return state, info
 
 
