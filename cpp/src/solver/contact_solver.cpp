@@ -55,8 +55,9 @@ void make_row(const Model& model, const std::vector<Mat3>& I_inv, int a, int b, 
               const Vec3& d, double dt, Row& r) {
   r.a = a;
   r.b = b;
-  r.a_moves = !model.is_static[a];
-  r.b_moves = !model.is_static[b];
+  // static and kinematic bodies have infinite mass here: contacts never change their velocities
+  r.a_moves = !model.is_static[a] && !model.is_kinematic[a];
+  r.b_moves = !model.is_static[b] && !model.is_kinematic[b];
   r.J_lin = d;
   r.JA_ang = -r_a.cross(d);
   r.JB_ang = r_b.cross(d);

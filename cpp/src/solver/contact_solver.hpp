@@ -25,7 +25,7 @@ namespace signorini::solver {
 ///   a force change d_alpha (N) moves q_dot_X += d_alpha (dt M_X^-1 J_X).
 struct Row {
   int a = 0, b = 0;             ///< body indices
-  bool a_moves = false, b_moves = false;  ///< false for static bodies (M^-1 = 0: skipped)
+  bool a_moves = false, b_moves = false;  ///< false for static and kinematic bodies (M^-1 = 0: skipped)
   int normal = -1;              ///< friction rows: the index of the normal row that bounds them
   Vec3 J_lin;                   ///< J_B_lin (unit direction d for a contact row); J_A_lin = -J_lin
   Vec3 JA_ang, JB_ang;
