@@ -121,14 +121,25 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
 void warm_start(const SolverSettings& s, const std::vector<Contact>& contacts, SolverData& d) {
   if (d.cache.empty()) return;
   d.cache_used.assign(d.cache.size(), 0);
-  CachedContact key;
+  CachedContact key, previous;
+  auto cursor = d.cache.begin();  // the first entry not below the previous contact's key
   for (std::size_t i = 0; i < contacts.size(); ++i) {
     const Contact& c = contacts[i];
     key.body_a = c.body_a;
     key.body_b = c.body_b;
     key.feature_a = c.feature_a;
     key.feature_b = c.feature_b;
-    const auto it = std::lower_bound(d.cache.begin(), d.cache.end(), key, key_less);
+    // the first entry not below the key: the narrow phase lists contacts in key order, so it is
+    // found by walking on from the previous one (everything before the cursor is below the key);
+    // a key that goes back is searched for from the start
+    auto it = cursor;
+    if (i > 0 && !key_less(key, previous)) {
+      while (it != d.cache.end() && key_less(*it, key)) ++it;
+    } else {
+      it = std::lower_bound(d.cache.begin(), d.cache.end(), key, key_less);
+    }
+    cursor = it;
+    previous = key;
     if (it == d.cache.end() || !same_key(*it, key)) continue;
     const std::size_t j = static_cast<std::size_t>(it - d.cache.begin());
     if (d.cache_used[j]) continue;  // an equal key earlier in contact order took it
