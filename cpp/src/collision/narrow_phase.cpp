@@ -136,7 +136,11 @@ namespace {
 /// Sets the item's bounding ball: about the centroid for a polytope (O(vertices), cheap beside the
 /// separating axes it can save), about the origin for the round shapes.
 void set_ball(Item& it) {
-  if (it.polytope) {
+  if (it.box) {
+    // centroid 0 and every vertex at |h|: the same ball as the loop below gives
+    it.ball_centre = it.pose.p;
+    it.ball_radius = it.box->half_extents.norm();
+  } else if (it.polytope) {
     const Polytope& P = *it.polytope;
     double r2 = 0.0;
     for (Eigen::Index i = 0; i < P.vertices.rows(); ++i)

@@ -462,7 +462,8 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   // faces are preferred: B's face only when better than A's by tol, an edge only when better than
   // both by tol (tol = 5e-4 L). Two stacked boxes tilted by a hair have an edge axis that beats the
   // face axis by ~0.2 L theta; taking it would leave one contact point and the stack would rock.
-  const double L = radius_of(a) + radius_of(b);
+  // a box's vertices all lie at |h| (vertex 7 = (+h_x, +h_y, +h_z)): the same number, 8 times cheaper
+  const double L = boxes ? a.vertex(7).norm() + b.vertex(7).norm() : radius_of(a) + radius_of(b);
   // an edge axis matters when it beats both faces by at least 1e-9 L, or reaches the threshold
   const double edge_bound = std::min(std::max(fa.separation, fb.separation) + 1e-9 * L, threshold);
   const EdgeQuery e = boxes ? box_edge_query(A, B, R_ab, t_ab, edge_bound)
