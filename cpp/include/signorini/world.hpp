@@ -51,6 +51,12 @@ struct StepReport {
 
 class World {
  public:
+  /// A step is an energy explosion (undone and reported, like a non-finite step) when its final
+  /// kinetic energy is more than kExplosionFactor times, and more than kExplosionFloor (J) above,
+  /// the kinetic energy it started with plus the work gravity and external forces did in it.
+  static constexpr double kExplosionFactor = 100.0;
+  static constexpr double kExplosionFloor = 1.0;
+
   explicit World(const WorldSettings& settings = WorldSettings());
   ~World();
   World(const World&) = delete;
@@ -107,9 +113,17 @@ class World {
   void check_index(BodyIndex i) const;
   /// A velocity for body i must be finite, and zero for a static body.
   void check_velocity(BodyIndex i, const char* what, const Vec3& x) const;
-  /// One step of dt: contacts detected once, then the substeps; on a non-finite result restores
-  /// the state and the warm-start cache and throws.
+  /// One step of dt: contacts detected once, then the substeps; on a non-finite result or an
+  /// energy explosion (check_energy) restores the state, the warm-start cache and the contact
+  /// forces (undo_step) and throws std::runtime_error naming the body or bodies.
   void step_once(double dt);
+  /// Throws std::runtime_error when the step from before_ to state_ is an energy explosion: the
+  /// kinetic energy at its end T_1 exceeds both kExplosionFactor times and kExplosionFloor above
+  /// T_0 + max(W, 0), T_0 the kinetic energy at its start and W the work gravity and the external
+  /// wrenches did over its motion (contacts can only take energy away).
+  void check_energy(double dt) const;
+  /// Puts back what a failed step changed (state, warm-start cache, contact forces and torques).
+  void undo_step();
 
   WorldSettings settings_;
   Model model_;
@@ -124,6 +138,7 @@ class World {
   // step scratch, kept between steps so that a step reuses its buffers instead of allocating
   State before_;                         ///< state at the start of the step (restored on failure)
   std::vector<CachedContact> cache_before_;  ///< warm-start cache at the start of the step (likewise)
+  std::vector<Vec3> force_before_, torque_before_;  ///< contact forces and torques of the last step (likewise)
   std::vector<Contact> contacts_base_;   ///< the step's contacts as detected
   std::vector<Contact> contacts_next_;   ///< a substep's contacts (carried), kept when the step succeeds
   std::vector<Vec3> anchor_a_, anchor_b_;///< a carried contact's point moved with A and with B

@@ -303,10 +303,10 @@ std::vector<Contact> collide(const Shape& shape_a, const Vec3& p_a, const Quat4&
                              const Vec3& p_b, const Quat4& q_b, double margin) {
   auto rotation = [](const char* who, const Vec3& p, const Quat4& q) {
     if (!p.allFinite()) throw std::invalid_argument(std::string("collide: position of ") + who + " must be finite");
-    if (!q.allFinite() || !(q.norm() > 1e-12))
+    if (!q.allFinite() || !(q.stableNorm() > 1e-12))
       throw std::invalid_argument(std::string("collide: orientation of ") + who +
                                   " must be a finite non-zero quaternion (w, x, y, z)");
-    const Quat4 u = q / q.norm();
+    const Quat4 u = q / q.stableNorm();  // scaled norm: huge entries do not overflow
     return Eigen::Quaterniond(u[0], u[1], u[2], u[3]).toRotationMatrix();
   };
   const Mat3 R_a = rotation("A", p_a, q_a), R_b = rotation("B", p_b, q_b);

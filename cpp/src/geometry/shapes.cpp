@@ -188,7 +188,7 @@ TriangleMesh::TriangleMesh(Points v, Triangles f) : vertices(std::move(v)), face
 
 Compound::Part Compound::make_part(Primitive shape, const Vec3& position, const Quat4& q) {
   if (!q.allFinite()) throw std::invalid_argument("orientation quaternion must be finite, got " + fmt_quat(q));
-  const double norm = q.norm();
+  const double norm = q.stableNorm();  // scaled before the square: no overflow for huge entries
   if (!(norm > 1e-12))
     throw std::invalid_argument("orientation quaternion " + fmt_quat(q) +
                                 " is zero; use (1, 0, 0, 0) for no rotation");

@@ -1,6 +1,7 @@
 #include "signorini/world.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -36,7 +37,7 @@ void require_finite(const std::string& who, const char* what, const Eigen::Vecto
 /// Unit quaternion from a user's one: finite, non-zero; a non-unit one is normalised.
 Quat4 unit_quaternion(const std::string& who, const Quat4& q) {
   require_finite(who, "orientation", q);
-  const double norm = q.norm();
+  const double norm = q.stableNorm();  // scaled: (1e300, 1e300, 0, 0) is a rotation, not an overflow
   if (!(norm > 1e-12))
     throw std::invalid_argument(who + ": orientation quaternion " + fmt(q) + " is zero; use (1, 0, 0, 0) for no rotation");
   return q / norm;
@@ -121,13 +122,39 @@ BodyIndex World::add_body(const BodyDesc& desc) {
     } catch (const std::invalid_argument& e) {
       throw std::invalid_argument(who + ": " + e.what());
     }
+    // the shape at unit density: its volume and inertia must be normal doubles, and the inertia
+    // (scaled to its largest entry, so that only its shape counts) must not be flat
+    std::ostringstream size;
+    size << "(bounding radius " << bounding_radius(desc.shape) << " m)";
+    if (!(std::isfinite(props.volume) && props.inertia.allFinite()))
+      throw std::invalid_argument(who + ": the shape is too large " + size.str() +
+                                  ": its volume or inertia overflows double precision");
+    const double J_max = props.inertia.cwiseAbs().maxCoeff();
+    if (!(props.volume >= std::numeric_limits<double>::min() && J_max >= std::numeric_limits<double>::min()))
+      throw std::invalid_argument(who + ": the shape is too small " + size.str() +
+                                  ": its volume or inertia underflows double precision");
+    const Mat3 J_unit = props.inertia / J_max;
+    const Mat3 J_unit_inv = J_unit.inverse();
+    if (!J_unit_inv.allFinite())
+      throw std::invalid_argument(who + ": inertia tensor is singular (a flat or degenerate solid)");
+    // then the given mass or density: mass, 1 / mass, inertia and its inverse must all be finite
     const double density = desc.density ? *desc.density : *desc.mass / props.volume;
     mass = density * props.volume;
     inv_mass = 1.0 / mass;
-    I_body = density * props.inertia;
-    I_body_inv = I_body.inverse();
-    if (!I_body_inv.allFinite())
-      throw std::invalid_argument(who + ": inertia tensor is singular (a flat or degenerate solid)");
+    I_body = (density * J_max) * J_unit;
+    I_body_inv = J_unit_inv / (density * J_max);
+    auto number = [](double x) {
+      std::ostringstream s;
+      s << x;
+      return s.str();
+    };
+    if (!(std::isfinite(density) && std::isfinite(mass) && I_body.allFinite()))
+      throw std::invalid_argument(who + ": " + what + " " + number(given) + " is too large for a shape " + size.str() +
+                                  ": its density, mass or inertia overflows double precision");
+    if (!(density > 0.0 && std::isfinite(inv_mass) && I_body_inv.allFinite() &&
+          I_body.cwiseAbs().maxCoeff() >= std::numeric_limits<double>::min()))
+      throw std::invalid_argument(who + ": " + what + " " + number(given) + " is too small for a shape " + size.str() +
+                                  ": its inverse mass or inverse inertia overflows double precision");
     // a mesh, hull or compound body's frame is its centre of mass: the geometry is moved by -com
     // (vertices, convex pieces, polytope, part positions), axes unchanged
     if (auto* mesh = std::get_if<Mesh>(&shape)) {
@@ -183,6 +210,8 @@ std::vector<Contact> World::detect_contacts(double dt) const {
 }
 
 void World::detect_contacts(double dt, std::vector<Contact>& out) const {
+  if (!(std::isfinite(dt) && dt > 0.0))
+    throw std::invalid_argument("detect_contacts: dt must be positive and finite, got " + std::to_string(dt));
   collision::detect_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_,
                              *scratch_, out);
 }
@@ -201,9 +230,74 @@ int SolverSettings::substep_count(double dt) const {
   return static_cast<int>(std::clamp(std::ceil(dt / auto_substep - 1e-9), 1.0, 1e6));
 }
 
+namespace {
+
+/// Kinetic energy of body i in state s, 1/2 (m v.v + omega . I_w omega) (J); 0 for a static body.
+double body_kinetic_energy(const Model& model, const State& s, std::size_t i) {
+  if (model.is_static[i]) return 0.0;
+  const Vec3& w = s.omega[i];
+  return 0.5 * model.mass[i] * s.v[i].squaredNorm() + 0.5 * w.dot(s.R[i] * (model.I_body[i] * (s.R[i].transpose() * w)));
+}
+
+}  // namespace
+
+void World::check_energy(double dt) const {
+  // the energy balance of the step, body by body: kinetic energy T_1 at the end against
+  // T_0 + W at the start, W the work of gravity and the external wrench over the step's actual
+  // motion, (m g + f) . (p_1 - p_0) + tau . (omega_0 + omega_1) dt / 2, counted only when positive
+  // (the position pass lifts bodies without giving them kinetic energy). Contacts only take
+  // energy away or pass it between bodies, so the world's T_1 stays below T_0 + W up to the
+  // integrator's rounding; a step that exceeds it by the factor and the floor is an explosion.
+  double T0 = 0.0, T1 = 0.0, W = 0.0;
+  for (std::size_t i = 0; i < model_.size(); ++i) {
+    if (model_.is_static[i]) continue;
+    T0 += body_kinetic_energy(model_, before_, i);
+    T1 += body_kinetic_energy(model_, state_, i);
+    W += (model_.mass[i] * settings_.gravity + before_.f_ext[i]).dot(state_.p[i] - before_.p[i]) +
+         before_.tau_ext[i].dot(before_.omega[i] + state_.omega[i]) * 0.5 * dt;
+  }
+  const double budget = T0 + std::max(W, 0.0);
+  if (!(T1 > kExplosionFactor * budget && T1 - budget > kExplosionFloor)) return;
+  // name the bodies that gained the most, largest first (at most 3)
+  std::array<std::pair<double, std::size_t>, 3> worst{};
+  for (std::size_t i = 0; i < model_.size(); ++i) {
+    if (model_.is_static[i]) continue;
+    const double gained = body_kinetic_energy(model_, state_, i) - body_kinetic_energy(model_, before_, i);
+    for (std::size_t k = 0; k < worst.size(); ++k)
+      if (gained > worst[k].first) {
+        for (std::size_t m = worst.size() - 1; m > k; --m) worst[m] = worst[m - 1];
+        worst[k] = {gained, i};
+        break;
+      }
+  }
+  std::ostringstream s;
+  s.precision(3);
+  bool first = true;
+  for (const auto& [gained, i] : worst) {
+    if (!(gained > 0.0)) continue;
+    s << (first ? "" : ", ") << body_label(static_cast<BodyIndex>(i), model_.shape[i]) << " +" << gained << " J";
+    first = false;
+  }
+  std::ostringstream total;
+  total.precision(3);
+  total << "kinetic energy rose from " << T0 << " J to " << T1 << " J in one step at t = " << before_.time
+        << " s (gravity and external forces supplied " << std::max(W, 0.0) << " J)";
+  throw std::runtime_error("energy explosion: " + total.str() + "; gained most: " + s.str() +
+                           "; the step was undone (check dt, masses, speeds and overlaps)");
+}
+
+void World::undo_step() {
+  state_ = before_;
+  solver_->cache.swap(cache_before_);
+  solver_->body_force.swap(force_before_);
+  solver_->body_torque.swap(torque_before_);
+}
+
 void World::step_once(double dt) {
   before_ = state_;
   cache_before_ = solver_->cache;
+  force_before_ = solver_->body_force;
+  torque_before_ = solver_->body_torque;
   // 1. contacts from the state at the start of the step, reaching as far as the whole step moves
   detect_contacts(dt, contacts_base_);
   const int n = settings_.solver.substep_count(dt);
@@ -236,8 +330,7 @@ void World::step_once(double dt) {
       if (state_.p[i].allFinite() && state_.v[i].allFinite() && state_.omega[i].allFinite() &&
           state_.R[i].allFinite())
         continue;
-      state_ = before_;
-      solver_->cache.swap(cache_before_);
+      undo_step();
       throw std::runtime_error(body_label(static_cast<BodyIndex>(i), model_.shape[i]) +
                                ": state became non-finite at t = " + std::to_string(before_.time) +
                                "; the step was undone (check forces, masses and dt)");
@@ -252,6 +345,14 @@ void World::step_once(double dt) {
         report_.worst_time = state_.time - h;
       }
     }
+  }
+  // a step whose kinetic energy grew by orders of magnitude is undone and reported, like a
+  // non-finite one
+  try {
+    check_energy(dt);
+  } catch (const std::runtime_error&) {
+    undo_step();
+    throw;
   }
   // keep the step: the last substep's contacts and stats
   contacts_.swap(contacts_next_);
