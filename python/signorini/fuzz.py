@@ -27,11 +27,11 @@ Every step is checked (``run``). Failure classes, each with a one-line reproduce
   point) rose above its starting value by more than ``ENERGY_GAIN`` (1%) at some step. A passive
   system under gravity, friction and restitution e <= 1 can only lose energy.
 - ``slow``: a step took more than ``SLOW_STEP`` (100 ms) of wall time.
-- ``overlap``: the deepest overlap of a detected contact exceeded ``OVERLAP_LIMIT`` (50%) of the
-  smaller body's inner size (the radius of the largest ball it surely contains).
 
-The summary line gives the count of each class, the deepest relative overlap, the slowest step
-and the mean wall time per scene.
+Measured and summarised, not failed: the deepest overlap of a detected contact relative to the
+smaller body's inner size (the radius of a ball it surely contains; resting contacts keep the
+solver's slop of 1 mm, which is a large fraction of a 1 cm body), the largest energy gain, the
+worst contact-point error and the slowest step, each with the scene it came from.
 """
 from __future__ import annotations
 
@@ -59,9 +59,7 @@ ENERGY_FLOOR = 1e-9     # J: rises below this are rounding
 SLOW_STEP = 0.1         # s of wall time per step
 POINT_TOLERANCE = 1e-6  # m (plus 1e-6 of the body's size): contact points are exact, not fitted
 POINT_SLACK = 0.05      # of |gap|: clipped speculative points sit on a face's plane, not always its face
-OVERLAP_LIMIT = 0.5     # deepest overlap / inner size of the smaller body
-FAILURES = ("crash", "timeout", "exception", "nonfinite", "explosion", "tunnel", "off_shape", "energy",
-            "slow", "overlap")
+FAILURES = ("crash", "timeout", "exception", "nonfinite", "explosion", "tunnel", "off_shape", "energy", "slow")
 
 
 def TUNNEL_DEPTH(bounding_radius: float) -> float:
@@ -232,7 +230,7 @@ def build(scene: dict):
     """(world, floor) for a scene; floor = {"plane": z or None, "heightfield": (vertices, faces) or None}."""
     import signorini as sg
 
-    world = sg.World()
+    world = sg.World(**scene.get("world", {}))
     floor = {"plane": None, "heightfield": None}
     if "heightfield" in scene:
         v, f = heightfield_mesh(scene["heightfield"])
@@ -439,11 +437,7 @@ def run(scene: dict, log=None) -> dict:
             gap = c.gap
             rel = -gap / np.minimum(inner[c.body_a], inner[c.body_b])
             worst = int(np.argmax(rel))
-            if rel[worst] > max_overlap:
-                max_overlap = float(rel[worst])
-                if max_overlap > OVERLAP_LIMIT:
-                    fail("overlap", f"step {k} (t = {world.time:.4f} s): bodies {c.body_a[worst]} - {c.body_b[worst]} "
-                                    f"overlap {-gap[worst]:.3g} m = {rel[worst]:.0%} of the smaller body's inner size")
+            max_overlap = max(max_overlap, float(rel[worst]))
             allowed = np.abs(gap) * (0.5 + POINT_SLACK)
             for side, bodies in (("A", c.body_a), ("B", c.body_b)):
                 for i in np.unique(bodies):
@@ -553,12 +547,18 @@ def run_many(count: int, seed: int, jobs: int = 1, timeout: float = 300.0, out=p
     counts = {kind: sum(kind in r["failures"] for r in results) for kind in FAILURES}
     clean = sum(not r["failures"] for r in results)
     got = [r for r in results if "max_overlap" in r]
-    worst = lambda key: max((r[key] for r in got), default=0.0)  # noqa: E731
+
+    def worst(key: str, fmt: str) -> str:
+        if not got:
+            return "-"
+        r = max(got, key=lambda r: r[key])
+        return f"{format(r[key], fmt)} ({r['scene']})"
+
     summary = (f"fuzz {count} scenes, seed {seed}: {clean} clean; " +
                ", ".join(f"{kind} {counts[kind]}" for kind in FAILURES) +
-               f"; deepest overlap {worst('max_overlap'):.0%} of inner size, worst point off its shapes "
-               f"{worst('max_point_error'):.2g} m, largest energy gain {worst('max_energy_gain'):.2%}, slowest step "
-               f"{worst('max_step_ms'):.1f} ms, {np.mean([r['wall'] for r in results]):.2f} s per scene")
+               f"; deepest overlap {worst('max_overlap', '.0%')} of inner size, worst point off its shapes "
+               f"{worst('max_point_error', '.2g')} m, largest energy gain {worst('max_energy_gain', '.2%')}, "
+               f"slowest step {worst('max_step_ms', '.1f')} ms, {np.mean([r['wall'] for r in results]):.2f} s per scene")
     out(summary)
     return {"results": results, "counts": counts, "summary": summary}
 

@@ -62,8 +62,13 @@ void triangle_sphere(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, c
     }
   }
   const auto& active = mesh.active_edge[t];
-  const bool use_face = region < 0 || (region < 3 && !active[region]) ||
-                        (region >= 3 && !active[region - 3] && !active[(region - 3 + 2) % 3]);
+  // beyond an inactive edge (flat or concave), or a vertex between two, the closest point of the
+  // mesh lies on a neighbouring face, which makes the contact: this face's plane extended there
+  // is not the surface (the next face may bend away), so this triangle makes none
+  if ((region >= 0 && region < 3 && !active[region]) ||
+      (region >= 3 && !active[region - 3] && !active[(region - 3 + 2) % 3]))
+    return;
+  const bool use_face = region < 0;
   Vec3 n_l;
   double gap;
   Vec3 w = q;
