@@ -119,8 +119,8 @@ class World {
   void step_once(double dt);
   /// Throws std::runtime_error when the step from before_ to state_ is an energy explosion: the
   /// kinetic energy at its end T_1 exceeds both kExplosionFactor times and kExplosionFloor above
-  /// T_0 + max(W, 0), T_0 the kinetic energy at its start and W the work gravity and the external
-  /// wrenches did over its motion (contacts can only take energy away).
+  /// T_0 + W, T_0 the kinetic energy at its start and W the work gravity and the external wrenches
+  /// did over its motion, summed over the bodies where positive (contacts only take energy away).
   void check_energy(double dt) const;
   /// Puts back what a failed step changed (state, warm-start cache, contact forces and torques).
   void undo_step();

@@ -242,21 +242,22 @@ double body_kinetic_energy(const Model& model, const State& s, std::size_t i) {
 }  // namespace
 
 void World::check_energy(double dt) const {
-  // the energy balance of the step, body by body: kinetic energy T_1 at the end against
-  // T_0 + W at the start, W the work of gravity and the external wrench over the step's actual
-  // motion, (m g + f) . (p_1 - p_0) + tau . (omega_0 + omega_1) dt / 2, counted only when positive
-  // (the position pass lifts bodies without giving them kinetic energy). Contacts only take
-  // energy away or pass it between bodies, so the world's T_1 stays below T_0 + W up to the
-  // integrator's rounding; a step that exceeds it by the factor and the floor is an explosion.
+  // the energy balance of the step: kinetic energy T_1 at the end against T_0 + W at the start,
+  // W the work of gravity and the external wrenches over the step's actual motion, body by body
+  // W_i = (m g + f) . (p_1 - p_0) + tau . (omega_0 + omega_1) dt / 2, counted only where positive
+  // (the position pass lifts bodies without giving them kinetic energy: a heavy body lifted out of
+  // an overlap must not hide another's fall). Contacts only take energy away or pass it between
+  // bodies, so T_1 stays below T_0 + W up to the integrator's rounding; a step that exceeds it by
+  // the factor and the floor is an explosion.
   double T0 = 0.0, T1 = 0.0, W = 0.0;
   for (std::size_t i = 0; i < model_.size(); ++i) {
     if (model_.is_static[i]) continue;
     T0 += body_kinetic_energy(model_, before_, i);
     T1 += body_kinetic_energy(model_, state_, i);
-    W += (model_.mass[i] * settings_.gravity + before_.f_ext[i]).dot(state_.p[i] - before_.p[i]) +
-         before_.tau_ext[i].dot(before_.omega[i] + state_.omega[i]) * 0.5 * dt;
+    W += std::max(0.0, (model_.mass[i] * settings_.gravity + before_.f_ext[i]).dot(state_.p[i] - before_.p[i]) +
+                           before_.tau_ext[i].dot(before_.omega[i] + state_.omega[i]) * 0.5 * dt);
   }
-  const double budget = T0 + std::max(W, 0.0);
+  const double budget = T0 + W;
   if (!(T1 > kExplosionFactor * budget && T1 - budget > kExplosionFloor)) return;
   // name the bodies that gained the most, largest first (at most 3)
   std::array<std::pair<double, std::size_t>, 3> worst{};
@@ -281,7 +282,7 @@ void World::check_energy(double dt) const {
   std::ostringstream total;
   total.precision(3);
   total << "kinetic energy rose from " << T0 << " J to " << T1 << " J in one step at t = " << before_.time
-        << " s (gravity and external forces supplied " << std::max(W, 0.0) << " J)";
+        << " s (gravity and external forces supplied " << W << " J)";
   throw std::runtime_error("energy explosion: " + total.str() + "; gained most: " + s.str() +
                            "; the step was undone (check dt, masses, speeds and overlaps)");
 }
