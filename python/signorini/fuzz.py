@@ -426,6 +426,7 @@ def run(scene: dict, log=None) -> dict:
     E0 = energy()
     max_gain = 0.0
     max_overlap = 0.0
+    overlap_at = ""
     max_point_error = 0.0
     max_step = 0.0
     done = 0
@@ -437,7 +438,10 @@ def run(scene: dict, log=None) -> dict:
             gap = c.gap
             rel = -gap / np.minimum(inner[c.body_a], inner[c.body_b])
             worst = int(np.argmax(rel))
-            max_overlap = max(max_overlap, float(rel[worst]))
+            if rel[worst] > max_overlap:
+                max_overlap = float(rel[worst])
+                overlap_at = (f"step {k}: bodies {c.body_a[worst]} - {c.body_b[worst]}, {-gap[worst]:.3g} m "
+                              f"(inner size {min(inner[c.body_a[worst]], inner[c.body_b[worst]]):.3g} m)")
             allowed = np.abs(gap) * (0.5 + POINT_SLACK)
             for side, bodies in (("A", c.body_a), ("B", c.body_b)):
                 for i in np.unique(bodies):
@@ -487,7 +491,7 @@ def run(scene: dict, log=None) -> dict:
             fail("tunnel", f"body {i} ({shapes[i]['type']}, radius {radius[i]:.3g} m) ends with its centre "
                            f"{h - P[i, 2]:.3g} m below the floor surface (speed {np.linalg.norm(world.velocities[i]):.3g} m/s)")
     return {"scene": name, "failures": failures, "steps": done, "max_step_ms": max_step * 1e3,
-            "max_overlap": max_overlap, "max_energy_gain": max_gain, "max_point_error": max_point_error,
+            "max_overlap": max_overlap, "overlap_at": overlap_at, "max_energy_gain": max_gain, "max_point_error": max_point_error,
             "wall": time.perf_counter() - start, "bodies": len(dynamic), "dt": dt, "floor": scene["floor"]}
 
 
@@ -584,7 +588,8 @@ def main(argv=None) -> int:
         print(describe(scene))
         result = run(scene, log=print)
         print(f"{'clean' if not result['failures'] else 'FAILED: ' + ', '.join(result['failures'])}; "
-              f"{result['steps']} steps, slowest {result['max_step_ms']:.1f} ms, overlap {result['max_overlap']:.0%}, "
+              f"{result['steps']} steps, slowest {result['max_step_ms']:.1f} ms, "
+              f"overlap {result['max_overlap']:.0%} ({result['overlap_at'] or 'none'}), "
               f"energy gain {result['max_energy_gain']:.2%}, point error {result['max_point_error']:.2g} m, "
               f"{result['wall']:.1f} s")
         return 1 if result["failures"] else 0
