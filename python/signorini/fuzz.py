@@ -458,8 +458,9 @@ def run(scene: dict, log=None) -> dict:
                     max_point_error = max(max_point_error, float(excess[j]))
                     if excess[j] > POINT_TOLERANCE * (1.0 + size):
                         other = (c.body_b if side == "A" else c.body_a)[rows[j]]
+                        kinds = "-".join(sg.feature(f[rows[j]]).kind for f in (c.feature_a, c.feature_b))
                         fail("off_shape", f"step {k} (t = {world.time:.4f} s): contact {c.body_a[rows[j]]} - "
-                                          f"{c.body_b[rows[j]]} (gap {gap[rows[j]]:.4g} m) lies {d[j]:.4g} m from body {i}, "
+                                          f"{c.body_b[rows[j]]} ({kinds}, gap {gap[rows[j]]:.4g} m) lies {d[j]:.4g} m from body {i}, "
                                           f"{excess[j]:.3g} m more than |gap| (1/2 + {POINT_SLACK:g}) "
                                           f"({shapes[i]['type']}; other body {other})")
         t0 = time.perf_counter()
