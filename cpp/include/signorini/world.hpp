@@ -17,7 +17,7 @@
 
 namespace signorini {
 
-namespace collision { class BroadPhase; struct Scratch; }
+namespace collision { class BroadPhase; struct Scratch; struct Crossing; }
 namespace solver { struct SolverData; }
 
 struct WorldSettings {
@@ -144,6 +144,10 @@ class World {
   std::vector<Vec3> anchor_a_, anchor_b_;///< a carried contact's point moved with A and with B
   std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
   std::vector<Vec3> v_move_, omega_move_;///< the velocities that move the poses
+  // what static triangle meshes remember of the bodies (collision::detect_contacts): kept only
+  // when a step succeeds
+  std::vector<Vec3> previous_p_;         ///< (N) centres at the start of the last step (m, world)
+  std::vector<collision::Crossing> crossing_;  ///< (N) triangles a body is being pushed back through
 };
 
 }  // namespace signorini

@@ -263,7 +263,9 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
 }
 
 void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
-                     double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& contacts) {
+                     double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& contacts,
+                     const std::vector<Vec3>* previous_p, const std::vector<Crossing>* crossing) {
+  scratch.crossing_next.assign(model.size(), Crossing());
   std::vector<double>& reach = scratch.reach;
   speculative_reach(model, state, dt, gravity, reach);
   // candidate pairs: the broad phase's, plus every plane against every dynamic body
@@ -286,8 +288,18 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
     if (const auto* plane = std::get_if<Plane>(&model.shape[a]))
       threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
     const std::size_t first = contacts.size();
+    // a triangle mesh remembers which side of it the body belongs on (trimesh_item)
+    scratch.past = TrianglePast();
+    if (std::holds_alternative<TriangleMesh>(model.shape[a])) {
+      if (previous_p) scratch.past.travel = state.p[b] - (*previous_p)[b];
+      if (crossing && (*crossing)[b].mesh == a) scratch.past.remembered = (*crossing)[b].triangle;
+      scratch.past.body_centre = state.p[b];
+      scratch.past.body_radius = model.rho[b];
+    }
     collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
             {broad_phase.triangles(a), broad_phase.triangles(b), &scratch}, contacts);
+    if (scratch.past.found >= 0) scratch.crossing_next[b] = {a, scratch.past.found};
+    scratch.past = TrianglePast();
     for (std::size_t k = first; k < contacts.size(); ++k) {
       contacts[k].body_a = a;
       contacts[k].body_b = b;

@@ -94,15 +94,25 @@ void triangle_sphere(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, c
 }
 
 /// Whether an item whose centre is c_l (mesh frame) and whose surface lies within r of it has
-/// crossed triangle t: its centre is behind the triangle's plane, by less than r (the item still
-/// reaches the front side), and inside the triangle's prism (its projection onto the plane lies in
-/// the triangle). A body resting on a one-sided mesh never has its centre behind the face it rests
-/// on; one that does has gone through it in a step (a fast or fast-turning body).
-bool crossed_triangle(const TriangleMesh& mesh, Eigen::Index t, const Vec3& c_l, double r) {
+/// crossed triangle t: its centre is behind the triangle's plane and inside the triangle's prism
+/// (its projection onto the plane lies in the triangle), and either it, or its body (centre body_l,
+/// radius body_r), is behind by less than its radius (it still reaches the front side), or the
+/// body's centre was in front of the plane at the start of the previous step (body_l - travel_l: it
+/// went through in one step), or it was pushed back through this triangle last step (remembered)
+/// and is not out yet. A body resting on a one-sided mesh never has
+/// its centre behind the face it rests on; one that does has gone through it (a fast or fast-turning
+/// body), and the mesh keeps pushing until it is back in front.
+bool crossed_triangle(const TriangleMesh& mesh, Eigen::Index t, const Vec3& c_l, double r, const Vec3& travel_l,
+                      bool remembered, const Vec3& body_l, double body_r) {
   const Vec3 v[3] = {mesh.vertex(mesh.faces(t, 0)), mesh.vertex(mesh.faces(t, 1)), mesh.vertex(mesh.faces(t, 2))};
   const Vec3& n = mesh.normals[t];
   const double height = n.dot(c_l - v[0]);
-  if (!(height < 0.0 && height > -r)) return false;
+  if (!(height < 0.0)) return false;
+  // the whole body (a compound's parts together) may still straddle the face, and it is the body
+  // whose centre was in front at the start of the previous step
+  const double body_height = n.dot(body_l - v[0]);
+  const bool straddles = height > -r || (body_height < 0.0 && body_height > -body_r);
+  if (!(straddles || remembered || n.dot(body_l - travel_l - v[0]) >= 0.0)) return false;
   for (int k = 0; k < 3; ++k)
     if ((v[(k + 1) % 3] - v[k]).cross(n).dot(c_l - v[k]) > 0.0) return false;  // outside edge k
   return true;
@@ -160,11 +170,22 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
   query.overlapping(centre - Vec3::Constant(reach), centre + Vec3::Constant(reach), triangles, scratch.bvh_stack);
   Polytope& tri = scratch.triangle;
   const double radius = b.radius();
+  TrianglePast& past = scratch.past;
+  const Vec3 travel = pa.R.transpose() * past.travel;
+  // the body's centre (the item's own when the query knows no body)
+  const bool body_known = past.body_radius > 0.0;
+  const Vec3 body = body_known ? Vec3(pa.R.transpose() * (past.body_centre - pa.p)) : centre;
+  const double body_radius = body_known ? past.body_radius : radius;
+  // the triangle a body is being pushed back through stays a candidate however deep the body is
+  if (past.remembered >= 0 && past.remembered < mesh.faces.rows() &&
+      !std::binary_search(triangles.begin(), triangles.end(), past.remembered))
+    triangles.push_back(past.remembered);
   for (int t : triangles) {
     const auto index = static_cast<std::uint32_t>(t);
-    if (crossed_triangle(mesh, t, centre, radius)) {
-      // gone through in the last step, still straddling: pushed back out along the face normal
+    if (crossed_triangle(mesh, t, centre, radius, travel, t == past.remembered, body, body_radius)) {
+      // gone through: pushed back out along the face normal, and remembered until it is out
       crossed_contacts(mesh, t, pa, b, out);
+      if (past.found < 0 || t == past.remembered) past.found = t;
     } else if (b.polytope) {
       triangle_polytope_of(mesh, t, tri);
       const std::size_t first = out.size();

@@ -200,6 +200,8 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   state_.omega.push_back(desc.angular_velocity);
   state_.f_ext.push_back(Vec3::Zero());
   state_.tau_ext.push_back(Vec3::Zero());
+  previous_p_.push_back(position);
+  crossing_.emplace_back();
   return index;
 }
 
@@ -213,7 +215,7 @@ void World::detect_contacts(double dt, std::vector<Contact>& out) const {
   if (!(std::isfinite(dt) && dt > 0.0))
     throw std::invalid_argument("detect_contacts: dt must be positive and finite, got " + std::to_string(dt));
   collision::detect_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_,
-                             *scratch_, out);
+                             *scratch_, out, &previous_p_, &crossing_);
 }
 
 void World::step(double dt, int steps) {
@@ -355,7 +357,9 @@ void World::step_once(double dt) {
     undo_step();
     throw;
   }
-  // keep the step: the last substep's contacts and stats
+  // keep the step: the last substep's contacts and stats, and what the meshes remember
+  previous_p_ = before_.p;
+  crossing_.swap(scratch_->crossing_next);
   contacts_.swap(contacts_next_);
   stats_ = stats;
 }
@@ -380,6 +384,8 @@ void World::set_position(BodyIndex i, const Vec3& p) {
   check_index(i);
   require_finite(body_label(i, model_.shape[i]), "position", p);
   state_.p[i] = p;
+  previous_p_[i] = p;  // moved, not travelled: no crossing
+  crossing_[i] = collision::Crossing();
   if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
 }
 
