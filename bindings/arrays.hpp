@@ -32,6 +32,24 @@ inline py::array_t<double, py::array::c_style | py::array::forcecast> as_rows(co
   return a;
 }
 
+/// A real number from a Python object, or TypeError "<who>: <what> must be a number, got ..." for
+/// bool, str, None and other non-numbers (True is not a radius), ValueError for an int too large
+/// for a double. Ranges are the core's to check.
+inline double number(const py::handle& x, const std::string& who, const std::string& what) {
+  const py::module_ numpy = py::module_::import("numpy");
+  const bool is_bool = py::isinstance<py::bool_>(x) || py::isinstance(x, numpy.attr("bool_"));
+  const bool is_number = py::isinstance<py::int_>(x) || py::isinstance<py::float_>(x) ||
+                         py::isinstance(x, numpy.attr("integer")) || py::isinstance(x, numpy.attr("floating"));
+  if (is_bool || !is_number)
+    throw py::type_error(who + ": " + what + " must be a number, got " + std::string(py::repr(x)));
+  const double value = PyFloat_AsDouble(x.ptr());
+  if (value == -1.0 && PyErr_Occurred()) {
+    PyErr_Clear();
+    throw py::value_error(who + ": " + what + " is too large for a double (at most about 1.8e308)");
+  }
+  return value;
+}
+
 /// (n, 3) array from a vector of Vec3 (a copy: the state vectors may reallocate when bodies are added).
 inline py::array_t<double> rows_of(const std::vector<Vec3>& xs) {
   py::array_t<double> out({static_cast<py::ssize_t>(xs.size()), py::ssize_t(3)});

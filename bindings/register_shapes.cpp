@@ -16,6 +16,11 @@ using namespace signorini;
 namespace {
 
 Vec3 vec3(const py::handle& x, const std::string& who, const std::string& what) {
+  // bools are not lengths, and neither are strings (which NumPy would parse)
+  auto raw = py::array::ensure(x);
+  if (!raw || raw.dtype().kind() == 'b' || raw.dtype().kind() == 'U' || raw.dtype().kind() == 'S' ||
+      raw.dtype().kind() == 'O')
+    throw py::type_error(who + ": " + what + " must be 3 numbers, got " + std::string(py::repr(x)));
   auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(x);
   if (!a) throw py::type_error(who + ": " + what + " must be 3 numbers");
   if (a.ndim() != 1 || a.shape(0) != 3)
@@ -149,7 +154,7 @@ Primitive primitive(const py::handle& s) {
 
 void register_shapes(py::module_& m) {
   py::class_<Sphere>(m, "Sphere", "Ball of the given radius (m), centred at the body origin.")
-      .def(py::init<double>(), py::arg("radius"))
+      .def(py::init([](const py::object& r) { return Sphere(bindings::number(r, "Sphere", "radius")); }), py::arg("radius"))
       .def_readonly("radius", &Sphere::radius)
       .def("__repr__", [](const Sphere& s) { return "Sphere(radius=" + std::to_string(s.radius) + ")"; })
       .def(py::pickle([](const Sphere& s) { return py::make_tuple(s.radius); },
@@ -164,7 +169,9 @@ void register_shapes(py::module_& m) {
 
   py::class_<Plane>(m, "Plane",
                     "Static plane n . x = offset (n normalised); bodies live on the side n . x > offset.")
-      .def(py::init([](const py::object& n, double d) { return Plane(vec3(n, "Plane", "normal"), d); }),
+      .def(py::init([](const py::object& n, const py::object& d) {
+             return Plane(vec3(n, "Plane", "normal"), bindings::number(d, "Plane", "offset"));
+           }),
            py::arg("normal"), py::arg("offset") = 0.0)
       .def_readonly("normal", &Plane::normal)
       .def_readonly("offset", &Plane::offset)
@@ -236,7 +243,10 @@ void register_shapes(py::module_& m) {
   py::class_<Capsule>(m, "Capsule",
                       "Points within `radius` (m) of the segment from (0, 0, -half_length) to (0, 0, +half_length) "
                       "(m) on the body z axis; half_length 0 is a sphere.")
-      .def(py::init<double, double>(), py::arg("radius"), py::arg("half_length"))
+      .def(py::init([](const py::object& r, const py::object& h) {
+             return Capsule(bindings::number(r, "Capsule", "radius"), bindings::number(h, "Capsule", "half_length"));
+           }),
+           py::arg("radius"), py::arg("half_length"))
       .def_readonly("radius", &Capsule::radius)
       .def_readonly("half_length", &Capsule::half_length)
       .def("__repr__", [](const Capsule& c) {
@@ -247,7 +257,10 @@ void register_shapes(py::module_& m) {
 
   py::class_<Cylinder>(m, "Cylinder",
                        "Solid cylinder of `radius` (m) around the body z axis, from z = -half_height to +half_height (m).")
-      .def(py::init<double, double>(), py::arg("radius"), py::arg("half_height"))
+      .def(py::init([](const py::object& r, const py::object& h) {
+             return Cylinder(bindings::number(r, "Cylinder", "radius"), bindings::number(h, "Cylinder", "half_height"));
+           }),
+           py::arg("radius"), py::arg("half_height"))
       .def_readonly("radius", &Cylinder::radius)
       .def_readonly("half_height", &Cylinder::half_height)
       .def("__repr__", [](const Cylinder& c) {
@@ -312,7 +325,10 @@ void register_shapes(py::module_& m) {
                        "Capsule, Cylinder, ConvexHull or convex Mesh (which becomes the ConvexHull of its vertices), "
                        "position (3,) m and orientation (w, x, y, z) (normalised) in the compound frame. A dynamic "
                        "compound is re-centred on its centre of mass.")
-      .def(py::init([](const py::iterable& items) {
+      .def(py::init([](const py::object& items) {
+             if (!py::isinstance<py::iterable>(items) || py::isinstance<py::str>(items))
+               throw py::type_error("Compound: parts must be a list of (shape, (position, orientation)), got " +
+                                    std::string(py::repr(items)));
              std::vector<Compound::Part> parts;
              for (const py::handle& item : items) parts.push_back(compound_part(item, parts.size()));
              return Compound(std::move(parts));

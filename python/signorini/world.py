@@ -147,9 +147,7 @@ def _solver_settings(who: str, current=None, **given):
             if key in ("friction_cone", "gyroscopic") and not isinstance(value, str):
                 value = value.name
         if key in ("max_iterations", "substeps"):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-                raise TypeError(f"{who}: {key} must be an integer, got {value!r}")
-            value = int(value)
+            value = _count(value, who, key)
         elif key == "warm_start":
             if not isinstance(value, (bool, np.bool_)):
                 raise TypeError(f"{who}: warm_start must be True or False, got {value!r}")
@@ -179,6 +177,8 @@ def _vector(x, n: int, who: str, what: str) -> np.ndarray:
         raise TypeError(f"{who}: {what} must be {n} numbers, got {x!r}")
     try:
         a = np.asarray(x, dtype=np.float64)
+    except OverflowError:
+        raise ValueError(f"{who}: {what} has a number too large for a double (at most about 1.8e308)") from None
     except (TypeError, ValueError):
         raise TypeError(f"{who}: {what} must be {n} numbers, got {x!r}") from None
     if a.shape != (n,):
@@ -237,11 +237,35 @@ def _name(x, who: str) -> str:
 
 
 def _scalar(x, who: str, what: str):
+    """x as a float (None stays None), or a TypeError / ValueError naming who and what."""
     if x is None:
         return None
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float, np.integer, np.floating)):
         raise TypeError(f"{who}: {what} must be a number, got {x!r}")
-    return float(x)
+    try:
+        return float(x)
+    except OverflowError:
+        raise ValueError(f"{who}: {what} is too large for a double: an integer of {len(str(abs(int(x))))} digits "
+                         "(at most about 1.8e308)") from None
+
+
+def _required(x, who: str, what: str) -> float:
+    """Like _scalar, but None is a TypeError too."""
+    if x is None:
+        raise TypeError(f"{who}: {what} must be a number, got None")
+    return _scalar(x, who, what)
+
+
+INT_MAX = 2**31 - 1  # the core's counts are C ints
+
+
+def _count(x, who: str, what: str) -> int:
+    """x as an int the core can hold, or a TypeError / ValueError naming who and what."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)):
+        raise TypeError(f"{who}: {what} must be an integer, got {x!r}")
+    if not -INT_MAX - 1 <= x <= INT_MAX:
+        raise ValueError(f"{who}: {what} = {x} is too large: at most {INT_MAX}")
+    return int(x)
 
 
 def _solid(mesh) -> bool:
@@ -582,12 +606,13 @@ class World:
     # stepping ---------------------------------------------------------------------------------
     def step(self, dt: float, steps: int = 1) -> None:
         """Advances ``steps`` steps of ``dt`` seconds (dt > 0 and finite)."""
-        dt = _scalar(dt, "step", "dt")
-        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
-            raise TypeError(f"step: steps must be an integer, got {steps!r}")
-        if not -2**31 <= steps < 2**31:
-            raise ValueError(f"step: steps must be a 32-bit integer, got {steps}")
-        self._core.step(dt, int(steps))  # the core checks the values (dt > 0 and finite, steps >= 0)
+        dt = _required(dt, "step", "dt")
+        if isinstance(steps, (int, np.integer)) and not isinstance(steps, (bool, np.bool_)) and steps > INT_MAX:
+            raise ValueError(f"step: steps = {steps} is too large: at most {INT_MAX} per call (call step again)")
+        steps = _count(steps, "step", "steps")
+        if steps < 0:
+            raise ValueError(f"step: steps must be >= 0, got {steps}")
+        self._core.step(dt, int(steps))
         report = self._core.step_report
         if report["flagged"]:
             warnings.warn(
@@ -717,7 +742,7 @@ class World:
 
     def detect_contacts(self, dt: float) -> Contacts:
         """Contacts the current state would give for a step of dt, without stepping (alpha = 0)."""
-        return Contacts(**self._core.detect_contacts(_scalar(dt, "detect_contacts", "dt")))
+        return Contacts(**self._core.detect_contacts(_required(dt, "detect_contacts", "dt")))
 
     def kinetic_energy(self) -> float:
         """1/2 sum (m |v|^2 + omega . I_w omega) (J)."""

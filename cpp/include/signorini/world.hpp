@@ -20,7 +20,7 @@
 
 namespace signorini {
 
-namespace collision { class BroadPhase; struct Scratch; }
+namespace collision { class BroadPhase; struct Scratch; struct Crossing; }
 namespace solver { struct SolverData; }
 
 struct WorldSettings {
@@ -70,6 +70,12 @@ struct StepReport {
 
 class World {
  public:
+  /// A step is an energy explosion (undone and reported, like a non-finite step) when its final
+  /// kinetic energy is more than kExplosionFactor times, and more than kExplosionFloor (J) above,
+  /// the kinetic energy it started with plus the work gravity and external forces did in it.
+  static constexpr double kExplosionFactor = 100.0;
+  static constexpr double kExplosionFloor = 1.0;
+
   explicit World(const WorldSettings& settings = WorldSettings());
   ~World();
   World(const World&) = delete;
@@ -177,9 +183,17 @@ class World {
   template <class T> void push_keeping(std::vector<T>& v, const T& x);
   /// A velocity for body i must be finite, and zero for a static body.
   void check_velocity(BodyIndex i, const char* what, const Vec3& x) const;
-  /// One step of dt: contacts detected once, then the substeps; on a non-finite result restores
-  /// the state and the warm-start cache and throws.
+  /// One step of dt: contacts detected once, then the substeps; on a non-finite result or an
+  /// energy explosion (check_energy) restores the state, the warm-start cache and the contact
+  /// forces (undo_step) and throws std::runtime_error naming the body or bodies.
   void step_once(double dt);
+  /// Throws std::runtime_error when the step from before_ to state_ is an energy explosion: the
+  /// kinetic energy at its end T_1 exceeds both kExplosionFactor times and kExplosionFloor above
+  /// T_0 + W, T_0 the kinetic energy at its start and W the work gravity and the external wrenches
+  /// did over its motion, summed over the bodies where positive (contacts only take energy away).
+  void check_energy(double dt, double T0) const;
+  /// Puts back what a failed step changed (state, warm-start cache, contact forces and torques).
+  void undo_step();
 
   WorldSettings settings_;
   Model model_;
@@ -196,11 +210,16 @@ class World {
   // step scratch, kept between steps so that a step reuses its buffers instead of allocating
   State before_;                         ///< state at the start of the step (restored on failure)
   std::vector<CachedContact> cache_before_;  ///< warm-start cache at the start of the step (likewise)
+  std::vector<Vec3> force_before_, torque_before_;  ///< contact forces and torques of the last step (likewise)
   std::vector<Contact> contacts_base_;   ///< the step's contacts as detected
   std::vector<Contact> contacts_next_;   ///< a substep's contacts (carried), kept when the step succeeds
   std::vector<Vec3> anchor_a_, anchor_b_;///< a carried contact's point moved with A and with B
   std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
   std::vector<Vec3> v_move_, omega_move_;///< the velocities that move the poses
+  // what static triangle meshes remember of the bodies (collision::detect_contacts): kept only
+  // when a step succeeds
+  std::vector<Vec3> previous_p_;         ///< (N) centres at the start of the last step (m, world)
+  std::vector<collision::Crossing> crossing_;  ///< (N) triangles a body is being pushed back through
 };
 
 }  // namespace signorini

@@ -116,6 +116,25 @@ struct SeparatingFace {
   }
 };
 
+/// A body being pushed back out through a triangle of a static mesh it went through (the one-sided
+/// mesh's memory of which side the body belongs on): the mesh's body index and the triangle.
+struct Crossing {
+  BodyIndex mesh = -1;
+  int triangle = -1;
+};
+
+/// What a triangle-mesh query knows of body B's recent past (set per pair by detect_contacts; the
+/// defaults, for a query without a World, know nothing): B's displacement since the start of the
+/// previous step (world, m), the triangle of this mesh B was pushed back through last step (-1:
+/// none), and, written by the query, the triangle it is pushed back through now (-1: none).
+struct TrianglePast {
+  Vec3 travel = Vec3::Zero();
+  int remembered = -1;
+  int found = -1;
+  Vec3 body_centre = Vec3::Zero();  ///< B's centre of mass (world, m): a compound's parts cross as one body
+  double body_radius = 0.0;         ///< B's bounding radius about it (m); 0: unknown
+};
+
 /// Buffers the narrow phase reuses from query to query. The World owns one and hands it to every
 /// step, so that contact detection allocates nothing once they have grown to the scene's size; a
 /// query without a World (collide() of two shapes) makes its own. One per thread.
@@ -136,6 +155,8 @@ struct Scratch {
   /// to the pair being collided; collide() on its own keeps no cache.
   std::vector<SeparatingFace> separating, separating_next;
   BodyIndex body_a = -1, body_b = -1;
+  TrianglePast past;                                   ///< the current mesh pair's (see TrianglePast)
+  std::vector<Crossing> crossing_next;                 ///< (N) crossings found by this detection
 };
 
 /// What a narrow-phase query may use besides the two shapes: the triangle queries of static
@@ -232,7 +253,10 @@ void contact_items(const Item& a, const Item& b, double threshold, Scratch& scra
 void convex_by_support(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out);
 
 /// Static triangle mesh (A) against item B: candidate triangles from the BVH, a convex test per
-/// triangle (inactive edges give no edge contacts), merged.
+/// triangle (inactive edges give no edge contacts), merged. A B that has gone through a triangle
+/// (its centre behind the face, inside its prism, and either still straddling the face, or in front
+/// of it at the start of the previous step, or pushed back through it last step: scratch.past) is
+/// pushed back out along the face normal instead; scratch.past.found names that triangle.
 void trimesh_item(const TriangleMesh& a, const Pose& pa, const TriangleQuery& query, const Item& b,
                   double threshold, Scratch& scratch, std::vector<Contact>& out);
 
@@ -285,7 +309,11 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
 /// All contacts for the current state, in the order of docs/conventions.md, written into out
 /// (cleared first), using and growing the scratch buffers. Only pairs that model.can_collide
 /// allows (enabled bodies, matching filter bits, not excluded, not two infinite masses).
+/// previous_p (N, world, m): each body's centre at the start of the previous step; crossing (N):
+/// the crossings found by the previous step's detection (both null: no memory). This detection's
+/// crossings go to scratch.crossing_next.
 void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
-                     double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& out);
+                     double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& out,
+                     const std::vector<Vec3>* previous_p = nullptr, const std::vector<Crossing>* crossing = nullptr);
 
 }  // namespace signorini::collision

@@ -343,6 +343,7 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 
 void carry_contacts(const std::vector<Contact>& at_detection, const State& detected, const State& now,
                     std::vector<Contact>& out, std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b) {
+  if (out.capacity() < at_detection.size()) out.reserve(2 * at_detection.size());  // no exact-size copy
   out = at_detection;
   anchor_a.resize(out.size());
   anchor_b.resize(out.size());
@@ -364,7 +365,9 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
 }
 
 void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
-                     double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& contacts) {
+                     double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& contacts,
+                     const std::vector<Vec3>* previous_p, const std::vector<Crossing>* crossing) {
+  scratch.crossing_next.assign(model.size(), Crossing());
   std::vector<double>& reach = scratch.reach;
   speculative_reach(model, state, dt, gravity, reach);
   // candidate pairs: the broad phase's, plus every plane against every dynamic body
@@ -393,8 +396,18 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
     const std::size_t first = contacts.size();
     scratch.body_a = a;
     scratch.body_b = b;
+    // a triangle mesh remembers which side of it the body belongs on (trimesh_item)
+    scratch.past = TrianglePast();
+    if (std::holds_alternative<TriangleMesh>(model.shape[a])) {
+      if (previous_p) scratch.past.travel = state.p[b] - (*previous_p)[b];
+      if (crossing && (*crossing)[b].mesh == a) scratch.past.remembered = (*crossing)[b].triangle;
+      scratch.past.body_centre = state.p[b];
+      scratch.past.body_radius = model.rho[b];
+    }
     collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
             {broad_phase.triangles(a), broad_phase.triangles(b), &scratch}, contacts);
+    if (scratch.past.found >= 0) scratch.crossing_next[b] = {a, scratch.past.found};
+    scratch.past = TrianglePast();
     for (std::size_t k = first; k < contacts.size(); ++k) {
       contacts[k].body_a = a;
       contacts[k].body_b = b;
@@ -415,10 +428,10 @@ std::vector<Contact> collide(const Shape& shape_a, const Vec3& p_a, const Quat4&
                              const Vec3& p_b, const Quat4& q_b, double margin) {
   auto rotation = [](const char* who, const Vec3& p, const Quat4& q) {
     if (!p.allFinite()) throw std::invalid_argument(std::string("collide: position of ") + who + " must be finite");
-    if (!q.allFinite() || !(q.norm() > 1e-12))
+    if (!q.allFinite() || !(q.stableNorm() > 1e-12))
       throw std::invalid_argument(std::string("collide: orientation of ") + who +
                                   " must be a finite non-zero quaternion (w, x, y, z)");
-    const Quat4 u = q / q.norm();
+    const Quat4 u = q / q.stableNorm();  // scaled norm: huge entries do not overflow
     return Eigen::Quaterniond(u[0], u[1], u[2], u[3]).toRotationMatrix();
   };
   const Mat3 R_a = rotation("A", p_a, q_a), R_b = rotation("B", p_b, q_b);

@@ -2,7 +2,10 @@
 // triangles, each is tested as a one-sided convex piece, and all points go into one manifold.
 // Interior edges of flat or concave regions are inactive: they never produce edge normals, so a box
 // sliding over a tessellated floor meets no ghost contacts. (Cylinders go through GJK / EPA on the
-// support mappings, which does not know about inactive edges.)
+// support mappings, which does not know about inactive edges.) Triangles are one-sided: no contact
+// pulls a body towards a triangle's back, and a body whose centre has crossed a triangle inside its
+// prism while still reaching its front (a small fast or fast-turning body that went through in one
+// step) is pushed back out along the face normal instead of being let go.
 #include <algorithm>
 #include <cmath>
 
@@ -59,8 +62,13 @@ void triangle_sphere(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, c
     }
   }
   const auto& active = mesh.active_edge[t];
-  const bool use_face = region < 0 || (region < 3 && !active[region]) ||
-                        (region >= 3 && !active[region - 3] && !active[(region - 3 + 2) % 3]);
+  // beyond an inactive edge (flat or concave), or a vertex between two, the closest point of the
+  // mesh lies on a neighbouring face, which makes the contact: this face's plane extended there
+  // is not the surface (the next face may bend away), so this triangle makes none
+  if ((region >= 0 && region < 3 && !active[region]) ||
+      (region >= 3 && !active[region - 3] && !active[(region - 3 + 2) % 3]))
+    return;
+  const bool use_face = region < 0;
   Vec3 n_l;
   double gap;
   Vec3 w = q;
@@ -85,6 +93,72 @@ void triangle_sphere(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, c
   out.push_back(c);
 }
 
+/// Whether an item whose centre is c_l (mesh frame) and whose surface lies within r of it has
+/// crossed triangle t: its centre is behind the triangle's plane and inside the triangle's prism
+/// (its projection onto the plane lies in the triangle), and either it, or its body (centre body_l,
+/// radius body_r), is behind by less than its radius (it still reaches the front side), or the
+/// body's centre was in front of the plane at the start of the previous step (body_l - travel_l: it
+/// went through in one step), or it was pushed back through this triangle last step (remembered)
+/// and is not out yet. A body resting on a one-sided mesh never has
+/// its centre behind the face it rests on; one that does has gone through it (a fast or fast-turning
+/// body), and the mesh keeps pushing until it is back in front.
+bool crossed_triangle(const TriangleMesh& mesh, Eigen::Index t, const Vec3& c_l, double r, const Vec3& travel_l,
+                      bool remembered, const Vec3& body_l, double body_r) {
+  const Vec3 v[3] = {mesh.vertex(mesh.faces(t, 0)), mesh.vertex(mesh.faces(t, 1)), mesh.vertex(mesh.faces(t, 2))};
+  const Vec3& n = mesh.normals[t];
+  const double height = n.dot(c_l - v[0]);
+  if (!(height < 0.0)) return false;
+  // the whole body (a compound's parts together) may still straddle the face, and it is the body
+  // whose centre was in front at the start of the previous step
+  const double body_height = n.dot(body_l - v[0]);
+  const bool straddles = height > -r || (body_height < 0.0 && body_height > -body_r);
+  if (!(straddles || remembered || n.dot(body_l - travel_l - v[0]) >= 0.0)) return false;
+  for (int k = 0; k < 3; ++k)
+    if ((v[(k + 1) % 3] - v[k]).cross(n).dot(c_l - v[k]) > 0.0) return false;  // outside edge k
+  return true;
+}
+
+/// True when the world point x projects into triangle t (mesh pose pa).
+bool projects_into(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Vec3& x) {
+  const Vec3 x_l = pa.R.transpose() * (x - pa.p);
+  const Vec3& n = mesh.normals[t];
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 a = mesh.vertex(mesh.faces(t, k)), b = mesh.vertex(mesh.faces(t, (k + 1) % 3));
+    if ((b - a).cross(n).dot(x_l - a) > 0.0) return false;
+  }
+  return true;
+}
+
+/// Contacts that push an item which has crossed triangle t back to its front side: the item's
+/// points against the triangle's plane (plane_item: corners, ends, rims, vertices), normal the
+/// face normal, gap their height above the plane; those whose foot lies in the triangle are kept
+/// (all of them when none does, so that the item is never let go).
+void crossed_contacts(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Item& b,
+                      std::vector<Contact>& out) {
+  const Vec3 n = pa.R * mesh.normals[t];
+  const double offset = n.dot(pa.R * mesh.vertex(mesh.faces(t, 0)) + pa.p);
+  const std::size_t first = out.size();
+  plane_item(n, offset, b, out);
+  const auto tri = static_cast<std::uint32_t>(t);
+  std::size_t kept = first;
+  for (std::size_t k = first; k < out.size(); ++k) {
+    out[k].feature_a = feature_id(FeatureKind::Face, 0, tri);
+    const Vec3 foot = out[k].point - 0.5 * out[k].gap * n;
+    if (projects_into(mesh, t, pa, foot)) out[kept++] = out[k];
+  }
+  if (kept > first) out.resize(kept);
+}
+
+/// Drops the contacts from index `first` on whose normal does not push B out of the front side of
+/// triangle t (a one-sided face never pulls a body through to its back).
+void keep_front(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, std::size_t first,
+                std::vector<Contact>& out) {
+  const Vec3 n_world = pa.R * mesh.normals[t];
+  out.erase(std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
+                           [&](const Contact& c) { return c.normal.dot(n_world) <= 0.0; }),
+            out.end());
+}
+
 }  // namespace
 
 void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery& query, const Item& b,
@@ -95,23 +169,36 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
   std::vector<int>& triangles = scratch.triangles;
   query.overlapping(centre - Vec3::Constant(reach), centre + Vec3::Constant(reach), triangles, scratch.bvh_stack);
   Polytope& tri = scratch.triangle;
+  const double radius = b.radius();
+  TrianglePast& past = scratch.past;
+  const Vec3 travel = pa.R.transpose() * past.travel;
+  // the body's centre (the item's own when the query knows no body)
+  const bool body_known = past.body_radius > 0.0;
+  const Vec3 body = body_known ? Vec3(pa.R.transpose() * (past.body_centre - pa.p)) : centre;
+  const double body_radius = body_known ? past.body_radius : radius;
+  // the triangle a body is being pushed back through stays a candidate however deep the body is
+  if (past.remembered >= 0 && past.remembered < mesh.faces.rows() &&
+      !std::binary_search(triangles.begin(), triangles.end(), past.remembered))
+    triangles.push_back(past.remembered);
   for (int t : triangles) {
     const auto index = static_cast<std::uint32_t>(t);
-    if (b.polytope) {
+    if (crossed_triangle(mesh, t, centre, radius, travel, t == past.remembered, body, body_radius)) {
+      // gone through: pushed back out along the face normal, and remembered until it is out
+      crossed_contacts(mesh, t, pa, b, out);
+      if (past.found < 0 || t == past.remembered) past.found = t;
+    } else if (b.polytope) {
       triangle_polytope_of(mesh, t, tri);
+      const std::size_t first = out.size();
       triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, b.pose, b.part, threshold,
                         *scratch.polytope, out);
+      keep_front(mesh, t, pa, first, out);
     } else if (const Sphere* s = b.sphere) {
       triangle_sphere(mesh, t, pa, centre, s->radius, b.part, out);
     } else if (const Capsule* cap = b.capsule) {
       triangle_polytope_of(mesh, t, tri);
       const std::size_t first = out.size();
       polytope_capsule(tri, pa, index, *cap, b.pose, b.part, threshold, out);
-      // keep only contacts pushing out of the front side
-      const Vec3 n_world = pa.R * mesh.normals[t];
-      out.erase(std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
-                               [&](const Contact& c) { return c.normal.dot(n_world) <= 0.0; }),
-                out.end());
+      keep_front(mesh, t, pa, first, out);
     } else if (b.cylinder) {
       // no closed form: GJK / EPA on the support mappings, the triangle as a flat polytope; only
       // contacts pushing out of the front side, and none for a centre behind the triangle
@@ -124,10 +211,7 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       face.part = index;
       const std::size_t first = out.size();
       convex_by_support(face, b, threshold, scratch, out);
-      const Vec3 n_world = pa.R * mesh.normals[t];
-      out.erase(std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
-                               [&](const Contact& c) { return c.normal.dot(n_world) <= 0.0; }),
-                out.end());
+      keep_front(mesh, t, pa, first, out);
     }
   }
 }

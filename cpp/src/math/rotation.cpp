@@ -49,7 +49,7 @@ Quat4 unit_quaternion(const Quat4& q) {
     return s.str();
   };
   if (!q.allFinite()) throw std::invalid_argument("orientation quaternion must be finite, got " + text());
-  const double norm = q.norm();
+  const double norm = q.stableNorm();  // scaled before the square: no overflow for huge entries
   if (!(norm > 1e-12))
     throw std::invalid_argument("orientation quaternion " + text() + " is zero; use (1, 0, 0, 0) for no rotation");
   return q / norm;

@@ -26,6 +26,14 @@ bool same_key(const CachedContact& x, const CachedContact& y) { return !key_less
 
 using Velocities = std::vector<BodyVelocity>;
 
+/// v.assign(n, x), growing the capacity geometrically: a contact count that creeps up one at a time
+/// (a pile settling) then reallocates a handful of times, not at every new high.
+template <class T>
+void assign_n(std::vector<T>& v, std::size_t n, const T& x) {
+  if (n > v.capacity()) v.reserve(std::max(n, 2 * v.capacity()));
+  v.assign(n, x);
+}
+
 /// J q_dot = J_B . q_dot_B + J_A . q_dot_A (m/s), from A's and B's velocities.
 inline double row_velocity(const Row& r, const BodyVelocity& A, const BodyVelocity& B) {
   return r.JB_ang.dot(B.omega) + r.J_lin.dot(B.v - A.v) + r.JA_ang.dot(A.omega);
@@ -88,7 +96,7 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
              const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d) {
   const std::size_t K = contacts.size();
   d.rows.resize(3 * K);
-  d.alpha.assign(3 * K, 0.0);
+  assign_n(d.alpha, 3 * K, 0.0);
   d.u.resize(K);
   d.e.resize(K);
   for (std::size_t i = 0; i < K; ++i) {
@@ -120,7 +128,7 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
 /// Forces of the previous step for contacts with the same key, clamped to the friction set, applied.
 void warm_start(const SolverSettings& s, const std::vector<Contact>& contacts, SolverData& d) {
   if (d.cache.empty()) return;
-  d.cache_used.assign(d.cache.size(), 0);
+  assign_n(d.cache_used, d.cache.size(), char(0));
   CachedContact key, previous;
   auto cursor = d.cache.begin();  // the first entry not below the previous contact's key
   for (std::size_t i = 0; i < contacts.size(); ++i) {
@@ -246,7 +254,7 @@ int iterate(const SolverSettings& s, SolverData& d, bool& converged) {
 /// n^T (v_B - v_A) >= -e u. Returns the sweeps used.
 int restitution(const SolverSettings& s, SolverData& d) {
   const std::size_t K = d.u.size();
-  d.restitutive.assign(K, 0);
+  assign_n(d.restitutive, K, char(0));
   bool any = false;
   for (std::size_t i = 0; i < K; ++i) {
     d.restitutive[i] = d.e[i] > 0.0 && d.u[i] < -s.restitution_threshold && d.alpha[3 * i] > 0.0;
@@ -282,7 +290,7 @@ int position_pass(double dt, const SolverSettings& s, const std::vector<Contact>
     any = any || d.b_pos[i] > 0.0;
   }
   if (!any) return 0;
-  d.beta.assign(K, 0.0);
+  assign_n(d.beta, K, 0.0);
   int sweeps = 0;
   bool converged = false;
   while (!converged && sweeps < s.max_iterations) {

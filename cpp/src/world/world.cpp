@@ -1,6 +1,7 @@
 #include "signorini/world.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -264,13 +265,39 @@ BodyIndex World::add_body(const BodyDesc& desc) {
     } catch (const std::invalid_argument& e) {
       throw std::invalid_argument(who + ": " + e.what());
     }
+    // the shape at unit density: its volume and inertia must be normal doubles, and the inertia
+    // (scaled to its largest entry, so that only its shape counts) must not be flat
+    std::ostringstream size;
+    size << "(bounding radius " << bounding_radius(desc.shape) << " m)";
+    if (!(std::isfinite(props.volume) && props.inertia.allFinite()))
+      throw std::invalid_argument(who + ": the shape is too large " + size.str() +
+                                  ": its volume or inertia overflows double precision");
+    const double J_max = props.inertia.cwiseAbs().maxCoeff();
+    if (!(props.volume >= std::numeric_limits<double>::min() && J_max >= std::numeric_limits<double>::min()))
+      throw std::invalid_argument(who + ": the shape is too small " + size.str() +
+                                  ": its volume or inertia underflows double precision");
+    const Mat3 J_unit = props.inertia / J_max;
+    const Mat3 J_unit_inv = J_unit.inverse();
+    if (!J_unit_inv.allFinite())
+      throw std::invalid_argument(who + ": inertia tensor is singular (a flat or degenerate solid)");
+    // then the given mass or density: mass, 1 / mass, inertia and its inverse must all be finite
     const double density = desc.density ? *desc.density : *desc.mass / props.volume;
     mass = density * props.volume;
     inv_mass = 1.0 / mass;
-    I_body = density * props.inertia;
-    I_body_inv = I_body.inverse();
-    if (!I_body_inv.allFinite())
-      throw std::invalid_argument(who + ": inertia tensor is singular (a flat or degenerate solid)");
+    I_body = (density * J_max) * J_unit;
+    I_body_inv = J_unit_inv / (density * J_max);
+    auto number = [](double x) {
+      std::ostringstream s;
+      s << x;
+      return s.str();
+    };
+    if (!(std::isfinite(density) && std::isfinite(mass) && I_body.allFinite()))
+      throw std::invalid_argument(who + ": " + what + " " + number(given) + " is too large for a shape " + size.str() +
+                                  ": its density, mass or inertia overflows double precision");
+    if (!(density > 0.0 && std::isfinite(inv_mass) && I_body_inv.allFinite() &&
+          I_body.cwiseAbs().maxCoeff() >= std::numeric_limits<double>::min()))
+      throw std::invalid_argument(who + ": " + what + " " + number(given) + " is too small for a shape " + size.str() +
+                                  ": its inverse mass or inverse inertia overflows double precision");
     // a mesh, hull or compound body's frame is its centre of mass: the geometry is moved by -com
     // (vertices, convex pieces, polytope, part positions), axes unchanged
     if (auto* mesh = std::get_if<Mesh>(&shape)) {
@@ -324,6 +351,8 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   for (std::vector<Vec3>* x : {&state_.f_ext, &state_.tau_ext, &state_.f_step, &state_.tau_step, &state_.impulse,
                                &state_.angular_impulse})
     push_keeping(*x, Vec3(Vec3::Zero()));
+  previous_p_.push_back(position);
+  crossing_.emplace_back();
   return index;
 }
 
@@ -370,6 +399,13 @@ void World::remove_body(BodyIndex i) {
     erase_at(*x, i);
   erase_at(state_.R, i);
   erase_at(state_.q, i);
+  // the meshes' memory of crossings: body i's dropped, crossings of mesh i forgotten, renumbered
+  erase_at(previous_p_, i);
+  erase_at(crossing_, i);
+  for (collision::Crossing& c : crossing_) {
+    if (c.mesh == i) c = collision::Crossing();
+    else if (c.mesh > i) --c.mesh;
+  }
   broad_phase_ = std::move(broad_phase);
   // names, excluded pairs, the warm-start cache and the last contacts: renumbered, body i's dropped
   by_name_.clear();
@@ -407,7 +443,7 @@ void World::detect_contacts(double dt, std::vector<Contact>& out) const {
   if (!(std::isfinite(dt) && dt > 0.0))
     throw std::invalid_argument("detect_contacts: dt must be positive and finite, got " + std::to_string(dt));
   collision::detect_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_,
-                             *scratch_, out);
+                             *scratch_, out, &previous_p_, &crossing_);
 }
 
 void World::step(double dt, int steps) {
@@ -429,9 +465,77 @@ std::vector<Contact>& World::own_contacts() {
   return *contacts_;
 }
 
+namespace {
+
+/// Kinetic energy of body i in state s, 1/2 (m v.v + omega . I_w omega) (J); 0 for a static body.
+double body_kinetic_energy(const Model& model, const State& s, std::size_t i) {
+  if (model.is_static[i] || model.is_kinematic[i] || !model.enabled[i]) return 0.0;
+  const Vec3& w = s.omega[i];
+  return 0.5 * model.mass[i] * s.v[i].squaredNorm() + 0.5 * w.dot(s.R[i] * (model.I_body[i] * (s.R[i].transpose() * w)));
+}
+
+}  // namespace
+
+void World::check_energy(double dt, double T0) const {
+  // the energy balance of the step: kinetic energy T_1 at the end against T_0 + W at the start,
+  // W the work of gravity and the external wrenches over the step's actual motion, body by body
+  // W_i = (m g + f) . (p_1 - p_0) + tau . (omega_0 + omega_1) dt / 2, counted only where positive
+  // (the position pass lifts bodies without giving them kinetic energy: a heavy body lifted out of
+  // an overlap must not hide another's fall). Contacts only take energy away or pass it between
+  // bodies, so T_1 stays below T_0 + W up to the integrator's rounding; a step that exceeds it by
+  // the factor and the floor is an explosion.
+  double T1 = 0.0, W = 0.0;
+  for (std::size_t i = 0; i < model_.size(); ++i) {
+    if (model_.is_static[i] || model_.is_kinematic[i] || !model_.enabled[i]) continue;
+    T1 += body_kinetic_energy(model_, state_, i);
+    const Vec3 f = model_.mass[i] * settings_.gravity + before_.f_ext[i] + before_.f_step[i];
+    const Vec3 tau = before_.tau_ext[i] + before_.tau_step[i];
+    W += std::max(0.0, f.dot(state_.p[i] - before_.p[i]) + tau.dot(before_.omega[i] + state_.omega[i]) * 0.5 * dt);
+  }
+  const double budget = T0 + W;
+  if (!(T1 > kExplosionFactor * budget && T1 - budget > kExplosionFloor)) return;
+  // name the bodies that gained the most, largest first (at most 3)
+  std::array<std::pair<double, std::size_t>, 3> worst{};
+  for (std::size_t i = 0; i < model_.size(); ++i) {
+    if (model_.is_static[i]) continue;
+    const double gained = body_kinetic_energy(model_, state_, i) - body_kinetic_energy(model_, before_, i);
+    for (std::size_t k = 0; k < worst.size(); ++k)
+      if (gained > worst[k].first) {
+        for (std::size_t m = worst.size() - 1; m > k; --m) worst[m] = worst[m - 1];
+        worst[k] = {gained, i};
+        break;
+      }
+  }
+  std::ostringstream s;
+  s.precision(3);
+  bool first = true;
+  for (const auto& [gained, i] : worst) {
+    if (!(gained > 0.0)) continue;
+    s << (first ? "" : ", ") << label(static_cast<BodyIndex>(i)) << " +" << gained << " J";
+    first = false;
+  }
+  std::ostringstream total;
+  total.precision(3);
+  total << "kinetic energy rose from " << T0 << " J to " << T1 << " J in one step at t = " << before_.time
+        << " s (gravity and external forces supplied " << W << " J)";
+  throw std::runtime_error("energy explosion: " + total.str() + "; gained most: " + s.str() +
+                           "; the step was undone (check dt, masses, speeds and overlaps)");
+}
+
+void World::undo_step() {
+  copy_state(state_, before_);
+  solver_->cache.swap(cache_before_);
+  solver_->body_force.swap(force_before_);
+  solver_->body_torque.swap(torque_before_);
+}
+
 void World::step_once(double dt) {
   before_ = state_;
+  // copied into kept storage, grown geometrically (a copy assignment allocates the exact size)
+  if (cache_before_.capacity() < solver_->cache.size()) cache_before_.reserve(2 * solver_->cache.size());
   cache_before_ = solver_->cache;
+  force_before_ = solver_->body_force;
+  torque_before_ = solver_->body_torque;
   // 0. pending impulses change the velocities of dynamic bodies at the start of the step
   for (std::size_t i = 0; i < model_.size(); ++i) {
     Vec3& J = state_.impulse[i];
@@ -444,6 +548,9 @@ void World::step_once(double dt) {
     J.setZero();
     L.setZero();
   }
+  // kinetic energy after the impulses: what the energy check measures the step against
+  double T0 = 0.0;
+  for (std::size_t i = 0; i < model_.size(); ++i) T0 += body_kinetic_energy(model_, state_, i);
   // 1. contacts from the state at the start of the step, reaching as far as the whole step moves
   detect_contacts(dt, contacts_base_);
   const int n = settings_.solver.substep_count(dt);
@@ -451,10 +558,12 @@ void World::step_once(double dt) {
   SolverStats stats;
   for (int k = 0; k < n; ++k) {
     // a substep solves the step's contacts carried along by the motion since detection
-    if (k == 0)
+    if (k == 0) {
+      if (contacts_next_.capacity() < contacts_base_.size()) contacts_next_.reserve(2 * contacts_base_.size());
       contacts_next_ = contacts_base_;
-    else
+    } else {
       collision::carry_contacts(contacts_base_, before_, state_, contacts_next_, anchor_a_, anchor_b_);
+    }
     // 2. unconstrained velocity q_dot*
     dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, settings_.solver.gyroscopic, v_, omega_);
     // 3. contact solve: q_dot* -> q_dot^{t+1}, and the velocities that move the poses
@@ -476,8 +585,7 @@ void World::step_once(double dt) {
       if (state_.p[i].allFinite() && state_.v[i].allFinite() && state_.omega[i].allFinite() &&
           state_.R[i].allFinite())
         continue;
-      copy_state(state_, before_);
-      solver_->cache.swap(cache_before_);
+      undo_step();
       throw std::runtime_error(label(static_cast<BodyIndex>(i)) +
                                ": state became non-finite at t = " + std::to_string(before_.time) +
                                "; the step was undone (check forces, masses and dt)");
@@ -493,8 +601,18 @@ void World::step_once(double dt) {
       }
     }
   }
-  // keep the step: the last substep's contacts and stats; quaternions of the new rotations; the
-  // one-step forces are spent
+  // a step whose kinetic energy grew by orders of magnitude is undone and reported, like a
+  // non-finite one
+  try {
+    check_energy(dt, T0);
+  } catch (const std::runtime_error&) {
+    undo_step();
+    throw;
+  }
+  // keep the step: the last substep's contacts and stats, what the meshes remember, quaternions of
+  // the new rotations; the one-step forces are spent
+  copy_into(previous_p_, before_.p);
+  crossing_.swap(scratch_->crossing_next);
   own_contacts().swap(contacts_next_);
   stats_ = stats;
   for (std::size_t i = 0; i < model_.size(); ++i) {
@@ -529,6 +647,8 @@ void World::set_position(BodyIndex i, const Vec3& p) {
   check_index(i);
   require_finite(label(i), "position", p);
   state_.p[i] = p;
+  previous_p_[i] = p;  // moved, not travelled: no crossing
+  crossing_[i] = collision::Crossing();
   if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
 }
 
@@ -574,6 +694,8 @@ void World::set_positions(const Indices& bodies, const Points& values) {
   for (Eigen::Index k = 0; k < bodies.size(); ++k) {
     const auto i = static_cast<BodyIndex>(bodies[k]);
     state_.p[i] = values.row(k).transpose();
+    previous_p_[i] = state_.p[i];  // moved, not travelled: no crossing
+    crossing_[i] = collision::Crossing();
     if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
   }
 }
@@ -820,6 +942,9 @@ void World::restore_state(const std::string& saved) {
   solver_->cache = std::move(cache);
   contacts_ = std::move(contacts);
   stats_ = stats;
+  // the meshes' memory of crossings is not saved: it starts afresh, as after set_position
+  copy_into(previous_p_, state_.p);
+  for (collision::Crossing& c : crossing_) c = collision::Crossing();
 }
 
 Quat4 World::orientation(BodyIndex i) const {

@@ -1,0 +1,606 @@
+"""Seeded random scenes, each run in its own process and checked for what must never happen.
+
+    python -m signorini.fuzz N SEED [-j JOBS] [--timeout S]   # N scenes of SEED, a summary line
+    python -m signorini.fuzz --scene SEED:INDEX                # one scene, in this process, in detail
+
+Scene INDEX of SEED is drawn from ``numpy.random.default_rng([SEED, INDEX])`` alone, so it is the
+same whatever N, JOBS or the order of the runs (``generate``). A scene has 1 to 14 dynamic bodies
+of every kind (sphere, box, capsule, cylinder, convex hull, convex mesh, compound), largest
+dimension 1 cm to 10 m, masses within 1:1000 of each other, speeds to 50 m/s and 50 rad/s, over a
+plane, a triangle-mesh height field, or a height field with a plane below it; dt is 1/60, 1/240 or
+1/1000 and the scene runs ``DURATION`` seconds.
+
+Every step is checked (``run``). Failure classes, each with a one-line reproducer:
+
+- ``crash``: the scene's process died (a signal); ``timeout``: it ran longer than ``--timeout``.
+- ``exception``: the world raised; ``nonfinite``: the core undid a step that became non-finite;
+  ``explosion``: the core undid a step whose energy grew by orders of magnitude.
+- ``tunnel``: a body's centre of mass is below the floor surface under it by more than
+  ``TUNNEL_DEPTH`` (1 mm + 5% of its bounding radius) at the end of the run. A convex body resting
+  on the floor has its centre above the surface; one that has gone through keeps falling.
+- ``off_shape``: a contact point y of ``detect_contacts`` is the midpoint of witness points w_A =
+  y - gap/2 n on A and w_B = y + gap/2 n on B, so it lies within |gap| / 2 of each body. It fails
+  when it is farther from body A or body B than |gap| (1/2 + ``POINT_SLACK``) + ``POINT_TOLERANCE``
+  (1 + bounding radius); distances by closed forms and point-triangle distances in NumPy
+  (``point_distance``), not by the core.
+- ``energy``: the total energy (kinetic + gravitational, potential measured from the lowest floor
+  point) rose above its starting value by more than ``ENERGY_GAIN`` (1%) at some step. A passive
+  system under gravity, friction and restitution e <= 1 can only lose energy.
+- ``slow``: a step took more than ``SLOW_STEP`` (100 ms) of wall time.
+
+Measured and summarised, not failed: the deepest overlap of a detected contact relative to the
+smaller body's inner size (the radius of a ball it surely contains; resting contacts keep the
+solver's slop of 1 mm, which is a large fraction of a 1 cm body), the largest energy gain, the
+worst contact-point error and the slowest step, each with the scene it came from.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+import warnings
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+DTS = (1.0 / 60.0, 1.0 / 240.0, 1.0 / 1000.0)
+KINDS = ("sphere", "box", "capsule", "cylinder", "hull", "convex_mesh", "compound")
+FLOORS = ("plane", "heightfield", "both")
+MAX_BODIES = 14
+DURATION = 1.5          # s simulated per scene
+MAX_SPEED = 50.0        # m/s
+MAX_SPIN = 50.0         # rad/s
+ENERGY_GAIN = 0.01      # relative rise of the total energy above its start
+ENERGY_FLOOR = 1e-9     # J: rises below this are rounding
+SLOW_STEP = 0.1         # s of wall time per step
+POINT_TOLERANCE = 1e-6  # m (plus 1e-6 of the body's size): contact points are exact, not fitted
+POINT_SLACK = 0.05      # of |gap|: clipped speculative points sit on a face's plane, not always its face
+FAILURES = ("crash", "timeout", "exception", "nonfinite", "explosion", "tunnel", "off_shape", "energy", "slow")
+
+
+def TUNNEL_DEPTH(bounding_radius: float) -> float:
+    """How far (m) a centre of mass may sit below the floor surface before it counts as tunnelled."""
+    return 1e-3 + 0.05 * bounding_radius
+
+
+# ------------------------------------------------------------------------------------ scenes
+
+def _quaternion(rng) -> list:
+    q = rng.normal(size=4)
+    return (q / np.linalg.norm(q)).tolist()
+
+
+def _log_uniform(rng, lo: float, hi: float) -> float:
+    return float(10.0 ** rng.uniform(math.log10(lo), math.log10(hi)))
+
+
+def _speed(rng, top: float) -> float:
+    """0 for a third of the bodies (dropped from rest), else log-uniform from 1e-2 to top."""
+    return 0.0 if rng.random() < 1.0 / 3.0 else _log_uniform(rng, 1e-2, top)
+
+
+def _direction(rng) -> list:
+    d = rng.normal(size=3)
+    return (d / np.linalg.norm(d)).tolist()
+
+
+def _primitive(rng, kind: str, h: float) -> dict:
+    """A shape description of half size h (m): its largest half dimension is about h."""
+    a = np.sort(rng.uniform(0.3, 1.0, size=3))[::-1]
+    a[0] = 1.0
+    rng.shuffle(a)
+    if kind == "sphere":
+        return {"type": "sphere", "radius": h}
+    if kind == "box":
+        return {"type": "box", "half_extents": (h * a).tolist()}
+    if kind == "capsule":
+        r = h * rng.uniform(0.2, 0.6)
+        return {"type": "capsule", "radius": r, "half_length": max(h - r, 0.0)}
+    if kind == "cylinder":
+        return {"type": "cylinder", "radius": h * rng.uniform(0.2, 1.0), "half_height": h * rng.uniform(0.2, 1.0)}
+    if kind == "hull":
+        n = int(rng.integers(6, 25))
+        d = rng.normal(size=(n, 3))
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        return {"type": "hull", "points": (d * rng.uniform(0.5, 1.0, size=(n, 1)) * h * a).tolist()}
+    if kind == "convex_mesh":
+        form = ("icosphere", "prism", "box")[int(rng.integers(3))]
+        if form == "icosphere":
+            return {"type": "convex_mesh", "form": form, "scale": (h * a).tolist()}
+        if form == "prism":
+            return {"type": "convex_mesh", "form": form, "radius": h * rng.uniform(0.3, 1.0),
+                    "half_height": h * rng.uniform(0.2, 1.0), "sides": int(rng.integers(3, 13))}
+        return {"type": "convex_mesh", "form": form, "scale": (h * a).tolist()}
+    if kind == "compound":
+        parts = []
+        for k in range(int(rng.integers(2, 4))):
+            sub = ("sphere", "box", "capsule", "cylinder", "hull")[int(rng.integers(5))]
+            hp = h * rng.uniform(0.35, 0.6)
+            # parts overlap around the middle, so the centre of mass lies inside the body
+            offset = (rng.uniform(-1.0, 1.0, size=3) * (h - hp) * 0.8).tolist()
+            parts.append({"shape": _primitive(rng, sub, hp), "position": offset, "orientation": _quaternion(rng)})
+        return {"type": "compound", "parts": parts}
+    raise ValueError(f"unknown kind {kind!r}")
+
+
+def _heightfield(rng, half_width: float) -> dict:
+    """A square grid of heights (a few random waves) over [-W, W]^2, as vertices and triangles."""
+    cells = int(rng.integers(6, 25))
+    amplitude = half_width * rng.uniform(0.0, 0.08)
+    waves = [(rng.normal(size=2) * rng.uniform(0.5, 3.0) / half_width, rng.uniform(0, 2 * np.pi), rng.random())
+             for _ in range(3)]
+    return {"half_width": half_width, "cells": cells, "amplitude": amplitude,
+            "waves": [(k.tolist(), phase, weight) for k, phase, weight in waves],
+            "noise_seed": int(rng.integers(2**31))}
+
+
+def heightfield_mesh(hf: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (n, 3), faces (k, 3)) of a height field description; faces counter-clockwise from +z,
+    each grid cell (i, j) split along its (i, j)-(i+1, j+1) diagonal."""
+    n, W = hf["cells"], hf["half_width"]
+    x = np.linspace(-W, W, n + 1)
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    Z = np.zeros_like(X)
+    for k, phase, weight in hf["waves"]:
+        Z += weight * np.sin(k[0] * X + k[1] * Y + phase)
+    Z += 0.3 * np.random.default_rng(hf["noise_seed"]).uniform(-1.0, 1.0, size=Z.shape)
+    Z *= hf["amplitude"]
+    vertices = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    v00, v10, v11, v01 = i * (n + 1) + j, (i + 1) * (n + 1) + j, (i + 1) * (n + 1) + j + 1, i * (n + 1) + j + 1
+    faces = np.concatenate([np.stack([v00, v10, v11], 1), np.stack([v00, v11, v01], 1)]).astype(np.int64)
+    return vertices, faces
+
+
+def generate(seed: int, index: int) -> dict:
+    """Scene `index` of `seed` as plain data (JSON-ready): floor, dt, bodies."""
+    rng = np.random.default_rng([int(seed), int(index)])
+    floor = FLOORS[int(rng.integers(3))]
+    dt = DTS[int(rng.integers(3))]
+    count = int(rng.integers(1, MAX_BODIES + 1))
+    size0 = _log_uniform(rng, 0.01, 10.0)      # largest dimension (m) of the scene's typical body
+    mass0 = 1000.0 * (size0 / 2.0) ** 3        # kg
+    spread = max(3.0 * size0, 0.5) * math.sqrt(count)
+    scene = {"seed": int(seed), "index": int(index), "floor": floor, "dt": dt, "duration": DURATION}
+    if floor in ("heightfield", "both"):
+        scene["heightfield"] = _heightfield(rng, half_width=1.5 * spread + 2.0 * size0)
+    bodies = []
+    placed = []  # (centre, bounding radius) of the bodies so far, to start without overlaps
+    for _ in range(count):
+        kind = KINDS[int(rng.integers(len(KINDS)))]
+        size = float(np.clip(size0 * 10.0 ** rng.uniform(-0.5, 0.5), 0.01, 10.0))
+        shape = _primitive(rng, kind, size / 2.0)
+        rho = size  # bounding radius bound: every part lies within h of its place, places within h
+        for _attempt in range(50):
+            xy = rng.uniform(-spread, spread, size=2)
+            z = rng.uniform(0.0, 2.0) + 1.5 * rho + 0.02
+            c = np.array([xy[0], xy[1], z])
+            if all(np.linalg.norm(c - p) > rho + r + 1e-3 for p, r in placed):
+                break
+        else:
+            c[2] = max(p[2] + r for p, r in placed) + rho + 0.01
+        placed.append((c, rho))
+        speed, spin = _speed(rng, MAX_SPEED), _speed(rng, MAX_SPIN)
+        bodies.append({
+            "shape": shape, "mass": mass0 * 10.0 ** rng.uniform(0.0, 3.0),
+            "position": c.tolist(), "orientation": _quaternion(rng),
+            "velocity": (speed * np.array(_direction(rng))).tolist(),
+            "angular_velocity": (spin * np.array(_direction(rng))).tolist(),
+            "friction": float(rng.uniform(0.0, 1.0)),
+            "restitution": float(rng.uniform(0.0, 0.5)) if rng.random() < 0.5 else 0.0,
+        })
+    scene["bodies"] = bodies
+    return scene
+
+
+def make_shape(d: dict):
+    """The signorini shape of a description from ``generate``."""
+    import signorini as sg
+    from .meshes import box_mesh, cylinder_mesh, icosphere
+
+    t = d["type"]
+    if t == "sphere":
+        return sg.Sphere(d["radius"])
+    if t == "box":
+        return sg.Box(d["half_extents"])
+    if t == "capsule":
+        return sg.Capsule(d["radius"], d["half_length"])
+    if t == "cylinder":
+        return sg.Cylinder(d["radius"], d["half_height"])
+    if t == "hull":
+        return sg.ConvexHull(np.array(d["points"]))
+    if t == "convex_mesh":
+        if d["form"] == "icosphere":
+            v, f = icosphere(1.0, 1)
+            return sg.Mesh(v * np.array(d["scale"]), f)
+        if d["form"] == "prism":
+            return sg.Mesh(*cylinder_mesh(d["radius"], d["half_height"], d["sides"]))
+        return sg.Mesh(*box_mesh(d["scale"]))
+    if t == "compound":
+        return sg.Compound([(make_shape(p["shape"]), (p["position"], p["orientation"])) for p in d["parts"]])
+    raise ValueError(f"unknown shape type {t!r}")
+
+
+def build(scene: dict):
+    """(world, floor) for a scene; floor = {"plane": z or None, "heightfield": (vertices, faces) or None}."""
+    import signorini as sg
+
+    world = sg.World(**scene.get("world", {}))
+    floor = {"plane": None, "heightfield": None}
+    if "heightfield" in scene:
+        v, f = heightfield_mesh(scene["heightfield"])
+        world.add_static(sg.TriangleMesh(v, f))
+        floor["heightfield"] = (v, f)
+    if scene["floor"] == "plane":
+        floor["plane"] = 0.0
+    elif scene["floor"] == "both":
+        floor["plane"] = float(floor["heightfield"][0][:, 2].min()) - 0.05
+    if floor["plane"] is not None:
+        world.add_static(sg.Plane((0.0, 0.0, 1.0), floor["plane"]))
+    # bodies start above the highest floor point under them
+    top = 0.0 if floor["heightfield"] is None else float(floor["heightfield"][0][:, 2].max())
+    for b in scene["bodies"]:
+        p = np.array(b["position"]) + (0.0, 0.0, top)
+        world.add_body(make_shape(b["shape"]), mass=b["mass"], position=p, orientation=b["orientation"],
+                       velocity=b["velocity"], angular_velocity=b["angular_velocity"],
+                       friction=b["friction"], restitution=b["restitution"])
+    return world, floor
+
+
+# ------------------------------------------------------------------ distances from a point to a shape
+
+def _point_triangle_distance(X, A, B, C):
+    """Distances (k, m) from points X (k, 3) to triangles (A, B, C) (m, 3) each (closest-point regions)."""
+    X = X[:, None, :]
+    ab, ac = B - A, C - A
+    ap = X - A
+    n = np.cross(ab, ac)
+    nn = np.einsum("ij,ij->i", n, n)
+    # projection onto the plane, then barycentric coordinates
+    d_plane = np.einsum("kmj,mj->km", ap, n) / np.where(nn > 0, nn, 1.0)
+    q = X - d_plane[..., None] * n
+    aq = q - A
+    d00, d01, d11 = (np.einsum("ij,ij->i", ab, ab), np.einsum("ij,ij->i", ab, ac), np.einsum("ij,ij->i", ac, ac))
+    d20, d21 = np.einsum("kmj,mj->km", aq, ab), np.einsum("kmj,mj->km", aq, ac)
+    den = np.where(nn > 0, d00 * d11 - d01 * d01, 1.0)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    inside = (v >= 0) & (w >= 0) & (v + w <= 1) & (nn > 0)
+    best = np.where(inside, np.linalg.norm(X - q, axis=-1), np.inf)
+    for P, Q in ((A, B), (B, C), (C, A)):
+        e = Q - P
+        ee = np.einsum("ij,ij->i", e, e)
+        s = np.clip(np.einsum("kmj,mj->km", X - P, e) / np.where(ee > 0, ee, 1.0), 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(X - (P + s[..., None] * e), axis=-1))
+    return best
+
+
+def _convex_faces_distance(X, vertices, faces):
+    """Distances (k,) from points (k, 3) to a closed convex triangle mesh (0 inside)."""
+    A, B, C = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    n = np.cross(B - A, C - A)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    inside = np.all(np.einsum("kmj,mj->km", X[:, None, :] - A, n) <= 0.0, axis=1)
+    return np.where(inside, 0.0, _point_triangle_distance(X, A, B, C).min(axis=1))
+
+
+def point_distance(shape: dict, p, R, X) -> np.ndarray:
+    """Distances (k,) (m) from world points X (k, 3) to a bounded convex-part shape (an oracle
+    shape dict, as ``signorini.shape_dict`` gives) placed at centre p (3,), rotation R (3, 3);
+    0 for a point inside. Compounds take the nearest part."""
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    L = (X - p) @ np.asarray(R)  # body frame
+    t = shape["type"]
+    if t == "sphere":
+        return np.maximum(np.linalg.norm(L, axis=1) - shape["radius"], 0.0)
+    if t == "box":
+        return np.linalg.norm(np.maximum(np.abs(L) - shape["half_extents"], 0.0), axis=1)
+    if t == "capsule":
+        z = np.clip(L[:, 2], -shape["half_length"], shape["half_length"])
+        return np.maximum(np.linalg.norm(L - np.column_stack([0 * z, 0 * z, z]), axis=1) - shape["radius"], 0.0)
+    if t == "cylinder":
+        radial = np.maximum(np.hypot(L[:, 0], L[:, 1]) - shape["radius"], 0.0)
+        axial = np.maximum(np.abs(L[:, 2]) - shape["half_height"], 0.0)
+        return np.hypot(radial, axial)
+    if t in ("hull", "mesh"):
+        return _convex_faces_distance(L, np.asarray(shape["vertices"]), np.asarray(shape["faces"]))
+    if t == "compound":
+        return np.min([point_distance(part, pos, Rp, L) for part, pos, Rp in shape["parts"]], axis=0)
+    raise ValueError(f"point_distance: unsupported shape type {t!r}")
+
+
+def floor_height(floor: dict, x: float, y: float):
+    """The floor's surface height (m) under (x, y), or None where there is no floor."""
+    if floor["heightfield"] is not None:
+        v, f = floor["heightfield"]
+        A, B, C = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+        # barycentric coordinates in the xy projection
+        d = (B[:, 1] - C[:, 1]) * (A[:, 0] - C[:, 0]) + (C[:, 0] - B[:, 0]) * (A[:, 1] - C[:, 1])
+        l1 = ((B[:, 1] - C[:, 1]) * (x - C[:, 0]) + (C[:, 0] - B[:, 0]) * (y - C[:, 1])) / d
+        l2 = ((C[:, 1] - A[:, 1]) * (x - C[:, 0]) + (A[:, 0] - C[:, 0]) * (y - C[:, 1])) / d
+        l3 = 1.0 - l1 - l2
+        hit = np.nonzero((l1 >= -1e-12) & (l2 >= -1e-12) & (l3 >= -1e-12))[0]
+        if len(hit):
+            k = hit[0]
+            return float(l1[k] * A[k, 2] + l2[k] * B[k, 2] + l3[k] * C[k, 2])
+    return floor["plane"]
+
+
+def _floor_distance(floor: dict, X: np.ndarray) -> np.ndarray:
+    """Distances (k,) from points to the floor solid (0 below its surface)."""
+    best = np.full(len(X), np.inf)
+    if floor["plane"] is not None:
+        best = np.maximum(X[:, 2] - floor["plane"], 0.0)
+    if floor["heightfield"] is not None:
+        v, f = floor["heightfield"]
+        for k, x in enumerate(X):
+            h = floor_height(floor, x[0], x[1])
+            if h is not None and x[2] <= h:
+                best[k] = 0.0
+            elif best[k] > 0.0:
+                best[k] = min(best[k], _point_triangle_distance(x[None], v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]).min())
+    return best
+
+
+def _inner_size(shape: dict) -> float:
+    """Radius (m) of a ball the shape surely contains (for relative overlaps)."""
+    t = shape["type"]
+    if t == "sphere":
+        return shape["radius"]
+    if t == "box":
+        return float(np.min(shape["half_extents"]))
+    if t == "capsule":
+        return shape["radius"]
+    if t == "cylinder":
+        return min(shape["radius"], shape["half_height"])
+    if t in ("hull", "mesh"):
+        V, F = np.asarray(shape["vertices"]), np.asarray(shape["faces"])
+        A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+        n = np.cross(B - A, C - A)
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        centre = V.mean(axis=0)
+        return float(np.min(np.einsum("ij,ij->i", A - centre, n)))
+    if t == "compound":
+        return max(_inner_size(part) for part, _, _ in shape["parts"])
+    return math.inf
+
+
+def _bounding_radius(shape: dict) -> float:
+    t = shape["type"]
+    if t == "sphere":
+        return shape["radius"]
+    if t == "box":
+        return float(np.linalg.norm(shape["half_extents"]))
+    if t == "capsule":
+        return shape["radius"] + shape["half_length"]
+    if t == "cylinder":
+        return math.hypot(shape["radius"], shape["half_height"])
+    if t in ("hull", "mesh"):
+        return float(np.linalg.norm(shape["vertices"], axis=1).max())
+    if t == "compound":
+        return max(np.linalg.norm(pos) + _bounding_radius(part) for part, pos, _ in shape["parts"])
+    return math.inf
+
+
+# ------------------------------------------------------------------------------------ running
+
+def run(scene: dict, log=None) -> dict:
+    """Runs a scene in this process and checks every step; returns the result as plain data:
+    {"scene": "SEED:INDEX", "failures": {class: first message}, "steps", "max_step_ms",
+    "max_overlap" (relative), "max_energy_gain" (relative), "max_point_error" (m), "wall" (s)}."""
+    import signorini as sg
+
+    start = time.perf_counter()
+    name = f"{scene['seed']}:{scene['index']}"
+    failures: dict[str, str] = {}
+
+    def fail(kind: str, message: str):
+        if kind not in failures:
+            failures[kind] = message
+            if log:
+                log(f"  {kind}: {message}")
+
+    world, floor = build(scene)
+    dt = scene["dt"]
+    steps = int(round(scene["duration"] / dt))
+    n = world.num_bodies
+    shapes = [sg.shape_dict(world.shape(i)) for i in range(n)]
+    static = world.is_static
+    inner = np.array([math.inf if static[i] else _inner_size(shapes[i]) for i in range(n)])
+    radius = np.array([0.0 if static[i] else _bounding_radius(shapes[i]) for i in range(n)])
+    dynamic = np.nonzero(~static)[0]
+    lowest = floor["plane"] if floor["heightfield"] is None else float(floor["heightfield"][0][:, 2].min())
+    if floor["plane"] is not None:
+        lowest = min(lowest, floor["plane"])
+    masses = world.masses
+
+    def energy() -> float:
+        return world.kinetic_energy() + world.potential_energy() + float(
+            np.sum(masses[dynamic]) * world.gravity[2] * lowest)
+
+    E0 = energy()
+    max_gain = 0.0
+    max_overlap = 0.0
+    overlap_at = ""
+    max_point_error = 0.0
+    max_step = 0.0
+    done = 0
+    for k in range(steps):
+        # contacts of the state the step starts from: exact points, checked against both shapes
+        c = world.detect_contacts(dt)
+        if len(c):
+            P, R = world.positions, world.rotations
+            gap = c.gap
+            rel = -gap / np.minimum(inner[c.body_a], inner[c.body_b])
+            worst = int(np.argmax(rel))
+            if rel[worst] > max_overlap:
+                max_overlap = float(rel[worst])
+                overlap_at = (f"step {k}: bodies {c.body_a[worst]} - {c.body_b[worst]}, {-gap[worst]:.3g} m "
+                              f"(inner size {min(inner[c.body_a[worst]], inner[c.body_b[worst]]):.3g} m)")
+            allowed = np.abs(gap) * (0.5 + POINT_SLACK)
+            for side, bodies in (("A", c.body_a), ("B", c.body_b)):
+                for i in np.unique(bodies):
+                    rows = np.nonzero(bodies == i)[0]
+                    X = c.point[rows]
+                    if static[i]:
+                        d = _floor_distance(floor, X) if shapes[i]["type"] in ("plane", "trimesh") else np.zeros(len(X))
+                        size = 0.0
+                    else:
+                        d = point_distance(shapes[i], P[i], R[i], X)
+                        size = radius[i]
+                    excess = d - allowed[rows]
+                    j = int(np.argmax(excess))
+                    max_point_error = max(max_point_error, float(excess[j]))
+                    if excess[j] > POINT_TOLERANCE * (1.0 + size):
+                        other = (c.body_b if side == "A" else c.body_a)[rows[j]]
+                        kinds = "-".join(sg.feature(f[rows[j]]).kind for f in (c.feature_a, c.feature_b))
+                        fail("off_shape", f"step {k} (t = {world.time:.4f} s): contact {c.body_a[rows[j]]} - "
+                                          f"{c.body_b[rows[j]]} ({kinds}, gap {gap[rows[j]]:.4g} m) lies {d[j]:.4g} m from body {i}, "
+                                          f"{excess[j]:.3g} m more than |gap| (1/2 + {POINT_SLACK:g}) "
+                                          f"({shapes[i]['type']}; other body {other})")
+        t0 = time.perf_counter()
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", sg.SolverWarning)
+                world.step(dt)
+        except Exception as e:  # noqa: BLE001 - every failure is reported, none is fatal
+            text = str(e)
+            kind = "nonfinite" if "non-finite" in text else "explosion" if "energy" in text else "exception"
+            fail(kind, f"step {k} (t = {world.time:.4f} s): {type(e).__name__}: {text}")
+            break
+        elapsed = time.perf_counter() - t0
+        max_step = max(max_step, elapsed)
+        if elapsed > SLOW_STEP:
+            fail("slow", f"step {k} took {elapsed * 1e3:.0f} ms ({n} bodies, {len(c)} contacts)")
+        E = energy()
+        gain = (E - E0) / abs(E0) if E0 != 0 else 0.0
+        if E - E0 > ENERGY_FLOOR:
+            max_gain = max(max_gain, gain)
+            if gain > ENERGY_GAIN:
+                fail("energy", f"step {k} (t = {world.time:.4f} s): energy {E:.6g} J, start {E0:.6g} J (+{gain:.1%})")
+        done = k + 1
+    # tunnelling: a centre below the floor surface under it at the end
+    P = world.positions
+    for i in dynamic:
+        h = floor_height(floor, P[i, 0], P[i, 1])
+        if h is not None and P[i, 2] < h - TUNNEL_DEPTH(radius[i]):
+            fail("tunnel", f"body {i} ({shapes[i]['type']}, radius {radius[i]:.3g} m) ends with its centre "
+                           f"{h - P[i, 2]:.3g} m below the floor surface (speed {np.linalg.norm(world.velocities[i]):.3g} m/s)")
+    return {"scene": name, "failures": failures, "steps": done, "max_step_ms": max_step * 1e3,
+            "max_overlap": max_overlap, "overlap_at": overlap_at, "max_energy_gain": max_gain, "max_point_error": max_point_error,
+            "wall": time.perf_counter() - start, "bodies": len(dynamic), "dt": dt, "floor": scene["floor"]}
+
+
+def describe(scene: dict) -> str:
+    """One line per body: kind, size, mass, speed."""
+    lines = [f"scene {scene['seed']}:{scene['index']}: floor {scene['floor']}, dt 1/{round(1 / scene['dt'])}, "
+             f"{len(scene['bodies'])} bodies, {scene['duration']} s"]
+    first = ("heightfield" in scene) + (scene["floor"] in ("plane", "both"))  # static bodies come first
+    for k, b in enumerate(scene["bodies"]):
+        s = b["shape"]
+        detail = {key: v for key, v in s.items() if key not in ("type", "points", "parts")}
+        if s["type"] == "compound":
+            detail = [p["shape"]["type"] for p in s["parts"]]
+        lines.append(f"  body {first + k}: {s['type']} {detail} mass {b['mass']:.3g} kg, "
+                     f"speed {np.linalg.norm(b['velocity']):.3g} m/s, spin {np.linalg.norm(b['angular_velocity']):.3g} rad/s")
+    return "\n".join(lines)
+
+
+def reproducer(name: str) -> str:
+    return f"python -m signorini.fuzz --scene {name}"
+
+
+def run_isolated(seed: int, index: int, timeout: float) -> dict:
+    """Runs scene SEED:INDEX in a child process (crash isolation, timeout); its result dict."""
+    name = f"{seed}:{index}"
+    start = time.perf_counter()
+    try:
+        proc = subprocess.run([sys.executable, "-m", "signorini.fuzz", "--scene", name, "--json"],
+                              capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {"scene": name, "failures": {"timeout": f"no result after {timeout:g} s"},
+                "wall": time.perf_counter() - start}
+    for line in reversed(proc.stdout.splitlines()):
+        if line.startswith("{"):
+            return json.loads(line)
+    why = f"exit status {proc.returncode}"
+    if proc.returncode < 0:
+        why = f"killed by signal {-proc.returncode}"
+    tail = proc.stderr.strip().splitlines()[-1:] or [""]
+    return {"scene": name, "failures": {"crash": f"{why}: {tail[0]}"}, "wall": time.perf_counter() - start}
+
+
+def run_many(count: int, seed: int, jobs: int = 1, timeout: float = 300.0, out=print) -> dict:
+    """Runs scenes 0..count-1 of seed, each in its own process, `jobs` at a time; prints one line per
+    failure (with its reproducer) and the summary line; returns {"results": [...], "counts": {...},
+    "summary": str}."""
+    results = [None] * count
+
+    def one(index):
+        results[index] = run_isolated(seed, index, timeout)
+        for kind, message in results[index]["failures"].items():
+            out(f"FAIL {kind} {results[index]['scene']}: {message}  | {reproducer(results[index]['scene'])}")
+        return results[index]
+
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        list(pool.map(one, range(count)))
+    counts = {kind: sum(kind in r["failures"] for r in results) for kind in FAILURES}
+    clean = sum(not r["failures"] for r in results)
+    got = [r for r in results if "max_overlap" in r]
+
+    def worst(key: str, fmt: str) -> str:
+        if not got:
+            return "-"
+        r = max(got, key=lambda r: r[key])
+        return f"{format(r[key], fmt)} ({r['scene']})"
+
+    summary = (f"fuzz {count} scenes, seed {seed}: {clean} clean; " +
+               ", ".join(f"{kind} {counts[kind]}" for kind in FAILURES) +
+               f"; deepest overlap {worst('max_overlap', '.0%')} of inner size, worst point off its shapes "
+               f"{worst('max_point_error', '.2g')} m, largest energy gain {worst('max_energy_gain', '.2%')}, "
+               f"slowest step {worst('max_step_ms', '.1f')} ms, {np.mean([r['wall'] for r in results]):.2f} s per scene")
+    out(summary)
+    return {"results": results, "counts": counts, "summary": summary}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m signorini.fuzz", description=__doc__.split("\n\n")[0])
+    parser.add_argument("count", nargs="?", type=int, help="number of scenes")
+    parser.add_argument("seed", nargs="?", type=int, default=0, help="seed (default 0)")
+    parser.add_argument("-j", "--jobs", type=int, default=1, help="scenes run at a time (default 1)")
+    parser.add_argument("--timeout", type=float, default=300.0, help="seconds per scene (default 300)")
+    parser.add_argument("--scene", help="run scene SEED:INDEX in this process and report in detail")
+    parser.add_argument("--json", action="store_true", help="with --scene: print the result as one JSON line")
+    args = parser.parse_args(argv)
+    if args.scene:
+        try:
+            seed, index = (int(x) for x in args.scene.split(":"))
+        except ValueError:
+            parser.error(f"--scene takes SEED:INDEX, got {args.scene!r}")
+        scene = generate(seed, index)
+        if args.json:
+            print(json.dumps(run(scene)))
+            return 0
+        print(describe(scene))
+        result = run(scene, log=print)
+        print(f"{'clean' if not result['failures'] else 'FAILED: ' + ', '.join(result['failures'])}; "
+              f"{result['steps']} steps, slowest {result['max_step_ms']:.1f} ms, "
+              f"overlap {result['max_overlap']:.0%} ({result['overlap_at'] or 'none'}), "
+              f"energy gain {result['max_energy_gain']:.2%}, point error {result['max_point_error']:.2g} m, "
+              f"{result['wall']:.1f} s")
+        return 1 if result["failures"] else 0
+    if args.count is None:
+        parser.error("give N SEED, or --scene SEED:INDEX")
+    if args.count < 0 or args.jobs < 1:
+        parser.error("N must be >= 0 and -j >= 1")
+    report = run_many(args.count, args.seed, args.jobs, args.timeout)
+    return 1 if any(report["counts"].values()) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,130 @@
+"""The fuzzer (python -m signorini.fuzz): its scenes, its checks, and a seeded sample that meets
+issue 8's targets."""
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import signorini as sg
+from signorini import fuzz
+
+SAMPLE_SEED = 2026
+SAMPLE_SCENES = 20
+
+
+def test_scenes_are_reproducible_and_cover_what_the_issue_asks_for():
+    scenes = [fuzz.generate(3, i) for i in range(150)]
+    assert json.dumps(scenes[17]) == json.dumps(fuzz.generate(3, 17))  # the same seed, the same scene
+    assert json.dumps(fuzz.generate(4, 17)) != json.dumps(scenes[17])
+    kinds = {b["shape"]["type"] for s in scenes for b in s["bodies"]}
+    assert kinds == set(fuzz.KINDS)
+    assert {s["floor"] for s in scenes} == set(fuzz.FLOORS)
+    assert {s["dt"] for s in scenes} == set(fuzz.DTS)
+    for s in scenes:
+        assert 1 <= len(s["bodies"]) <= fuzz.MAX_BODIES
+        masses = [b["mass"] for b in s["bodies"]]
+        assert max(masses) / min(masses) <= 1000.0
+        for b in s["bodies"]:
+            assert np.linalg.norm(b["velocity"]) <= fuzz.MAX_SPEED * (1 + 1e-12)
+            assert np.linalg.norm(b["angular_velocity"]) <= fuzz.MAX_SPIN * (1 + 1e-12)
+    # largest dimensions from about 1 cm to 10 m
+    radii = []
+    for s in scenes[:60]:
+        w, _ = fuzz.build(s)
+        radii += [fuzz._bounding_radius(sg.shape_dict(w.shape(i))) for i in range(w.num_bodies) if not w.is_static[i]]
+    assert min(radii) < 0.01 and max(radii) > 3.0
+
+
+@pytest.mark.parametrize("shape", [
+    sg.Sphere(0.3), sg.Box((0.4, 0.2, 0.1)), sg.Capsule(0.1, 0.3), sg.Cylinder(0.2, 0.35),
+    sg.ConvexHull(np.random.default_rng(5).normal(size=(14, 3)) * 0.3),
+    sg.Compound([(sg.Box((0.2, 0.1, 0.1)), ((0.1, 0, 0), (1, 0, 0, 0))),
+                 (sg.Sphere(0.15), ((-0.2, 0.05, 0), (0.9, 0.1, 0.3, 0)))]),
+])
+def test_point_distance_matches_the_cores_closest_points(shape):
+    # a small ball at each point: the core's exact sphere tests give distance = gap + r
+    rng = np.random.default_rng(7)
+    p, q = np.array([0.3, -0.2, 1.0]), np.array([0.8, 0.3, -0.2, 0.4])
+    q /= np.linalg.norm(q)
+    w = sg.World()
+    i = w.add_body(shape, density=1000.0, position=p, orientation=q)
+    body = sg.shape_dict(w.shape(i))
+    X = p + rng.normal(size=(80, 3)) * 0.5
+    d = fuzz.point_distance(body, w.positions[i], w.rotations[i], X)
+    r = 1e-4
+    for x, dx in zip(X, d):
+        c = sg.collide(w.shape(i), (w.positions[i], w.orientations[i]), sg.Sphere(r), (x, (1, 0, 0, 0)), margin=2.0)
+        if dx > r:  # outside: the ball does not reach in
+            assert dx == pytest.approx(c.gap.min() + r, abs=1e-12)
+        elif dx == 0.0:
+            assert c.gap.min() <= -r + 1e-12
+
+
+def _sphere(position, **extra):
+    return {"shape": {"type": "sphere", "radius": 0.1}, "mass": 1.0, "position": position,
+            "orientation": [1, 0, 0, 0], "velocity": [0, 0, 0], "angular_velocity": [0, 0, 0],
+            "friction": 0.5, "restitution": 0.0, **extra}
+
+
+def test_the_checks_catch_a_tunnelled_body_and_an_energy_gain():
+    # a ball starting 0.5 m below a flat one-sided height field (behind it: no contact) falls on
+    flat = {"half_width": 4.0, "cells": 4, "amplitude": 0.0, "waves": [], "noise_seed": 0}
+    scene = {"seed": 0, "index": 0, "floor": "heightfield", "dt": 1 / 60, "duration": 0.5, "heightfield": flat,
+             "bodies": [_sphere([0.3, 0.2, -0.5]), _sphere([1.3, 0.2, 0.1])]}
+    result = fuzz.run(scene)
+    assert list(result["failures"]) == ["tunnel"] and "body 1 (sphere" in result["failures"]["tunnel"]
+    # the lecture's explicit gyroscopic term gains energy on a fast asymmetric spinner
+    box = {"shape": {"type": "box", "half_extents": [0.5, 0.25, 0.1]}, "mass": 1.0, "position": [0, 0, 5.0],
+           "orientation": [1, 0, 0, 0], "velocity": [0, 0, 0], "angular_velocity": [20.0, 20.0, 20.0],
+           "friction": 0.5, "restitution": 0.0}
+    scene = {"seed": 0, "index": 1, "floor": "plane", "dt": 1 / 60, "duration": 0.5,
+             "world": {"gyroscopic": "explicit", "substeps": 1}, "bodies": [box]}
+    result = fuzz.run(scene)
+    assert list(result["failures"]) == ["energy"]
+    # and with the default (midpoint) term the same spinner keeps its energy
+    del scene["world"]
+    result = fuzz.run(scene)
+    assert result["failures"] == {} and result["max_energy_gain"] < 1e-6
+
+
+def test_a_scene_runs_alone_and_prints_its_reproducer_line():
+    out = subprocess.run([sys.executable, "-m", "signorini.fuzz", "--scene", "5:3", "--json"],
+                         capture_output=True, text=True, timeout=300, check=True).stdout
+    result = json.loads(out.splitlines()[-1])
+    assert result["scene"] == "5:3" and result["steps"] == round(fuzz.DURATION / fuzz.generate(5, 3)["dt"])
+    assert fuzz.reproducer("5:3") == "python -m signorini.fuzz --scene 5:3"
+
+
+@pytest.fixture(scope="module")
+def sample():
+    lines = []
+    report = fuzz.run_many(SAMPLE_SCENES, SAMPLE_SEED, jobs=2, timeout=240.0, out=lines.append)
+    print("\n".join(lines))
+    return report, lines
+
+
+@pytest.mark.parametrize("kind", ["crash", "timeout", "exception", "nonfinite", "explosion", "tunnel", "energy"])
+def test_a_seeded_sample_meets_the_targets(sample, kind):
+    report, lines = sample
+    assert report["counts"][kind] == 0, "\n".join(line for line in lines if f"FAIL {kind} " in line)
+    assert lines[-1].startswith(f"fuzz {SAMPLE_SCENES} scenes, seed {SAMPLE_SEED}: ")
+
+
+@pytest.mark.xfail(reason="issue 8, open: speculative polytope edge-edge points and GJK/EPA witness points of "
+                          "cylinders can lie off their shapes (see the fuzzer's off_shape lines)", strict=False)
+def test_a_seeded_sample_has_every_contact_point_on_its_shapes(sample):
+    report, lines = sample
+    assert report["counts"]["off_shape"] == 0, "\n".join(line for line in lines if "FAIL off_shape " in line)
+
+
+def test_the_summary_counts_every_scene(sample):
+    report, lines = sample
+    assert len(report["results"]) == SAMPLE_SCENES
+    clean = sum(not r["failures"] for r in report["results"])
+    assert f": {clean} clean; " in lines[-1]
+    for r in report["results"]:
+        for key in ("max_overlap", "max_energy_gain", "max_point_error"):
+            assert math.isfinite(r[key])
