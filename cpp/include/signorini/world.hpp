@@ -191,6 +191,7 @@ class World {
   /// kinetic energy at its end T_1 exceeds both kExplosionFactor times and kExplosionFloor above
   /// T_0 + W, T_0 the kinetic energy at its start and W the work gravity and the external wrenches
   /// did over its motion, summed over the bodies where positive (contacts only take energy away).
+  /// Steps with a moving kinematic body are not checked: it can give any energy.
   void check_energy(double dt, double T0) const;
   /// Puts back what a failed step changed (state, warm-start cache, contact forces and torques).
   void undo_step();

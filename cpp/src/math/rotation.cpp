@@ -49,7 +49,10 @@ Quat4 unit_quaternion(const Quat4& q) {
     return s.str();
   };
   if (!q.allFinite()) throw std::invalid_argument("orientation quaternion must be finite, got " + text());
-  const double norm = q.stableNorm();  // scaled before the square: no overflow for huge entries
+  // the plain norm, or when its squares overflow or underflow (entries beyond ~1e154 or below
+  // ~1e-154) the scaled one, so that (1e300, 1e300, 0, 0) is a quarter turn, not an error
+  double norm = q.norm();
+  if (!std::isfinite(norm) || norm < 1e-150) norm = q.stableNorm();
   if (!(norm > 1e-12))
     throw std::invalid_argument("orientation quaternion " + text() + " is zero; use (1, 0, 0, 0) for no rotation");
   return q / norm;

@@ -284,8 +284,15 @@ BodyIndex World::add_body(const BodyDesc& desc) {
     const double density = desc.density ? *desc.density : *desc.mass / props.volume;
     mass = density * props.volume;
     inv_mass = 1.0 / mass;
-    I_body = (density * J_max) * J_unit;
-    I_body_inv = J_unit_inv / (density * J_max);
+    // the plain products (the same numbers as mass_properties at this density); the unit-scaled
+    // tensor above only decides flat against too small
+    I_body = density * props.inertia;
+    I_body_inv = I_body.inverse();
+    // a very large or small tensor whose determinant leaves double precision: inverted scaled
+    if (!I_body_inv.allFinite() || !I_body.allFinite()) {
+      I_body = (density * J_max) * J_unit;
+      I_body_inv = J_unit_inv / (density * J_max);
+    }
     auto number = [](double x) {
       std::ostringstream s;
       s << x;
@@ -484,6 +491,11 @@ void World::check_energy(double dt, double T0) const {
   // an overlap must not hide another's fall). Contacts only take energy away or pass it between
   // bodies, so T_1 stays below T_0 + W up to the integrator's rounding; a step that exceeds it by
   // the factor and the floor is an explosion.
+  // a moving kinematic body is a source of energy the balance cannot bound (its mass is
+  // infinite, its velocity the user's): such steps are not checked
+  for (std::size_t i = 0; i < model_.size(); ++i)
+    if (model_.is_kinematic[i] && model_.enabled[i] && (state_.v[i].squaredNorm() > 0.0 || state_.omega[i].squaredNorm() > 0.0))
+      return;
   double T1 = 0.0, W = 0.0;
   for (std::size_t i = 0; i < model_.size(); ++i) {
     if (model_.is_static[i] || model_.is_kinematic[i] || !model_.enabled[i]) continue;
