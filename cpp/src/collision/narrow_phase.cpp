@@ -8,6 +8,7 @@
 #include <variant>
 
 #include "collision/collision.hpp"
+#include "math/rotation.hpp"
 #include "signorini/collide.hpp"
 
 namespace signorini::collision {
@@ -426,13 +427,14 @@ namespace signorini {
 
 std::vector<Contact> collide(const Shape& shape_a, const Vec3& p_a, const Quat4& q_a, const Shape& shape_b,
                              const Vec3& p_b, const Quat4& q_b, double margin) {
+  // the one check of user quaternions (math::unit_quaternion), as for bodies
   auto rotation = [](const char* who, const Vec3& p, const Quat4& q) {
     if (!p.allFinite()) throw std::invalid_argument(std::string("collide: position of ") + who + " must be finite");
-    if (!q.allFinite() || !(q.stableNorm() > 1e-12))
-      throw std::invalid_argument(std::string("collide: orientation of ") + who +
-                                  " must be a finite non-zero quaternion (w, x, y, z)");
-    const Quat4 u = q / q.stableNorm();  // scaled norm: huge entries do not overflow
-    return Eigen::Quaterniond(u[0], u[1], u[2], u[3]).toRotationMatrix();
+    try {
+      return math::quat_to_matrix(math::unit_quaternion(q));
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("collide: shape ") + who + ": " + e.what());
+    }
   };
   const Mat3 R_a = rotation("A", p_a, q_a), R_b = rotation("B", p_b, q_b);
   if (!(std::isfinite(margin) && margin >= 0.0))
