@@ -299,11 +299,6 @@ void edge_contact(const View& A, const View& B, const EdgeQuery& e, const Pose& 
   const Vec3 q0 = B.v[EB.v0], w = B.v[EB.v1] - q0;
   double s, t;
   closest_on_lines(p0, u, q0, w, s, t);
-  // the points on the edges themselves: a speculative pair's lines can meet far beyond its edges
-  // (s clamped, then t for it, then s for that t: the closest points of the two segments)
-  s = std::clamp(s, 0.0, 1.0);
-  t = std::clamp((p0 + s * u - q0).dot(w) / w.squaredNorm(), 0.0, 1.0);
-  s = std::clamp((q0 + t * w - p0).dot(u) / u.squaredNorm(), 0.0, 1.0);
   Contact c;
   c.point = pa.R * (0.5 * ((p0 + s * u) + (q0 + t * w))) + pa.p;
   c.normal = pa.R * e.axis;
