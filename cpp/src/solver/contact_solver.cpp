@@ -56,28 +56,43 @@ inline void apply(const Row& r, double d_alpha, BodyVelocity& A, BodyVelocity& B
 
 inline void apply(const Row& r, double d_alpha, Velocities& qd) { apply(r, d_alpha, qd[r.a], qd[r.b]); }
 
-/// The row of direction d (unit, world) between bodies a and b, acting at lever arms r_a = y_a - p_a
-/// on A and r_b = y_b - p_b on B: J_A = -(r_a x d, d), J_B = (r_b x d, d),
-/// delta = dt (J_A M_A^-1 J_A + J_B M_B^-1 J_B).
-void make_row(const Model& model, const std::vector<Mat3>& I_inv, int a, int b, const Vec3& r_a, const Vec3& r_b,
-              const Vec3& d, double dt, Row& r) {
-  r.a = a;
-  r.b = b;
+/// The rows of one contact between bodies a and b, acting at lever arms r_a = y_a - p_a on A and
+/// r_b = y_b - p_b on B, along the directions d[0..2] (unit, world; normal, t1, t2):
+/// J_A = -(r_a x d, d), J_B = (r_b x d, d), delta = dt (J_A M_A^-1 J_A + J_B M_B^-1 J_B).
+/// dI_inv holds dt I_X^-1 per body (world). What the rows share (bodies, masses) is read once.
+void make_rows(const Model& model, const std::vector<Mat3>& dI_inv, int a, int b, const Vec3& r_a, const Vec3& r_b,
+               const Vec3* d, double dt, Row* r) {
   // static and kinematic bodies have infinite mass here: contacts never change their velocities
-  r.a_moves = !model.is_static[a] && !model.is_kinematic[a];
-  r.b_moves = !model.is_static[b] && !model.is_kinematic[b];
-  r.J_lin = d;
-  r.JA_ang = -r_a.cross(d);
-  r.JB_ang = r_b.cross(d);
-  r.dMJA_ang = dt * (I_inv[a] * r.JA_ang);
-  r.dMJB_ang = dt * (I_inv[b] * r.JB_ang);
-  r.dinv_mass_a = dt * model.inv_mass[a];
-  r.dinv_mass_b = dt * model.inv_mass[b];
-  r.delta = r.JB_ang.dot(r.dMJB_ang) + r.JA_ang.dot(r.dMJA_ang) + (r.dinv_mass_a + r.dinv_mass_b) * d.squaredNorm();
-  r.inv_delta = r.delta > 0.0 ? 1.0 / r.delta : 0.0;
-  r.bias = 0.0;
-  r.normal = -1;
-  r.mu = 0.0;
+  const bool a_moves = !model.is_static[a] && !model.is_kinematic[a];
+  const bool b_moves = !model.is_static[b] && !model.is_kinematic[b];
+  const double dinv_mass_a = a_moves ? dt * model.inv_mass[a] : 0.0;
+  const double dinv_mass_b = b_moves ? dt * model.inv_mass[b] : 0.0;
+  for (int k = 0; k < 3; ++k) {
+    Row& x = r[k];
+    x.a = a;
+    x.b = b;
+    x.a_moves = a_moves;
+    x.b_moves = b_moves;
+    x.J_lin = d[k];
+    x.JA_ang = -r_a.cross(d[k]);
+    x.JB_ang = r_b.cross(d[k]);
+    x.dMJA_ang = a_moves ? Vec3(dI_inv[a] * x.JA_ang) : Vec3::Zero();
+    x.dMJB_ang = b_moves ? Vec3(dI_inv[b] * x.JB_ang) : Vec3::Zero();
+    x.dinv_mass_a = dinv_mass_a;
+    x.dinv_mass_b = dinv_mass_b;
+    x.delta = x.JB_ang.dot(x.dMJB_ang) + x.JA_ang.dot(x.dMJA_ang) + (dinv_mass_a + dinv_mass_b) * d[k].squaredNorm();
+    x.inv_delta = x.delta > 0.0 ? 1.0 / x.delta : 0.0;
+    x.bias = 0.0;
+    x.normal = -1;
+    x.mu = 0.0;
+    x.W_n = x.W_t1 = 0.0;
+  }
+}
+
+/// W_jk = dt J_j M^-1 J_k^T (s/kg) of two rows on the same bodies: how much a force change of row k
+/// moves row j's velocity.
+double coupling(const Row& j, const Row& k) {
+  return j.JB_ang.dot(k.dMJB_ang) + j.JA_ang.dot(k.dMJA_ang) + (k.dinv_mass_a + k.dinv_mass_b) * j.J_lin.dot(k.J_lin);
 }
 
 /// Scales (a1, a2) onto the disk of radius bound when it lies outside.
@@ -105,20 +120,21 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
     const Material& ma = model.material[a];
     const Material& mb = model.material[b];
     const double mu = std::sqrt(ma.friction * mb.friction);
-    Vec3 t1, t2;
-    tangent_basis(c.normal, t1, t2);
+    Vec3 dir[3];
+    dir[0] = c.normal;
+    tangent_basis(c.normal, dir[1], dir[2]);
     Row* r = &d.rows[3 * i];
     const Vec3 r_a = (anchor_a ? (*anchor_a)[i] : c.point) - state.p[a];
     const Vec3 r_b = (anchor_b ? (*anchor_b)[i] : c.point) - state.p[b];
-    make_row(model, d.I_inv, a, b, r_a, r_b, c.normal, dt, r[0]);
-    make_row(model, d.I_inv, a, b, r_a, r_b, t1, dt, r[1]);
-    make_row(model, d.I_inv, a, b, r_a, r_b, t2, dt, r[2]);
+    make_rows(model, d.dI_inv, a, b, r_a, r_b, dir, dt, r);
     // a speculative contact may close its gap, no more; an overlap is left to the position pass
     r[0].bias = std::max(c.gap, 0.0) / dt;
     for (int k = 1; k <= 2; ++k) {
       r[k].normal = static_cast<int>(3 * i);
       r[k].mu = mu;
+      r[k].W_n = coupling(r[k], r[0]);
     }
+    r[2].W_t1 = coupling(r[2], r[1]);
     d.u[i] = row_velocity(r[0], d.qd);
     d.e[i] = std::max(ma.restitution, mb.restitution);
   }
@@ -191,36 +207,66 @@ inline double update_normal(const Row& r, double bias, double& alpha, Velocities
 
 /// One contact's three rows in a sweep (normal, then its two friction rows) on the velocities A, B
 /// of its bodies; change = max(change, the rows' delta |d_alpha|).
+/// This is the lecture's Gauss-Seidel order, row after row, written so that the three rows do not
+/// wait on each other through the body velocities: their velocities are read from A and B once,
+/// each later row adds the changes of the rows before it through the Delassus entries W_jk, and
+/// the three force changes reach A and B together at the end. Same sums, other rounding.
 inline void contact_rows(const SolverSettings& s, const Row* r, double* alpha, BodyVelocity& A, BodyVelocity& B,
                          double& change) {
+  if (!(r[0].delta > 0.0)) return;  // both bodies static: never produced by the narrow phase
   // normal: the lecture's projection onto alpha >= 0
-  change = std::max(change, update_normal(r[0], r[0].bias, alpha[0], A, B));
+  const double gamma = row_velocity(r[0], A, B) + (r[0].bias - r[0].delta * alpha[0]);
+  const double a0 = std::max(-gamma * r[0].inv_delta, 0.0);
+  const double d0 = a0 - alpha[0];
+  alpha[0] = a0;
   // friction: Coulomb, bounded by mu times the current normal force
-  const double bound = r[1].mu * alpha[0];
-  if (!(r[1].delta > 0.0)) return;
-  if (s.friction_cone == FrictionCone::Cone) {
-    // one scale for both rows, so that the projection onto the disk acts on the slip itself
-    // (with each row's own delta the converged friction opposes a scaled slip, not the slip)
-    const double delta_t = std::max(r[1].delta, r[2].delta);
-    double a1 = alpha[1] - row_velocity(r[1], A, B) / delta_t;
-    double a2 = alpha[2] - row_velocity(r[2], A, B) / delta_t;
-    clamp_to_disk(a1, a2, bound);
-    const double d1 = a1 - alpha[1], d2 = a2 - alpha[2];
-    alpha[1] = a1;
-    alpha[2] = a2;
-    if (d1 != 0.0) apply(r[1], d1, A, B);
-    if (d2 != 0.0) apply(r[2], d2, A, B);
-    change = std::max({change, r[1].delta * std::abs(d1), r[2].delta * std::abs(d2)});
-    return;
+  const double bound = r[1].mu * a0;
+  double d1 = 0.0, d2 = 0.0;
+  if (bound == 0.0) {
+    // a zero bound projects any friction force to 0 (a separating or speculative contact): the
+    // friction rows' velocities are not needed
+    d1 = -alpha[1];
+    d2 = -alpha[2];
+    alpha[1] = alpha[2] = 0.0;
+  } else if (r[1].delta > 0.0) {
+    // A and B are untouched so far: the rows read the velocities the normal row read
+    const double v1 = row_velocity(r[1], A, B), v2 = row_velocity(r[2], A, B);
+    const double u1 = v1 + r[1].W_n * d0;
+    if (s.friction_cone == FrictionCone::Cone) {
+      // one scale for both rows, so that the projection onto the disk acts on the slip itself
+      // (with each row's own delta the converged friction opposes a scaled slip, not the slip)
+      const double u2 = v2 + r[2].W_n * d0;
+      const double delta_t = std::max(r[1].delta, r[2].delta);
+      double a1 = alpha[1] - u1 / delta_t;
+      double a2 = alpha[2] - u2 / delta_t;
+      clamp_to_disk(a1, a2, bound);
+      d1 = a1 - alpha[1];
+      d2 = a2 - alpha[2];
+      alpha[1] = a1;
+      alpha[2] = a2;
+    } else {
+      const double a1 = std::clamp(-(u1 - r[1].delta * alpha[1]) * r[1].inv_delta, -bound, bound);
+      d1 = a1 - alpha[1];
+      alpha[1] = a1;
+      const double u2 = v2 + (r[2].W_n * d0 + r[2].W_t1 * d1);
+      const double a2 = std::clamp(-(u2 - r[2].delta * alpha[2]) * r[2].inv_delta, -bound, bound);
+      d2 = a2 - alpha[2];
+      alpha[2] = a2;
+    }
   }
-  for (int k = 1; k <= 2; ++k) {
-    const double gamma = row_velocity(r[k], A, B) - r[k].delta * alpha[k];
-    const double a = std::clamp(-gamma * r[k].inv_delta, -bound, bound);
-    const double da = a - alpha[k];
-    if (da == 0.0) continue;
-    alpha[k] = a;
-    apply(r[k], da, A, B);
-    change = std::max(change, r[k].delta * std::abs(da));
+  change = std::max({change, r[0].delta * std::abs(d0), r[1].delta * std::abs(d1), r[2].delta * std::abs(d2)});
+  if (d0 == 0.0 && d1 == 0.0 && d2 == 0.0) return;
+  // q_dot_X += sum_k d_alpha_k dt M_X^-1 J_X,k; a body that does not move is skipped (its factors
+  // times an overflowing d_alpha would give NaN)
+  if (r[0].a_moves) {
+    A.omega += d0 * r[0].dMJA_ang + d1 * r[1].dMJA_ang + d2 * r[2].dMJA_ang;
+    A.v -= (d0 * r[0].dinv_mass_a) * r[0].J_lin + (d1 * r[1].dinv_mass_a) * r[1].J_lin +
+           (d2 * r[2].dinv_mass_a) * r[2].J_lin;
+  }
+  if (r[0].b_moves) {
+    B.omega += d0 * r[0].dMJB_ang + d1 * r[1].dMJB_ang + d2 * r[2].dMJB_ang;
+    B.v += (d0 * r[0].dinv_mass_b) * r[0].J_lin + (d1 * r[1].dinv_mass_b) * r[1].J_lin +
+           (d2 * r[2].dinv_mass_b) * r[2].J_lin;
   }
 }
 
@@ -401,9 +447,9 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   data.body_torque.assign(N, Vec3::Zero());
   data.qd_p.assign(N, BodyVelocity());
   data.qd.resize(N);
-  data.I_inv.resize(N);
+  data.dI_inv.resize(N);
   for (std::size_t i = 0; i < N; ++i) {
-    data.I_inv[i] = dynamics::inverse_inertia_world(model, state, i);
+    data.dI_inv[i] = dt * dynamics::inverse_inertia_world(model, state, i);
     data.qd[i].omega = omega[i];
     data.qd[i].v = v[i];
   }

@@ -16,7 +16,7 @@ namespace signorini::solver {
 
 /// One constraint row: a Jacobian pair with bounds. It knows bodies and directions, never a
 /// Contact, so joints can add rows of their own (any point constraint has J_A_lin = -J_B_lin).
-/// Hot data, read and written by every sweep, so it is kept lean (184 bytes; the linear parts
+/// Hot data, read and written by every sweep, so it is kept lean (200 bytes; the linear parts
 /// M^-1 J_lin = m^-1 J_lin are not stored, J_A_lin is -J_lin, and the step dt is folded into
 /// dt M^-1 J so that a force change reaches the velocities in one product):
 ///   J_A = (JA_ang, -J_lin), J_B = (JB_ang, J_lin) in the (omega, p_dot) layout (6 each);
@@ -35,6 +35,11 @@ struct Row {
   double inv_delta = 0.0;       ///< 1 / delta (0 when delta = 0): sweeps multiply, never divide
   double bias = 0.0;            ///< b (m/s): the row asks J q_dot + b >= 0 (normal rows)
   double mu = 0.0;              ///< friction rows: the bound is mu alpha_normal
+  /// friction rows: the off-diagonal Delassus entries W_jk = dt J_j M^-1 J_k^T (s/kg) coupling this
+  /// row j to its normal row (W_n) and, for t2, to t1 (W_t1); a force change d_alpha_k of row k
+  /// changes this row's velocity by W_jk d_alpha_k, so a sweep gets the velocity a row sees after
+  /// the rows before it in the same contact without waiting for the body velocities to be updated
+  double W_n = 0.0, W_t1 = 0.0;
 };
 
 /// A body's velocity as one sweep reads it: omega and p_dot side by side (48 bytes), so a row
@@ -56,7 +61,7 @@ struct SolverData {
   // per body: the velocities being solved (copied in and out of the caller's v, omega), the
   // pseudo-velocities of the position pass, and the velocities that move the poses (after iterate)
   std::vector<BodyVelocity> qd, qd_p;
-  std::vector<Mat3> I_inv;  ///< per body: world inverse inertia R I_body^-1 R^T at the step's start
+  std::vector<Mat3> dI_inv;  ///< per body: dt times the world inverse inertia R I_body^-1 R^T at the step's start
   std::vector<Vec3> v_pos, omega_pos, v_p, omega_p;
   // per body: summed contact force (N) and torque about the com (N m), world
   std::vector<Vec3> body_force, body_torque;
