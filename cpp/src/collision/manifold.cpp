@@ -27,9 +27,10 @@ std::size_t first_best(const std::vector<Contact>& c, double tol, Score score) {
 void finish_manifold(std::vector<Contact>& c, double threshold, double L, std::vector<Contact>& out, bool reduce) {
   c.erase(std::remove_if(c.begin(), c.end(), [&](const Contact& x) { return !(x.gap < threshold); }), c.end());
   if (c.empty()) return;
-  std::sort(c.begin(), c.end(), [](const Contact& x, const Contact& y) {
+  const auto by_ids = [](const Contact& x, const Contact& y) {
     return x.feature_a != y.feature_a ? x.feature_a < y.feature_a : x.feature_b < y.feature_b;
-  });
+  };
+  if (!std::is_sorted(c.begin(), c.end(), by_ids)) std::sort(c.begin(), c.end(), by_ids);
   const double tol = 1e-9 * L, tol2 = 1e-9 * L * L;
   // exact duplicates (the same point reached through two features, e.g. a corner of two triangles)
   std::size_t kept = 0;

@@ -45,6 +45,17 @@ struct View {
     }
     centroid = R * P.centroid + t;
   }
+  /// place() at the identity (the polytope in its own frame): the same numbers, copied
+  void place_local(const Polytope& P, std::uint32_t part_index) {
+    topo = &P;
+    part = part_index;
+    const Eigen::Index nv = P.vertices.rows();
+    v.resize(nv);
+    for (Eigen::Index i = 0; i < nv; ++i) v[i] = P.vertex(static_cast<int>(i));
+    n.assign(P.normals.begin(), P.normals.end());
+    d.assign(P.offsets.begin(), P.offsets.end());
+    centroid = P.centroid;
+  }
   /// min over vertices of n . v
   double min_along(const Vec3& dir) const {
     double m = kInf;
@@ -338,7 +349,7 @@ void edge_crossing(const View& ref, FeatureId ref_edge, const View& inc, Feature
 /// face is `ref` face f; `ref_is_a` says whether the reference polytope is A.
 void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double threshold,
                 const Mat3& R_a, const Vec3& p_a, std::vector<ClipVertex>& poly, std::vector<ClipVertex>& next,
-                std::vector<Contact>& out, const std::array<bool, 3>* ref_active = nullptr) {
+                std::vector<double>& dist, std::vector<Contact>& out, const std::array<bool, 3>* ref_active = nullptr) {
   const Vec3& n_ref = ref.n[f];
   // incident face: among the faces around the incident shape's deepest vertex along -n_ref, the
   // most anti-parallel (first on ties). For a box that is its most anti-parallel face; on a hull
@@ -367,13 +378,18 @@ void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double t
   for (std::size_t k = 0; k < m && !poly.empty(); ++k) {
     const Vec3& r0 = ref.v[ref_loop[k]];
     const Vec3& r1 = ref.v[ref_loop[(k + 1) % m]];
-    const Vec3 side = (r1 - r0).cross(n_ref).normalized();
+    // the side plane, outward; not normalised: only the signs of the distances and their ratio
+    // are used
+    const Vec3 side = (r1 - r0).cross(n_ref);
     const double c = side.dot(r0);
     next.clear();
+    dist.clear();
+    for (const ClipVertex& P : poly) dist.push_back(side.dot(P.q) - c);
     for (std::size_t i = 0; i < poly.size(); ++i) {
+      const std::size_t j = i + 1 < poly.size() ? i + 1 : 0;
       const ClipVertex& P = poly[i];
-      const ClipVertex& Q = poly[(i + 1) % poly.size()];
-      const double dP = side.dot(P.q) - c, dQ = side.dot(Q.q) - c;
+      const ClipVertex& Q = poly[j];
+      const double dP = dist[i], dQ = dist[j];
       if (dP <= 0.0) next.push_back(P);
       if ((dP <= 0.0) != (dQ <= 0.0)) {
         ClipVertex X;
@@ -432,6 +448,7 @@ struct PolytopeScratch {
   View A, B;
   EdgeBuffers edges;
   std::vector<ClipVertex> poly, next;
+  std::vector<double> dist;  ///< the polygon's distances to the side plane being clipped against
 };
 
 
@@ -447,7 +464,7 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   View& B = scratch.B;
   const Mat3 R_ab = pa.R.transpose() * pb.R;
   const Vec3 t_ab = pa.R.transpose() * (pb.p - pa.p);
-  A.place(a, Mat3::Identity(), Vec3::Zero(), part_a);
+  A.place_local(a, part_a);
   B.place(b, R_ab, t_ab, part_b);
   const FaceQuery fa = face_query(A, B);
   if (!(fa.separation < threshold)) {
@@ -478,9 +495,9 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   }
   const double face_tol = std::abs(A.n[fa.face].dot(B.n[fb.face])) >= kNearlyParallel ? tol : 1e-9 * L;
   if (fb.separation > fa.separation + face_tol)
-    clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, out);
+    clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
   else
-    clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, out);
+    clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
 }
 
 double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope& b, const Pose& pb) {
@@ -496,7 +513,7 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
                        double threshold, PolytopeScratch& scratch, std::vector<Contact>& out) {
   View& A = scratch.A;
   View& B = scratch.B;
-  A.place(tri, Mat3::Identity(), Vec3::Zero(), triangle);
+  A.place_local(tri, triangle);
   B.place(b, pa.R.transpose() * pb.R, pa.R.transpose() * (pb.p - pa.p), part_b);
   // one-sided: only the front face pushes, and a body whose centre is behind it is left alone
   if (A.n[0].dot(B.centroid) < A.d[0]) return;
@@ -548,9 +565,9 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
     return;
   }
   if (fb.separation > sep_a + tol)
-    clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, out);
+    clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
   else
-    clip_faces(A, 0, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, out, &active);
+    clip_faces(A, 0, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out, &active);
 }
 
 }  // namespace signorini::collision

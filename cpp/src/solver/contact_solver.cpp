@@ -1,6 +1,7 @@
 #include "solver/contact_solver.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -106,10 +107,48 @@ void clamp_to_disk(double& a1, double& a2, double bound) {
 }
 
 // ---- a. prepare ---------------------------------------------------------------------------------
-/// Rows (normal, t1, t2 per contact), pair materials, and u_i = J_n q_dot* (before the solve).
+/// The solve order (docs/conventions.md, "Solve order"): contacts coloured greedily in contact
+/// order, each taking the lowest of 64 colours that none of its moving bodies has yet (the rest
+/// share a 65th), then listed colour by colour, in contact order within a colour. Consecutive
+/// contacts then rarely share a body, so a sweep does not wait for one contact's velocity update
+/// before starting the next (the idea of Box2D v3's graph colouring, here for one thread).
+/// Out: d.order (K: solve position -> contact), d.slot (K: contact -> solve position).
+void solve_order(const Model& model, const std::vector<Contact>& contacts, SolverData& d) {
+  const std::size_t K = contacts.size();
+  constexpr int kColours = 65;
+  assign_n(d.colours_used, model.size(), std::uint64_t(0));
+  d.slot.resize(K);  // the colour of each contact first
+  std::array<int, kColours + 1> start{};
+  for (std::size_t i = 0; i < K; ++i) {
+    const int a = contacts[i].body_a, b = contacts[i].body_b;
+    const bool a_moves = !model.is_static[a] && !model.is_kinematic[a];
+    const bool b_moves = !model.is_static[b] && !model.is_kinematic[b];
+    const std::uint64_t taken = (a_moves ? d.colours_used[a] : 0) | (b_moves ? d.colours_used[b] : 0);
+    int colour = kColours - 1;
+    if (~taken != 0) {
+      colour = 0;
+      while (taken >> colour & 1) ++colour;
+      if (a_moves) d.colours_used[a] |= std::uint64_t(1) << colour;
+      if (b_moves) d.colours_used[b] |= std::uint64_t(1) << colour;
+    }
+    d.slot[i] = colour;
+    ++start[colour + 1];
+  }
+  for (int c = 0; c < kColours; ++c) start[c + 1] += start[c];
+  d.order.resize(K);
+  for (std::size_t i = 0; i < K; ++i) {
+    const int k = start[d.slot[i]]++;
+    d.order[k] = static_cast<int>(i);
+    d.slot[i] = k;
+  }
+}
+
+/// Rows (normal, t1, t2 per contact, stored in solve order), pair materials, and u_i = J_n q_dot*
+/// (before the solve).
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
              const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d) {
   const std::size_t K = contacts.size();
+  solve_order(model, contacts, d);
   d.rows.resize(3 * K);
   assign_n(d.alpha, 3 * K, 0.0);
   d.u.resize(K);
@@ -123,14 +162,14 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
     Vec3 dir[3];
     dir[0] = c.normal;
     tangent_basis(c.normal, dir[1], dir[2]);
-    Row* r = &d.rows[3 * i];
+    Row* r = &d.rows[3 * d.slot[i]];
     const Vec3 r_a = (anchor_a ? (*anchor_a)[i] : c.point) - state.p[a];
     const Vec3 r_b = (anchor_b ? (*anchor_b)[i] : c.point) - state.p[b];
     make_rows(model, d.dI_inv, a, b, r_a, r_b, dir, dt, r);
     // a speculative contact may close its gap, no more; an overlap is left to the position pass
     r[0].bias = std::max(c.gap, 0.0) / dt;
     for (int k = 1; k <= 2; ++k) {
-      r[k].normal = static_cast<int>(3 * i);
+      r[k].normal = 3 * d.slot[i];
       r[k].mu = mu;
       r[k].W_n = coupling(r[k], r[0]);
     }
@@ -168,7 +207,8 @@ void warm_start(const SolverSettings& s, const std::vector<Contact>& contacts, S
     const std::size_t j = static_cast<std::size_t>(it - d.cache.begin());
     if (d.cache_used[j]) continue;  // an equal key earlier in contact order took it
     d.cache_used[j] = 1;
-    const Row* r = &d.rows[3 * i];
+    const std::size_t k = 3 * static_cast<std::size_t>(d.slot[i]);
+    const Row* r = &d.rows[k];
     const double alpha_n = it->alpha;
     double a1 = it->friction.dot(r[1].J_lin), a2 = it->friction.dot(r[2].J_lin);
     const double bound = r[1].mu * alpha_n;
@@ -178,9 +218,9 @@ void warm_start(const SolverSettings& s, const std::vector<Contact>& contacts, S
       a1 = std::clamp(a1, -bound, bound);
       a2 = std::clamp(a2, -bound, bound);
     }
-    d.alpha[3 * i] = alpha_n;
-    d.alpha[3 * i + 1] = a1;
-    d.alpha[3 * i + 2] = a2;
+    d.alpha[k] = alpha_n;
+    d.alpha[k + 1] = a1;
+    d.alpha[k + 2] = a2;
   }
   for (std::size_t k = 0; k < d.rows.size(); ++k)
     if (d.alpha[k] != 0.0) apply(d.rows[k], d.alpha[k], d.qd);
@@ -215,8 +255,8 @@ inline void contact_rows(const SolverSettings& s, const Row* r, double* alpha, B
                          double& change) {
   if (!(r[0].delta > 0.0)) return;  // both bodies static: never produced by the narrow phase
   // normal: the lecture's projection onto alpha >= 0
-  const double gamma = row_velocity(r[0], A, B) + (r[0].bias - r[0].delta * alpha[0]);
-  const double a0 = std::max(-gamma * r[0].inv_delta, 0.0);
+  // (alpha - (J q_dot + b) / delta is -gamma / delta of the lecture, with gamma = J q_dot + b - delta alpha)
+  const double a0 = std::max(alpha[0] - (row_velocity(r[0], A, B) + r[0].bias) * r[0].inv_delta, 0.0);
   const double d0 = a0 - alpha[0];
   alpha[0] = a0;
   // friction: Coulomb, bounded by mu times the current normal force
@@ -245,11 +285,11 @@ inline void contact_rows(const SolverSettings& s, const Row* r, double* alpha, B
       alpha[1] = a1;
       alpha[2] = a2;
     } else {
-      const double a1 = std::clamp(-(u1 - r[1].delta * alpha[1]) * r[1].inv_delta, -bound, bound);
+      const double a1 = std::clamp(alpha[1] - u1 * r[1].inv_delta, -bound, bound);
       d1 = a1 - alpha[1];
       alpha[1] = a1;
       const double u2 = v2 + (r[2].W_n * d0 + r[2].W_t1 * d1);
-      const double a2 = std::clamp(-(u2 - r[2].delta * alpha[2]) * r[2].inv_delta, -bound, bound);
+      const double a2 = std::clamp(alpha[2] - u2 * r[2].inv_delta, -bound, bound);
       d2 = a2 - alpha[2];
       alpha[2] = a2;
     }
@@ -258,19 +298,19 @@ inline void contact_rows(const SolverSettings& s, const Row* r, double* alpha, B
   if (d0 == 0.0 && d1 == 0.0 && d2 == 0.0) return;
   // q_dot_X += sum_k d_alpha_k dt M_X^-1 J_X,k; a body that does not move is skipped (its factors
   // times an overflowing d_alpha would give NaN)
+  // (the rows share the bodies' masses: the linear parts are m^-1 times the summed force change)
+  const Vec3 dP = d0 * r[0].J_lin + d1 * r[1].J_lin + d2 * r[2].J_lin;
   if (r[0].a_moves) {
     A.omega += d0 * r[0].dMJA_ang + d1 * r[1].dMJA_ang + d2 * r[2].dMJA_ang;
-    A.v -= (d0 * r[0].dinv_mass_a) * r[0].J_lin + (d1 * r[1].dinv_mass_a) * r[1].J_lin +
-           (d2 * r[2].dinv_mass_a) * r[2].J_lin;
+    A.v -= r[0].dinv_mass_a * dP;
   }
   if (r[0].b_moves) {
     B.omega += d0 * r[0].dMJB_ang + d1 * r[1].dMJB_ang + d2 * r[2].dMJB_ang;
-    B.v += (d0 * r[0].dinv_mass_b) * r[0].J_lin + (d1 * r[1].dinv_mass_b) * r[1].J_lin +
-           (d2 * r[2].dinv_mass_b) * r[2].J_lin;
+    B.v += r[0].dinv_mass_b * dP;
   }
 }
 
-/// PGS sweeps over all rows (normal, then its two friction rows, contact by contact).
+/// PGS sweeps over all rows (normal, then its two friction rows, contact by contact in solve order).
 /// Returns the sweeps used; converged tells whether the last one met the tolerance.
 int iterate(const SolverSettings& s, SolverData& d, bool& converged) {
   Velocities& qd = d.qd;
@@ -280,9 +320,9 @@ int iterate(const SolverSettings& s, SolverData& d, bool& converged) {
   while (!converged && sweeps < s.max_iterations) {
     ++sweeps;
     double change = 0.0;
-    for (std::size_t i = 0; i < K; ++i) {
-      const Row* r = &d.rows[3 * i];
-      double* alpha = &d.alpha[3 * i];
+    for (std::size_t k = 0; k < K; ++k) {  // in solve order, as the rows are stored
+      const Row* r = &d.rows[3 * k];
+      double* alpha = &d.alpha[3 * k];
       // the contact's two bodies, held locally through its three rows (the same arithmetic; the
       // velocities need not go through memory between rows) and stored back after
       BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
@@ -303,7 +343,7 @@ int restitution(const SolverSettings& s, SolverData& d) {
   assign_n(d.restitutive, K, char(0));
   bool any = false;
   for (std::size_t i = 0; i < K; ++i) {
-    d.restitutive[i] = d.e[i] > 0.0 && d.u[i] < -s.restitution_threshold && d.alpha[3 * i] > 0.0;
+    d.restitutive[i] = d.e[i] > 0.0 && d.u[i] < -s.restitution_threshold && d.alpha[3 * d.slot[i]] > 0.0;
     any = any || d.restitutive[i];
   }
   if (!any) return 0;
@@ -312,9 +352,11 @@ int restitution(const SolverSettings& s, SolverData& d) {
   while (!converged && sweeps < s.max_iterations) {
     ++sweeps;
     double change = 0.0;
-    for (std::size_t i = 0; i < K; ++i)
+    for (std::size_t k = 0; k < K; ++k) {  // in solve order
+      const int i = d.order[k];
       if (d.restitutive[i])
-        change = std::max(change, update_normal(d.rows[3 * i], d.e[i] * d.u[i], d.alpha[3 * i], d.qd));
+        change = std::max(change, update_normal(d.rows[3 * k], d.e[i] * d.u[i], d.alpha[3 * k], d.qd));
+    }
     converged = s.tolerance > 0.0 && change <= s.tolerance;
   }
   return sweeps;
@@ -342,8 +384,10 @@ int position_pass(double dt, const SolverSettings& s, const std::vector<Contact>
   while (!converged && sweeps < s.max_iterations) {
     ++sweeps;
     double change = 0.0;
-    for (std::size_t i = 0; i < K; ++i)
-      change = std::max(change, update_normal(d.rows[3 * i], -d.b_pos[i], d.beta[i], d.qd_p));
+    for (std::size_t k = 0; k < K; ++k) {  // in solve order
+      const int i = d.order[k];
+      change = std::max(change, update_normal(d.rows[3 * k], -d.b_pos[i], d.beta[i], d.qd_p));
+    }
     converged = s.tolerance > 0.0 && change <= s.tolerance;
   }
   return sweeps;
@@ -356,8 +400,8 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   d.cache_next.resize(K);
   for (std::size_t i = 0; i < K; ++i) {
     Contact& c = contacts[i];
-    const Row* r = &d.rows[3 * i];
-    const double* alpha = &d.alpha[3 * i];
+    const Row* r = &d.rows[3 * d.slot[i]];
+    const double* alpha = &d.alpha[3 * d.slot[i]];
     // forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2 (on B; A gets the opposite)
     c.alpha = alpha[0];
     c.impulse = dt * alpha[0];
@@ -459,7 +503,7 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   if (settings.warm_start) warm_start(settings, contacts, data);
   stats.iterations = iterate(settings, data, stats.converged);
   data.alpha_iter.resize(K);
-  for (std::size_t i = 0; i < K; ++i) data.alpha_iter[i] = data.alpha[3 * i];
+  for (std::size_t i = 0; i < K; ++i) data.alpha_iter[i] = data.alpha[3 * data.slot[i]];
   // the poses move with the velocities of c; d changes only the kept ones
   data.v_pos.resize(N);
   data.omega_pos.resize(N);

@@ -51,9 +51,13 @@ struct BodyVelocity {
 
 /// Everything the solver keeps between steps (the cache) or reuses (scratch), as flat arrays.
 struct SolverData {
-  // rows: 3 per contact (normal, t1, t2), in contact order; their forces alpha (N)
+  // rows: 3 per contact (normal, t1, t2), in solve order (contact order[k] at 3k); their forces
+  // alpha (N); the solve order (order: position -> contact, slot: contact -> position) and the
+  // colours each body has taken while it was made (a bit per colour)
   std::vector<Row> rows;
   std::vector<double> alpha;
+  std::vector<int> order, slot;
+  std::vector<std::uint64_t> colours_used;
   // per contact (cold): pre-solve normal velocity u_i (m/s), restitution e_i, whether stage d
   // applies, position-pass target b_pos (m/s) and pseudo-force beta (N)
   std::vector<double> u, e, b_pos, beta;

@@ -29,7 +29,7 @@ of a contact by one delta_t = max(delta_1, delta_2) instead of each by its own d
 
 import numpy as np
 
-from .rigid import GYROSCOPIC_DEFAULT, GYROSCOPIC_OPTIONS, body_arrays, inverse_mass_blocks
+from .rigid import GYROSCOPIC_DEFAULT, GYROSCOPIC_OPTIONS, body_arrays, inverse_mass_blocks, motion_flags
 
 # the documented defaults (conventions, last paragraph); a snapshot without a key uses these
 DEFAULT_SETTINGS = {
@@ -157,6 +157,39 @@ def contact_anchors(contacts):
     return y_A, y_B
 
 
+def solve_order(snapshot, contacts):
+    """The order the sweeps visit the contacts in (docs/conventions.md, step 3, "Solve order").
+
+    Greedy colouring in contact order: contact i takes the lowest of the colours 0..63 that
+    neither of its moving (not static, not kinematic) bodies has taken yet, or colour 64 when
+    all are taken; the order lists colour 0's contacts, then colour 1's, ..., each in contact
+    order. Consecutive contacts then rarely share a body, which lets the core's sweep start one
+    contact before the previous one's velocity update is done; the order is part of the method,
+    so the oracle repeats it.
+
+    Inputs: snapshot (bodies), contacts dict (body_a, body_b, K). Output: order (K,) int64.
+    """
+    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1).tolist()
+    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1).tolist()
+    static, _, _, _ = body_arrays(snapshot)
+    kinematic, _ = motion_flags(snapshot)
+    free = (~static & ~kinematic).tolist()
+    used = [0] * len(free)
+    everything = (1 << 64) - 1
+    colour = []
+    for a, b in zip(A, B):
+        taken = (used[a] if free[a] else 0) | (used[b] if free[b] else 0)
+        if taken == everything:
+            colour.append(64)
+            continue
+        c = ((taken + 1) & ~taken).bit_length() - 1   # the lowest zero bit
+        for x in (a, b):
+            if free[x]:
+                used[x] |= 1 << c
+        colour.append(c)
+    return np.argsort(np.asarray(colour, dtype=np.int64), kind="stable")
+
+
 def prepare_rows(snapshot, contacts, q_dot_star, dt):
     """Stage a: the rows of every contact and the contact constants.
 
@@ -172,6 +205,7 @@ def prepare_rows(snapshot, contacts, q_dot_star, dt):
         moves        (N,) bool, False for static bodies
         bias         (K,) m/s, b_i = max(gap_i, 0) / dt
         gap          (K,) m;  mu, e (K,) materials;  u (K,) m/s, J_n q_dot* (< 0 approaching)
+        order        (K,) int64, the solve order (``solve_order``)
     """
     p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
     A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
@@ -203,7 +237,7 @@ def prepare_rows(snapshot, contacts, q_dot_star, dt):
     static, _, _, _ = body_arrays(snapshot)
     return {"a": a, "b": b, "direction": d, "J_A": J_A, "J_B": J_B, "MJ_A": MJ_A, "MJ_B": MJ_B,
             "delta": delta, "moves": ~static, "bias": speculative_bias(contacts, dt), "gap": gap,
-            "mu": mu, "e": e, "u": u}
+            "mu": mu, "e": e, "u": u, "order": solve_order(snapshot, contacts)}
 
 
 class _Sweep:
@@ -303,17 +337,19 @@ def warm_start(rows, contacts, cache, q_dot, dt, friction_cone):
                                   float(rows["mu"][i]) * alpha_n, friction_cone)
         alpha[3 * i:3 * i + 3] = alpha_n, a1, a2
 
-    # apply them in row order
+    # apply them in solve order
     sweep = _Sweep(rows, dt)
-    for k in np.flatnonzero(alpha != 0.0).tolist():
-        sweep.apply(k, float(alpha[k]), q_dot)
+    for i in rows["order"].tolist():
+        for k in (3 * i, 3 * i + 1, 3 * i + 2):
+            if alpha[k] != 0.0:
+                sweep.apply(k, float(alpha[k]), q_dot)
     return alpha
 
 
 # --------------------------------------------------------------------------- c. iterate
 
 def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone):
-    """Stage c: projected Gauss-Seidel sweeps over all rows in row order.
+    """Stage c: projected Gauss-Seidel sweeps over all rows, contact by contact in solve order.
 
     Per contact i, with its current alpha_n:
         normal:  gamma = J q_dot - delta alpha + b_i, alpha <- max(-gamma / delta, 0)
@@ -343,12 +379,13 @@ def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone):
     K = len(rows["mu"])
     bias, mu = rows["bias"].tolist(), rows["mu"].tolist()
     delta = sweep.delta
+    order = rows["order"].tolist()
     x = alpha.tolist()
     iterations, converged = 0, K == 0
     while not converged and iterations < max_iterations:
         iterations += 1
         change = 0.0
-        for i in range(K):
+        for i in order:
             n, k1, k2 = 3 * i, 3 * i + 1, 3 * i + 2
             # normal: the lecture's projection onto alpha >= 0
             change = max(change, sweep.update_normal(n, bias[i], x, q_dot))
@@ -394,7 +431,7 @@ def restitutive_contacts(rows, alpha, restitution_threshold):
 def restitution(rows, alpha, q_dot, restitutive, dt, tolerance, max_iterations):
     """Stage d: Newton's law n^T (v_B - v_A) >= -e_i u_i on the restitutive contacts.
 
-    Their normal rows only (friction is not swept again), in contact order, same stopping rule:
+    Their normal rows only (friction is not swept again), in solve order, same stopping rule:
         gamma = J q_dot - delta alpha + e_i u_i, alpha <- max(-gamma / delta, 0)
     so alpha_n ends as the total normal force (the stage c force plus the bounce).
 
@@ -402,7 +439,7 @@ def restitution(rows, alpha, q_dot, restitutive, dt, tolerance, max_iterations):
             tolerance m/s, max_iterations.
     Output: sweeps used (0 when no contact is restitutive).
     """
-    contacts = np.flatnonzero(restitutive).tolist()
+    contacts = [i for i in rows["order"].tolist() if restitutive[i]]
     if not contacts:
         return 0
     sweep = _Sweep(rows, dt)
@@ -436,7 +473,7 @@ def position_targets(rows, restitutive, dt, erp, slop, max_push_velocity):
 def position_pass(rows, b_pos, n_bodies, dt, tolerance, max_iterations):
     """Stage e: pseudo-velocities q_p that separate the contacts at b_pos (split impulse).
 
-    q_p starts at zero and the normal rows of all contacts are swept in contact order, same
+    q_p starts at zero and the normal rows of all contacts are swept in solve order, same
     stopping rule, with pseudo-forces beta_i >= 0:
         gamma = J q_p - delta beta_i - b_pos,i, beta_i <- max(-gamma / delta, 0),
         q_p += dt d_beta M^-1 J.
@@ -452,12 +489,13 @@ def position_pass(rows, b_pos, n_bodies, dt, tolerance, max_iterations):
         return q_p, beta, 0
     sweep = _Sweep(rows, dt)
     x = np.zeros(3 * K).tolist()      # the normal rows' beta at 3 i (the tangent slots stay 0)
+    order = rows["order"].tolist()
     target = (-b_pos).tolist()
     sweeps, converged = 0, False
     while not converged and sweeps < max_iterations:
         sweeps += 1
         change = 0.0
-        for i in range(K):
+        for i in order:
             change = max(change, sweep.update_normal(3 * i, target[i], x, q_p))
         converged = tolerance > 0.0 and change <= tolerance
     beta[:] = x[0::3]
