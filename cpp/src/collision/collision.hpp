@@ -143,6 +143,7 @@ struct Scratch {
   std::vector<double> reach;                           ///< (N) speculative reach per body (m)
   std::vector<std::pair<BodyIndex, BodyIndex>> pairs;  ///< candidate body pairs of the step
   std::vector<Contact> candidates;                     ///< one pair's points before the manifold
+  std::vector<int> candidate_index;                    ///< finish_manifold's scratch
   std::vector<Item> items_a, items_b;                  ///< the pair's convex items
   std::vector<int> triangles, bvh_stack;               ///< candidate triangles; BVH traversal
   Polytope triangle;                                   ///< the current triangle as a polytope
@@ -185,9 +186,9 @@ double pair_scale(const Shape& a, const Shape& b);
 /// Candidates -> manifold (docs/conventions.md, "Manifolds"): drops gap >= threshold, sorts by
 /// (feature_a, feature_b), drops duplicates within 1e-9 L, reduces more than 4 to 4 by area
 /// (unless reduce is false: a plane against a mesh keeps every vertex, as the lecture does).
-/// candidates is consumed; the result is appended to out.
+/// The result is appended to out; index is scratch (the candidates' indices while the rules run).
 void finish_manifold(std::vector<Contact>& candidates, double threshold, double L, std::vector<Contact>& out,
-                     bool reduce = true);
+                     std::vector<int>& index, bool reduce = true);
 
 // ---- pair tests (append candidates in world frame, normal A -> B) ----
 

@@ -299,7 +299,7 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
     plane_contacts(*plane, pose_a, b, pose_b, threshold, s, candidates);
     // a mesh on a plane keeps all its touching vertices (the lecture's vertex contacts): 4 of a
     // ring-shaped footprint, chosen anew each step as it slides, let a torus rock for seconds
-    finish_manifold(candidates, threshold, pair_scale(a, b), out, !std::holds_alternative<Mesh>(b));
+    finish_manifold(candidates, threshold, pair_scale(a, b), out, s.candidate_index, !std::holds_alternative<Mesh>(b));
     return;
   }
   items_b.clear();
@@ -323,7 +323,7 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
         if ((ib.ball_centre - ia.ball_centre).norm() <= ia.ball_radius + ib.ball_radius + reach)
           contact_items(ia, ib, threshold, s, candidates);
   }
-  finish_manifold(candidates, threshold, pair_scale(a, b), out);
+  finish_manifold(candidates, threshold, pair_scale(a, b), out, s.candidate_index);
 }
 
 void speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity,

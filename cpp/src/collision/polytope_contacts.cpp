@@ -428,13 +428,12 @@ void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double t
       edge_crossing(ref, V.ref_id, inc, V.inc_id, n_ref, gap, y, n);
     if (!(gap < threshold)) continue;
     const Vec3 n_world = R_a * n;
-    Contact c;
+    Contact& c = out.emplace_back();  // filled in place (a Contact is large to copy)
     c.point = R_a * y + p_a;
     c.normal = ref_is_a ? n_world : Vec3(-n_world);
     c.gap = gap;
     c.feature_a = ref_is_a ? V.ref_id : V.inc_id;
     c.feature_b = ref_is_a ? V.inc_id : V.ref_id;
-    out.push_back(c);
   }
 }
 
