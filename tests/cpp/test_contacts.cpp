@@ -113,6 +113,64 @@ TEST(Manifold, CrossedEdgesGiveOneEdgeEdgePointWithTheExactGap) {
   EXPECT_EQ(feature_kind(out[0].feature_b), FeatureKind::Edge);
 }
 
+/// Distance (m) of the world point x from the box of half extents h at pose (p, R): the length of
+/// the part of R^T (x - p) outside [-h, h].
+double box_distance(const Vec3& h, const Pose& pose, const Vec3& x) {
+  const Vec3 local = pose.R.transpose() * (x - pose.p);
+  return (local.cwiseAbs() - h).cwiseMax(0.0).norm();
+}
+
+TEST(Manifold, SeparatedCrossedEdgesOffTheirSegmentsGiveTheClosestPairOfTheBoxes) {
+  // A unit box on an edge along x (vertices 6 -> 7 at y = 0, z = h, x in [-1/2, 1/2]) and above it
+  // a unit box on an edge along y (vertices 1 -> 3, edge 4, at x = 1/2 + ex, z = h + g), both
+  // turned 45 degrees. The edge axis +z separates them by g, better than any face (B's lower face
+  // towards A's corner sees sqrt(1/2) (ex + g) < g); the closest points of the two edge lines lie
+  // off A's edge (x = 1/2 + ex > 1/2), so the distance is that of A's corner 7 (1/2, 0, h) from
+  // B's edge, or from B's end vertex 1 when B is also moved along y so that its edge starts at
+  // y = ey > 0: sqrt(ex^2 + g^2), sqrt(ex^2 + ey^2 + g^2).
+  const Vec3 half(0.5, 0.5, 0.5);
+  const Box box(half);
+  const Mat3 Rx = Eigen::AngleAxisd(kPi / 4, Vec3::UnitX()).toRotationMatrix();
+  const Mat3 Ry = Eigen::AngleAxisd(kPi / 4, Vec3::UnitY()).toRotationMatrix();
+  const double h = 0.5 * std::sqrt(2.0), ex = 0.001, g = 0.003;
+  const Vec3 corner(0.5, 0.0, h);
+  struct Case {
+    double ey;              // B's edge starts at y = ey (-1/2: centred on y = 0)
+    FeatureId feature_b;    // the feature of B holding the closest point
+    Vec3 on_b;              // that point
+  };
+  const Case cases[] = {
+      {-0.5, feature_id(FeatureKind::Edge, 4), Vec3(0.5 + ex, 0.0, h + g)},
+      {0.001, feature_id(FeatureKind::Vertex, 1), Vec3(0.5 + ex, 0.001, h + g)},
+  };
+  for (const Case& k : cases) {
+    const Pose pa{Vec3::Zero(), Rx}, pb{Vec3(0.5 + ex, k.ey + 0.5, 2 * h + g), Ry};
+    const double distance = (k.on_b - corner).norm();
+    const auto out = collide(box, pa, box, pb, 0.005);
+    ASSERT_EQ(out.size(), 1u) << "ey " << k.ey;
+    const Contact& c = out[0];
+    EXPECT_NEAR(c.gap, distance, 1e-15) << "ey " << k.ey;
+    EXPECT_GT(c.gap, g);  // the edge axis's separation is only a lower bound
+    EXPECT_LT((c.normal - (k.on_b - corner) / distance).norm(), 1e-12);
+    EXPECT_LT((c.point - 0.5 * (corner + k.on_b)).norm(), 1e-15);
+    EXPECT_EQ(c.feature_a, feature_id(FeatureKind::Vertex, 7));
+    EXPECT_EQ(c.feature_b, k.feature_b);
+    // the point is the midpoint of points of the two boxes: within gap / 2 of each
+    EXPECT_LE(box_distance(half, pa, c.point), 0.5 * c.gap + 1e-12);
+    EXPECT_LE(box_distance(half, pb, c.point), 0.5 * c.gap + 1e-12);
+    // the same pair the other way round: the same point and gap, the normal and the ids swapped
+    const auto back = collide(box, pb, box, pa, 0.005);
+    ASSERT_EQ(back.size(), 1u);
+    EXPECT_NEAR(back[0].gap, c.gap, 1e-15);
+    EXPECT_LT((back[0].point - c.point).norm(), 1e-15);
+    EXPECT_LT((back[0].normal + c.normal).norm(), 1e-12);  // (q - p) / |q - p|: rounding of ~1e-16 m over 3 mm
+    EXPECT_EQ(back[0].feature_a, c.feature_b);
+    EXPECT_EQ(back[0].feature_b, c.feature_a);
+    // no contact when the true distance reaches the threshold, though the axis's bound does not
+    EXPECT_TRUE(collide(box, pa, box, pb, 0.5 * (g + distance)).empty());
+  }
+}
+
 TEST(Manifold, SpeculativeBoxAboveABoxHasPositiveGaps) {
   const Box box(Vec3(0.5, 0.5, 0.5));
   const auto out = collide(box, {}, box, {Vec3(0.1, 0, 1.003), Mat3::Identity()}, 0.005);

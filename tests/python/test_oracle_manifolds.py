@@ -259,6 +259,53 @@ def test_crossed_box_edges_give_one_edge_edge_point():
     assert len(o.detect_contacts(snap, 1 / 240)["gap"]) == 0
 
 
+def test_crossed_box_edges_apart_and_off_their_ends_give_the_closest_pair():
+    # The crossed boxes with B moved along +x by 1/2 + ex (and along y by ey + 1/2 in the second
+    # case), delta = g above: the edge axis +z still separates best (g, against sqrt(1/2) (ex + g)
+    # for B's lower face towards A's corner), but the edge lines now meet at x = 1/2 + ex, off A's
+    # edge, so the contact is the closest pair: A's corner 7 at (1/2, 0, sqrt(1/2)) against B's
+    # edge 4 at (1/2 + ex, 0, sqrt(1/2) + g), or against B's vertex 1 at (1/2 + ex, ey, ...).
+    ex, g = 0.001, 0.003
+    corner = np.array([0.5, 0.0, np.sqrt(0.5)])
+    for ey, feature_b in ((-0.5, o.feature_id(o.EDGE, 4)), (0.001, o.feature_id(o.VERTEX, 1))):
+        p_A, R_A, h_A, p_B, R_B, h_B = crossed_boxes(g)
+        p_B = p_B + [0.5 + ex, ey + 0.5, 0.0]
+        on_b = np.array([0.5 + ex, max(ey, 0.0), np.sqrt(0.5) + g])
+        s = o.box_box_separation(p_A, R_A, h_A, p_B, R_B, h_B)
+        assert s["sep_E"] > max(s["sep_A"], s["sep_B"]) and abs(s["sep_E"] - g) < 1e-15
+        y, n, gap, fa, fb = o.contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, 0.005)
+        assert len(gap) == 1
+        assert abs(gap[0] - np.linalg.norm(on_b - corner)) < 1e-15
+        np.testing.assert_allclose(n[0], (on_b - corner) / gap[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(y[0], 0.5 * (corner + on_b), rtol=0, atol=1e-15)
+        assert fa[0] == o.feature_id(o.VERTEX, 7) and fb[0] == feature_b
+        # none once the distance reaches the threshold, though sep_E is below it
+        assert len(o.contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, 0.5 * (g + gap[0]))[2]) == 0
+
+
+def test_closest_features_of_boxes_corner_to_corner_and_ties():
+    # unit boxes offset by 1 + d along each axis: corner 7 of A against corner 0 of B, |d| apart
+    # (docs: "the support function is exact where SAT is a bound"); every vertex-edge candidate
+    # that clamps to those corners ties with it exactly, and the vertex pair has the lowest
+    # dimension. B at (1.03, 1/2, 1/2): A's face x = 1/2 and B's face x = 0.53 overlap in a square
+    # 0.03 apart with no corner of either across a corner or an edge of the other; the pairs at
+    # 0.03 are edge crossings and corners over faces (all of dimension 2), and the first in the
+    # order (edge pairs before vertex-face pairs) is chosen.
+    h = np.full(3, 0.5)
+    A = o.polytope_to_world(o.box_polytope(h), np.zeros(3), np.eye(3))
+    d = np.array([0.03, 0.04, 0.12])
+    B = o.polytope_to_world(o.box_polytope(h), 1 + d, np.eye(3))
+    p, q, gap, fa, fb = o.closest_features(A, B, 1e-12)
+    assert gap == pytest.approx(0.13, abs=1e-15)
+    assert (fa, fb) == (o.feature_id(o.VERTEX, 7), o.feature_id(o.VERTEX, 0))
+    np.testing.assert_array_equal(p, [0.5, 0.5, 0.5])
+    B = o.polytope_to_world(o.box_polytope(h), [1.03, 0.5, 0.5], np.eye(3))
+    p, q, gap, fa, fb = o.closest_features(A, B, 1e-12)
+    assert gap == pytest.approx(0.03, abs=1e-15)
+    assert o.feature_parts(fa)[1] == o.EDGE and o.feature_parts(fb)[1] == o.EDGE
+    np.testing.assert_allclose(q - p, [0.03, 0.0, 0.0], rtol=0, atol=1e-15)
+
+
 def test_tilted_stack_prefers_the_face_to_a_slightly_better_edge_axis():
     # a unit box on a unit box, tilted by theta = 3 mrad about (1, 1, 0), its lowest corner 1 mm
     # deep (and outside A's top face): the edge pair (A's top edge along y, B's bottom edge along

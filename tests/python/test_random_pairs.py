@@ -95,6 +95,88 @@ def _axis_of(s, p_a, R_a, p_b, R_b):
     return (1.0 if f % 2 else -1.0) * R_a[:, f // 2]
 
 
+def off_edge_pair(rng):
+    """Boxes apart by delta in (0, 0.02] m along L = u_i x w_j whose supporting edges (A's along +L,
+    B's along -L) would cross delta apart, but with the crossing beyond the end of A's edge, of B's
+    or of both (the lines' closest points off the segments): the edge axis is the separating-axis
+    maximum more often than not, and it only bounds the distance from below."""
+    h_A, h_B = rng.uniform(0.1, 1.0, 3), rng.uniform(0.1, 1.0, 3)
+    q_A, q_B = random_quaternion(rng), random_quaternion(rng)
+    R_A, R_B = quat_to_matrix(q_A), quat_to_matrix(q_B)
+    p_A = rng.uniform(-1, 1, 3)
+    i, j = rng.integers(3), rng.integers(3)
+    L = np.cross(R_A[:, i], R_B[:, j])
+    L /= np.linalg.norm(L)
+    s_A = np.where(R_A.T @ L >= 0, 1.0, -1.0)
+    s_B = np.where(-(R_B.T @ L) >= 0, 1.0, -1.0)
+    beyond = rng.integers(1, 4)  # 1: A's edge, 2: B's, 3: both
+    s_A[i] = rng.choice([-1, 1]) * (rng.uniform(1.0005, 1.05) if beyond & 1 else rng.uniform(0, 0.9))
+    s_B[j] = rng.choice([-1, 1]) * (rng.uniform(1.0005, 1.05) if beyond & 2 else rng.uniform(0, 0.9))
+    p_B = p_A + R_A @ (s_A * h_A) + rng.uniform(1e-4, 0.02) * L - R_B @ (s_B * h_B)
+    return p_A, q_A, h_A, p_B, q_B, h_B
+
+
+def corner_pair(rng):
+    """Boxes whose closest points are a corner of each, delta in (0, 0.02] m apart along a random
+    unit d: A's corner of largest d . x and B's of least, B placed so that the second is the first
+    plus delta d (both boxes then lie on their sides of the planes normal to d through them)."""
+    h_A, h_B = rng.uniform(0.1, 1.0, 3), rng.uniform(0.1, 1.0, 3)
+    q_A, q_B = random_quaternion(rng), random_quaternion(rng)
+    R_A, R_B = quat_to_matrix(q_A), quat_to_matrix(q_B)
+    p_A = rng.uniform(-1, 1, 3)
+    d = random_quaternion(rng)[:3]
+    d /= np.linalg.norm(d)
+    corner_A = p_A + R_A @ (np.where(R_A.T @ d >= 0, 1.0, -1.0) * h_A)
+    corner_B = R_B @ (np.where(-(R_B.T @ d) >= 0, 1.0, -1.0) * h_B)
+    return p_A, q_A, h_A, corner_A + rng.uniform(1e-4, 0.02) * d - corner_B, q_B, h_B
+
+
+def box_distance(h, p, R, X):
+    """Distances (K,) of world points X (K, 3) from the box (half extents h, COM p, rotation R)."""
+    local = (np.asarray(X, dtype=float).reshape(-1, 3) - p) @ R
+    return np.linalg.norm(np.maximum(np.abs(local) - h, 0.0), axis=1)
+
+
+CLOSEST_KINDS = {(om.VERTEX, om.VERTEX), (om.VERTEX, om.EDGE), (om.EDGE, om.VERTEX)}  # face clipping never makes these
+
+
+def test_separated_box_pairs_off_the_edges_match_the_oracle_and_the_distance():
+    # Boxes apart whose edge lines would meet off the edges: when the edge axis wins, its
+    # separation only bounds the distance, so the contact is the boxes' closest pair (a corner
+    # against a corner or an edge). Every pair's manifold (whatever its rule) matches the oracle,
+    # ids and all; those closest-pair contacts (the only ones with vertex-vertex or vertex-edge
+    # ids) also have the distance of a brute-force support search as their gap and lie within
+    # gap / 2 of both boxes (the midpoint of a point of each).
+    rng = np.random.default_rng(20260808)
+    threshold = 0.03
+    closest = 0
+    for k in range(600):
+        p_A, q_A, h_A, p_B, q_B, h_B = (off_edge_pair, corner_pair)[k % 2](rng)
+        R_A, R_B = quat_to_matrix(q_A), quat_to_matrix(q_B)
+        c = sg.collide(sg.Box(h_A), (p_A, q_A), sg.Box(h_B), (p_B, q_B), margin=threshold)
+        L = np.linalg.norm(h_A) + np.linalg.norm(h_B)
+        y, n, gap, fa, fb = om.select_manifold(*om.contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold),
+                                               threshold, L)
+        assert len(c) == len(gap), k
+        np.testing.assert_array_equal(c.feature_a, fa, err_msg=str(k))
+        np.testing.assert_array_equal(c.feature_b, fb, err_msg=str(k))
+        for name, ours, theirs in (("point", c.point, y), ("gap", c.gap, gap)):
+            np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-12, err_msg=f"{k} {name}")
+        # a closest pair's normal (q - p) / |q - p| carries the rounding of q - p (~1e-16 m here,
+        # core in A's frame, oracle in the world's) divided by the gap (down to 1e-4 m)
+        assert np.all(np.linalg.norm(c.normal - n, axis=1) <= 1e-12 + 1e-14 / np.abs(gap)), k
+        for m in range(len(c)):
+            kinds = (int(om.feature_parts(c.feature_a[m])[1]), int(om.feature_parts(c.feature_b[m])[1]))
+            if kinds not in CLOSEST_KINDS:
+                continue
+            closest += 1
+            distance, _ = osup.support_separation(osup.support_box(h_A, p_A, R_A), osup.support_box(h_B, p_B, R_B))
+            assert abs(c.gap[m] - distance) < 1e-9, (k, c.gap[m], distance)
+            for h, p, R in ((h_A, p_A, R_A), (h_B, p_B, R_B)):
+                assert box_distance(h, p, R, c.point[m])[0] <= 0.5 * c.gap[m] + 1e-12, k
+    assert closest >= 250, closest  # 297 of the 600 pairs
+
+
 def random_hull_points(rng):
     k = rng.integers(6, 20)
     return rng.normal(size=(k, 3)) * rng.uniform(0.1, 0.6, 3)
@@ -122,6 +204,81 @@ def test_hull_pairs_match_a_brute_force_support_search():
         assert err < TOL, f"hull pair {done}: core {c.gap.min()} reference {target}"
         done += 1
     print(f"{done} hull pairs: largest |gap - reference| = {worst:.2e} m")
+
+
+def test_separated_hull_corners_get_their_closest_pair():
+    # Hulls apart whose closest points are a vertex of each, delta apart along a random unit d
+    # (A's vertex of largest d . x, B's of least, B placed so that the second is the first plus
+    # delta d): the distance is delta exactly. When the separating-axis test picks an edge pair
+    # there, its separation is only a lower bound and the contact is that closest pair: ids
+    # (vertex a, vertex b), gap delta, normal d, point midway between the two vertices. Every 10th
+    # pair's delta is checked against a brute-force support search first.
+    rng = np.random.default_rng(4170)
+    closest = 0
+    for k in range(400):
+        a, b = sg.ConvexHull(random_hull_points(rng)), sg.ConvexHull(random_hull_points(rng))
+        q_a, q_b = random_quaternion(rng), random_quaternion(rng)
+        R_a, R_b = quat_to_matrix(q_a), quat_to_matrix(q_b)
+        V_a = np.asarray(a.vertices) @ R_a.T
+        V_b = np.asarray(b.vertices) @ R_b.T
+        d = random_quaternion(rng)[:3]
+        d /= np.linalg.norm(d)
+        i, j = int(np.argmax(V_a @ d)), int(np.argmin(V_b @ d))
+        delta = rng.uniform(1e-3, 0.02)
+        p_b = V_a[i] + delta * d - V_b[j]
+        if k % 10 == 0:
+            sep, _ = osup.support_separation(osup.support_hull(np.asarray(a.vertices), np.zeros(3), R_a),
+                                             osup.support_hull(np.asarray(b.vertices), p_b, R_b), n_directions=1024)
+            assert abs(sep - delta) < 1e-9, (k, sep, delta)
+        c = sg.collide(a, (np.zeros(3), q_a), b, (p_b, q_b), margin=0.03)
+        for m in range(len(c)):
+            kinds = (int(om.feature_parts(c.feature_a[m])[1]), int(om.feature_parts(c.feature_b[m])[1]))
+            if kinds not in CLOSEST_KINDS:
+                continue
+            closest += 1
+            assert (c.feature_a[m], c.feature_b[m]) == (om.feature_id(om.VERTEX, i), om.feature_id(om.VERTEX, j)), k
+            assert abs(c.gap[m] - delta) < 1e-12, k
+            assert np.linalg.norm(c.point[m] - (V_a[i] + 0.5 * delta * d)) < 1e-12, k
+            assert np.linalg.norm(c.normal[m] - d) < 1e-10, k
+    assert closest >= 100, closest  # 142 of the 400 pairs
+
+
+def test_separated_box_corners_over_a_triangle_get_their_closest_pair():
+    # The same for a box in front of a one-triangle mesh (its edges all active): a triangle vertex
+    # and a box corner delta apart along d, d . n_t >= 0.2 (the box in front of the face, which
+    # is one-sided). When the triangle's separating axes pick an edge pair there, the contact is
+    # that pair of vertices: gap delta, normal d, point midway, ids (vertex i of the triangle,
+    # part 0; corner j of the box).
+    rng = np.random.default_rng(5)
+    closest = 0
+    for k in range(400):
+        V = rng.normal(size=(3, 3)) * 0.5
+        n_t = np.cross(V[1] - V[0], V[2] - V[0])
+        n_t /= np.linalg.norm(n_t)
+        mesh = sg.TriangleMesh(V, np.array([[0, 1, 2]]))
+        h, q = rng.uniform(0.1, 0.5, 3), random_quaternion(rng)
+        R = quat_to_matrix(q)
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        if d @ n_t < 0.2:
+            d = d - (d @ n_t - 0.2 - rng.uniform(0.0, 0.8)) * n_t
+            d /= np.linalg.norm(d)
+        i = int(np.argmax(V @ d))
+        signs = np.where(-(R.T @ d) >= 0, 1.0, -1.0)
+        j = int(sum(bit for bit, sign in zip((1, 2, 4), signs) if sign > 0))  # corner numbering
+        delta = rng.uniform(1e-3, 0.02)
+        p = V[i] + delta * d - R @ (signs * h)
+        c = sg.collide(mesh, (np.zeros(3), [1.0, 0.0, 0.0, 0.0]), sg.Box(h), (p, q), margin=0.03)
+        for m in range(len(c)):
+            kinds = (int(om.feature_parts(c.feature_a[m])[1]), int(om.feature_parts(c.feature_b[m])[1]))
+            if kinds not in CLOSEST_KINDS:
+                continue
+            closest += 1
+            assert (c.feature_a[m], c.feature_b[m]) == (om.feature_id(om.VERTEX, i), om.feature_id(om.VERTEX, j)), k
+            assert abs(c.gap[m] - delta) < 1e-12, k
+            assert np.linalg.norm(c.point[m] - (V[i] + 0.5 * delta * d)) < 1e-12, k
+            assert np.linalg.norm(c.normal[m] - d) < 1e-10, k
+    assert closest >= 80, closest  # 105 of the 400 pairs
 
 
 SHAPES = {

@@ -213,7 +213,9 @@ void item_sphere(const Item& a, const Vec3& c, double r, std::vector<Contact>& o
 /// cylinder rims, hull and piece vertices.
 void plane_item(const Vec3& n, double offset, const Item& b, std::vector<Contact>& out);
 
-/// Two convex polytopes (boxes, hulls, mesh pieces) by separating axes and face clipping.
+/// Two convex polytopes (boxes, hulls, mesh pieces) by separating axes and face clipping; an edge
+/// axis that wins for polytopes apart, with the edges' closest line points off the edges, gives
+/// their closest pair instead (docs/conventions.md, "Manifolds", edge contact).
 /// boxes: both are box polytopes (geometry::box_polytope's numbering), whose edge axes are then
 /// found among 18 candidate pairs rather than all 144, with the same result.
 /// separated, optional: set to the face (of_b, face) whose axis separated the pair by at least the
@@ -228,7 +230,8 @@ double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope&
 
 /// One triangle of a static mesh (as a two-faced polytope, A) against a polytope B: one-sided
 /// separating axes (its front face, B's faces, edge axes from its active edges only), clipping
-/// that drops cuts along inactive edges. Features of A carry the triangle index as part.
+/// that drops cuts along inactive edges; an edge axis off the edges for a B apart gives the closest
+/// pair of the triangle and B, as for two polytopes. Features of A carry the triangle index as part.
 void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, const Pose& pa,
                        std::uint32_t triangle, const Polytope& b, const Pose& pb, std::uint32_t part_b,
                        double threshold, PolytopeScratch& scratch, std::vector<Contact>& out);

@@ -59,6 +59,7 @@ from .manifold import (
     box_edge,
     box_polytope,
     clip_incident_face,
+    closest_features,
     contact_box_box,
     feature_id,
     feature_parts,
@@ -130,7 +131,7 @@ from .support import (
 __all__ = [
     "DEFAULT_SETTINGS", "apply_impulses", "EDGE", "FACE", "FACE_PREFERENCE", "PAIRS", "SHAPE", "VERTEX", "bias",
     "bounding_radius", "box_box_separation", "box_corners", "box_edge", "box_polytope",
-    "certificate", "motion_flags", "pair_filter", "clip_incident_face", "contact_box_box", "contact_box_sphere",
+    "certificate", "motion_flags", "pair_filter", "clip_incident_face", "closest_features", "contact_box_box", "contact_box_sphere",
     "contact_jacobian", "contact_lcp", "contact_materials", "contact_plane_capsule",
     "contact_plane_cylinder", "contact_plane_points", "contact_plane_sphere", "contact_rows",
     "contact_sphere_capsule", "contact_sphere_sphere", "copy_snapshot", "detect_contacts",

@@ -15,7 +15,8 @@ and written in id order.  ``select_manifold`` does all four.
 
 Box-box contact (``contact_box_box``) is the separating-axis test on A's faces, B's faces and the
 9 edge-edge axes, then either Sutherland-Hodgman clipping of the incident face against the side
-planes of the reference face, or a single edge-edge point.  Everything is in world coordinates.
+planes of the reference face, or a single edge-edge point (for boxes apart whose edge lines meet
+off the edges: their closest pair, ``closest_features``).  Everything is in world coordinates.
 """
 
 import numpy as np
@@ -372,6 +373,108 @@ def _edge_crossing(ref, ref_edge, inc, inc_edge, n_ref):
     return L @ (x_inc - x_ref), 0.5 * (x_ref + x_inc), L
 
 
+def _line_parameters(p0, u, q0, w):
+    """Parameters (s, t) of the closest points p0 + s u and q0 + t w of two non-parallel lines
+    (p0, q0 (3,) m; u, w (3,) their edge vectors, any length)."""
+    r = p0 - q0
+    uu, ww, uw, ur, wr = u @ u, w @ w, u @ w, u @ r, w @ r
+    det = uw * uw - uu * ww
+    return (ur * ww - uw * wr) / det, (uw * ur - uu * wr) / det
+
+
+def _closest_on_edges(X, V, edges, part):
+    """Every point of X (K, 3) against every edge of a polytope (vertices V (n, 3), edges (E, 4)
+    rows (v0, v1, f0, f1)): its closest point on the segment v0 -> v1, (K, E, 3), the feature id
+    of that point (the end vertex itself when the parameter t = (x - v0) . w / w . w, w = v1 - v0,
+    is <= 0 or >= 1, else the edge), (K, E), and its dimension (0 vertex, 1 edge), (K, E)."""
+    Q0, Q1 = V[edges[:, 0]], V[edges[:, 1]]
+    W = Q1 - Q0
+    t = np.einsum("kej,ej->ke", X[:, None, :] - Q0[None], W) / np.einsum("ej,ej->e", W, W)
+    low, high = ~(t > 0.0), ~(t < 1.0)
+    inner = Q0[None] + t[..., None] * W[None]
+    point = np.where(low[..., None], Q0[None], np.where(high[..., None], Q1[None], inner))
+    E = np.broadcast_to(np.arange(len(edges)), t.shape)
+    ids = np.where(low, feature_id(VERTEX, np.broadcast_to(edges[:, 0], t.shape), part),
+                   np.where(high, feature_id(VERTEX, np.broadcast_to(edges[:, 1], t.shape), part),
+                            feature_id(EDGE, E, part)))
+    return point, ids, np.where(low | high, 0, 1)
+
+
+def _feet_inside(X, P):
+    """Every point of X (K, 3) against every face f of polytope P (a world polytope dict): the
+    height h = n_f . x - d_f (K, F), the foot x - h n_f (K, F, 3), and whether h > 0 and the foot
+    lies strictly inside the face (K, F): (loop[k+1] - loop[k]) x n_f . (foot - loop[k]) < 0 for
+    every side k."""
+    V, N = P["vertices"], P["normals"]
+    h = X @ N.T - P["offsets"][None, :]
+    foot = X[:, None, :] - h[..., None] * N[None]
+    inside = h > 0.0
+    for f, loop in enumerate(P["loops"]):
+        for k in range(len(loop)):
+            r0, r1 = V[loop[k]], V[loop[(k + 1) % len(loop)]]
+            inside[:, f] &= (foot[:, f] - r0) @ np.cross(r1 - r0, N[f]) < 0.0
+    return h, foot, inside
+
+
+def closest_features(A, B, tie, part_a=0, part_b=0):
+    """The closest points of two disjoint convex polytopes and the features holding them.
+
+    Inputs: A, B world polytope dicts (``polytope_to_world``), tie m (the core uses 1e-12 L),
+            part_a, part_b the parts written into the feature ids.
+    Output: (p (3,) on A, q (3,) on B, |q - p| m, feature_a, feature_b).
+    The candidates, in this order, each in (feature of A, feature of B) index order:
+        1. each vertex of A against each edge of B (its closest point on the segment; the end
+           vertex itself when clamped);  2. each edge of A against each vertex of B;
+        3. each pair of non-parallel edges (|u x w| > 1e-9 |u| |w|) whose lines' closest points lie
+           strictly inside both;
+        4. each vertex of A with height h > 0 over a face of B and its foot strictly inside;
+        5. each face of A against each vertex of B likewise.
+    The closest pair of disjoint convex polytopes is one of them, so their least distance D is the
+    distance. Chosen: among the candidates within D + tie, the one whose features' dimensions
+    (vertex 0, edge 1, face 2) sum least, first in the order above (docs, "Manifolds").
+    """
+    VA, VB = A["vertices"], B["vertices"]
+    EA, EB = np.asarray(A["edges"]), np.asarray(B["edges"])
+    P, Q, D, FA, FB, DIM = [], [], [], [], [], []
+
+    def add(p, q, fa, fb, dim):
+        p, q = np.asarray(p).reshape(-1, 3), np.asarray(q).reshape(-1, 3)
+        P.append(p), Q.append(q), D.append(np.linalg.norm(q - p, axis=1))
+        FA.append(np.asarray(fa, dtype=np.uint64).reshape(-1)), FB.append(np.asarray(fb, dtype=np.uint64).reshape(-1))
+        DIM.append(np.asarray(dim).reshape(-1))
+
+    # 1. vertices of A against edges of B; 2. edges of A against vertices of B
+    point, ids, dim = _closest_on_edges(VA, VB, EB, part_b)
+    add(np.broadcast_to(VA[:, None, :], point.shape), point,
+        np.broadcast_to(feature_id(VERTEX, np.arange(len(VA)), part_a)[:, None], ids.shape), ids, dim)
+    point, ids, dim = _closest_on_edges(VB, VA, EA, part_a)       # (vertex of B, edge of A)
+    point, ids, dim = point.transpose(1, 0, 2), ids.T, dim.T       # (edge of A, vertex of B)
+    add(point, np.broadcast_to(VB[None, :, :], point.shape), ids,
+        np.broadcast_to(feature_id(VERTEX, np.arange(len(VB)), part_b)[None, :], ids.shape), dim)
+    # 3. edges against edges, closest points strictly inside both
+    for i, (a0, a1, _, _) in enumerate(EA):
+        p0, u = VA[a0], VA[a1] - VA[a0]
+        for j, (b0, b1, _, _) in enumerate(EB):
+            q0, w = VB[b0], VB[b1] - VB[b0]
+            if not np.linalg.norm(np.cross(u, w)) > 1e-9 * np.linalg.norm(u) * np.linalg.norm(w):
+                continue
+            s, t = _line_parameters(p0, u, q0, w)
+            if 0.0 < s < 1.0 and 0.0 < t < 1.0:
+                add(p0 + s * u, q0 + t * w, feature_id(EDGE, i, part_a), feature_id(EDGE, j, part_b), 2)
+    # 4. vertices of A over faces of B; 5. faces of A under vertices of B
+    _, foot, inside = _feet_inside(VA, B)
+    i, f = np.nonzero(inside)
+    add(VA[i], foot[i, f], feature_id(VERTEX, i, part_a), feature_id(FACE, f, part_b), np.full(len(i), 2))
+    _, foot, inside = _feet_inside(VB, A)                          # (vertex of B, face of A)
+    f, j = np.nonzero(inside.T)                                    # in (face of A, vertex of B) order
+    add(foot[j, f], VB[j], feature_id(FACE, f, part_a), feature_id(VERTEX, j, part_b), np.full(len(j), 2))
+
+    P, Q, D, FA, FB, DIM = (np.concatenate(x) for x in (P, Q, D, FA, FB, DIM))
+    near = D <= D.min() + tie
+    k = int(np.flatnonzero(near & (DIM == DIM[near].min()))[0])
+    return P[k], Q[k], float(D[k]), FA[k], FB[k]
+
+
 def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
     """Candidate contact points of box A against box B (A the lower index; docs, "Manifolds").
 
@@ -391,7 +494,12 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
             closest points lie on both edges, which is their edge-edge contact
             (``_edge_crossing``).
       edge: A's edge along u_i supporting A in +L, B's edge along w_j supporting B in -L;
-            y = midpoint of the closest points of their lines, gap = sep_E, n = L.
+            y = midpoint of the closest points of their lines, gap = sep_E, n = L; except when
+            the boxes are apart (sep_E > 0) and those closest points are not both on the edges
+            (segment parameters in [0, 1]): sep_E is then only a lower bound of the distance, and
+            the contact is the boxes' closest pair p, q (``closest_features``, tie 1e-12 L):
+            y = (p + q) / 2, gap = |q - p|, n = (q - p) / gap, the ids of their features; none
+            when gap >= threshold.
     """
     h_A, h_B = np.asarray(h_A, dtype=float), np.asarray(h_B, dtype=float)
     R_A, R_B = np.asarray(R_A, dtype=float), np.asarray(R_B, dtype=float)
@@ -426,6 +534,17 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
         x_A, x_B = _closest_points_of_lines(a0, R_A[:, i], b0, R_B[:, j])
         edge_a = box_edge(sat["A"], i, signs_A)
         edge_b = box_edge(sat["B"], j, signs_B)
+        # apart, with the lines' closest points off an edge: the closest pair of the boxes
+        ra0, ra1 = sat["A"]["vertices"][sat["A"]["edges"][edge_a][:2]]
+        rb0, rb1 = sat["B"]["vertices"][sat["B"]["edges"][edge_b][:2]]
+        s_a, t_b = _line_parameters(ra0, ra1 - ra0, rb0, rb1 - rb0)
+        if sat["sep_E"] > 0.0 and not (0.0 <= s_a <= 1.0 and 0.0 <= t_b <= 1.0):
+            p, q, gap, fa, fb = closest_features(sat["A"], sat["B"], 1e-12 * L_scale)
+            if not gap < threshold:
+                return (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.uint64),
+                        np.zeros(0, dtype=np.uint64))
+            return ((0.5 * (p + q))[None, :], ((q - p) / gap)[None, :], np.array([gap]),
+                    np.array([fa]), np.array([fb]))
         return ((0.5 * (x_A + x_B))[None, :], L[None, :], np.array([sat["sep_E"]]),
                 np.array([feature_id(EDGE, edge_a)]), np.array([feature_id(EDGE, edge_b)]))
 
