@@ -84,7 +84,6 @@ void make_rows(const Model& model, const std::vector<Mat3>& dI_inv, int a, int b
     x.delta = x.JB_ang.dot(x.dMJB_ang) + x.JA_ang.dot(x.dMJA_ang) + (dinv_mass_a + dinv_mass_b) * d[k].squaredNorm();
     x.inv_delta = x.delta > 0.0 ? 1.0 / x.delta : 0.0;
     x.bias = 0.0;
-    x.normal = -1;
     x.mu = 0.0;
     x.W_n = x.W_t1 = 0.0;
   }
@@ -169,7 +168,6 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
     // a speculative contact may close its gap, no more; an overlap is left to the position pass
     r[0].bias = std::max(c.gap, 0.0) / dt;
     for (int k = 1; k <= 2; ++k) {
-      r[k].normal = 3 * d.slot[i];
       r[k].mu = mu;
       r[k].W_n = coupling(r[k], r[0]);
     }

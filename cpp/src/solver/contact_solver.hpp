@@ -26,7 +26,6 @@ namespace signorini::solver {
 struct Row {
   int a = 0, b = 0;             ///< body indices
   bool a_moves = false, b_moves = false;  ///< false for static and kinematic bodies (M^-1 = 0: skipped)
-  int normal = -1;              ///< friction rows: the index of the normal row that bounds them
   Vec3 J_lin;                   ///< J_B_lin (unit direction d for a contact row); J_A_lin = -J_lin
   Vec3 JA_ang, JB_ang;
   Vec3 dMJA_ang, dMJB_ang;      ///< dt I_X^-1 J_X_ang (world inverse inertia; s/(kg m))
@@ -34,7 +33,7 @@ struct Row {
   double delta = 0.0;
   double inv_delta = 0.0;       ///< 1 / delta (0 when delta = 0): sweeps multiply, never divide
   double bias = 0.0;            ///< b (m/s): the row asks J q_dot + b >= 0 (normal rows)
-  double mu = 0.0;              ///< friction rows: the bound is mu alpha_normal
+  double mu = 0.0;              ///< friction rows: the bound is mu alpha_normal, of the normal row just before them
   /// friction rows: the off-diagonal Delassus entries W_jk = dt J_j M^-1 J_k^T (s/kg) coupling this
   /// row j to its normal row (W_n) and, for t2, to t1 (W_t1); a force change d_alpha_k of row k
   /// changes this row's velocity by W_jk d_alpha_k, so a sweep gets the velocity a row sees after
