@@ -183,6 +183,9 @@ class World {
   template <class T> void push_keeping(std::vector<T>& v, const T& x);
   /// A velocity for body i must be finite, and zero for a static body.
   void check_velocity(BodyIndex i, const char* what, const Vec3& x) const;
+  /// A push (`what`: "impulse" or "force") of body i at a world point: both finite, and the body
+  /// dynamic (static and kinematic bodies have infinite mass).
+  void check_push(BodyIndex i, const char* what, const Vec3& push, const Vec3& point) const;
   /// One step of dt: contacts detected once, then the substeps; on a non-finite result or an
   /// energy explosion (check_energy) restores the state, the warm-start cache and the contact
   /// forces (undo_step) and throws std::runtime_error naming the body or bodies.

@@ -748,26 +748,24 @@ void World::set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torq
   state_.tau_ext[i] = torque;
 }
 
-void World::apply_impulse(BodyIndex i, const Vec3& impulse, const Vec3& point) {
+void World::check_push(BodyIndex i, const char* what, const Vec3& push, const Vec3& point) const {
   check_index(i);
   const std::string who = label(i);
-  require_finite(who, "impulse", impulse);
+  require_finite(who, what, push);
   require_finite(who, "point", point);
   if (model_.is_static[i] || model_.is_kinematic[i])
-    throw std::invalid_argument(who + ": a " + (model_.is_static[i] ? "static" : "kinematic") +
-                                " body takes no impulses (it has infinite mass); set its velocity instead");
+    throw std::invalid_argument(who + ": a " + (model_.is_static[i] ? "static" : "kinematic") + " body takes no " +
+                                what + "s (it has infinite mass); set its velocity instead");
+}
+
+void World::apply_impulse(BodyIndex i, const Vec3& impulse, const Vec3& point) {
+  check_push(i, "impulse", impulse, point);
   state_.impulse[i] += impulse;
   state_.angular_impulse[i] += (point - state_.p[i]).cross(impulse);
 }
 
 void World::apply_force(BodyIndex i, const Vec3& force, const Vec3& point) {
-  check_index(i);
-  const std::string who = label(i);
-  require_finite(who, "force", force);
-  require_finite(who, "point", point);
-  if (model_.is_static[i] || model_.is_kinematic[i])
-    throw std::invalid_argument(who + ": a " + (model_.is_static[i] ? "static" : "kinematic") +
-                                " body takes no forces (it has infinite mass); set its velocity instead");
+  check_push(i, "force", force, point);
   state_.f_step[i] += force;
   state_.tau_step[i] += (point - state_.p[i]).cross(force);
 }
