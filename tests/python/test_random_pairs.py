@@ -140,6 +140,23 @@ def box_distance(h, p, R, X):
 CLOSEST_KINDS = {(om.VERTEX, om.VERTEX), (om.VERTEX, om.EDGE), (om.EDGE, om.VERTEX)}  # face clipping never makes these
 
 
+def check_vertex_pair(c, i, j, x_a, delta, d, k):
+    """The contacts of c made by the closest-pair rule (kinds in CLOSEST_KINDS) must be vertex i of
+    A against vertex j of B, x_a (world) on A and delta apart along d: gap delta, normal d, point
+    x_a + delta d / 2. Returns how many there were; k names the case in a failure."""
+    found = 0
+    for m in range(len(c)):
+        kinds = (int(om.feature_parts(c.feature_a[m])[1]), int(om.feature_parts(c.feature_b[m])[1]))
+        if kinds not in CLOSEST_KINDS:
+            continue
+        found += 1
+        assert (c.feature_a[m], c.feature_b[m]) == (om.feature_id(om.VERTEX, i), om.feature_id(om.VERTEX, j)), k
+        assert abs(c.gap[m] - delta) < 1e-12, k
+        assert np.linalg.norm(c.point[m] - (x_a + 0.5 * delta * d)) < 1e-12, k
+        assert np.linalg.norm(c.normal[m] - d) < 1e-10, k
+    return found
+
+
 def test_separated_box_pairs_off_the_edges_match_the_oracle_and_the_distance():
     # Boxes apart whose edge lines would meet off the edges: when the edge axis wins, its
     # separation only bounds the distance, so the contact is the boxes' closest pair (a corner
@@ -231,15 +248,7 @@ def test_separated_hull_corners_get_their_closest_pair():
                                              osup.support_hull(np.asarray(b.vertices), p_b, R_b), n_directions=1024)
             assert abs(sep - delta) < 1e-9, (k, sep, delta)
         c = sg.collide(a, (np.zeros(3), q_a), b, (p_b, q_b), margin=0.03)
-        for m in range(len(c)):
-            kinds = (int(om.feature_parts(c.feature_a[m])[1]), int(om.feature_parts(c.feature_b[m])[1]))
-            if kinds not in CLOSEST_KINDS:
-                continue
-            closest += 1
-            assert (c.feature_a[m], c.feature_b[m]) == (om.feature_id(om.VERTEX, i), om.feature_id(om.VERTEX, j)), k
-            assert abs(c.gap[m] - delta) < 1e-12, k
-            assert np.linalg.norm(c.point[m] - (V_a[i] + 0.5 * delta * d)) < 1e-12, k
-            assert np.linalg.norm(c.normal[m] - d) < 1e-10, k
+        closest += check_vertex_pair(c, i, j, V_a[i], delta, d, k)
     assert closest >= 100, closest  # 142 of the 400 pairs
 
 
@@ -269,15 +278,7 @@ def test_separated_box_corners_over_a_triangle_get_their_closest_pair():
         delta = rng.uniform(1e-3, 0.02)
         p = V[i] + delta * d - R @ (signs * h)
         c = sg.collide(mesh, (np.zeros(3), [1.0, 0.0, 0.0, 0.0]), sg.Box(h), (p, q), margin=0.03)
-        for m in range(len(c)):
-            kinds = (int(om.feature_parts(c.feature_a[m])[1]), int(om.feature_parts(c.feature_b[m])[1]))
-            if kinds not in CLOSEST_KINDS:
-                continue
-            closest += 1
-            assert (c.feature_a[m], c.feature_b[m]) == (om.feature_id(om.VERTEX, i), om.feature_id(om.VERTEX, j)), k
-            assert abs(c.gap[m] - delta) < 1e-12, k
-            assert np.linalg.norm(c.point[m] - (V[i] + 0.5 * delta * d)) < 1e-12, k
-            assert np.linalg.norm(c.normal[m] - d) < 1e-10, k
+        closest += check_vertex_pair(c, i, j, V[i], delta, d, k)
     assert closest >= 80, closest  # 105 of the 400 pairs
 
 
