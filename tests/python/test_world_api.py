@@ -35,6 +35,16 @@ def fingerprint(w):
             w.collision_filters[0].tobytes(), w.collision_filters[1].tobytes())
 
 
+def assert_refused(w, call, error, words):
+    """call(w) raises error with every one of words in its message, and leaves w as it was."""
+    before = fingerprint(w)
+    with pytest.raises(error) as e:
+        call(w)
+    for word in words:
+        assert word in str(e.value), str(e.value)
+    assert fingerprint(w) == before
+
+
 def trajectory(w, steps, dt=DT):
     """Copies of the state and contact arrays after each of `steps` steps."""
     out = []
@@ -167,12 +177,7 @@ def test_batch_setters_write_rows_to_the_given_bodies():
 def test_bad_batches_leave_the_world_unchanged(call, error, words):
     w = ground_and_boxes()
     w.step(DT, 3)
-    before = fingerprint(w)
-    with pytest.raises(error) as e:
-        call(w)
-    for word in words:
-        assert word in str(e.value), str(e.value)
-    assert fingerprint(w) == before
+    assert_refused(w, call, error, words)
 
 
 # ---- saved states and pickling -----------------------------------------------------------------
@@ -575,12 +580,7 @@ def test_bad_input_names_the_body_and_changes_nothing(call, error, words):
     w.add_static(sg.Plane((0, 0, 1), 0.0), name="ground")
     w.add_body(sg.Box((0.5, 0.5, 0.5)), density=1000.0, position=(0, 0, 0.6), name="box")
     w.step(DT, 5)
-    before = fingerprint(w)
-    with pytest.raises(error) as e:
-        call(w)
-    for word in words:
-        assert word in str(e.value), str(e.value)
-    assert fingerprint(w) == before
+    assert_refused(w, call, error, words)
 
 
 def test_explicit_inertia_matches_the_shape_and_is_not_recentred():
