@@ -542,20 +542,50 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
     best = chosen;
   }
 
-  // the origin projected onto the best face, in barycentric coordinates of its vertices
-  const Face& F = E.faces[best];
-  const Vertex& V0 = E.verts[F.v[0]];
-  const Vertex& V1 = E.verts[F.v[1]];
-  const Vertex& V2 = E.verts[F.v[2]];
-  const Vec3 p = F.delta * F.m;
-  const double area = (V1.z - V0.z).cross(V2.z - V0.z).dot(F.m);
-  double l0 = (V1.z - p).cross(V2.z - p).dot(F.m) / area;
-  double l1 = (V2.z - p).cross(V0.z - p).dot(F.m) / area;
-  double l2 = (V0.z - p).cross(V1.z - p).dot(F.m) / area;
-  l0 = std::max(l0, 0.0), l1 = std::max(l1, 0.0), l2 = std::max(l2, 0.0);
+  // The witnesses: the point z* = gap n of D (n = -m the normal chosen above) is where the origin
+  // leaves D; in D' it is z*' = gap n - c. Its face is found by walking from the chosen face
+  // towards the ray from the origin of D' through z*' (the origin is inside D', so the ray leaves
+  // through exactly one face): across the edge opposite a vertex with a negative ray coordinate.
+  // The chosen face itself can be a different triangle of the same flat facet of D (a cap of a
+  // cylinder against a vertex is a disc of D tiled by many triangles), and the origin's projection
+  // onto it, clamped into it, can then be far from z*: measured 0.39 m on a cylinder-triangle pair.
+  // The ray coordinates l_k = r . (z_k+1 x z_k+2) are those of the hit point, up to their sum.
+  const Vec3 ray = -gap * E.faces[best].m - c;
+  st.shift = c.norm();
+  int at = best;
+  double l0 = -1.0, l1 = -1.0, l2 = -1.0;
+  for (std::size_t step = 0; step <= E.faces.size() && at >= 0 && E.faces[at].alive; ++step) {
+    const Face& G = E.faces[at];
+    const Vec3& z0 = E.verts[G.v[0]].z;
+    const Vec3& z1 = E.verts[G.v[1]].z;
+    const Vec3& z2 = E.verts[G.v[2]].z;
+    l0 = ray.dot(z1.cross(z2)), l1 = ray.dot(z2.cross(z0)), l2 = ray.dot(z0.cross(z1));
+    if (l0 >= 0.0 && l1 >= 0.0 && l2 >= 0.0) break;
+    // leave across the edge opposite the most negative coordinate (edge k runs v[k] -> v[k+1])
+    const int worst = l0 <= l1 && l0 <= l2 ? 0 : l1 <= l2 ? 1 : 2;
+    at = G.adj[(worst + 1) % 3];
+  }
+  const bool walked = at >= 0 && E.faces[at].alive && l0 >= 0.0 && l1 >= 0.0 && l2 >= 0.0 && l0 + l1 + l2 > 0.0;
+  if (!walked) {
+    // a damaged polytope: the origin projected onto the chosen face, clamped into it
+    at = best;
+    const Face& G = E.faces[best];
+    const Vec3& z0 = E.verts[G.v[0]].z;
+    const Vec3& z1 = E.verts[G.v[1]].z;
+    const Vec3& z2 = E.verts[G.v[2]].z;
+    const Vec3 p = G.delta * G.m;
+    l0 = std::max((z1 - p).cross(z2 - p).dot(G.m), 0.0);
+    l1 = std::max((z2 - p).cross(z0 - p).dot(G.m), 0.0);
+    l2 = std::max((z0 - p).cross(z1 - p).dot(G.m), 0.0);
+  }
   const double sum = l0 + l1 + l2;
   if (sum > 0.0) l0 /= sum, l1 /= sum, l2 /= sum;
   else l0 = 1.0, l1 = l2 = 0.0;
+  const Face& F = E.faces[best];
+  const Face& W = E.faces[at];
+  const Vertex& V0 = E.verts[W.v[0]];
+  const Vertex& V1 = E.verts[W.v[1]];
+  const Vertex& V2 = E.verts[W.v[2]];
   Distance d;
   d.gap = gap;
   d.normal = -F.m;

@@ -24,6 +24,7 @@ struct GjkEpaStats {
   bool used_epa = false;   ///< true when the items touch or overlap (or GJK stalled near contact)
   bool converged = true;   ///< false when an iteration cap or a numerical guard stopped a loop
   int simplex = 0;         ///< vertices of GJK's final simplex
+  double shift = 0.0;      ///< |c|, the shift of D for EPA (m; 0 without EPA)
   const char* stop = "";   ///< how GJK stopped, or why a loop stopped early
 };
 
@@ -52,7 +53,10 @@ struct GjkEpaStats {
 /// the penetration depth), normal = unit vector A -> B (moving B by -gap along it separates the
 /// shapes or makes them touch), w_a, w_b = witness points on A and B (world, m), barycentric in the
 /// support points of the final simplex or face; w_b - w_a = gap * normal to rounding for a GJK
-/// result, to within the tolerances for an EPA one.
+/// result. For an EPA one they come from the face of the final polytope that the ray from the
+/// shifted origin through gap * normal leaves by (found by walking from the closest face), so
+/// w_b - w_a = gap * normal to within EPA's tolerance, or to within about |c| when that face is a
+/// neighbour of the closest one that EPA did not refine (a GJK stall near contact: |c| <= 1.5e-6 L).
 Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* stats = nullptr);
 /// The same with buffers of its own (allocates: for tests and one-off queries).
 Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats = nullptr);
