@@ -132,6 +132,7 @@ void polytope_capsule(const Polytope& P, const Pose& pa, std::uint32_t part_a, c
   // separating axes of the segment and the polytope: its faces, and its edges crossed with s
   double sep = -kInf;
   Vec3 n_sep = Vec3::UnitZ();
+  int sep_edge = -1;  // the polytope edge whose axis separates best (-1: a face's)
   for (std::size_t f = 0; f < P.normals.size(); ++f) {
     const double x = std::min(P.normals[f].dot(e0), P.normals[f].dot(e1)) - P.offsets[f];
     if (x > sep) {
@@ -139,7 +140,8 @@ void polytope_capsule(const Polytope& P, const Pose& pa, std::uint32_t part_a, c
       n_sep = P.normals[f];
     }
   }
-  for (const auto& edge : P.edges) {
+  for (std::size_t k = 0; k < P.edges.size(); ++k) {
+    const auto& edge = P.edges[k];
     Vec3 L = (P.vertex(edge.v1) - P.vertex(edge.v0)).cross(s);
     const double len = L.norm();
     if (!(len > 1e-9 * (P.vertex(edge.v1) - P.vertex(edge.v0)).norm() * s.norm())) continue;
@@ -154,10 +156,12 @@ void polytope_capsule(const Polytope& P, const Pose& pa, std::uint32_t part_a, c
     if (slo - hi > sep) {
       sep = slo - hi;
       n_sep = L;
+      sep_edge = static_cast<int>(k);
     }
     if (lo - shi > sep) {
       sep = lo - shi;
       n_sep = -L;
+      sep_edge = static_cast<int>(k);
     }
   }
   if (!(sep - r < threshold)) return;
@@ -193,11 +197,19 @@ void polytope_capsule(const Polytope& P, const Pose& pa, std::uint32_t part_a, c
     n = (w_seg - w_poly) / dist;
     gap = dist - r;
   } else {
-    // the segment enters the polytope: the separating axis of least penetration
+    // the segment enters the polytope: the separating axis of least penetration. On a face's axis
+    // the segment's deepest end touches; on an edge's (edge x s), the segment crosses the edge, and
+    // the point is where the two lines are closest (on both, for the best of a complete set of axes;
+    // the segment's end there would lie up to its length off the polytope)
     n = n_sep;
     gap = sep - r;
     t_seg = n.dot(e0) <= n.dot(e1) ? 0.0 : 1.0;
-    w_seg = t_seg == 0.0 ? e0 : e1;
+    if (sep_edge >= 0) {
+      double v;
+      const auto& edge = P.edges[static_cast<std::size_t>(sep_edge)];
+      closest_segments(e0, e1, P.vertex(edge.v0), P.vertex(edge.v1), t_seg, v);
+    }
+    w_seg = e0 + t_seg * s;
   }
   // lying on a face: the segment clipped to that face gives up to two points
   std::size_t face = 0;
