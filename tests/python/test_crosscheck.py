@@ -54,6 +54,30 @@ def test_contacts_match_the_oracle_feature_by_feature(scene):
     assert seen > 0
 
 
+def test_a_spinning_body_keeps_the_oracles_speculative_points():
+    # a capsule spinning at 50 rad/s among balls resting 2 cm apart: the body-wide reach takes
+    # every neighbour, the per-point rule (docs/conventions.md, "Which contacts exist") only those
+    # its surface moves towards; the core keeps exactly the oracle's points
+    world = sg.World()
+    world.add_static(sg.Plane((0, 0, 1), 0.0))
+    for i in range(-2, 3):
+        for j in range(-2, 3):
+            if (i, j) != (0, 0):
+                world.add_body(sg.Sphere(0.05), mass=1.0, position=(0.12 * i, 0.12 * j, 0.05))
+    cap = world.add_body(sg.Capsule(0.03, 0.06), mass=1.0, position=(0.0, 0.0, 0.1),
+                         angular_velocity=(50.0, 0.0, 0.0))
+    for dt in (1 / 240, 1 / 60):
+        core = world.detect_contacts(dt)
+        expected = oracle.detect_contacts(world.snapshot(), dt)
+        assert np.array_equal(core.body_a, expected["body_a"]) and np.array_equal(core.body_b, expected["body_b"])
+        assert np.allclose(core.gap, expected["gap"], rtol=0, atol=1e-12)
+        mine = (core.body_a == cap) | (core.body_b == cap)
+        touched = set(core.body_a[mine].tolist()) | set(core.body_b[mine].tolist())
+        # measured with the body-wide reach alone: the floor at 1/240 s, the floor and 4 balls at
+        # 1/60 s; with the per-point rule: none, and the floor and 1 ball
+        assert len(touched - {cap}) <= {1 / 240: 0, 1 / 60: 2}[dt]
+
+
 def test_pgs_reaches_the_exact_lcp_solution():
     # a ball on the plane with a second ball landing on it off-centre: a coupled 2-contact LCP with
     # a positive definite Delassus matrix, so its solution is unique and PGS must converge to it

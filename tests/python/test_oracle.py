@@ -420,10 +420,32 @@ def test_speculative_reach_rule():
     np.testing.assert_allclose(s, [0.0, expected], rtol=1e-15)
     toward_plane = dt * (4.0 + dt * G + 2.0 * r)
     assert o.plane_reach(snap, 1, np.array([0, 0, 1.0]), dt) == pytest.approx(toward_plane, rel=1e-15)
-    threshold = 0.005 + toward_plane
+    # each point then needs its own approach: the lowest point y = p - r z moves at v + w x (-r z)
+    # = v (w is along z), so u = 4 m/s, g_n = G, and the spin's turn |w|^2 r / 2 = 1 m/s^2
+    # replaces the body-wide |w| r = 1 m/s, which is the smaller reach here
+    point_reach = dt * (4.0 + dt * (G + 0.5 * 4.0 * r))
+    assert point_reach < toward_plane
+    threshold = 0.005 + point_reach
     for gap, present in ((threshold * (1 - 1e-9), True), (threshold * (1 + 1e-9), False)):
         snap["position"][1, 2] = r + gap
         assert (len(o.detect_contacts(snap, dt)["gap"]) == 1) == present
+
+
+def test_a_spinning_body_keeps_only_the_speculative_points_it_moves_towards():
+    # two unit spheres 0.3 m apart (gap 0.3 m, far beyond the 5 mm margin), no gravity. B spins
+    # about the line of centres at 50 rad/s: its body-wide reach dt |w| rho = 0.5 m takes the pair,
+    # but the surface at the contact point moves sideways (w x (y - p) is normal to n) and the
+    # spin's turn dt^2 |w|^2 rho / 2 = 0.125 m falls short, so no point is kept. Moving B towards A
+    # at 40 m/s makes it one: dt u = 0.4 m
+    dt = 0.01
+    snap = make_snapshot([make_body({"type": "sphere", "radius": 1.0}), make_body({"type": "sphere", "radius": 1.0})],
+                         [[0, 0, 0], [2.3, 0, 0]], angular_velocity=[[0, 0, 0], [50.0, 0, 0]],
+                         gravity=(0, 0, 0))
+    assert o.speculative_reach(snap, dt)[1] == pytest.approx(0.5)
+    assert len(o.detect_contacts(snap, dt)["gap"]) == 0
+    snap["velocity"][1] = [-40.0, 0, 0]
+    c = o.detect_contacts(snap, dt)
+    assert len(c["gap"]) == 1 and c["gap"][0] == pytest.approx(0.3)
 
 
 def test_unsupported_pair_raises_only_when_within_reach():

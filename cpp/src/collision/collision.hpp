@@ -293,6 +293,18 @@ class BroadPhase {
 void speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity,
                        std::vector<double>& reach);
 
+/// Keeps, of contacts[first ..] (one body pair's manifold, body ids set), the points the pair can
+/// close in this step: those with gap < margin, and the speculative ones with gap < margin +
+/// dt (u + dt (g_n + (|omega_A|^2 rho_A + |omega_B|^2 rho_B) / 2)), u = max(0, -n . (v_B(y) - v_A(y)))
+/// the approach speed at the point y (v_i(y) = v_i + omega_i x (y - p_i)), g_n = max(0, -n . (g_B -
+/// g_A)) the approach by gravity (g_i = g for a body gravity moves, else 0), and the last term the
+/// turn of a spinning body's surface towards n beyond first order (its centripetal acceleration is
+/// at most |omega|^2 rho). The body-wide reach of the broad phase bounds every point of a body by
+/// its fastest one; this bounds each point by its own motion, so a spinning body keeps no
+/// speculative contacts with neighbours its surface does not move towards. Order is kept.
+void keep_reachable(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
+                    std::size_t first, std::vector<Contact>& contacts);
+
 /// Speculative reach of body b towards a plane of world normal n: only the approach speed counts,
 /// dt (max(0, -n . v) + dt max(0, -n . g) + |omega| rho) (m), so a body sliding along a plane does
 /// not gather contacts it cannot reach.

@@ -40,6 +40,7 @@ from .contacts import (
     detect_contacts,
     pair_filter,
     plane_reach,
+    reachable,
     speculative_reach,
 )
 from .lcp import (
@@ -141,7 +142,7 @@ __all__ = [
     "mass_properties_cylinder", "mass_properties_hull", "mass_properties_mesh",
     "mass_properties_sphere", "matrix_to_quat", "mesh_volume_integrals", "pgs", "plane_reach",
     "polytope_to_world", "position_pass", "position_targets", "prepare_rows", "project_friction",
-    "quat_to_matrix", "read_cache", "reduce_manifold", "restitution", "restitutive_contacts",
+    "quat_to_matrix", "reachable", "read_cache", "reduce_manifold", "restitution", "restitutive_contacts",
     "rodrigues", "rollout", "select_manifold", "shape_volume", "signed_area", "skew",
     "solve_contacts", "solver_settings", "sort_cache", "speculative_bias", "speculative_reach",
     "carry_contacts", "step", "step_once", "store", "support_box", "support_capsule", "support_cylinder",

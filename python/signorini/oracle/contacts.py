@@ -97,6 +97,38 @@ def plane_reach(snapshot, b, n, dt):
                  + np.linalg.norm(omega) * bounding_radius(body["shape"]))
 
 
+def reachable(snapshot, dt, margin, a, b, y, n, gap):
+    """Which points of the pair (a, b)'s manifold it can close in this step (K,) bool: gap < margin,
+    or gap < margin + dt (u + dt (g_n + (|omega_a|^2 rho_a + |omega_b|^2 rho_b) / 2)) with
+    u = max(0, -n . (v_b(y) - v_a(y))) the approach speed at the point (v_i(y) = v_i + omega_i x
+    (y - p_i)), g_n = max(0, -n . (g_b - g_a)) (g_i = gravity for a body gravity moves, else 0) and
+    the turn of a spinning surface beyond first order (centripetal acceleration <= |omega|^2 rho).
+
+    Inputs: snapshot, dt s, margin m, bodies a, b, y (K, 3) m, n (K, 3) from a to b, gap (K,) m.
+    """
+    static, _, _, _ = body_arrays(snapshot)
+    kinematic, _ = motion_flags(snapshot)
+    p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
+    v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
+    omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
+    g = np.asarray(snapshot["gravity"], dtype=float)
+    bodies = snapshot["bodies"]
+
+    def point_velocity(i):
+        return v[i] + np.cross(omega[i], y - p[i])
+
+    def gravity_of(i):
+        return g if not (static[i] or kinematic[i]) else np.zeros(3)
+
+    def turning(i):
+        return 0.0 if static[i] else float(omega[i] @ omega[i]) * bounding_radius(bodies[i]["shape"])
+
+    approach = np.maximum(0.0, -np.einsum("kj,kj->k", n, point_velocity(b) - point_velocity(a)))
+    falling = np.maximum(0.0, -(n @ (gravity_of(b) - gravity_of(a))))
+    reach = dt * (approach + dt * (falling + 0.5 * (turning(a) + turning(b))))
+    return (gap < margin) | (gap < margin + reach)
+
+
 def box_corners(half_extents):
     """The 8 corners of a box in body axes, (8, 3), corner order of the conventions:
     corner_k = (sx a, sy b, sz c), sx = +1 if k & 1 else -1, sy by k & 2, sz by k & 4."""
@@ -374,7 +406,8 @@ def detect_contacts(snapshot, dt):
     skipped; within a pair the
     manifold's points in (feature_a, feature_b) order (plane - mesh: vertex order).  A candidate
     becomes a contact when gap < contact_margin + s_A + s_B (speculative reach
-    ``speculative_reach``; against a plane only the approach counts, ``plane_reach``).
+    ``speculative_reach``; against a plane only the approach counts, ``plane_reach``), and a
+    point of the manifold stays when its pair can close it in this step (``reachable``).
 
     Inputs: snapshot, dt s.
     Output: dict body_a (K,) int64, body_b (K,) int64, point (K, 3) m, normal (K, 3),
@@ -433,6 +466,8 @@ def detect_contacts(snapshot, dt):
                 L = sum(r for r in map(bounding_radius, (shape_a, shape_b)) if np.isfinite(r))
                 y, n, gap, feature_a, feature_b = select_manifold(y, n, gap, feature_a, feature_b,
                                                                   threshold, L)
+            keep = reachable(snapshot, dt, margin, a, b, y, n, gap)
+            y, n, gap, feature_a, feature_b = (x[keep] for x in (y, n, gap, feature_a, feature_b))
             out["body_a"] += [a] * len(gap)
             out["body_b"] += [b] * len(gap)
             out["point"].append(y)
