@@ -337,24 +337,19 @@ void speculative_reach(const Model& model, const State& state, double dt, const 
 
 void keep_reachable(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
                     std::size_t first, std::vector<Contact>& contacts) {
-  std::size_t kept = first;
-  for (std::size_t k = first; k < contacts.size(); ++k) {
-    const Contact& c = contacts[k];
-    if (!(c.gap < margin)) {
-      const int a = c.body_a, b = c.body_b;
-      auto moved_by_gravity = [&](int i) { return !model.is_static[i] && !model.is_kinematic[i]; };
-      auto point_velocity = [&](int i) { return Vec3(state.v[i] + state.omega[i].cross(c.point - state.p[i])); };
-      auto turning = [&](int i) { return model.is_static[i] ? 0.0 : state.omega[i].squaredNorm() * model.rho[i]; };
-      const double approach = std::max(0.0, -c.normal.dot(point_velocity(b) - point_velocity(a)));
-      const Vec3 g_rel = (moved_by_gravity(b) ? gravity : Vec3::Zero()) - (moved_by_gravity(a) ? gravity : Vec3::Zero());
-      const double falling = std::max(0.0, -c.normal.dot(g_rel));
-      if (!(c.gap < margin + dt * (approach + dt * (falling + 0.5 * (turning(a) + turning(b))))))
-        continue;
-    }
-    if (kept != k) contacts[kept] = contacts[k];
-    ++kept;
-  }
-  contacts.resize(kept);
+  auto moved_by_gravity = [&](int i) { return !model.is_static[i] && !model.is_kinematic[i]; };
+  auto turning = [&](int i) { return model.is_static[i] ? 0.0 : state.omega[i].squaredNorm() * model.rho[i]; };
+  auto unreachable = [&](const Contact& c) {
+    if (c.gap < margin) return false;
+    const int a = c.body_a, b = c.body_b;
+    auto point_velocity = [&](int i) { return Vec3(state.v[i] + state.omega[i].cross(c.point - state.p[i])); };
+    const double approach = std::max(0.0, -c.normal.dot(point_velocity(b) - point_velocity(a)));
+    const Vec3 g_rel = (moved_by_gravity(b) ? gravity : Vec3::Zero()) - (moved_by_gravity(a) ? gravity : Vec3::Zero());
+    const double falling = std::max(0.0, -c.normal.dot(g_rel));
+    return !(c.gap < margin + dt * (approach + dt * (falling + 0.5 * (turning(a) + turning(b)))));
+  };
+  contacts.erase(std::remove_if(contacts.begin() + static_cast<std::ptrdiff_t>(first), contacts.end(), unreachable),
+                 contacts.end());
 }
 
 double plane_reach(const Model& model, const State& state, BodyIndex b, const Vec3& n, double dt,

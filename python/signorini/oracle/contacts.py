@@ -126,7 +126,7 @@ def reachable(snapshot, dt, margin, a, b, y, n, gap):
     approach = np.maximum(0.0, -np.einsum("kj,kj->k", n, point_velocity(b) - point_velocity(a)))
     falling = np.maximum(0.0, -(n @ (gravity_of(b) - gravity_of(a))))
     reach = dt * (approach + dt * (falling + 0.5 * (turning(a) + turning(b))))
-    return (gap < margin) | (gap < margin + reach)
+    return gap < margin + reach  # reach >= 0: every point within the margin stays
 
 
 def box_corners(half_extents):
