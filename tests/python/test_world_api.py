@@ -31,8 +31,10 @@ def fingerprint(w):
     return (w.num_bodies, w.time, tuple(w.names), s["position"].tobytes(), s["rotation"].tobytes(),
             s["velocity"].tobytes(), s["angular_velocity"].tobytes(), s["force"].tobytes(),
             s["torque"].tobytes(), w.masses.tobytes(), w.is_kinematic.tobytes(), w.enabled.tobytes(),
-            c.point.tobytes(), c.alpha.tobytes(), cache["alpha"].tobytes(), cache["body_a"].tobytes(),
-            w.collision_filters[0].tobytes(), w.collision_filters[1].tobytes())
+            c.point.tobytes(), c.alpha.tobytes(), c.spin_torque.tobytes(), cache["alpha"].tobytes(),
+            cache["body_a"].tobytes(), cache["spin"].tobytes(), w.collision_filters[0].tobytes(),
+            w.collision_filters[1].tobytes(), w.frictions.tobytes(), w.restitutions.tobytes(),
+            w.spinning_frictions.tobytes())
 
 
 def assert_refused(w, call, error, words):
@@ -573,6 +575,22 @@ def test_names_lookup_and_duplicates():
     (lambda w: w.add_body(sg.Box((1, 1, 1)), mass=1.0, inertia=[[1, 2, 0], [0, 1, 0], [0, 0, 1]]), ValueError,
      ["symmetric"]),
     (lambda w: w.add_body(sg.Sphere(1), mass=1.0, name=3), TypeError, ["name must be a string"]),
+    (lambda w: w.add_body(sg.Sphere(1), mass=1.0, spinning_friction="0.01"), TypeError,
+     ["body 2 (Sphere)", "spinning_friction must be a number, got '0.01'"]),
+    (lambda w: w.add_body(sg.Sphere(1), mass=1.0, spinning_friction=None), TypeError,
+     ["body 2 (Sphere)", "spinning_friction must be a number, got None"]),
+    (lambda w: w.add_static(sg.Sphere(1), spinning_friction=-0.5), ValueError,
+     ["body 2 (Sphere)", "spinning_friction must be finite and >= 0 (m), got -0.5"]),
+    (lambda w: w.add_static(sg.Sphere(1), spinning_friction=np.nan), ValueError,
+     ["body 2 (Sphere)", "spinning_friction must be finite and >= 0 (m), got nan"]),
+    (lambda w: w.set_material(1, spinning_friction=True), TypeError,
+     ["body 1 'box' (Box)", "spinning_friction must be a number, got True"]),
+    (lambda w: w.set_material(1, friction=0.2, spinning_friction=[0.01]), TypeError,
+     ["body 1 'box' (Box)", "spinning_friction must be a number"]),
+    (lambda w: w.set_material(0, spinning_friction=-1e-3), ValueError,
+     ["body 0 'ground' (Plane)", "spinning_friction must be finite and >= 0 (m)"]),
+    (lambda w: w.set_material(1, friction=0.2, spinning_friction=np.inf), ValueError,
+     ["body 1 'box' (Box)", "spinning_friction must be finite and >= 0 (m), got inf"]),
     (lambda w: w.set_velocity(2**40, (0, 0, 0)), sg.BodyIndexError, ["out of range"]),
 ])
 def test_bad_input_names_the_body_and_changes_nothing(call, error, words):
