@@ -400,7 +400,7 @@ class World:
         args = (is_static, kinematic, _scalar(density, who, "density"), _scalar(mass, who, "mass"), inertia,
                 _vector(position, 3, who, "position"), _vector(orientation, 4, who, "orientation"),
                 _vector(velocity, 3, who, "velocity"), _vector(angular_velocity, 3, who, "angular_velocity"),
-                _scalar(friction, who, "friction"), _scalar(restitution, who, "restitution"),
+                _required(friction, who, "friction"), _required(restitution, who, "restitution"),
                 _required(spinning_friction, who, "spinning_friction"), _name(name, who),
                 _bits(group, who, "group"), _bits(mask, who, "mask"), _flag(enabled, who, "enabled"))
         if (not is_static and isinstance(shape, Mesh) and not shape.pieces and not shape.is_convex()
