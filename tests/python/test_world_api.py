@@ -3,6 +3,7 @@ remove_body, impulses and one-step forces, kinematic and disabled bodies, collis
 names. Physical claims are checked against closed forms; bad input must leave the world as it was."""
 import gc
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -197,6 +198,45 @@ def test_restore_state_continues_bit_identically_on_the_pyramid():
     # and through a pickle of the state alone
     w.restore_state(pickle.loads(pickle.dumps(saved)))
     assert_same(trajectory(w, 40), first)
+
+
+def format1_world():
+    """The world of tests/python/data/saved_state_format1.npz: a box spinning flat on the ground and a
+    ball rolling, spinning about the vertical. The file was written by signorini before spinning
+    friction (saved-state format 1), with this world stepped 30 steps of 1/240 s: its save_state()
+    bytes, its state and contact arrays then, and its positions and angular velocities 10 steps
+    later."""
+    w = sg.World()
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    w.add_body(sg.Box((0.2, 0.15, 0.1)), density=500.0, position=(0, 0, 0.1), angular_velocity=(0, 0, 2.0))
+    w.add_body(sg.Sphere(0.1), mass=1.0, position=(1.0, 0, 0.1), velocity=(0.3, 0, 0), angular_velocity=(0, 0, 5.0))
+    return w
+
+
+def test_a_state_saved_before_spinning_friction_is_restored_and_steps_on():
+    # format 1 has no spin torques (there were none): read as 0, the rest exactly as saved
+    old = np.load(Path(__file__).parent / "data" / "saved_state_format1.npz")
+    data = old["state"].tobytes()
+    assert data[:8] == b"SGSTATE1"
+    w = format1_world()
+    w.restore_state(sg.SavedState(data, 3, 30 / 240))
+    for key in ("position", "rotation", "velocity", "angular_velocity"):
+        assert np.array_equal(w.snapshot()[key], old[key]), key
+    c, cache = w.contacts, w.warm_start_cache
+    assert np.array_equal(c.alpha, old["contact_alpha"]) and np.array_equal(c.friction, old["contact_friction"])
+    assert np.array_equal(cache["alpha"], old["cache_alpha"]) and np.array_equal(cache["friction"], old["cache_friction"])
+    assert not c.spin_torque.any() and not cache["spin"].any()
+    # saved again, it is format 2; stepped on, it follows the old build (to rounding: another
+    # compiler may round differently; the same build gives the same bits)
+    assert w.save_state().data[:8] == b"SGSTATE2"
+    w.step(1 / 240, 10)
+    np.testing.assert_allclose(w.positions, old["position_after"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(w.angular_velocities, old["angular_velocity_after"], rtol=0, atol=1e-12)
+    # a format this build does not know is refused by name, the world unchanged
+    before = fingerprint(w)
+    with pytest.raises(ValueError, match="format '9', which this signorini does not read"):
+        w.restore_state(sg.SavedState(data[:7] + b"9" + data[8:], 3, 0.0))
+    assert fingerprint(w) == before
 
 
 def test_restore_state_brings_back_one_step_forces_impulses_and_flags():
