@@ -74,9 +74,10 @@ struct SolverData {
   std::vector<int> order, slot;
   std::vector<std::uint64_t> colours_used;
   // spin rows (torsional friction), in solve order: spin_slot (K: solve position -> its spin row,
-  // or -1 for a contact without one), the rows, and their torques (N m). Empty when no contact has
-  // one (every pair's spinning friction 0, or no pair with a single point): the sweeps then run
-  // exactly as without them
+  // or -1 for a contact without one), the rows, and their torques (N m). spin_rows is empty when
+  // no contact has one (every pair's spinning friction 0, or no pair with a single point): the
+  // sweeps then run exactly as without them, and spin_slot is not read (nor written when every
+  // spinning friction is 0)
   std::vector<int> spin_slot;
   std::vector<SpinRow> spin_rows;
   std::vector<double> spin_alpha;
