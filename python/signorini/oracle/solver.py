@@ -17,6 +17,8 @@ d = n_i), 3i + 1 (t1_i) and 3i + 2 (t2_i).  With r_X = y_i - p_X at the start of
     delta = dt (J_A . M_A^-1 J_A + J_B . M_B^-1 J_B)    s/kg
     J q_dot = J_B . q_dot_B + J_A . q_dot_A            m/s
 alpha of a row is a force (N); a change d_alpha moves q_dot_X += dt d_alpha M_X^-1 J_X.
+Velocities are kept per body as q_dot (N, 6) = (omega, p_dot), world; static bodies have
+M^-1 = 0 and are never moved (they are skipped, not given 0 * change).
 
 Spin rows (torsional friction).  A contact that is the only one of its body pair (its neighbours
 in the contact list, which holds a pair's contacts together, belong to other pairs) with
@@ -27,8 +29,6 @@ whose unknown alpha_spin is a torque on B about n (N m; A gets the opposite), in
 [-mu_spin alpha_n, mu_spin alpha_n].  Its arrays are per contact (K), unused where ``spin`` is
 False, and its torques a separate (K,) array ``alpha_spin`` (0 where there is no row).  A pair with
 several points resists spin through the friction at its separate points and gets none.
-Velocities are kept per body as q_dot (N, 6) = (omega, p_dot), world; static bodies have
-M^-1 = 0 and are never moved (they are skipped, not given 0 * change).
 
 A row whose delta is not > 0 (both bodies static: the narrow phase never makes one) is
 skipped by every stage and keeps alpha = 0.
