@@ -331,7 +331,8 @@ def test_mixed_pile_runs_60_s_without_gaining_energy_and_comes_to_rest(dt):
     # dropped into a walled pit: finite throughout (a non-finite step raises), the total energy
     # never more than 1% of its start above it (the contacts only remove energy; the 1% leaves room
     # for the position pass, which moves bodies without adding velocity but can lift one a little),
-    # at rest after 60 s
+    # at rest after 60 s (its spinning friction stops a ball left spinning about the vertical on
+    # its one contact point, which friction alone never stops)
     w = scenes.build("pile").world
     E0 = w.kinetic_energy() + w.potential_energy()
     highest = E0
