@@ -99,7 +99,8 @@ inline py::array mat3_view(const py::handle& owner, const std::vector<Mat3>& xs)
 
 /// Contacts as a dict of read-only views into the shared list (which the base, a capsule holding
 /// it, keeps alive and unchanged): body_a, body_b (K,) int32; point, normal, friction, force,
-/// slip (K, 3); gap, alpha, impulse, normal_velocity (K,); feature_a, feature_b (K,) uint64.
+/// slip (K, 3); gap, alpha, impulse, spin_torque, normal_velocity (K,); feature_a, feature_b (K,)
+/// uint64.
 inline py::dict contact_views(std::shared_ptr<const std::vector<Contact>> list) {
   const std::vector<Contact>& cs = *list;
   py::capsule owner(new std::shared_ptr<const std::vector<Contact>>(std::move(list)),
@@ -125,6 +126,7 @@ inline py::dict contact_views(std::shared_ptr<const std::vector<Contact>> list) 
   d["impulse"] = scalar(&c.impulse);
   d["friction"] = vector3(&c.friction);
   d["force"] = vector3(&c.force);
+  d["spin_torque"] = scalar(&c.spin_torque);
   d["normal_velocity"] = scalar(&c.normal_velocity);
   d["slip"] = vector3(&c.slip);
   d["feature_a"] = scalar(&c.feature_a);
@@ -154,13 +156,14 @@ inline py::object from_shape(const Shape& shape) {
 }
 
 /// Contacts as a dict of arrays: body_a, body_b (K,) int64; point, normal (K, 3); gap, alpha,
-/// impulse, normal_velocity (K,); friction, force, slip (K, 3); feature_a, feature_b (K,) uint64
+/// impulse, spin_torque, normal_velocity (K,); friction, force, slip (K, 3); feature_a, feature_b
+/// (K,) uint64
 /// (docs/conventions.md, "Feature ids" and "The Signorini certificate").
 inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
   const auto K = static_cast<py::ssize_t>(contacts.size());
   py::array_t<std::int64_t> a(K), b(K);
   py::array_t<std::uint64_t> fa(K), fb(K);
-  py::array_t<double> gap(K), alpha(K), impulse(K), vn(K);
+  py::array_t<double> gap(K), alpha(K), impulse(K), spin_torque(K), vn(K);
   std::vector<Vec3> point, normal, friction, force, slip;
   for (py::ssize_t i = 0; i < K; ++i) {
     const Contact& c = contacts[i];
@@ -171,6 +174,7 @@ inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
     gap.mutable_at(i) = c.gap;
     alpha.mutable_at(i) = c.alpha;
     impulse.mutable_at(i) = c.impulse;
+    spin_torque.mutable_at(i) = c.spin_torque;
     vn.mutable_at(i) = c.normal_velocity;
     point.push_back(c.point);
     normal.push_back(c.normal);
@@ -188,6 +192,7 @@ inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
   d["impulse"] = impulse;
   d["friction"] = rows_of(friction);
   d["force"] = rows_of(force);
+  d["spin_torque"] = spin_torque;
   d["normal_velocity"] = vn;
   d["slip"] = rows_of(slip);
   d["feature_a"] = fa;
@@ -196,12 +201,12 @@ inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
 }
 
 /// The warm-start cache as a dict of arrays: body_a, body_b (K,) int64; feature_a, feature_b (K,)
-/// uint64; alpha (K,) N; friction (K, 3) N, world.
+/// uint64; alpha (K,) N; friction (K, 3) N, world; spin (K,) N m.
 inline py::dict cache_arrays(const std::vector<CachedContact>& cache) {
   const auto K = static_cast<py::ssize_t>(cache.size());
   py::array_t<std::int64_t> a(K), b(K);
   py::array_t<std::uint64_t> fa(K), fb(K);
-  py::array_t<double> alpha(K);
+  py::array_t<double> alpha(K), spin(K);
   std::vector<Vec3> friction;
   for (py::ssize_t i = 0; i < K; ++i) {
     const CachedContact& c = cache[i];
@@ -210,6 +215,7 @@ inline py::dict cache_arrays(const std::vector<CachedContact>& cache) {
     fa.mutable_at(i) = c.feature_a;
     fb.mutable_at(i) = c.feature_b;
     alpha.mutable_at(i) = c.alpha;
+    spin.mutable_at(i) = c.spin;
     friction.push_back(c.friction);
   }
   py::dict d;
@@ -219,6 +225,7 @@ inline py::dict cache_arrays(const std::vector<CachedContact>& cache) {
   d["feature_b"] = fb;
   d["alpha"] = alpha;
   d["friction"] = rows_of(friction);
+  d["spin"] = spin;
   return d;
 }
 

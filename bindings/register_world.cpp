@@ -53,7 +53,7 @@ void register_world(py::module_& m) {
           [](World& w, const py::object& shape, bool is_static, bool is_kinematic, std::optional<double> density,
              std::optional<double> mass, std::optional<Mat3> inertia, const Vec3& position, const Quat4& orientation,
              const Vec3& velocity, const Vec3& angular_velocity, double friction, double restitution,
-             const std::string& name, std::uint32_t group, std::uint32_t mask, bool enabled) {
+             double spinning_friction, const std::string& name, std::uint32_t group, std::uint32_t mask, bool enabled) {
             BodyDesc d;
             d.shape = bindings::to_shape(shape, "body " + std::to_string(w.num_bodies()));
             d.is_static = is_static;
@@ -67,6 +67,7 @@ void register_world(py::module_& m) {
             d.angular_velocity = angular_velocity;
             d.material.friction = friction;
             d.material.restitution = restitution;
+            d.material.spinning_friction = spinning_friction;
             d.name = name;
             d.filter = CollisionFilter{group, mask};
             d.enabled = enabled;
@@ -74,7 +75,8 @@ void register_world(py::module_& m) {
           },
           py::arg("shape"), py::arg("is_static"), py::arg("is_kinematic"), py::arg("density"), py::arg("mass"),
           py::arg("inertia"), py::arg("position"), py::arg("orientation"), py::arg("velocity"),
-          py::arg("angular_velocity"), py::arg("friction"), py::arg("restitution"), py::arg("name"),
+          py::arg("angular_velocity"), py::arg("friction"), py::arg("restitution"), py::arg("spinning_friction"),
+          py::arg("name"),
           py::arg("group"), py::arg("mask"), py::arg("enabled"))
       .def("remove_body", &World::remove_body, py::arg("i"))
       .def("step", &World::step, py::arg("dt"), py::arg("steps") = 1, py::call_guard<py::gil_scoped_release>())
@@ -103,8 +105,8 @@ void register_world(py::module_& m) {
       .def("label", &World::label)
       .def("save_state", [](const World& w) { return py::bytes(w.save_state()); })
       .def("restore_state", [](World& w, const py::bytes& b) { w.restore_state(std::string(b)); })
-      .def("set_material", [](World& w, BodyIndex i, double friction, double restitution) {
-        w.set_material(i, Material{friction, restitution});
+      .def("set_material", [](World& w, BodyIndex i, double friction, double restitution, double spinning_friction) {
+        w.set_material(i, Material{friction, restitution, spinning_friction});
       })
       .def("set_solver", [](World& w, const SolverSettings& solver) {
         WorldSettings s = w.settings();
@@ -143,6 +145,11 @@ void register_world(py::module_& m) {
       .def_property_readonly("restitutions", [](const World& w) {
         py::array_t<double> out(static_cast<py::ssize_t>(w.num_bodies()));
         for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().material[i].restitution;
+        return out;
+      })
+      .def_property_readonly("spinning_frictions", [](const World& w) {
+        py::array_t<double> out(static_cast<py::ssize_t>(w.num_bodies()));
+        for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().material[i].spinning_friction;
         return out;
       })
       .def_property_readonly("is_static", [](const World& w) {

@@ -95,7 +95,8 @@ def free(world: World, dt: float, steps: int) -> Report:
 # scenes the oracle can follow on its own ---------------------------------------------------------
 # They run every solver stage to its sweep limit (tolerance 0): a stopping test that sits on the
 # tolerance could stop one side a sweep earlier than the other by rounding, and the free comparison
-# would then measure that choice instead of the arithmetic. Friction is the default 0.5.
+# would then measure that choice instead of the arithmetic. Friction is the default 0.5, spinning
+# friction the default 0 except in ``spinners``.
 SOLVER = {"tolerance": 0.0}
 
 def tumbling_box() -> tuple[World, float, int]:
@@ -145,7 +146,27 @@ def stack() -> tuple[World, float, int]:
     return w, 1 / 240, 500
 
 
-COMPARE_SCENES = {"tumbling_box": tumbling_box, "mesh_drop": mesh_drop, "spheres": spheres, "stack": stack}
+def spinners() -> tuple[World, float, int]:
+    """Torsional friction at single-point contacts: balls spinning about the vertical on the ground
+    (one sliding too, one spinning about a tilted axis), a ball dropped spinning onto a resting one
+    (a sphere-sphere point), a capsule spinning upright on its end; the ground's spinning friction
+    and the bodies' differ (a pair takes the larger), one ball has none against a ground with some."""
+    from . import Capsule
+    w = World(gravity=(0, 0, -9.81), **SOLVER)
+    w.add_static(Plane(normal=(0, 0, 1), offset=0.0), spinning_friction=0.0005)
+    w.add_body(Sphere(0.1), mass=1.0, position=(0, 0, 0.1), angular_velocity=(0, 0, 8.0), spinning_friction=0.002)
+    w.add_body(Sphere(0.15), mass=2.0, position=(1.0, 0, 0.15), velocity=(0.5, 0.2, 0),
+               angular_velocity=(1.0, -0.5, -6.0), spinning_friction=0.003)
+    w.add_body(Sphere(0.2), mass=1.5, position=(-1.0, 0.5, 0.2), angular_velocity=(0, 0, 5.0))
+    w.add_body(Sphere(0.1), mass=0.5, position=(-1.0, 0.52, 0.65), angular_velocity=(0, 0, -4.0),
+               spinning_friction=0.004)
+    w.add_body(Capsule(0.05, 0.1), density=800.0, position=(0, 1.0, 0.15), angular_velocity=(0, 0, 10.0),
+               spinning_friction=0.001)
+    return w, 1 / 240, 500
+
+
+COMPARE_SCENES = {"tumbling_box": tumbling_box, "mesh_drop": mesh_drop, "spheres": spheres, "stack": stack,
+                  "spinners": spinners}
 
 
 def build(name: str) -> tuple[World, float, int]:
@@ -163,7 +184,8 @@ def build(name: str) -> tuple[World, float, int]:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m signorini.compare", description=__doc__.split("\n\n")[0])
     parser.add_argument("scene", nargs="?", default="tumbling_box",
-                        help="tumbling_box, mesh_drop, spheres, stack, or a built-in scene (torus, boxes, shapes)")
+                        help="tumbling_box, mesh_drop, spheres, stack, spinners, or a built-in scene (torus, "
+                             "boxes, shapes)")
     parser.add_argument("--steps", type=int, default=None, help="steps to compare (default: the scene's)")
     parser.add_argument("--mode", choices=("lockstep", "free", "both"), default="both")
     args = parser.parse_args(argv)

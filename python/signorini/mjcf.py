@@ -27,11 +27,19 @@ What is imported:
   ``<asset><mesh file scale/>`` (OBJ, STL, PLY, OFF, GLB through ``load_mesh``; or ``vertex``);
 - ``<option gravity timestep cone>``; friction: the first (sliding) value of a geom's ``friction``
   (a body's geoms must agree). signorini combines two bodies' friction as sqrt(mu_A mu_B) where
-  MuJoCo takes the larger one.
+  MuJoCo takes the larger one. A geom with ``condim`` 4 or 6 (MuJoCo's torsional friction) gives
+  its body ``spinning_friction`` = the second (torsional) value of ``friction`` (a length, m, as in
+  MuJoCo), other geoms 0 (MuJoCo's default condim 3 has none); a body's geoms must agree. A pair
+  takes the larger value, as MuJoCo does (but a geom of condim 3 paired with one of condim 4
+  brings its torsional value into the MuJoCo contact, and 0 here), and signorini applies it only
+  at a contact that is its body pair's only point (see docs/conventions.md). As in MuJoCo, a
+  ``friction`` with fewer than 3 values keeps the remaining ones of its default class (MuJoCo's
+  own default ``1 0.005 0.0001``). The rolling (third) value is not imported, and ``condim`` 1
+  (frictionless in MuJoCo) still imports the sliding value.
 
 Ignored, because they do not change the rigid bodies: sites, cameras, lights, sensors,
 keyframes, visual, statistic, size, custom, textures and materials, and the contact-tuning
-attributes (solref, solimp, condim, margin, gap, priority, contype, conaffinity, rgba, group).
+attributes (solref, solimp, margin, gap, priority, contype, conaffinity, rgba, group).
 Everything else (hinge, slide and ball joints, actuators, tendons, equality constraints, contact
 pairs and excludes, height fields, includes, plugins...) is an ``MJCFError`` listing every
 unsupported element with its line, so a model is never imported with a part silently missing.
@@ -66,8 +74,8 @@ _BODY_READ = {"geom", "body", "inertial", "freejoint", "joint"}
 _BODY_IGNORED = {"site", "camera", "light"}
 _ASSET_IGNORED = {"texture", "material"}
 _GEOM_ATTRS = {"type", "size", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "fromto", "density", "mass",
-               "friction", "mesh", "name", "class"}
-_GEOM_IGNORED = {"rgba", "group", "material", "contype", "conaffinity", "condim", "solref", "solimp", "solmix",
+               "friction", "condim", "mesh", "name", "class"}
+_GEOM_IGNORED = {"rgba", "group", "material", "contype", "conaffinity", "solref", "solimp", "solmix",
                  "margin", "gap", "priority", "user", "fitscale", "shellinertia"}
 _BODY_ATTRS = {"name", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "childclass"}
 _BODY_IGNORED_ATTRS = {"mocap", "gravcomp", "user"}
@@ -75,6 +83,22 @@ _COMPILER_ATTRS = {"angle", "meshdir", "assetdir", "eulerseq", "inertiafromgeom"
 _COMPILER_IGNORED = {"autolimits", "texturedir", "discardvisual", "strippath", "inertiagrouprange", "fitaabb",
                      "usethread", "convexhull", "alignfree", "fusestatic"}
 _OPTION_ATTRS = {"gravity", "timestep", "cone"}
+# MuJoCo's geom friction (sliding, torsional m, rolling m) and contact dimensions when not given
+_MUJOCO_FRICTION = "1 0.005 0.0001"
+_MUJOCO_CONDIM = 3
+
+
+def _layered_friction(base: str, given: str) -> str:
+    """A ``friction`` attribute over the one it inherits: MuJoCo reads up to 3 numbers into the
+    inherited triple, so "0.7" over "0.5 0.02 0.001" is "0.7 0.02 0.001". A value that is not a
+    list of numbers is kept as it is, for the reader to report."""
+    try:
+        inherited, own = [float(x) for x in base.split()], [float(x) for x in given.split()]
+    except ValueError:
+        return given
+    if not 1 <= len(own) <= 3 or len(inherited) != 3:
+        return given
+    return " ".join(given.split() + base.split()[len(own):])
 
 
 def _parse_with_lines(text: bytes) -> tuple[ET.Element, dict]:
@@ -173,6 +197,7 @@ class _Part:
     density: Optional[float]  # kg/m^3, or None when the geom gives a mass
     mass: Optional[float]
     friction: float
+    spinning_friction: float  # m, MuJoCo's torsional friction where condim >= 4, else 0
     element: ET.Element
 
 
@@ -277,7 +302,11 @@ class _Reader:
         name = el.get("class", cls)
         if name not in self.defaults:
             raise self.error(el, f"unknown default class {name!r} (known: {', '.join(sorted(self.defaults))})")
-        return {**self.defaults[name].get(el.tag, {}), **el.attrib}
+        inherited = self.defaults[name].get(el.tag, {})
+        out = {**inherited, **el.attrib}
+        if el.tag == "geom" and "friction" in el.attrib:
+            out["friction"] = _layered_friction(inherited.get("friction", _MUJOCO_FRICTION), el.attrib["friction"])
+        return out
 
     # sections ----------------------------------------------------------------------------------
     def read(self):
@@ -344,7 +373,11 @@ class _Reader:
             if child.tag == "default":
                 continue
             if child.tag in ("geom", "mesh"):
-                own.setdefault(child.tag, {}).update(child.attrib)
+                values = own.setdefault(child.tag, {})
+                friction = values.get("friction", _MUJOCO_FRICTION)
+                values.update(child.attrib)
+                if child.tag == "geom" and "friction" in child.attrib:
+                    values["friction"] = _layered_friction(friction, child.attrib["friction"])
             elif child.tag not in _BODY_IGNORED and child.tag not in ("joint", "site", "camera", "light", "motor",
                                                                        "position", "velocity", "general",
                                                                        "tendon", "equality", "pair", "material"):
@@ -444,6 +477,18 @@ class _Reader:
             return ConvexHull(vertices)
         return TriangleMesh(vertices, faces)
 
+    def geom_spinning_friction(self, el: ET.Element, attrs: dict) -> float:
+        """A geom's spinning friction (m): the torsional value of its friction when its condim is 4
+        or 6 (MuJoCo's torsional friction), else 0."""
+        condim = attrs.get("condim", str(_MUJOCO_CONDIM))
+        if condim.strip() not in ("1", "3", "4", "6"):
+            raise self.error(el, f"condim={condim!r} must be 1, 3, 4 or 6")
+        if int(condim) < 4:
+            return 0.0
+        # attrs' friction is layered over its classes' and MuJoCo's (``attrs``): all three values
+        friction = self.numbers(el, {"friction": attrs.get("friction", _MUJOCO_FRICTION)}, "friction", (1, 2, 3))
+        return float(friction[1]) if len(friction) > 1 else float(_MUJOCO_FRICTION.split()[1])
+
     def geom_mass(self, el: ET.Element, attrs: dict):
         """(density or None, mass or None, sliding friction) of a geom."""
         mass = self.numbers(el, attrs, "mass", 1)
@@ -465,12 +510,13 @@ class _Reader:
                 self.check_attrs(child, _GEOM_ATTRS, _GEOM_IGNORED)
                 shape, pose = self.geom_shape(child, attrs, dynamic)
                 density, mass, mu = self.geom_mass(child, attrs)
+                spin = self.geom_spinning_friction(child, attrs)
                 pose = frame.then(pose)
                 if isinstance(shape, str):
                     # a plane: the geom's z axis is the normal, through the geom's origin
                     n = _qrot(pose.q)[:, 2]
                     shape, pose = Plane(n, float(n @ pose.p)), _Pose()
-                parts.append(_Part(shape, pose, density, mass, mu, child))
+                parts.append(_Part(shape, pose, density, mass, mu, spin, child))
             elif child.tag == "body":
                 self.check_attrs(child, _BODY_ATTRS, _BODY_IGNORED_ATTRS)
                 joints = [j for j in child if j.tag in ("joint", "freejoint")]
@@ -547,7 +593,8 @@ def read_mjcf(path):
     try:
         for part in static_parts:
             try:
-                world.add_static(part.shape, position=part.pose.p, orientation=part.pose.q, friction=part.friction)
+                world.add_static(part.shape, position=part.pose.p, orientation=part.pose.q, friction=part.friction,
+                                 spinning_friction=part.spinning_friction)
             except (TypeError, ValueError) as e:
                 raise reader.error(part.element, str(e)) from None
             names.append(part.element.get("name") or f"static_{len(names)}")
@@ -588,6 +635,10 @@ def _add_free_body(reader: _Reader, world, body: ET.Element, pose: _Pose, parts:
     frictions = {part.friction for part in parts}
     if len(frictions) > 1:
         raise reader.error(body, f"its geoms have different frictions {sorted(frictions)}; a signorini body has one")
+    spinning = {part.spinning_friction for part in parts}
+    if len(spinning) > 1:
+        raise reader.error(body, f"its geoms have different torsional frictions {sorted(spinning)} m (condim 4 or 6; "
+                                 "0 for condim 1 or 3); a signorini body has one spinning friction")
     volume, com, inertia = mass_properties(shape, 1.0)
     given_mass = parts[0].mass if len(parts) == 1 and parts[0].mass is not None else None
     density = densities[0]
@@ -599,7 +650,8 @@ def _add_free_body(reader: _Reader, world, body: ET.Element, pose: _Pose, parts:
     position = pose.p + _qrot(pose.q) @ np.asarray(com)
     kwargs = {"mass": given_mass} if given_mass is not None else {"density": density}
     try:
-        world.add_body(shape, position=position, orientation=pose.q, friction=parts[0].friction, **kwargs)
+        world.add_body(shape, position=position, orientation=pose.q, friction=parts[0].friction,
+                       spinning_friction=parts[0].spinning_friction, **kwargs)
     except (TypeError, ValueError) as e:
         raise reader.error(body, str(e)) from None
 

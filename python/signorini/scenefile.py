@@ -20,6 +20,7 @@ written. A file reads like this (every table and key optional unless marked)::
     [materials.rubber]           # named materials bodies refer to
     friction = 0.9
     restitution = 0.8
+    spinning_friction = 0.002    # m (torsional friction; default 0)
 
     [[bodies]]
     name = "ground"
@@ -30,7 +31,7 @@ written. A file reads like this (every table and key optional unless marked)::
     name = "box"
     shape = { type = "box", half_extents = [0.5, 0.5, 0.5] }
     density = 1000.0             # or mass (kg); exactly one, for dynamic bodies
-    material = "rubber"          # or friction = ..., restitution = ... (they override the material)
+    material = "rubber"          # or friction = ..., restitution = ..., spinning_friction = ... (they override it)
     position = [0.0, 0.0, 1.0]   # centre of mass, m
     orientation = [1.0, 0.0, 0.0, 0.0]   # quaternion w, x, y, z
     velocity = [0.0, 0.0, 0.0]
@@ -195,9 +196,12 @@ AnyShape = Annotated[Union[SphereShape, BoxShape, CapsuleShape, CylinderShape, P
 
 # bodies, materials, world, scene ---------------------------------------------------------------
 class Material(_Table):
-    """Friction coefficient mu >= 0 and restitution e in [0, 1]; a contact uses sqrt(mu_A mu_B), max(e_A, e_B)."""
+    """Friction coefficient mu >= 0, restitution e in [0, 1] and spinning (torsional) friction mu_spin >= 0 \
+(m); a contact uses sqrt(mu_A mu_B), max(e_A, e_B) and max(mu_spin_A, mu_spin_B)."""
     friction: Float = 0.5
     restitution: Float = 0.0
+    spinning_friction: Float = Field(0.0, description="m: the torque about the normal at a contact that is its "
+                                                      "body pair's only point is at most this times the normal force")
 
 
 class Body(_Table):
@@ -210,6 +214,7 @@ class Body(_Table):
     material: Optional[Str] = Field(None, description="a name in [materials]")
     friction: Optional[Float] = Field(None, description="overrides the material's (default 0.5)")
     restitution: Optional[Float] = Field(None, description="overrides the material's (default 0)")
+    spinning_friction: Optional[Float] = Field(None, description="overrides the material's (default 0, m)")
     position: Vec3 = Field((0.0, 0.0, 0.0), description="centre of mass, world, m")
     orientation: Quat = Field((1.0, 0.0, 0.0, 0.0), description="quaternion (w, x, y, z), world-from-body")
     velocity: Vec3 = Field((0.0, 0.0, 0.0), description="m/s, world")
@@ -389,6 +394,7 @@ def read_scene(path):
             material = model.materials[body.material] if body.material is not None else Material()
             friction = material.friction if body.friction is None else body.friction
             restitution = material.restitution if body.restitution is None else body.restitution
+            spinning = material.spinning_friction if body.spinning_friction is None else body.spinning_friction
             # the body's name, into the world (find, errors naming the body)
             kwargs: dict[str, Any] = {"name": body.name} if body.name else {}
             if body.static:
@@ -400,12 +406,12 @@ def read_scene(path):
                     if any(getattr(body, field)):
                         raise ValueError(f"{field}: a static body cannot have a velocity")
                 world.add_static(shape, position=body.position, orientation=body.orientation, friction=friction,
-                                 restitution=restitution, **kwargs)
+                                 restitution=restitution, spinning_friction=spinning, **kwargs)
             else:
                 world.add_body(shape, density=body.density, mass=body.mass, position=body.position,
                                orientation=body.orientation, velocity=body.velocity,
                                angular_velocity=body.angular_velocity, friction=friction, restitution=restitution,
-                               **kwargs)
+                               spinning_friction=spinning, **kwargs)
         except (TypeError, ValueError) as e:
             raise SceneFileError(f"{where_file}: {key}: {e}") from None
         names.append(body.name if body.name else "")
@@ -496,7 +502,7 @@ def _body_tables(world, meshes: _MeshWriter, names) -> list[dict]:
         given = None
     p, R, v, w = world.positions, world.rotations, world.velocities, world.angular_velocities
     q_now, static, masses = world.orientations, world.is_static, world.masses
-    frictions, restitutions = world.frictions, world.restitutions
+    frictions, restitutions, spinning = world.frictions, world.restitutions, world.spinning_frictions
     unchanged = np.zeros(n, dtype=bool)
     if given is not None and n:
         R_given = _rotation_of(np.array([g.orientation for g in given]))
@@ -521,11 +527,14 @@ def _body_tables(world, meshes: _MeshWriter, names) -> list[dict]:
             table.update({"density": float(g.density)} if g.density is not None else {"mass": float(g.mass)})
         else:
             table["mass"] = float(masses[i])
-        # the defaults (friction 0.5, restitution 0, identity orientation, zero velocities) are left out
+        # the defaults (friction 0.5, restitution 0, spinning friction 0, identity orientation, zero
+        # velocities) are left out
         if float(frictions[i]) != 0.5:
             table["friction"] = float(frictions[i])
         if not _is_zero(restitutions[i]):
             table["restitution"] = float(restitutions[i])
+        if not _is_zero(spinning[i]):
+            table["spinning_friction"] = float(spinning[i])
         if unchanged[i]:
             position, orientation = g.position, g.orientation
             velocity, angular_velocity = g.velocity, g.angular_velocity

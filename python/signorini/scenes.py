@@ -17,7 +17,7 @@ Scenes:
   two spheres meet head on, one lands on a box, one on another sphere.
 - ``shapes``: every collidable shape on a triangle-mesh floor.
 - ``pile``: 100 mixed bodies of every dynamic shape type dropped into a walled pit (the solver's
-  energy and rest acceptance scene).
+  energy and rest acceptance scene), with spinning friction ``PILE_SPINNING_FRICTION``.
 - ``pyramid``: 210 unit boxes of 1 kg stacked in a pyramid with a base row of 20, 1 mm apart in a
   row, on the ground z = 0 (the solver's stacking acceptance scene; 10 s).
 - ``rain``: 1,000 spheres and 200 boxes rained from a grid into a walled bin (5 s).
@@ -25,7 +25,8 @@ Scenes:
 
 The last three are the scenes of ``benchmarks/bench_solver.py``; their builders (``pyramid``,
 ``rain``, ``hull_pile``) take sizes as keywords, so tests can build small versions, and every body
-and the ground carry friction 0.5 and restitution 0. The benchmark mirrors the built world (shapes,
+and the ground carry friction 0.5, restitution 0 and no spinning friction (pybullet's default,
+so the two engines solve the same problem). The benchmark mirrors the built world (shapes,
 poses, masses) into pybullet, so each scene is written only here.
 """
 
@@ -222,14 +223,24 @@ def _shapes() -> Scene:
     )
 
 
+#: the pile's spinning (torsional) friction, m: the largest torque about the normal, (3 pi / 16) mu a
+#: alpha_n, that friction mu = 0.5 gives over a Hertzian contact patch of radius a = 1.7 mm. The
+#: pile's 1 kg ball (radius 8 cm) makes a patch of about 0.5 mm under its own weight in wood, 0.8 mm
+#: in hard plastic, 6 mm in rubber: this is a soft plastic. Without it a ball of the pile can be
+#: left spinning about the vertical for good (its one contact point has no lever arm about n).
+PILE_SPINNING_FRICTION = 0.0005
+
+
 def _pile() -> Scene:
     """100 bodies of every dynamic shape type (spheres, boxes, capsules, cylinders, convex hulls,
     convex meshes, compounds, decomposed tori) dropped from a 5 x 5 x 4 grid into a 1.6 m square pit
-    walled by static boxes, friction 0.5, no restitution."""
+    walled by static boxes, friction 0.5, spinning friction ``PILE_SPINNING_FRICTION``, no
+    restitution."""
     import signorini as sg
 
     world = sg.World(gravity=(0.0, 0.0, -9.81))
-    _walled_bin(world, half_width=0.8, height=1.0, thickness=0.1, friction=0.5)
+    spin = PILE_SPINNING_FRICTION
+    _walled_bin(world, half_width=0.8, height=1.0, thickness=0.1, friction=0.5, spinning_friction=spin)
     rng = np.random.default_rng(2026)
     ico_v, ico_f = meshes.icosphere(0.09, 1)
     torus_v, torus_f = meshes.torus(0.09, 0.03, 24, 12)
@@ -264,6 +275,7 @@ def _pile() -> Scene:
                     orientation=axis_angle_quaternion(rng.normal(size=3), rng.uniform(0.0, math.pi)),
                     velocity=tuple(rng.uniform(-0.5, 0.5, size=3)),
                     angular_velocity=tuple(rng.uniform(-2.0, 2.0, size=3)),
+                    spinning_friction=spin,
                 )
                 k += 1
     return Scene(
@@ -272,24 +284,29 @@ def _pile() -> Scene:
         dt=1.0 / 240.0,
         steps=2400,
         description="100 spheres, boxes, capsules, cylinders, hulls, convex meshes, compound tables and "
-        "decomposed tori dropped into a walled pit, g = 9.81 m/s^2, friction 0.5",
+        f"decomposed tori dropped into a walled pit, g = 9.81 m/s^2, friction 0.5, spinning friction "
+        f"{spin * 1000:g} mm",
         snapshot_times=(0.0, 0.4, 1.0, 3.0, 10.0),
     )
 
 
-def _walled_bin(world, half_width: float, height: float, thickness: float, friction: float) -> None:
+def _walled_bin(world, half_width: float, height: float, thickness: float, friction: float,
+                spinning_friction: float = 0.0) -> None:
     """The ground plane z = 0 and four static box walls around the square |x|, |y| < half_width,
-    ``thickness`` (m) thick and ``height`` (m) high; friction as given, restitution 0."""
+    ``thickness`` (m) thick and ``height`` (m) high; friction and spinning friction as given,
+    restitution 0."""
     import signorini as sg
 
-    world.add_static(sg.Plane(normal=(0.0, 0.0, 1.0), offset=0.0), friction=friction, restitution=0.0)
+    world.add_static(sg.Plane(normal=(0.0, 0.0, 1.0), offset=0.0), friction=friction, restitution=0.0,
+                     spinning_friction=spinning_friction)
     for axis in (0, 1):
         for side in (-1.0, 1.0):
             half = [half_width + thickness, half_width + thickness, 0.5 * height]
             half[axis] = 0.5 * thickness
             centre = [0.0, 0.0, 0.5 * height]
             centre[axis] = side * (half_width + 0.5 * thickness)
-            world.add_static(sg.Box(tuple(half)), position=tuple(centre), friction=friction, restitution=0.0)
+            world.add_static(sg.Box(tuple(half)), position=tuple(centre), friction=friction, restitution=0.0,
+                             spinning_friction=spinning_friction)
 
 
 def _grid(count: int, half_width: float, spacing: float, z0: float) -> list[tuple[float, float, float]]:

@@ -55,6 +55,9 @@ class Contacts:
     impulse: (K,) impulses dt * alpha_i (N s) applied as +impulse n on B and -impulse n on A.
     friction: (K, 3) friction forces on B (N, world, tangent to n); A gets the opposite.
     force: (K, 3) total contact forces on B, alpha n + friction (N, world).
+    spin_torque: (K,) torsional friction torques on B about n_i (N m; B gets spin_torque n, A the
+        opposite); 0 for a contact without a spin row (one of several points of its body pair, or
+        spinning friction 0).
     normal_velocity: (K,) n . (v_B(y) - v_A(y)) after the solve (m/s; > 0 separating).
     slip: (K, 3) tangential velocity of B's point against A's after the solve (m/s, world).
     feature_a, feature_b: (K,) uint64 feature ids of the point on A and on B, the same from one
@@ -71,6 +74,7 @@ class Contacts:
     impulse: np.ndarray
     friction: np.ndarray
     force: np.ndarray
+    spin_torque: np.ndarray
     normal_velocity: np.ndarray
     slip: np.ndarray
     feature_a: np.ndarray
@@ -342,16 +346,19 @@ class World:
     def add_body(self, shape, *, density=None, mass=None, inertia=None, position=(0.0, 0.0, 0.0),
                  orientation=(1.0, 0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0),
                  angular_velocity=(0.0, 0.0, 0.0), friction: float = 0.5, restitution: float = 0.0,
-                 kinematic: bool = False, name: str | None = None, group: int = 1, mask: int = ALL_BITS,
-                 enabled: bool = True) -> int:
+                 spinning_friction: float = 0.0, kinematic: bool = False, name: str | None = None,
+                 group: int = 1, mask: int = ALL_BITS, enabled: bool = True) -> int:
         """Adds a dynamic (or kinematic) body and returns its index.
 
         Exactly one of ``density`` (kg/m^3) or ``mass`` (kg). ``position`` (3,) is where the
         centre of mass goes (a mesh is re-centred on its centre of mass, axes unchanged);
         ``orientation`` is a quaternion (w, x, y, z), normalised if it is not unit length (a zero
-        one is an error); velocities are world-frame (m/s, rad/s). ``friction`` mu >= 0 and
-        ``restitution`` e in [0, 1] are the body's material; a contact uses sqrt(mu_A mu_B) and
-        max(e_A, e_B).
+        one is an error); velocities are world-frame (m/s, rad/s). ``friction`` mu >= 0,
+        ``restitution`` e in [0, 1] and ``spinning_friction`` mu_spin >= 0 (a length, m) are the
+        body's material; a contact uses sqrt(mu_A mu_B), max(e_A, e_B) and max(mu_spin_A,
+        mu_spin_B). Spinning friction is torsional friction: at a contact that is its body pair's
+        only point (a sphere on the ground, a capsule on its end, a corner) the torque about the
+        normal is bounded by mu_spin alpha_n; 0 (the default) gives none (docs/conventions.md).
 
         ``inertia`` (3, 3) kg m^2 about the centre of mass, body axes, with ``mass``: replaces the
         shape's mass properties; the shape's origin is then the centre of mass (nothing re-centred).
@@ -365,19 +372,19 @@ class World:
         unchanged.
         """
         return self._add(shape, False, kinematic, density, mass, inertia, position, orientation, velocity,
-                         angular_velocity, friction, restitution, name, group, mask, enabled)
+                         angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled)
 
     def add_static(self, shape, *, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0),
-                   friction: float = 0.5, restitution: float = 0.0, name: str | None = None, group: int = 1,
-                   mask: int = ALL_BITS, enabled: bool = True) -> int:
+                   friction: float = 0.5, restitution: float = 0.0, spinning_friction: float = 0.0,
+                   name: str | None = None, group: int = 1, mask: int = ALL_BITS, enabled: bool = True) -> int:
         """Adds a static body (inverse mass and inertia zero: it never moves) and returns its index.
-        ``friction``, ``restitution``, ``name``, ``group``, ``mask`` and ``enabled`` as for
-        ``add_body``."""
+        ``friction``, ``restitution``, ``spinning_friction``, ``name``, ``group``, ``mask`` and
+        ``enabled`` as for ``add_body``."""
         return self._add(shape, True, False, None, None, None, position, orientation, (0.0, 0.0, 0.0),
-                         (0.0, 0.0, 0.0), friction, restitution, name, group, mask, enabled)
+                         (0.0, 0.0, 0.0), friction, restitution, spinning_friction, name, group, mask, enabled)
 
     def _add(self, shape, is_static, kinematic, density, mass, inertia, position, orientation, velocity,
-             angular_velocity, friction, restitution, name, group, mask, enabled) -> int:
+             angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled) -> int:
         who = f"body {self.num_bodies} ({type(shape).__name__})"
         if not isinstance(shape, Shape):
             raise TypeError(f"{who}: shape must be a Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, "
@@ -393,7 +400,8 @@ class World:
         args = (is_static, kinematic, _scalar(density, who, "density"), _scalar(mass, who, "mass"), inertia,
                 _vector(position, 3, who, "position"), _vector(orientation, 4, who, "orientation"),
                 _vector(velocity, 3, who, "velocity"), _vector(angular_velocity, 3, who, "angular_velocity"),
-                _scalar(friction, who, "friction"), _scalar(restitution, who, "restitution"), _name(name, who),
+                _required(friction, who, "friction"), _required(restitution, who, "restitution"),
+                _required(spinning_friction, who, "spinning_friction"), _name(name, who),
                 _bits(group, who, "group"), _bits(mask, who, "mask"), _flag(enabled, who, "enabled"))
         if (not is_static and isinstance(shape, Mesh) and not shape.pieces and not shape.is_convex()
                 and _solid(shape)):
@@ -547,14 +555,17 @@ class World:
         """Undoes ``disable_collision(i, j)``: the pair collides again if their filter bits allow."""
         self._core.set_pair_collision(self._index(i), self._index(j), True)
 
-    def set_material(self, i: int, friction=None, restitution=None) -> None:
-        """Sets body i's friction (mu >= 0) and/or restitution (e in [0, 1]); None keeps it."""
+    def set_material(self, i: int, friction=None, restitution=None, spinning_friction=None) -> None:
+        """Sets body i's friction (mu >= 0), restitution (e in [0, 1]) and/or spinning friction
+        (mu_spin >= 0, m); None keeps it."""
         i = self._index(i)
         who = self._label(i)
         mu = _scalar(friction, who, "friction")
         e = _scalar(restitution, who, "restitution")
+        mu_spin = _scalar(spinning_friction, who, "spinning_friction")
         self._core.set_material(i, float(self._core.frictions[i]) if mu is None else mu,
-                                float(self._core.restitutions[i]) if e is None else e)
+                                float(self._core.restitutions[i]) if e is None else e,
+                                float(self._core.spinning_frictions[i]) if mu_spin is None else mu_spin)
 
     # saved states and pickling ----------------------------------------------------------------------
     def save_state(self) -> SavedState:
@@ -577,10 +588,11 @@ class World:
         c = self._core
         masses, inertias, statics, kinematic = c.masses, c.inertias, c.is_static, c.is_kinematic
         frictions, restitutions, names, groups, masks = c.frictions, c.restitutions, c.names, c.groups, c.masks
+        spinning = c.spinning_frictions
         bodies = [{"shape": c.shape(i), "static": bool(statics[i]), "kinematic": bool(kinematic[i]),
                    "mass": float(masses[i]), "inertia": inertias[i], "friction": float(frictions[i]),
-                   "restitution": float(restitutions[i]), "name": names[i], "group": int(groups[i]),
-                   "mask": int(masks[i])} for i in range(c.num_bodies)]
+                   "restitution": float(restitutions[i]), "spinning_friction": float(spinning[i]),
+                   "name": names[i], "group": int(groups[i]), "mask": int(masks[i])} for i in range(c.num_bodies)]
         return {"version": 1, "gravity": np.array(c.gravity), "contact_margin": c.contact_margin,
                 "solver": self.solver, "bodies": bodies, "excluded_pairs": list(c.excluded_pairs),
                 "state": self.save_state(), "given": [tuple(g) for g in self._given]}
@@ -597,7 +609,7 @@ class World:
             has_mass = not b["static"] and bool(np.isfinite(b["mass"]))
             c.add_body(b["shape"], b["static"], b["kinematic"], None, b["mass"] if has_mass else None,
                        b["inertia"] if has_mass else None, zero, unit, zero, zero, b["friction"],
-                       b["restitution"], b["name"], b["group"], b["mask"], True)
+                       b["restitution"], b.get("spinning_friction", 0.0), b["name"], b["group"], b["mask"], True)
         for i, j in d["excluded_pairs"]:
             c.set_pair_collision(i, j, False)
         self.restore_state(d["state"])
@@ -690,6 +702,11 @@ class World:
         return _readonly(self._core.restitutions)
 
     @property
+    def spinning_frictions(self) -> np.ndarray:
+        """(N,) spinning (torsional) friction coefficients mu_spin (m)."""
+        return _readonly(self._core.spinning_frictions)
+
+    @property
     def contact_forces(self) -> np.ndarray:
         """(N, 3) summed contact force on each body in the last step (N, world), static ones too."""
         return _readonly(self._core.contact_forces)
@@ -702,7 +719,8 @@ class World:
     @property
     def warm_start_cache(self) -> dict:
         """The forces the next step starts from: body_a, body_b (K,), feature_a, feature_b (K,)
-        uint64, alpha (K,) N, friction (K, 3) N world, sorted by key."""
+        uint64, alpha (K,) N, friction (K, 3) N world, spin (K,) N m (the torsional friction
+        torque about the normal), sorted by key."""
         return {k: _readonly(v) for k, v in self._core.warm_start_cache.items()}
 
     @property
@@ -761,6 +779,7 @@ class World:
         c = self._core
         masses, inv_masses, inertias, inv_inertias = c.masses, c.inv_masses, c.inertias, c.inv_inertias
         frictions, restitutions, statics = c.frictions, c.restitutions, c.is_static
+        spinning = c.spinning_frictions
         kinematic, enabled, groups, masks = c.is_kinematic, c.enabled, c.groups, c.masks
         bodies = [{
             "shape": shape_dict(c.shape(i)),
@@ -773,6 +792,7 @@ class World:
             "inv_inertia": inv_inertias[i],
             "friction": float(frictions[i]),
             "restitution": float(restitutions[i]),
+            "spinning_friction": float(spinning[i]),
             "group": int(groups[i]),
             "mask": int(masks[i]),
         } for i in range(c.num_bodies)]

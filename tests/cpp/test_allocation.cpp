@@ -64,7 +64,8 @@ long allocations_during(F&& f) {
 /// A busy scene: 64 bodies of every convex kind (spheres, boxes, capsules, cylinders, hulls,
 /// compounds) dropped into a pit of static boxes on a plane, half of it tessellated as a triangle
 /// mesh floor, so every pair family of the narrow phase and both broad-phase trees are exercised.
-void build_pit(World& w) {
+/// spinning_friction (m) on every body: with it, the single-point contacts get spin rows too.
+void build_pit(World& w, double spinning_friction = 0.0) {
   BodyDesc ground;
   ground.is_static = true;
   ground.shape = Plane(Vec3(0, 0, 1), 0.0);
@@ -96,6 +97,7 @@ void build_pit(World& w) {
     const Eigen::Quaterniond q(scenes::random_rotation(rng));
     d.orientation = Quat4(q.w(), q.x(), q.y(), q.z());
     d.angular_velocity = scenes::random_vector(rng, 2.0);
+    d.material.spinning_friction = spinning_friction;
     w.add_body(d);
   }
 }
@@ -109,6 +111,18 @@ TEST(Allocation, StepsOfABusyPileAllocateNothingAfterWarmUp) {
   const long n = allocations_during([&] { w.step(dt, 240); });
   EXPECT_EQ(n, 0) << "heap allocations during 240 steps after warm-up";
   EXPECT_GT(w.contacts().size(), 100u);
+}
+
+TEST(Allocation, StepsOfABusyPileWithSpinRowsAllocateNothingAfterWarmUp) {
+  World w;
+  build_pit(w, 0.002);
+  const double dt = 1.0 / 240.0;
+  w.step(dt, 1440);
+  std::size_t spinning = 0;
+  for (const Contact& c : w.contacts()) spinning += c.spin_torque != 0.0;
+  ASSERT_GT(spinning, 0u);
+  const long n = allocations_during([&] { w.step(dt, 240); });
+  EXPECT_EQ(n, 0) << "heap allocations during 240 steps after warm-up";
 }
 
 TEST(Allocation, TheCounterSeesAnAllocation) {

@@ -1,6 +1,9 @@
 // The World: validation that leaves the world unchanged, pipeline order, resting and momentum.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <utility>
+
 #include "signorini/world.hpp"
 
 using namespace signorini;
@@ -211,4 +214,109 @@ TEST(World, KinematicBodyKeepsItsVelocityAndFiltersRemovePairs) {
   EXPECT_FALSE(world.model().can_collide(0, b));
   world.set_enabled(b, true);
   EXPECT_TRUE(world.model().can_collide(b, 0));
+}
+
+// ---- torsional (spinning) friction ------------------------------------------------------------
+
+namespace {
+
+/// A sphere (1 kg, radius 0.1 m) resting on the ground, spun at omega0 about the vertical, the
+/// ground's and the ball's spinning friction as given.
+void spinning_ball(World& world, double mu_spin_ground, double mu_spin_ball, double omega0) {
+  BodyDesc g = ground();
+  g.material.spinning_friction = mu_spin_ground;
+  world.add_body(g);
+  BodyDesc s;
+  s.shape = Sphere(0.1);
+  s.mass = 1.0;
+  s.position = Vec3(0.0, 0.0, 0.1);
+  s.angular_velocity = Vec3(0.0, 0.0, omega0);
+  s.material.spinning_friction = mu_spin_ball;
+  world.add_body(s);
+}
+
+}  // namespace
+
+TEST(World, SpinningFrictionStopsASpinningBallAtTheClosedFormRate) {
+  // the torque about the normal is mu_spin alpha_n = mu_spin m g (the pair's mu_spin is the larger
+  // of the two), so omega falls by dt mu_spin m g / I per step, I = 2/5 m r^2, until it stops
+  // within one step of t* = I omega0 / (mu_spin m g) and stays stopped
+  const double dt = 1.0 / 240.0, omega0 = 5.0, g = 9.81, I = 0.4 * 0.1 * 0.1;
+  for (const auto& [ground_mu, ball_mu] : {std::pair{0.0, 0.002}, std::pair{0.002, 0.0005}}) {
+    World world;
+    spinning_ball(world, ground_mu, ball_mu, omega0);
+    const double rate = 0.002 * g / I;  // rad/s^2
+    int stopped = -1;
+    double before = omega0;
+    for (int k = 1; k <= 300; ++k) {
+      world.step(dt);
+      const double omega = world.state().omega[1].z();
+      // a full step's drop while it spins (the last step may stop it part way)
+      if (stopped < 0 && omega > rate * dt) EXPECT_NEAR(before - omega, rate * dt, 1e-9 * rate * dt) << k;
+      if (stopped < 0 && std::abs(omega) <= 1e-12) stopped = k;
+      if (stopped > 0) EXPECT_LE(std::abs(omega), 1e-12) << k;
+      before = omega;
+    }
+    ASSERT_GT(stopped, 0);
+    EXPECT_LE(std::abs(stopped * dt - omega0 / rate), dt);
+    ASSERT_EQ(world.contacts().size(), 1u);
+    EXPECT_NEAR(world.contacts()[0].spin_torque, 0.0, 1e-12);
+  }
+}
+
+TEST(World, ZeroSpinningFrictionKeepsTheSpinBitForBit) {
+  // no row: the ball spins on at omega0 exactly (no torque about the vertical reaches it)
+  World world;
+  spinning_ball(world, 0.0, 0.0, 5.0);
+  world.step(1.0 / 240.0, 480);
+  EXPECT_EQ(world.state().omega[1], Vec3(0.0, 0.0, 5.0));
+  EXPECT_EQ(world.contacts()[0].spin_torque, 0.0);
+  EXPECT_EQ(world.warm_start_cache()[0].spin, 0.0);
+}
+
+TEST(World, BadSpinningFrictionIsRejectedAndTheWorldIsUnchanged) {
+  World world;
+  spinning_ball(world, 0.0, 0.001, 5.0);
+  world.step(1.0 / 240.0, 10);
+  const State before = world.state();
+  for (double bad : {-0.001, std::nan(""), double(INFINITY)}) {
+    BodyDesc d = box_at(3.0);
+    d.material.spinning_friction = bad;
+    try {
+      world.add_body(d);
+      FAIL() << "spinning_friction " << bad << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("body 2 (Box)"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("spinning_friction"), std::string::npos) << e.what();
+    }
+    Material m;
+    m.spinning_friction = bad;
+    try {
+      world.set_material(1, m);
+      FAIL() << "spinning_friction " << bad << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("body 1 (Sphere)"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("spinning_friction"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(world.num_bodies(), 2u);
+  EXPECT_EQ(world.model().material[1].spinning_friction, 0.001);
+  expect_same_state(world.state(), before);
+}
+
+TEST(World, RestoreStateContinuesBitForBitWithSpinRows) {
+  // the warm-start cache keeps each contact's spin torque: restored, the steps repeat exactly
+  World world;
+  spinning_ball(world, 0.0, 0.001, 5.0);
+  world.step(1.0 / 240.0, 20);
+  ASSERT_NE(world.warm_start_cache()[0].spin, 0.0);
+  const std::string saved = world.save_state();
+  world.step(1.0 / 240.0, 30);
+  const State first = world.state();
+  const double torque = world.contacts()[0].spin_torque;
+  world.restore_state(saved);
+  EXPECT_NE(world.contacts()[0].spin_torque, 0.0);
+  world.step(1.0 / 240.0, 30);
+  expect_same_state(world.state(), first);
+  EXPECT_EQ(world.contacts()[0].spin_torque, torque);
 }

@@ -148,6 +148,51 @@ def write(tmp_path, text, name="bad.xml"):
     return path
 
 
+# torsional friction: condim 4 and 6 carry it, 3 and 1 do not; a friction with fewer than 3 values
+# keeps the rest of its default class (MuJoCo's own default 1 0.005 0.0001 at the root)
+TORSION = """<mujoco>
+  <default>
+    <geom friction="0.5 0.02 0.001" condim="4"/>
+    <default class="slick"><geom friction="0.7"/></default>
+    <default class="flat"><geom condim="3"/></default>
+    <default class="nested"><geom friction="0.6 0.03"/><default class="inner"><geom friction="0.8"/></default></default>
+  </default>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <geom name="step" type="box" size="1 1 0.1" pos="3 0 0" class="flat"/>
+    <body name="inherits" pos="0 0 1"><freejoint/><geom size="0.1"/></body>
+    <body name="slick" pos="1 0 1"><freejoint/><geom class="slick" size="0.1"/></body>
+    <body name="flat" pos="2 0 1"><freejoint/><geom class="flat" size="0.1" friction="0.9 0.04"/></body>
+    <body name="rolling" pos="3 0 1"><freejoint/><geom size="0.1" friction="0.4 0.01" condim="6"/></body>
+    <body name="inner" pos="4 0 1"><freejoint/><geom class="inner" size="0.1"/></body>
+    <body name="plain" pos="5 0 1"><freejoint/><geom size="0.1" condim="3" friction="1"/></body>
+  </worldbody>
+</mujoco>"""
+
+
+def test_torsional_friction_of_condim_4_and_6_geoms_becomes_spinning_friction(tmp_path):
+    w = sg.load_mjcf(write(tmp_path, TORSION, "torsion.xml"))
+    np.testing.assert_array_equal(w.frictions, [0.5, 0.5, 0.5, 0.7, 0.9, 0.4, 0.8, 1.0])
+    np.testing.assert_array_equal(w.spinning_frictions, [0.02, 0.0, 0.02, 0.02, 0.0, 0.01, 0.03, 0.0])
+    mujoco = pytest.importorskip("mujoco")
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "torsion.xml"))
+    # the same geoms in the same order (static ones first, then one geom per free body)
+    np.testing.assert_array_equal(w.frictions, m.geom_friction[:, 0])
+    np.testing.assert_array_equal(w.spinning_frictions, np.where(m.geom_condim >= 4, m.geom_friction[:, 1], 0.0))
+
+
+@pytest.mark.parametrize("text, message", [
+    ("<mujoco><worldbody><body><freejoint/><geom size='0.1' condim='2'/></body></worldbody></mujoco>",
+     r"<geom>: condim='2' must be 1, 3, 4 or 6"),
+    ("<mujoco><worldbody><body name='b'><freejoint/><geom size='0.1' condim='4'/>"
+     "<geom type='box' size='0.1 0.1 0.1' pos='0.3 0 0'/></body></worldbody></mujoco>",
+     r"<body name='b'>: its geoms have different torsional frictions \[0.0, 0.005\] m"),
+])
+def test_bad_torsional_friction_names_the_element(tmp_path, text, message):
+    with pytest.raises(sg.MJCFError, match=r"bad\.xml'?: .*" + message):
+        sg.load_mjcf(write(tmp_path, text))
+
+
 def test_everything_outside_the_subset_is_listed_in_one_error(tmp_path):
     path = write(tmp_path, """<mujoco>
   <worldbody>

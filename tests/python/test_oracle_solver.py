@@ -385,6 +385,95 @@ def test_warm_start_matches_keys_and_projects_onto_the_friction_set():
     assert len(o.read_cache({})["alpha"]) == 0 and len(o.read_cache({"cache": None})["alpha"]) == 0
 
 
+# --------------------------------------------------------------------------- torsional friction
+
+def spinning_sphere(omega0, mu_spin_ball, mu_spin_ground=0.0, r=0.1, **settings):
+    """A sphere of radius r (1000 kg/m^3) resting on the plane z = 0, spinning at omega0 about z."""
+    ground = plane()
+    ground["spinning_friction"] = mu_spin_ground
+    ball = make_body({"type": "sphere", "radius": r})
+    ball["spinning_friction"] = mu_spin_ball
+    return make_snapshot([ground, ball], [[0, 0, 0], [0, 0, r]], angular_velocity=[[0, 0, 0], [0, 0, omega0]],
+                         **settings)
+
+
+def test_spin_materials_take_the_larger_value_and_only_lone_contacts_get_a_row():
+    # mu_spin = max(mu_spin_A, mu_spin_B), 0 for a body without the key; the rows go to contacts
+    # whose neighbours in the list belong to other body pairs
+    bodies = [plane(), make_body({"type": "sphere", "radius": 0.5}), make_body({"type": "sphere", "radius": 0.5})]
+    bodies[0]["spinning_friction"], bodies[1]["spinning_friction"] = 0.001, 0.004
+    snap = make_snapshot(bodies, np.zeros((3, 3)))
+    contacts = {"body_a": np.array([0, 0, 0, 1]), "body_b": np.array([1, 2, 2, 2])}
+    np.testing.assert_array_equal(o.spinning_friction(snap, contacts), [0.004, 0.001, 0.001, 0.004])
+    np.testing.assert_array_equal(o.alone_in_pair(contacts), [True, False, False, True])
+    np.testing.assert_array_equal(o.alone_in_pair({"body_a": np.array([3]), "body_b": np.array([4])}), [True])
+    assert len(o.alone_in_pair({"body_a": np.zeros(0, int), "body_b": np.zeros(0, int)})) == 0
+
+
+def test_spin_row_is_the_angular_jacobian_about_the_normal():
+    # J_A = (-n, 0), J_B = (n, 0), delta = dt (n I_A^-1 n + n I_B^-1 n); sphere: I = 2/5 m r^2
+    snap = spinning_sphere(5.0, 0.002)
+    dt = 0.01
+    contacts = o.detect_contacts(snap, dt)
+    rows = o.prepare_rows(snap, contacts, np.zeros((2, 6)), dt)
+    assert rows["spin"].tolist() == [True] and rows["mu_spin"].tolist() == [0.002]
+    np.testing.assert_array_equal(rows["spin_J_A"][0], [0, 0, -1, 0, 0, 0])
+    np.testing.assert_array_equal(rows["spin_J_B"][0], [0, 0, 1, 0, 0, 0])
+    m = snap["bodies"][1]["mass"]
+    assert rows["spin_delta"][0] == pytest.approx(dt / (0.4 * m * 0.1**2), rel=1e-14)
+
+
+@pytest.mark.parametrize("friction_cone", ["pyramid", "cone"])
+def test_spinning_sphere_loses_dt_mu_spin_m_g_over_I_per_step_until_it_stops(friction_cone):
+    # each step the spin row takes the torque impulse dt mu_spin alpha_n with alpha_n = m g (the
+    # normal row converges to 1e-12 m/s, so alpha_n = m g to about 1e-12 delta^-1 ~ 1e-9 relative),
+    # against the spin; the step in which the remaining spin is less than that stops it exactly
+    mu_spin, omega0, dt = 0.002, 0.3, 0.01
+    snap = spinning_sphere(omega0, mu_spin, friction_cone=friction_cone, tolerance=1e-12, max_iterations=100)
+    m = snap["bodies"][1]["mass"]
+    step = dt * mu_spin * m * G / (0.4 * m * 0.1**2)   # rad/s per step
+    omega = [omega0]
+    for _ in range(int(omega0 / step) + 3):
+        snap, info = o.step(snap, dt)
+        omega.append(snap["angular_velocity"][1, 2])
+    omega = np.array(omega)
+    full = int(omega0 / step)                           # full steps before the spin is gone
+    np.testing.assert_allclose(np.diff(omega[:full + 1]), -step, rtol=1e-8)
+    np.testing.assert_allclose(omega[full + 1:], 0.0, rtol=0, atol=1e-15)
+    assert info["spin_torque"][0] == pytest.approx(0.0, abs=1e-12)
+    np.testing.assert_allclose(snap["angular_velocity"][1, :2], 0.0, atol=1e-15)
+
+
+def test_zero_spinning_friction_leaves_the_spin_untouched():
+    snap = spinning_sphere(5.0, 0.0)
+    for _ in range(20):
+        snap, info = o.step(snap, 0.01)
+    assert snap["angular_velocity"][1].tolist() == [0.0, 0.0, 5.0]
+    assert info["spin_torque"].tolist() == [0.0] and snap["cache"]["spin"].tolist() == [0.0]
+
+
+def test_warm_start_clamps_the_cached_spin_torque_to_its_bound():
+    # cached torque beyond mu_spin alpha_n is clamped; within, taken as is; applied to omega
+    snap = spinning_sphere(5.0, 0.002)
+    dt = 0.01
+    contacts = o.detect_contacts(snap, dt)
+    key = [contacts[k][0] for k in ("body_a", "body_b", "feature_a", "feature_b")]
+    q_dot = np.zeros((2, 6))
+    rows = o.prepare_rows(snap, contacts, q_dot, dt)
+    m = snap["bodies"][1]["mass"]
+    for cached, expected in ((-1.0, -0.002 * 100.0), (0.05, 0.05)):
+        cache = {"body_a": np.array([key[0]]), "body_b": np.array([key[1]]),
+                 "feature_a": np.array([key[2]], dtype=np.uint64), "feature_b": np.array([key[3]], dtype=np.uint64),
+                 "alpha": np.array([100.0]), "friction": np.zeros((1, 3)), "spin": np.array([cached])}
+        spin, q = np.zeros(1), q_dot.copy()
+        o.warm_start(rows, contacts, o.read_cache({"cache": cache}), q, dt, "pyramid", spin)
+        assert spin[0] == pytest.approx(expected, rel=1e-15)
+        assert q[1, 2] == pytest.approx(dt * expected / (0.4 * m * 0.01), rel=1e-14)
+    # a cache without spin torques (an older snapshot) reads as zeros
+    del cache["spin"]
+    assert o.read_cache({"cache": cache})["spin"].tolist() == [0.0]
+
+
 # --------------------------------------------------------------------------- position pass
 
 @pytest.mark.parametrize("slop", [0.0, 0.001])
@@ -590,7 +679,7 @@ def test_info_and_cache_format():
     K, N = 4, 2
     for key, shape in (("alpha", (K,)), ("impulse", (K,)), ("friction", (K, 3)), ("force", (K, 3)),
                        ("normal_velocity", (K,)), ("slip", (K, 3)), ("mu", (K,)), ("restitution", (K,)),
-                       ("body_force", (N, 3)), ("body_torque", (N, 3))):
+                       ("spin_torque", (K,)), ("mu_spin", (K,)), ("body_force", (N, 3)), ("body_torque", (N, 3))):
         assert np.shape(info[key]) == shape, key
     for key in ("iterations", "restitution_iterations", "position_iterations", "converged", "residual",
                 "max_alpha_negative", "max_penetration_velocity", "max_complementarity",
@@ -602,6 +691,7 @@ def test_info_and_cache_format():
     assert cache["feature_a"].dtype == np.uint64 and cache["body_a"].dtype == np.int64
     keys = list(zip(cache["body_a"], cache["body_b"], cache["feature_a"], cache["feature_b"]))
     assert keys == sorted(keys) and len(set(keys)) == K
+    assert cache["spin"].shape == (K,) and not cache["spin"].any()  # a 4-point manifold: no spin rows
 
 
 # --------------------------------------------------------------------------- exact LCP

@@ -10,7 +10,7 @@ import signorini as sg
 from signorini import meshes, scenefile, scenes
 
 STATE = ("positions", "rotations", "velocities", "angular_velocities")
-MODEL = ("masses", "inertias", "frictions", "restitutions", "is_static")
+MODEL = ("masses", "inertias", "frictions", "restitutions", "spinning_frictions", "is_static")
 # steps per scene: enough for contacts and warm starts to matter, few for the big ones
 STEPS = {"torus": 120, "boxes": 120, "shapes": 120, "pile": 40, "pyramid": 20, "rain": 10, "hull_pile": 20}
 
@@ -64,7 +64,8 @@ def python_world():
     w.add_static(sg.Plane((0, 0, 1), 0.0), friction=0.7, restitution=0.1)
     v, f = meshes.box_mesh((0.1, 0.2, 0.15))
     w.add_static(sg.TriangleMesh(v + (2.0, 0.0, 0.0), f))
-    w.add_body(sg.Sphere(0.1), mass=2.0, position=(0, 0, 0.5), velocity=(0.3, -0.0, 0.0), restitution=0.4)
+    w.add_body(sg.Sphere(0.1), mass=2.0, position=(0, 0, 0.5), velocity=(0.3, -0.0, 0.0), restitution=0.4,
+               spinning_friction=0.002)
     w.add_body(sg.Box((0.1, 0.2, 0.3)), density=700.0, position=(0.5, 0, 0.6),
                orientation=(0.9, 0.1, 0.2, 0.3), angular_velocity=(1.0, 2.0, 3.0))
     w.add_body(sg.Capsule(0.05, 0.1), density=300.0, position=(-0.5, 0, 0.4), orientation=(0, 1, 0, 0))
@@ -117,6 +118,7 @@ gravity = [0, 0, -9.81]
 [materials.rubber]
 friction = 0.9
 restitution = 0.8
+spinning_friction = 0.004
 
 [[bodies]]
 name = "ground"
@@ -130,6 +132,7 @@ shape = { type = "box", half_extents = [0.5, 0.5, 0.5] }
 mass = 2
 material = "rubber"
 restitution = 0.5
+spinning_friction = 0.001
 position = [0, 0, 1]
 
 [[bodies]]
@@ -143,6 +146,7 @@ shape = { type = "mesh", vertices = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
     assert scene.name == "drop" and scene.dt == 0.01 and scene.steps == 50 and scene.names == ("ground", "cube", "tetra")
     np.testing.assert_array_equal(w.frictions, [0.9, 0.9, 0.5])
     np.testing.assert_array_equal(w.restitutions, [0.8, 0.5, 0.0])
+    np.testing.assert_array_equal(w.spinning_frictions, [0.004, 0.001, 0.0])
     assert w.masses[1] == 2.0 and w.masses[2] == pytest.approx(1000.0 / 6.0, rel=1e-12)
 
 
@@ -171,6 +175,9 @@ BAD = [
     ("[[bodies]]\nshape = { type = 'sphere', radius = '0.5' }\nmass = 1\n", r"bodies\[0\]\.shape\.radius: Input should be a valid number"),
     ("[[bodies]]\nstatic = 1\nshape = { type = 'plane', normal = [0, 0, 1] }\n", r"bodies\[0\]\.static: Input should be a valid boolean"),
     ("[world]\nmax_iterations = 30.0\n", r"world\.max_iterations: Input should be a valid integer"),
+    ("[materials.ice]\nspinning_friction = 'small'\n", r"materials\.ice\.spinning_friction: Input should be a valid number"),
+    ("[[bodies]]\nname = 'top'\nshape = { type = 'sphere', radius = 0.1 }\nmass = 1\nspinning_friction = -0.001\n",
+     r"bodies\[0\] \('top'\): body 0 'top' \(Sphere\): spinning_friction must be finite and >= 0"),
     ("[scene\nname = 'x'\n", r"not valid TOML"),
 ]
 

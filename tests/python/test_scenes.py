@@ -82,11 +82,16 @@ def test_benchmark_scenes_have_the_bodies_of_issue_7():
     world = scenes.build("hull_pile").world
     hulls = [world.shape(i) for i in range(world.num_bodies) if not world.is_static[i]]
     assert len(hulls) == 200 and all(isinstance(h, sg.ConvexHull) and len(h.vertices) <= 16 for h in hulls)
-    # every body and the ground: friction 0.5, restitution 0
+    # every body and the ground: friction 0.5, restitution 0, no spinning friction (as pybullet's default)
     for name in ("pyramid", "rain", "hull_pile"):
         world = scenes.build(name).world
         np.testing.assert_array_equal(world.frictions, 0.5)
         np.testing.assert_array_equal(world.restitutions, 0.0)
+        np.testing.assert_array_equal(world.spinning_frictions, 0.0)
+    # the mixed pile: spinning friction on every body, walls and ground too
+    world = scenes.build("pile").world
+    np.testing.assert_array_equal(world.spinning_frictions, scenes.PILE_SPINNING_FRICTION)
+    assert scenes.PILE_SPINNING_FRICTION == pytest.approx(3 * math.pi / 16 * 0.5 * 1.7e-3, rel=0.02)
 
 
 def test_torus_scene_is_the_assignment_setting():

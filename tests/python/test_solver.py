@@ -286,6 +286,9 @@ def test_unconverged_steps_warn():
 @pytest.mark.parametrize("kwargs, match", [
     ({"friction": -0.1}, "friction"), ({"friction": float("nan")}, "friction"),
     ({"restitution": 1.5}, "restitution"), ({"restitution": -0.1}, "restitution"),
+    ({"spinning_friction": -0.001}, "spinning_friction must be finite and >= 0"),
+    ({"spinning_friction": float("nan")}, "spinning_friction must be finite and >= 0"),
+    ({"spinning_friction": float("inf")}, "spinning_friction must be finite and >= 0"),
 ])
 def test_bad_materials_name_the_body_and_leave_the_world_unchanged(kwargs, match):
     w = sg.World()
@@ -295,7 +298,7 @@ def test_bad_materials_name_the_body_and_leave_the_world_unchanged(kwargs, match
     assert w.num_bodies == 1
     with pytest.raises(ValueError, match=f"body 0 \\(Sphere\\).*{match}"):
         w.set_material(0, **kwargs)
-    assert w.frictions[0] == 0.5 and w.restitutions[0] == 0.0
+    assert w.frictions[0] == 0.5 and w.restitutions[0] == 0.0 and w.spinning_frictions[0] == 0.0
 
 
 @pytest.mark.parametrize("kwargs", [{"slop": -1.0}, {"max_push_velocity": 0.0}, {"substeps": -1},
@@ -328,7 +331,8 @@ def test_mixed_pile_runs_60_s_without_gaining_energy_and_comes_to_rest(dt):
     # dropped into a walled pit: finite throughout (a non-finite step raises), the total energy
     # never more than 1% of its start above it (the contacts only remove energy; the 1% leaves room
     # for the position pass, which moves bodies without adding velocity but can lift one a little),
-    # at rest after 60 s
+    # at rest after 60 s (its spinning friction stops a ball left spinning about the vertical on
+    # its one contact point, which friction alone never stops)
     w = scenes.build("pile").world
     E0 = w.kinetic_energy() + w.potential_energy()
     highest = E0

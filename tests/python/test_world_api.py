@@ -3,6 +3,7 @@ remove_body, impulses and one-step forces, kinematic and disabled bodies, collis
 names. Physical claims are checked against closed forms; bad input must leave the world as it was."""
 import gc
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,8 +32,10 @@ def fingerprint(w):
     return (w.num_bodies, w.time, tuple(w.names), s["position"].tobytes(), s["rotation"].tobytes(),
             s["velocity"].tobytes(), s["angular_velocity"].tobytes(), s["force"].tobytes(),
             s["torque"].tobytes(), w.masses.tobytes(), w.is_kinematic.tobytes(), w.enabled.tobytes(),
-            c.point.tobytes(), c.alpha.tobytes(), cache["alpha"].tobytes(), cache["body_a"].tobytes(),
-            w.collision_filters[0].tobytes(), w.collision_filters[1].tobytes())
+            c.point.tobytes(), c.alpha.tobytes(), c.spin_torque.tobytes(), cache["alpha"].tobytes(),
+            cache["body_a"].tobytes(), cache["spin"].tobytes(), w.collision_filters[0].tobytes(),
+            w.collision_filters[1].tobytes(), w.frictions.tobytes(), w.restitutions.tobytes(),
+            w.spinning_frictions.tobytes())
 
 
 def assert_refused(w, call, error, words):
@@ -195,6 +198,45 @@ def test_restore_state_continues_bit_identically_on_the_pyramid():
     # and through a pickle of the state alone
     w.restore_state(pickle.loads(pickle.dumps(saved)))
     assert_same(trajectory(w, 40), first)
+
+
+def format1_world():
+    """The world of tests/python/data/saved_state_format1.npz: a box spinning flat on the ground and a
+    ball rolling, spinning about the vertical. The file was written by signorini before spinning
+    friction (saved-state format 1), with this world stepped 30 steps of 1/240 s: its save_state()
+    bytes, its state and contact arrays then, and its positions and angular velocities 10 steps
+    later."""
+    w = sg.World()
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    w.add_body(sg.Box((0.2, 0.15, 0.1)), density=500.0, position=(0, 0, 0.1), angular_velocity=(0, 0, 2.0))
+    w.add_body(sg.Sphere(0.1), mass=1.0, position=(1.0, 0, 0.1), velocity=(0.3, 0, 0), angular_velocity=(0, 0, 5.0))
+    return w
+
+
+def test_a_state_saved_before_spinning_friction_is_restored_and_steps_on():
+    # format 1 has no spin torques (there were none): read as 0, the rest exactly as saved
+    old = np.load(Path(__file__).parent / "data" / "saved_state_format1.npz")
+    data = old["state"].tobytes()
+    assert data[:8] == b"SGSTATE1"
+    w = format1_world()
+    w.restore_state(sg.SavedState(data, 3, 30 / 240))
+    for key in ("position", "rotation", "velocity", "angular_velocity"):
+        assert np.array_equal(w.snapshot()[key], old[key]), key
+    c, cache = w.contacts, w.warm_start_cache
+    assert np.array_equal(c.alpha, old["contact_alpha"]) and np.array_equal(c.friction, old["contact_friction"])
+    assert np.array_equal(cache["alpha"], old["cache_alpha"]) and np.array_equal(cache["friction"], old["cache_friction"])
+    assert not c.spin_torque.any() and not cache["spin"].any()
+    # saved again, it is format 2; stepped on, it follows the old build (to rounding: another
+    # compiler may round differently; the same build gives the same bits)
+    assert w.save_state().data[:8] == b"SGSTATE2"
+    w.step(1 / 240, 10)
+    np.testing.assert_allclose(w.positions, old["position_after"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(w.angular_velocities, old["angular_velocity_after"], rtol=0, atol=1e-12)
+    # a format this build does not know is refused by name, the world unchanged
+    before = fingerprint(w)
+    with pytest.raises(ValueError, match="format '9', which this signorini does not read"):
+        w.restore_state(sg.SavedState(data[:7] + b"9" + data[8:], 3, 0.0))
+    assert fingerprint(w) == before
 
 
 def test_restore_state_brings_back_one_step_forces_impulses_and_flags():
@@ -573,6 +615,26 @@ def test_names_lookup_and_duplicates():
     (lambda w: w.add_body(sg.Box((1, 1, 1)), mass=1.0, inertia=[[1, 2, 0], [0, 1, 0], [0, 0, 1]]), ValueError,
      ["symmetric"]),
     (lambda w: w.add_body(sg.Sphere(1), mass=1.0, name=3), TypeError, ["name must be a string"]),
+    (lambda w: w.add_body(sg.Sphere(1), mass=1.0, spinning_friction="0.01"), TypeError,
+     ["body 2 (Sphere)", "spinning_friction must be a number, got '0.01'"]),
+    (lambda w: w.add_body(sg.Sphere(1), mass=1.0, spinning_friction=None), TypeError,
+     ["body 2 (Sphere)", "spinning_friction must be a number, got None"]),
+    (lambda w: w.add_body(sg.Sphere(1), mass=1.0, friction=None), TypeError,
+     ["body 2 (Sphere)", "friction must be a number, got None"]),
+    (lambda w: w.add_static(sg.Sphere(1), restitution=None), TypeError,
+     ["body 2 (Sphere)", "restitution must be a number, got None"]),
+    (lambda w: w.add_static(sg.Sphere(1), spinning_friction=-0.5), ValueError,
+     ["body 2 (Sphere)", "spinning_friction must be finite and >= 0 (m), got -0.5"]),
+    (lambda w: w.add_static(sg.Sphere(1), spinning_friction=np.nan), ValueError,
+     ["body 2 (Sphere)", "spinning_friction must be finite and >= 0 (m), got nan"]),
+    (lambda w: w.set_material(1, spinning_friction=True), TypeError,
+     ["body 1 'box' (Box)", "spinning_friction must be a number, got True"]),
+    (lambda w: w.set_material(1, friction=0.2, spinning_friction=[0.01]), TypeError,
+     ["body 1 'box' (Box)", "spinning_friction must be a number"]),
+    (lambda w: w.set_material(0, spinning_friction=-1e-3), ValueError,
+     ["body 0 'ground' (Plane)", "spinning_friction must be finite and >= 0 (m)"]),
+    (lambda w: w.set_material(1, friction=0.2, spinning_friction=np.inf), ValueError,
+     ["body 1 'box' (Box)", "spinning_friction must be finite and >= 0 (m), got inf"]),
     (lambda w: w.set_velocity(2**40, (0, 0, 0)), sg.BodyIndexError, ["out of range"]),
 ])
 def test_bad_input_names_the_body_and_changes_nothing(call, error, words):

@@ -36,6 +36,9 @@ struct Contact {
   double impulse = 0.0;        ///< dt * alpha_i (N s), applied as -impulse n on A and +impulse n on B
   Vec3 friction = Vec3::Zero();///< friction force on B (N, world, tangent); A gets -friction
   Vec3 force = Vec3::Zero();   ///< total contact force on B, alpha n + friction (N, world)
+  /// torsional friction torque on B about n_i (N m; B gets spin_torque n_i, A the opposite); 0
+  /// unless the contact has a spin row (its pair's only point, spinning friction > 0)
+  double spin_torque = 0.0;
   double normal_velocity = 0.0;///< n^T (v_B(y) - v_A(y)) after the solve (m/s)
   Vec3 slip = Vec3::Zero();    ///< tangential relative velocity of B against A at y after the solve (m/s, world)
 };
@@ -47,6 +50,7 @@ struct CachedContact {
   FeatureId feature_a = 0, feature_b = 0;
   double alpha = 0.0;           ///< normal force after the iterate stage (N)
   Vec3 friction = Vec3::Zero(); ///< friction force on B (N, world)
+  double spin = 0.0;            ///< torsional friction torque on B about the normal (N m)
   int order = 0;                ///< position in that step's contact order (first wins on equal keys)
 };
 

@@ -15,10 +15,15 @@
 namespace signorini {
 
 /// Material of one body. The pair values a contact uses (docs/conventions.md, "Materials"):
-/// friction mu = sqrt(mu_A mu_B), restitution e = max(e_A, e_B).
+/// friction mu = sqrt(mu_A mu_B), restitution e = max(e_A, e_B), spinning friction
+/// mu_spin = max(mu_spin_A, mu_spin_B).
 struct Material {
   double friction = 0.5;     ///< Coulomb coefficient mu >= 0 (dimensionless)
   double restitution = 0.0;  ///< Newton's coefficient e in [0, 1] (dimensionless)
+  /// Torsional coefficient mu_spin >= 0 (m): at a contact that is its body pair's only point, the
+  /// torque about the normal is bounded by mu_spin alpha_n (N m). 0 (the default): no such torque,
+  /// and no row is made (docs/conventions.md, "Materials" and step 3).
+  double spinning_friction = 0.0;
 };
 
 /// Which bodies may touch (Box2D's category and mask bits, Bullet's group and mask): bodies i and
@@ -38,7 +43,7 @@ struct Model {
   std::vector<Mat3> I_body;      ///< inertia about the com, body axes (kg m^2; zero for static)
   std::vector<Mat3> I_body_inv;  ///< its inverse (zero for static)
   std::vector<double> rho;       ///< bounding radius about the body origin (m; inf for a plane)
-  std::vector<Material> material;///< friction and restitution
+  std::vector<Material> material;///< friction, restitution, spinning friction
   /// moved by its own velocity only (no gravity, no forces, no contact impulses): infinite mass in
   /// the solver (inv_mass and I_body_inv zero while kinematic; mass and I_body keep the body's own,
   /// infinity and zero when it was added without a mass)

@@ -56,7 +56,7 @@ struct BodyDesc {
   Quat4 orientation = Quat4(1, 0, 0, 0); ///< (w, x, y, z), world-from-body
   Vec3 velocity = Vec3::Zero();          ///< m/s
   Vec3 angular_velocity = Vec3::Zero();  ///< rad/s, world frame
-  Material material;                     ///< friction >= 0, restitution in [0, 1]
+  Material material;                     ///< friction >= 0, restitution in [0, 1], spinning_friction >= 0 (m)
 };
 
 /// What the last call of World::step did over its steps (and substeps).
@@ -106,7 +106,8 @@ class World {
   void set_orientations(const Indices& bodies, const Quats& values);
   void set_velocities(const Indices& bodies, const Points& values);
   void set_angular_velocities(const Indices& bodies, const Points& values);
-  /// Friction mu >= 0 and restitution e in [0, 1], both finite; static bodies too.
+  /// Friction mu >= 0, restitution e in [0, 1] and spinning friction mu_spin >= 0 (m), all finite;
+  /// static bodies too.
   void set_material(BodyIndex i, const Material& material);
   /// For the next step only (then zeroed; the first step of the next step() call): an impulse J
   /// (N s, world) at world point x (m) adds J / m to v and I_w^-1 ((x - p) x J) to omega at the start

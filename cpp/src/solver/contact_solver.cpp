@@ -57,6 +57,27 @@ inline void apply(const Row& r, double d_alpha, BodyVelocity& A, BodyVelocity& B
 
 inline void apply(const Row& r, double d_alpha, Velocities& qd) { apply(r, d_alpha, qd[r.a], qd[r.b]); }
 
+/// A spin row's velocity n . (omega_B - omega_A) (rad/s).
+inline double spin_velocity(const SpinRow& q, const BodyVelocity& A, const BodyVelocity& B) {
+  return q.n.dot(B.omega) - q.n.dot(A.omega);
+}
+
+/// omega_X += d_tau dt I_X^-1 J_X_ang for a spin row's torque change d_tau (N m), on the bodies
+/// of its contact's normal row r that move.
+inline void apply_spin(const SpinRow& q, const Row& r, double d_tau, BodyVelocity& A, BodyVelocity& B) {
+  if (r.a_moves) A.omega += d_tau * q.dMJA_ang;
+  if (r.b_moves) B.omega += d_tau * q.dMJB_ang;
+}
+
+/// true when contact i is the only one of its body pair: the contact list holds each pair's
+/// contacts next to each other (docs/conventions.md, "Order"), so its neighbours tell.
+bool alone_in_pair(const std::vector<Contact>& contacts, std::size_t i) {
+  const auto same_pair = [&](std::size_t j) {
+    return contacts[j].body_a == contacts[i].body_a && contacts[j].body_b == contacts[i].body_b;
+  };
+  return (i == 0 || !same_pair(i - 1)) && (i + 1 == contacts.size() || !same_pair(i + 1));
+}
+
 /// The rows of one contact between bodies a and b, acting at lever arms r_a = y_a - p_a on A and
 /// r_b = y_b - p_b on B, along the directions d[0..2] (unit, world; normal, t1, t2):
 /// J_A = -(r_a x d, d), J_B = (r_b x d, d), delta = dt (J_A M_A^-1 J_A + J_B M_B^-1 J_B).
@@ -142,8 +163,9 @@ void solve_order(const Model& model, const std::vector<Contact>& contacts, Solve
   }
 }
 
-/// Rows (normal, t1, t2 per contact, stored in solve order), pair materials, and u_i = J_n q_dot*
-/// (before the solve).
+/// Rows (normal, t1, t2 per contact, stored in solve order), pair materials, u_i = J_n q_dot*
+/// (before the solve), and the spin rows (a contact alone in its body pair, with
+/// mu_spin = max(mu_spin_A, mu_spin_B) > 0, in solve order).
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
              const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d) {
   const std::size_t K = contacts.size();
@@ -152,6 +174,7 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
   assign_n(d.alpha, 3 * K, 0.0);
   d.u.resize(K);
   d.e.resize(K);
+  bool spinning = false;  // some contact's pair has spinning friction
   for (std::size_t i = 0; i < K; ++i) {
     const Contact& c = contacts[i];
     const int a = c.body_a, b = c.body_b;
@@ -174,11 +197,36 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
     r[2].W_t1 = coupling(r[2], r[1]);
     d.u[i] = row_velocity(r[0], d.qd);
     d.e[i] = std::max(ma.restitution, mb.restitution);
+    spinning = spinning || ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0;
   }
+  // spin rows: J_A = (-n, 0), J_B = (n, 0), delta = dt (n . I_A^-1 n + n . I_B^-1 n); none, and
+  // nothing more to do, when no pair has spinning friction
+  d.spin_rows.clear();
+  if (spinning) assign_n(d.spin_slot, K, -1);
+  for (std::size_t k = 0; spinning && k < K; ++k) {
+    const int i = d.order[k];
+    const Contact& c = contacts[i];
+    const double mu_spin =
+        std::max(model.material[c.body_a].spinning_friction, model.material[c.body_b].spinning_friction);
+    if (!(mu_spin > 0.0) || !alone_in_pair(contacts, static_cast<std::size_t>(i))) continue;
+    const Row& r = d.rows[3 * k];
+    SpinRow q;
+    q.n = c.normal;
+    q.dMJA_ang = r.a_moves ? Vec3(d.dI_inv[r.a] * -c.normal) : Vec3::Zero();
+    q.dMJB_ang = r.b_moves ? Vec3(d.dI_inv[r.b] * c.normal) : Vec3::Zero();
+    q.delta = q.n.dot(q.dMJB_ang) - q.n.dot(q.dMJA_ang);
+    if (!(q.delta > 0.0)) continue;
+    q.inv_delta = 1.0 / q.delta;
+    q.mu_spin = mu_spin;
+    d.spin_slot[k] = static_cast<int>(d.spin_rows.size());
+    d.spin_rows.push_back(q);
+  }
+  assign_n(d.spin_alpha, d.spin_rows.size(), 0.0);
 }
 
 // ---- b. warm start ------------------------------------------------------------------------------
-/// Forces of the previous step for contacts with the same key, clamped to the friction set, applied.
+/// Forces of the previous step for contacts with the same key, clamped to the friction set (a spin
+/// row's torque to [-mu_spin alpha_n, mu_spin alpha_n]), applied in solve order.
 void warm_start(const SolverSettings& s, const std::vector<Contact>& contacts, SolverData& d) {
   if (d.cache.empty()) return;
   assign_n(d.cache_used, d.cache.size(), char(0));
@@ -219,9 +267,22 @@ void warm_start(const SolverSettings& s, const std::vector<Contact>& contacts, S
     d.alpha[k] = alpha_n;
     d.alpha[k + 1] = a1;
     d.alpha[k + 2] = a2;
+    if (!d.spin_rows.empty() && d.spin_slot[d.slot[i]] >= 0) {
+      const std::size_t j = static_cast<std::size_t>(d.spin_slot[d.slot[i]]);
+      const double spin_bound = d.spin_rows[j].mu_spin * alpha_n;
+      d.spin_alpha[j] = std::clamp(it->spin, -spin_bound, spin_bound);
+    }
   }
-  for (std::size_t k = 0; k < d.rows.size(); ++k)
+  // each contact's normal, t1 and t2 rows, then its spin row
+  const bool spin = !d.spin_rows.empty();
+  for (std::size_t k = 0; k < d.rows.size(); ++k) {
     if (d.alpha[k] != 0.0) apply(d.rows[k], d.alpha[k], d.qd);
+    if (spin && k % 3 == 2 && d.spin_slot[k / 3] >= 0) {
+      const std::size_t j = static_cast<std::size_t>(d.spin_slot[k / 3]);
+      const Row& r = d.rows[k - 2];
+      if (d.spin_alpha[j] != 0.0) apply_spin(d.spin_rows[j], r, d.spin_alpha[j], d.qd[r.a], d.qd[r.b]);
+    }
+  }
 }
 
 // ---- c. iterate ---------------------------------------------------------------------------------
@@ -249,8 +310,11 @@ inline double update_normal(const Row& r, double bias, double& alpha, Velocities
 /// wait on each other through the body velocities: their velocities are read from A and B once,
 /// each later row adds the changes of the rows before it through the Delassus entries W_jk, and
 /// the three force changes reach A and B together at the end. Same sums, other rounding.
-inline void contact_rows(const SolverSettings& s, const Row* r, double* alpha, BodyVelocity& A, BodyVelocity& B,
-                         double& change) {
+/// Always inlined: A and B then stay in registers through the rows (GCC stopped inlining it once
+/// the sweep loop had two instantiations, with and without spin rows, and the pyramid's step
+/// took 10% longer).
+[[gnu::always_inline]] inline void contact_rows(const SolverSettings& s, const Row* r, double* alpha,
+                                                BodyVelocity& A, BodyVelocity& B, double& change) {
   if (!(r[0].delta > 0.0)) return;  // both bodies static: never produced by the narrow phase
   // normal: the lecture's projection onto alpha >= 0
   // (alpha - (J q_dot + b) / delta is -gamma / delta of the lecture, with gamma = J q_dot + b - delta alpha)
@@ -308,9 +372,27 @@ inline void contact_rows(const SolverSettings& s, const Row* r, double* alpha, B
   }
 }
 
-/// PGS sweeps over all rows (normal, then its two friction rows, contact by contact in solve order).
-/// Returns the sweeps used; converged tells whether the last one met the tolerance.
-int iterate(const SolverSettings& s, SolverData& d, bool& converged) {
+/// A spin row in a sweep, after its contact's three rows have moved A and B (plain Gauss-Seidel:
+/// it reads their velocities as those rows left them): torsional friction, bounded by mu_spin
+/// times the contact's current normal force alpha_n,
+///   tau <- clamp(tau - n . (omega_B - omega_A) / delta, -mu_spin alpha_n, mu_spin alpha_n).
+/// change = max(change, delta |d_tau|) (rad/s).
+[[gnu::always_inline]] inline void spin_row(const SpinRow& q, const Row& normal, double alpha_n, double& tau,
+                                            BodyVelocity& A, BodyVelocity& B, double& change) {
+  const double bound = q.mu_spin * alpha_n;
+  // a zero bound (a separating or speculative contact) projects any torque to 0
+  const double t = bound == 0.0 ? 0.0 : std::clamp(tau - spin_velocity(q, A, B) * q.inv_delta, -bound, bound);
+  const double d_tau = t - tau;
+  if (d_tau == 0.0) return;
+  tau = t;
+  apply_spin(q, normal, d_tau, A, B);
+  change = std::max(change, q.delta * std::abs(d_tau));
+}
+
+/// The sweeps of iterate; kSpin: some contacts have a spin row (without any, the loop is the one
+/// of a scene without spinning friction, untouched).
+template <bool kSpin>
+int sweeps(const SolverSettings& s, SolverData& d, bool& converged) {
   Velocities& qd = d.qd;
   const std::size_t K = d.rows.size() / 3;
   converged = K == 0;
@@ -325,12 +407,23 @@ int iterate(const SolverSettings& s, SolverData& d, bool& converged) {
       // velocities need not go through memory between rows) and stored back after
       BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
       contact_rows(s, r, alpha, A, B, change);
+      if constexpr (kSpin) {
+        const int j = d.spin_slot[k];
+        if (j >= 0) spin_row(d.spin_rows[j], r[0], alpha[0], d.spin_alpha[j], A, B, change);
+      }
       if (r[0].a_moves) qd[r[0].a] = A;
       if (r[0].b_moves) qd[r[0].b] = B;
     }
     converged = s.tolerance > 0.0 && change <= s.tolerance;
   }
   return sweeps;
+}
+
+/// PGS sweeps over all rows (normal, then its two friction rows, then its spin row if it has one,
+/// contact by contact in solve order). Returns the sweeps used; converged tells whether the last
+/// one met the tolerance.
+int iterate(const SolverSettings& s, SolverData& d, bool& converged) {
+  return d.spin_rows.empty() ? sweeps<false>(s, d, converged) : sweeps<true>(s, d, converged);
 }
 
 // ---- d. restitution -----------------------------------------------------------------------------
@@ -411,6 +504,13 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       d.body_force[r[k].b] += alpha[k] * r[k].J_lin;
       d.body_torque[r[k].b] += alpha[k] * r[k].JB_ang;
     }
+    // torsional friction: spin_torque n on B, the opposite on A
+    const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[d.slot[i]];
+    c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
+    if (spin >= 0) {
+      d.body_torque[c.body_a] -= c.spin_torque * c.normal;
+      d.body_torque[c.body_b] += c.spin_torque * c.normal;
+    }
     // velocities after the solve: normal and slip
     const double vn = row_velocity(r[0], d.qd);
     const double vt1 = row_velocity(r[1], d.qd), vt2 = row_velocity(r[2], d.qd);
@@ -444,6 +544,13 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
         const double p2 = std::clamp(alpha[2] - vt2 / r[2].delta, -bound, bound);
         stats.residual = std::max({stats.residual, r[1].delta * std::abs(alpha[1] - p1), r[2].delta * std::abs(alpha[2] - p2)});
       }
+      if (spin >= 0) {  // the spin row: P onto [-mu_spin alpha_n, mu_spin alpha_n] (rad/s)
+        const SpinRow& q = d.spin_rows[spin];
+        const double spin_bound = q.mu_spin * alpha[0];
+        const double p = std::clamp(c.spin_torque - spin_velocity(q, d.qd[c.body_a], d.qd[c.body_b]) / q.delta,
+                                    -spin_bound, spin_bound);
+        stats.residual = std::max(stats.residual, q.delta * std::abs(c.spin_torque - p));
+      }
     }
 
     // the cache for the next step's warm start: the force before restitution
@@ -454,6 +561,7 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
     e.feature_b = c.feature_b;
     e.alpha = d.alpha_iter[i];
     e.friction = c.friction;
+    e.spin = c.spin_torque;
     e.order = static_cast<int>(i);
   }
   // sorted by key (first in contact order on equal keys), one entry per key; the narrow phase

@@ -41,6 +41,22 @@ struct Row {
   double W_n = 0.0, W_t1 = 0.0;
 };
 
+/// A spin row: torsional friction about the normal n of a contact that is its body pair's only
+/// point (docs/conventions.md, step 3). Angular only, J_A = (-n, 0), J_B = (n, 0) in the
+/// (omega, p_dot) layout; its velocity J q_dot = n . (omega_B - omega_A) (rad/s); its force is a
+/// torque (N m) on B about n (A gets the opposite), kept in [-mu_spin alpha_n, mu_spin alpha_n]
+/// with alpha_n its contact's current normal force; delta = dt (n . I_A^-1 n + n . I_B^-1 n)
+/// (s/(kg m^2)). Its bodies and whether they move are those of its contact's normal row. Kept
+/// apart from the contact rows (96 bytes each, in their own array), so that a contact without one
+/// costs the sweep nothing but a look at spin_slot, and a scene without any not even that.
+struct SpinRow {
+  Vec3 n;                       ///< J_B_ang, the contact's normal (J_A_ang = -n)
+  Vec3 dMJA_ang, dMJB_ang;      ///< dt I_A^-1 (-n), dt I_B^-1 n (world inverse inertia; 0 for a body that does not move)
+  double inv_delta = 0.0;       ///< 1 / delta
+  double delta = 0.0;
+  double mu_spin = 0.0;         ///< m: the bound is mu_spin times the contact's normal force
+};
+
 /// A body's velocity as one sweep reads it: omega and p_dot side by side (48 bytes), so a row
 /// touches one place per body rather than two arrays.
 struct BodyVelocity {
@@ -57,6 +73,14 @@ struct SolverData {
   std::vector<double> alpha;
   std::vector<int> order, slot;
   std::vector<std::uint64_t> colours_used;
+  // spin rows (torsional friction), in solve order: spin_slot (K: solve position -> its spin row,
+  // or -1 for a contact without one), the rows, and their torques (N m). spin_rows is empty when
+  // no contact has one (every pair's spinning friction 0, or no pair with a single point): the
+  // sweeps then run exactly as without them, and spin_slot is not read (nor written when every
+  // spinning friction is 0)
+  std::vector<int> spin_slot;
+  std::vector<SpinRow> spin_rows;
+  std::vector<double> spin_alpha;
   // per contact (cold): pre-solve normal velocity u_i (m/s), restitution e_i, whether stage d
   // applies, position-pass target b_pos (m/s) and pseudo-force beta (N)
   std::vector<double> u, e, b_pos, beta;
@@ -84,7 +108,7 @@ void tangent_basis(const Vec3& n, Vec3& t1, Vec3& t2);
 ///      v, omega (N, world) = the unconstrained velocities q_dot*.
 /// Out: v, omega = the new velocities (after restitution);
 ///      data.v_pos + data.v_p, data.omega_pos + data.omega_p = the velocities that move the poses;
-///      contacts[i].alpha, impulse, friction, force, normal_velocity, slip;
+///      contacts[i].alpha, impulse, friction, force, spin_torque, normal_velocity, slip;
 ///      data.body_force, data.body_torque; data.cache_next (the caller swaps it into
 ///      data.cache once the step is kept);
 ///      returns the stats and the Signorini certificate.

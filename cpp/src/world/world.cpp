@@ -50,6 +50,9 @@ void check_material(const std::string& who, const Material& m) {
     throw std::invalid_argument(who + ": friction must be finite and >= 0, got " + std::to_string(m.friction));
   if (!(std::isfinite(m.restitution) && m.restitution >= 0.0 && m.restitution <= 1.0))
     throw std::invalid_argument(who + ": restitution must be in [0, 1], got " + std::to_string(m.restitution));
+  if (!(std::isfinite(m.spinning_friction) && m.spinning_friction >= 0.0))
+    throw std::invalid_argument(who + ": spinning_friction must be finite and >= 0 (m), got " +
+                                std::to_string(m.spinning_friction));
 }
 
 void require(bool ok, const std::string& what) {
@@ -89,7 +92,10 @@ void erase_at(std::vector<T>& v, BodyIndex i) {
 BodyIndex renumber(BodyIndex k, BodyIndex gone) { return k > gone ? k - 1 : k; }
 
 // ---- saved states: a flat little-endian byte string -----------------------------------------
-constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '1'};
+// format 2 adds the spin torque of each contact and cache entry; format 1 (before spinning
+// friction) is still read, with those torques 0, as they then were
+constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '2'};
+constexpr std::size_t kStateVersionAt = 7;  ///< the format digit's position in the magic
 
 struct Writer {
   std::string out;
@@ -149,11 +155,13 @@ void write_contact(Writer& w, const Contact& c) {
   w.pod(c.impulse);
   w.mat(c.friction);
   w.mat(c.force);
+  w.pod(c.spin_torque);
   w.pod(c.normal_velocity);
   w.mat(c.slip);
 }
 
-Contact read_contact(Reader& r) {
+/// A contact of a saved state of format `version` (1: without spin_torque).
+Contact read_contact(Reader& r, char version) {
   Contact c;
   c.body_a = r.pod<BodyIndex>();
   c.body_b = r.pod<BodyIndex>();
@@ -166,6 +174,7 @@ Contact read_contact(Reader& r) {
   c.impulse = r.pod<double>();
   r.mat(c.friction);
   r.mat(c.force);
+  if (version >= '2') c.spin_torque = r.pod<double>();
   c.normal_velocity = r.pod<double>();
   r.mat(c.slip);
   return c;
@@ -847,6 +856,7 @@ std::string World::save_state() const {
     w.pod(c.feature_b);
     w.pod(c.alpha);
     w.mat(c.friction);
+    w.pod(c.spin);
     w.pod(c.order);
   }
   w.pod(static_cast<std::uint64_t>(contacts_->size()));
@@ -865,8 +875,12 @@ void World::restore_state(const std::string& saved) {
   // read and check everything first: the world changes only once nothing can fail
   Reader r{saved};
   const std::string bad = "restore_state: not a saved state of this world: ";
-  if (saved.size() < sizeof kStateMagic || std::memcmp(saved.data(), kStateMagic, sizeof kStateMagic) != 0)
+  if (saved.size() < sizeof kStateMagic || std::memcmp(saved.data(), kStateMagic, kStateVersionAt) != 0)
     throw std::invalid_argument("restore_state: not a saved state (no header)");
+  const char version = saved[kStateVersionAt];
+  if (version != '1' && version != '2')
+    throw std::invalid_argument(std::string("restore_state: a saved state of format '") + version +
+                                "', which this signorini does not read (it reads formats 1 and 2)");
   r.at = sizeof kStateMagic;
   const std::size_t n = r.pod<std::uint64_t>();
   if (n != model_.size())
@@ -911,10 +925,11 @@ void World::restore_state(const std::string& saved) {
     c.feature_b = r.pod<FeatureId>();
     c.alpha = r.pod<double>();
     r.mat(c.friction);
+    if (version >= '2') c.spin = r.pod<double>();
     c.order = r.pod<int>();
   }
   auto contacts = std::make_shared<std::vector<Contact>>(r.count(sizeof(double)));
-  for (Contact& c : *contacts) c = read_contact(r);
+  for (Contact& c : *contacts) c = read_contact(r, version);
   SolverStats stats;
   for (int* x : {&stats.iterations, &stats.restitution_iterations, &stats.position_iterations, &stats.contacts})
     *x = r.pod<int>();

@@ -12,8 +12,9 @@ Modules, in the order of a step:
     manifold  feature ids, the box polytope, box-box SAT + face clipping, the 4-point reduction
     support   support mappings and the brute-force signed separation of two convex shapes
     solver    the staged contact solve of a step: prepare rows, warm start, iterate (PGS with
-              Coulomb friction, pyramid or cone), restitution, position pass (split impulse),
-              store, and the Signorini certificate; materials and the warm-start cache
+              Coulomb friction, pyramid or cone, and torsional friction at single-point contacts),
+              restitution, position pass (split impulse), store, and the Signorini certificate;
+              materials and the warm-start cache
     pgs       the lecture's frictionless projected Gauss-Seidel (cold start, erp bias)
     lcp       the frictionless problem as an LCP, solved exactly by enumeration (small K)
     step      one step (contacts, then substeps of velocity, solve, integrate on the contacts
@@ -21,9 +22,10 @@ Modules, in the order of a step:
 
 A snapshot (``World.snapshot()``, or built by hand) holds gravity, settings (defaults in
 ``solver.DEFAULT_SETTINGS`` for missing keys), bodies (shape, static, mass, inv_mass, inertia,
-inv_inertia, friction, restitution; optional kinematic, enabled, group, mask), the state arrays,
-the optional warm-start cache, the optional excluded_pairs [(i, j)] and the optional one-step
-step_force, step_torque and pending impulse, angular_impulse arrays (N, 3).
+inv_inertia, friction, restitution; optional spinning_friction, kinematic, enabled, group,
+mask), the state arrays, the optional warm-start cache, the optional excluded_pairs [(i, j)]
+and the optional one-step step_force, step_torque and pending impulse, angular_impulse arrays
+(N, 3).
 """
 
 from .contacts import (
@@ -98,6 +100,7 @@ from .rigid import (
 )
 from .solver import (
     DEFAULT_SETTINGS,
+    alone_in_pair,
     certificate,
     contact_materials,
     empty_cache,
@@ -113,6 +116,7 @@ from .solver import (
     solver_settings,
     sort_cache,
     speculative_bias,
+    spinning_friction,
     store,
     tangent_basis,
     warm_start,
@@ -130,7 +134,7 @@ from .support import (
 )
 
 __all__ = [
-    "DEFAULT_SETTINGS", "apply_impulses", "EDGE", "FACE", "FACE_PREFERENCE", "PAIRS", "SHAPE", "VERTEX", "bias",
+    "DEFAULT_SETTINGS", "alone_in_pair", "apply_impulses", "EDGE", "FACE", "FACE_PREFERENCE", "PAIRS", "SHAPE", "VERTEX", "bias",
     "bounding_radius", "box_box_separation", "box_corners", "box_edge", "box_polytope",
     "certificate", "motion_flags", "pair_filter", "clip_incident_face", "closest_features", "contact_box_box", "contact_box_sphere",
     "contact_jacobian", "contact_lcp", "contact_materials", "contact_plane_capsule",
@@ -144,7 +148,7 @@ __all__ = [
     "polytope_to_world", "position_pass", "position_targets", "prepare_rows", "project_friction",
     "quat_to_matrix", "reachable", "read_cache", "reduce_manifold", "restitution", "restitutive_contacts",
     "rodrigues", "rollout", "select_manifold", "shape_volume", "signed_area", "skew",
-    "solve_contacts", "solver_settings", "sort_cache", "speculative_bias", "speculative_reach",
+    "solve_contacts", "solver_settings", "sort_cache", "speculative_bias", "speculative_reach", "spinning_friction",
     "carry_contacts", "step", "step_once", "store", "support_box", "support_capsule", "support_cylinder",
     "support_hull", "support_of", "support_separation", "support_sphere", "tangent_basis",
     "unconstrained_velocity", "velocities_from_alpha", "warm_start", "world_inertia",

@@ -1,9 +1,10 @@
 """The staged contact solve of one step (docs/conventions.md, "Materials", "One step (dt)"
 item 3, "The Signorini certificate"), written from the spec in the core's order of operations:
 
-    a. prepare_rows      rows (normal, t1, t2 per contact), delta, bias b, mu, e, u
+    a. prepare_rows      rows (normal, t1, t2 per contact; a spin row for a contact alone in its
+                         body pair with spinning friction), delta, bias b, mu, e, mu_spin, u
     b. warm_start        the previous step's forces for contacts with the same key, applied
-    c. iterate           projected Gauss-Seidel sweeps over all rows (normal, then friction)
+    c. iterate           projected Gauss-Seidel sweeps over all rows (normal, then friction, then spin)
     d. restitution       Newton's law on the normal rows of the contacts that hit fast
     e. position_pass     split impulse: pseudo-velocities q_p that remove overlaps beyond the
                          slop (never kept as velocity)
@@ -18,6 +19,16 @@ d = n_i), 3i + 1 (t1_i) and 3i + 2 (t2_i).  With r_X = y_i - p_X at the start of
 alpha of a row is a force (N); a change d_alpha moves q_dot_X += dt d_alpha M_X^-1 J_X.
 Velocities are kept per body as q_dot (N, 6) = (omega, p_dot), world; static bodies have
 M^-1 = 0 and are never moved (they are skipped, not given 0 * change).
+
+Spin rows (torsional friction).  A contact that is the only one of its body pair (its neighbours
+in the contact list, which holds a pair's contacts together, belong to other pairs) with
+mu_spin = max(mu_spin_A, mu_spin_B) > 0 (m) also gets an angular-only row about its normal:
+    J_A = (-n, 0),  J_B = (n, 0),  J q_dot = n . (omega_B - omega_A)   rad/s
+    delta = dt (n . I_A^-1 n + n . I_B^-1 n)                           s/(kg m^2)
+whose unknown alpha_spin is a torque on B about n (N m; A gets the opposite), in
+[-mu_spin alpha_n, mu_spin alpha_n].  Its arrays are per contact (K), unused where ``spin`` is
+False, and its torques a separate (K,) array ``alpha_spin`` (0 where there is no row).  A pair with
+several points resists spin through the friction at its separate points and gets none.
 
 A row whose delta is not > 0 (both bodies static: the narrow phase never makes one) is
 skipped by every stage and keeps alpha = 0.
@@ -50,9 +61,10 @@ AUTO_SUBSTEP = 1.0 / 960.0         # s, the longest automatic substep
 FRICTION_CONES = ("pyramid", "cone")
 DEFAULT_FRICTION = 0.5
 DEFAULT_RESTITUTION = 0.0
+DEFAULT_SPINNING_FRICTION = 0.0    # m
 # a contact slides (for max_dissipation_violation) when its slip speed exceeds this, m/s
 SLIDING_SPEED = 1e-3
-CACHE_KEYS = ("body_a", "body_b", "feature_a", "feature_b", "alpha", "friction")
+CACHE_KEYS = ("body_a", "body_b", "feature_a", "feature_b", "alpha", "friction", "spin")
 
 
 # --------------------------------------------------------------------------- inputs
@@ -92,14 +104,15 @@ def empty_cache():
     """A warm-start cache with no entries (the format of ``read_cache``)."""
     return {"body_a": np.zeros(0, dtype=np.int64), "body_b": np.zeros(0, dtype=np.int64),
             "feature_a": np.zeros(0, dtype=np.uint64), "feature_b": np.zeros(0, dtype=np.uint64),
-            "alpha": np.zeros(0), "friction": np.zeros((0, 3))}
+            "alpha": np.zeros(0), "friction": np.zeros((0, 3)), "spin": np.zeros(0)}
 
 
 def read_cache(snapshot):
     """The previous step's warm-start cache of the snapshot (missing or None = empty).
 
     Output: dict body_a, body_b (C,) int64, feature_a, feature_b (C,) uint64, alpha (C,) N
-    (normal force after stage c), friction (C, 3) N (world friction force on B).
+    (normal force after stage c), friction (C, 3) N (world friction force on B), spin (C,) N m
+    (torsional friction torque on B about the normal; zeros when the cache has no "spin").
     """
     cache = snapshot.get("cache")
     if cache is None or len(cache.get("alpha", ())) == 0:
@@ -109,7 +122,9 @@ def read_cache(snapshot):
             "feature_a": np.asarray(cache["feature_a"], dtype=np.uint64).reshape(-1),
             "feature_b": np.asarray(cache["feature_b"], dtype=np.uint64).reshape(-1),
             "alpha": np.asarray(cache["alpha"], dtype=float).reshape(-1),
-            "friction": np.asarray(cache["friction"], dtype=float).reshape(-1, 3)}
+            "friction": np.asarray(cache["friction"], dtype=float).reshape(-1, 3),
+            "spin": (np.asarray(cache["spin"], dtype=float).reshape(-1) if "spin" in cache
+                     else np.zeros(len(np.asarray(cache["alpha"]).reshape(-1))))}
 
 
 def contact_materials(snapshot, contacts):
@@ -124,6 +139,29 @@ def contact_materials(snapshot, contacts):
     A = np.asarray(contacts["body_a"], dtype=np.int64)
     B = np.asarray(contacts["body_b"], dtype=np.int64)
     return np.sqrt(mu_body[A] * mu_body[B]), np.maximum(e_body[A], e_body[B])
+
+
+def spinning_friction(snapshot, contacts):
+    """Per contact mu_spin_i = max(mu_spin_A, mu_spin_B) (m; conventions, "Materials").
+
+    Body key "spinning_friction" (default 0), static bodies too.  Output: (K,) m.
+    """
+    spin = np.array([float(b.get("spinning_friction", DEFAULT_SPINNING_FRICTION)) for b in snapshot["bodies"]])
+    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
+    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
+    return np.maximum(spin[A], spin[B])
+
+
+def alone_in_pair(contacts):
+    """(K,) bool: contact i is the only one of its body pair (body_a, body_b).  The contact list
+    holds each pair's contacts next to each other (conventions, "Order"), so its neighbours tell."""
+    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
+    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
+    same_as_next = (A[1:] == A[:-1]) & (B[1:] == B[:-1])
+    alone = np.ones(len(A), dtype=bool)
+    alone[1:] &= ~same_as_next
+    alone[:-1] &= ~same_as_next
+    return alone
 
 
 def speculative_bias(contacts, dt):
@@ -206,6 +244,10 @@ def prepare_rows(snapshot, contacts, q_dot_star, dt):
         bias         (K,) m/s, b_i = max(gap_i, 0) / dt
         gap          (K,) m;  mu, e (K,) materials;  u (K,) m/s, J_n q_dot* (< 0 approaching)
         order        (K,) int64, the solve order (``solve_order``)
+        mu_spin      (K,) m, max(mu_spin_A, mu_spin_B)
+        spin         (K,) bool: the contact has a spin row (alone in its pair, mu_spin > 0, delta > 0)
+        spin_J_A, spin_J_B, spin_MJ_A, spin_MJ_B  (K, 6) the spin rows' J = (-n, 0), (n, 0) and M^-1 J
+        spin_delta   (K,) s/(kg m^2)
     """
     p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
     A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
@@ -235,9 +277,20 @@ def prepare_rows(snapshot, contacts, q_dot_star, dt):
     u = (np.einsum("ki,ki->k", J_B[0::3], q[B]) + np.einsum("ki,ki->k", J_A[0::3], q[A])
          if K else np.zeros(0))
     static, _, _, _ = body_arrays(snapshot)
+
+    # spin rows: angular only, about the normal, for a contact alone in its body pair
+    zeros = np.zeros((K, 3))
+    spin_J_A, spin_J_B = np.hstack([-n, zeros]), np.hstack([n, zeros])
+    spin_MJ_A = np.einsum("kij,kj->ki", M_inv[A], spin_J_A)
+    spin_MJ_B = np.einsum("kij,kj->ki", M_inv[B], spin_J_B)
+    spin_delta = dt * (np.einsum("ki,ki->k", spin_J_A, spin_MJ_A) + np.einsum("ki,ki->k", spin_J_B, spin_MJ_B))
+    mu_spin = spinning_friction(snapshot, contacts)
+    spin = (mu_spin > 0.0) & alone_in_pair(contacts) & (spin_delta > 0.0)
     return {"a": a, "b": b, "direction": d, "J_A": J_A, "J_B": J_B, "MJ_A": MJ_A, "MJ_B": MJ_B,
             "delta": delta, "moves": ~static, "bias": speculative_bias(contacts, dt), "gap": gap,
-            "mu": mu, "e": e, "u": u, "order": solve_order(snapshot, contacts)}
+            "mu": mu, "e": e, "u": u, "order": solve_order(snapshot, contacts),
+            "mu_spin": mu_spin, "spin": spin, "spin_J_A": spin_J_A, "spin_J_B": spin_J_B,
+            "spin_MJ_A": spin_MJ_A, "spin_MJ_B": spin_MJ_B, "spin_delta": spin_delta}
 
 
 class _Sweep:
@@ -251,6 +304,26 @@ class _Sweep:
         self.delta = rows["delta"].tolist()
         self.moves = rows["moves"].tolist()
         self.dt = dt
+        # spin rows, by contact (rows made without them have none)
+        K = len(rows["mu"])
+        self.spin = rows["spin"].tolist() if "spin" in rows else [False] * K
+        if any(self.spin):
+            self.spin_J_A, self.spin_J_B = list(rows["spin_J_A"]), list(rows["spin_J_B"])
+            self.spin_MJ_A, self.spin_MJ_B = list(rows["spin_MJ_A"]), list(rows["spin_MJ_B"])
+            self.spin_delta, self.mu_spin = rows["spin_delta"].tolist(), rows["mu_spin"].tolist()
+
+    def spin_velocity(self, i, q_dot):
+        """J q_dot of contact i's spin row, n . (omega_B - omega_A), rad/s."""
+        n = 3 * i
+        return float(self.spin_J_B[i] @ q_dot[self.b[n]] + self.spin_J_A[i] @ q_dot[self.a[n]])
+
+    def spin_apply(self, i, d_tau, q_dot):
+        """q_dot_X += dt d_tau M_X^-1 J_X of contact i's spin row, for its moving bodies."""
+        s, n = self.dt * d_tau, 3 * i
+        if self.moves[self.a[n]]:
+            q_dot[self.a[n]] += s * self.spin_MJ_A[i]
+        if self.moves[self.b[n]]:
+            q_dot[self.b[n]] += s * self.spin_MJ_B[i]
 
     def velocity(self, k, q_dot):
         """J q_dot of row k, m/s."""
@@ -294,17 +367,20 @@ def project_friction(a1, a2, bound, friction_cone):
 
 # --------------------------------------------------------------------------- b. warm start
 
-def warm_start(rows, contacts, cache, q_dot, dt, friction_cone):
+def warm_start(rows, contacts, cache, q_dot, dt, friction_cone, alpha_spin=None):
     """Stage b: start each contact from the cached forces of the same key, and apply them.
 
     A contact whose key (body_a, body_b, feature_a, feature_b) is in the cache (the first such
     contact in contact order; the first cache entry of that key) gets alpha_n = the cached
     normal force and alpha_t1 = f . t1, alpha_t2 = f . t2 from the cached friction force f,
-    projected onto its friction set of alpha_n (``project_friction``).  The rows' alpha are
-    then applied to q_dot in row order.  Other contacts start from zero.
+    projected onto its friction set of alpha_n (``project_friction``); a contact with a spin row
+    gets alpha_spin = the cached spin torque clamped to [-mu_spin alpha_n, mu_spin alpha_n].
+    The rows' alpha are then applied to q_dot in solve order (each contact's normal, t1, t2, then
+    its spin row).  Other contacts start from zero.
 
     Inputs: rows (``prepare_rows``), contacts (needs feature_a, feature_b when the cache is not
-            empty), cache (``read_cache``), q_dot (N, 6) modified in place, dt s, friction_cone.
+            empty), cache (``read_cache``), q_dot (N, 6) modified in place, dt s, friction_cone,
+            alpha_spin (K,) N m written in place (None: the spin rows are not warm-started).
     Output: alpha (3K,) N, the rows' starting forces.
     """
     K = len(rows["mu"])
@@ -336,6 +412,9 @@ def warm_start(rows, contacts, cache, q_dot, dt, friction_cone):
         a1, a2 = project_friction(float(f @ d[3 * i + 1]), float(f @ d[3 * i + 2]),
                                   float(rows["mu"][i]) * alpha_n, friction_cone)
         alpha[3 * i:3 * i + 3] = alpha_n, a1, a2
+        if alpha_spin is not None and rows["spin"][i]:
+            bound = float(rows["mu_spin"][i]) * alpha_n
+            alpha_spin[i] = min(max(float(cache["spin"][j]), -bound), bound)
 
     # apply them in solve order
     sweep = _Sweep(rows, dt)
@@ -343,12 +422,14 @@ def warm_start(rows, contacts, cache, q_dot, dt, friction_cone):
         for k in (3 * i, 3 * i + 1, 3 * i + 2):
             if alpha[k] != 0.0:
                 sweep.apply(k, float(alpha[k]), q_dot)
+        if alpha_spin is not None and sweep.spin[i] and alpha_spin[i] != 0.0:
+            sweep.spin_apply(i, float(alpha_spin[i]), q_dot)
     return alpha
 
 
 # --------------------------------------------------------------------------- c. iterate
 
-def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone):
+def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone, alpha_spin=None):
     """Stage c: projected Gauss-Seidel sweeps over all rows, contact by contact in solve order.
 
     Per contact i, with its current alpha_n:
@@ -358,8 +439,11 @@ def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone):
         cone:    both tangent rows from the same q_dot with one scale delta_t = max(delta_1, delta_2):
                  a_k = alpha_k - J_k q_dot / delta_t, (a_1, a_2) scaled onto the disk
                  |a| <= mu alpha_n when outside it, then applied (t1, then t2)
+        spin:    (a contact with a spin row, with either cone) gamma = J q_dot - delta alpha,
+                 alpha <- clamp(-gamma / delta, -mu_spin alpha_n, mu_spin alpha_n), from the
+                 velocities the friction rows left
     At most max_iterations sweeps, stopping after a sweep whose largest delta |d_alpha| (each
-    row's own delta) is <= tolerance (m/s).
+    row's own delta) is <= tolerance (m/s; rad/s for spin rows).
 
     Why one delta_t for the cone (the conventions' text divides each row by its own delta_k):
     a fixed point of a = P_disk(a - D^-1 v), D = diag(delta_1, delta_2), that slides has
@@ -372,11 +456,14 @@ def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone):
     The pyramid is a box, separable per row, so its fixed points do not depend on the scales.
 
     Inputs: rows, alpha (3K,) N modified in place, q_dot (N, 6) modified in place, dt s,
-            tolerance m/s, max_iterations, friction_cone.
+            tolerance m/s, max_iterations, friction_cone, alpha_spin (K,) N m modified in place
+            (None: start the spin rows from 0 and keep their torques to this call).
     Outputs: (iterations, converged); converged is True with 0 sweeps when there are no rows.
     """
     sweep = _Sweep(rows, dt)
     K = len(rows["mu"])
+    spin = sweep.spin
+    tau = [0.0] * K if alpha_spin is None else np.asarray(alpha_spin, dtype=float).tolist()
     bias, mu = rows["bias"].tolist(), rows["mu"].tolist()
     delta = sweep.delta
     order = rows["order"].tolist()
@@ -390,33 +477,44 @@ def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone):
             # normal: the lecture's projection onto alpha >= 0
             change = max(change, sweep.update_normal(n, bias[i], x, q_dot))
             # friction: Coulomb, bounded by mu times the current normal force
-            if not delta[k1] > 0.0:
-                continue
-            bound = mu[i] * x[n]
-            if friction_cone == "cone":
-                delta_t = max(delta[k1], delta[k2])
-                a1 = x[k1] - sweep.velocity(k1, q_dot) / delta_t
-                a2 = x[k2] - sweep.velocity(k2, q_dot) / delta_t
-                a1, a2 = project_friction(a1, a2, bound, "cone")
-                d1, d2 = a1 - x[k1], a2 - x[k2]
-                x[k1], x[k2] = a1, a2
-                if d1 != 0.0:
-                    sweep.apply(k1, d1, q_dot)
-                if d2 != 0.0:
-                    sweep.apply(k2, d2, q_dot)
-                change = max(change, delta[k1] * abs(d1), delta[k2] * abs(d2))
-            else:
-                for k in (k1, k2):
-                    gamma = sweep.velocity(k, q_dot) - delta[k] * x[k]
-                    a = min(max(-gamma / delta[k], -bound), bound)
-                    d_alpha = a - x[k]
-                    if d_alpha == 0.0:
-                        continue
-                    x[k] = a
-                    sweep.apply(k, d_alpha, q_dot)
-                    change = max(change, delta[k] * abs(d_alpha))
+            if delta[k1] > 0.0:
+                bound = mu[i] * x[n]
+                if friction_cone == "cone":
+                    delta_t = max(delta[k1], delta[k2])
+                    a1 = x[k1] - sweep.velocity(k1, q_dot) / delta_t
+                    a2 = x[k2] - sweep.velocity(k2, q_dot) / delta_t
+                    a1, a2 = project_friction(a1, a2, bound, "cone")
+                    d1, d2 = a1 - x[k1], a2 - x[k2]
+                    x[k1], x[k2] = a1, a2
+                    if d1 != 0.0:
+                        sweep.apply(k1, d1, q_dot)
+                    if d2 != 0.0:
+                        sweep.apply(k2, d2, q_dot)
+                    change = max(change, delta[k1] * abs(d1), delta[k2] * abs(d2))
+                else:
+                    for k in (k1, k2):
+                        gamma = sweep.velocity(k, q_dot) - delta[k] * x[k]
+                        a = min(max(-gamma / delta[k], -bound), bound)
+                        d_alpha = a - x[k]
+                        if d_alpha == 0.0:
+                            continue
+                        x[k] = a
+                        sweep.apply(k, d_alpha, q_dot)
+                        change = max(change, delta[k] * abs(d_alpha))
+            # spin: torsional friction, bounded by mu_spin times the current normal force
+            if spin[i]:
+                bound = sweep.mu_spin[i] * x[n]
+                gamma = sweep.spin_velocity(i, q_dot) - sweep.spin_delta[i] * tau[i]
+                t = min(max(-gamma / sweep.spin_delta[i], -bound), bound)
+                d_tau = t - tau[i]
+                if d_tau != 0.0:
+                    tau[i] = t
+                    sweep.spin_apply(i, d_tau, q_dot)
+                    change = max(change, sweep.spin_delta[i] * abs(d_tau))
         converged = tolerance > 0.0 and change <= tolerance
     alpha[:] = x
+    if alpha_spin is not None:
+        alpha_spin[:] = tau
     return iterations, converged
 
 
@@ -513,18 +611,21 @@ def sort_cache(cache):
     return {k: cache[k][order[keep]] for k in CACHE_KEYS}
 
 
-def store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt):
+def store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt, alpha_spin=None):
     """Stage f: forces per contact and per body, velocities at the contacts, the next cache.
 
     Inputs: rows, contacts, snapshot (positions at the start of the step), alpha (3K,) N after
             stage d, alpha_iter (K,) N the normal forces after stage c, q_dot (N, 6) the kept
-            velocities, dt s.
+            velocities, dt s, alpha_spin (K,) N m the spin rows' torques (None: all 0).
     Output dict:
         alpha (K,) N;  impulse (K,) N s = dt alpha;  friction (K, 3) N, f_i = alpha_t1 t1 + alpha_t2 t2
-        on B (-f_i on A);  force (K, 3) N = alpha n + f on B;  normal_velocity (K,) m/s, J_n q_dot;
+        on B (-f_i on A);  force (K, 3) N = alpha n + f on B;  spin_torque (K,) N m, the torsional
+        friction torque on B about n (spin_torque n on B, the opposite on A; 0 without a spin row);
+        normal_velocity (K,) m/s, J_n q_dot;
         slip (K, 3) m/s, (v_B(y) - v_A(y)) - vn n;  body_force, body_torque (N, 3) N, N m: the summed
-        contact force on each body and its torque about the body's com (world; static bodies too);
-        cache: body_a, body_b, feature_a, feature_b, alpha (after c), friction (``sort_cache``);
+        contact force on each body and its torque about the body's com (world; static bodies too;
+        the spin torques included);
+        cache: body_a, body_b, feature_a, feature_b, alpha (after c), friction, spin (``sort_cache``);
         empty when the contacts carry no feature ids.
     """
     p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
@@ -539,14 +640,16 @@ def store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt):
     # forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2, on B (A gets the opposite)
     friction = alpha[1::3, None] * t1 + alpha[2::3, None] * t2
     force = alpha_n[:, None] * n + friction
+    # torsional friction: spin_torque n on B, the opposite on A
+    spin_torque = np.zeros(K) if alpha_spin is None else np.where(rows["spin"], alpha_spin, 0.0)
 
     # per body: summed force and its torque about the com, in contact order
     body_force, body_torque = np.zeros((N, 3)), np.zeros((N, 3))
     for i in range(K):
         body_force[B[i]] += force[i]
-        body_torque[B[i]] += np.cross(y_B[i] - p[B[i]], force[i])
+        body_torque[B[i]] += np.cross(y_B[i] - p[B[i]], force[i]) + spin_torque[i] * n[i]
         body_force[A[i]] -= force[i]
-        body_torque[A[i]] -= np.cross(y_A[i] - p[A[i]], force[i])
+        body_torque[A[i]] -= np.cross(y_A[i] - p[A[i]], force[i]) + spin_torque[i] * n[i]
 
     # velocities at the contacts after the solve: normal and slip
     q = np.asarray(q_dot, dtype=float).reshape(-1, 6)
@@ -564,13 +667,14 @@ def store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt):
             "body_a": A.copy(), "body_b": B.copy(),
             "feature_a": np.asarray(contacts["feature_a"], dtype=np.uint64).reshape(-1),
             "feature_b": np.asarray(contacts["feature_b"], dtype=np.uint64).reshape(-1),
-            "alpha": np.asarray(alpha_iter, dtype=float).copy(), "friction": friction.copy()})
+            "alpha": np.asarray(alpha_iter, dtype=float).copy(), "friction": friction.copy(),
+            "spin": spin_torque.copy()})
     return {"alpha": alpha_n, "impulse": dt * alpha_n, "friction": friction, "force": force,
-            "normal_velocity": normal_velocity, "slip": slip, "body_force": body_force,
-            "body_torque": body_torque, "cache": cache}
+            "spin_torque": spin_torque, "normal_velocity": normal_velocity, "slip": slip,
+            "body_force": body_force, "body_torque": body_torque, "cache": cache}
 
 
-def certificate(rows, alpha, q_dot, restitutive, friction, slip, friction_cone):
+def certificate(rows, alpha, q_dot, restitutive, friction, slip, friction_cone, spin_torque=None):
     """The Signorini certificate of the step (conventions, "The Signorini certificate").
 
     With the kept velocities q_dot: vn_i = J_n q_dot, w_i = vn_i + b_i, b_i = e_i u_i for a
@@ -585,8 +689,11 @@ def certificate(rows, alpha, q_dot, restitutive, friction, slip, friction_cone):
                                   P onto [0, inf) (normal rows, w = w_i) or the friction set of the
                                   final alpha_n (tangent rows, w = J q_dot; the cone projects the pair
                                   and uses delta_t = max(delta_1, delta_2) for both, as ``iterate``)
+                                  or [-mu_spin alpha_n, mu_spin alpha_n] (spin rows, w = J q_dot,
+                                  rad/s)
     Inputs: rows, alpha (3K,) N final, q_dot (N, 6) kept, restitutive (K,) bool, friction (K, 3) N,
-            slip (K, 3) m/s, friction_cone.  Output dict of floats; all 0 when there are no contacts.
+            slip (K, 3) m/s, friction_cone, spin_torque (K,) N m (None: all 0).  Output dict of
+            floats; all 0 when there are no contacts.
     """
     K = len(rows["mu"])
     out = {key: 0.0 for key in ("residual", "max_alpha_negative", "max_penetration_velocity",
@@ -627,6 +734,12 @@ def certificate(rows, alpha, q_dot, restitutive, friction, slip, friction_cone):
         p1, p2 = project_friction(alpha[k1] - v_row[k1] / d1, alpha[k2] - v_row[k2] / d2,
                                   mu[i] * alpha[n], friction_cone)
         residual = max(residual, d1 * abs(alpha[k1] - p1), d2 * abs(alpha[k2] - p2))
+        # the spin row: the box [-mu_spin alpha_n, mu_spin alpha_n]
+        if spin_torque is not None and rows["spin"][i]:
+            d_s, t = rows["spin_delta"][i], spin_torque[i]
+            v_s = rows["spin_J_B"][i] @ q[b[n]] + rows["spin_J_A"][i] @ q[a[n]]
+            bound = rows["mu_spin"][i] * alpha[n]
+            residual = max(residual, d_s * abs(t - min(max(t - v_s / d_s, -bound), bound)))
     out["residual"] = float(residual)
     return out
 
@@ -643,10 +756,10 @@ def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
         velocity, angular_velocity (N, 3): the kept velocities (after d)
         velocity_move, angular_velocity_move (N, 3): q_dot_pos + q_p, what moves the poses (step 4)
         velocity_pos, angular_velocity_pos, velocity_p, angular_velocity_p (N, 3): the two parts
-        the ``store`` keys (alpha, impulse, friction, force, normal_velocity, slip, body_force,
-        body_torque, cache), the ``certificate`` keys,
-        mu, restitution, u (K,); restitutive (K,) bool; alpha_iter (K,) N; b_pos (K,) m/s;
-        beta (K,) N; alpha_rows (3K,) N; rows (``prepare_rows``);
+        the ``store`` keys (alpha, impulse, friction, force, spin_torque, normal_velocity, slip,
+        body_force, body_torque, cache), the ``certificate`` keys,
+        mu, restitution, mu_spin, u (K,); restitutive (K,) bool; alpha_iter (K,) N; b_pos (K,) m/s;
+        beta (K,) N; alpha_rows (3K,) N; alpha_spin (K,) N m; rows (``prepare_rows``);
         iterations, restitution_iterations, position_iterations, converged, contacts (K).
     """
     s = solver_settings(snapshot)
@@ -656,12 +769,13 @@ def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
 
     # a. prepare rows; b. warm start; c. iterate
     rows = prepare_rows(snapshot, contacts, q_dot, dt)
+    alpha_spin = np.zeros(len(rows["mu"]))
     if s["warm_start"]:
-        alpha = warm_start(rows, contacts, read_cache(snapshot), q_dot, dt, s["friction_cone"])
+        alpha = warm_start(rows, contacts, read_cache(snapshot), q_dot, dt, s["friction_cone"], alpha_spin)
     else:
         alpha = np.zeros(3 * len(rows["mu"]))
     iterations, converged = iterate(rows, alpha, q_dot, dt, s["tolerance"], s["max_iterations"],
-                                    s["friction_cone"])
+                                    s["friction_cone"], alpha_spin)
     alpha_iter = alpha[0::3].copy()
     # the poses move with the velocities of c; d changes only the kept ones
     q_dot_pos = q_dot.copy()
@@ -677,17 +791,18 @@ def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
                                                    s["max_iterations"])
 
     # f. store and certify
-    out = store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt)
+    out = store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt, alpha_spin)
     out.update(certificate(rows, alpha, q_dot, restitutive, out["friction"], out["slip"],
-                           s["friction_cone"]))
+                           s["friction_cone"], out["spin_torque"]))
     q_move = q_dot_pos + q_p
     out.update({
         "velocity": q_dot[:, 3:].copy(), "angular_velocity": q_dot[:, :3].copy(),
         "velocity_move": q_move[:, 3:].copy(), "angular_velocity_move": q_move[:, :3].copy(),
         "velocity_pos": q_dot_pos[:, 3:].copy(), "angular_velocity_pos": q_dot_pos[:, :3].copy(),
         "velocity_p": q_p[:, 3:].copy(), "angular_velocity_p": q_p[:, :3].copy(),
-        "mu": rows["mu"], "restitution": rows["e"], "u": rows["u"], "restitutive": restitutive,
-        "alpha_iter": alpha_iter, "b_pos": b_pos, "beta": beta, "alpha_rows": alpha, "rows": rows,
+        "mu": rows["mu"], "restitution": rows["e"], "mu_spin": rows["mu_spin"], "u": rows["u"],
+        "restitutive": restitutive, "alpha_iter": alpha_iter, "b_pos": b_pos, "beta": beta,
+        "alpha_rows": alpha, "alpha_spin": alpha_spin, "rows": rows,
         "iterations": iterations, "restitution_iterations": restitution_iterations,
         "position_iterations": position_iterations, "converged": bool(converged),
         "contacts": len(rows["mu"]),

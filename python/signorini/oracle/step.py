@@ -18,7 +18,8 @@ from .solver import solve_contacts, solver_settings, substep_count
 
 # the per-contact and per-step figures of the solve that ``step`` reports in its info
 INFO_KEYS = (
-    "alpha", "impulse", "friction", "force", "normal_velocity", "slip", "mu", "restitution",
+    "alpha", "impulse", "friction", "force", "spin_torque", "normal_velocity", "slip", "mu", "restitution",
+    "mu_spin",
     "body_force", "body_torque", "iterations", "restitution_iterations", "position_iterations",
     "converged", "residual", "max_alpha_negative", "max_penetration_velocity",
     "max_complementarity", "max_cone_violation", "max_dissipation_violation", "max_overlap",
@@ -108,7 +109,8 @@ def step(snapshot, dt, contacts=None):
     step's contacts carried along by the motion since detection (``carry_contacts``); the info is
     the last substep's.
 
-    Inputs: snapshot dict (settings, bodies with friction and restitution, optional cache; missing
+    Inputs: snapshot dict (settings, bodies with friction, restitution and spinning_friction,
+            optional cache; missing
             keys take the documented defaults), dt s, contacts dict (the step's; detected from the
             current state when None).
     Outputs: (new_snapshot, info)
@@ -117,7 +119,8 @@ def step(snapshot, dt, contacts=None):
                       the input is not modified.
         info: contacts (the dict used); per contact (K): alpha N (after restitution),
               impulse = dt alpha N s, friction (K, 3) N on B, force (K, 3) = alpha n + friction N,
-              normal_velocity m/s, slip (K, 3) m/s, mu, restitution; per body: body_force,
+              spin_torque N m (torsional friction on B about n), normal_velocity m/s, slip (K, 3)
+              m/s, mu, restitution, mu_spin m; per body: body_force,
               body_torque (N, 3) (N, N m about the com, world); iterations, restitution_iterations,
               position_iterations, converged, and the certificate: residual (m/s),
               max_alpha_negative, max_penetration_velocity, max_complementarity,
