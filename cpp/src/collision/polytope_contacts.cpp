@@ -711,10 +711,26 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
     return;
   }
   const double face_tol = std::abs(A.n[fa.face].dot(B.n[fb.face])) >= kNearlyParallel ? tol : 1e-9 * L;
+  const std::size_t first = out.size();
   if (fb.separation > fa.separation + face_tol)
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
   else
     clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
+  // apart, the incident face can lie wholly beside the reference face (two corners facing each
+  // other): the clip keeps nothing although the shapes are closer than the threshold. Then the
+  // contact is their closest pair, as for an edge pair whose lines meet off the edges.
+  if (out.size() == first && std::max(fa.separation, fb.separation) > 0.0) {
+    ClosestPair c;
+    if (closest_features(A, B, n_face, kInf, 1e-12 * L, scratch.closest, c) && c.distance > 0.0 &&
+        c.distance < threshold) {
+      Contact& k = out.emplace_back();
+      k.point = pa.R * (0.5 * (c.p + c.q)) + pa.p;
+      k.normal = pa.R * ((c.q - c.p) / c.distance);
+      k.gap = c.distance;
+      k.feature_a = c.fa;
+      k.feature_b = c.fb;
+    }
+  }
 }
 
 double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope& b, const Pose& pb) {

@@ -492,7 +492,9 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
             y = q - gap n_ref / 2, n = n_ref if the reference face is A's, else -n_ref; except a
             crossing of two edges whose cross product is within 0.05 rad of n_ref and whose
             closest points lie on both edges, which is their edge-edge contact
-            (``_edge_crossing``).
+            (``_edge_crossing``). When no clipped point has gap < threshold and the boxes are
+            apart (max(sep_A, sep_B) > 0: corners facing each other beside the faces), the
+            contact is the boxes' closest pair (``closest_features``) if nearer than threshold.
       edge: A's edge along u_i supporting A in +L, B's edge along w_j supporting B in -L;
             y = midpoint of the closest points of their lines, gap = sep_E, n = L; except when
             the boxes are apart (sep_E > 0) and those closest points are not both on the edges
@@ -564,6 +566,15 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
                                       int(feature_parts(inc_id[k])[2]), n_ref)
             if crossing is not None:
                 gap[k], y[k], n[k] = crossing
+    # apart, with the incident face wholly beside the reference face (corners facing each other),
+    # the clip keeps nothing within the threshold: the contact is the boxes' closest pair
+    if not np.any(gap < threshold) and max(sat["sep_A"], sat["sep_B"]) > 0.0:
+        p, q, dist, fa, fb = closest_features(sat["A"], sat["B"], 1e-12 * L_scale)
+        if dist > 0.0 and dist < threshold:
+            return ((0.5 * (p + q))[None, :], ((q - p) / dist)[None, :], np.array([dist]),
+                    np.array([fa]), np.array([fb]))
+        return (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.uint64),
+                np.zeros(0, dtype=np.uint64))
     if not a_is_ref:
         n = -n
     if a_is_ref:
