@@ -313,3 +313,104 @@ def test_every_convex_pair_touching_or_shallow_has_finite_unit_normals(kind_a, k
         worst = max(worst, abs(c.gap.min() - target))
     print(f"{kind_a}-{kind_b}: largest |gap - reference| = {worst:.2e} m")
     assert worst < (TOL if exact else CURVED_TOL), f"{kind_a}-{kind_b}: largest gap error {worst:.2e} m"
+
+
+def _tessellated_floor(n=8, half=1.0):
+    """A flat 2 half x 2 half m floor in z = 0 of n x n squares, two triangles each: every interior
+    edge is inactive (flat)."""
+    xs = np.linspace(-half, half, n + 1)
+    V = np.array([(x, y, 0.0) for y in xs for x in xs])
+    F = []
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            F += [(a, a + 1, a + n + 2), (a, a + n + 2, a + n + 1)]
+    return sg.TriangleMesh(V, np.array(F))
+
+
+def _signed_distance(kind, r, h, x):
+    """Signed distance of body-frame points x (K, 3) from a capsule or cylinder (radius r, half
+    height h, axis z)."""
+    if kind == "capsule":
+        return np.linalg.norm(x - np.outer(np.clip(x[:, 2], -h, h), [0, 0, 1]), axis=1) - r
+    d_r, d_z = np.hypot(x[:, 0], x[:, 1]) - r, np.abs(x[:, 2]) - h
+    return np.minimum(np.maximum(d_r, d_z), 0.0) + np.hypot(np.maximum(d_r, 0.0), np.maximum(d_z, 0.0))
+
+
+def _assert_on_body(kind, r, h, on_body, gap):
+    """Body witnesses (K, 3, body frame) on the body or inside it (a capsule's segment clipped at a
+    triangle's side ends r below a point of its axis, which other axis points may be nearer), the
+    deepest one on its surface."""
+    d = _signed_distance(kind, r, h, on_body)
+    assert d.max() < 1e-9 and abs(d[np.argmin(gap)]) < 1e-9, d
+
+
+@pytest.mark.parametrize("kind", ["capsule", "cylinder"])
+def test_capsules_and_cylinders_get_no_ghost_normals_from_a_tessellated_floor(kind):
+    # any orientation, anywhere over a flat floor of 128 triangles, its lowest point within 4 mm of
+    # the floor in or out: the floor is one plane, so every contact normal is its normal, the
+    # deepest gap is the closed form of the lowest point (capsule: z - h |a_z| - r; cylinder:
+    # z - h |a_z| - r sqrt(1 - a_z^2)), and every point is on both (its floor witness y - gap/2 n
+    # in z = 0, its body witness y + gap/2 n on the body's surface). Before the inactive-edge rule
+    # for these paths, contacts whose witness lay on an interior edge tilted by up to
+    # 1 - n_z = 0.94 (cylinders) and 0.21 (capsules)
+    floor = _tessellated_floor()
+    r, h = 0.05, 0.1
+    shape = sg.Capsule(r, h) if kind == "capsule" else sg.Cylinder(r, h)
+    rng = np.random.default_rng(11)
+    for _ in range(600):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        R = quat_to_matrix(q)
+        a_z = R[2, 2]
+        drop = h * abs(a_z) + (r if kind == "capsule" else r * np.sqrt(max(0.0, 1 - a_z ** 2)))
+        lowest = rng.uniform(-0.004, 0.004)
+        p = np.array([rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), lowest + drop])
+        c = sg.collide(floor, ((0, 0, 0), (1, 0, 0, 0)), shape, (p, q), margin=0.01)
+        assert len(c) > 0
+        np.testing.assert_allclose(c.normal, np.tile([0.0, 0.0, 1.0], (len(c), 1)), rtol=0, atol=1e-12)
+        assert abs(c.gap.min() - lowest) < 1e-12
+        on_floor = c.point - 0.5 * c.gap[:, None] * c.normal
+        on_body = (c.point + 0.5 * c.gap[:, None] * c.normal - p) @ R
+        np.testing.assert_allclose(on_floor[:, 2], 0.0, atol=1e-12)
+        assert np.all(np.abs(on_floor[:, :2]) <= 1.0)
+        _assert_on_body(kind, r, h, on_body, c.gap)
+
+
+@pytest.mark.parametrize("kind", ["capsule", "cylinder"])
+def test_capsules_and_cylinders_in_a_valley_touch_its_faces(kind):
+    # a V valley (faces z = -s x for x < 0 and z = s x for x > 0, s = 0.4, fold along y, cut into
+    # triangles; the fold is concave, so inactive), the body anywhere near the fold in any
+    # orientation, its deepest point within 4 mm of the nearer face's plane in or out: every contact
+    # normal is one of the two face normals and every point's valley witness lies on the valley
+    # (z = s |x|), its body witness on the body
+    s, half, n = 0.4, 1.0, 6
+    xs, ys = np.linspace(-half, half, 2 * n + 1), np.linspace(-half, half, n + 1)
+    V = np.array([(x, y, s * abs(x)) for y in ys for x in xs])
+    F = []
+    for j in range(n):
+        for i in range(2 * n):
+            a = j * (2 * n + 1) + i
+            F += [(a, a + 1, a + 2 * n + 2), (a, a + 2 * n + 2, a + 2 * n + 1)]
+    valley = sg.TriangleMesh(V, np.array(F))
+    faces = np.array([[s, 0.0, 1.0], [-s, 0.0, 1.0]]) / np.hypot(s, 1.0)
+    r, h = 0.05, 0.1
+    shape = sg.Capsule(r, h) if kind == "capsule" else sg.Cylinder(r, h)
+    rng = np.random.default_rng(12)
+    touched = 0
+    for _ in range(600):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        a_n = faces @ quat_to_matrix(q)[:, 2]
+        extent = h * np.abs(a_n) + (r if kind == "capsule" else r * np.sqrt(np.maximum(0.0, 1 - a_n ** 2)))
+        p = np.array([rng.uniform(-0.2, 0.2), rng.uniform(-0.6, 0.6), 0.0])
+        # the height at which min over the faces of n_i . p - extent_i is `lowest`
+        p[2] = np.max((rng.uniform(-0.004, 0.004) + extent - faces[:, 0] * p[0]) / faces[:, 2])
+        c = sg.collide(valley, ((0, 0, 0), (1, 0, 0, 0)), shape, (p, q), margin=0.01)
+        touched += len(c) > 0
+        assert np.all(np.abs(c.normal @ faces.T).max(axis=1) > 1.0 - 1e-12), c.normal
+        on_valley = c.point - 0.5 * c.gap[:, None] * c.normal
+        np.testing.assert_allclose(on_valley[:, 2], s * np.abs(on_valley[:, 0]), atol=1e-9)
+        on_body = (c.point + 0.5 * c.gap[:, None] * c.normal - p) @ quat_to_matrix(q)
+        _assert_on_body(kind, r, h, on_body, c.gap)
+    assert touched == 600

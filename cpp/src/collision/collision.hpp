@@ -250,11 +250,26 @@ void polytope_capsule(const Polytope& a, const Pose& pa, std::uint32_t part_a, c
 /// without a test throws std::logic_error naming both kinds.
 void contact_items(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out);
 
+/// The supporting feature of item `it` along world direction dir, written into s: a face (a
+/// polytope face, or a cylinder's cap as 8 rim points, within ~5.7 degrees of dir), a segment (a
+/// capsule's or cylinder's side), or a point.
+void support_feature(const Item& it, const Vec3& dir, SupportFeature& s);
+
+/// The incident feature `inc` clipped by the side planes of the reference face `ref` (a face:
+/// points counter-clockwise about ref.normal, seen from outside), each kept point q with
+/// gap = ref.normal . (q - ref.points[0]) < threshold a contact at q - gap/2 ref.normal, its normal
+/// ref.normal when the reference is A's (ref_is_a), else reversed. Parts name the ids' owners.
+void clip_features(const SupportFeature& ref, const SupportFeature& inc, bool ref_is_a, std::uint32_t ref_part,
+                   std::uint32_t inc_part, double threshold, Scratch& scratch, std::vector<Contact>& out);
+
 /// Any two items without a closed-form test (a cylinder against a box, hull, capsule, cylinder or
 /// triangle): the signed distance by GJK / EPA on the support mappings (gjk_epa.hpp), then the
 /// supporting features of both along its normal clipped against each other (a face against
 /// whatever faces it), or the single pair of support points.
 void convex_by_support(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out);
+/// The same with their signed distance already known (gjk_epa(a, b)).
+void convex_by_support(const Item& a, const Item& b, const Distance& dist, double threshold, Scratch& scratch,
+                       std::vector<Contact>& out);
 
 /// Static triangle mesh (A) against item B: candidate triangles from the BVH, a convex test per
 /// triangle (inactive edges give no edge contacts), merged. A B that has gone through a triangle

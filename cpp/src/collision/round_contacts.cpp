@@ -265,10 +265,9 @@ void polytope_capsule(const Polytope& P, const Pose& pa, std::uint32_t part_a, c
 }
 
 namespace {
-
 constexpr double kFaceCos = 0.995;  // a face within ~5.7 degrees of the normal supports as a face
+}  // namespace
 
-/// Writes into s the supporting feature of item `it` along world direction dir.
 void support_feature(const Item& it, const Vec3& dir, SupportFeature& s) {
   s.points.clear();
   s.ids.clear();
@@ -344,8 +343,6 @@ void support_feature(const Item& it, const Vec3& dir, SupportFeature& s) {
   }
 }
 
-}  // namespace
-
 /// The point of item `it` farthest along unit direction d (world): its support mapping.
 Vec3 support_point(const Item& it, const Vec3& d) {
   const Mat3& R = it.pose.R;
@@ -372,29 +369,8 @@ Vec3 support_point(const Item& it, const Vec3& d) {
   return R * P.vertex(best) + p;
 }
 
-void convex_by_support(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
-  const Distance dist = gjk_epa(a, b, *scratch.epa);
-  if (!(dist.gap < threshold)) return;
-  const Vec3 n = dist.normal;
-  SupportFeature& sa = scratch.feature_a;
-  SupportFeature& sb = scratch.feature_b;
-  support_feature(a, n, sa);
-  support_feature(b, -n, sb);
-  const bool ref_is_a = sa.is_face && (!sb.is_face || sa.normal.dot(n) >= -sb.normal.dot(n));
-  if (!sa.is_face && !sb.is_face) {
-    // no face on either side (edge against edge, a rim against a rim): FCL's single point
-    Contact c;
-    c.normal = n;
-    c.gap = dist.gap;
-    c.point = 0.5 * (dist.w_a + dist.w_b);
-    c.feature_a = sa.ids.size() == 1 ? sa.ids[0] : feature_id(FeatureKind::Shape, 0, a.part);
-    c.feature_b = sb.ids.size() == 1 ? sb.ids[0] : feature_id(FeatureKind::Shape, 0, b.part);
-    out.push_back(c);
-    return;
-  }
-  const SupportFeature& ref = ref_is_a ? sa : sb;
-  const SupportFeature& inc = ref_is_a ? sb : sa;
-  const std::uint32_t ref_part = ref_is_a ? a.part : b.part, inc_part = ref_is_a ? b.part : a.part;
+void clip_features(const SupportFeature& ref, const SupportFeature& inc, bool ref_is_a, std::uint32_t ref_part,
+                   std::uint32_t inc_part, double threshold, Scratch& scratch, std::vector<Contact>& out) {
   const Vec3& n_ref = ref.normal;
   const double d_ref = n_ref.dot(ref.points[0]);
   // the incident feature clipped by the reference face's side planes (side k: internal id 256 + k)
@@ -424,7 +400,6 @@ void convex_by_support(const Item& a, const Item& b, double threshold, Scratch& 
     }
     std::swap(poly, next);
   }
-  const std::size_t first = out.size();
   for (const auto& [q, ids] : poly) {
     const double gap = n_ref.dot(q) - d_ref;
     if (!(gap < threshold)) continue;
@@ -436,6 +411,35 @@ void convex_by_support(const Item& a, const Item& b, double threshold, Scratch& 
     c.feature_b = ref_is_a ? ids.second : ids.first;
     out.push_back(c);
   }
+}
+
+void convex_by_support(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
+  convex_by_support(a, b, gjk_epa(a, b, *scratch.epa), threshold, scratch, out);
+}
+
+void convex_by_support(const Item& a, const Item& b, const Distance& dist, double threshold, Scratch& scratch,
+                       std::vector<Contact>& out) {
+  if (!(dist.gap < threshold)) return;
+  const Vec3 n = dist.normal;
+  SupportFeature& sa = scratch.feature_a;
+  SupportFeature& sb = scratch.feature_b;
+  support_feature(a, n, sa);
+  support_feature(b, -n, sb);
+  const bool ref_is_a = sa.is_face && (!sb.is_face || sa.normal.dot(n) >= -sb.normal.dot(n));
+  if (!sa.is_face && !sb.is_face) {
+    // no face on either side (edge against edge, a rim against a rim): FCL's single point
+    Contact c;
+    c.normal = n;
+    c.gap = dist.gap;
+    c.point = 0.5 * (dist.w_a + dist.w_b);
+    c.feature_a = sa.ids.size() == 1 ? sa.ids[0] : feature_id(FeatureKind::Shape, 0, a.part);
+    c.feature_b = sb.ids.size() == 1 ? sb.ids[0] : feature_id(FeatureKind::Shape, 0, b.part);
+    out.push_back(c);
+    return;
+  }
+  const std::size_t first = out.size();
+  clip_features(ref_is_a ? sa : sb, ref_is_a ? sb : sa, ref_is_a, ref_is_a ? a.part : b.part,
+                ref_is_a ? b.part : a.part, threshold, scratch, out);
   double least = std::numeric_limits<double>::infinity();
   for (std::size_t k = first; k < out.size(); ++k) least = std::min(least, out[k].gap);
   const double L = a.radius() + b.radius();

@@ -1,15 +1,17 @@
 // Static triangle meshes against convex items: the BVH (fcl_queries.cpp) names the candidate
 // triangles, each is tested as a one-sided convex piece, and all points go into one manifold.
 // Interior edges of flat or concave regions are inactive: they never produce edge normals, so a box
-// sliding over a tessellated floor meets no ghost contacts. (Cylinders go through GJK / EPA on the
-// support mappings, which does not know about inactive edges.) Triangles are one-sided: no contact
+// sliding over a tessellated floor meets no ghost contacts (capsules and cylinders, whose tests see
+// a lone triangle, get a ghost replaced by the face's own contact). Triangles are one-sided: no contact
 // pulls a body towards a triangle's back, and a body whose centre has crossed a triangle inside its
 // prism while still reaching its front (a small fast or fast-turning body that went through in one
 // step) is pushed back out along the face normal instead of being let go.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "collision/collision.hpp"
+#include "collision/gjk_epa.hpp"
 
 namespace signorini::collision {
 namespace {
@@ -149,6 +151,88 @@ void crossed_contacts(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, 
   if (kept > first) out.resize(kept);
 }
 
+/// Whether a contact of B with triangle t, of normal n (world) and witness w on the triangle
+/// (world), is a ghost of the tessellation: a normal other than the face's, from an inactive edge
+/// (flat or concave) or a vertex between two, where the mesh goes on flat or bends up. The capsule
+/// and cylinder tests see a lone triangle and make them; the sphere and polytope tests never do.
+bool ghost_of_inactive_edge(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Vec3& n,
+                            const Vec3& w) {
+  const Vec3& n_t = mesh.normals[t];
+  if ((pa.R.transpose() * n).dot(n_t) >= 1.0 - 1e-12) return false;
+  const auto& active = mesh.active_edge[t];
+  if (active[0] && active[1] && active[2]) return false;
+  const Vec3 v[3] = {mesh.vertex(mesh.faces(t, 0)), mesh.vertex(mesh.faces(t, 1)), mesh.vertex(mesh.faces(t, 2))};
+  const Vec3 x = pa.R.transpose() * (w - pa.p);
+  // a witness within this of a feature lies on it (EPA's witnesses are within 1e-6 of the pair's
+  // scale, the clip's exact; a face point taken for an edge's only gets the face normal)
+  const double scale = (v[1] - v[0]).norm() + (v[2] - v[1]).norm() + (v[0] - v[2]).norm();
+  const double tol2 = std::pow(1e-6 * scale, 2);
+  for (int j = 0; j < 3; ++j)  // vertex j, between edges j - 1 and j
+    if ((x - v[j]).squaredNorm() <= tol2) return !active[j] && !active[(j + 2) % 3];
+  for (int e = 0; e < 3; ++e) {
+    const Vec3 a = v[e], d = v[(e + 1) % 3] - v[e];
+    const double s = std::clamp((x - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+    if ((x - (a + s * d)).squaredNorm() <= tol2) return !active[e];
+  }
+  return false;  // inside the face: a feature of B faces it
+}
+
+/// The face's own contact with B, in place of ghosts: B's supporting feature along -n_t clipped to
+/// triangle t (gaps along n_t), plus B's support point along -n_t when it lies over the triangle
+/// and deeper than those (a cylinder's cap is sampled at 8 rim points), as in convex_by_support;
+/// none when all of it lies beside the triangle, where a neighbouring face makes the contact (as
+/// for spheres). Every point lies inside the triangle (on the mesh) and on B. (Moving B's support
+/// point onto this face's plane without the clip put points over a neighbouring face that is not in
+/// this plane, up to 5 cm off the mesh.)
+void face_contact(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Item& b, double threshold,
+                  Scratch& scratch, std::vector<Contact>& out) {
+  const auto index = static_cast<std::uint32_t>(t);
+  const Vec3 n_t = pa.R * mesh.normals[t];
+  SupportFeature& face = scratch.feature_a;
+  face.points.clear();
+  face.ids.clear();
+  for (int j = 0; j < 3; ++j) {
+    face.points.push_back(pa.R * mesh.vertex(mesh.faces(t, j)) + pa.p);
+    face.ids.push_back(feature_id(FeatureKind::Vertex, static_cast<std::uint32_t>(j), index));
+  }
+  face.normal = n_t;
+  face.is_face = true;
+  support_feature(b, -n_t, scratch.feature_b);
+  const std::size_t first = out.size();
+  clip_features(face, scratch.feature_b, true, index, b.part, threshold, scratch, out);
+  const Vec3 w_b = support_point(b, -n_t);
+  const double gap = n_t.dot(w_b - face.points[0]);
+  double least = std::numeric_limits<double>::infinity();
+  for (std::size_t k = first; k < out.size(); ++k) least = std::min(least, out[k].gap);
+  bool inside = gap < threshold && gap < least - 1e-9 * b.radius();
+  for (int j = 0; j < 3 && inside; ++j)
+    inside = (face.points[(j + 1) % 3] - face.points[j]).cross(n_t).dot(w_b - face.points[j]) <= 0.0;
+  if (inside) {
+    Contact& c = out.emplace_back();
+    c.normal = n_t;
+    c.gap = gap;
+    c.point = w_b - 0.5 * gap * n_t;
+    c.feature_a = feature_id(FeatureKind::Face, 0, index);
+    c.feature_b = feature_id(FeatureKind::Shape, 0, b.part);
+  }
+}
+
+/// Inactive-edge filtering for the contacts from index `first` that capsule B got from triangle t:
+/// if one is a ghost (ghost_of_inactive_edge, its witness y - gap/2 n), the ghosts and the
+/// face-normal points give way to the face's own contact; a point on an active edge stays.
+void capsule_without_ghosts(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Item& b,
+                            double threshold, Scratch& scratch, std::size_t first, std::vector<Contact>& out) {
+  const auto ghost = [&](const Contact& c) {
+    return ghost_of_inactive_edge(mesh, t, pa, c.normal, c.point - 0.5 * c.gap * c.normal);
+  };
+  const auto begin = out.begin() + static_cast<std::ptrdiff_t>(first);
+  if (std::none_of(begin, out.end(), ghost)) return;
+  const Vec3 n_t = pa.R * mesh.normals[t];
+  out.erase(std::remove_if(begin, out.end(), [&](const Contact& c) { return ghost(c) || c.normal.dot(n_t) >= 1.0 - 1e-12; }),
+            out.end());
+  face_contact(mesh, t, pa, b, threshold, scratch, out);
+}
+
 /// Drops the contacts from index `first` on whose normal does not push B out of the front side of
 /// triangle t (a one-sided face never pulls a body through to its back).
 void keep_front(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, std::size_t first,
@@ -198,6 +282,7 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       triangle_polytope_of(mesh, t, tri);
       const std::size_t first = out.size();
       polytope_capsule(tri, pa, index, *cap, b.pose, b.part, threshold, out);
+      capsule_without_ghosts(mesh, t, pa, b, threshold, scratch, first, out);
       keep_front(mesh, t, pa, first, out);
     } else if (b.cylinder) {
       // no closed form: GJK / EPA on the support mappings, the triangle as a flat polytope; only
@@ -210,7 +295,13 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       face.pose = pa;
       face.part = index;
       const std::size_t first = out.size();
-      convex_by_support(face, b, threshold, scratch, out);
+      // a ghost normal (from an inactive edge) gives way to the face's own contact
+      const Distance dist = gjk_epa(face, b, *scratch.epa);
+      if (!(dist.gap < threshold)) continue;
+      if (ghost_of_inactive_edge(mesh, t, pa, dist.normal, dist.w_a))
+        face_contact(mesh, t, pa, b, threshold, scratch, out);
+      else
+        convex_by_support(face, b, dist, threshold, scratch, out);
       keep_front(mesh, t, pa, first, out);
     }
   }
