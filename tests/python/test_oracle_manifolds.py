@@ -143,19 +143,20 @@ def test_unit_box_face_down_on_plane_gives_its_four_bottom_corners():
 
 
 def test_box_on_plane_with_a_large_margin_is_reduced_to_four_corners():
-    # margin 1 m > the height 2c = 0.25 m: all 8 corners qualify, the rule keeps 4.
+    # margin 1 m > the height 2c = 0.25 m: all 8 corners qualify, the rule keeps 4, taken from
+    # the touching ones (gap <= max(0, 0) + 1e-9 L: the bottom corners 0..3) while they offer one.
     # y = x - gap n / 2: bottom corners (+-a, +-b, 0), top ones (+-a, +-b, c) (gap 2c).
-    # p1: gap 0 ties among 0..3 -> corner 0.  p2: farthest from corner 0 -> corner 7 (the space
-    # diagonal).  p3: largest |area(0, 7, q)| about n = +z: corners 1, 5 (+a, -b) and 2, 6 (-a, +b)
-    # tie at 2ab -> corner 1; area(0, 7, 1) = -2ab < 0, so p2 = 1 and p3 = 7.  p4: outside the
-    # triangle (0, 1, 7): corners 2 and 6 tie at 2ab -> corner 2.  Kept: 0, 1, 2, 7.
+    # p1: gap 0 ties among 0..3 -> corner 0.  p2: the touching corner farthest from corner 0 ->
+    # corner 3 (the bottom face's diagonal; the space diagonal's corner 7 hovers 2c above).  p3:
+    # largest |area(0, 3, q)| about n = +z among 1, 2 (tied at 2ab) -> corner 1; area(0, 3, 1) =
+    # -2ab < 0, so p2 = 1 and p3 = 3.  p4: outside the triangle (0, 1, 3): corner 2.  Kept: 0..3.
     h = [0.5, 0.25, 0.125]
     snap = snapshot([ground(), box(h)], [[0, 0, 0], [0, 0, 0.125]], contact_margin=1.0)
     c = o.detect_contacts(snap, 1 / 240)
-    np.testing.assert_array_equal(c["feature_b"], vertex_ids([0, 1, 2, 7]))
+    np.testing.assert_array_equal(c["feature_b"], vertex_ids([0, 1, 2, 3]))
     # dyadic sizes: exact
-    gap = np.array([0.0, 0.0, 0.0, 0.25])
-    x = o.box_corners(h)[[0, 1, 2, 7]] + [0, 0, 0.125]
+    gap = np.zeros(4)
+    x = o.box_corners(h)[[0, 1, 2, 3]] + [0, 0, 0.125]
     np.testing.assert_array_equal(c["gap"], gap)
     np.testing.assert_array_equal(c["point"], x - 0.5 * gap[:, None] * [0, 0, 1])
 

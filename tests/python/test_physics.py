@@ -130,3 +130,74 @@ def test_sphere_rests_on_a_static_convex_mesh():
     assert w.positions[b] == pytest.approx([0.3, -0.2, 0.7], abs=1e-9)
     assert np.linalg.norm(w.velocities[b]) < 1e-12
     assert len(w.contacts) == 1 and w.contacts.normal[0] == pytest.approx([0, 0, 1], abs=1e-15)
+
+
+def _decomposed_torus(R=0.09, r=0.03, sectors=8):
+    """A torus mesh with convex pieces: the hulls of its vertices in each of `sectors` equal
+    sectors about its axis (z)."""
+    from signorini import meshes
+    v, f = meshes.torus(R, r, 24, 12)
+    angle = np.mod(np.arctan2(v[:, 1], v[:, 0]), 2 * np.pi)
+    width = 2 * np.pi / sectors
+    pieces = [v[(angle >= k * width - 1e-9) & (angle <= (k + 1) * width + 1e-9)] for k in range(sectors)]
+    pieces[0] = np.vstack([pieces[0], v[angle >= 2 * np.pi - 1e-9]])
+    return sg.Mesh(v, f).with_pieces(pieces)
+
+
+def test_a_decomposed_torus_rests_on_a_plane_on_its_whole_bottom_ring():
+    # a mesh on a plane keeps every vertex contact, decomposed or not (the lecture's vertex
+    # contacts; docs/conventions.md, "Manifolds"): dropped nearly flat with a spin, the torus of
+    # convex pieces comes to rest on all 24 vertices of its bottom ring, its centre the tube radius
+    # r above the plane, still, the contact forces carrying its weight, the same points from step
+    # to step
+    r = 0.03
+    w = sg.World(gravity=(0, 0, -9.81))
+    w.add_static(sg.Plane((0, 0, 1), 0.0), friction=0.5)
+    b = w.add_body(_decomposed_torus(r=r), density=500.0, position=(0.0, 0.0, r + 0.02),
+                   orientation=(math.cos(0.05), math.sin(0.05), 0.0, 0.0), angular_velocity=(0.0, 0.3, 0.5),
+                   friction=0.5)
+    assert len(w.shape(b).pieces) == 8
+    ids = []
+    for _ in range(3 * 240):
+        w.step(DT)
+        ids.append(tuple(w.contacts.feature_b))
+    assert len(set(ids[-240:])) == 1
+    # touching: the bottom ring; the two rings beside it hover r (1 - cos 30 deg) = 4 mm up, inside
+    # the 5 mm margin, as speculative vertex contacts
+    gap = w.contacts.gap
+    # (resting: within a micrometre of touching, the solver's tolerance there)
+    touching = np.abs(gap) < 1e-6
+    assert np.sum(touching) == 24 and len(gap) == 72
+    np.testing.assert_allclose(gap[~touching], r * (1 - math.cos(math.pi / 6)), atol=1e-6)
+    assert w.positions[b, 2] == pytest.approx(r, abs=1e-3)
+    assert np.linalg.norm(w.velocities[b]) < 1e-4 and np.linalg.norm(w.angular_velocities[b]) < 1e-3
+    # the weight, plus the push that closes the remaining overlap delta (solver_stats.max_overlap,
+    # 3e-8 m) within a substep h = 1/960 s: at most (delta / h) / (g dt) = 7e-4 of the weight
+    delta = w.solver_stats.max_overlap
+    assert delta < 1e-7
+    bound = (delta * 960.0) / (9.81 * DT)
+    assert abs(w.contacts.alpha.sum() / (w.masses[b] * 9.81) - 1.0) <= bound
+
+
+def test_a_hull_on_a_plane_stands_on_four_points_of_the_face_it_touches():
+    # an inverted frustum (bottom face: 8 vertices on a circle of 5 cm in z = 0; top: 8 on a circle
+    # of 8 cm, 3 mm higher) resting on its bottom face has 16 candidates within the 5 mm margin.
+    # The reduction takes its 4 points from the touching ones (the bottom face) while they offer
+    # one; the farthest-point rule over all candidates took the hovering top rim's, and the hull
+    # stood on its one deepest point. At rest: on 4 bottom vertices, centre at its height above
+    # the bottom face, still, the forces carrying the weight
+    phi = np.arange(8) * np.pi / 4
+    bottom = np.c_[0.05 * np.cos(phi), 0.05 * np.sin(phi), np.zeros(8)]
+    top = np.c_[0.08 * np.cos(phi), 0.08 * np.sin(phi), np.full(8, 0.003)]
+    hull = sg.ConvexHull(np.vstack([bottom, top]))
+    w = sg.World(gravity=(0, 0, -9.81))
+    w.add_static(sg.Plane((0, 0, 1), 0.0), friction=0.5)
+    b = w.add_body(hull, density=500.0, position=(0.0, 0.0, 0.01))
+    w.step(DT, 240)
+    x = np.asarray(w.shape(b).vertices)
+    com_height = -x[:, 2].min()  # the bottom face's depth below the centre of mass
+    c = w.contacts
+    assert len(c) == 4 and np.all(c.gap <= 0.0)
+    assert w.positions[b, 2] == pytest.approx(com_height, abs=1e-3)
+    assert np.linalg.norm(w.velocities[b]) < 1e-4 and np.linalg.norm(w.angular_velocities[b]) < 1e-3
+    assert c.alpha.sum() == pytest.approx(w.masses[b] * 9.81, rel=1e-6)

@@ -297,8 +297,9 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
   candidates.clear();
   if (const auto* plane = std::get_if<Plane>(&a)) {
     plane_contacts(*plane, pose_a, b, pose_b, threshold, s, candidates);
-    // a mesh on a plane keeps all its touching vertices (the lecture's vertex contacts): 4 of a
-    // ring-shaped footprint, chosen anew each step as it slides, let a torus rock for seconds
+    // a mesh on a plane keeps all its touching vertices (the lecture's vertex contacts), decomposed
+    // or not: 4 of them let the lecture's torus (decomposed when added) land on its rim and roll
+    // down the slope instead of lying flat
     finish_manifold(candidates, threshold, pair_scale(a, b), out, s.candidate_index, !std::holds_alternative<Mesh>(b));
     return;
   }

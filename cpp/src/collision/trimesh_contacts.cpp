@@ -228,8 +228,8 @@ void capsule_without_ghosts(const TriangleMesh& mesh, Eigen::Index t, const Pose
   const auto begin = out.begin() + static_cast<std::ptrdiff_t>(first);
   if (std::none_of(begin, out.end(), ghost)) return;
   const Vec3 n_t = pa.R * mesh.normals[t];
-  out.erase(std::remove_if(begin, out.end(), [&](const Contact& c) { return ghost(c) || c.normal.dot(n_t) >= 1.0 - 1e-12; }),
-            out.end());
+  const auto replaced = [&](const Contact& c) { return ghost(c) || c.normal.dot(n_t) >= 1.0 - 1e-12; };
+  out.erase(std::remove_if(begin, out.end(), replaced), out.end());
   face_contact(mesh, t, pa, b, threshold, scratch, out);
 }
 

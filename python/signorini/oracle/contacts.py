@@ -24,7 +24,7 @@ Dispatch table (plane is always A; other pairs have A = lower body index), featu
                           (the core uses FCL there; the oracle does not), skipped when not.
 Each pair's candidates become its manifold by ``manifold.select_manifold`` (gap < threshold,
 id order, duplicates dropped, at most 4 points), except plane - mesh, which keeps every vertex
-within the threshold in vertex order.
+within the threshold in vertex order (the lecture's vertex contacts).
 """
 
 import numpy as np
@@ -377,7 +377,8 @@ PAIRS = {
     ("box", "box"): _pair_box_box,
 }
 
-# pairs whose candidates are all kept (gap < threshold, their own order) instead of a manifold
+# pairs whose candidates are all kept (gap < threshold, their own order) instead of a manifold:
+# the lecture's vertex contacts of a mesh on a plane, decomposed or not
 UNREDUCED = {("plane", "mesh")}
 
 

@@ -156,7 +156,8 @@ def reduce_manifold(y, gap, n, L):
             L m the pair's length scale.
     Output: the indices (ascending, i.e. id order) of the kept points, 2 to 4 of them.
     A tie (within 1e-9 L for lengths, 1e-9 L^2 for areas, of the extreme value) goes to the
-    first candidate in id order:
+    first candidate in id order. p2 to p4 are chosen among the touching points (gap <=
+    max(gap of p1, 0) + 1e-9 L) while the best of them scores above the tolerance, else among all:
         p1 the deepest (least gap); p2 the farthest from p1;
         p3 the largest |area(p1, p2, q)| with n = the normal at p1; if that is <= 1e-9 L^2 (all
            on a line) the manifold is p1 and p2; p2 and p3 are swapped if area(p1, p2, p3) < 0;
@@ -171,15 +172,22 @@ def reduce_manifold(y, gap, n, L):
     p1 = _first_within(gap, gap.min(), tol_length, largest=False)
     taken[p1] = True
     n = np.asarray(n, dtype=float).reshape(-1, 3)[p1]
+    # the touching points, from which 2. to 4. choose while they offer one above the tolerance
+    touching = gap <= max(gap[p1], 0.0) + tol_length
+
+    def choose(score, tol):
+        among = np.where(touching, score, -np.inf)
+        best = _first_within(among, among.max(), tol, largest=True)
+        return best if among[best] > tol else _first_within(score, score.max(), tol, largest=True)
 
     # 2. the farthest from p1
     dist = np.where(taken, -np.inf, np.linalg.norm(y - y[p1], axis=1))
-    p2 = _first_within(dist, dist.max(), tol_length, largest=True)
+    p2 = choose(dist, tol_length)
     taken[p2] = True
 
     # 3. the largest triangle on p1 p2, oriented counter-clockwise about n
     area = np.where(taken, -np.inf, np.abs(signed_area(y[p1], y[p2], y, n)))
-    p3 = _first_within(area, area.max(), tol_area, largest=True)
+    p3 = choose(area, tol_area)
     taken[p3] = True
     if area[p3] <= tol_area:
         return np.array(sorted([p1, p2]), dtype=np.int64)  # all on a line
@@ -191,7 +199,7 @@ def reduce_manifold(y, gap, n, L):
                                  -signed_area(y[p2], y[p3], y, n),
                                  -signed_area(y[p3], y[p1], y, n)])
     outside = np.where(taken, -np.inf, outside)
-    p4 = _first_within(outside, outside.max(), tol_area, largest=True)
+    p4 = choose(outside, tol_area)
     kept = [p1, p2, p3] + ([p4] if outside[p4] > tol_area else [])
     return np.array(sorted(kept), dtype=np.int64)
 
