@@ -585,6 +585,14 @@ void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double t
       g = static_cast<int>(k);
     }
   }
+  // a convex mesh keeps the vertices that lie inside one of its merged faces (a cap's centre) but
+  // no face loop names them: when such a vertex is the deepest, the most anti-parallel face overall
+  // (first on ties) is the incident face, as for a box
+  if (g < 0) {
+    g = 0;
+    for (std::size_t k = 1; k < inc.n.size(); ++k)
+      if (inc.n[k].dot(n_ref) < inc.n[g].dot(n_ref)) g = static_cast<int>(k);
+  }
   const auto& inc_loop = inc.topo->faces[g];
   poly.clear();
   for (std::size_t k = 0; k < inc_loop.size(); ++k)
@@ -716,16 +724,19 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
   else
     clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
-  // apart, the incident face can lie wholly beside the reference face (two corners facing each
-  // other): the clip keeps nothing although the shapes are closer than the threshold. Then the
-  // contact is their closest pair, as for an edge pair whose lines meet off the edges.
-  if (out.size() == first && std::max(fa.separation, fb.separation) > 0.0) {
+  // apart or touching, the incident face can lie wholly beside the reference face (two corners
+  // facing each other): the clip keeps nothing although the shapes are closer than the threshold.
+  // Then the contact is their closest pair, as for an edge pair whose lines meet off the edges;
+  // touching (closest points within 1e-12 L, the separation 0 up to rounding), along the face axis
+  if (out.size() == first && std::max(fa.separation, fb.separation) >= -1e-12 * L) {
     ClosestPair c;
-    if (closest_features(A, B, n_face, kInf, 1e-12 * L, scratch.closest, c) && c.distance > 0.0 &&
+    if (closest_features(A, B, n_face, kInf, 1e-12 * L, scratch.closest, c) && c.distance >= 0.0 &&
         c.distance < threshold) {
+      const bool touching = c.distance <= 1e-12 * L;
       Contact& k = out.emplace_back();
       k.point = pa.R * (0.5 * (c.p + c.q)) + pa.p;
-      k.normal = pa.R * ((c.q - c.p) / c.distance);
+      k.normal = pa.R * (touching ? Vec3(fb.separation > fa.separation ? Vec3(-n_face) : n_face)
+                                  : Vec3((c.q - c.p) / c.distance));
       k.gap = c.distance;
       k.feature_a = c.fa;
       k.feature_b = c.fb;

@@ -501,8 +501,9 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
             crossing of two edges whose cross product is within 0.05 rad of n_ref and whose
             closest points lie on both edges, which is their edge-edge contact
             (``_edge_crossing``). When no clipped point has gap < threshold and the boxes are
-            apart (max(sep_A, sep_B) > 0: corners facing each other beside the faces), the
-            contact is the boxes' closest pair (``closest_features``) if nearer than threshold.
+            apart or touching (max(sep_A, sep_B) >= -1e-12 L: corners facing each other beside
+            the faces), the contact is the boxes' closest pair (``closest_features``) if nearer
+            than threshold (touching within 1e-12 L: normal along the better face axis, A -> B).
       edge: A's edge along u_i supporting A in +L, B's edge along w_j supporting B in -L;
             y = midpoint of the closest points of their lines, gap = sep_E, n = L; except when
             the boxes are apart (sep_E > 0) and those closest points are not both on the edges
@@ -574,12 +575,18 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
                                       int(feature_parts(inc_id[k])[2]), n_ref)
             if crossing is not None:
                 gap[k], y[k], n[k] = crossing
-    # apart, with the incident face wholly beside the reference face (corners facing each other),
-    # the clip keeps nothing within the threshold: the contact is the boxes' closest pair
-    if not np.any(gap < threshold) and max(sat["sep_A"], sat["sep_B"]) > 0.0:
+    # apart or touching, with the incident face wholly beside the reference face (corners facing
+    # each other), the clip keeps nothing within the threshold: the contact is the boxes' closest
+    # pair; touching (within 1e-12 L), its normal is the better face axis, turned A -> B
+    if not np.any(gap < threshold) and max(sat["sep_A"], sat["sep_B"]) >= -1e-12 * L_scale:
         p, q, dist, fa, fb = closest_features(sat["A"], sat["B"], 1e-12 * L_scale)
-        if dist > 0.0 and dist < threshold:
-            return ((0.5 * (p + q))[None, :], ((q - p) / dist)[None, :], np.array([dist]),
+        if dist >= 0.0 and dist < threshold:
+            if dist <= 1e-12 * L_scale:
+                normal = (-sat["B"]["normals"][sat["face_b"]] if sat["sep_B"] > sat["sep_A"]
+                          else sat["A"]["normals"][sat["face_a"]])
+            else:
+                normal = (q - p) / dist
+            return ((0.5 * (p + q))[None, :], np.asarray(normal, dtype=float)[None, :], np.array([dist]),
                     np.array([fa]), np.array([fb]))
         return (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.uint64),
                 np.zeros(0, dtype=np.uint64))
