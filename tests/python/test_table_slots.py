@@ -118,7 +118,8 @@ After (this file adds; the tests above stay):
   trimesh-polytope  golden: (C++, tt above)
                     random: test_random_lone_triangle_pairs[polytope] (onto the face)
                     test_a_convex_mesh_with_a_vertex_inside_a_face_does_not_crash
-                    xfail: test_random_floor_pairs[polytope], test_polytopes_beside_a_lone_triangle_get_their_distance
+                    test_random_floor_pairs[polytope] (ghost normals of B's face against a floor vertex: fixed)
+                    xfail: test_polytopes_beside_a_lone_triangle_get_their_distance
 
 Tolerances (m):
   EXACT = 1e-9: closed forms (spheres, capsules, polytopes, planes, triangles) evaluate a few dozen
@@ -654,13 +655,7 @@ def floor_pair(kind, seed, k):
     return Placed(body, lowest - R @ x, R), delta, regime
 
 
-GHOSTS = pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "core defect: polytopes on a flat tessellated floor get ghost normals (the body's face against an interior "
-    "vertex or edge of the floor): 73 of 373 pairs, in every regime, tilted up to 88 degrees; 3 of 122 overlaps "
-    "lose their deepest point (gap up to 8.1 mm too shallow)"))
-
-
-@pytest.mark.parametrize("kind", ["sphere", "capsule", "cylinder", pytest.param("polytope", marks=GHOSTS)])
+@pytest.mark.parametrize("kind", ["sphere", "capsule", "cylinder", "polytope"])
 def test_random_floor_pairs(kind):
     # slot: TriangleMesh against `kind` (polytope = box, hull, convex mesh): a flat floor of 512
     # triangles (rp::_tessellated_floor(16, 2.0), interior edges inactive), the body anywhere over

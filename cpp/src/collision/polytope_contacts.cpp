@@ -754,7 +754,7 @@ double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope&
 
 void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, const Pose& pa,
                        std::uint32_t triangle, const Polytope& b, const Pose& pb, std::uint32_t part_b,
-                       double threshold, PolytopeScratch& scratch, std::vector<Contact>& out) {
+                       double threshold, PolytopeScratch& scratch, std::vector<Contact>& out, bool face_only) {
   View& A = scratch.A;
   View& B = scratch.B;
   A.place_local(tri, triangle);
@@ -763,6 +763,10 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
   if (A.n[0].dot(B.centroid) < A.d[0]) return;
   const double sep_a = B.min_along(A.n[0]) - A.d[0];
   if (!(sep_a < threshold)) return;
+  if (face_only) {
+    clip_faces(A, 0, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out, &active);
+    return;
+  }
   const FaceQuery fb = face_query(B, A);
   if (!(fb.separation < threshold)) return;
   const double tol = kFacePreference * (radius_of(tri) + radius_of(b));
@@ -822,7 +826,29 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
     edge_contact(A, B, e, pa, threshold, radius_of(tri) + radius_of(b), scratch.closest, out);
     return;
   }
-  if (fb.separation > sep_a + tol)
+  // B's face axis is set by the triangle's feature deepest along it: a vertex between two inactive
+  // edges, or an inactive edge, is a ghost of the tessellation (the mesh goes on flat or bends up
+  // there, so B's face cannot face that feature alone), and the triangle's face makes the contact
+  bool b_face = fb.separation > sep_a + tol;
+  if (b_face) {
+    const Vec3& n_b = B.n[fb.face];
+    double least = kInf;
+    for (const Vec3& x : A.v) least = std::min(least, n_b.dot(x));
+    bool deepest[3];
+    for (int k = 0; k < 3; ++k) deepest[k] = n_b.dot(A.v[k]) <= least + support_tol;
+    bool ghost = true;
+    for (int k = 0; k < 3; ++k) {
+      // edge k (v_k -> v_k+1) holds the deepest feature when both its ends are deepest; a lone
+      // deepest vertex k is its own feature, between edges k - 1 and k
+      const bool both = deepest[k] && deepest[(k + 1) % 3];
+      if (both && active[k]) ghost = false;
+      if (deepest[k] && !deepest[(k + 1) % 3] && !deepest[(k + 2) % 3] && (active[k] || active[(k + 2) % 3]))
+        ghost = false;
+    }
+    if (deepest[0] && deepest[1] && deepest[2]) ghost = false;  // B's face lies along the triangle
+    b_face = !ghost;
+  }
+  if (b_face)
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
   else
     clip_faces(A, 0, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out, &active);

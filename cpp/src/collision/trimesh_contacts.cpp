@@ -217,11 +217,14 @@ void face_contact(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, cons
   }
 }
 
-/// Inactive-edge filtering for the contacts from index `first` that capsule B got from triangle t:
-/// if one is a ghost (ghost_of_inactive_edge, its witness y - gap/2 n), the ghosts and the
-/// face-normal points give way to the face's own contact; a point on an active edge stays.
-void capsule_without_ghosts(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Item& b,
-                            double threshold, Scratch& scratch, std::size_t first, std::vector<Contact>& out) {
+/// Inactive-edge filtering for the contacts from index `first` that a capsule or a polytope B got
+/// from triangle t: if one is a ghost (ghost_of_inactive_edge, its witness y - gap/2 n), the ghosts
+/// and the face-normal points give way to the face's own contact, made by face_only(out); a point on
+/// an active edge stays. (A polytope's test offers only the triangle's active edges, but B's own
+/// faces as references: a box face tilted over a floor vertex gave that face's normal.)
+template <class FaceOnly>
+void without_ghosts(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, std::size_t first,
+                    std::vector<Contact>& out, FaceOnly face_only) {
   const auto ghost = [&](const Contact& c) {
     return ghost_of_inactive_edge(mesh, t, pa, c.normal, c.point - 0.5 * c.gap * c.normal);
   };
@@ -230,7 +233,7 @@ void capsule_without_ghosts(const TriangleMesh& mesh, Eigen::Index t, const Pose
   const Vec3 n_t = pa.R * mesh.normals[t];
   const auto replaced = [&](const Contact& c) { return ghost(c) || c.normal.dot(n_t) >= 1.0 - 1e-12; };
   out.erase(std::remove_if(begin, out.end(), replaced), out.end());
-  face_contact(mesh, t, pa, b, threshold, scratch, out);
+  face_only(out);
 }
 
 /// Drops the contacts from index `first` on whose normal does not push B out of the front side of
@@ -275,6 +278,10 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       const std::size_t first = out.size();
       triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, b.pose, b.part, threshold,
                         *scratch.polytope, out);
+      without_ghosts(mesh, t, pa, first, out, [&](std::vector<Contact>& o) {
+        triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, b.pose, b.part, threshold,
+                          *scratch.polytope, o, true);
+      });
       keep_front(mesh, t, pa, first, out);
     } else if (const Sphere* s = b.sphere) {
       triangle_sphere(mesh, t, pa, centre, s->radius, b.part, out);
@@ -282,7 +289,8 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       triangle_polytope_of(mesh, t, tri);
       const std::size_t first = out.size();
       polytope_capsule(tri, pa, index, *cap, b.pose, b.part, threshold, out);
-      capsule_without_ghosts(mesh, t, pa, b, threshold, scratch, first, out);
+      without_ghosts(mesh, t, pa, first, out,
+                     [&](std::vector<Contact>& o) { face_contact(mesh, t, pa, b, threshold, scratch, o); });
       keep_front(mesh, t, pa, first, out);
     } else if (b.cylinder) {
       // no closed form: GJK / EPA on the support mappings, the triangle as a flat polytope; only
