@@ -120,8 +120,8 @@ class SolverStats:
 class SavedState:
     """A world's dynamic state from ``World.save_state()``, for ``World.restore_state()``: time,
     poses, velocities, persistent and one-step forces, pending impulses, kinematic and enabled
-    flags, the warm-start cache and the last step's contacts (opaque bytes written and checked by
-    the core). Picklable. ``num_bodies`` and ``time`` are for reading only."""
+    flags, the warm-start cache, the last step's contacts and the triangle meshes' memory of
+    which side a body belongs on (opaque bytes written and checked by the core). Picklable. ``num_bodies`` and ``time`` are for reading only."""
 
     data: bytes
     num_bodies: int

@@ -92,9 +92,12 @@ void erase_at(std::vector<T>& v, BodyIndex i) {
 BodyIndex renumber(BodyIndex k, BodyIndex gone) { return k > gone ? k - 1 : k; }
 
 // ---- saved states: a flat little-endian byte string -----------------------------------------
-// format 2 adds the spin torque of each contact and cache entry; format 1 (before spinning
-// friction) is still read, with those torques 0, as they then were
-constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '2'};
+// format 3 adds the triangle meshes' memory (each body's centre at the start of the last step and
+// the triangle it is being pushed back through), without which a restored step near a crossing
+// differs from the original; format 2 adds the spin torque of each contact and cache entry.
+// Formats 1 (before spinning friction: those torques 0, as they then were) and 2 (no crossing
+// memory: it starts afresh) are still read
+constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '3'};
 constexpr std::size_t kStateVersionAt = 7;  ///< the format digit's position in the magic
 
 struct Writer {
@@ -868,6 +871,12 @@ std::string World::save_state() const {
                    stats_.max_complementarity, stats_.max_cone_violation, stats_.max_dissipation_violation,
                    stats_.max_overlap})
     w.pod(x);
+  // the triangle meshes' memory (format 3): centres at the start of the last step and crossings
+  w.mats(previous_p_);
+  for (const collision::Crossing& c : crossing_) {
+    w.pod(static_cast<std::int32_t>(c.mesh));
+    w.pod(static_cast<std::int32_t>(c.triangle));
+  }
   return std::move(w.out);
 }
 
@@ -878,9 +887,9 @@ void World::restore_state(const std::string& saved) {
   if (saved.size() < sizeof kStateMagic || std::memcmp(saved.data(), kStateMagic, kStateVersionAt) != 0)
     throw std::invalid_argument("restore_state: not a saved state (no header)");
   const char version = saved[kStateVersionAt];
-  if (version != '1' && version != '2')
+  if (version < '1' || version > '3')
     throw std::invalid_argument(std::string("restore_state: a saved state of format '") + version +
-                                "', which this signorini does not read (it reads formats 1 and 2)");
+                                "', which this signorini does not read (it reads formats 1 to 3)");
   r.at = sizeof kStateMagic;
   const std::size_t n = r.pod<std::uint64_t>();
   if (n != model_.size())
@@ -938,12 +947,30 @@ void World::restore_state(const std::string& saved) {
                     &stats.max_complementarity, &stats.max_cone_violation, &stats.max_dissipation_violation,
                     &stats.max_overlap})
     *x = r.pod<double>();
+  // formats 1 and 2 have no crossing memory: it starts afresh, as after set_position
+  std::vector<Vec3> previous_p = s.p;
+  std::vector<collision::Crossing> crossing(n);
+  if (version >= '3') {
+    r.mats(previous_p, n);
+    for (collision::Crossing& c : crossing) {
+      c.mesh = r.pod<std::int32_t>();
+      c.triangle = r.pod<std::int32_t>();
+    }
+  }
   if (r.at != saved.size()) throw std::invalid_argument("restore_state: the saved state has trailing bytes");
   const auto in_range = [n](BodyIndex k) { return k >= 0 && static_cast<std::size_t>(k) < n; };
   for (const CachedContact& c : cache)
     if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
   for (const Contact& c : *contacts)
     if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
+  for (const collision::Crossing& c : crossing) {
+    if (c.mesh == -1 && c.triangle == -1) continue;
+    const TriangleMesh* mesh = in_range(c.mesh) ? std::get_if<TriangleMesh>(&model_.shape[static_cast<std::size_t>(c.mesh)]) : nullptr;
+    if (!mesh || c.triangle < 0 || c.triangle >= mesh->faces.rows())
+      throw std::invalid_argument("restore_state: the saved state is damaged (crossing memory)");
+  }
+  for (const Vec3& x : previous_p)
+    if (!x.allFinite()) throw std::invalid_argument("restore_state: the saved state is damaged (previous centres)");
   if (!std::isfinite(s.time)) throw std::invalid_argument("restore_state: the saved state is damaged (time)");
   for (std::size_t i = 0; i < n; ++i)
     if (!(s.p[i].allFinite() && s.R[i].allFinite() && s.q[i].allFinite() && s.v[i].allFinite() &&
@@ -967,9 +994,8 @@ void World::restore_state(const std::string& saved) {
   solver_->cache = std::move(cache);
   contacts_ = std::move(contacts);
   stats_ = stats;
-  // the meshes' memory of crossings is not saved: it starts afresh, as after set_position
-  copy_into(previous_p_, state_.p);
-  for (collision::Crossing& c : crossing_) c = collision::Crossing();
+  copy_into(previous_p_, previous_p);
+  std::copy(crossing.begin(), crossing.end(), crossing_.begin());
 }
 
 Quat4 World::orientation(BodyIndex i) const {
