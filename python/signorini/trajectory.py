@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from . import meshes
+from .world import SolverWarning
 
 __all__ = ["Record", "Recorder", "save_trajectory", "load_trajectory", "shape_params", "body_names",
            "TRAJECTORY_FORMAT"]
@@ -362,14 +363,15 @@ class Recorder:
         """Advance the world ``steps`` single steps of dt (s), observing each; ``progress`` is an
         optional callable called with 1 after each step (a tqdm bar's ``update``).
 
-        The world warns once per ``World.step`` call; stepping one step at a time would repeat
-        a warning for every flagged step, so warnings of one category are gathered and given
-        once, the first one's text with how many steps raised it.
+        Warnings of one category are gathered and given once, the first one's text with how many
+        recorded steps raised it (a world's ``SolverWarning`` comes once, with how many recorded
+        solver substeps were unconverged: ``World.unconverged_substeps``).
         """
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
             raise ValueError(f"Recorder.step: steps must be an integer >= 0, got {steps!r}")
         if not (isinstance(dt, (int, float, np.number)) and math.isfinite(dt) and dt > 0):
             raise ValueError(f"Recorder.step: dt must be a finite number > 0, got {dt!r}")
+        flagged = getattr(self.world, "unconverged_substeps", 0)  # a duck-typed world may have none
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             for _ in range(int(steps)):
@@ -382,8 +384,11 @@ class Recorder:
         first: dict = {}
         for w in caught:
             first.setdefault(w.category, [w.message, 0])[1] += 1
+        flagged = getattr(self.world, "unconverged_substeps", 0) - flagged
         for category, (message, count) in first.items():
             more = f" [{count} of {steps} recorded steps warned; this is the first]" if count > 1 else ""
+            if issubclass(category, SolverWarning) and flagged > 1:
+                more = f" [{flagged} unconverged solver substeps in {steps} recorded steps]"
             warnings.warn(f"{message}{more}", category, stacklevel=2)
         if steps:
             self.dt = float(dt)

@@ -306,7 +306,9 @@ class World:
         most 1/960 s (dt = 1/240: 4; dt = 1/60: 16). Substeps cost solver sweeps, not contact
         detection.
     warn_velocity : a step that ends unconverged with a contact still approaching faster than this
-        (m/s) raises a ``SolverWarning`` (once per ``step()`` call).
+        (m/s) is flagged: the world's first flagged step raises a ``SolverWarning``, and
+        ``unconverged_substeps`` counts every flagged substep (a loop of ``step(dt)`` warns once, not once a
+        step; ``set_solver`` re-arms the warning).
 
     The defaults (``SOLVER_DEFAULTS``) stand a 10-box stack and a 210-box pyramid.
     """
@@ -327,6 +329,8 @@ class World:
         # what each body was added with, in index order (save_scene writes a body that has not
         # moved with these values, so a saved scene steps bit for bit like the original)
         self._given: list[_Given] = []
+        self._unconverged_substeps = 0  # flagged substeps so far (see warn_velocity)
+        self._warned = False
 
     def set_solver(self, **settings) -> None:
         """Changes solver settings by keyword (the names of the constructor's); the others stay."""
@@ -334,6 +338,13 @@ class World:
         if unknown:
             raise TypeError(f"set_solver: unknown setting(s) {sorted(unknown)}; known: {sorted(SOLVER_DEFAULTS)}")
         self._core.set_solver(_solver_settings("set_solver", self._core.solver, **settings))
+        self._warned = False  # new settings: their first unconverged step warns again
+
+    @property
+    def unconverged_substeps(self) -> int:
+        """Solver substeps so far (``substeps`` per step) that ended with the contact solver unconverged and a contact approaching
+        faster than ``warn_velocity`` (only the first of them raised a ``SolverWarning``)."""
+        return self._unconverged_substeps
 
     @property
     def solver(self) -> dict:
@@ -626,12 +637,15 @@ class World:
             raise ValueError(f"step: steps must be >= 0, got {steps}")
         self._core.step(dt, int(steps))
         report = self._core.step_report
-        if report["flagged"]:
+        self._unconverged_substeps += report["flagged"]
+        if report["flagged"] and not self._warned:
+            self._warned = True
             warnings.warn(
-                f"{report['flagged']} of {report['steps']} steps ended with the contact solver unconverged "
+                f"{report['flagged']} of {report['steps']} solver substeps ended with the contact solver unconverged "
                 f"and a contact approaching faster than warn_velocity = {self._core.solver.warn_velocity:g} m/s "
                 f"(worst {report['worst_penetration_velocity']:.3g} m/s at t = {report['worst_time']:.6g} s); "
-                "raise max_iterations or substeps, or lower dt", SolverWarning, stacklevel=2)
+                "raise max_iterations or substeps, or lower dt. This world warns once (until set_solver); "
+                "World.unconverged_substeps counts every such substep", SolverWarning, stacklevel=2)
 
     # state: read-only views of the core's arrays, (N, 3) / (N, 4) / (N, 3, 3) ------------------
     # They share memory with the world (np.shares_memory holds across reads), show every later

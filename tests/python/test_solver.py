@@ -274,13 +274,33 @@ def test_overlap_is_removed_without_adding_kinetic_energy():
     assert 0.5 - w.positions[b][2] <= w.solver.get("slop") + 1e-9
 
 
-def test_unconverged_steps_warn():
+def test_unconverged_substeps_warn():
     w = sg.World(max_iterations=1, warm_start=False)
     w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
     for k in range(5):
         w.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0, position=(0, 0, 0.5 + k))
     with pytest.warns(sg.SolverWarning, match="unconverged"):
         w.step(1 / 240, 10)
+
+
+def test_a_loop_of_unconverged_substeps_warns_once_and_counts_them_all():
+    # one sweep a step leaves a stack unconverged every step: stepped one step per call, the world
+    # warns on the first call only and counts every flagged step; new settings re-arm the warning
+    w = sg.World(max_iterations=1, tolerance=1e-12, warn_velocity=1e-9, warm_start=False, substeps=1)
+    w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
+    for k in range(4):
+        w.add_body(sg.Box((0.1, 0.1, 0.1)), mass=1.0, position=(0.01 * k, 0, 0.1 + 0.2 * k))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(20):
+            w.step(1 / 240)
+        assert w.unconverged_substeps == 20
+        assert len(caught) == 1 and issubclass(caught[0].category, sg.SolverWarning)
+        assert "warns once" in str(caught[0].message)
+        w.set_solver(max_iterations=2)
+        w.step(1 / 240, 5)
+        assert len(caught) == 2 and "5 of 5 solver substeps" in str(caught[1].message)
+        assert w.unconverged_substeps == 25
 
 
 @pytest.mark.parametrize("kwargs, match", [

@@ -170,7 +170,8 @@ def test_solver_warnings_of_a_recorded_run_are_given_once():
     with pytest.warns(sg.SolverWarning) as caught:
         Recorder(w).step(1 / 240, 30)
     assert len(caught) == 1
-    assert "[30 of 30 recorded steps warned; this is the first]" in str(caught[0].message)
+    assert "[120 unconverged solver substeps in 30 recorded steps]" in str(caught[0].message)
+    assert w.unconverged_substeps == 120  # 4 substeps a step
 
 
 def test_select_frames_keeps_poses_and_their_contacts(boxes_record):
