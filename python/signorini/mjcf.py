@@ -58,6 +58,7 @@ from typing import Collection, Optional
 import numpy as np
 
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Plane, Sphere, TriangleMesh
+from .oracle.rigid import matrix_to_quat  # Shepperd's method (pure NumPy)
 
 __all__ = ["load_mjcf", "read_mjcf", "MJCFError"]
 
@@ -154,25 +155,6 @@ def _z_to(v) -> np.ndarray:
     if s < 1e-14:
         return np.array([1.0, 0.0, 0.0, 0.0]) if v[2] > 0 else np.array([0.0, 1.0, 0.0, 0.0])
     return _axis_angle(axis / s, math.atan2(s, v[2]))
-
-
-def _matrix_quat(R) -> np.ndarray:
-    """(w, x, y, z) of a rotation matrix (Shepperd's method: the largest of the four squares)."""
-    t = np.trace(R)
-    if t > 0:
-        s = 2.0 * math.sqrt(1.0 + t)
-        c = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
-    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
-        c = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
-    elif R[1, 1] > R[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
-        c = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
-    else:
-        s = 2.0 * math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
-        c = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
-    q = np.array(c)
-    return q / np.linalg.norm(q)
 
 
 @dataclass
@@ -292,7 +274,7 @@ class _Reader:
                 x = xy[:3] / np.linalg.norm(xy[:3])
                 y = xy[3:] - (xy[3:] @ x) * x
                 y = y / np.linalg.norm(y)
-                q = _matrix_quat(np.column_stack([x, y, np.cross(x, y)]))
+                q = matrix_to_quat(np.column_stack([x, y, np.cross(x, y)]))
         except (ValueError, ZeroDivisionError) as e:
             raise self.error(el, str(e)) from None
         return _Pose(np.zeros(3) if p is None else p, q)
