@@ -79,6 +79,7 @@ void register_world(py::module_& m) {
           py::arg("name"),
           py::arg("group"), py::arg("mask"), py::arg("enabled"))
       .def("remove_body", &World::remove_body, py::arg("i"))
+      .def("remove_bodies", &World::remove_bodies, py::arg("indices"))
       .def("step", &World::step, py::arg("dt"), py::arg("steps") = 1, py::call_guard<py::gil_scoped_release>())
       .def("set_position", &World::set_position)
       .def("set_orientation", &World::set_orientation)

@@ -186,6 +186,30 @@ TEST(World, RemoveBodyShiftsIndicesAndRenumbersTheCache) {
   EXPECT_NEAR(world.state().p[2].z(), 0.5, 2e-3);
 }
 
+TEST(World, RemoveBodiesIsRemoveBodyOfEachInOnePass) {
+  World one, batch;
+  settled_boxes(one);
+  settled_boxes(batch);
+  const State before = batch.state();
+  EXPECT_THROW(batch.remove_bodies({1, 3, 1}), std::invalid_argument);  // given twice
+  EXPECT_THROW(batch.remove_bodies({1, 4}), BodyIndexError);
+  expect_same_state(batch.state(), before);
+  one.remove_body(3);
+  one.remove_body(1);
+  batch.remove_bodies({3, 1});
+  ASSERT_EQ(batch.num_bodies(), 2u);
+  expect_same_state(batch.state(), one.state());
+  ASSERT_EQ(batch.warm_start_cache().size(), one.warm_start_cache().size());
+  for (std::size_t k = 0; k < one.warm_start_cache().size(); ++k) {
+    EXPECT_EQ(batch.warm_start_cache()[k].body_a, one.warm_start_cache()[k].body_a);
+    EXPECT_EQ(batch.warm_start_cache()[k].body_b, one.warm_start_cache()[k].body_b);
+    EXPECT_EQ(batch.warm_start_cache()[k].alpha, one.warm_start_cache()[k].alpha);
+  }
+  one.step(1.0 / 240.0, 30);
+  batch.step(1.0 / 240.0, 30);
+  expect_same_state(batch.state(), one.state());
+}
+
 TEST(World, KinematicBodyKeepsItsVelocityAndFiltersRemovePairs) {
   World world;
   world.add_body(ground());

@@ -430,6 +430,41 @@ def test_remove_body_mid_run_renumbers_contacts_and_the_cache():
     assert np.allclose(w.positions[1:, 2], 0.5, atol=2e-3)
 
 
+def test_remove_bodies_is_remove_body_of_each_in_one_pass():
+    # a pile mid-run: removing five bodies at once leaves the same world, bit for bit (state,
+    # names, contacts, warm-start cache and the run after) as removing them one by one
+    def pile():
+        w = scenes.build("pile").world
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", sg.SolverWarning)  # the pile's first impacts
+            w.step(DT, 120)
+        return w
+    one, batch = pile(), pile()
+    gone = [7, 2, 11, 3, one.num_bodies - 1]
+    for i in sorted(gone, reverse=True):
+        one.remove_body(i)
+    batch.remove_bodies(gone)
+    assert batch.names == one.names and batch.num_bodies == one.num_bodies
+    assert fingerprint(batch) == fingerprint(one)
+    for k in ("body_a", "body_b", "alpha"):
+        assert np.array_equal(batch.warm_start_cache[k], one.warm_start_cache[k]), k
+    assert_same(trajectory(batch, 30), trajectory(one, 30))
+
+
+def test_remove_bodies_refuses_bad_indices_and_changes_nothing():
+    w = ground_and_boxes(3)
+    w.step(DT, 5)
+    before = fingerprint(w)
+    for indices, error, match in [([1, 4], sg.BodyIndexError, "body index 4"),
+                                  ([2, 1, 2], ValueError, r"body 2 \(Box\) is given twice"),
+                                  ([[1, 2]], ValueError, "shape \\(n,\\)"), ([1.5], TypeError, "integers")]:
+        with pytest.raises(error, match=match):
+            w.remove_bodies(indices)
+        assert fingerprint(w) == before
+    w.remove_bodies([])
+    assert fingerprint(w) == before
+
+
 # ---- impulses and one-step forces: closed forms ------------------------------------------------
 
 def free_world():

@@ -89,6 +89,11 @@ class World {
   /// the warm-start cache and excluded pairs are renumbered, those of body i dropped. Storage of
   /// the state arrays stays in place (no reallocation).
   void remove_body(BodyIndex i);
+  /// Removes the bodies at `indices` (any order, each once) in one pass, O(N + K) plus one
+  /// broad-phase rebuild, as remove_body of each would: the bodies that stay keep their order and
+  /// close up. Throws BodyIndexError for an index out of range and std::invalid_argument for one
+  /// given twice, with nothing changed.
+  void remove_bodies(const std::vector<BodyIndex>& indices);
 
   /// Advances `steps` steps of dt seconds. dt must be positive and finite.
   void step(double dt, int steps = 1);

@@ -82,15 +82,6 @@ void copy_state(State& dst, const State& src) {
   dst.time = src.time;
 }
 
-/// Erases entry i of v in place (later entries move down one; the storage stays).
-template <class T>
-void erase_at(std::vector<T>& v, BodyIndex i) {
-  v.erase(v.begin() + i);
-}
-
-/// Body index after removing body `gone`: the same below it, one less above it.
-BodyIndex renumber(BodyIndex k, BodyIndex gone) { return k > gone ? k - 1 : k; }
-
 // ---- saved states: a flat little-endian byte string -----------------------------------------
 // format 3 adds the triangle meshes' memory (each body's centre at the start of the last step and
 // the triangle it is being pushed back through), without which a restored step near a crossing
@@ -393,62 +384,84 @@ void World::set_kinematic_flag(BodyIndex i, bool kinematic) {
   model_.I_body_inv[i] = kinematic ? Mat3(Mat3::Zero()) : Mat3(model_.I_body[i].inverse());
 }
 
-void World::remove_body(BodyIndex i) {
-  check_index(i);
+void World::remove_body(BodyIndex i) { remove_bodies({i}); }
+
+void World::remove_bodies(const std::vector<BodyIndex>& indices) {
+  const auto n = static_cast<BodyIndex>(model_.size());
+  for (const BodyIndex i : indices) check_index(i);
+  std::vector<BodyIndex> to(static_cast<std::size_t>(n), 0);
+  for (const BodyIndex i : indices) {
+    if (to[i] < 0) throw std::invalid_argument("remove_bodies: " + label(i) + " is given twice");
+    to[i] = -1;
+  }
+  // new index of each body, -1 for the removed ones: later bodies move down past every removed one
+  BodyIndex kept = 0;
+  for (BodyIndex j = 0; j < n; ++j)
+    if (to[j] == 0) to[j] = kept++;
+  if (kept == n) return;
+  const auto gone = [&to](BodyIndex k) { return to[k] < 0; };
   // the broad phase of the bodies that stay, built first: nothing has changed if it throws
   auto broad_phase = std::make_unique<collision::BroadPhase>();
-  for (BodyIndex j = 0, k = 0; j < static_cast<BodyIndex>(model_.size()); ++j)
-    if (j != i) broad_phase->add_body(k++, model_.shape[j], model_.is_static[j], state_.p[j], state_.R[j]);
-  // model, state and per-body solver output: later bodies move down one
-  erase_at(model_.shape, i);
-  erase_at(model_.is_static, i);
-  erase_at(model_.mass, i);
-  erase_at(model_.inv_mass, i);
-  erase_at(model_.I_body, i);
-  erase_at(model_.I_body_inv, i);
-  erase_at(model_.rho, i);
-  erase_at(model_.material, i);
-  erase_at(model_.is_kinematic, i);
-  erase_at(model_.enabled, i);
-  erase_at(model_.filter, i);
-  erase_at(model_.name, i);
+  for (BodyIndex j = 0; j < n; ++j)
+    if (!gone(j)) broad_phase->add_body(to[j], model_.shape[j], model_.is_static[j], state_.p[j], state_.R[j]);
+  // model, state and per-body solver output compacted in one pass each (storage stays in place)
+  const auto compact = [&](auto& v) {
+    for (BodyIndex j = 0; j < n; ++j)
+      if (!gone(j) && to[j] != j) v[to[j]] = std::move(v[j]);
+    v.erase(v.begin() + kept, v.end());
+  };
+  compact(model_.shape);
+  compact(model_.is_static);
+  compact(model_.mass);
+  compact(model_.inv_mass);
+  compact(model_.I_body);
+  compact(model_.I_body_inv);
+  compact(model_.rho);
+  compact(model_.material);
+  compact(model_.is_kinematic);
+  compact(model_.enabled);
+  compact(model_.filter);
+  compact(model_.name);
   for (std::vector<Vec3>* x : {&state_.p, &state_.v, &state_.omega, &state_.f_ext, &state_.tau_ext, &state_.f_step,
                                &state_.tau_step, &state_.impulse, &state_.angular_impulse, &solver_->body_force,
                                &solver_->body_torque})
-    erase_at(*x, i);
-  erase_at(state_.R, i);
-  erase_at(state_.q, i);
-  // the meshes' memory of crossings: body i's dropped, crossings of mesh i forgotten, renumbered
-  erase_at(previous_p_, i);
-  erase_at(crossing_, i);
+    compact(*x);
+  compact(state_.R);
+  compact(state_.q);
+  // the meshes' memory of crossings: the removed bodies' dropped, crossings of removed meshes
+  // forgotten, the rest renumbered
+  compact(previous_p_);
+  compact(crossing_);
   for (collision::Crossing& c : crossing_) {
-    if (c.mesh == i) c = collision::Crossing();
-    else if (c.mesh > i) --c.mesh;
+    if (c.mesh >= 0 && gone(c.mesh)) c = collision::Crossing();
+    else if (c.mesh >= 0) c.mesh = to[c.mesh];
   }
   broad_phase_ = std::move(broad_phase);
-  // names, excluded pairs, the warm-start cache and the last contacts: renumbered, body i's dropped
+  // names, excluded pairs, the warm-start cache and the last contacts: renumbered, the removed
+  // bodies' dropped
   by_name_.clear();
-  for (BodyIndex j = 0; j < static_cast<BodyIndex>(model_.name.size()); ++j)
+  for (BodyIndex j = 0; j < kept; ++j)
     if (!model_.name[j].empty()) by_name_[model_.name[j]] = j;
   auto& pairs = model_.excluded_pairs;
-  pairs.erase(std::remove_if(pairs.begin(), pairs.end(), [i](const auto& p) { return p.first == i || p.second == i; }),
+  pairs.erase(std::remove_if(pairs.begin(), pairs.end(), [&](const auto& p) { return gone(p.first) || gone(p.second); }),
               pairs.end());
-  for (auto& p : pairs) p = {renumber(p.first, i), renumber(p.second, i)};
+  for (auto& p : pairs) p = {to[p.first], to[p.second]};
   auto& cache = solver_->cache;
-  cache.erase(std::remove_if(cache.begin(), cache.end(), [i](const CachedContact& c) { return c.body_a == i || c.body_b == i; }),
+  cache.erase(std::remove_if(cache.begin(), cache.end(),
+                             [&](const CachedContact& c) { return gone(c.body_a) || gone(c.body_b); }),
               cache.end());
   for (CachedContact& c : cache) {
-    c.body_a = renumber(c.body_a, i);
-    c.body_b = renumber(c.body_b, i);
+    c.body_a = to[c.body_a];
+    c.body_b = to[c.body_b];
   }
   if (contacts_.use_count() > 1) contacts_ = std::make_shared<std::vector<Contact>>(*contacts_);
   auto& contacts = *contacts_;
   contacts.erase(std::remove_if(contacts.begin(), contacts.end(),
-                                [i](const Contact& c) { return c.body_a == i || c.body_b == i; }),
+                                [&](const Contact& c) { return gone(c.body_a) || gone(c.body_b); }),
                  contacts.end());
   for (Contact& c : contacts) {
-    c.body_a = renumber(c.body_a, i);
-    c.body_b = renumber(c.body_b, i);
+    c.body_a = to[c.body_a];
+    c.body_b = to[c.body_b];
   }
 }
 
