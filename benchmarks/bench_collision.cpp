@@ -215,6 +215,25 @@ std::vector<PairCase> pair_cases(const TriangleMesh& floor, const collision::Tri
   parts.push_back({Sphere(0.2), Vec3(0, 0, 1.1), I});
   cases.push_back({"compound(3)-box", Compound(parts), ground, {Vec3(0.1, 0.2, 0.1 - dip), rot(0.4, Vec3::UnitZ())},
                    on_ground, {}, ""});
+
+  // the remaining slots of the dispatch table, so that every shape pair has a row
+  const Plane floor_plane(Vec3::UnitZ(), 0.0);
+  cases.push_back({"sphere-plane", floor_plane, Sphere(0.3), {Vec3::Zero(), I}, {Vec3(0.1, 0.2, 0.3 - dip), I}, {}, ""});
+  cases.push_back({"capsule-plane (lying, 2 pts)", floor_plane, Capsule(0.1, 0.4), {Vec3::Zero(), I},
+                   {Vec3(0.2, 0.3, 0.1 - dip), along_x}, {}, ""});
+  cases.push_back({"hull-plane (30 pts)", floor_plane, hull_a, {Vec3::Zero(), I},
+                   {Vec3(0.2, 0.1, -lowest_z(hull_a, Ra) - dip), Ra}, {}, ""});
+  cases.push_back({"sphere-cylinder (on its cap)", Cylinder(0.3, 0.5), Sphere(0.2), {Vec3::Zero(), I},
+                   {Vec3(0.1, 0.05, 0.7 - dip), I}, {}, ""});
+  const double zc = touching_height(hull_a, {Vec3::Zero(), Ra}, Capsule(0.1, 0.3), {Vec3(0.05, 0.0, 0.0), along_x}) - dip;
+  cases.push_back({"capsule on hull (30 pts)", hull_a, Capsule(0.1, 0.3), {Vec3::Zero(), Ra},
+                   {Vec3(0.05, 0.0, zc), along_x}, {}, ""});
+  cases.push_back({"sphere-trimesh", floor, Sphere(0.1), {Vec3::Zero(), I}, {Vec3(0.13, -0.07, 0.1 - dip), I},
+                   {&floor_query, nullptr}, ""});
+  cases.push_back({"capsule-trimesh lying", floor, Capsule(0.05, 0.2), {Vec3::Zero(), I},
+                   {Vec3(0.13, -0.07, 0.05 - dip), along_x}, {&floor_query, nullptr}, ""});
+  cases.push_back({"hull-trimesh (30 pts)", floor, hull_a, {Vec3::Zero(), I},
+                   {Vec3(0.13, -0.07, -lowest_z(hull_a, Ra) - dip), Ra}, {&floor_query, nullptr}, ""});
   return cases;
 }
 
