@@ -34,8 +34,9 @@ What is imported:
   brings its torsional value into the MuJoCo contact, and 0 here), and signorini applies it only
   at a contact that is its body pair's only point (see docs/conventions.md). As in MuJoCo, a
   ``friction`` with fewer than 3 values keeps the remaining ones of its default class (MuJoCo's
-  own default ``1 0.005 0.0001``). The rolling (third) value is not imported, and ``condim`` 1
-  (frictionless in MuJoCo) still imports the sliding value.
+  own default ``1 0.005 0.0001``). The rolling (third) value is not imported. A geom of ``condim``
+  1 (frictionless in MuJoCo) gives its body friction 0; MuJoCo takes the larger condim of a pair,
+  so such a geom against one of condim 3 has friction there and none here (sqrt(0 mu) = 0).
 
 Ignored, because they do not change the rigid bodies: sites, cameras, lights, sensors,
 keyframes, visual, statistic, size, custom, textures and materials, and the contact-tuning
@@ -459,24 +460,31 @@ class _Reader:
             return ConvexHull(vertices)
         return TriangleMesh(vertices, faces)
 
-    def geom_spinning_friction(self, el: ET.Element, attrs: dict) -> float:
-        """A geom's spinning friction (m): the torsional value of its friction when its condim is 4
-        or 6 (MuJoCo's torsional friction), else 0."""
+    def geom_condim(self, el: ET.Element, attrs: dict) -> int:
+        """A geom's contact dimensions: 1 (frictionless), 3 (sliding), 4 (+ torsional), 6 (+ rolling)."""
         condim = attrs.get("condim", str(_MUJOCO_CONDIM))
         if condim.strip() not in ("1", "3", "4", "6"):
             raise self.error(el, f"condim={condim!r} must be 1, 3, 4 or 6")
-        if int(condim) < 4:
+        return int(condim)
+
+    def geom_spinning_friction(self, el: ET.Element, attrs: dict) -> float:
+        """A geom's spinning friction (m): the torsional value of its friction when its condim is 4
+        or 6 (MuJoCo's torsional friction), else 0."""
+        if self.geom_condim(el, attrs) < 4:
             return 0.0
         # attrs' friction is layered over its classes' and MuJoCo's (``attrs``): all three values
         friction = self.numbers(el, {"friction": attrs.get("friction", _MUJOCO_FRICTION)}, "friction", (1, 2, 3))
         return float(friction[1]) if len(friction) > 1 else float(_MUJOCO_FRICTION.split()[1])
 
     def geom_mass(self, el: ET.Element, attrs: dict):
-        """(density or None, mass or None, sliding friction) of a geom."""
+        """(density or None, mass or None, sliding friction) of a geom; the friction is 0 where
+        the geom's condim is 1 (frictionless)."""
         mass = self.numbers(el, attrs, "mass", 1)
         density = self.numbers(el, attrs, "density", 1)
         friction = self.numbers(el, attrs, "friction", (1, 2, 3))
         mu = 1.0 if friction is None else float(friction[0])
+        if self.geom_condim(el, attrs) == 1:
+            mu = 0.0
         if mass is not None:
             return None, float(mass[0]), mu
         return (1000.0 if density is None else float(density[0])), None, mu

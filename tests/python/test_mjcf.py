@@ -148,7 +148,7 @@ def write(tmp_path, text, name="bad.xml"):
     return path
 
 
-# torsional friction: condim 4 and 6 carry it, 3 and 1 do not; a friction with fewer than 3 values
+# torsional friction: condim 4 and 6 carry it, 3 and 1 do not (1 has no sliding friction either); a friction with fewer than 3 values
 # keeps the rest of its default class (MuJoCo's own default 1 0.005 0.0001 at the root)
 TORSION = """<mujoco>
   <default>
@@ -166,18 +166,19 @@ TORSION = """<mujoco>
     <body name="rolling" pos="3 0 1"><freejoint/><geom size="0.1" friction="0.4 0.01" condim="6"/></body>
     <body name="inner" pos="4 0 1"><freejoint/><geom class="inner" size="0.1"/></body>
     <body name="plain" pos="5 0 1"><freejoint/><geom size="0.1" condim="3" friction="1"/></body>
+    <body name="frictionless" pos="6 0 1"><freejoint/><geom size="0.1" condim="1" friction="0.8 0.02"/></body>
   </worldbody>
 </mujoco>"""
 
 
 def test_torsional_friction_of_condim_4_and_6_geoms_becomes_spinning_friction(tmp_path):
     w = sg.load_mjcf(write(tmp_path, TORSION, "torsion.xml"))
-    np.testing.assert_array_equal(w.frictions, [0.5, 0.5, 0.5, 0.7, 0.9, 0.4, 0.8, 1.0])
-    np.testing.assert_array_equal(w.spinning_frictions, [0.02, 0.0, 0.02, 0.02, 0.0, 0.01, 0.03, 0.0])
+    np.testing.assert_array_equal(w.frictions, [0.5, 0.5, 0.5, 0.7, 0.9, 0.4, 0.8, 1.0, 0.0])
+    np.testing.assert_array_equal(w.spinning_frictions, [0.02, 0.0, 0.02, 0.02, 0.0, 0.01, 0.03, 0.0, 0.0])
     mujoco = pytest.importorskip("mujoco")
     m = mujoco.MjModel.from_xml_path(str(tmp_path / "torsion.xml"))
     # the same geoms in the same order (static ones first, then one geom per free body)
-    np.testing.assert_array_equal(w.frictions, m.geom_friction[:, 0])
+    np.testing.assert_array_equal(w.frictions, np.where(m.geom_condim > 1, m.geom_friction[:, 0], 0.0))
     np.testing.assert_array_equal(w.spinning_frictions, np.where(m.geom_condim >= 4, m.geom_friction[:, 1], 0.0))
 
 
