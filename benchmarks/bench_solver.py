@@ -18,7 +18,8 @@ pybullet's bodies are classic rigid bodies (``useMaximalCoordinates=True``) with
 disabled, as signorini has no sleeping; masses and inertias are signorini's (a hull is handed
 to pybullet in its principal axes with ``localInertiaDiagonal``). Friction 0.5 on every contact
 in both engines: signorini combines sqrt(mu_A mu_B) and Bullet mu_A mu_B, so pybullet's bodies
-get lateralFriction sqrt(0.5) each; restitution 0 everywhere.
+get lateralFriction sqrt(0.5) each; restitution 0 everywhere; a scene's spinning friction s
+becomes pybullet's spinningFriction s / (2 sqrt(mu)) (the three scenes have none).
 
 Timing: each run is cut into ``--chunks`` chunks; every step is timed alone (the certificate and
 state reads in between are not timed) and a chunk's ms per step is its steps' total over its
@@ -200,9 +201,15 @@ class PybulletRun:
                                       basePosition=position.tolist(), baseOrientation=[x, y, z, w],
                                       useMaximalCoordinates=True)
             # Bullet multiplies the two frictions of a contact; signorini takes sqrt(mu_A mu_B)
-            dynamics = {"lateralFriction": math.sqrt(float(world.frictions[i])),
+            f = math.sqrt(float(world.frictions[i]))
+            dynamics = {"lateralFriction": f,
                         "restitution": float(world.restitutions[i]),
                         "activationState": pybullet.ACTIVATION_STATE_DISABLE_SLEEPING}
+            # spinning (torsional) friction, m: Bullet combines s_A f_B + s_B f_A, signorini takes
+            # max(s_A, s_B); s / (2 f) each makes them agree for two bodies of the same material.
+            # (Bullet applies it at every point of a manifold, signorini at a pair's only point.)
+            if world.spinning_frictions[i] > 0.0 and f > 0.0:
+                dynamics["spinningFriction"] = float(world.spinning_frictions[i]) / (2.0 * f)
             if not static:
                 principal = np.diag(E.T @ world.inertias[i] @ E).copy()
                 # pybullet zeroes the mass when given an inertia alone, and recomputes the inertia

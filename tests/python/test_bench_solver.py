@@ -74,3 +74,21 @@ def test_pybullet_twin_mirrors_the_signorini_world():
             assert pb.getDynamicsInfo(twin.ids[0], -1)[1] ** 2 == pytest.approx(0.5)
         finally:
             twin.close()
+
+
+def test_pybullet_twin_combines_spinning_friction_as_signorini_does():
+    # Bullet's s_A f_B + s_B f_A for two bodies of friction 0.5 and spinning friction 2 mm: 2 mm
+    pytest.importorskip("pybullet")
+    bench = load_bench()
+    from signorini import scenes
+
+    world = scenes.pyramid(base=2).world
+    for i in range(world.num_bodies):
+        world.set_material(i, spinning_friction=0.002)
+    twin = bench.PybulletRun(world, *bench.load_pybullet())
+    try:
+        (f0, s0), (f1, s1) = [(twin.pb.getDynamicsInfo(b, -1)[1], twin.pb.getDynamicsInfo(b, -1)[7])
+                              for b in twin.ids[:2]]
+        assert s0 * f1 + s1 * f0 == pytest.approx(0.002, rel=1e-12)
+    finally:
+        twin.close()
