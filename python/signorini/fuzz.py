@@ -8,7 +8,10 @@ same whatever N, JOBS or the order of the runs (``generate``). A scene has 1 to 
 of every kind (sphere, box, capsule, cylinder, convex hull, convex mesh, compound), largest
 dimension 1 cm to 10 m, masses within 1:1000 of each other, speeds to 50 m/s and 50 rad/s, over a
 plane, a triangle-mesh height field, or a height field with a plane below it; dt is 1/60, 1/240 or
-1/1000 and the scene runs ``DURATION`` seconds.
+1/1000 and the scene runs ``DURATION`` seconds. Friction is 0 to 1, restitution 0 or up to 0.5,
+and half the bodies have spinning (torsional) friction, up to 0.15 mu times their size (a contact
+patch of a quarter of it), drawn from a second stream ``default_rng([SEED, INDEX, 1])`` so that
+the shapes, poses and velocities are those the first stream drew before spinning friction.
 
 Every step is checked (``run``). Failure classes, each with a one-line reproducer:
 
@@ -160,6 +163,7 @@ def heightfield_mesh(hf: dict) -> tuple[np.ndarray, np.ndarray]:
 def generate(seed: int, index: int) -> dict:
     """Scene `index` of `seed` as plain data (JSON-ready): floor, dt, bodies."""
     rng = np.random.default_rng([int(seed), int(index)])
+    spin_rng = np.random.default_rng([int(seed), int(index), 1])  # spinning friction (see above)
     floor = FLOORS[int(rng.integers(3))]
     dt = DTS[int(rng.integers(3))]
     count = int(rng.integers(1, MAX_BODIES + 1))
@@ -194,6 +198,9 @@ def generate(seed: int, index: int) -> dict:
             "friction": float(rng.uniform(0.0, 1.0)),
             "restitution": float(rng.uniform(0.0, 0.5)) if rng.random() < 0.5 else 0.0,
         })
+        spinning = spin_rng.random() < 0.5
+        mu_spin = spin_rng.uniform(0.0, 0.15)
+        bodies[-1]["spinning_friction"] = float(mu_spin * bodies[-1]["friction"] * size) if spinning else 0.0
     scene["bodies"] = bodies
     return scene
 
@@ -248,7 +255,8 @@ def build(scene: dict):
         p = np.array(b["position"]) + (0.0, 0.0, top)
         world.add_body(make_shape(b["shape"]), mass=b["mass"], position=p, orientation=b["orientation"],
                        velocity=b["velocity"], angular_velocity=b["angular_velocity"],
-                       friction=b["friction"], restitution=b["restitution"])
+                       friction=b["friction"], restitution=b["restitution"],
+                       spinning_friction=b.get("spinning_friction", 0.0))
     return world, floor
 
 
