@@ -221,6 +221,8 @@ struct Face {
 struct Epa {
   std::vector<Vertex> verts;
   std::vector<Face> faces;
+  std::vector<double> key;                    // per face: delta while alive, else infinity (the
+                                              // nearest-face search scans these contiguously)
   std::vector<std::pair<int, int>> horizon;  // (face, edge) left standing next to removed faces
   std::vector<int> removed;                   // the faces one expansion removed
   std::vector<std::pair<int, int>> links;     // and the horizon faces' links before it
@@ -239,11 +241,13 @@ struct Epa {
       f.m = Vec3::UnitZ();
       f.delta = kInf;
       faces.push_back(f);
+      key.push_back(kInf);
       return false;
     }
     f.m = c / len;
     f.delta = (f.m.dot(z0) + f.m.dot(verts[j].z) + f.m.dot(verts[k].z)) / 3.0;
     faces.push_back(f);
+    key.push_back(f.delta);
     return true;
   }
 
@@ -280,6 +284,7 @@ struct Epa {
     removed.clear();
     links.clear();
     faces[f].alive = false;
+    key[f] = kInf;
     removed.push_back(f);
     for (int e = 0; e < 3; ++e) silhouette(faces[f].adj[e], faces[f].adj_edge[e], w.z, eps_visible);
     bool sound = horizon.size() >= 3;
@@ -296,12 +301,13 @@ struct Epa {
     }
     if (sound && link_new(first)) return true;
     // undo: the removed faces back, the horizon's links restored, the new faces and w dropped
-    for (int r : removed) faces[r].alive = true;
+    for (int r : removed) faces[r].alive = true, key[r] = faces[r].delta;
     for (std::size_t h = links.size(); h-- > 0;) {
       const auto [g, e] = horizon[h];
       faces[g].adj[e] = links[h].first, faces[g].adj_edge[e] = links[h].second;
     }
     faces.resize(first);
+    key.resize(first);
     verts.pop_back();
     return false;
   }
@@ -332,6 +338,7 @@ struct Epa {
     if (!F.alive) return;
     if (F.m.dot(w - verts[F.v[0]].z) > eps) {
       F.alive = false;
+      key[f] = kInf;
       removed.push_back(f);
       const int e1 = (e + 1) % 3, e2 = (e + 2) % 3;
       const int f1 = F.adj[e1], g1 = F.adj_edge[e1], f2 = F.adj[e2], g2 = F.adj_edge[e2];
@@ -547,6 +554,7 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
   Epa& E = epa;
   E.verts.clear();
   E.faces.clear();
+  E.key.clear();
   for (int k = 0; k < 4; ++k) E.verts.push_back(S.p[k]);
   if (volume(E.verts[0].z, E.verts[1].z, E.verts[2].z, E.verts[3].z) > 0.0) std::swap(E.verts[1], E.verts[2]);
   bool ok = E.add_face(0, 1, 2);
@@ -564,8 +572,12 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
   int refined = -1;  // the face EPA stopped on, converged
   for (int it = 0;; ++it) {
     int f = -1;
-    for (std::size_t k = 0; k < E.faces.size(); ++k)
-      if (E.faces[k].alive && (f < 0 || E.faces[k].delta < E.faces[f].delta)) f = static_cast<int>(k);
+    double nearest_delta = kInf;
+    for (std::size_t k = 0; k < E.key.size(); ++k)
+      if (E.key[k] < nearest_delta) nearest_delta = E.key[k], f = static_cast<int>(k);
+    if (f < 0)  // no finite distance: the first face alive, if any
+      for (std::size_t k = 0; k < E.faces.size() && f < 0; ++k)
+        if (E.faces[k].alive) f = static_cast<int>(k);
     if (f < 0) break;
     best = f;
     const Vec3 m = E.faces[f].m;
