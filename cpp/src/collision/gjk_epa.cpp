@@ -18,10 +18,12 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kGjkMaxIterations = 128;
 constexpr int kEnclosingMaxIterations = 64;
 constexpr int kEpaMaxIterations = 256;
+constexpr int kWitnessExpansions = 16;  // of the face the witness ray leaves by (see the end)
 constexpr double kGjkTolerance = 1e-12;  // duality gap, relative to L + |p_b - p_a|
 constexpr double kEpaTolerance = 1e-10;  // support beyond the closest face, relative to L
 constexpr double kShift = 1e-10;         // mu, relative to L
 constexpr double kNear = 1e-6;           // a GJK stall below this gap (relative to L) goes to EPA
+constexpr double kRound = 1e-14;         // rounding of v, relative to L + |p_b - p_a| (see the GJK loop)
 
 /// A vertex of D: z = b - a - c, with a = s_A(-d), b = s_B(d) the support points of the items'
 /// cores and c the shift of D (0 outside EPA).
@@ -219,7 +221,11 @@ struct Face {
 struct Epa {
   std::vector<Vertex> verts;
   std::vector<Face> faces;
+  std::vector<double> key;                    // per face: delta while alive, else infinity (the
+                                              // nearest-face search scans these contiguously)
   std::vector<std::pair<int, int>> horizon;  // (face, edge) left standing next to removed faces
+  std::vector<int> removed;                   // the faces one expansion removed
+  std::vector<std::pair<int, int>> links;     // and the horizon faces' links before it
 
   /// Appends face (i, j, k); false when it is degenerate (no normal).
   bool add_face(int i, int j, int k) {
@@ -235,11 +241,13 @@ struct Epa {
       f.m = Vec3::UnitZ();
       f.delta = kInf;
       faces.push_back(f);
+      key.push_back(kInf);
       return false;
     }
     f.m = c / len;
     f.delta = (f.m.dot(z0) + f.m.dot(verts[j].z) + f.m.dot(verts[k].z)) / 3.0;
     faces.push_back(f);
+    key.push_back(f.delta);
     return true;
   }
 
@@ -264,6 +272,65 @@ struct Epa {
     return true;
   }
 
+  /// Adds vertex w beyond face f: removes the faces that see w and closes the hole with faces
+  /// fanning out from w. When rounding would damage the polytope (a new face degenerate, an
+  /// edge without a partner, or a new face nearer the origin than `floor`: the polytope only
+  /// grows, so no face may come nearer than the nearest one before), it is left as it was and
+  /// the result is false.
+  bool expand(int f, const Vertex& w, double floor, double eps_visible) {
+    const int wi = static_cast<int>(verts.size());
+    verts.push_back(w);
+    horizon.clear();
+    removed.clear();
+    links.clear();
+    faces[f].alive = false;
+    key[f] = kInf;
+    removed.push_back(f);
+    for (int e = 0; e < 3; ++e) silhouette(faces[f].adj[e], faces[f].adj_edge[e], w.z, eps_visible);
+    bool sound = horizon.size() >= 3;
+    const std::size_t first = faces.size();
+    for (std::size_t h = 0; h < horizon.size() && sound; ++h) {
+      const auto [g, e] = horizon[h];
+      const int u = faces[g].v[e], x = faces[g].v[(e + 1) % 3];
+      sound = add_face(x, u, wi);
+      Face& nf = faces.back();
+      nf.adj[0] = g, nf.adj_edge[0] = e;
+      links.emplace_back(faces[g].adj[e], faces[g].adj_edge[e]);
+      faces[g].adj[e] = static_cast<int>(faces.size() - 1), faces[g].adj_edge[e] = 0;
+      sound = sound && nf.delta >= floor;
+    }
+    if (sound && link_new(first)) return true;
+    // undo: the removed faces back, the horizon's links restored, the new faces and w dropped
+    for (int r : removed) faces[r].alive = true, key[r] = faces[r].delta;
+    for (std::size_t h = links.size(); h-- > 0;) {
+      const auto [g, e] = horizon[h];
+      faces[g].adj[e] = links[h].first, faces[g].adj_edge[e] = links[h].second;
+    }
+    faces.resize(first);
+    key.resize(first);
+    verts.pop_back();
+    return false;
+  }
+
+  /// From face `at` on, the face that the ray from the origin along r leaves the polytope by
+  /// (the origin inside): across the edge opposite the most negative of the ray coordinates
+  /// l_k = r . (z_k+1 x z_k+2), which are the hit point's barycentric ones up to their sum.
+  /// True with `at` and l set when found.
+  bool walk(const Vec3& r, int& at, double l[3]) const {
+    l[0] = l[1] = l[2] = -1.0;
+    for (std::size_t step = 0; step <= faces.size() && at >= 0 && faces[at].alive; ++step) {
+      const Face& G = faces[at];
+      const Vec3& z0 = verts[G.v[0]].z;
+      const Vec3& z1 = verts[G.v[1]].z;
+      const Vec3& z2 = verts[G.v[2]].z;
+      l[0] = r.dot(z1.cross(z2)), l[1] = r.dot(z2.cross(z0)), l[2] = r.dot(z0.cross(z1));
+      if (l[0] >= 0.0 && l[1] >= 0.0 && l[2] >= 0.0) break;
+      const int worst = l[0] <= l[1] && l[0] <= l[2] ? 0 : l[1] <= l[2] ? 1 : 2;
+      at = G.adj[(worst + 1) % 3];  // edge k runs v[k] -> v[k+1]
+    }
+    return at >= 0 && faces[at].alive && l[0] >= 0.0 && l[1] >= 0.0 && l[2] >= 0.0 && l[0] + l[1] + l[2] > 0.0;
+  }
+
   /// Depth-first walk over the faces that see w, removing them and collecting the horizon
   /// (the edges between removed faces and faces left standing).
   void silhouette(int f, int e, const Vec3& w, double eps) {
@@ -271,6 +338,8 @@ struct Epa {
     if (!F.alive) return;
     if (F.m.dot(w - verts[F.v[0]].z) > eps) {
       F.alive = false;
+      key[f] = kInf;
+      removed.push_back(f);
       const int e1 = (e + 1) % 3, e2 = (e + 2) % 3;
       const int f1 = F.adj[e1], g1 = F.adj_edge[e1], f2 = F.adj[e2], g2 = F.adj_edge[e2];
       silhouette(f1, g1, w, eps);
@@ -322,6 +391,7 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
   bool separated = false;
   Vertex w_last{Vec3::Constant(kInf), Vec3::Zero(), Vec3::Zero()};  // set when GJK stalls
   Vec3 n0 = cn > 0.0 ? Vec3(centres / cn) : Vec3(Vec3::UnitZ());  // the last direction of v
+  bool graced = false;  // the last step was let through without progress (below)
   for (;;) {
     const double vv = v.squaredNorm(), vn = std::sqrt(vv);
     if (vn <= mu) {
@@ -356,6 +426,19 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
     const Vec3 v_new = S.reduce(enclosed);
     if (enclosed) break;
     if (!(v_new.squaredNorm() < vv)) {
+      // Near contact, where the origin sits on a ridge of D (a cylinder's rim against a vertex or
+      // an edge), GJK alternates between steps that halve |v| and steps whose new vertex, far
+      // along the ridge, gets a barycentric weight of ~1e-10 and leaves |v| unchanged up to the
+      // rounding of v (~1e-16 scale, amplified by the sliver triangle). Such a step still turns
+      // v onto the new triangle's plane, and the next one progresses again; stopping there left
+      // |v| at up to 1.7e-6 m on exactly touching pairs (returned as the distance), so one step
+      // that keeps its new vertex and grows |v| by no more than rounding is let through.
+      const bool kept = S.n > 0 && S.p[S.n - 1].z == w.z;
+      if (!graced && kept && v_new.norm() <= vn + kRound * scale) {
+        graced = true;
+        v = v_new;
+        continue;
+      }
       // no progress (rounding): the previous simplex is as close as GJK gets
       S = previous;
       separated = true;
@@ -363,11 +446,13 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
       w_last = w;
       break;
     }
+    graced = false;
     v = v_new;
   }
   st.simplex = S.n;
   // a stall short of the duality gap near contact (rounding turns v's direction by ~1e-16 scale
-  // / |v|): EPA on D shifted by more than |v| decides instead
+  // / |v|): EPA decides instead (shift: for the second candidate shift below, which must reach
+  // past |v| along n0)
   double shift = mu;
   if (separated && std::isfinite(w_last.z.x())) {
     const double vn = v.norm();
@@ -386,10 +471,16 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
     return rounded(d);
   }
 
-  // ---- touching or overlapping: D' = D - c, c = 2 mu n0, holds the origin ~mu deep ----
-  // n0: GJK's last direction of v, else the line between interior points of B and A (v's
-  // direction is noisy when its simplex is a segment). GJK on D' runs until a tetrahedron holds
-  // the origin; a separating plane means c was not inside D, and the next n0 is tried.
+  // ---- touching or overlapping: D' = D - c holds the origin inside ----
+  // c = v + 2 shift e, e the unit vector from v (GJK's closest point, a point of D; 0 when a
+  // tetrahedron enclosed the origin) towards q = (B's interior point) - (A's), a point inside D:
+  // every point of the segment (v, q] is inside D (D convex), so c is, whatever the shape of D
+  // about the origin. (Before: c = 2 shift n0, n0 GJK's last direction, which is not inside D
+  // when the origin lies on the edge of a flat facet of D and v in that facet, a cylinder's rim
+  // exactly on a vertex: c then lay on D's boundary, EPA stopped on a face through the origin of
+  // D' and its witnesses were up to 0.4 mm off the shapes. It stays as the second try.) GJK on
+  // D' runs until a tetrahedron holds the origin; a separating plane means c was not inside D,
+  // and the next candidate is tried.
   st.used_epa = true;
   Distance fallback;  // if EPA cannot start: GJK's gap along its last direction
   S.witnesses(fallback.w_a, fallback.w_b);
@@ -398,14 +489,17 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
   auto interior = [](const Item& it) {
     return it.polytope ? Vec3(it.pose.R * it.polytope->centroid + it.pose.p) : it.pose.p;
   };
-  Vec3 q = interior(b) - interior(a);
-  const Vec3 candidates[2] = {n0, q.norm() > 0.0 ? Vec3(q.normalized()) : Vec3(-n0)};
+  const Vec3 q = interior(b) - interior(a);
+  const Vec3 v_d = enclosed ? Vec3(Vec3::Zero()) : v;  // a point of D (to rounding)
+  const double qn = (q - v_d).norm();
+  const Vec3 candidates[2] = {qn > 0.0 ? Vec3((q - v_d) / qn) : Vec3(-n0), n0};  // unit
+  const Vec3 shifts[2] = {v_d + (2.0 * mu) * candidates[0], (2.0 * shift) * candidates[1]};
   const Simplex S0 = S;
   const double tiny = 1e-14 * scale;
   Vec3 c = Vec3::Zero();
   bool started = false;
   for (int attempt = 0; attempt < 2 && !started; ++attempt) {
-    c = (2.0 * shift) * candidates[attempt];
+    c = shifts[attempt];
     S = S0;
     for (int k = 0; k < S.n; ++k) S.p[k].z -= c;
     v = S.reduce(enclosed);
@@ -460,6 +554,7 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
   Epa& E = epa;
   E.verts.clear();
   E.faces.clear();
+  E.key.clear();
   for (int k = 0; k < 4; ++k) E.verts.push_back(S.p[k]);
   if (volume(E.verts[0].z, E.verts[1].z, E.verts[2].z, E.verts[3].z) > 0.0) std::swap(E.verts[1], E.verts[2]);
   bool ok = E.add_face(0, 1, 2);
@@ -474,45 +569,35 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
   const double tol_epa = kEpaTolerance * L;
   const double eps_visible = 1e-15 * scale;
   int best = -1;
+  int refined = -1;  // the face EPA stopped on, converged
   for (int it = 0;; ++it) {
     int f = -1;
-    for (std::size_t k = 0; k < E.faces.size(); ++k)
-      if (E.faces[k].alive && (f < 0 || E.faces[k].delta < E.faces[f].delta)) f = static_cast<int>(k);
+    double nearest_delta = kInf;
+    for (std::size_t k = 0; k < E.key.size(); ++k)
+      if (E.key[k] < nearest_delta) nearest_delta = E.key[k], f = static_cast<int>(k);
+    if (f < 0)  // no finite distance: the first face alive, if any
+      for (std::size_t k = 0; k < E.faces.size() && f < 0; ++k)
+        if (E.faces[k].alive) f = static_cast<int>(k);
     if (f < 0) break;
     best = f;
     const Vec3 m = E.faces[f].m;
     const double delta = E.faces[f].delta;
     const Vertex w = support_of_difference(a, r_a, b, r_b, m, c);
-    if (m.dot(w.z) - delta <= tol_epa) break;  // converged
+    if (m.dot(w.z) - delta <= tol_epa) {
+      refined = f;
+      break;  // converged
+    }
     if (it >= kEpaMaxIterations) {
       st.converged = false;
       st.stop = "EPA iteration cap";
       break;
     }
     ++st.epa_iterations;
-    // remove the faces that see w and close the hole with faces fanning out from w
-    const int wi = static_cast<int>(E.verts.size());
-    E.verts.push_back(w);
-    E.horizon.clear();
-    E.faces[f].alive = false;
-    for (int e = 0; e < 3; ++e) E.silhouette(E.faces[f].adj[e], E.faces[f].adj_edge[e], w.z, eps_visible);
-    bool sound = E.horizon.size() >= 3;
-    const std::size_t first = E.faces.size();
-    for (std::size_t h = 0; h < E.horizon.size() && sound; ++h) {
-      const auto [g, e] = E.horizon[h];
-      const int u = E.faces[g].v[e], x = E.faces[g].v[(e + 1) % 3];
-      sound = E.add_face(x, u, wi);
-      Face& nf = E.faces.back();
-      nf.adj[0] = g, nf.adj_edge[0] = e;
-      E.faces[g].adj[e] = static_cast<int>(E.faces.size() - 1), E.faces[g].adj_edge[e] = 0;
-      // a new face nearer than the one it replaces means rounding has bent the polytope
-      sound = sound && nf.delta >= delta - tol_epa;
-    }
-    sound = sound && E.link_new(first);
-    if (!sound) {
+    // f is the nearest face: a new face nearer than it means rounding has bent the polytope
+    if (!E.expand(f, w, delta - tol_epa, eps_visible)) {
       st.converged = false;
       st.stop = "EPA polytope damaged";
-      break;  // the polytope is damaged: keep the best face so far
+      break;  // rounding would damage the polytope (left as it was): keep the best face so far
     }
   }
   if (best < 0) {
@@ -550,22 +635,40 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
   // cylinder against a vertex is a disc of D tiled by many triangles), and the origin's projection
   // onto it, clamped into it, can then be far from z*: measured 0.39 m on a cylinder-triangle pair.
   // The ray coordinates l_k = r . (z_k+1 x z_k+2) are those of the hit point, up to their sum.
-  const Vec3 ray = -gap * E.faces[best].m - c;
+  // The face the ray leaves by has vertices on D's boundary, but is itself only as close to it as
+  // EPA refined it: when it is not the face EPA converged on (the ray and the nearest face part
+  // when c is not along the normal, e.g. after a GJK stall at |v| ~ 1e-8 m, c ~ v), its hit point
+  // can lie inside D by up to ~|c| and the witnesses off the shapes by as much (measured 4.7e-9 m
+  // on a cylinder rim touching a hull's vertex). So that face is expanded like EPA's nearest one
+  // until the support along its normal lies within EPA's tolerance of it (its vertices then span
+  // a flat piece of D's boundary, within tolerance), and the ray walked again; a few expansions.
+  const Vec3 m_best = E.faces[best].m;
+  const Vec3 ray = -gap * m_best - c;
   st.shift = c.norm();
+  double nearest = kInf;  // the floor for expansions: no face may come nearer than this
+  for (const Face& G : E.faces)
+    if (G.alive) nearest = std::min(nearest, G.delta);
   int at = best;
-  double l0 = -1.0, l1 = -1.0, l2 = -1.0;
-  for (std::size_t step = 0; step <= E.faces.size() && at >= 0 && E.faces[at].alive; ++step) {
+  double l[3];
+  bool walked = E.walk(ray, at, l);
+  for (int k = 0; walked && at != refined && k < kWitnessExpansions; ++k) {
     const Face& G = E.faces[at];
-    const Vec3& z0 = E.verts[G.v[0]].z;
-    const Vec3& z1 = E.verts[G.v[1]].z;
-    const Vec3& z2 = E.verts[G.v[2]].z;
-    l0 = ray.dot(z1.cross(z2)), l1 = ray.dot(z2.cross(z0)), l2 = ray.dot(z0.cross(z1));
-    if (l0 >= 0.0 && l1 >= 0.0 && l2 >= 0.0) break;
-    // leave across the edge opposite the most negative coordinate (edge k runs v[k] -> v[k+1])
-    const int worst = l0 <= l1 && l0 <= l2 ? 0 : l1 <= l2 ? 1 : 2;
-    at = G.adj[(worst + 1) % 3];
+    const Vertex w = support_of_difference(a, r_a, b, r_b, G.m, c);
+    if (G.m.dot(w.z) - G.delta <= tol_epa) break;
+    const int before = at;
+    const double kept[3] = {l[0], l[1], l[2]};
+    if (!E.expand(at, w, nearest - tol_epa, eps_visible)) break;  // left as it was: keep `at`
+    ++st.epa_iterations;
+    at = static_cast<int>(E.faces.size()) - 1;  // a new face, next to the ray
+    walked = E.walk(ray, at, l);
+    if (!walked) {
+      at = before;
+      l[0] = kept[0], l[1] = kept[1], l[2] = kept[2];
+      walked = true;
+      break;
+    }
   }
-  const bool walked = at >= 0 && E.faces[at].alive && l0 >= 0.0 && l1 >= 0.0 && l2 >= 0.0 && l0 + l1 + l2 > 0.0;
+  double l0 = l[0], l1 = l[1], l2 = l[2];
   if (!walked) {
     // a damaged polytope: the origin projected onto the chosen face, clamped into it
     at = best;
@@ -581,14 +684,13 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
   const double sum = l0 + l1 + l2;
   if (sum > 0.0) l0 /= sum, l1 /= sum, l2 /= sum;
   else l0 = 1.0, l1 = l2 = 0.0;
-  const Face& F = E.faces[best];
   const Face& W = E.faces[at];
   const Vertex& V0 = E.verts[W.v[0]];
   const Vertex& V1 = E.verts[W.v[1]];
   const Vertex& V2 = E.verts[W.v[2]];
   Distance d;
   d.gap = gap;
-  d.normal = -F.m;
+  d.normal = -m_best;
   d.w_a = l0 * V0.a + l1 * V1.a + l2 * V2.a;
   d.w_b = l0 * V0.b + l1 * V1.b + l2 * V2.b;
   return rounded(d);

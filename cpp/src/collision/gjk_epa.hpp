@@ -36,12 +36,15 @@ struct GjkEpaStats {
 /// - GJK on D: v, the point of the simplex closest to the origin (a triangle's v is the origin
 ///   projected onto its plane, whose direction stays exact near contact), is the distance while
 ///   |v| > mu = 1e-10 L. It stops when the duality gap |v| - v.w/|v| (w the support along -v) is
-///   below 1e-12 of (L + |p_b - p_a|), when a support point repeats or |v| stops shrinking, or
-///   after 128 iterations (then |v| is still the distance of two points of the shapes). A stop short
-///   of the duality gap within 1e-6 L of contact (rounding then turns v by ~1e-16 scale / |v|) is
-///   handed to EPA as a touching pair.
-/// - Touching or overlapping: EPA on D' = D - c, c = 2 max(mu, 0.75 |v|) n0 (n0 GJK's last
-///   direction, else the line between the items' interior points), which holds the origin inside,
+///   below 1e-12 of (L + |p_b - p_a|), when a support point repeats or |v| stops shrinking (one
+///   step that keeps its new vertex and leaves |v| within 1e-14 scale of rounding is let through:
+///   near a ridge of D, every other step does that), or after 128 iterations (then |v| is still
+///   the distance of two points of the shapes). A stop short of the duality gap within 1e-6 L of
+///   contact (rounding then turns v by ~1e-16 scale / |v|) is handed to EPA as a touching pair.
+/// - Touching or overlapping: EPA on D' = D - c, c = v + 2 mu e, e the unit vector from v (GJK's
+///   closest point, 0 once a tetrahedron enclosed the origin) towards the difference of the
+///   items' interior points, so c lies inside D (convexity) however flat D is about the origin;
+///   else c = 2 max(mu, 0.75 |v|) n0 (n0 GJK's last direction). The origin of D' is then inside,
 ///   away from the cases where EPA breaks (the origin on a face, an edge or a vertex). GJK
 ///   continues on D' until a tetrahedron encloses the origin (a flat simplex is blown up by
 ///   supports normal to it); EPA expands it until the support along the closest face's normal lies
@@ -56,7 +59,8 @@ struct GjkEpaStats {
 /// result. For an EPA one they come from the face of the final polytope that the ray from the
 /// shifted origin through gap * normal leaves by (found by walking from the closest face), so
 /// w_b - w_a = gap * normal to within EPA's tolerance, or to within about |c| when that face is a
-/// neighbour of the closest one that EPA did not refine (a GJK stall near contact: |c| <= 1.5e-6 L).
+/// neighbour of the closest one that EPA did not refine (|c| <= |v| + 2 mu; a GJK stall near
+/// contact leaves |v| <= 1e-6 L).
 Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* stats = nullptr);
 /// The same with buffers of its own (allocates: for tests and one-off queries).
 Distance gjk_epa(const Item& a, const Item& b, GjkEpaStats* stats = nullptr);
