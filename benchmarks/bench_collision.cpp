@@ -98,13 +98,14 @@ PairResult time_pair(const PairCase& c, std::uint64_t seed) {
   std::size_t contacts = 0, calls = 0, fewest = static_cast<std::size_t>(-1);
   // the cache as detect_contacts keeps it for the pair of bodies 0 and 1: this detection's entries
   // are written to separating_next, and the last warm-up call's become the entries looked up
+  // One scratch for every call, as World::step keeps one: without it collide() makes a Scratch
+  // per call (about 2 us for the cylinder pairs), which a world never pays. Bodies -1 (unknown)
+  // unless the row measures the cache
   collision::Scratch scratch;
   collision::Services services = c.services;
-  if (c.cached) {
-    scratch.body_a = 0, scratch.body_b = 1;
-    services.scratch = &scratch;
-  }
-  // warm-up (thread-local scratch, caches), and the contact counts of every pose
+  services.scratch = &scratch;
+  if (c.cached) scratch.body_a = 0, scratch.body_b = 1;
+  // warm-up (the scratch's buffers grow, caches), and the contact counts of every pose
   for (int k = 0; k < kPoses; ++k) {
     out.clear();
     scratch.separating_next.clear();
@@ -140,6 +141,7 @@ std::vector<PairCase> pair_cases(const TriangleMesh& floor, const collision::Tri
   const Box unit(Vec3(0.5, 0.5, 0.5)), ground(Vec3(2.0, 2.0, 0.5));
   const Pose on_ground{Vec3(0, 0, -0.5), I};
   const std::string manifold_target = "<= 3 us/pair";
+  const std::string cylinder_target = "<= 5 us/pair";  // issue 8
 
   cases.push_back({"box-box face (4 pts)", ground, unit, on_ground, {Vec3(0.3, 0.1, 0.5 - dip), I}, {}, manifold_target});
   // two equal boxes stacked, the upper turned 45 deg about z: the overlap is an octagon. Perturbed
@@ -165,18 +167,18 @@ std::vector<PairCase> pair_cases(const TriangleMesh& floor, const collision::Tri
   cases.push_back({"box-plane (4 pts)", Plane(Vec3::UnitZ(), 0.0), unit, {Vec3::Zero(), I},
                    {Vec3(0.2, -0.3, 0.5 - dip), rot(0.3, Vec3::UnitZ())}, {}, ""});
   cases.push_back({"cylinder-plane (standing)", Plane(Vec3::UnitZ(), 0.0), Cylinder(0.3, 0.5), {Vec3::Zero(), I},
-                   {Vec3(0.1, 0.2, 0.5 - dip), I}, {}, ""});
+                   {Vec3(0.1, 0.2, 0.5 - dip), I}, {}, cylinder_target});
   // cylinders against everything but planes and spheres: the support-function path (GJK / EPA)
   cases.push_back({"cylinder-box (GJK/EPA)", Cylinder(0.3, 0.5), ground, {Vec3(0.1, 0.2, 0.5 - dip), I}, on_ground,
-                   {}, ""});
+                   {}, cylinder_target});
   cases.push_back({"cylinder-box lying (GJK/EPA)", Cylinder(0.3, 0.5), ground, {Vec3(0.1, 0.2, 0.3 - dip), along_x},
-                   on_ground, {}, ""});
+                   on_ground, {}, cylinder_target});
   cases.push_back({"cylinder-cylinder crossed", Cylinder(0.3, 0.5), Cylinder(0.3, 0.5), {Vec3::Zero(), along_x},
-                   {Vec3(0.05, -0.05, 0.6 - dip), along_y}, {}, ""});
+                   {Vec3(0.05, -0.05, 0.6 - dip), along_y}, {}, cylinder_target});
   cases.push_back({"cylinder-cylinder side by side", Cylinder(0.3, 0.5), Cylinder(0.3, 0.5), {Vec3::Zero(), along_x},
-                   {Vec3(0.1, 0.0, 0.6 - dip), along_x}, {}, ""});
+                   {Vec3(0.1, 0.0, 0.6 - dip), along_x}, {}, cylinder_target});
   cases.push_back({"cylinder-capsule", Cylinder(0.3, 0.5), Capsule(0.2, 0.5), {Vec3::Zero(), I},
-                   {Vec3(0.1, 0.05, 0.7 - dip), along_y}, {}, ""});
+                   {Vec3(0.1, 0.05, 0.7 - dip), along_y}, {}, cylinder_target});
 
   // two hulls of 30 random points in a unit cube, B stacked on A with 1 cm of overlap along z
   std::mt19937_64 rng(7);
@@ -197,7 +199,7 @@ std::vector<PairCase> pair_cases(const TriangleMesh& floor, const collision::Tri
   const ConvexHull hull_42 = scenes::random_hull(rng, 42, Vec3(0.4, 0.4, 0.4));
   const double z42 = touching_height(hull_42, {Vec3::Zero(), I}, Cylinder(0.3, 0.5), {Vec3(0.05, 0.0, 0.0), I}) - 0.001;
   cases.push_back({"cylinder on hull (42 pts)", hull_42, Cylinder(0.3, 0.5), {Vec3::Zero(), I},
-                   {Vec3(0.05, 0.0, z42), I}, {}, ""});
+                   {Vec3(0.05, 0.0, z42), I}, {}, cylinder_target});
 
   cases.push_back({"box-trimesh (800 tris)", floor, unit, {Vec3::Zero(), I},
                    {Vec3(0.13, -0.07, 0.5 - dip), rot(0.2, Vec3::UnitZ())}, {&floor_query, nullptr}, ""});
@@ -224,7 +226,7 @@ std::vector<PairCase> pair_cases(const TriangleMesh& floor, const collision::Tri
   cases.push_back({"hull-plane (30 pts)", floor_plane, hull_a, {Vec3::Zero(), I},
                    {Vec3(0.2, 0.1, -lowest_z(hull_a, Ra) - dip), Ra}, {}, ""});
   cases.push_back({"sphere-cylinder (on its cap)", Cylinder(0.3, 0.5), Sphere(0.2), {Vec3::Zero(), I},
-                   {Vec3(0.1, 0.05, 0.7 - dip), I}, {}, ""});
+                   {Vec3(0.1, 0.05, 0.7 - dip), I}, {}, cylinder_target});
   const double zc = touching_height(hull_a, {Vec3::Zero(), Ra}, Capsule(0.1, 0.3), {Vec3(0.05, 0.0, 0.0), along_x}) - dip;
   cases.push_back({"capsule on hull (30 pts)", hull_a, Capsule(0.1, 0.3), {Vec3::Zero(), Ra},
                    {Vec3(0.05, 0.0, zc), along_x}, {}, ""});
