@@ -120,6 +120,11 @@ bool crossed_triangle(const TriangleMesh& mesh, Eigen::Index t, const Vec3& c_l,
   return true;
 }
 
+/// Largest distance of a triangle's vertices from its first (m): a scale for its tolerances.
+double radius_of_triangle(const Polytope& tri) {
+  return std::max((tri.vertex(1) - tri.vertex(0)).norm(), (tri.vertex(2) - tri.vertex(0)).norm());
+}
+
 /// True when the world point x projects into triangle t (mesh pose pa).
 bool projects_into(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Vec3& x) {
   const Vec3 x_l = pa.R.transpose() * (x - pa.p);
@@ -304,8 +309,22 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       face.part = index;
       const std::size_t first = out.size();
       // a ghost normal (from an inactive edge) gives way to the face's own contact
-      const Distance dist = gjk_epa(face, b, *scratch.epa);
+      Distance dist = gjk_epa(face, b, *scratch.epa);
       if (!(dist.gap < threshold)) continue;
+      const Vec3 n_t = pa.R * mesh.normals[t];
+      const double L = radius + radius_of_triangle(tri);
+      if (!(dist.normal.dot(n_t) > 0.0) && std::abs(dist.gap) <= 1e-9 * L) {
+        // touching at a vertex or an edge the normal is not unique, and EPA may return one that
+        // points behind the triangle (keep_front would drop the contact). B raised off the
+        // triangle by a hair has a unique normal, which is one of the touching pair's too; the
+        // gap is its distance less the raise along that normal (exact to second order in it)
+        Item raised = b;
+        const double hair = 1e-9 * L;
+        raised.pose.p += hair * n_t;
+        const Distance up = gjk_epa(face, raised, *scratch.epa);
+        if (up.gap > 0.0 && up.normal.dot(n_t) > 0.0)
+          dist = {up.gap - hair * up.normal.dot(n_t), up.normal, up.w_a, Vec3(up.w_b - hair * n_t)};
+      }
       if (ghost_of_inactive_edge(mesh, t, pa, dist.normal, dist.w_a))
         face_contact(mesh, t, pa, b, threshold, scratch, out);
       else
