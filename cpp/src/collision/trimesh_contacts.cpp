@@ -35,6 +35,17 @@ void triangle_polytope_of(const TriangleMesh& mesh, Eigen::Index t, Polytope& P)
   P.centroid = (P.vertex(0) + P.vertex(1) + P.vertex(2)) / 3.0;
 }
 
+/// Whether a feature of a triangle, by region (-1 the face, 0..2 edge k from v_k to v_k+1, 3..5
+/// vertex k - 3), is where the mesh goes on flat or bends up: an inactive edge (flat or concave),
+/// or a vertex between two. There this face's plane extended is not the surface, and a normal
+/// from the feature is a ghost of the tessellation. The one rule for spheres (exact regions) and
+/// for the other items' witnesses (ghost_of_inactive_edge, regions within a tolerance).
+bool inactive_feature(const std::array<bool, 3>& active, int region) {
+  if (region < 0) return false;
+  if (region < 3) return !active[region];
+  return !active[region - 3] && !active[(region - 3 + 2) % 3];
+}
+
 /// Sphere (centre c_l, radius r, mesh frame) against triangle t: the closest point, with the face
 /// normal wherever the closest feature is an inactive edge or a vertex between inactive edges.
 void triangle_sphere(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Vec3& c_l, double r,
@@ -63,13 +74,10 @@ void triangle_sphere(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, c
       }
     }
   }
-  const auto& active = mesh.active_edge[t];
   // beyond an inactive edge (flat or concave), or a vertex between two, the closest point of the
   // mesh lies on a neighbouring face, which makes the contact: this face's plane extended there
   // is not the surface (the next face may bend away), so this triangle makes none
-  if ((region >= 0 && region < 3 && !active[region]) ||
-      (region >= 3 && !active[region - 3] && !active[(region - 3 + 2) % 3]))
-    return;
+  if (inactive_feature(mesh.active_edge[t], region)) return;
   const bool use_face = region < 0;
   Vec3 n_l;
   double gap;
@@ -173,11 +181,11 @@ bool ghost_of_inactive_edge(const TriangleMesh& mesh, Eigen::Index t, const Pose
   const double scale = (v[1] - v[0]).norm() + (v[2] - v[1]).norm() + (v[0] - v[2]).norm();
   const double tol2 = std::pow(1e-6 * scale, 2);
   for (int j = 0; j < 3; ++j)  // vertex j, between edges j - 1 and j
-    if ((x - v[j]).squaredNorm() <= tol2) return !active[j] && !active[(j + 2) % 3];
+    if ((x - v[j]).squaredNorm() <= tol2) return inactive_feature(active, 3 + j);
   for (int e = 0; e < 3; ++e) {
     const Vec3 a = v[e], d = v[(e + 1) % 3] - v[e];
     const double s = std::clamp((x - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
-    if ((x - (a + s * d)).squaredNorm() <= tol2) return !active[e];
+    if ((x - (a + s * d)).squaredNorm() <= tol2) return inactive_feature(active, e);
   }
   return false;  // inside the face: a feature of B faces it
 }
