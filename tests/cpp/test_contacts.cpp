@@ -179,6 +179,51 @@ TEST(Manifold, SpeculativeBoxAboveABoxHasPositiveGaps) {
   EXPECT_TRUE(collide(box, {}, box, {Vec3(0.1, 0, 1.006), Mat3::Identity()}, 0.005).empty());
 }
 
+TEST(Manifold, SpeculativeClipThatMissesTheClosestPairGetsItWithTheDistance) {
+  // A unit box A (axis-aligned at the origin) and a box B (half extents 0.6, 0.6, 0.2) tilted by
+  // theta = 0.02 rad about (1, -1, 0) so that its lower face descends towards +x +y, that face
+  // h = 1 mm from A's corner 7 = c = (1/2, 1/2, 1/2), c's foot 2 cm inside B's corner 3 in both
+  // face directions. B's lower face covers A's whole upper face; its corner 3 overhangs A's corner
+  // by 2.8 cm along the descent, 0.57 mm lower, so A's upper face separates by less than B's lower
+  // face, by less than the face preference, and A's face is the reference: the clip keeps A's 4
+  // upper corners at their heights under B's face along +z. At c that height is h / (n_B . z) > h:
+  // the clip misses the distance h (by h (1 / cos theta - 1) = 2e-7 m), and the closest pair,
+  // corner 7 of A against B's face 4 (the clipped corner's own ids), replaces it: gap h, normal
+  // z_B (A to B), point c + h z_B / 2. The other 3 corners keep their clipped contacts, x on A's
+  // upper face under B's plane z_B . x = z_B . c + h: gap (h + z_B . (c - x)) / (z_B . z), normal
+  // +z. (docs/conventions.md, "Manifolds", face contact.)
+  const Vec3 ha(0.5, 0.5, 0.5), hb(0.6, 0.6, 0.2);
+  const double theta = 0.02, h = 1e-3;
+  const Mat3 R = Eigen::AngleAxisd(-theta, Vec3(1, -1, 0).normalized()).toRotationMatrix();
+  const Vec3 z_b = R.col(2), c(0.5, 0.5, 0.5);
+  const Pose pa{Vec3::Zero(), Mat3::Identity()};
+  const Pose pb{c + (h + hb.z()) * z_b - (hb.x() - 0.02) * R.col(0) - (hb.y() - 0.02) * R.col(1), R};
+  const auto out = collide(Box(ha), pa, Box(hb), pb, 0.05);
+  ASSERT_EQ(out.size(), 4u);
+  for (int k = 0; k < 4; ++k) {
+    const Contact& x = out[k];
+    EXPECT_EQ(x.feature_a, feature_id(FeatureKind::Vertex, 4 + k));  // A's upper corners 4..7 in id order
+    EXPECT_EQ(x.feature_b, feature_id(FeatureKind::Face, 4));
+    const Vec3 corner((k & 1) ? 0.5 : -0.5, (k & 2) ? 0.5 : -0.5, 0.5);
+    if (k == 3) {
+      EXPECT_NEAR(x.gap, h, 1e-15);
+      EXPECT_LT((x.normal - z_b).norm(), 1e-12);
+      EXPECT_LT((x.point - (c + 0.5 * h * z_b)).norm(), 1e-15);
+    } else {
+      const double gap = (h + z_b.dot(c - corner)) / z_b.z();
+      EXPECT_NEAR(x.gap, gap, 1e-12) << k;  // clipped: interpolated along B's face edges
+      EXPECT_LT((x.normal - Vec3::UnitZ()).norm(), 1e-15) << k;
+      EXPECT_LT((x.point - (corner + 0.5 * gap * Vec3::UnitZ())).norm(), 1e-12) << k;
+    }
+  }
+  // the other way round B's face is the reference (it separates more) and its clip reaches c
+  const auto back = collide(Box(hb), pb, Box(ha), pa, 0.05);
+  ASSERT_EQ(back.size(), 4u);
+  double least = 1.0;
+  for (const Contact& x : back) least = std::min(least, x.gap);
+  EXPECT_NEAR(least, h, 1e-15);
+}
+
 TEST(Manifold, CapsuleLyingOnABoxOrAPlaneHasTwoPoints) {
   const Capsule capsule(0.1, 0.4);
   const Mat3 lying = Eigen::AngleAxisd(kPi / 2, Vec3::UnitY()).toRotationMatrix();  // axis along x

@@ -215,7 +215,9 @@ void plane_item(const Vec3& n, double offset, const Item& b, std::vector<Contact
 
 /// Two convex polytopes (boxes, hulls, mesh pieces) by separating axes and face clipping; an edge
 /// axis that wins for polytopes apart, with the edges' closest line points off the edges, gives
-/// their closest pair instead (docs/conventions.md, "Manifolds", edge contact).
+/// their closest pair instead (docs/conventions.md, "Manifolds", edge contact), and so does a face
+/// clip of polytopes apart or touching that misses it (keeps nothing, or only points farther than it
+/// by more than 1e-9 L: the pair is added to them), so that the deepest gap is the distance.
 /// boxes: both are box polytopes (geometry::box_polytope's numbering), whose edge axes are then
 /// found among 18 candidate pairs rather than all 144, with the same result.
 /// separated, optional: set to the face (of_b, face) whose axis separated the pair by at least the
