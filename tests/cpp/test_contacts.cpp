@@ -179,6 +179,105 @@ TEST(Manifold, SpeculativeBoxAboveABoxHasPositiveGaps) {
   EXPECT_TRUE(collide(box, {}, box, {Vec3(0.1, 0, 1.006), Mat3::Identity()}, 0.005).empty());
 }
 
+TEST(Manifold, SpeculativeClipThatMissesTheClosestPairGetsItWithTheDistance) {
+  // A unit box A (axis-aligned at the origin) and a box B (half extents 0.6, 0.6, 0.2) tilted by
+  // theta = 0.02 rad about (1, -1, 0) so that its lower face descends towards +x +y, that face
+  // h = 1 mm from A's corner 7 = c = (1/2, 1/2, 1/2), c's foot 2 cm inside B's corner 3 in both
+  // face directions. B's lower face covers A's whole upper face; its corner 3 overhangs A's corner
+  // by 2.8 cm along the descent, 0.57 mm lower, so A's upper face separates by less than B's lower
+  // face, by less than the face preference, and A's face is the reference: the clip keeps A's 4
+  // upper corners at their heights under B's face along +z. At c that height is h / (n_B . z) > h:
+  // the clip misses the distance h (by h (1 / cos theta - 1) = 2e-7 m), and the closest pair,
+  // corner 7 of A against B's face 4 (the clipped corner's own ids), replaces it: gap h, normal
+  // z_B (A to B), point c + h z_B / 2. The other 3 corners keep their clipped contacts, x on A's
+  // upper face under B's plane z_B . x = z_B . c + h: gap (h + z_B . (c - x)) / (z_B . z), normal
+  // +z. (docs/conventions.md, "Manifolds", face contact.)
+  const Vec3 ha(0.5, 0.5, 0.5), hb(0.6, 0.6, 0.2);
+  const double theta = 0.02, h = 1e-3;
+  const Mat3 R = Eigen::AngleAxisd(-theta, Vec3(1, -1, 0).normalized()).toRotationMatrix();
+  const Vec3 z_b = R.col(2), c(0.5, 0.5, 0.5);
+  const Pose pa{Vec3::Zero(), Mat3::Identity()};
+  const Pose pb{c + (h + hb.z()) * z_b - (hb.x() - 0.02) * R.col(0) - (hb.y() - 0.02) * R.col(1), R};
+  const auto out = collide(Box(ha), pa, Box(hb), pb, 0.05);
+  ASSERT_EQ(out.size(), 4u);
+  for (int k = 0; k < 4; ++k) {
+    const Contact& x = out[k];
+    EXPECT_EQ(x.feature_a, feature_id(FeatureKind::Vertex, 4 + k));  // A's upper corners 4..7 in id order
+    EXPECT_EQ(x.feature_b, feature_id(FeatureKind::Face, 4));
+    const Vec3 corner((k & 1) ? 0.5 : -0.5, (k & 2) ? 0.5 : -0.5, 0.5);
+    if (k == 3) {
+      EXPECT_NEAR(x.gap, h, 1e-15);
+      EXPECT_LT((x.normal - z_b).norm(), 1e-12);
+      EXPECT_LT((x.point - (c + 0.5 * h * z_b)).norm(), 1e-15);
+    } else {
+      const double gap = (h + z_b.dot(c - corner)) / z_b.z();
+      EXPECT_NEAR(x.gap, gap, 1e-12) << k;  // clipped: interpolated along B's face edges
+      EXPECT_LT((x.normal - Vec3::UnitZ()).norm(), 1e-15) << k;
+      EXPECT_LT((x.point - (corner + 0.5 * gap * Vec3::UnitZ())).norm(), 1e-12) << k;
+    }
+  }
+  // the other way round B's face is the reference (it separates more) and its clip reaches c
+  const auto back = collide(Box(hb), pb, Box(ha), pa, 0.05);
+  ASSERT_EQ(back.size(), 4u);
+  double least = 1.0;
+  for (const Contact& x : back) least = std::min(least, x.gap);
+  EXPECT_NEAR(least, h, 1e-15);
+}
+
+TEST(Manifold, BoxBesideALoneTrianglesVertexGetsTheClosestPair) {
+  // The triangle (0, 0, 0), (1, 0, 0), (0, 1, 0) (n_t = +z, all edges active) and an axis-aligned
+  // box of half extents 0.1 wholly in front of it, beside its vertex 0: the triangle's face clip
+  // keeps nothing (the box lies beside the triangle), and the contact is the closest pair,
+  // vertex 0 against the box's corner 3 (+x +y -z) at (-ex, -ey, ez), or against its edge 4
+  // (corner 1 -> 3, along y) when ey < 0 puts vertex 0 beside that edge: gap |w|, w the
+  // box's point minus the vertex, normal w / |w|, point w / 2.
+  Points v(3, 3);
+  v << 0, 0, 0, 1, 0, 0, 0, 1, 0;
+  Triangles f(1, 3);
+  f << 0, 1, 2;
+  const TriangleMesh tri(v, f);
+  const Box box(Vec3(0.1, 0.1, 0.1));
+  struct Case {
+    double ey;
+    FeatureId feature_b;
+  };
+  for (const Case& k : {Case{0.002, feature_id(FeatureKind::Vertex, 3)}, Case{-0.05, feature_id(FeatureKind::Edge, 4)}}) {
+    const double ex = 0.002, ez = 0.003;
+    const Pose pb{Vec3(-ex - 0.1, -k.ey - 0.1, ez + 0.1), Mat3::Identity()};
+    const Vec3 w(-ex, std::min(-k.ey, 0.0), ez);
+    const auto out = collide(tri, {}, box, pb, 0.01);
+    ASSERT_EQ(out.size(), 1u) << "ey " << k.ey;
+    EXPECT_NEAR(out[0].gap, w.norm(), 1e-15);
+    EXPECT_LT((out[0].normal - w.normalized()).norm(), 1e-12);
+    EXPECT_LT((out[0].point - 0.5 * w).norm(), 1e-15);
+    EXPECT_EQ(out[0].feature_a, feature_id(FeatureKind::Vertex, 0, 0));
+    EXPECT_EQ(out[0].feature_b, k.feature_b);
+    EXPECT_TRUE(collide(tri, {}, box, pb, 0.5 * (ez + w.norm())).empty());  // its face plane is nearer
+  }
+}
+
+TEST(Manifold, BoxCornerBesideAFloorDiagonalGetsNoGhostOfTheClosestPair) {
+  // A box (half extents 0.1, 0.15, 0.2) turned corner down (its diagonal along z), the lowest corner
+  // 2 mm over the two-triangle floor_mesh(2, 1) just beside its diagonal (inactive: flat; the rims
+  // are active). The triangle not under the corner has its closest pair on the diagonal, tilted: a
+  // ghost, replaced by that face's own clip (here nothing nearer than the threshold). One contact:
+  // gap 2 mm, normal +z, the corner over its triangle. (Without the ghost pass the pair stays: 2
+  // contacts, one tilted.)
+  const TriangleMesh floor = floor_mesh(2.0, 1);
+  const Vec3 hb(0.1, 0.15, 0.2);
+  const Mat3 R = Eigen::Quaterniond::FromTwoVectors(Vec3(-1, -1, -1), Vec3(0, 0, -1)).toRotationMatrix();
+  for (const Vec3& low : {Vec3(0.003, 0.001, 0.002), Vec3(-0.002, 0.004, 0.002)}) {
+    const Pose pb{low + R * hb, R};  // corner 0 (- - -) at `low`
+    const auto out = collide(floor, {}, Box(hb), pb, 0.01);
+    ASSERT_EQ(out.size(), 1u) << low.transpose();
+    EXPECT_NEAR(out[0].gap, 0.002, 1e-15);
+    EXPECT_LT((out[0].normal - Vec3::UnitZ()).norm(), 1e-15);
+    EXPECT_LT((out[0].point - (low - Vec3(0, 0, 0.001))).norm(), 1e-15);
+    EXPECT_EQ(feature_kind(out[0].feature_a), FeatureKind::Face);
+    EXPECT_EQ(out[0].feature_b, feature_id(FeatureKind::Vertex, 0));
+  }
+}
+
 TEST(Manifold, CapsuleLyingOnABoxOrAPlaneHasTwoPoints) {
   const Capsule capsule(0.1, 0.4);
   const Mat3 lying = Eigen::AngleAxisd(kPi / 2, Vec3::UnitY()).toRotationMatrix();  // axis along x

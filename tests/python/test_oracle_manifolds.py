@@ -307,6 +307,39 @@ def test_closest_features_of_boxes_corner_to_corner_and_ties():
     np.testing.assert_allclose(q - p, [0.03, 0.0, 0.0], rtol=0, atol=1e-15)
 
 
+def test_speculative_clip_that_misses_the_closest_pair_gets_it_with_the_distance():
+    # The core's golden Manifold.SpeculativeClipThatMissesTheClosestPairGetsItWithTheDistance: a
+    # unit box A and a box B (half extents 0.6, 0.6, 0.2) tilted by theta = 0.02 rad about
+    # (1, -1, 0), its lower face (normal -z_B) h = 1 mm from A's corner 7 = c = (1/2, 1/2, 1/2),
+    # c's foot 2 cm inside B's corner 3. A's upper face separates by less than B's lower face but
+    # within the face preference, so it is the reference, and its clip keeps A's 4 upper corners
+    # at their heights under B's plane along +z: h / (z_B . z) > h at c. The closest pair (corner 7
+    # against B's face 4, the clipped corner's ids) replaces that point: gap h, normal z_B, point
+    # c + h z_B / 2; the other corners x keep gap (h + z_B . (c - x)) / (z_B . z), normal +z.
+    h_A, h_B = np.full(3, 0.5), np.array([0.6, 0.6, 0.2])
+    theta, h = 0.02, 1e-3
+    R = o.rodrigues(np.array([1.0, -1.0, 0.0]) / np.sqrt(2.0) * -theta, 1.0)
+    z_B, c = R[:, 2], np.full(3, 0.5)
+    p_B = c + (h + h_B[2]) * z_B - (h_B[0] - 0.02) * R[:, 0] - (h_B[1] - 0.02) * R[:, 1]
+    L = np.linalg.norm(h_A) + np.linalg.norm(h_B)
+    s = o.box_box_separation(np.zeros(3), np.eye(3), h_A, p_B, R, h_B)
+    assert s["sep_A"] < s["sep_B"] < s["sep_A"] + o.FACE_PREFERENCE * L and abs(s["sep_B"] - h) < 1e-15
+    y, n, gap, fa, fb = o.select_manifold(*o.contact_box_box(np.zeros(3), np.eye(3), h_A, p_B, R, h_B, 0.05),
+                                          0.05, L)
+    assert len(gap) == 4
+    np.testing.assert_array_equal(fa, [o.feature_id(o.VERTEX, v) for v in (4, 5, 6, 7)])
+    np.testing.assert_array_equal(fb, [o.feature_id(o.FACE, 4)] * 4)
+    assert abs(gap[3] - h) < 1e-15
+    np.testing.assert_allclose(n[3], z_B, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(y[3], c + 0.5 * h * z_B, rtol=0, atol=1e-15)
+    for k in range(3):
+        x = np.array([0.5 if k & 1 else -0.5, 0.5 if k & 2 else -0.5, 0.5])
+        g = (h + z_B @ (c - x)) / z_B[2]
+        assert abs(gap[k] - g) < 1e-12, k
+        np.testing.assert_allclose(n[k], [0.0, 0.0, 1.0], rtol=0, atol=1e-15)
+        np.testing.assert_allclose(y[k], x + [0.0, 0.0, 0.5 * g], rtol=0, atol=1e-12)
+
+
 def test_tilted_stack_prefers_the_face_to_a_slightly_better_edge_axis():
     # a unit box on a unit box, tilted by theta = 3 mrad about (1, 1, 0), its lowest corner 1 mm
     # deep (and outside A's top face): the edge pair (A's top edge along y, B's bottom edge along

@@ -662,6 +662,48 @@ void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double t
   }
 }
 
+/// The closest-pair rule after a face clip (docs/conventions.md, "Manifolds", face contact), for
+/// two polytopes A and B (views in A's frame) apart or touching. Each clipped point's gap is the
+/// distance between a point of B and a point of A (its foot on the reference face, or the two
+/// edges' points of a crossing), so the least gap of the clipped points out[first..] (all below the
+/// threshold; inf when there are none) bounds the distance from above; `lower`, the separation along
+/// the caller's best axis (two polytopes: the larger face separation), bounds it from below. When
+/// the least gap exceeds lower by more than 1e-9 L the clip may have missed the closest pair (two
+/// corners facing each other; an incident face whose nearest part lies beside the reference face),
+/// and the closest pair (closest_features, ties 1e-12 L) is appended when it is nearer than the
+/// threshold and than every clipped point by more than 1e-9 L: the deepest gap is then the
+/// distance, and the manifold's reduction keeps it (its first point is the deepest, ties within
+/// 1e-9 L). It replaces the clipped points with its ids or within 1e-9 L of its point (the manifold
+/// would drop it as their duplicate, or hold one id pair twice); the others stay (the face the
+/// bodies will rest on). Allocates nothing once out and the buffers have grown.
+/// Inputs: axis (unit, A -> B, A's frame: narrows the search), n_touch (unit, A -> B, A's frame: the
+/// normal of a pair touching, closest points within 1e-12 L), lower, L, threshold (m), pa (A's pose:
+/// out is in the world frame), first (the clip's first contact in out).
+/// Does nothing when lower < -1e-12 L (overlapping: the clip's depths are the separating axes').
+void closest_pair_after_clip(const View& A, const View& B, const Vec3& axis, const Vec3& n_touch, double lower,
+                             double L, double threshold, const Pose& pa, ClosestBuffers& buffers, std::size_t first,
+                             std::vector<Contact>& out) {
+  if (!(lower >= -1e-12 * L)) return;
+  double least = kInf;
+  for (std::size_t k = first; k < out.size(); ++k) least = std::min(least, out[k].gap);
+  if (!(least > lower + 1e-9 * L)) return;  // the distance is within 1e-9 L of a clipped point's gap
+  ClosestPair c;
+  if (!closest_features(A, B, axis, least, 1e-12 * L, buffers, c)) return;
+  if (!(c.distance < threshold && c.distance < least - 1e-9 * L)) return;
+  const bool touching = c.distance <= 1e-12 * L;
+  Contact k;
+  k.point = pa.R * (0.5 * (c.p + c.q)) + pa.p;
+  k.normal = pa.R * (touching ? n_touch : Vec3((c.q - c.p) / c.distance));
+  k.gap = c.distance;
+  k.feature_a = c.fa;
+  k.feature_b = c.fb;
+  const auto replaced = [&](const Contact& x) {
+    return (x.feature_a == k.feature_a && x.feature_b == k.feature_b) || (x.point - k.point).norm() <= 1e-9 * L;
+  };
+  out.erase(std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(), replaced), out.end());
+  out.push_back(k);
+}
+
 double radius_of(const Polytope& P) { return P.vertices.rowwise().norm().maxCoeff(); }
 
 }  // namespace
@@ -724,24 +766,14 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
   else
     clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
-  // apart or touching, the incident face can lie wholly beside the reference face (two corners
-  // facing each other): the clip keeps nothing although the shapes are closer than the threshold.
-  // Then the contact is their closest pair, as for an edge pair whose lines meet off the edges;
-  // touching (closest points within 1e-12 L, the separation 0 up to rounding), along the face axis
-  if (out.size() == first && std::max(fa.separation, fb.separation) >= -1e-12 * L) {
-    ClosestPair c;
-    if (closest_features(A, B, n_face, kInf, 1e-12 * L, scratch.closest, c) && c.distance >= 0.0 &&
-        c.distance < threshold) {
-      const bool touching = c.distance <= 1e-12 * L;
-      Contact& k = out.emplace_back();
-      k.point = pa.R * (0.5 * (c.p + c.q)) + pa.p;
-      k.normal = pa.R * (touching ? Vec3(fb.separation > fa.separation ? Vec3(-n_face) : n_face)
-                                  : Vec3((c.q - c.p) / c.distance));
-      k.gap = c.distance;
-      k.feature_a = c.fa;
-      k.feature_b = c.fb;
-    }
-  }
+  // apart or touching, the clip can miss the closest pair (two corners facing each other: it keeps
+  // nothing; an incident face whose nearest part lies beside the reference face: it keeps farther
+  // points), which is then added, so that a speculative contact's deepest gap is the distance;
+  // touching (closest points within 1e-12 L, the separation 0 up to rounding), along the better
+  // face axis
+  const bool b_better = fb.separation > fa.separation;
+  closest_pair_after_clip(A, B, b_better ? Vec3(-n_face) : n_face, b_better ? Vec3(-n_face) : n_face,
+                          std::max(fa.separation, fb.separation), L, threshold, pa, scratch.closest, first, out);
 }
 
 double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope& b, const Pose& pb) {
@@ -848,10 +880,30 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
     if (deepest[0] && deepest[1] && deepest[2]) ghost = false;  // B's face lies along the triangle
     b_face = !ghost;
   }
+  const std::size_t first = out.size();
   if (b_face)
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
   else
     clip_faces(A, 0, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out, &active);
+  // apart or touching, the clip can miss the closest pair (B beside a vertex or an edge of the
+  // triangle: the face clip keeps nothing, or farther points), added as for two polytopes, the best
+  // of the triangle's face axis, B's and the edge axes bounding the distance from below; touching,
+  // along that axis. One whose normal is not n_t and whose triangle witness lies on an inactive
+  // edge or a vertex between two is a ghost, which trimesh_item's without_ghosts replaces by the
+  // face's own contact (face_only, above, adds no closest pair); one whose normal does not leave
+  // the front side is dropped there too (keep_front). A triangle without active edges (inside a
+  // flat or concave region) clipped by its own face adds none: a closest pair with its witness in
+  // the face has B's lowest point along -n_t there, which the clip holds, and one on the rim is a
+  // ghost replaced by that same clip, unless B's point lies exactly over the rim (normal n_t), where
+  // B reaches lower over the neighbouring triangle (measured: a box hovering tilted over a
+  // tessellated floor searched every triangle under its rim, twice the floor's detection time)
+  if (!b_face && !active[0] && !active[1] && !active[2]) return;
+  double lower = sep_a;
+  Vec3 n_lower = A.n[0];
+  if (fb.separation > lower) lower = fb.separation, n_lower = -B.n[fb.face];
+  if (e.separation > lower) lower = e.separation, n_lower = e.axis;
+  closest_pair_after_clip(A, B, A.n[0], n_lower, lower, radius_of(tri) + radius_of(b), threshold, pa, scratch.closest,
+                          first, out);
 }
 
 }  // namespace signorini::collision

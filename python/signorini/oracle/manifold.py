@@ -500,10 +500,14 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
             y = q - gap n_ref / 2, n = n_ref if the reference face is A's, else -n_ref; except a
             crossing of two edges whose cross product is within 0.05 rad of n_ref and whose
             closest points lie on both edges, which is their edge-edge contact
-            (``_edge_crossing``). When no clipped point has gap < threshold and the boxes are
-            apart or touching (max(sep_A, sep_B) >= -1e-12 L: corners facing each other beside
-            the faces), the contact is the boxes' closest pair (``closest_features``) if nearer
-            than threshold (touching within 1e-12 L: normal along the better face axis, A -> B).
+            (``_edge_crossing``). When the boxes are apart or touching (max(sep_A, sep_B) >=
+            -1e-12 L) and the least gap of the clipped points below threshold (inf if none:
+            corners facing each other beside the faces) exceeds max(sep_A, sep_B) by more than
+            1e-9 L, the boxes' closest pair (``closest_features``, tie 1e-12 L) is added when it is
+            nearer than threshold and than every such clipped point by more than 1e-9 L (touching
+            within 1e-12 L: normal along the better face axis, A -> B; else (q - p) / gap), and
+            the clipped points with its ids or within 1e-9 L of its point (p + q) / 2 are dropped:
+            a speculative contact's deepest gap is the distance.
       edge: A's edge along u_i supporting A in +L, B's edge along w_j supporting B in -L;
             y = midpoint of the closest points of their lines, gap = sep_E, n = L; except when
             the boxes are apart (sep_E > 0) and those closest points are not both on the edges
@@ -575,23 +579,30 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
                                       int(feature_parts(inc_id[k])[2]), n_ref)
             if crossing is not None:
                 gap[k], y[k], n[k] = crossing
-    # apart or touching, with the incident face wholly beside the reference face (corners facing
-    # each other), the clip keeps nothing within the threshold: the contact is the boxes' closest
-    # pair; touching (within 1e-12 L), its normal is the better face axis, turned A -> B
-    if not np.any(gap < threshold) and max(sat["sep_A"], sat["sep_B"]) >= -1e-12 * L_scale:
+    if not a_is_ref:
+        n = -n
+    fa_ids, fb_ids = (ref_id, inc_id) if a_is_ref else (inc_id, ref_id)
+    # apart or touching, the clip can miss the closest pair (corners facing each other: it keeps
+    # nothing; an incident face whose nearest part lies beside the reference face: farther points).
+    # Every clipped gap is the distance of a point of B from one of A, and the larger face
+    # separation a lower bound of it: when the least clipped gap below the threshold (inf if none)
+    # exceeds that by more than 1e-9 L, the boxes' closest pair is added if nearer than threshold
+    # and than every clipped point by more than 1e-9 L (touching within 1e-12 L: normal along the
+    # better face axis, A -> B), replacing the clipped points with its ids or within 1e-9 L of it
+    lower = max(sat["sep_A"], sat["sep_B"])
+    least = float(gap[gap < threshold].min()) if np.any(gap < threshold) else np.inf
+    if lower >= -1e-12 * L_scale and least > lower + 1e-9 * L_scale:
         p, q, dist, fa, fb = closest_features(sat["A"], sat["B"], 1e-12 * L_scale)
-        if dist >= 0.0 and dist < threshold:
+        if dist < threshold and dist < least - 1e-9 * L_scale:
             if dist <= 1e-12 * L_scale:
                 normal = (-sat["B"]["normals"][sat["face_b"]] if sat["sep_B"] > sat["sep_A"]
                           else sat["A"]["normals"][sat["face_a"]])
             else:
                 normal = (q - p) / dist
-            return ((0.5 * (p + q))[None, :], np.asarray(normal, dtype=float)[None, :], np.array([dist]),
-                    np.array([fa]), np.array([fb]))
-        return (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.uint64),
-                np.zeros(0, dtype=np.uint64))
-    if not a_is_ref:
-        n = -n
-    if a_is_ref:
-        return y, n, gap, ref_id, inc_id
-    return y, n, gap, inc_id, ref_id
+            point = 0.5 * (p + q)
+            stay = ~(((fa_ids == fa) & (fb_ids == fb)) | (np.linalg.norm(y - point, axis=1) <= 1e-9 * L_scale))
+            y, n, gap, fa_ids, fb_ids = (x[stay] for x in (y, n, gap, fa_ids, fb_ids))
+            y, n, gap = np.vstack([y, point]), np.vstack([n, normal]), np.append(gap, dist)
+            fa_ids = np.append(fa_ids, np.uint64(fa)).astype(np.uint64)
+            fb_ids = np.append(fb_ids, np.uint64(fb)).astype(np.uint64)
+    return y, n, gap, fa_ids, fb_ids
