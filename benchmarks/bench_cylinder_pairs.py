@@ -164,8 +164,9 @@ def run_triangle(n, oracle_every):
     """A one-triangle mesh and the cylinder against its face, or against its edges and vertices
     from above (test_table_slots.lone_triangle_pair with cylinder_touch: apart, touching, or in by
     less than the inscribed ball onto the face); the pairs whose cylinder reaches behind the plane
-    are skipped. Touching a vertex or an edge is a known defect (lone_triangle_pair says why): it
-    shows in the "none" column."""
+    are skipped. Touching a vertex or an edge, where the normal is not unique, takes the normal of
+    the cylinder raised by a hair (lone_triangle_pair says why); a pair with no contact shows in
+    the "none" column."""
     seed = zlib.crc32(b"bench cylinder-triangle")
     f = dict(pairs=0, none=0, near=0, gap=0.0, over=0, witness=0.0, normal=0.0, bound=0, ref_bad=0, ref=0, t=0.0)
     for k in range(n):

@@ -326,12 +326,16 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
         // points behind the triangle (keep_front would drop the contact). B raised off the
         // triangle by a hair has a unique normal, which is one of the touching pair's too; the
         // gap is its distance less the raise along that normal (exact to second order in it)
-        Item raised = b;
-        const double hair = 1e-9 * L;
-        raised.pose.p += hair * n_t;
-        const Distance up = gjk_epa(face, raised, *scratch.epa);
-        if (up.gap > 0.0 && up.normal.dot(n_t) > 0.0)
-          dist = {up.gap - hair * up.normal.dot(n_t), up.normal, up.w_a, Vec3(up.w_b - hair * n_t)};
+        // (1e-9 L first; where GJK cannot resolve that, 1e-8 L, then 1e-7 L)
+        for (double hair = 1e-9 * L; hair <= 1.01e-7 * L; hair *= 10.0) {
+          Item raised = b;
+          raised.pose.p += hair * n_t;
+          const Distance up = gjk_epa(face, raised, *scratch.epa);
+          if (up.gap > 0.0 && up.normal.dot(n_t) > 0.0) {
+            dist = {up.gap - hair * up.normal.dot(n_t), up.normal, up.w_a, Vec3(up.w_b - hair * n_t)};
+            break;
+          }
+        }
       }
       if (ghost_of_inactive_edge(mesh, t, pa, dist.normal, dist.w_a))
         face_contact(mesh, t, pa, b, threshold, scratch, out);
