@@ -9,7 +9,7 @@ box, a convex hull, a convex mesh piece, a plane, a one-triangle mesh), apart, e
 and shallowly or deeply overlapping.
 
 The pairs are those of tests/python/test_table_slots.py (whose module docstring has the argument;
-its Body, orient, Placed, witnesses and normal_bound are reused here): a random unit d, A's support
+its Body, orient, Placed, place_pair, witnesses and normal_bound are reused here): a random unit d, A's support
 point x_A along d, B's x_B along -d, and B moved so that x_B = x_A + delta d. Then delta is the
 signed distance exactly when delta >= 0, and when -delta is less than the summed radii rho of
 balls inside the shapes that touch their surfaces at x_A and x_B (a face, a cylinder's cap or
@@ -49,7 +49,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "python")
 import signorini as sg  # noqa: E402
 from signorini.oracle import support as osup  # noqa: E402
 from test_table_slots import (  # noqa: E402
-    EXACT, FACE_COS, IDENTITY, MARGIN, Body, Placed, angle, lone_triangle_pair, orient, witnesses)
+    EXACT, FACE_COS, IDENTITY, MARGIN, Body, Placed, angle, lone_triangle_pair, orient, place_pair, witnesses)
 
 TYPES = ["sphere", "capsule", "cylinder", "box", "hull", "mesh", "plane", "triangle"]
 REGIMES = ("apart", "touch", "shallow", "deep")
@@ -74,16 +74,16 @@ def item_pair(kind, seed, k):
     fa, fb = bool(rng.integers(2)), bool(rng.integers(2)) and kind != "sphere"
     if regime in ("shallow", "deep") and not (fa or fb) and kind != "sphere":
         fa = True  # an overlap needs an inscribed ball on one side at least
-    d = rng.normal(size=3)
-    d /= np.linalg.norm(d)
-    R_a, x_a, rho_a = orient(A, d, rng, fa)
-    R_b, x_b, rho_b = orient(B, -d, rng, fb)
-    a = Placed(A, rng.uniform(-1.0, 1.0, 3), R_a)
-    rho = rho_a + rho_b
-    delta = delta_of(regime, rho, rng)
-    R_b = Placed(B, np.zeros(3), R_b).R
-    b = Placed(B, a.p + a.R @ x_a + delta * d - R_b @ x_b, R_b)
-    return a, b, d, delta, rho, regime
+    return (*place_pair(A, B, rng, regime, fa, fb, delta_of), regime)
+
+
+def reference_check(f, sa, sb, d, delta):
+    """Counts in f whether the constructed pair (support functions sa of A, sb of B) really is
+    delta apart along d: the supports' gap along d, and the oracle's brute-force separation."""
+    g = float((sb(-d)[0] - sa(d)[0]) @ d)
+    sep, _ = osup.support_separation(sa, sb)
+    f["ref"] += 1
+    f["ref_bad"] += abs(g - delta) > EXACT or sep > delta + EXACT
 
 
 def item_tol(a, b):
@@ -97,11 +97,7 @@ def run_items(kind, n, oracle_every):
     for k in range(n):
         a, b, d, delta, rho, regime = item_pair(kind, seed, k)
         if k % oracle_every == 0:
-            sa, sb = a.support_fn(), b.support_fn()
-            g = float((sb(-d)[0] - sa(d)[0]) @ d)
-            sep, _ = osup.support_separation(sa, sb)
-            f["ref"] += 1
-            f["ref_bad"] += abs(g - delta) > EXACT or sep > delta + EXACT
+            reference_check(f, a.support_fn(), b.support_fn(), d, delta)
         first, second, n_ref = (a, b, d) if k % 2 == 0 else (b, a, -d)
         t0 = time.perf_counter()
         c = sg.collide(first.body.shape, first.pose, second.body.shape, second.pose, margin=MARGIN)
@@ -175,11 +171,7 @@ def run_triangle(n, oracle_every):
             continue
         V, n_t, b, d, delta, rho, regime, face = made
         if k % oracle_every == 0:
-            sa, sb = osup.support_hull(V, np.zeros(3), np.eye(3)), b.support_fn()
-            g = float((sb(-d)[0] - sa(d)[0]) @ d)
-            sep, _ = osup.support_separation(sa, sb)
-            f["ref"] += 1
-            f["ref_bad"] += abs(g - delta) > EXACT or sep > delta + EXACT
+            reference_check(f, osup.support_hull(V, np.zeros(3), np.eye(3)), b.support_fn(), d, delta)
         t0 = time.perf_counter()
         c = sg.collide(sg.TriangleMesh(V, np.array([[0, 1, 2]])), ((0, 0, 0), IDENTITY), b.body.shape, b.pose,
                        margin=MARGIN)

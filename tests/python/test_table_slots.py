@@ -343,15 +343,18 @@ def orient(body, d, rng, flat):
     return R, x, rho
 
 
-def place_pair(A, B, rng, regime, flat_a, flat_b):
-    """A at random, B against it along a random d as in the module docstring: (a, b, d, delta, rho)."""
+def place_pair(A, B, rng, regime, flat_a, flat_b, delta_of=None):
+    """A at random, B against it along a random d as in the module docstring: (a, b, d, delta, rho).
+    delta_of(regime, rho, rng), when given, draws delta for regimes of its own (the benchmarks')."""
     d = rng.normal(size=3)
     d /= np.linalg.norm(d)
     R_a, x_a, rho_a = orient(A, d, rng, flat_a)
     R_b, x_b, rho_b = orient(B, -d, rng, flat_b)
     a = Placed(A, rng.uniform(-1.0, 1.0, 3), R_a)
     rho = rho_a + rho_b
-    if regime == "apart":
+    if delta_of is not None:
+        delta = delta_of(regime, rho, rng)
+    elif regime == "apart":
         delta = rng.uniform(1e-4, MARGIN - 1e-4)
     elif regime == "touch":
         delta = 0.0
