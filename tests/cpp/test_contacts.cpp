@@ -224,6 +224,59 @@ TEST(Manifold, SpeculativeClipThatMissesTheClosestPairGetsItWithTheDistance) {
   EXPECT_NEAR(least, h, 1e-15);
 }
 
+TEST(Manifold, BoxBesideALoneTrianglesVertexGetsTheClosestPair) {
+  // The triangle (0, 0, 0), (1, 0, 0), (0, 1, 0) (n_t = +z, all edges active) and an axis-aligned
+  // box of half extents 0.1 wholly in front of it, beside its vertex 0: the triangle's face clip
+  // keeps nothing (the box lies beside the triangle), and the contact is the closest pair,
+  // vertex 0 against the box's corner 3 (+x +y -z) at (-ex, -ey, ez), or against its edge 4
+  // (corner 1 -> 3, along y) when ey < 0 puts vertex 0 beside that edge: gap |w|, w the
+  // box's point minus the vertex, normal w / |w|, point w / 2.
+  Points v(3, 3);
+  v << 0, 0, 0, 1, 0, 0, 0, 1, 0;
+  Triangles f(1, 3);
+  f << 0, 1, 2;
+  const TriangleMesh tri(v, f);
+  const Box box(Vec3(0.1, 0.1, 0.1));
+  struct Case {
+    double ey;
+    FeatureId feature_b;
+  };
+  for (const Case& k : {Case{0.002, feature_id(FeatureKind::Vertex, 3)}, Case{-0.05, feature_id(FeatureKind::Edge, 4)}}) {
+    const double ex = 0.002, ez = 0.003;
+    const Pose pb{Vec3(-ex - 0.1, -k.ey - 0.1, ez + 0.1), Mat3::Identity()};
+    const Vec3 w(-ex, std::min(-k.ey, 0.0), ez);
+    const auto out = collide(tri, {}, box, pb, 0.01);
+    ASSERT_EQ(out.size(), 1u) << "ey " << k.ey;
+    EXPECT_NEAR(out[0].gap, w.norm(), 1e-15);
+    EXPECT_LT((out[0].normal - w.normalized()).norm(), 1e-12);
+    EXPECT_LT((out[0].point - 0.5 * w).norm(), 1e-15);
+    EXPECT_EQ(out[0].feature_a, feature_id(FeatureKind::Vertex, 0, 0));
+    EXPECT_EQ(out[0].feature_b, k.feature_b);
+    EXPECT_TRUE(collide(tri, {}, box, pb, 0.5 * (ez + w.norm())).empty());  // its face plane is nearer
+  }
+}
+
+TEST(Manifold, BoxCornerBesideAFloorVertexGetsNoGhostOfTheClosestPairs) {
+  // A box (half extents 0.1, 0.15, 0.2) turned corner down (its diagonal along z), the lowest corner
+  // 2 mm over the floor_mesh(2, 4) beside its centre vertex (every edge there inactive: flat).
+  // The triangles around that vertex but not under the corner have their closest pairs on the
+  // vertex or an inactive edge, tilted: ghosts, replaced by each face's own clip (here nothing
+  // nearer than the threshold). One contact: gap 2 mm, normal +z, the corner over its triangle.
+  const TriangleMesh floor = floor_mesh(2.0, 4);
+  const Vec3 hb(0.1, 0.15, 0.2);
+  const Mat3 R = Eigen::Quaterniond::FromTwoVectors(Vec3(-1, -1, -1), Vec3(0, 0, -1)).toRotationMatrix();
+  for (const Vec3& low : {Vec3(0.003, 0.001, 0.002), Vec3(-0.002, 0.004, 0.002)}) {
+    const Pose pb{low + R * hb, R};  // corner 0 (- - -) at `low`
+    const auto out = collide(floor, {}, Box(hb), pb, 0.01);
+    ASSERT_EQ(out.size(), 1u) << low.transpose();
+    EXPECT_NEAR(out[0].gap, 0.002, 1e-15);
+    EXPECT_LT((out[0].normal - Vec3::UnitZ()).norm(), 1e-15);
+    EXPECT_LT((out[0].point - (low - Vec3(0, 0, 0.001))).norm(), 1e-15);
+    EXPECT_EQ(feature_kind(out[0].feature_a), FeatureKind::Face);
+    EXPECT_EQ(out[0].feature_b, feature_id(FeatureKind::Vertex, 0));
+  }
+}
+
 TEST(Manifold, CapsuleLyingOnABoxOrAPlaneHasTwoPoints) {
   const Capsule capsule(0.1, 0.4);
   const Mat3 lying = Eigen::AngleAxisd(kPi / 2, Vec3::UnitY()).toRotationMatrix();  // axis along x

@@ -232,10 +232,12 @@ double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope&
 
 /// One triangle of a static mesh (as a two-faced polytope, A) against a polytope B: one-sided
 /// separating axes (its front face, B's faces, edge axes from its active edges only), clipping
-/// that drops cuts along inactive edges; an edge axis off the edges for a B apart gives the closest
-/// pair of the triangle and B, as for two polytopes. Features of A carry the triangle index as part.
-/// face_only: the triangle's face is the reference, whatever the other axes say (the face's own
-/// contact, which replaces a ghost of an inactive edge).
+/// that drops cuts along inactive edges; an edge axis off the edges, or a clip that misses the
+/// closest pair, for a B apart (or touching) gives the closest pair of the triangle and B, as for
+/// two polytopes (it may be a ghost, which the caller replaces). Features of A carry the triangle
+/// index as part.
+/// face_only: the triangle's face is the reference, whatever the other axes say, and no closest pair
+/// is added (the face's own contact, which replaces a ghost of an inactive edge).
 void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, const Pose& pa,
                        std::uint32_t triangle, const Polytope& b, const Pose& pb, std::uint32_t part_b,
                        double threshold, PolytopeScratch& scratch, std::vector<Contact>& out,

@@ -880,10 +880,24 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
     if (deepest[0] && deepest[1] && deepest[2]) ghost = false;  // B's face lies along the triangle
     b_face = !ghost;
   }
+  const std::size_t first = out.size();
   if (b_face)
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
   else
     clip_faces(A, 0, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out, &active);
+  // apart or touching, the clip can miss the closest pair (B beside a vertex or an edge of the
+  // triangle: the face clip keeps nothing, or farther points), added as for two polytopes, the best
+  // of the triangle's face axis, B's and the edge axes bounding the distance from below; touching,
+  // along that axis. One whose normal is not n_t and whose triangle witness lies on an inactive
+  // edge or a vertex between two is a ghost, which trimesh_item's without_ghosts replaces by the
+  // face's own contact (face_only, above, adds no closest pair); one whose normal does not leave
+  // the front side is dropped there too (keep_front)
+  double lower = sep_a;
+  Vec3 n_lower = A.n[0];
+  if (fb.separation > lower) lower = fb.separation, n_lower = -B.n[fb.face];
+  if (e.separation > lower) lower = e.separation, n_lower = e.axis;
+  closest_pair_after_clip(A, B, A.n[0], n_lower, lower, radius_of(tri) + radius_of(b), threshold, pa, scratch.closest,
+                          first, out);
 }
 
 }  // namespace signorini::collision
