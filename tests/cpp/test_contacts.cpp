@@ -256,13 +256,14 @@ TEST(Manifold, BoxBesideALoneTrianglesVertexGetsTheClosestPair) {
   }
 }
 
-TEST(Manifold, BoxCornerBesideAFloorVertexGetsNoGhostOfTheClosestPairs) {
+TEST(Manifold, BoxCornerBesideAFloorDiagonalGetsNoGhostOfTheClosestPair) {
   // A box (half extents 0.1, 0.15, 0.2) turned corner down (its diagonal along z), the lowest corner
-  // 2 mm over the floor_mesh(2, 4) beside its centre vertex (every edge there inactive: flat).
-  // The triangles around that vertex but not under the corner have their closest pairs on the
-  // vertex or an inactive edge, tilted: ghosts, replaced by each face's own clip (here nothing
-  // nearer than the threshold). One contact: gap 2 mm, normal +z, the corner over its triangle.
-  const TriangleMesh floor = floor_mesh(2.0, 4);
+  // 2 mm over the two-triangle floor_mesh(2, 1) just beside its diagonal (inactive: flat; the rims
+  // are active). The triangle not under the corner has its closest pair on the diagonal, tilted: a
+  // ghost, replaced by that face's own clip (here nothing nearer than the threshold). One contact:
+  // gap 2 mm, normal +z, the corner over its triangle. (Without the ghost pass the pair stays: 2
+  // contacts, one tilted.)
+  const TriangleMesh floor = floor_mesh(2.0, 1);
   const Vec3 hb(0.1, 0.15, 0.2);
   const Mat3 R = Eigen::Quaterniond::FromTwoVectors(Vec3(-1, -1, -1), Vec3(0, 0, -1)).toRotationMatrix();
   for (const Vec3& low : {Vec3(0.003, 0.001, 0.002), Vec3(-0.002, 0.004, 0.002)}) {

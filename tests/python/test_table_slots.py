@@ -120,7 +120,7 @@ After (this file adds; the tests above stay):
   trimesh-cylinder  golden: test_golden_trimesh_cylinder
                     random: (rp above), test_random_floor_pairs[cylinder], test_random_lone_triangle_pairs[cylinder]
   trimesh-polytope  golden: (C++, tt above); C++ BoxBesideALoneTrianglesVertexGetsTheClosestPair,
-                    BoxCornerBesideAFloorVertexGetsNoGhostOfTheClosestPairs (the ghost rule)
+                    BoxCornerBesideAFloorDiagonalGetsNoGhostOfTheClosestPair (the ghost rule)
                     random: test_random_lone_triangle_pairs[polytope] (onto the face)
                     test_a_convex_mesh_with_a_vertex_inside_a_face_does_not_crash
                     test_random_floor_pairs[polytope] (ghost normals of B's face against a floor vertex: fixed)

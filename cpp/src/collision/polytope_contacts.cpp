@@ -891,7 +891,13 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
   // along that axis. One whose normal is not n_t and whose triangle witness lies on an inactive
   // edge or a vertex between two is a ghost, which trimesh_item's without_ghosts replaces by the
   // face's own contact (face_only, above, adds no closest pair); one whose normal does not leave
-  // the front side is dropped there too (keep_front)
+  // the front side is dropped there too (keep_front). A triangle without active edges (inside a
+  // flat or concave region) clipped by its own face adds none: a closest pair with its witness in
+  // the face has B's lowest point along -n_t there, which the clip holds, and one on the rim is a
+  // ghost replaced by that same clip, unless B's point lies exactly over the rim (normal n_t), where
+  // B reaches lower over the neighbouring triangle (measured: a box hovering tilted over a
+  // tessellated floor searched every triangle under its rim, twice the floor's detection time)
+  if (!b_face && !active[0] && !active[1] && !active[2]) return;
   double lower = sep_a;
   Vec3 n_lower = A.n[0];
   if (fb.separation > lower) lower = fb.separation, n_lower = -B.n[fb.face];
