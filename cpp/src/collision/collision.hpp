@@ -93,6 +93,8 @@ struct PolytopeScratch;  // polytope_contacts.cpp: both polytopes placed in one 
 struct EpaScratch;       // gjk_epa.cpp: the expanding polytope's vertices, faces and horizon
 PolytopeScratch* new_polytope_scratch();
 EpaScratch* new_epa_scratch();
+struct PairMotion;
+
 struct ScratchDeleter {
   void operator()(PolytopeScratch* p) const;
   void operator()(EpaScratch* p) const;
@@ -158,6 +160,9 @@ struct Scratch {
   BodyIndex body_a = -1, body_b = -1;
   TrianglePast past;                                   ///< the current mesh pair's (see TrianglePast)
   std::vector<Crossing> crossing_next;                 ///< (N) crossings found by this detection
+  /// The current pair's motion (set by detect_contacts): collide() keeps only the candidates it
+  /// can close in the step before choosing the manifold. Null (collide() on its own): all kept.
+  const PairMotion* motion = nullptr;
 };
 
 /// What a narrow-phase query may use besides the two shapes: the triangle queries of static
@@ -315,17 +320,30 @@ class BroadPhase {
 void speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity,
                        std::vector<double>& reach);
 
-/// Keeps, of contacts[first ..] (one body pair's manifold, body ids set), the points the pair can
-/// close in this step: those with gap < margin, and the speculative ones with gap < margin +
-/// dt (u + dt (g_n + (|omega_A|^2 rho_A + |omega_B|^2 rho_B) / 2)), u = max(0, -n . (v_B(y) - v_A(y)))
-/// the approach speed at the point y (v_i(y) = v_i + omega_i x (y - p_i)), g_n = max(0, -n . (g_B -
-/// g_A)) the approach by gravity (g_i = g for a body gravity moves, else 0), and the last term the
-/// turn of a spinning body's surface towards n beyond first order (its centripetal acceleration is
-/// at most |omega|^2 rho). The body-wide reach of the broad phase bounds every point of a body by
-/// its fastest one; this bounds each point by its own motion, so a spinning body keeps no
-/// speculative contacts with neighbours its surface does not move towards. Order is kept.
-void keep_reachable(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
-                    std::size_t first, std::vector<Contact>& contacts);
+/// Which points one body pair can close in this step: those with gap < margin, and the speculative
+/// ones with gap < margin + dt (u + dt (g_n + (|omega_A|^2 rho_A + |omega_B|^2 rho_B) / 2)),
+/// u = max(0, -n . (v_B(y) - v_A(y))) the approach speed at the point y (v_i(y) = v_i + omega_i x
+/// (y - p_i)), g_n = max(0, -n . (g_B - g_A)) the approach by gravity (g_i = g for a body gravity
+/// moves, else 0), and the last term the turn of a spinning body's surface towards n beyond first
+/// order (its centripetal acceleration is at most |omega|^2 rho). The body-wide reach of the broad
+/// phase bounds every point of a body by its fastest one; this bounds each point by its own motion,
+/// so a spinning body keeps no speculative contacts with neighbours its surface does not move
+/// towards. collide() drops the points a pair cannot close before it reduces the manifold to 4
+/// (Scratch::motion), so a far speculative point never takes the place of one that holds.
+struct PairMotion {
+  /// The pair (a, b) as collide() sees it (A first), at `state`, for a step of dt s.
+  PairMotion(const Model& model, const State& state, BodyIndex a, BodyIndex b, double dt, const Vec3& gravity,
+             double margin);
+  /// The same pair seen from B (collide() swaps a static-only B to A).
+  PairMotion swapped() const;
+  /// True if the pair can close c (normal A -> B, world frame) in this step.
+  bool can_close(const Contact& c) const;
+
+  Vec3 p_a, v_a, omega_a, p_b, v_b, omega_b;  ///< centres (m), velocities (m/s), spins (rad/s)
+  Vec3 g_rel = Vec3::Zero();  ///< g_B - g_A (m/s^2)
+  double turning = 0.0;  ///< (|omega_A|^2 rho_A + |omega_B|^2 rho_B) / 2 (m/s^2)
+  double dt = 0.0, margin = 0.0;
+};
 
 /// Speculative reach of body b towards a plane of world normal n: only the approach speed counts,
 /// dt (max(0, -n . v) + dt max(0, -n . g) + |omega| rho) (m), so a body sliding along a plane does

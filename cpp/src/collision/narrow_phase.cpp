@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <variant>
 
@@ -275,6 +276,18 @@ std::string unsupported_pair(const Shape& a, const Shape& b) {
   return {};
 }
 
+namespace {
+
+/// Drops the candidates the pair cannot close in this step (scratch.motion; none without one).
+void keep_closable(const Scratch& s, std::vector<Contact>& candidates) {
+  if (!s.motion) return;
+  const PairMotion& m = *s.motion;
+  candidates.erase(std::remove_if(candidates.begin(), candidates.end(), [&](const Contact& c) { return !m.can_close(c); }),
+                   candidates.end());
+}
+
+}  // namespace
+
 void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pose_b, double threshold,
              const Services& services, std::vector<Contact>& out) {
   const std::string problem = unsupported_pair(a, b);
@@ -283,7 +296,12 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
   if (static_only(b)) {
     // the static-only shape is always A inside; the caller's A and B are restored after
     const std::size_t first = out.size();
-    collide(b, pose_b, a, pose_a, threshold, {services.triangles_b, services.triangles_a, services.scratch}, out);
+    Scratch* scratch = services.scratch;
+    const PairMotion* motion = scratch ? scratch->motion : nullptr;
+    std::optional<PairMotion> seen_from_b;
+    if (motion) scratch->motion = &seen_from_b.emplace(motion->swapped());
+    collide(b, pose_b, a, pose_a, threshold, {services.triangles_b, services.triangles_a, scratch}, out);
+    if (motion) scratch->motion = motion;
     flip(out, first);
     return;
   }
@@ -297,6 +315,7 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
   candidates.clear();
   if (const auto* plane = std::get_if<Plane>(&a)) {
     plane_contacts(*plane, pose_a, b, pose_b, threshold, s, candidates);
+    keep_closable(s, candidates);
     // a mesh on a plane keeps all its touching vertices (the lecture's vertex contacts), decomposed
     // or not: 4 of them let the lecture's torus (decomposed when added) land on its rim and roll
     // down the slope instead of lying flat
@@ -324,6 +343,7 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
         if ((ib.ball_centre - ia.ball_centre).norm() <= ia.ball_radius + ib.ball_radius + reach)
           contact_items(ia, ib, threshold, s, candidates);
   }
+  keep_closable(s, candidates);
   finish_manifold(candidates, threshold, pair_scale(a, b), out, s.candidate_index);
 }
 
@@ -336,21 +356,31 @@ void speculative_reach(const Model& model, const State& state, double dt, const 
   }
 }
 
-void keep_reachable(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
-                    std::size_t first, std::vector<Contact>& contacts) {
-  auto moved_by_gravity = [&](int i) { return !model.is_static[i] && !model.is_kinematic[i]; };
-  auto turning = [&](int i) { return model.is_static[i] ? 0.0 : state.omega[i].squaredNorm() * model.rho[i]; };
-  auto unreachable = [&](const Contact& c) {
-    if (c.gap < margin) return false;
-    const int a = c.body_a, b = c.body_b;
-    auto point_velocity = [&](int i) { return Vec3(state.v[i] + state.omega[i].cross(c.point - state.p[i])); };
-    const double approach = std::max(0.0, -c.normal.dot(point_velocity(b) - point_velocity(a)));
-    const Vec3 g_rel = (moved_by_gravity(b) ? gravity : Vec3::Zero()) - (moved_by_gravity(a) ? gravity : Vec3::Zero());
-    const double falling = std::max(0.0, -c.normal.dot(g_rel));
-    return !(c.gap < margin + dt * (approach + dt * (falling + 0.5 * (turning(a) + turning(b)))));
-  };
-  contacts.erase(std::remove_if(contacts.begin() + static_cast<std::ptrdiff_t>(first), contacts.end(), unreachable),
-                 contacts.end());
+PairMotion::PairMotion(const Model& model, const State& state, BodyIndex a, BodyIndex b, double dt_,
+                       const Vec3& gravity, double margin_)
+    : p_a(state.p[a]), v_a(state.v[a]), omega_a(state.omega[a]), p_b(state.p[b]), v_b(state.v[b]),
+      omega_b(state.omega[b]), dt(dt_), margin(margin_) {
+  auto moved_by_gravity = [&](BodyIndex i) { return !model.is_static[i] && !model.is_kinematic[i]; };
+  auto turn = [&](BodyIndex i) { return model.is_static[i] ? 0.0 : state.omega[i].squaredNorm() * model.rho[i]; };
+  g_rel = (moved_by_gravity(b) ? gravity : Vec3::Zero()) - (moved_by_gravity(a) ? gravity : Vec3::Zero());
+  turning = 0.5 * (turn(a) + turn(b));
+}
+
+PairMotion PairMotion::swapped() const {
+  PairMotion m = *this;
+  std::swap(m.p_a, m.p_b);
+  std::swap(m.v_a, m.v_b);
+  std::swap(m.omega_a, m.omega_b);
+  m.g_rel = -g_rel;
+  return m;
+}
+
+bool PairMotion::can_close(const Contact& c) const {
+  if (c.gap < margin) return true;
+  const Vec3 u_a = v_a + omega_a.cross(c.point - p_a), u_b = v_b + omega_b.cross(c.point - p_b);
+  const double approach = std::max(0.0, -c.normal.dot(u_b - u_a));
+  const double falling = std::max(0.0, -c.normal.dot(g_rel));
+  return c.gap < margin + dt * (approach + dt * (falling + turning));
 }
 
 double plane_reach(const Model& model, const State& state, BodyIndex b, const Vec3& n, double dt,
@@ -423,15 +453,17 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
       scratch.past.body_centre = state.p[b];
       scratch.past.body_radius = model.rho[b];
     }
+    const PairMotion motion(model, state, a, b, dt, gravity, margin);
+    scratch.motion = &motion;
     collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
             {broad_phase.triangles(a), broad_phase.triangles(b), &scratch}, contacts);
+    scratch.motion = nullptr;
     if (scratch.past.found >= 0) scratch.crossing_next[b] = {a, scratch.past.found};
     scratch.past = TrianglePast();
     for (std::size_t k = first; k < contacts.size(); ++k) {
       contacts[k].body_a = a;
       contacts[k].body_b = b;
     }
-    keep_reachable(model, state, dt, gravity, margin, first, contacts);
   }
   scratch.body_a = scratch.body_b = -1;
   // keys were written in pair order, parts in order within a pair: sorted (a static-only shape

@@ -407,8 +407,8 @@ def detect_contacts(snapshot, dt):
     skipped; within a pair the
     manifold's points in (feature_a, feature_b) order (plane - mesh: vertex order).  A candidate
     becomes a contact when gap < contact_margin + s_A + s_B (speculative reach
-    ``speculative_reach``; against a plane only the approach counts, ``plane_reach``), and a
-    point of the manifold stays when its pair can close it in this step (``reachable``).
+    ``speculative_reach``; against a plane only the approach counts, ``plane_reach``) that its
+    pair can close in this step (``reachable``); the manifold is chosen among those.
 
     Inputs: snapshot, dt s.
     Output: dict body_a (K,) int64, body_b (K,) int64, point (K, 3) m, normal (K, 3),
@@ -458,7 +458,11 @@ def detect_contacts(snapshot, dt):
                 continue
             y, n, gap, feature_a, feature_b = pair(shape_a, p[a], R[a], shape_b, p[b], R[b], threshold)
 
-            # the pair's manifold: within the threshold, id order, at most 4 points
+            # the points the pair can close in this step, then its manifold among them: within the
+            # threshold, id order, at most 4 points (a far speculative point that the step cannot
+            # close never takes the place of one that holds)
+            keep = reachable(snapshot, dt, margin, a, b, y, n, gap)
+            y, n, gap, feature_a, feature_b = (x[keep] for x in (y, n, gap, feature_a, feature_b))
             if kinds in UNREDUCED:
                 keep = gap < threshold
                 y, n, gap, feature_a, feature_b = (x[keep] for x in (y, n, gap, feature_a, feature_b))
@@ -467,8 +471,6 @@ def detect_contacts(snapshot, dt):
                 L = sum(r for r in map(bounding_radius, (shape_a, shape_b)) if np.isfinite(r))
                 y, n, gap, feature_a, feature_b = select_manifold(y, n, gap, feature_a, feature_b,
                                                                   threshold, L)
-            keep = reachable(snapshot, dt, margin, a, b, y, n, gap)
-            y, n, gap, feature_a, feature_b = (x[keep] for x in (y, n, gap, feature_a, feature_b))
             out["body_a"] += [a] * len(gap)
             out["body_b"] += [b] * len(gap)
             out["point"].append(y)
