@@ -78,6 +78,38 @@ def test_a_spinning_body_keeps_the_oracles_speculative_points():
         assert len(touched - {cap}) <= {1 / 240: 0, 1 / 60: 2}[dt]
 
 
+def test_the_manifold_is_chosen_among_the_points_the_step_can_close():
+    # a flat box (half 6 x 6 x 1 cm) turned 45 degrees about z and tilted 4 degrees about x, its
+    # lowest point 1 mm over a static box's top face, sliding at 5 m/s along x: the body-wide
+    # reach (dt |v| = 2.1 cm at 1/240 s) takes the whole clipped octagon as candidates, but the
+    # pair closes only gravity's dt^2 g = 0.17 mm beyond the 5 mm margin in this step. Reduced
+    # among every candidate (as sg.collide, which knows no motion, does) the octagon's far corners
+    # take two of the four slots and the reachability rule then leaves a line of two points; chosen
+    # among the reachable ones (docs/conventions.md, "Manifolds"), the pair keeps 4 points, all
+    # within the margin, spanning an area; the core keeps exactly the oracle's points
+    theta, margin, dt = np.radians(4.0), 0.005, 1 / 240
+    tilt = (np.cos(theta / 2), np.sin(theta / 2), 0.0, 0.0)
+    turn = (np.cos(np.pi / 8), 0.0, 0.0, np.sin(np.pi / 8))
+    q = tuple(oracle.matrix_to_quat(oracle.quat_to_matrix(tilt) @ oracle.quat_to_matrix(turn)))
+    z = 0.05 + 0.01 / np.cos(theta) + 0.05 * np.sin(theta) + 0.001
+    world = sg.World(gravity=(0.0, 0.0, -9.81), contact_margin=margin)
+    world.add_static(sg.Box((0.05, 0.05, 0.05)))
+    world.add_body(sg.Box((0.06, 0.06, 0.01)), density=500.0, position=(0.0, 0.0, z), orientation=q,
+                   velocity=(5.0, 0.0, 0.0))
+    core = world.detect_contacts(dt)
+    expected = oracle.detect_contacts(world.snapshot(), dt)
+    assert np.allclose(core.gap, expected["gap"], rtol=0, atol=1e-12)
+    for key in ("feature_a", "feature_b"):
+        assert np.array_equal(getattr(core, key), np.asarray(expected[key], dtype=np.uint64)), key
+    assert len(core) == 4 and np.all(core.gap < margin)
+    y = core.point - core.point.mean(axis=0)
+    assert np.linalg.svd(y, compute_uv=False)[1] > 0.01  # not on a line: two spans over 1 cm
+    threshold = margin + dt * (5.0 + dt * 9.81)  # the broad reach s_B of the pair
+    everything = sg.collide(sg.Box((0.05, 0.05, 0.05)), ((0, 0, 0), (1, 0, 0, 0)), sg.Box((0.06, 0.06, 0.01)),
+                            ((0.0, 0.0, z), q), margin=threshold)
+    assert len(everything) == 4 and np.sum(everything.gap >= margin + dt * dt * 9.81) == 2
+
+
 def test_pgs_reaches_the_exact_lcp_solution():
     # a ball on the plane with a second ball landing on it off-centre: a coupled 2-contact LCP with
     # a positive definite Delassus matrix, so its solution is unique and PGS must converge to it
