@@ -416,6 +416,30 @@ def test_reduction_of_collinear_points_keeps_the_two_ends():
     np.testing.assert_array_equal(kept, [1, 4])
 
 
+def test_reduction_ranks_by_the_end_gap_so_a_ring_landing_tilted_keeps_its_side_coming_down():
+    # a ring of 8 points (radius 1, z = 0, normal +z) landing tilted: the half with x < 0 touches
+    # (gap 0, at rest: end gap 0), the half with x > 0 hovers 2 mm up and comes down 3 mm in the
+    # step (end gap -1 mm). Ranked by the gap, all 4 points are of the half already down, and the
+    # ring beyond the edge x = 0 of their polygon has none; ranked by the end gap, p1 is the first
+    # of the side coming down, every point touches by the end of the step, and the 4 are a diameter
+    # and the one perpendicular to it: the inscribed square, area 2
+    phi = (np.arange(8) + 0.5) * np.pi / 4
+    y = np.c_[np.cos(phi), np.sin(phi), np.zeros(8)]
+    down = y[:, 0] < 0
+    gap = np.where(down, 0.0, 0.002)
+    end = np.where(down, 0.0, -0.001)
+    n = np.tile([0.0, 0.0, 1.0], (8, 1))
+    by_gap = o.reduce_manifold(y, gap, n, 1.0)
+    assert len(by_gap) == 4 and np.all(down[by_gap])
+    assert np.array_equal(o.reduce_manifold(y, gap, n, 1.0, gap), by_gap)  # end gap = gap: the same
+    kept = o.reduce_manifold(y, gap, n, 1.0, end)
+    # p1 = point 0 (the first of the least end gap), p2 its antipode 4, then 2 and 6
+    np.testing.assert_array_equal(kept, [0, 2, 4, 6])
+    q = y[kept, :2]
+    area = 0.5 * np.sum(q[:, 0] * np.roll(q[:, 1], -1) - q[:, 1] * np.roll(q[:, 0], -1))
+    assert area == pytest.approx(2.0, rel=1e-12)
+
+
 # --------------------------------------------------------------------------- round shapes
 
 def test_sphere_against_capsule_side_and_ends():

@@ -189,11 +189,12 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
 double pair_scale(const Shape& a, const Shape& b);
 
 /// Candidates -> manifold (docs/conventions.md, "Manifolds"): drops gap >= threshold, sorts by
-/// (feature_a, feature_b), drops duplicates within 1e-9 L, reduces more than 4 to 4 by area
-/// (unless reduce is false: a plane against a mesh keeps every vertex, as the lecture does).
-/// The result is appended to out; index is scratch (the candidates' indices while the rules run).
+/// (feature_a, feature_b), drops duplicates within 1e-9 L, reduces more than 4 to 4 by area,
+/// ranking the points by the gap they close to in the step (PairMotion::end_gap; collide() gives
+/// the motion against a plane only) or, without a motion, by their gaps. The result is appended to out; index is scratch (the candidates' indices
+/// while the rules run).
 void finish_manifold(std::vector<Contact>& candidates, double threshold, double L, std::vector<Contact>& out,
-                     std::vector<int>& index, bool reduce = true);
+                     std::vector<int>& index, const PairMotion* motion = nullptr);
 
 // ---- pair tests (append candidates in world frame, normal A -> B) ----
 
@@ -338,6 +339,9 @@ struct PairMotion {
   PairMotion swapped() const;
   /// True if the pair can close c (normal A -> B, world frame) in this step.
   bool can_close(const Contact& c) const;
+  /// The gap of c at the end of the step if the point moves on at its velocity after gravity's
+  /// kick: gap + dt n . (v_B(y) - v_A(y) + dt g_rel) (m), y = c.point (the manifold's ranking).
+  double end_gap(const Contact& c) const;
 
   Vec3 p_a, v_a, omega_a, p_b, v_b, omega_b;  ///< centres (m), velocities (m/s), spins (rad/s)
   Vec3 g_rel = Vec3::Zero();  ///< g_B - g_A (m/s^2)

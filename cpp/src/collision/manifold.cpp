@@ -22,13 +22,13 @@ std::size_t first_best(const std::vector<Contact>& c, const std::vector<int>& in
   return 0;
 }
 
-/// first_best among the touching candidates (gap <= touch) if the best of them scores above
+/// first_best among the touching candidates (end gap <= touch) if the best of them scores above
 /// `floor`, else among all.
-template <class Score>
-std::size_t touching_first(const std::vector<Contact>& c, const std::vector<int>& index, double touch, double tol,
-                           double floor, Score score) {
+template <class EndGap, class Score>
+std::size_t touching_first(const std::vector<Contact>& c, const std::vector<int>& index, EndGap end_gap, double touch,
+                           double tol, double floor, Score score) {
   const auto among_touching = [&](const Contact& x) {
-    return x.gap <= touch ? score(x) : -std::numeric_limits<double>::infinity();
+    return end_gap(x) <= touch ? score(x) : -std::numeric_limits<double>::infinity();
   };
   const std::size_t j = first_best(c, index, tol, among_touching);
   return among_touching(c[index[j]]) > floor ? j : first_best(c, index, tol, score);
@@ -37,7 +37,7 @@ std::size_t touching_first(const std::vector<Contact>& c, const std::vector<int>
 }  // namespace
 
 void finish_manifold(std::vector<Contact>& c, double threshold, double L, std::vector<Contact>& out,
-                     std::vector<int>& index, bool reduce) {
+                     std::vector<int>& index, const PairMotion* motion) {
   // the candidates stay where they are: the rules below run on their indices (a Contact is large
   // to move), and only the kept ones are copied out
   index.clear();
@@ -66,23 +66,27 @@ void finish_manifold(std::vector<Contact>& c, double threshold, double L, std::v
     if (!duplicate) index[kept++] = index[k];
   }
   index.resize(kept);
-  if (index.size() <= 4 || !reduce) {
+  if (index.size() <= 4) {
     for (const int k : index) out.push_back(c[k]);
     return;
   }
-  // reduction to 4: deepest, farthest from it, largest triangle, largest added area, each taken
-  // from the touching points (gap <= max(deepest gap, 0) + tol) while they offer one: a torus
-  // resting on its bottom ring would otherwise get the farther points of the rings beside it,
-  // hovering within the margin, and stand on one point
-  const std::size_t i1 = first_best(c, index, tol, [](const Contact& x) { return -x.gap; });
+  // reduction to 4, the points ranked by their end gaps (the gaps they close to in the step at
+  // their velocities; without a motion, their gaps): deepest, farthest from it, largest triangle,
+  // largest added area, each taken from the touching points (end gap <= max(deepest end gap, 0) +
+  // tol) while they offer one. By gaps, a torus resting on its bottom ring would otherwise get the
+  // farther points of the rings beside it, hovering within the margin, and stand on one point; by
+  // end gaps, a torus landing tilted gets the points of the side coming down, which the step
+  // closes, and does not vault over the edge between 4 points of the side already down
+  const auto end_gap = [motion](const Contact& x) { return motion ? motion->end_gap(x) : x.gap; };
+  const std::size_t i1 = first_best(c, index, tol, [&](const Contact& x) { return -end_gap(x); });
   const Vec3 p1 = c[index[i1]].point, n = c[index[i1]].normal;
-  const double touch = std::max(c[index[i1]].gap, 0.0) + tol;
-  const std::size_t i2 =
-      touching_first(c, index, touch, tol2, tol * tol, [&](const Contact& x) { return (x.point - p1).squaredNorm(); });
+  const double touch = std::max(end_gap(c[index[i1]]), 0.0) + tol;
+  const std::size_t i2 = touching_first(c, index, end_gap, touch, tol2, tol * tol,
+                                        [&](const Contact& x) { return (x.point - p1).squaredNorm(); });
   Vec3 p2 = c[index[i2]].point;
   auto area = [&n](const Vec3& a, const Vec3& b, const Vec3& q) { return 0.5 * (b - a).cross(q - a).dot(n); };
   std::size_t i3 =
-      touching_first(c, index, touch, tol2, tol2, [&](const Contact& x) { return std::abs(area(p1, p2, x.point)); });
+      touching_first(c, index, end_gap, touch, tol2, tol2, [&](const Contact& x) { return std::abs(area(p1, p2, x.point)); });
   if (!(std::abs(area(p1, p2, c[index[i3]].point)) > tol2)) {
     // all on one line: its two ends are the manifold
     out.push_back(c[index[std::min(i1, i2)]]);
@@ -96,7 +100,7 @@ void finish_manifold(std::vector<Contact>& c, double threshold, double L, std::v
   auto added = [&](const Contact& x) {
     return std::max({-area(p1, p2, x.point), -area(p2, p3, x.point), -area(p3, p1, x.point)});
   };
-  const std::size_t i4 = touching_first(c, index, touch, tol2, tol2, added);
+  const std::size_t i4 = touching_first(c, index, end_gap, touch, tol2, tol2, added);
   int count = 3;
   if (added(c[index[i4]]) > tol2) pick[count++] = i4;
   std::sort(pick.begin(), pick.begin() + count);

@@ -11,7 +11,7 @@ A contact is (body_a, body_b, point y, normal n, gap, feature_a, feature_b), wor
 Dispatch table (plane is always A; other pairs have A = lower body index), features (A, B):
     plane    - sphere   : the sphere's lowest point                       (face 0, shape 0)
     plane    - box      : the 8 corners, corner order k = 0..7            (face 0, vertex k)
-    plane    - mesh     : every vertex, vertex order, never reduced       (face 0, vertex i)
+    plane    - mesh     : every vertex, vertex order                      (face 0, vertex i)
     plane    - capsule  : both segment ends as spheres                    (face 0, vertex 0 / 1)
     plane    - cylinder : 16 rim points and the deepest rim point per cap (face 0, vertex 8 s + k
                           / edge s)
@@ -22,9 +22,9 @@ Dispatch table (plane is always A; other pairs have A = lower body index), featu
     box      - box      : separating axes and face clipping (``manifold.contact_box_box``)
     anything else       : NotImplementedError when the bounding spheres are within reach
                           (the core uses FCL there; the oracle does not), skipped when not.
-Each pair's candidates become its manifold by ``manifold.select_manifold`` (gap < threshold,
-id order, duplicates dropped, at most 4 points), except plane - mesh, which keeps every vertex
-within the threshold in vertex order (the lecture's vertex contacts).
+Each pair's candidates the pair can close in the step (``reachable``) become its manifold by
+``manifold.select_manifold`` (gap < threshold, id order, duplicates dropped, at most 4 points;
+against a plane ranked by the gaps they close to in the step, ``end_gap``), a mesh on a plane too.
 """
 
 import numpy as np
@@ -127,6 +127,32 @@ def reachable(snapshot, dt, margin, a, b, y, n, gap):
     falling = np.maximum(0.0, -(n @ (gravity_of(b) - gravity_of(a))))
     reach = dt * (approach + dt * (falling + 0.5 * (turning(a) + turning(b))))
     return gap < margin + reach  # reach >= 0: every point within the margin stays
+
+
+def end_gap(snapshot, dt, a, b, y, n, gap):
+    """The gaps the points of the pair (a, b) close to in this step if each moves on at its
+    velocity after gravity's kick, (K,) m: gap + dt n . (v_b(y) - v_a(y) + dt (g_b - g_a)), with
+    v_i(y) = v_i + omega_i x (y - p_i) and g_i = gravity for a body gravity moves, else 0 (the
+    ranking of the manifold's reduction to 4, ``manifold.reduce_manifold``).
+
+    Inputs: snapshot, dt s, bodies a, b, y (K, 3) m, n (K, 3) from a to b, gap (K,) m.
+    """
+    static, _, _, _ = body_arrays(snapshot)
+    kinematic, _ = motion_flags(snapshot)
+    p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
+    v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
+    omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
+    g = np.asarray(snapshot["gravity"], dtype=float)
+    y, n = np.asarray(y, dtype=float).reshape(-1, 3), np.asarray(n, dtype=float).reshape(-1, 3)
+
+    def point_velocity(i):
+        return v[i] + np.cross(omega[i], y - p[i])
+
+    def gravity_of(i):
+        return g if not (static[i] or kinematic[i]) else np.zeros(3)
+
+    relative = point_velocity(b) - point_velocity(a) + dt * (gravity_of(b) - gravity_of(a))
+    return np.asarray(gap, dtype=float) + dt * np.einsum("kj,kj->k", n, relative)
 
 
 def box_corners(half_extents):
@@ -377,11 +403,6 @@ PAIRS = {
     ("box", "box"): _pair_box_box,
 }
 
-# pairs whose candidates are all kept (gap < threshold, their own order) instead of a manifold:
-# the lecture's vertex contacts of a mesh on a plane, decomposed or not
-UNREDUCED = {("plane", "mesh")}
-
-
 def pair_filter(snapshot):
     """A function (i, j) -> bool: may bodies i and j touch? Both enabled, not both of infinite
     mass (static or kinematic: inv_mass 0), their filter bits matching as in Box2D,
@@ -405,7 +426,7 @@ def detect_contacts(snapshot, dt):
 
     Pairs (i, j), i < j, lexicographic; static-static pairs and those ``pair_filter`` refuses
     skipped; within a pair the
-    manifold's points in (feature_a, feature_b) order (plane - mesh: vertex order).  A candidate
+    manifold's points in (feature_a, feature_b) order.  A candidate
     becomes a contact when gap < contact_margin + s_A + s_B (speculative reach
     ``speculative_reach``; against a plane only the approach counts, ``plane_reach``) that its
     pair can close in this step (``reachable``); the manifold is chosen among those.
@@ -463,14 +484,12 @@ def detect_contacts(snapshot, dt):
             # close never takes the place of one that holds)
             keep = reachable(snapshot, dt, margin, a, b, y, n, gap)
             y, n, gap, feature_a, feature_b = (x[keep] for x in (y, n, gap, feature_a, feature_b))
-            if kinds in UNREDUCED:
-                keep = gap < threshold
-                y, n, gap, feature_a, feature_b = (x[keep] for x in (y, n, gap, feature_a, feature_b))
-            else:
-                # L: the pair's length scale, the sum of its bounded shapes' bounding radii
-                L = sum(r for r in map(bounding_radius, (shape_a, shape_b)) if np.isfinite(r))
-                y, n, gap, feature_a, feature_b = select_manifold(y, n, gap, feature_a, feature_b,
-                                                                  threshold, L)
+            # L: the pair's length scale, the sum of its bounded shapes' bounding radii; against a
+            # plane the points are ranked by the gaps they close to in the step, else by their gaps
+            L = sum(r for r in map(bounding_radius, (shape_a, shape_b)) if np.isfinite(r))
+            ranking = end_gap(snapshot, dt, a, b, y, n, gap) if kinds[0] == "plane" else None
+            y, n, gap, feature_a, feature_b = select_manifold(y, n, gap, feature_a, feature_b, threshold, L,
+                                                              ranking)
             out["body_a"] += [a] * len(gap)
             out["body_b"] += [b] * len(gap)
             out["point"].append(y)

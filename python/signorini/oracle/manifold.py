@@ -149,31 +149,34 @@ def signed_area(a, b, q, n):
     return np.cross(b - a, q - a) @ n / 2.0
 
 
-def reduce_manifold(y, gap, n, L):
+def reduce_manifold(y, gap, n, L, end_gap=None):
     """Choose at most 4 of K > 4 candidate points of one manifold (docs, "Manifolds").
 
     Inputs: y (K, 3) world points in id order, gap (K,) m, n (K, 3) their normals (A to B),
-            L m the pair's length scale.
+            L m the pair's length scale, end_gap (K,) m the gaps the points close to in the step
+            (``end_gap`` in contacts.py; None: gap, as without a motion).
     Output: the indices (ascending, i.e. id order) of the kept points, 2 to 4 of them.
-    A tie (within 1e-9 L for lengths, 1e-9 L^2 for areas, of the extreme value) goes to the
-    first candidate in id order. p2 to p4 are chosen among the touching points (gap <=
-    max(gap of p1, 0) + 1e-9 L) while the best of them scores above the tolerance, else among all:
-        p1 the deepest (least gap); p2 the farthest from p1;
+    The points are ranked by e = end_gap. A tie (within 1e-9 L for lengths, 1e-9 L^2 for areas,
+    of the extreme value) goes to the first candidate in id order. p2 to p4 are chosen among the
+    touching points (e <= max(e of p1, 0) + 1e-9 L) while the best of them scores above the
+    tolerance, else among all:
+        p1 the deepest (least e); p2 the farthest from p1;
         p3 the largest |area(p1, p2, q)| with n = the normal at p1; if that is <= 1e-9 L^2 (all
            on a line) the manifold is p1 and p2; p2 and p3 are swapped if area(p1, p2, p3) < 0;
         p4 the largest max(-area(p1, p2, q), -area(p2, p3, q), -area(p3, p1, q)),
            kept only if that exceeds 1e-9 L^2.
     """
     y, gap = np.asarray(y, dtype=float), np.asarray(gap, dtype=float)
+    e = gap if end_gap is None else np.asarray(end_gap, dtype=float)
     tol_length, tol_area = 1e-9 * L, 1e-9 * L * L
     taken = np.zeros(len(gap), dtype=bool)
 
     # 1. the deepest point; its normal orients the areas
-    p1 = _first_within(gap, gap.min(), tol_length, largest=False)
+    p1 = _first_within(e, e.min(), tol_length, largest=False)
     taken[p1] = True
     n = np.asarray(n, dtype=float).reshape(-1, 3)[p1]
     # the touching points, from which 2. to 4. choose while they offer one above the tolerance
-    touching = gap <= max(gap[p1], 0.0) + tol_length
+    touching = e <= max(e[p1], 0.0) + tol_length
 
     def choose(score, tol):
         among = np.where(touching, score, -np.inf)
@@ -204,12 +207,12 @@ def reduce_manifold(y, gap, n, L):
     return np.array(sorted(kept), dtype=np.int64)
 
 
-def select_manifold(y, n, gap, feature_a, feature_b, threshold, L):
+def select_manifold(y, n, gap, feature_a, feature_b, threshold, L, end_gap=None):
     """The contact points of one body pair from its candidates (docs, "Manifolds").
 
     Inputs: y (K, 3) m, n (K, 3), gap (K,) m, feature_a, feature_b (K,) ids, all world frame;
             threshold m (margin + speculative reach); L m (sum of the bounding radii of the
-            pair's bounded shapes).
+            pair's bounded shapes); end_gap (K,) m or None, the ranking of ``reduce_manifold``.
     Output: (y, n, gap, feature_a, feature_b) of the kept points, at most 4, in increasing
             (feature_a, feature_b) order: candidates with gap < threshold, exact duplicates (y
             within 1e-9 L of an earlier candidate in id order) dropped, more than 4 reduced by
@@ -220,22 +223,23 @@ def select_manifold(y, n, gap, feature_a, feature_b, threshold, L):
     gap = np.asarray(gap, dtype=float).reshape(-1)
     feature_a = np.asarray(feature_a, dtype=np.uint64).reshape(-1)
     feature_b = np.asarray(feature_b, dtype=np.uint64).reshape(-1)
+    e = gap if end_gap is None else np.asarray(end_gap, dtype=float).reshape(-1)
 
     # within the threshold, in id order
     keep = gap < threshold
     order = np.flatnonzero(keep)[np.lexsort((feature_b[keep], feature_a[keep]))]
-    y, n, gap, feature_a, feature_b = (x[order] for x in (y, n, gap, feature_a, feature_b))
+    y, n, gap, feature_a, feature_b, e = (x[order] for x in (y, n, gap, feature_a, feature_b, e))
 
     # exact duplicates of an earlier candidate are dropped
     unique = np.ones(len(gap), dtype=bool)
     for i in range(1, len(gap)):
         if np.any(np.linalg.norm(y[:i] - y[i], axis=1) <= 1e-9 * L):
             unique[i] = False
-    y, n, gap, feature_a, feature_b = (x[unique] for x in (y, n, gap, feature_a, feature_b))
+    y, n, gap, feature_a, feature_b, e = (x[unique] for x in (y, n, gap, feature_a, feature_b, e))
 
     # more than 4: reduce
     if len(gap) > 4:
-        kept = reduce_manifold(y, gap, n, L)
+        kept = reduce_manifold(y, gap, n, L, e)
         y, n, gap, feature_a, feature_b = (x[kept] for x in (y, n, gap, feature_a, feature_b))
     return y, n, gap, feature_a, feature_b
 
