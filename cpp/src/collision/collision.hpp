@@ -342,6 +342,8 @@ struct PairMotion {
   /// The gap of c at the end of the step if the point moves on at its velocity after gravity's
   /// kick: gap + dt n . (v_B(y) - v_A(y) + dt g_rel) (m), y = c.point (the manifold's ranking).
   double end_gap(const Contact& c) const;
+  /// v_B(y) - v_A(y), the velocity of B's point y relative to A's (world, m/s).
+  Vec3 relative_velocity(const Vec3& y) const;
 
   Vec3 p_a, v_a, omega_a, p_b, v_b, omega_b;  ///< centres (m), velocities (m/s), spins (rad/s)
   Vec3 g_rel = Vec3::Zero();  ///< g_B - g_A (m/s^2)

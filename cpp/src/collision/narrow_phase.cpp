@@ -374,17 +374,19 @@ PairMotion PairMotion::swapped() const {
   return m;
 }
 
+Vec3 PairMotion::relative_velocity(const Vec3& y) const {
+  return (v_b + omega_b.cross(y - p_b)) - (v_a + omega_a.cross(y - p_a));
+}
+
 bool PairMotion::can_close(const Contact& c) const {
   if (c.gap < margin) return true;
-  const Vec3 u_a = v_a + omega_a.cross(c.point - p_a), u_b = v_b + omega_b.cross(c.point - p_b);
-  const double approach = std::max(0.0, -c.normal.dot(u_b - u_a));
+  const double approach = std::max(0.0, -c.normal.dot(relative_velocity(c.point)));
   const double falling = std::max(0.0, -c.normal.dot(g_rel));
   return c.gap < margin + dt * (approach + dt * (falling + turning));
 }
 
 double PairMotion::end_gap(const Contact& c) const {
-  const Vec3 u_a = v_a + omega_a.cross(c.point - p_a), u_b = v_b + omega_b.cross(c.point - p_b);
-  return c.gap + dt * c.normal.dot(u_b - u_a + dt * g_rel);
+  return c.gap + dt * c.normal.dot(relative_velocity(c.point) + dt * g_rel);
 }
 
 double plane_reach(const Model& model, const State& state, BodyIndex b, const Vec3& n, double dt,

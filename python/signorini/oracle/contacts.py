@@ -97,6 +97,26 @@ def plane_reach(snapshot, b, n, dt):
                  + np.linalg.norm(omega) * bounding_radius(body["shape"]))
 
 
+def _relative_motion(snapshot, a, b, y):
+    """The motion of the pair (a, b) at the points y (K, 3) m: v_b(y) - v_a(y) (K, 3) m/s, with
+    v_i(y) = v_i + omega_i x (y - p_i), and g_b - g_a (3,) m/s^2, g_i = gravity for a body gravity
+    moves, else 0."""
+    static, _, _, _ = body_arrays(snapshot)
+    kinematic, _ = motion_flags(snapshot)
+    p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
+    v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
+    omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
+    g = np.asarray(snapshot["gravity"], dtype=float)
+
+    def point_velocity(i):
+        return v[i] + np.cross(omega[i], y - p[i])
+
+    def gravity_of(i):
+        return g if not (static[i] or kinematic[i]) else np.zeros(3)
+
+    return point_velocity(b) - point_velocity(a), gravity_of(b) - gravity_of(a)
+
+
 def reachable(snapshot, dt, margin, a, b, y, n, gap):
     """Which points of the pair (a, b)'s manifold it can close in this step (K,) bool: gap < margin,
     or gap < margin + dt (u + dt (g_n + (|omega_a|^2 rho_a + |omega_b|^2 rho_b) / 2)) with
@@ -107,24 +127,15 @@ def reachable(snapshot, dt, margin, a, b, y, n, gap):
     Inputs: snapshot, dt s, margin m, bodies a, b, y (K, 3) m, n (K, 3) from a to b, gap (K,) m.
     """
     static, _, _, _ = body_arrays(snapshot)
-    kinematic, _ = motion_flags(snapshot)
-    p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
-    v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
     omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
-    g = np.asarray(snapshot["gravity"], dtype=float)
     bodies = snapshot["bodies"]
-
-    def point_velocity(i):
-        return v[i] + np.cross(omega[i], y - p[i])
-
-    def gravity_of(i):
-        return g if not (static[i] or kinematic[i]) else np.zeros(3)
 
     def turning(i):
         return 0.0 if static[i] else float(omega[i] @ omega[i]) * bounding_radius(bodies[i]["shape"])
 
-    approach = np.maximum(0.0, -np.einsum("kj,kj->k", n, point_velocity(b) - point_velocity(a)))
-    falling = np.maximum(0.0, -(n @ (gravity_of(b) - gravity_of(a))))
+    relative, g_rel = _relative_motion(snapshot, a, b, y)
+    approach = np.maximum(0.0, -np.einsum("kj,kj->k", n, relative))
+    falling = np.maximum(0.0, -(n @ g_rel))
     reach = dt * (approach + dt * (falling + 0.5 * (turning(a) + turning(b))))
     return gap < margin + reach  # reach >= 0: every point within the margin stays
 
@@ -137,22 +148,9 @@ def end_gap(snapshot, dt, a, b, y, n, gap):
 
     Inputs: snapshot, dt s, bodies a, b, y (K, 3) m, n (K, 3) from a to b, gap (K,) m.
     """
-    static, _, _, _ = body_arrays(snapshot)
-    kinematic, _ = motion_flags(snapshot)
-    p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
-    v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
-    omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
-    g = np.asarray(snapshot["gravity"], dtype=float)
     y, n = np.asarray(y, dtype=float).reshape(-1, 3), np.asarray(n, dtype=float).reshape(-1, 3)
-
-    def point_velocity(i):
-        return v[i] + np.cross(omega[i], y - p[i])
-
-    def gravity_of(i):
-        return g if not (static[i] or kinematic[i]) else np.zeros(3)
-
-    relative = point_velocity(b) - point_velocity(a) + dt * (gravity_of(b) - gravity_of(a))
-    return np.asarray(gap, dtype=float) + dt * np.einsum("kj,kj->k", n, relative)
+    relative, g_rel = _relative_motion(snapshot, a, b, y)
+    return np.asarray(gap, dtype=float) + dt * np.einsum("kj,kj->k", n, relative + dt * g_rel)
 
 
 def box_corners(half_extents):
