@@ -289,13 +289,37 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
     } else if (b.polytope) {
       triangle_polytope_of(mesh, t, tri);
       const std::size_t first = out.size();
-      triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, b.pose, b.part, threshold,
-                        *scratch.polytope, out);
-      without_ghosts(mesh, t, pa, first, out, [&](std::vector<Contact>& o) {
-        triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, b.pose, b.part, threshold,
-                          *scratch.polytope, o, true);
-      });
-      keep_front(mesh, t, pa, first, out);
+      const Vec3 n_t = pa.R * mesh.normals[t];
+      const double tiny = 1e-9 * (radius + radius_of_triangle(tri));
+      auto contacts_at = [&](const Pose& pose) {
+        triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, pose, b.part, threshold,
+                          *scratch.polytope, out);
+        without_ghosts(mesh, t, pa, first, out, [&](std::vector<Contact>& o) {
+          triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, pose, b.part, threshold,
+                            *scratch.polytope, o, true);
+        });
+        const bool touching_behind = std::any_of(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
+                                                 [&](const Contact& c) {
+                                                   return std::abs(c.gap) <= tiny && !(c.normal.dot(n_t) > 0.0);
+                                                 });
+        keep_front(mesh, t, pa, first, out);
+        return touching_behind;
+      };
+      if (contacts_at(b.pose) && out.size() == first) {
+        // touching at a vertex or an edge the normal is not unique, and the separating axis may
+        // be one pointing behind the triangle (keep_front drops it), as for cylinders below: B
+        // raised off the triangle by a hair has a unique normal, one of the touching pair's too;
+        // the gaps are less the raise along it (1e-9 L first; then 1e-8 L and 1e-7 L)
+        for (double hair = tiny; hair <= 1.01e2 * tiny && out.size() == first; hair *= 10.0) {
+          Pose raised = b.pose;
+          raised.p += hair * n_t;
+          contacts_at(raised);
+          for (std::size_t k = first; k < out.size(); ++k) {
+            out[k].gap -= hair * out[k].normal.dot(n_t);
+            out[k].point -= 0.5 * hair * n_t;
+          }
+        }
+      }
     } else if (const Sphere* s = b.sphere) {
       triangle_sphere(mesh, t, pa, centre, s->radius, b.part, out);
     } else if (const Capsule* cap = b.capsule) {
