@@ -86,6 +86,19 @@ def reference_check(f, sa, sb, d, delta):
     f["ref_bad"] += abs(g - delta) > EXACT or sep > delta + EXACT
 
 
+def timed_collide(f, shape_a, pose_a, shape_b, pose_b):
+    """sg.collide of the pair, its time added to f["t"] and the pair counted in f (f["none"] when
+    it has no contact: then None is returned, else the contacts)."""
+    t0 = time.perf_counter()
+    c = sg.collide(shape_a, pose_a, shape_b, pose_b, margin=MARGIN)
+    f["t"] += time.perf_counter() - t0
+    f["pairs"] += 1
+    if len(c) == 0:
+        f["none"] += 1
+        return None
+    return c
+
+
 def item_tol(a, b):
     """test_table_slots.support_tol: 1e-9 m + GJK/EPA's 1e-9 L (a flat bound for reporting)."""
     return EXACT + 1e-9 * (a.body.radius() + b.body.radius())
@@ -99,12 +112,8 @@ def run_items(kind, n, oracle_every):
         if k % oracle_every == 0:
             reference_check(f, a.support_fn(), b.support_fn(), d, delta)
         first, second, n_ref = (a, b, d) if k % 2 == 0 else (b, a, -d)
-        t0 = time.perf_counter()
-        c = sg.collide(first.body.shape, first.pose, second.body.shape, second.pose, margin=MARGIN)
-        f["t"] += time.perf_counter() - t0
-        f["pairs"] += 1
-        if len(c) == 0:
-            f["none"] += 1
+        c = timed_collide(f, first.body.shape, first.pose, second.body.shape, second.pose)
+        if c is None:
             continue
         i = int(np.argmin(c.gap))
         g, nrm = float(c.gap[i]), c.normal[i]
@@ -142,10 +151,9 @@ def run_plane(n, oracle_every):
         t = rng.normal(size=3)
         b = Placed(body, offset * nn + (t - (t @ nn) * nn) + delta * nn - R @ x, R)
         plane = sg.Plane(nn, offset)
-        t0 = time.perf_counter()
-        c = sg.collide(plane, ((0, 0, 0), IDENTITY), body.shape, b.pose, margin=MARGIN)
-        f["t"] += time.perf_counter() - t0
-        f["pairs"] += 1
+        c = timed_collide(f, plane, ((0, 0, 0), IDENTITY), body.shape, b.pose)
+        if c is None:
+            continue
         i = int(np.argmin(c.gap))
         err = abs(float(c.gap[i]) - delta)
         f["gap"] = max(f["gap"], err)
@@ -172,13 +180,8 @@ def run_triangle(n, oracle_every):
         V, n_t, b, d, delta, rho, regime, face = made
         if k % oracle_every == 0:
             reference_check(f, osup.support_hull(V, np.zeros(3), np.eye(3)), b.support_fn(), d, delta)
-        t0 = time.perf_counter()
-        c = sg.collide(sg.TriangleMesh(V, np.array([[0, 1, 2]])), ((0, 0, 0), IDENTITY), b.body.shape, b.pose,
-                       margin=MARGIN)
-        f["t"] += time.perf_counter() - t0
-        f["pairs"] += 1
-        if len(c) == 0:
-            f["none"] += 1
+        c = timed_collide(f, sg.TriangleMesh(V, np.array([[0, 1, 2]])), ((0, 0, 0), IDENTITY), b.body.shape, b.pose)
+        if c is None:
             continue
         i = int(np.argmin(c.gap))
         err = abs(float(c.gap[i]) - delta)
