@@ -96,23 +96,24 @@ PairResult time_pair(const PairCase& c, std::uint64_t seed) {
   std::vector<Contact> out;
   out.reserve(64);
   std::size_t contacts = 0, calls = 0, fewest = static_cast<std::size_t>(-1);
-  // the cache as detect_contacts keeps it for the pair of bodies 0 and 1: this detection's entries
-  // are written to separating_next, and the last warm-up call's become the entries looked up
-  // One scratch for every call, as World::step keeps one: without it collide() makes a Scratch
-  // per call (about 2 us for the cylinder pairs), which a world never pays. Bodies -1 (unknown)
-  // unless the row measures the cache
+  // the cache as generate_contacts keeps it for the pair of bodies 0 and 1: this detection's
+  // entries are written to next, and the last warm-up call's become the entries looked up.
+  // One scratch for every call, as World::step keeps one (collide() without one makes its own).
+  // Bodies -1 (unknown) unless the row measures the cache
   collision::Scratch scratch;
+  collision::SeparatingCache cache;
   collision::Services services = c.services;
   services.scratch = &scratch;
-  if (c.cached) scratch.body_a = 0, scratch.body_b = 1;
+  collision::PairContext pair;
+  if (c.cached) pair.body_a = 0, pair.body_b = 1, pair.separating = &cache;
   // warm-up (the scratch's buffers grow, caches), and the contact counts of every pose
   for (int k = 0; k < kPoses; ++k) {
     out.clear();
-    scratch.separating_next.clear();
-    collision::collide(c.a, pa[k], c.b, pb[k], kThreshold, services, out);
+    cache.next.clear();
+    collision::collide(c.a, pa[k], c.b, pb[k], kThreshold, services, out, pair);
     fewest = std::min(fewest, out.size());
   }
-  std::swap(scratch.separating, scratch.separating_next);
+  std::swap(cache.last, cache.next);
   std::vector<double> means;
   for (int r = 0; r < kRepetitions; ++r) {
     std::size_t n = 0;
@@ -122,8 +123,8 @@ PairResult time_pair(const PairCase& c, std::uint64_t seed) {
       for (int k = 0; k < 64; ++k, ++n) {
         const int i = static_cast<int>(n % kPoses);
         out.clear();
-        scratch.separating_next.clear();
-        collision::collide(c.a, pa[i], c.b, pb[i], kThreshold, services, out);
+        cache.next.clear();
+        collision::collide(c.a, pa[i], c.b, pb[i], kThreshold, services, out, pair);
         contacts += out.size();
       }
       elapsed = std::chrono::duration<double>(Clock::now() - start).count();

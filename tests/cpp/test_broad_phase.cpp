@@ -284,26 +284,29 @@ TEST(Resting, BoxOnATriangleMeshFloorKeepsFourContactsWithTheSameIds) {
 // ---- the separating-face cache ----------------------------------------------------------------
 
 TEST(SeparatingFaceCache, DetectionWithTheCacheIsBitIdenticalToDetectionWithout) {
-  // 60 steps of a drifting crowd of boxes and hulls: contacts detected with the World's scratch
-  // (whose cache carries each pair's separating face from step to step) against a fresh scratch
+  // 60 steps of a drifting crowd of boxes and hulls: contacts detected with a kept contact memory
+  // (whose cache carries each pair's separating face from step to step) against a fresh memory
   // every step (no cache), bit for bit; and the cache must have been used
   const double dt = 1.0 / 240.0, margin = 0.005, side = 2.5;
   const Vec3 gravity(0, 0, -9.81);
   scenes::Scene scene = scenes::random_scene(5, 120, scenes::Mix::AllConvex, side, 0.1, 0.4, 1.0, 3.0, 0.1);
   collision::BroadPhase broad_phase;
   scenes::register_bodies(scene, broad_phase);
-  collision::Scratch kept;
+  collision::Scratch scratch;
+  collision::ContactMemory kept;
   std::size_t hits_possible = 0, compared = 0;
   for (int step = 0; step < 60; ++step) {
     std::vector<Contact> with_cache, without;
-    collision::detect_contacts(scene.model, scene.state, dt, gravity, margin, broad_phase, kept, with_cache);
-    collision::Scratch fresh;
-    collision::detect_contacts(scene.model, scene.state, dt, gravity, margin, broad_phase, fresh, without);
+    collision::generate_contacts(scene.model, scene.state, dt, gravity, margin, broad_phase, kept, scratch, with_cache);
+    collision::ContactMemory fresh;
+    collision::Scratch fresh_scratch;
+    collision::generate_contacts(scene.model, scene.state, dt, gravity, margin, broad_phase, fresh, fresh_scratch,
+                                 without);
     ASSERT_EQ(with_cache.size(), without.size()) << "step " << step;
     for (std::size_t k = 0; k < without.size(); ++k)
       ASSERT_TRUE(same_bits(with_cache[k], without[k])) << "step " << step << ", contact " << k;
     compared += without.size();
-    hits_possible += kept.separating.size();
+    hits_possible += kept.separating.last.size();
     scenes::drift(scene, dt, side);
   }
   EXPECT_GT(compared, 1000u);

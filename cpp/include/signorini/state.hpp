@@ -27,6 +27,24 @@ struct State {
   std::vector<Vec3> angular_impulse; ///< angular impulse about the com, world (N m s), likewise (N)
   double time = 0.0;         ///< s
 
+  /// Calls f on each per-body array in the order above (p, R, q, v, omega, f_ext, tau_ext, f_step,
+  /// tau_step, impulse, angular_impulse): the one list of the fields, used to add, remove, copy,
+  /// save and restore bodies, so that a new field is added here only.
+  template <class F>
+  void for_each_array(F&& f) {
+    f(p), f(R), f(q), f(v), f(omega), f(f_ext), f(tau_ext), f(f_step), f(tau_step), f(impulse), f(angular_impulse);
+  }
+  template <class F>
+  void for_each_array(F&& f) const {
+    f(p), f(R), f(q), f(v), f(omega), f(f_ext), f(tau_ext), f(f_step), f(tau_step), f(impulse), f(angular_impulse);
+  }
+  /// f(mine, theirs) on each pair of matching arrays of this state and another.
+  template <class F>
+  void for_each_array_with(const State& other, F&& f) {
+    f(p, other.p), f(R, other.R), f(q, other.q), f(v, other.v), f(omega, other.omega), f(f_ext, other.f_ext),
+        f(tau_ext, other.tau_ext), f(f_step, other.f_step), f(tau_step, other.tau_step), f(impulse, other.impulse),
+        f(angular_impulse, other.angular_impulse);
+  }
 };
 
 }  // namespace signorini

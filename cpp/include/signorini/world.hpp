@@ -1,7 +1,10 @@
 // World: owns the static Model, the dynamic State, the collision caches and the solver's arrays,
 // and runs the step as the pipeline of docs/conventions.md:
-//   contacts -> unconstrained velocity -> contact solve (prepare, warm start, iterate, restitution,
-//   position pass, store) -> integrate.
+//   impulses -> contacts -> per substep (carry, unconstrained velocity, contact solve, integrate,
+//   guard) -> guard -> commit.
+// Its definitions are split by concept (cpp/src/world/): world.cpp (settings and the step),
+// bodies.cpp (add, validate, re-centre, remove), body_access.cpp (setters and getters),
+// saved_state.cpp (save_state, restore_state); step_guard.cpp holds the step's checks and undo.
 #pragma once
 
 #include <memory>
@@ -20,8 +23,9 @@
 
 namespace signorini {
 
-namespace collision { class BroadPhase; struct Scratch; struct Crossing; }
+namespace collision { class BroadPhase; struct Scratch; struct ContactMemory; }
 namespace solver { struct SolverData; }
+class StepGuard;
 
 struct WorldSettings {
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  ///< m/s^2
@@ -192,18 +196,17 @@ class World {
   /// A push (`what`: "impulse" or "force") of body i at a world point: both finite, and the body
   /// dynamic (static and kinematic bodies have infinite mass).
   void check_push(BodyIndex i, const char* what, const Vec3& push, const Vec3& point) const;
-  /// One step of dt: contacts detected once, then the substeps; on a non-finite result or an
-  /// energy explosion (check_energy) restores the state, the warm-start cache and the contact
-  /// forces (undo_step) and throws std::runtime_error naming the body or bodies.
+  /// One step of dt, as a pipeline of named stages (world.cpp); a step the guard refuses (a
+  /// non-finite state, an energy explosion) is undone and throws std::runtime_error naming the
+  /// body or bodies.
   void step_once(double dt);
-  /// Throws std::runtime_error when the step from before_ to state_ is an energy explosion: the
-  /// kinetic energy at its end T_1 exceeds both kExplosionFactor times and kExplosionFloor above
-  /// T_0 + W, T_0 the kinetic energy at its start and W the work gravity and the external wrenches
-  /// did over its motion, summed over the bodies where positive (contacts only take energy away).
-  /// Steps with a moving kinematic body are not checked: it can give any energy.
-  void check_energy(double dt, double T0) const;
-  /// Puts back what a failed step changed (state, warm-start cache, contact forces and torques).
-  void undo_step();
+  /// The step's contacts carried to substep k into contacts_next_ (k = 0: as detected).
+  void carry_contacts(int k);
+  /// After substep k of h: the next warm-starts from its cache; its figures go to the report.
+  void end_substep(const SolverStats& stats, double h);
+  /// Keeps a step the guard let through: its last contacts and figures, what the meshes remember,
+  /// the new rotations' quaternions; the one-step forces are spent.
+  void commit_step(const SolverStats& stats);
 
   WorldSettings settings_;
   Model model_;
@@ -214,22 +217,17 @@ class World {
   std::vector<std::shared_ptr<void>> retired_;  ///< outgrown state storage (see push_keeping)
   StepReport report_;
   std::unique_ptr<collision::BroadPhase> broad_phase_;
+  /// what contact detection remembers across steps (separating faces, the meshes' crossings)
+  std::unique_ptr<collision::ContactMemory> memory_;
   std::unique_ptr<collision::Scratch> scratch_;  ///< the narrow phase's buffers (contact detection
                                                  ///< is const but reuses them: one World per thread)
   std::unique_ptr<solver::SolverData> solver_;  ///< rows, forces and the warm-start cache
+  std::unique_ptr<StepGuard> guard_;            ///< the step's checkpoints and what an undo restores
   // step scratch, kept between steps so that a step reuses its buffers instead of allocating
-  State before_;                         ///< state at the start of the step (restored on failure)
-  std::vector<CachedContact> cache_before_;  ///< warm-start cache at the start of the step (likewise)
-  std::vector<Vec3> force_before_, torque_before_;  ///< contact forces and torques of the last step (likewise)
   std::vector<Contact> contacts_base_;   ///< the step's contacts as detected
   std::vector<Contact> contacts_next_;   ///< a substep's contacts (carried), kept when the step succeeds
   std::vector<Vec3> anchor_a_, anchor_b_;///< a carried contact's point moved with A and with B
   std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
-  std::vector<Vec3> v_move_, omega_move_;///< the velocities that move the poses
-  // what static triangle meshes remember of the bodies (collision::detect_contacts): kept only
-  // when a step succeeds
-  std::vector<Vec3> previous_p_;         ///< (N) centres at the start of the last step (m, world)
-  std::vector<collision::Crossing> crossing_;  ///< (N) triangles a body is being pushed back through
 };
 
 }  // namespace signorini

@@ -16,6 +16,8 @@
 #include "signorini/model.hpp"
 #include "signorini/state.hpp"
 
+namespace signorini::serial { struct Writer; struct Reader; }
+
 namespace signorini::collision {
 
 /// Where a shape is: x_world = R x_body + p.
@@ -125,10 +127,10 @@ struct Crossing {
   int triangle = -1;
 };
 
-/// What a triangle-mesh query knows of body B's recent past (set per pair by detect_contacts; the
-/// defaults, for a query without a World, know nothing): B's displacement since the start of the
-/// previous step (world, m), the triangle of this mesh B was pushed back through last step (-1:
-/// none), and, written by the query, the triangle it is pushed back through now (-1: none).
+/// What a triangle-mesh query knows of body B's recent past (the defaults, for a query without a
+/// World, know nothing): B's displacement since the start of the previous step (world, m), the
+/// triangle of this mesh B was pushed back through last step (-1: none), and, written by the query,
+/// the triangle it is pushed back through now (-1: none).
 struct TrianglePast {
   Vec3 travel = Vec3::Zero();
   int remembered = -1;
@@ -137,9 +139,54 @@ struct TrianglePast {
   double body_radius = 0.0;         ///< B's bounding radius about it (m); 0: unknown
 };
 
-/// Buffers the narrow phase reuses from query to query. The World owns one and hands it to every
-/// step, so that contact detection allocates nothing once they have grown to the scene's size; a
-/// query without a World (collide() of two shapes) makes its own. One per thread.
+/// The separating-face cache (SeparatingFace): the last detection's entries, sorted by key, and
+/// this detection's, written in pair order as they are found.
+struct SeparatingCache {
+  std::vector<SeparatingFace> last, next;
+};
+
+/// What lasts from one contact detection to the next, beside the broad phase: the separating-face
+/// cache, and the static triangle meshes' memory of the bodies (previous_p: each body's centre at
+/// the start of the last step, world, m (N); crossing: the triangle each body is being pushed back
+/// through (N); crossing_next: the crossings this detection found (N), kept by commit()). A fresh
+/// (empty) memory knows nothing: no body has travelled or crossed.
+struct ContactMemory {
+  SeparatingCache separating;
+  std::vector<Vec3> previous_p;
+  std::vector<Crossing> crossing, crossing_next;
+
+  /// Appends a body at centre p (nothing crossed).
+  void add_body(const Vec3& p);
+  /// Body i was placed at p, not moved there: no travel, no crossing.
+  void placed(BodyIndex i, const Vec3& p);
+  /// A successful step that started with centres p_start (N): its crossings become the memory.
+  void commit(const std::vector<Vec3>& p_start);
+  /// Drops the bodies with to[i] < 0 and renumbers the rest to to[i] (crossings of dropped meshes
+  /// are forgotten); storage stays in place.
+  void remove(const std::vector<BodyIndex>& to);
+  /// Its part of a saved state: previous centres and crossings (the separating-face cache is not
+  /// saved: it only saves time). load reads n bodies' memory into this (a fresh one) and checks it
+  /// against the model: a crossing names a triangle of a TriangleMesh body, centres are finite.
+  void save(serial::Writer& w) const;
+  void load(serial::Reader& r, const Model& model);
+};
+
+/// The pair being collided, as the world knows it (the defaults: a lone pair, nothing known).
+struct PairContext {
+  BodyIndex body_a = -1, body_b = -1;    ///< the pair as collide() sees it (A first); -1: no bodies
+  /// The pair's motion in the step: collide() keeps only the candidates it can close before
+  /// choosing the manifold. Null: all kept.
+  const PairMotion* motion = nullptr;
+  TrianglePast* past = nullptr;          ///< for a TriangleMesh A: B's past, and the crossing found
+  SeparatingCache* separating = nullptr; ///< used when both bodies are known
+  /// The same pair seen from B (ids exchanged; the caller swaps the motion).
+  PairContext swapped() const;
+};
+
+/// Buffers the narrow phase reuses from query to query, and nothing else: the World owns one and
+/// hands it to every step, so that contact detection allocates nothing once they have grown to
+/// the scene's size; a query without a World (collide() of two shapes) makes its own. One per
+/// thread.
 struct Scratch {
   Scratch();
   std::vector<double> reach;                           ///< (N) speculative reach per body (m)
@@ -153,16 +200,6 @@ struct Scratch {
   std::vector<std::pair<Vec3, std::pair<FeatureId, FeatureId>>> clip, clip_next;  ///< and its clip
   std::unique_ptr<PolytopeScratch, ScratchDeleter> polytope;
   std::unique_ptr<EpaScratch, ScratchDeleter> epa;
-  /// The separating-face cache: the last detection's entries (sorted by key) and this one's
-  /// (written in pair order, so sorted too). Used only when body_a >= 0, which detect_contacts sets
-  /// to the pair being collided; collide() on its own keeps no cache.
-  std::vector<SeparatingFace> separating, separating_next;
-  BodyIndex body_a = -1, body_b = -1;
-  TrianglePast past;                                   ///< the current mesh pair's (see TrianglePast)
-  std::vector<Crossing> crossing_next;                 ///< (N) crossings found by this detection
-  /// The current pair's motion (set by detect_contacts): collide() keeps only the candidates it
-  /// can close in the step before choosing the manifold. Null (collide() on its own): all kept.
-  const PairMotion* motion = nullptr;
 };
 
 /// What a narrow-phase query may use besides the two shapes: the triangle queries of static
@@ -181,8 +218,9 @@ std::string unsupported_pair(const Shape& a, const Shape& b);
 /// gap < threshold (m), normals A -> B, feature ids, in id order (docs/conventions.md,
 /// "Manifolds"); body_a and body_b are left at -1. Appended to out. A static-only shape (Plane,
 /// TriangleMesh) must be a. Throws std::invalid_argument for an unsupported pair.
+/// pair: who the two shapes are to the world (the pair's motion, the meshes' memory, the cache).
 void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pose_b, double threshold,
-             const Services& services, std::vector<Contact>& out);
+             const Services& services, std::vector<Contact>& out, const PairContext& pair = PairContext());
 
 /// Length scale L of a pair (sum of the bounding radii of its bounded shapes), for the relative
 /// tolerances of the manifold rules.
@@ -261,7 +299,9 @@ void polytope_capsule(const Polytope& a, const Pose& pa, std::uint32_t part_a, c
 /// The contact test of item A against item B: the slot of the dispatch table for their kinds
 /// (narrow_phase.cpp). Appends candidate contacts (normal from A to B) to out. A pair of kinds
 /// without a test throws std::logic_error naming both kinds.
-void contact_items(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out);
+/// pair: the bodies and the separating-face cache (polytope pairs only).
+void contact_items(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out,
+                   const PairContext& pair = PairContext());
 
 /// The supporting feature of item `it` along world direction dir, written into s: a face (a
 /// polytope face, or a cylinder's cap as 8 rim points, within ~5.7 degrees of dir), a segment (a
@@ -287,10 +327,10 @@ void convex_by_support(const Item& a, const Item& b, const Distance& dist, doubl
 /// Static triangle mesh (A) against item B: candidate triangles from the BVH, a convex test per
 /// triangle (inactive edges give no edge contacts), merged. A B that has gone through a triangle
 /// (its centre behind the face, inside its prism, and either still straddling the face, or in front
-/// of it at the start of the previous step, or pushed back through it last step: scratch.past) is
-/// pushed back out along the face normal instead; scratch.past.found names that triangle.
+/// of it at the start of the previous step, or pushed back through it last step: past) is pushed
+/// back out along the face normal instead; past.found names that triangle.
 void trimesh_item(const TriangleMesh& a, const Pose& pa, const TriangleQuery& query, const Item& b,
-                  double threshold, Scratch& scratch, std::vector<Contact>& out);
+                  double threshold, TrianglePast& past, Scratch& scratch, std::vector<Contact>& out);
 
 /// Candidate pairs from bounding volumes. Holds one FCL object per non-plane body: dynamic ones in
 /// a DynamicAABBTree updated incrementally each step, static ones in a second tree built once.
@@ -330,7 +370,7 @@ void speculative_reach(const Model& model, const State& state, double dt, const 
 /// phase bounds every point of a body by its fastest one; this bounds each point by its own motion,
 /// so a spinning body keeps no speculative contacts with neighbours its surface does not move
 /// towards. collide() drops the points a pair cannot close before it reduces the manifold to 4
-/// (Scratch::motion), so a far speculative point never takes the place of one that holds.
+/// (PairContext::motion), so a far speculative point never takes the place of one that holds.
 struct PairMotion {
   /// The pair (a, b) as collide() sees it (A first), at `state`, for a step of dt s.
   PairMotion(const Model& model, const State& state, BodyIndex a, BodyIndex b, double dt, const Vec3& gravity,
@@ -368,14 +408,12 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 void carry_contacts(const std::vector<Contact>& at_detection, const State& detected, const State& now,
                     std::vector<Contact>& out, std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b);
 
-/// All contacts for the current state, in the order of docs/conventions.md, written into out
-/// (cleared first), using and growing the scratch buffers. Only pairs that model.can_collide
-/// allows (enabled bodies, matching filter bits, not excluded, not two infinite masses).
-/// previous_p (N, world, m): each body's centre at the start of the previous step; crossing (N):
-/// the crossings found by the previous step's detection (both null: no memory). This detection's
-/// crossings go to scratch.crossing_next.
-void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
-                     double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& out,
-                     const std::vector<Vec3>* previous_p = nullptr, const std::vector<Crossing>* crossing = nullptr);
+/// Contact generation: all contacts for the current state, in the order of docs/conventions.md,
+/// written into out (cleared first), using and growing the scratch buffers. Only pairs that
+/// model.can_collide allows (enabled bodies, matching filter bits, not excluded, not two infinite
+/// masses). memory: read (previous centres, crossings; empty: nothing remembered) and written
+/// (the separating-face cache; this detection's crossings to memory.crossing_next).
+void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
+                       BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& out);
 
 }  // namespace signorini::collision

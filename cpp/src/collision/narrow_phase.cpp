@@ -43,30 +43,32 @@ void flip(std::vector<Contact>& out, std::size_t from) {
 // Capsule      exact    exact          GJK/EPA    exact + separating axes
 // Cylinder     exact    GJK/EPA        GJK/EPA    GJK/EPA + feature clipping
 // Polytope     exact    exact + SAT    GJK/EPA    separating axes + face clipping
-using ContactFn = void (*)(const Item&, const Item&, double, Scratch&, std::vector<Contact>&);
+using ContactFn = void (*)(const Item&, const Item&, double, const PairContext&, Scratch&, std::vector<Contact>&);
 
-void contact_unsupported(const Item& a, const Item& b, double, Scratch&, std::vector<Contact>&) {
+void contact_unsupported(const Item& a, const Item& b, double, const PairContext&, Scratch&, std::vector<Contact>&) {
   throw std::logic_error(std::string("narrow phase: unsupported item pair ") + item_kind_name(a.kind) + " - " +
                          item_kind_name(b.kind) + " (no contact test in the dispatch table)");
 }
 
 /// Any item (A) against a sphere (B): the item's closest point (item_sphere).
-void contact_item_sphere(const Item& a, const Item& b, double, Scratch&, std::vector<Contact>& out) {
+void contact_item_sphere(const Item& a, const Item& b, double, const PairContext&, Scratch&,
+                         std::vector<Contact>& out) {
   const std::size_t first = out.size();
   item_sphere(a, b.pose.p, b.sphere->radius, out);
   for (std::size_t k = first; k < out.size(); ++k) out[k].feature_b = feature_id(FeatureKind::Shape, 0, b.part);
 }
 
-/// Separating axes and face clipping, with the separating-face cache of a detection (Scratch):
+/// Separating axes and face clipping, with the separating-face cache of a detection (pair):
 /// a pair that a face proved apart last time is first tried along that face alone.
-void contact_polytope_polytope(const Item& a, const Item& b, double threshold, Scratch& scratch,
-                               std::vector<Contact>& out) {
-  const bool cached = scratch.body_a >= 0;
+void contact_polytope_polytope(const Item& a, const Item& b, double threshold, const PairContext& pair,
+                               Scratch& scratch, std::vector<Contact>& out) {
+  SeparatingCache* cache = pair.body_a >= 0 ? pair.separating : nullptr;
+  const bool cached = cache != nullptr;
   SeparatingFace key;
   if (cached) {
-    key.body_a = scratch.body_a, key.body_b = scratch.body_b, key.part_a = a.part, key.part_b = b.part;
-    const auto it = std::lower_bound(scratch.separating.begin(), scratch.separating.end(), key);
-    if (it != scratch.separating.end() && !(key < *it)) {
+    key.body_a = pair.body_a, key.body_b = pair.body_b, key.part_a = a.part, key.part_b = b.part;
+    const auto it = std::lower_bound(cache->last.begin(), cache->last.end(), key);
+    if (it != cache->last.end() && !(key < *it)) {
       const Polytope& P = it->of_b ? *b.polytope : *a.polytope;
       if (it->face >= 0 && static_cast<std::size_t>(it->face) < P.normals.size()) {
         const double s = it->of_b ? face_separation(*b.polytope, b.pose, it->face, *a.polytope, a.pose)
@@ -74,7 +76,7 @@ void contact_polytope_polytope(const Item& a, const Item& b, double threshold, S
         // rounding between this and the full test's value of the same face stays far below slack
         const double slack = 1e-9 * (a.ball_radius + b.ball_radius) + 1e-12 * (a.pose.p.norm() + b.pose.p.norm());
         if (s >= threshold + slack) {
-          scratch.separating_next.push_back(*it);
+          cache->next.push_back(*it);
           return;
         }
       }
@@ -82,27 +84,31 @@ void contact_polytope_polytope(const Item& a, const Item& b, double threshold, S
   }
   polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, *scratch.polytope, out,
                     a.box && b.box, cached ? &key : nullptr);
-  if (cached && key.face >= 0) scratch.separating_next.push_back(key);
+  if (cached && key.face >= 0) cache->next.push_back(key);
 }
 
-void contact_capsule_capsule(const Item& a, const Item& b, double threshold, Scratch&, std::vector<Contact>& out) {
+void contact_capsule_capsule(const Item& a, const Item& b, double threshold, const PairContext&, Scratch&,
+                             std::vector<Contact>& out) {
   capsule_capsule(*a.capsule, a.pose, a.part, *b.capsule, b.pose, b.part, threshold, out);
 }
 
-void contact_polytope_capsule(const Item& a, const Item& b, double threshold, Scratch&, std::vector<Contact>& out) {
+void contact_polytope_capsule(const Item& a, const Item& b, double threshold, const PairContext&, Scratch&,
+                              std::vector<Contact>& out) {
   polytope_capsule(*a.polytope, a.pose, a.part, *b.capsule, b.pose, b.part, threshold, out);
 }
 
 /// Pairs with a cylinder and no closed form: GJK/EPA on the support mappings, then clipping.
-void contact_by_support(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
+void contact_by_support(const Item& a, const Item& b, double threshold, const PairContext&, Scratch& scratch,
+                        std::vector<Contact>& out) {
   convex_by_support(a, b, threshold, scratch, out);
 }
 
 /// The test of (B, A) run with the items exchanged, its normals reversed and ids swapped.
 template <ContactFn f>
-void swapped(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
+void swapped(const Item& a, const Item& b, double threshold, const PairContext& pair, Scratch& scratch,
+             std::vector<Contact>& out) {
   const std::size_t first = out.size();
-  f(b, a, threshold, scratch, out);
+  f(b, a, threshold, pair.swapped(), scratch, out);
   flip(out, first);
 }
 
@@ -189,10 +195,11 @@ const char* item_kind_name(ItemKind kind) {
   return "unknown item kind";
 }
 
-void contact_items(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
+void contact_items(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out,
+                   const PairContext& pair) {
   const int i = static_cast<int>(a.kind), j = static_cast<int>(b.kind);
-  if (i < 0 || i >= kItemKinds || j < 0 || j >= kItemKinds) contact_unsupported(a, b, threshold, scratch, out);
-  kTable[i][j](a, b, threshold, scratch, out);
+  if (i < 0 || i >= kItemKinds || j < 0 || j >= kItemKinds) contact_unsupported(a, b, threshold, pair, scratch, out);
+  kTable[i][j](a, b, threshold, pair, scratch, out);
 }
 
 double Item::radius() const {
@@ -278,10 +285,10 @@ std::string unsupported_pair(const Shape& a, const Shape& b) {
 
 namespace {
 
-/// Drops the candidates the pair cannot close in this step (scratch.motion; none without one).
-void keep_closable(const Scratch& s, std::vector<Contact>& candidates) {
-  if (!s.motion) return;
-  const PairMotion& m = *s.motion;
+/// Drops the candidates the pair cannot close in this step (none without a motion).
+void keep_closable(const PairMotion* motion, std::vector<Contact>& candidates) {
+  if (!motion) return;
+  const PairMotion& m = *motion;
   candidates.erase(std::remove_if(candidates.begin(), candidates.end(), [&](const Contact& c) { return !m.can_close(c); }),
                    candidates.end());
 }
@@ -289,19 +296,18 @@ void keep_closable(const Scratch& s, std::vector<Contact>& candidates) {
 }  // namespace
 
 void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pose_b, double threshold,
-             const Services& services, std::vector<Contact>& out) {
+             const Services& services, std::vector<Contact>& out, const PairContext& pair) {
   const std::string problem = unsupported_pair(a, b);
   if (!problem.empty()) throw std::invalid_argument(problem);
   if (static_only(a) && static_only(b)) return;
   if (static_only(b)) {
     // the static-only shape is always A inside; the caller's A and B are restored after
     const std::size_t first = out.size();
-    Scratch* scratch = services.scratch;
-    const PairMotion* motion = scratch ? scratch->motion : nullptr;
     std::optional<PairMotion> seen_from_b;
-    if (motion) scratch->motion = &seen_from_b.emplace(motion->swapped());
-    collide(b, pose_b, a, pose_a, threshold, {services.triangles_b, services.triangles_a, scratch}, out);
-    if (motion) scratch->motion = motion;
+    PairContext swapped = pair.swapped();
+    if (pair.motion) swapped.motion = &seen_from_b.emplace(pair.motion->swapped());
+    collide(b, pose_b, a, pose_a, threshold, {services.triangles_b, services.triangles_a, services.scratch}, out,
+            swapped);
     flip(out, first);
     return;
   }
@@ -315,8 +321,8 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
   candidates.clear();
   if (const auto* plane = std::get_if<Plane>(&a)) {
     plane_contacts(*plane, pose_a, b, pose_b, threshold, s, candidates);
-    keep_closable(s, candidates);
-    finish_manifold(candidates, threshold, pair_scale(a, b), out, s.candidate_index, s.motion);
+    keep_closable(pair.motion, candidates);
+    finish_manifold(candidates, threshold, pair_scale(a, b), out, s.candidate_index, pair.motion);
     return;
   }
   items_b.clear();
@@ -328,7 +334,9 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
       own = std::make_unique<TriangleQuery>(*mesh);
       query = own.get();
     }
-    for (const Item& ib : items_b) trimesh_item(*mesh, pose_a, *query, ib, threshold, s, candidates);
+    TrianglePast nothing_known;
+    TrianglePast& past = pair.past ? *pair.past : nothing_known;
+    for (const Item& ib : items_b) trimesh_item(*mesh, pose_a, *query, ib, threshold, past, s, candidates);
   } else {
     items_a.clear();
     items_of(a, pose_a, items_a, keep);
@@ -338,9 +346,9 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
     for (const Item& ia : items_a)
       for (const Item& ib : items_b)
         if ((ib.ball_centre - ia.ball_centre).norm() <= ia.ball_radius + ib.ball_radius + reach)
-          contact_items(ia, ib, threshold, s, candidates);
+          contact_items(ia, ib, threshold, s, candidates, pair);
   }
-  keep_closable(s, candidates);
+  keep_closable(pair.motion, candidates);
   // ranked by gap: the end-gap ranking is the plane's (docs, "Manifolds"; by end gaps a stack of
   // 10 boxes drifts 1.01 mm in 10 s at dt = 1/240 s, past the 1 mm the stack keeps by gaps)
   finish_manifold(candidates, threshold, pair_scale(a, b), out, s.candidate_index);
@@ -419,10 +427,16 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
   }
 }
 
-void detect_contacts(const Model& model, const State& state, double dt, const Vec3& gravity,
-                     double margin, BroadPhase& broad_phase, Scratch& scratch, std::vector<Contact>& contacts,
-                     const std::vector<Vec3>* previous_p, const std::vector<Crossing>* crossing) {
-  scratch.crossing_next.assign(model.size(), Crossing());
+PairContext PairContext::swapped() const {
+  PairContext c = *this;
+  std::swap(c.body_a, c.body_b);
+  return c;
+}
+
+void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
+                       BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& contacts) {
+  memory.crossing_next.assign(model.size(), Crossing());
+  const bool remembers = memory.previous_p.size() == model.size();
   std::vector<double>& reach = scratch.reach;
   speculative_reach(model, state, dt, gravity, reach);
   // candidate pairs: the broad phase's, plus every plane against every dynamic body
@@ -440,7 +454,7 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
               pairs.end());
 
   contacts.clear();
-  scratch.separating_next.clear();
+  memory.separating.next.clear();
   for (const auto& [i, j] : pairs) {
     // a static-only shape (plane, triangle mesh) is always A
     const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
@@ -449,33 +463,30 @@ void detect_contacts(const Model& model, const State& state, double dt, const Ve
     if (const auto* plane = std::get_if<Plane>(&model.shape[a]))
       threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
     const std::size_t first = contacts.size();
-    scratch.body_a = a;
-    scratch.body_b = b;
     // a triangle mesh remembers which side of it the body belongs on (trimesh_item)
-    scratch.past = TrianglePast();
+    TrianglePast past;
     if (std::holds_alternative<TriangleMesh>(model.shape[a])) {
-      if (previous_p) scratch.past.travel = state.p[b] - (*previous_p)[b];
-      if (crossing && (*crossing)[b].mesh == a) scratch.past.remembered = (*crossing)[b].triangle;
-      scratch.past.body_centre = state.p[b];
-      scratch.past.body_radius = model.rho[b];
+      if (remembers) {
+        past.travel = state.p[b] - memory.previous_p[b];
+        if (memory.crossing[b].mesh == a) past.remembered = memory.crossing[b].triangle;
+      }
+      past.body_centre = state.p[b];
+      past.body_radius = model.rho[b];
     }
     const PairMotion motion(model, state, a, b, dt, gravity, margin);
-    scratch.motion = &motion;
     collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
-            {broad_phase.triangles(a), broad_phase.triangles(b), &scratch}, contacts);
-    scratch.motion = nullptr;
-    if (scratch.past.found >= 0) scratch.crossing_next[b] = {a, scratch.past.found};
-    scratch.past = TrianglePast();
+            {broad_phase.triangles(a), broad_phase.triangles(b), &scratch}, contacts,
+            {a, b, &motion, &past, &memory.separating});
+    if (past.found >= 0) memory.crossing_next[b] = {a, past.found};
     for (std::size_t k = first; k < contacts.size(); ++k) {
       contacts[k].body_a = a;
       contacts[k].body_b = b;
     }
   }
-  scratch.body_a = scratch.body_b = -1;
   // keys were written in pair order, parts in order within a pair: sorted (a static-only shape
   // taken as A can reorder two pairs' keys, so sort to be sure; it is nearly sorted)
-  std::sort(scratch.separating_next.begin(), scratch.separating_next.end());
-  std::swap(scratch.separating, scratch.separating_next);
+  std::sort(memory.separating.next.begin(), memory.separating.next.end());
+  std::swap(memory.separating.last, memory.separating.next);
 }
 
 }  // namespace signorini::collision

@@ -262,7 +262,7 @@ void keep_front(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, std::s
 }  // namespace
 
 void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery& query, const Item& b,
-                  double threshold, Scratch& scratch, std::vector<Contact>& out) {
+                  double threshold, TrianglePast& past, Scratch& scratch, std::vector<Contact>& out) {
   // B's bounding box in the mesh frame, grown by the threshold
   const Vec3 centre = pa.R.transpose() * (b.pose.p - pa.p);
   const double reach = b.radius() + std::max(threshold, 0.0);
@@ -270,7 +270,6 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
   query.overlapping(centre - Vec3::Constant(reach), centre + Vec3::Constant(reach), triangles, scratch.bvh_stack);
   Polytope& tri = scratch.triangle;
   const double radius = b.radius();
-  TrianglePast& past = scratch.past;
   const Vec3 travel = pa.R.transpose() * past.travel;
   // the body's centre (the item's own when the query knows no body)
   const bool body_known = past.body_radius > 0.0;

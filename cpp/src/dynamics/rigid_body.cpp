@@ -1,5 +1,6 @@
 #include "dynamics/rigid_body.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -92,6 +93,30 @@ void integrate(const Model& model, State& state, const std::vector<Vec3>& v, con
     state.R[i] = math::orthonormalize(math::rodrigues(omega[i], dt) * state.R[i]);
     state.p[i] += dt * v[i];
   }
+}
+
+void apply_impulses(const Model& model, State& state) {
+  for (std::size_t i = 0; i < model.size(); ++i) {
+    Vec3& J = state.impulse[i];
+    Vec3& L = state.angular_impulse[i];
+    if (J.squaredNorm() == 0.0 && L.squaredNorm() == 0.0) continue;
+    if (model.enabled[i] && !model.is_static[i] && !model.is_kinematic[i]) {
+      state.v[i] += model.inv_mass[i] * J;
+      state.omega[i] += inverse_inertia_world(model, state, i) * L;
+    }
+    J.setZero();
+    L.setZero();
+  }
+}
+
+void advance(const Model& model, State& state, const std::vector<Vec3>& v_move, const std::vector<Vec3>& omega_move,
+             const std::vector<Vec3>& v, const std::vector<Vec3>& omega, double h) {
+  integrate(model, state, v_move, omega_move, h);
+  if (v.size() != state.v.size() || omega.size() != state.omega.size())
+    throw std::logic_error("advance: velocity arrays do not match the state");
+  std::copy(v.begin(), v.end(), state.v.begin());  // copied, not swapped: the storage stays in place
+  std::copy(omega.begin(), omega.end(), state.omega.begin());
+  state.time += h;
 }
 
 }  // namespace signorini::dynamics

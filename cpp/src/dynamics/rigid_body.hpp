@@ -45,4 +45,15 @@ Vec3 free_rotation(const Mat3& I, const Mat3& I_inv, const Vec3& w, double dt, G
 void integrate(const Model& model, State& state, const std::vector<Vec3>& v, const std::vector<Vec3>& omega,
                double dt);
 
+/// The pending impulses (state.impulse J, state.angular_impulse L; N s and N m s, world) change
+/// the velocities of enabled dynamic bodies, v += J / m and omega += I_w^-1 L, and are spent
+/// (zeroed) for every body.
+void apply_impulses(const Model& model, State& state);
+
+/// The end of a substep of h: the poses move with v_move, omega_move (integrate), then the
+/// velocities become v, omega (copied into the state's storage, which NumPy views see) and the
+/// time advances by h. All arrays (N, world).
+void advance(const Model& model, State& state, const std::vector<Vec3>& v_move, const std::vector<Vec3>& omega_move,
+             const std::vector<Vec3>& v, const std::vector<Vec3>& omega, double h);
+
 }  // namespace signorini::dynamics

@@ -622,13 +622,13 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   stats.position_iterations = position_pass(dt, settings, contacts, data);
   // f. store
   store(dt, settings, contacts, data, stats);
-  data.v_p.resize(N);
-  data.omega_p.resize(N);
+  data.v_move.resize(N);
+  data.omega_move.resize(N);
   for (std::size_t i = 0; i < N; ++i) {
     v[i] = data.qd[i].v;
     omega[i] = data.qd[i].omega;
-    data.v_p[i] = data.qd_p[i].v;
-    data.omega_p[i] = data.qd_p[i].omega;
+    data.v_move[i] = data.v_pos[i] + data.qd_p[i].v;
+    data.omega_move[i] = data.omega_pos[i] + data.qd_p[i].omega;
   }
   stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
   stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);

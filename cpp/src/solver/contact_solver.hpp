@@ -12,6 +12,8 @@
 #include "signorini/solver.hpp"
 #include "signorini/state.hpp"
 
+namespace signorini::serial { struct Writer; struct Reader; }
+
 namespace signorini::solver {
 
 /// One constraint row: a Jacobian pair with bounds. It knows bodies and directions, never a
@@ -89,7 +91,8 @@ struct SolverData {
   // pseudo-velocities of the position pass, and the velocities that move the poses (after iterate)
   std::vector<BodyVelocity> qd, qd_p;
   std::vector<Mat3> dI_inv;  ///< per body: dt times the world inverse inertia R I_body^-1 R^T at the step's start
-  std::vector<Vec3> v_pos, omega_pos, v_p, omega_p;
+  std::vector<Vec3> v_pos, omega_pos;
+  std::vector<Vec3> v_move, omega_move;  ///< (N) what the solve hands back to integrate the poses with
   // per body: summed contact force (N) and torque about the com (N m), world
   std::vector<Vec3> body_force, body_torque;
   // warm-start cache of the previous step, sorted by key, and the one being written
@@ -107,7 +110,8 @@ void tangent_basis(const Vec3& n, Vec3& t1, Vec3& t2);
 ///      contacts (K) with body_a, body_b, point, normal, gap, feature ids;
 ///      v, omega (N, world) = the unconstrained velocities q_dot*.
 /// Out: v, omega = the new velocities (after restitution);
-///      data.v_pos + data.v_p, data.omega_pos + data.omega_p = the velocities that move the poses;
+///      data.v_move, data.omega_move = the velocities that move the poses (those of the iterate
+///      stage plus the position pass's pseudo-velocities);
 ///      contacts[i].alpha, impulse, friction, force, spin_torque, normal_velocity, slip;
 ///      data.body_force, data.body_torque; data.cache_next (the caller swaps it into
 ///      data.cache once the step is kept);
@@ -118,5 +122,11 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
                            std::vector<Contact>& contacts, std::vector<Vec3>& v, std::vector<Vec3>& omega,
                            SolverData& data, const std::vector<Vec3>* anchor_a = nullptr,
                            const std::vector<Vec3>* anchor_b = nullptr);
+
+/// The solver's part of a saved state: per-body contact forces and torques (N), then the
+/// warm-start cache. load reads a save of format `version` ('1': no spin) for n bodies into out
+/// (its body_force, body_torque and cache), checking counts and indices.
+void save(serial::Writer& w, const SolverData& data);
+void load(serial::Reader& r, char version, std::size_t n, SolverData& out);
 
 }  // namespace signorini::solver

@@ -1,0 +1,192 @@
+// Reading and changing bodies one at a time or in batches: every setter checks its input (the body
+// named on error) before it writes, so a refused call changes nothing.
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "collision/collision.hpp"
+#include "math/rotation.hpp"
+#include "signorini/world.hpp"
+#include "world/checks.hpp"
+
+namespace signorini {
+
+void World::set_material(BodyIndex i, const Material& material) {
+  check_index(i);
+  checks::check_material(label(i), material);
+  model_.material[i] = material;
+}
+
+std::string World::label(BodyIndex i) const {
+  check_index(i);
+  return checks::body_label(model_, i);
+}
+
+void World::check_index(BodyIndex i) const {
+  if (i < 0 || static_cast<std::size_t>(i) >= model_.size())
+    throw BodyIndexError("body index " + std::to_string(i) + " is out of range: the world has " +
+                         std::to_string(model_.size()) + " bodies");
+}
+
+void World::set_position(BodyIndex i, const Vec3& p) {
+  check_index(i);
+  checks::require_finite(label(i), "position", p);
+  state_.p[i] = p;
+  memory_->placed(i, p);  // moved, not travelled: no crossing
+  if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+}
+
+void World::set_orientation(BodyIndex i, const Quat4& q) {
+  check_index(i);
+  state_.R[i] = math::quat_to_matrix(checks::unit_quaternion(label(i), q));
+  state_.q[i] = math::matrix_to_quat(state_.R[i]);
+  if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+}
+
+void World::check_velocity(BodyIndex i, const char* what, const Vec3& x) const {
+  check_index(i);
+  const std::string who = label(i);
+  checks::require_finite(who, what, x);
+  if (model_.is_static[i] && x.squaredNorm() > 0.0)
+    throw std::invalid_argument(who + ": a static body cannot have a velocity");
+}
+
+void World::set_velocity(BodyIndex i, const Vec3& v) {
+  check_velocity(i, "velocity", v);
+  state_.v[i] = v;
+}
+
+void World::set_angular_velocity(BodyIndex i, const Vec3& omega) {
+  check_velocity(i, "angular_velocity", omega);
+  state_.omega[i] = omega;
+}
+
+void World::check_batch(const char* who, const Indices& bodies, Eigen::Index rows) const {
+  if (bodies.size() != rows)
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(bodies.size()) + " indices but " +
+                                std::to_string(rows) + " rows of values");
+  for (Eigen::Index k = 0; k < bodies.size(); ++k)
+    if (bodies[k] < 0 || static_cast<std::size_t>(bodies[k]) >= model_.size())
+      throw BodyIndexError(std::string(who) + ": indices[" + std::to_string(k) + "] = " + std::to_string(bodies[k]) +
+                           " is out of range: the world has " + std::to_string(model_.size()) + " bodies");
+}
+
+void World::set_positions(const Indices& bodies, const Points& values) {
+  check_batch("set_positions", bodies, values.rows());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k)
+    checks::require_finite(label(static_cast<BodyIndex>(bodies[k])), "position", values.row(k).transpose());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k) {
+    const auto i = static_cast<BodyIndex>(bodies[k]);
+    state_.p[i] = values.row(k).transpose();
+    memory_->placed(i, state_.p[i]);  // moved, not travelled: no crossing
+    if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+  }
+}
+
+void World::set_orientations(const Indices& bodies, const Quats& values) {
+  check_batch("set_orientations", bodies, values.rows());
+  std::vector<Mat3> R(bodies.size());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k)
+    R[k] = math::quat_to_matrix(checks::unit_quaternion(label(static_cast<BodyIndex>(bodies[k])), values.row(k).transpose()));
+  for (Eigen::Index k = 0; k < bodies.size(); ++k) {
+    const auto i = static_cast<BodyIndex>(bodies[k]);
+    state_.R[i] = R[k];
+    state_.q[i] = math::matrix_to_quat(R[k]);
+    if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+  }
+}
+
+void World::set_velocities(const Indices& bodies, const Points& values) {
+  check_batch("set_velocities", bodies, values.rows());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k)
+    check_velocity(static_cast<BodyIndex>(bodies[k]), "velocity", values.row(k).transpose());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k) state_.v[bodies[k]] = values.row(k).transpose();
+}
+
+void World::set_angular_velocities(const Indices& bodies, const Points& values) {
+  check_batch("set_angular_velocities", bodies, values.rows());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k)
+    check_velocity(static_cast<BodyIndex>(bodies[k]), "angular_velocity", values.row(k).transpose());
+  for (Eigen::Index k = 0; k < bodies.size(); ++k) state_.omega[bodies[k]] = values.row(k).transpose();
+}
+
+void World::set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torque) {
+  check_index(i);
+  const std::string who = label(i);
+  checks::require_finite(who, "force", force);
+  checks::require_finite(who, "torque", torque);
+  state_.f_ext[i] = force;
+  state_.tau_ext[i] = torque;
+}
+
+void World::check_push(BodyIndex i, const char* what, const Vec3& push, const Vec3& point) const {
+  check_index(i);
+  const std::string who = label(i);
+  checks::require_finite(who, what, push);
+  checks::require_finite(who, "point", point);
+  if (model_.is_static[i] || model_.is_kinematic[i])
+    throw std::invalid_argument(who + ": a " + (model_.is_static[i] ? "static" : "kinematic") + " body takes no " +
+                                what + "s (it has infinite mass); set its velocity instead");
+}
+
+void World::apply_impulse(BodyIndex i, const Vec3& impulse, const Vec3& point) {
+  check_push(i, "impulse", impulse, point);
+  state_.impulse[i] += impulse;
+  state_.angular_impulse[i] += (point - state_.p[i]).cross(impulse);
+}
+
+void World::apply_force(BodyIndex i, const Vec3& force, const Vec3& point) {
+  check_push(i, "force", force, point);
+  state_.f_step[i] += force;
+  state_.tau_step[i] += (point - state_.p[i]).cross(force);
+}
+
+void World::set_kinematic(BodyIndex i, bool kinematic) {
+  check_index(i);
+  const std::string who = label(i);
+  if (model_.is_static[i]) throw std::invalid_argument(who + ": a static body cannot become kinematic or dynamic");
+  if (!kinematic && !std::isfinite(model_.mass[i]))
+    throw std::invalid_argument(who + ": it was added without a mass, so it can only be kinematic");
+  if (model_.is_kinematic[i] == kinematic) return;
+  set_kinematic_flag(i, kinematic);
+  if (kinematic) {
+    state_.f_step[i].setZero();
+    state_.tau_step[i].setZero();
+    state_.impulse[i].setZero();
+    state_.angular_impulse[i].setZero();
+  }
+}
+
+void World::set_enabled(BodyIndex i, bool enabled) {
+  check_index(i);
+  model_.enabled[i] = enabled;
+}
+
+void World::set_collision_filter(BodyIndex i, const CollisionFilter& filter) {
+  check_index(i);
+  model_.filter[i] = filter;
+}
+
+void World::set_pair_collision(BodyIndex i, BodyIndex j, bool collide) {
+  check_index(i);
+  check_index(j);
+  if (i == j) throw std::invalid_argument(label(i) + ": a body never collides with itself; give two different bodies");
+  const std::pair<int, int> key(std::min(i, j), std::max(i, j));
+  auto& pairs = model_.excluded_pairs;
+  const auto it = std::lower_bound(pairs.begin(), pairs.end(), key);
+  const bool listed = it != pairs.end() && *it == key;
+  if (!collide && !listed) pairs.insert(it, key);
+  if (collide && listed) pairs.erase(it);
+}
+
+BodyIndex World::find(const std::string& name) const {
+  const auto it = by_name_.find(name);
+  return it == by_name_.end() ? -1 : it->second;
+}
+
+Quat4 World::orientation(BodyIndex i) const {
+  check_index(i);
+  return state_.q[i];
+}
+
+}  // namespace signorini

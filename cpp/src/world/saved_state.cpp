@@ -1,0 +1,200 @@
+// Saved states (World::save_state, restore_state): a flat little-endian byte string in which each
+// owner writes its own part, in this order: the World's header (body count, and each body's shape
+// kind, static flag and mass, to recognise the world) and flags (kinematic, enabled); the State
+// (time, then its arrays in State::for_each_array order); the solver (contact forces and torques,
+// the warm-start cache); the World's last contacts and solver figures; the contact memory
+// (format 3). Formats 1 (no spin torques) and 2 (no contact memory) still read.
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+#include "collision/collision.hpp"
+#include "serial/byte_stream.hpp"
+#include "signorini/world.hpp"
+#include "solver/contact_solver.hpp"
+#include "world/checks.hpp"
+
+namespace signorini {
+namespace {
+
+constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '3'};
+constexpr std::size_t kStateVersionAt = 7;  ///< the format digit's position in the magic
+
+void save(serial::Writer& w, const State& s) {
+  w.pod(s.time);
+  s.for_each_array([&w](const auto& x) { w.mats(x); });
+}
+
+void load(serial::Reader& r, std::size_t n, State& s) {
+  s.time = r.pod<double>();
+  s.for_each_array([&r, n](auto& x) { r.mats(x, n); });
+}
+
+void save(serial::Writer& w, const Contact& c) {
+  w.pod(c.body_a);
+  w.pod(c.body_b);
+  w.mat(c.point);
+  w.mat(c.normal);
+  w.pod(c.gap);
+  w.pod(c.feature_a);
+  w.pod(c.feature_b);
+  w.pod(c.alpha);
+  w.pod(c.impulse);
+  w.mat(c.friction);
+  w.mat(c.force);
+  w.pod(c.spin_torque);
+  w.pod(c.normal_velocity);
+  w.mat(c.slip);
+}
+
+/// A contact of a saved state of format `version` (1: without spin_torque).
+Contact load_contact(serial::Reader& r, char version) {
+  Contact c;
+  c.body_a = r.pod<BodyIndex>();
+  c.body_b = r.pod<BodyIndex>();
+  r.mat(c.point);
+  r.mat(c.normal);
+  c.gap = r.pod<double>();
+  c.feature_a = r.pod<FeatureId>();
+  c.feature_b = r.pod<FeatureId>();
+  c.alpha = r.pod<double>();
+  c.impulse = r.pod<double>();
+  r.mat(c.friction);
+  r.mat(c.force);
+  if (version >= '2') c.spin_torque = r.pod<double>();
+  c.normal_velocity = r.pod<double>();
+  r.mat(c.slip);
+  return c;
+}
+
+void save(serial::Writer& w, const SolverStats& s) {
+  for (int x : {s.iterations, s.restitution_iterations, s.position_iterations, s.contacts, static_cast<int>(s.converged)})
+    w.pod(x);
+  for (double x : {s.residual, s.max_alpha_negative, s.max_penetration_velocity, s.max_complementarity,
+                   s.max_cone_violation, s.max_dissipation_violation, s.max_overlap})
+    w.pod(x);
+}
+
+SolverStats load_stats(serial::Reader& r) {
+  SolverStats s;
+  for (int* x : {&s.iterations, &s.restitution_iterations, &s.position_iterations, &s.contacts}) *x = r.pod<int>();
+  s.converged = r.pod<int>() != 0;
+  for (double* x : {&s.residual, &s.max_alpha_negative, &s.max_penetration_velocity, &s.max_complementarity,
+                    &s.max_cone_violation, &s.max_dissipation_violation, &s.max_overlap})
+    *x = r.pod<double>();
+  return s;
+}
+
+}  // namespace
+
+std::string World::save_state() const {
+  serial::Writer w;
+  w.out.append(kStateMagic, sizeof kStateMagic);
+  const std::size_t n = model_.size();
+  w.pod(static_cast<std::uint64_t>(n));
+  // the world it belongs to
+  for (std::size_t i = 0; i < n; ++i) {
+    w.pod(static_cast<std::uint8_t>(model_.shape[i].index()));
+    w.pod(static_cast<std::uint8_t>(model_.is_static[i]));
+    w.pod(model_.mass[i]);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    w.pod(static_cast<std::uint8_t>(model_.is_kinematic[i]));
+    w.pod(static_cast<std::uint8_t>(model_.enabled[i]));
+  }
+  save(w, state_);
+  solver::save(w, *solver_);
+  w.pod(static_cast<std::uint64_t>(contacts_->size()));
+  for (const Contact& c : *contacts_) save(w, c);
+  save(w, stats_);
+  memory_->save(w);
+  return std::move(w.out);
+}
+
+void World::restore_state(const std::string& saved) {
+  // read and check everything first: the world changes only once nothing can fail
+  serial::Reader r{saved};
+  const std::string bad = "restore_state: not a saved state of this world: ";
+  if (saved.size() < sizeof kStateMagic || std::memcmp(saved.data(), kStateMagic, kStateVersionAt) != 0)
+    throw std::invalid_argument("restore_state: not a saved state (no header)");
+  const char version = saved[kStateVersionAt];
+  if (version < '1' || version > '3')
+    throw std::invalid_argument(std::string("restore_state: a saved state of format '") + version +
+                                "', which this signorini does not read (it reads formats 1 to 3)");
+  r.at = sizeof kStateMagic;
+  const std::size_t n = r.pod<std::uint64_t>();
+  if (n != model_.size())
+    throw std::invalid_argument(bad + "it has " + std::to_string(n) + " bodies, the world has " +
+                                std::to_string(model_.size()));
+  static const char* kinds[] = {"Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh", "Compound"};
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto kind = r.pod<std::uint8_t>();
+    const bool is_static = r.pod<std::uint8_t>() != 0;
+    const double mass = r.pod<double>();
+    const std::string who = label(static_cast<BodyIndex>(i));
+    if (kind != model_.shape[i].index())
+      throw std::invalid_argument(bad + who + " is a " + (kind < 9 ? kinds[kind] : "?") + " there");
+    if (is_static != model_.is_static[i])
+      throw std::invalid_argument(bad + who + " is " + (is_static ? "static" : "not static") + " there");
+    if (!(mass == model_.mass[i]))
+      throw std::invalid_argument(bad + who + " has mass " + std::to_string(mass) + " kg there, " +
+                                  std::to_string(model_.mass[i]) + " kg here");
+  }
+  std::vector<char> kinematic(n), enabled(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    kinematic[i] = r.pod<std::uint8_t>() != 0;
+    enabled[i] = r.pod<std::uint8_t>() != 0;
+    if (kinematic[i] && model_.is_static[i]) throw std::invalid_argument("restore_state: the saved state is damaged");
+    if (!kinematic[i] && !model_.is_static[i] && !std::isfinite(model_.mass[i]))
+      throw std::invalid_argument(bad + label(static_cast<BodyIndex>(i)) + " is dynamic there but has no mass here");
+  }
+  State s;
+  load(r, n, s);
+  solver::SolverData solved;
+  solver::load(r, version, n, solved);
+  auto contacts = std::make_shared<std::vector<Contact>>(r.count(sizeof(double)));
+  for (Contact& c : *contacts) c = load_contact(r, version);
+  const SolverStats stats = load_stats(r);
+  // formats 1 and 2 have no contact memory: it starts afresh, as after set_position
+  collision::ContactMemory memory;
+  if (version >= '3') {
+    memory.load(r, model_);
+  } else {
+    for (const Vec3& p : s.p) memory.add_body(p);
+  }
+  if (r.at != saved.size()) throw std::invalid_argument("restore_state: the saved state has trailing bytes");
+  const auto in_range = [n](BodyIndex k) { return k >= 0 && static_cast<std::size_t>(k) < n; };
+  for (const CachedContact& c : solved.cache)
+    if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
+  for (const Contact& c : *contacts)
+    if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
+  if (!std::isfinite(s.time)) throw std::invalid_argument("restore_state: the saved state is damaged (time)");
+  for (std::size_t i = 0; i < n; ++i)
+    if (!(s.p[i].allFinite() && s.R[i].allFinite() && s.q[i].allFinite() && s.v[i].allFinite() &&
+          s.omega[i].allFinite() && s.f_ext[i].allFinite() && s.tau_ext[i].allFinite()))
+      throw std::invalid_argument("restore_state: the saved state is damaged (" + label(static_cast<BodyIndex>(i)) +
+                                  " is not finite)");
+
+  // commit: in place, so that views of the state stay live
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto b = static_cast<BodyIndex>(i);
+    if (!model_.is_static[i]) {
+      if (model_.is_kinematic[i] != static_cast<bool>(kinematic[i])) set_kinematic_flag(b, kinematic[i]);
+    } else if (s.p[i] != state_.p[i] || s.R[i] != state_.R[i]) {
+      broad_phase_->move_static(b, s.p[i], s.R[i]);
+    }
+    model_.enabled[i] = enabled[i];
+  }
+  state_.for_each_array_with(s, [](auto& mine, const auto& saved_array) { checks::copy_into(mine, saved_array); });
+  state_.time = s.time;
+  checks::copy_into(solver_->body_force, solved.body_force);
+  checks::copy_into(solver_->body_torque, solved.body_torque);
+  solver_->cache = std::move(solved.cache);
+  contacts_ = std::move(contacts);
+  stats_ = stats;
+  checks::copy_into(memory_->previous_p, memory.previous_p);
+  checks::copy_into(memory_->crossing, memory.crossing);
+}
+
+}  // namespace signorini
