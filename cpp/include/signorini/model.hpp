@@ -56,6 +56,14 @@ struct Model {
 
   std::size_t size() const { return shape.size(); }
 
+  /// Calls f on each per-body array in the order above (excluded_pairs is not one): the one list
+  /// of the fields, used to remove bodies, so that a new field is added here only.
+  template <class F>
+  void for_each_array(F&& f) {
+    f(shape), f(is_static), f(mass), f(inv_mass), f(I_body), f(I_body_inv), f(rho), f(material), f(is_kinematic),
+        f(enabled), f(filter), f(name);
+  }
+
   /// true when bodies i and j may get contacts: both enabled, at least one of them moved by
   /// contacts (finite mass: two static or kinematic bodies cannot push each other), their filters
   /// match and the pair is not excluded. O(log of the excluded pairs); allocates nothing.
