@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <thread>
 #include <utility>
+#include <vector>
 
 #include "signorini/world.hpp"
 
@@ -343,4 +345,71 @@ TEST(World, RestoreStateContinuesBitForBitWithSpinRows) {
   world.step(1.0 / 240.0, 30);
   expect_same_state(world.state(), first);
   EXPECT_EQ(world.contacts()[0].spin_torque, torque);
+}
+
+namespace {
+
+/// A stack of 4 boxes on the ground and a ball falling onto it: contacts in every step.
+void busy_stack(World& world) {
+  world.add_body(ground());
+  for (int k = 0; k < 4; ++k) world.add_body(box_at(0.5005 + 1.001 * k));
+  BodyDesc ball;
+  ball.shape = Sphere(0.3);
+  ball.density = 500.0;
+  ball.position = Vec3(0.2, 0.1, 5.0);
+  world.add_body(ball);
+}
+
+}  // namespace
+
+TEST(WorldThreads, StepsFromFourThreadsRunOneAtATimeAndMatchOneThread) {
+  // a step is not divisible: 4 threads stepping one world 25 times each, while reading it, give
+  // the 100 steps of one thread, bit for bit (each step waits for the one running)
+  const double dt = 1.0 / 240.0;
+  World alone, shared;
+  busy_stack(alone);
+  busy_stack(shared);
+  alone.step(dt, 100);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 4; ++t)
+    threads.emplace_back([&shared, dt] {
+      for (int s = 0; s < 25; ++s) {
+        shared.step(dt);
+        (void)shared.save_state();
+        (void)shared.shared_contacts();
+        (void)shared.solver_stats();
+        (void)shared.kinetic_energy();
+      }
+    });
+  for (std::thread& th : threads) th.join();
+  expect_same_state(alone.state(), shared.state());
+  EXPECT_GT(shared.contacts().size(), 0u);
+}
+
+TEST(WorldThreads, BodiesAddedAndRemovedDuringStepsWaitForThem) {
+  // one thread steps while another adds and removes far-away bodies: every add or remove waits for
+  // the step running, so the stack's bodies end as if nothing else had happened
+  const double dt = 1.0 / 240.0;
+  World alone, shared;
+  busy_stack(alone);
+  busy_stack(shared);
+  const std::size_t n = shared.num_bodies();
+  alone.step(dt, 200);
+  std::thread stepper([&shared, dt] {
+    for (int s = 0; s < 200; ++s) shared.step(dt);
+  });
+  std::thread editor([&shared, n] {
+    for (int k = 0; k < 200; ++k) {
+      BodyDesc far = box_at(1.0);
+      far.position = Vec3(1000.0 + 3.0 * k, 0.0, 1000.0);  // touches nothing in 200 steps
+      shared.add_body(far);
+      shared.set_velocity(static_cast<BodyIndex>(n), Vec3(1.0, 0.0, 0.0));
+      if (k % 2 == 1) shared.remove_bodies({static_cast<BodyIndex>(n), static_cast<BodyIndex>(n + 1)});
+    }
+  });
+  stepper.join();
+  editor.join();
+  ASSERT_EQ(shared.num_bodies(), n);
+  State s = shared.state();
+  expect_same_state(alone.state(), s);
 }

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -72,6 +73,12 @@ struct StepReport {
   double worst_time = 0.0;         ///< time at the start of that step (s)
 };
 
+/// Threads: every public member function takes the world's lock, so calls from several threads on
+/// one World run one at a time (a step waits for an add_body in another thread, and the other way
+/// round) and none sees another half done. The references and views that model(), state() and the
+/// array accessors hand out are read without it: they stay valid during a step (the storage does
+/// not move) but show the step's progress, and adding or removing bodies may move them. Many
+/// worlds in many threads never wait for each other.
 class World {
  public:
   /// A step is an energy explosion (undone and reported, like a non-finite step) when its final
@@ -151,17 +158,17 @@ class World {
   const State& state() const { return state_; }
   const WorldSettings& settings() const { return settings_; }
   void set_settings(const WorldSettings& settings);
-  std::size_t num_bodies() const { return model_.size(); }
+  std::size_t num_bodies() const;
 
   /// Contacts of the last step (detected at its start), with their solved forces and velocities.
-  const std::vector<Contact>& contacts() const { return *contacts_; }
+  const std::vector<Contact>& contacts() const;
   /// The same list, shared: a holder keeps it valid and unchanged (the World moves to a new list
   /// at the next step when it is held, and reuses it when not).
-  std::shared_ptr<const std::vector<Contact>> shared_contacts() const { return contacts_; }
+  std::shared_ptr<const std::vector<Contact>> shared_contacts() const;
   /// The last step's solver figures and Signorini certificate.
-  const SolverStats& solver_stats() const { return stats_; }
+  SolverStats solver_stats() const;
   /// What the last call of step() did (for warnings).
-  const StepReport& step_report() const { return report_; }
+  StepReport step_report() const;
   /// Per body, the summed contact force (N, world) and torque about its com (N m, world) of the
   /// last step; static bodies included (the reaction on the ground).
   const std::vector<Vec3>& contact_forces() const;
@@ -208,6 +215,9 @@ class World {
   /// the new rotations' quaternions; the one-step forces are spent.
   void commit_step(const SolverStats& stats);
 
+  using Lock = std::lock_guard<std::recursive_mutex>;
+  /// Taken by every public member function (recursive: they call each other).
+  mutable std::recursive_mutex mutex_;
   WorldSettings settings_;
   Model model_;
   State state_;

@@ -349,8 +349,7 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
           contact_items(ia, ib, threshold, s, candidates, pair);
   }
   keep_closable(pair.motion, candidates);
-  // ranked by gap: the end-gap ranking is the plane's (docs, "Manifolds"; by end gaps a stack of
-  // 10 boxes drifts 1.01 mm in 10 s at dt = 1/240 s, past the 1 mm the stack keeps by gaps)
+  // ranked by gap: the end-gap ranking is the plane's only (docs/conventions.md, "Manifolds")
   finish_manifold(candidates, threshold, pair_scale(a, b), out, s.candidate_index);
 }
 

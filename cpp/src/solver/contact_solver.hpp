@@ -88,11 +88,12 @@ struct SolverData {
   std::vector<double> u, e, b_pos, beta;
   std::vector<char> restitutive;
   // per body: the velocities being solved (copied in and out of the caller's v, omega), the
-  // pseudo-velocities of the position pass, and the velocities that move the poses (after iterate)
+  // pseudo-velocities of the position pass, the velocities after iterate (v_pos, omega_pos), and
+  // what the solve hands back to move the poses with: v_move = v_pos + v_p (likewise omega)
   std::vector<BodyVelocity> qd, qd_p;
   std::vector<Mat3> dI_inv;  ///< per body: dt times the world inverse inertia R I_body^-1 R^T at the step's start
   std::vector<Vec3> v_pos, omega_pos;
-  std::vector<Vec3> v_move, omega_move;  ///< (N) what the solve hands back to integrate the poses with
+  std::vector<Vec3> v_move, omega_move;
   // per body: summed contact force (N) and torque about the com (N m), world
   std::vector<Vec3> body_force, body_torque;
   // warm-start cache of the previous step, sorted by key, and the one being written

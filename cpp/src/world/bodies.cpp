@@ -29,6 +29,7 @@ void World::push_keeping(std::vector<T>& v, const T& x) {
 }
 
 BodyIndex World::add_body(const BodyDesc& desc) {
+  const Lock lock(mutex_);
   // validate everything first: the world changes only once nothing can fail
   const BodyIndex index = static_cast<BodyIndex>(model_.size());
   const std::string who = checks::body_label(index, desc.name, desc.shape);
@@ -198,6 +199,7 @@ void World::set_kinematic_flag(BodyIndex i, bool kinematic) {
 void World::remove_body(BodyIndex i) { remove_bodies({i}); }
 
 void World::remove_bodies(const std::vector<BodyIndex>& indices) {
+  const Lock lock(mutex_);
   const auto n = static_cast<BodyIndex>(model_.size());
   for (const BodyIndex i : indices) check_index(i);
   std::vector<BodyIndex> to(static_cast<std::size_t>(n), 0);

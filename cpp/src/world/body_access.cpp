@@ -12,12 +12,14 @@
 namespace signorini {
 
 void World::set_material(BodyIndex i, const Material& material) {
+  const Lock lock(mutex_);
   check_index(i);
   checks::check_material(label(i), material);
   model_.material[i] = material;
 }
 
 std::string World::label(BodyIndex i) const {
+  const Lock lock(mutex_);
   check_index(i);
   return checks::body_label(model_, i);
 }
@@ -29,6 +31,7 @@ void World::check_index(BodyIndex i) const {
 }
 
 void World::set_position(BodyIndex i, const Vec3& p) {
+  const Lock lock(mutex_);
   check_index(i);
   checks::require_finite(label(i), "position", p);
   state_.p[i] = p;
@@ -37,6 +40,7 @@ void World::set_position(BodyIndex i, const Vec3& p) {
 }
 
 void World::set_orientation(BodyIndex i, const Quat4& q) {
+  const Lock lock(mutex_);
   check_index(i);
   state_.R[i] = math::quat_to_matrix(checks::unit_quaternion(label(i), q));
   state_.q[i] = math::matrix_to_quat(state_.R[i]);
@@ -52,11 +56,13 @@ void World::check_velocity(BodyIndex i, const char* what, const Vec3& x) const {
 }
 
 void World::set_velocity(BodyIndex i, const Vec3& v) {
+  const Lock lock(mutex_);
   check_velocity(i, "velocity", v);
   state_.v[i] = v;
 }
 
 void World::set_angular_velocity(BodyIndex i, const Vec3& omega) {
+  const Lock lock(mutex_);
   check_velocity(i, "angular_velocity", omega);
   state_.omega[i] = omega;
 }
@@ -72,6 +78,7 @@ void World::check_batch(const char* who, const Indices& bodies, Eigen::Index row
 }
 
 void World::set_positions(const Indices& bodies, const Points& values) {
+  const Lock lock(mutex_);
   check_batch("set_positions", bodies, values.rows());
   for (Eigen::Index k = 0; k < bodies.size(); ++k)
     checks::require_finite(label(static_cast<BodyIndex>(bodies[k])), "position", values.row(k).transpose());
@@ -84,6 +91,7 @@ void World::set_positions(const Indices& bodies, const Points& values) {
 }
 
 void World::set_orientations(const Indices& bodies, const Quats& values) {
+  const Lock lock(mutex_);
   check_batch("set_orientations", bodies, values.rows());
   std::vector<Mat3> R(bodies.size());
   for (Eigen::Index k = 0; k < bodies.size(); ++k)
@@ -97,6 +105,7 @@ void World::set_orientations(const Indices& bodies, const Quats& values) {
 }
 
 void World::set_velocities(const Indices& bodies, const Points& values) {
+  const Lock lock(mutex_);
   check_batch("set_velocities", bodies, values.rows());
   for (Eigen::Index k = 0; k < bodies.size(); ++k)
     check_velocity(static_cast<BodyIndex>(bodies[k]), "velocity", values.row(k).transpose());
@@ -104,6 +113,7 @@ void World::set_velocities(const Indices& bodies, const Points& values) {
 }
 
 void World::set_angular_velocities(const Indices& bodies, const Points& values) {
+  const Lock lock(mutex_);
   check_batch("set_angular_velocities", bodies, values.rows());
   for (Eigen::Index k = 0; k < bodies.size(); ++k)
     check_velocity(static_cast<BodyIndex>(bodies[k]), "angular_velocity", values.row(k).transpose());
@@ -111,6 +121,7 @@ void World::set_angular_velocities(const Indices& bodies, const Points& values) 
 }
 
 void World::set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torque) {
+  const Lock lock(mutex_);
   check_index(i);
   const std::string who = label(i);
   checks::require_finite(who, "force", force);
@@ -130,18 +141,21 @@ void World::check_push(BodyIndex i, const char* what, const Vec3& push, const Ve
 }
 
 void World::apply_impulse(BodyIndex i, const Vec3& impulse, const Vec3& point) {
+  const Lock lock(mutex_);
   check_push(i, "impulse", impulse, point);
   state_.impulse[i] += impulse;
   state_.angular_impulse[i] += (point - state_.p[i]).cross(impulse);
 }
 
 void World::apply_force(BodyIndex i, const Vec3& force, const Vec3& point) {
+  const Lock lock(mutex_);
   check_push(i, "force", force, point);
   state_.f_step[i] += force;
   state_.tau_step[i] += (point - state_.p[i]).cross(force);
 }
 
 void World::set_kinematic(BodyIndex i, bool kinematic) {
+  const Lock lock(mutex_);
   check_index(i);
   const std::string who = label(i);
   if (model_.is_static[i]) throw std::invalid_argument(who + ": a static body cannot become kinematic or dynamic");
@@ -158,16 +172,19 @@ void World::set_kinematic(BodyIndex i, bool kinematic) {
 }
 
 void World::set_enabled(BodyIndex i, bool enabled) {
+  const Lock lock(mutex_);
   check_index(i);
   model_.enabled[i] = enabled;
 }
 
 void World::set_collision_filter(BodyIndex i, const CollisionFilter& filter) {
+  const Lock lock(mutex_);
   check_index(i);
   model_.filter[i] = filter;
 }
 
 void World::set_pair_collision(BodyIndex i, BodyIndex j, bool collide) {
+  const Lock lock(mutex_);
   check_index(i);
   check_index(j);
   if (i == j) throw std::invalid_argument(label(i) + ": a body never collides with itself; give two different bodies");
@@ -180,11 +197,13 @@ void World::set_pair_collision(BodyIndex i, BodyIndex j, bool collide) {
 }
 
 BodyIndex World::find(const std::string& name) const {
+  const Lock lock(mutex_);
   const auto it = by_name_.find(name);
   return it == by_name_.end() ? -1 : it->second;
 }
 
 Quat4 World::orientation(BodyIndex i) const {
+  const Lock lock(mutex_);
   check_index(i);
   return state_.q[i];
 }

@@ -89,6 +89,7 @@ SolverStats load_stats(serial::Reader& r) {
 }  // namespace
 
 std::string World::save_state() const {
+  const Lock lock(mutex_);
   serial::Writer w;
   w.out.append(kStateMagic, sizeof kStateMagic);
   const std::size_t n = model_.size();
@@ -113,6 +114,7 @@ std::string World::save_state() const {
 }
 
 void World::restore_state(const std::string& saved) {
+  const Lock lock(mutex_);
   // read and check everything first: the world changes only once nothing can fail
   serial::Reader r{saved};
   const std::string bad = "restore_state: not a saved state of this world: ";

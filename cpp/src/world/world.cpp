@@ -29,6 +29,7 @@ World::World(const WorldSettings& settings)
 World::~World() = default;
 
 void World::set_settings(const WorldSettings& s) {
+  const Lock lock(mutex_);
   checks::require_finite("World", "gravity", s.gravity);
   checks::require(std::isfinite(s.contact_margin) && s.contact_margin >= 0.0,
           "contact_margin must be finite and >= 0, got " + std::to_string(s.contact_margin));
@@ -49,6 +50,7 @@ void World::set_settings(const WorldSettings& s) {
 }
 
 void World::step(double dt, int steps) {
+  const Lock lock(mutex_);
   if (!(std::isfinite(dt) && dt > 0.0))
     throw std::invalid_argument("step: dt must be positive and finite, got " + std::to_string(dt));
   if (steps < 0) throw std::invalid_argument("step: steps must be >= 0, got " + std::to_string(steps));
@@ -122,23 +124,62 @@ void World::commit_step(const SolverStats& stats) {
 }
 
 std::vector<Contact> World::detect_contacts(double dt) const {
+  const Lock lock(mutex_);
   std::vector<Contact> out;
   detect_contacts(dt, out);
   return out;
 }
 
 void World::detect_contacts(double dt, std::vector<Contact>& out) const {
+  const Lock lock(mutex_);
   if (!(std::isfinite(dt) && dt > 0.0))
     throw std::invalid_argument("detect_contacts: dt must be positive and finite, got " + std::to_string(dt));
   collision::generate_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
                                *scratch_, out);
 }
 
-const std::vector<Vec3>& World::contact_forces() const { return solver_->body_force; }
-const std::vector<Vec3>& World::contact_torques() const { return solver_->body_torque; }
-const std::vector<CachedContact>& World::warm_start_cache() const { return solver_->cache; }
+std::size_t World::num_bodies() const {
+  const Lock lock(mutex_);
+  return model_.size();
+}
+
+const std::vector<Contact>& World::contacts() const {
+  const Lock lock(mutex_);
+  return *contacts_;
+}
+
+std::shared_ptr<const std::vector<Contact>> World::shared_contacts() const {
+  const Lock lock(mutex_);
+  return contacts_;
+}
+
+SolverStats World::solver_stats() const {
+  const Lock lock(mutex_);
+  return stats_;
+}
+
+StepReport World::step_report() const {
+  const Lock lock(mutex_);
+  return report_;
+}
+
+const std::vector<Vec3>& World::contact_forces() const {
+  const Lock lock(mutex_);
+  return solver_->body_force;
+}
+
+const std::vector<Vec3>& World::contact_torques() const {
+  const Lock lock(mutex_);
+  return solver_->body_torque;
+}
+
+const std::vector<CachedContact>& World::warm_start_cache() const {
+  const Lock lock(mutex_);
+  return solver_->cache;
+}
 
 double World::kinetic_energy() const {
+  const Lock lock(mutex_);
   double T = 0.0;
   for (std::size_t i = 0; i < model_.size(); ++i) {
     if (model_.is_static[i] || model_.is_kinematic[i]) continue;
@@ -150,6 +191,7 @@ double World::kinetic_energy() const {
 }
 
 double World::potential_energy() const {
+  const Lock lock(mutex_);
   double V = 0.0;
   for (std::size_t i = 0; i < model_.size(); ++i)
     if (!model_.is_static[i] && !model_.is_kinematic[i]) V -= model_.mass[i] * settings_.gravity.dot(state_.p[i]);
