@@ -229,4 +229,33 @@ inline py::dict cache_arrays(const std::vector<CachedContact>& cache) {
   return d;
 }
 
+// ---- pickling at every protocol: pybind11's py::pickle serves protocols 2 to 5 through
+// __getstate__ / __setstate__; at 0 and 1, and for a direct __reduce__(), Python's default
+// reduction builds the object with object.__new__, which pybind11 answers by aborting the process.
+
+/// Gives a class with py::pickle __reduce_ex__ and __reduce__ that work at every protocol:
+/// (copyreg.__newobj__, (cls,), state), as protocol 2's NEWOBJ does.
+template <class Class>
+void pickle_at_every_protocol(Class cls) {
+  auto reduce = [](const py::object& self) -> py::tuple {
+    const py::object newobj = py::module_::import("copyreg").attr("__newobj__");
+    const py::object state = self.attr("__getstate__")();
+    return py::make_tuple(newobj, py::make_tuple(py::type::of(self)), state);
+  };
+  cls.def("__reduce_ex__", [reduce](const py::object& self, int) -> py::tuple { return reduce(self); },
+          py::arg("protocol"));
+  cls.def("__reduce__", reduce);
+}
+
+/// Refuses pickling at every protocol with a TypeError that says what to pickle instead.
+template <class Class>
+void refuse_pickling(Class cls, const std::string& instead) {
+  const std::string message = "cannot pickle a signorini._core." +
+                              std::string(py::str(cls.attr("__name__"))) + ": " + instead;
+  auto refuse = [message](const py::object&) -> py::tuple { throw py::type_error(message); };
+  cls.def("__reduce_ex__", [refuse](const py::object& self, int) -> py::tuple { return refuse(self); },
+          py::arg("protocol"));
+  cls.def("__reduce__", refuse);
+}
+
 }  // namespace signorini::bindings

@@ -391,4 +391,14 @@ void register_shapes(py::module_& m) {
       },
       py::arg("shape"), py::arg("density"),
       "(mass kg, com (3,) m in the shape frame, inertia (3, 3) kg m^2 about the com) for a uniform density.");
+  // every shape pickles at every protocol (arrays.hpp)
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<Sphere>>(m.attr("Sphere")));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<Box>>(m.attr("Box")));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<Plane>>(m.attr("Plane")));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<Mesh>>(m.attr("Mesh")));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<Capsule>>(m.attr("Capsule")));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<Cylinder>>(m.attr("Cylinder")));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<ConvexHull>>(m.attr("ConvexHull")));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<TriangleMesh>>(m.attr("TriangleMesh")));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<Compound>>(m.attr("Compound")));
 }

@@ -19,6 +19,8 @@ void register_world(py::module_& m) {
       .value("midpoint", Gyroscopic::Midpoint)
       .value("implicit", Gyroscopic::Implicit)
       .value("explicit", Gyroscopic::Explicit);
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<FrictionCone>>(m.attr("FrictionCone")));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<Gyroscopic>>(m.attr("Gyroscopic")));
 
   // solver settings: plain fields, validated by World (docs/conventions.md, "Defaults")
   py::class_<SolverSettings>(m, "SolverSettings")
@@ -33,7 +35,30 @@ void register_world(py::module_& m) {
       .def_readwrite("gyroscopic", &SolverSettings::gyroscopic)
       .def_readwrite("warm_start", &SolverSettings::warm_start)
       .def_readwrite("substeps", &SolverSettings::substeps)
-      .def_readwrite("warn_velocity", &SolverSettings::warn_velocity);
+      .def_readwrite("warn_velocity", &SolverSettings::warn_velocity)
+      .def(py::pickle(
+          [](const SolverSettings& s) {
+            return py::make_tuple(s.erp, s.tolerance, s.max_iterations, s.slop, s.max_push_velocity,
+                                  s.restitution_threshold, s.friction_cone, s.gyroscopic, s.warm_start, s.substeps,
+                                  s.warn_velocity);
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 11) throw py::value_error("SolverSettings: a pickled state has 11 items");
+            SolverSettings s;
+            s.erp = t[0].cast<double>();
+            s.tolerance = t[1].cast<double>();
+            s.max_iterations = t[2].cast<int>();
+            s.slop = t[3].cast<double>();
+            s.max_push_velocity = t[4].cast<double>();
+            s.restitution_threshold = t[5].cast<double>();
+            s.friction_cone = t[6].cast<FrictionCone>();
+            s.gyroscopic = t[7].cast<Gyroscopic>();
+            s.warm_start = t[8].cast<bool>();
+            s.substeps = t[9].cast<int>();
+            s.warn_velocity = t[10].cast<double>();
+            return s;
+          }));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<SolverSettings>>(m.attr("SolverSettings")));
 
   // an index that is not in the world: both an IndexError and a ValueError
   py::register_exception<BodyIndexError>(m, "BodyIndexError",
@@ -216,4 +241,6 @@ void register_world(py::module_& m) {
       .def_property_readonly("warm_start_cache", [](const World& w) { return bindings::cache_arrays(w.warm_start_cache()); })
       .def("kinetic_energy", &World::kinetic_energy)
       .def("potential_energy", &World::potential_energy);
+  bindings::refuse_pickling(py::reinterpret_borrow<py::class_<World>>(m.attr("World")),
+                            "pickle the signorini.World that holds it");
 }
