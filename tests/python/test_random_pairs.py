@@ -21,6 +21,8 @@ from signorini.oracle import manifold as om
 from signorini.oracle import support as osup
 from signorini.oracle.rigid import quat_to_matrix
 
+from helpers import random_hull_points, signed_distance, tessellated_floor
+
 TOL = 1e-6          # m: the issue's figure for shallow overlaps
 N_BOX_PAIRS = 9000
 N_HULL_PAIRS = 1000
@@ -198,11 +200,6 @@ def test_separated_box_pairs_off_the_edges_match_the_oracle_and_the_distance():
     assert mixed >= 40, mixed  # 55 of them
 
 
-def random_hull_points(rng):
-    k = rng.integers(6, 20)
-    return rng.normal(size=(k, 3)) * rng.uniform(0.1, 0.6, 3)
-
-
 def test_hull_pairs_match_a_brute_force_support_search():
     rng = np.random.default_rng(417)
     worst, done = 0.0, 0
@@ -319,33 +316,11 @@ def test_every_convex_pair_touching_or_shallow_has_finite_unit_normals(kind_a, k
     assert worst < (TOL if exact else CURVED_TOL), f"{kind_a}-{kind_b}: largest gap error {worst:.2e} m"
 
 
-def _tessellated_floor(n=8, half=1.0):
-    """A flat 2 half x 2 half m floor in z = 0 of n x n squares, two triangles each: every interior
-    edge is inactive (flat)."""
-    xs = np.linspace(-half, half, n + 1)
-    V = np.array([(x, y, 0.0) for y in xs for x in xs])
-    F = []
-    for j in range(n):
-        for i in range(n):
-            a = j * (n + 1) + i
-            F += [(a, a + 1, a + n + 2), (a, a + n + 2, a + n + 1)]
-    return sg.TriangleMesh(V, np.array(F))
-
-
-def _signed_distance(kind, r, h, x):
-    """Signed distance of body-frame points x (K, 3) from a capsule or cylinder (radius r, half
-    height h, axis z)."""
-    if kind == "capsule":
-        return np.linalg.norm(x - np.outer(np.clip(x[:, 2], -h, h), [0, 0, 1]), axis=1) - r
-    d_r, d_z = np.hypot(x[:, 0], x[:, 1]) - r, np.abs(x[:, 2]) - h
-    return np.minimum(np.maximum(d_r, d_z), 0.0) + np.hypot(np.maximum(d_r, 0.0), np.maximum(d_z, 0.0))
-
-
 def _assert_on_body(kind, r, h, on_body, gap):
     """Body witnesses (K, 3, body frame) on the body or inside it (a capsule's segment clipped at a
     triangle's side ends r below a point of its axis, which other axis points may be nearer), the
     deepest one on its surface."""
-    d = _signed_distance(kind, r, h, on_body)
+    d = signed_distance(kind, r, h, on_body)
     assert d.max() < 1e-9 and abs(d[np.argmin(gap)]) < 1e-9, d
 
 
@@ -358,7 +333,7 @@ def test_capsules_and_cylinders_get_no_ghost_normals_from_a_tessellated_floor(ki
     # in z = 0, its body witness y + gap/2 n on the body's surface). Before the inactive-edge rule
     # for these paths, contacts whose witness lay on an interior edge tilted by up to
     # 1 - n_z = 0.94 (cylinders) and 0.21 (capsules)
-    floor = _tessellated_floor()
+    floor = tessellated_floor()
     r, h = 0.05, 0.1
     shape = sg.Capsule(r, h) if kind == "capsule" else sg.Cylinder(r, h)
     rng = np.random.default_rng(11)
