@@ -51,6 +51,7 @@ def box_reference(p_a, R_a, h_a, p_b, R_b, h_b):
     return best, s
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="boxes, shallow")
 def test_box_pairs_match_the_oracle_separating_axes():
     rng = np.random.default_rng(20261121)
     worst, done = 0.0, 0
@@ -159,6 +160,7 @@ def check_vertex_pair(c, i, j, x_a, delta, d, k):
     return found
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="boxes apart, off the edges")
 def test_separated_box_pairs_off_the_edges_match_the_oracle_and_the_distance():
     # Boxes apart whose edge lines would meet off the edges: when the edge axis wins, its
     # separation only bounds the distance, so the contact is the boxes' closest pair (a corner
@@ -200,6 +202,7 @@ def test_separated_box_pairs_off_the_edges_match_the_oracle_and_the_distance():
     assert mixed >= 40, mixed  # 55 of them
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="hulls, shallow")
 def test_hull_pairs_match_a_brute_force_support_search():
     rng = np.random.default_rng(417)
     worst, done = 0.0, 0
@@ -224,6 +227,7 @@ def test_hull_pairs_match_a_brute_force_support_search():
     print(f"{done} hull pairs: largest |gap - reference| = {worst:.2e} m")
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="hull corners apart")
 def test_separated_hull_corners_get_their_closest_pair():
     # Hulls apart whose closest points are a vertex of each, delta apart along a random unit d
     # (A's vertex of largest d . x, B's of least, B placed so that the second is the first plus
@@ -253,6 +257,7 @@ def test_separated_hull_corners_get_their_closest_pair():
     assert closest >= 100, closest  # 142 of the 400 pairs
 
 
+@pytest.mark.slots("trimesh-polytope", role="random", note="box corners apart")
 def test_separated_box_corners_over_a_triangle_get_their_closest_pair():
     # The same for a box in front of a one-triangle mesh (its edges all active): a triangle vertex
     # and a box corner delta apart along d, d . n_t >= 0.2 (the box in front of the face, which
@@ -290,8 +295,11 @@ SHAPES = {
     "cylinder": lambda rng: sg.Cylinder(rng.uniform(0.1, 0.4), rng.uniform(0.05, 0.4)),
     "hull": lambda rng: sg.ConvexHull(random_hull_points(rng)),
 }
+ITEM_KIND = {"sphere": "sphere", "box": "polytope", "capsule": "capsule", "cylinder": "cylinder", "hull": "polytope"}
 
 
+@pytest.mark.slots(*sorted({f"{ITEM_KIND[a]}-{ITEM_KIND[b]}" for a in SHAPES for b in SHAPES}), role="random",
+                   note="20 pairs, deepest gap only")
 @pytest.mark.parametrize("kind_a", sorted(SHAPES))
 @pytest.mark.parametrize("kind_b", sorted(SHAPES))
 def test_every_convex_pair_touching_or_shallow_has_finite_unit_normals(kind_a, kind_b):
@@ -324,7 +332,9 @@ def _assert_on_body(kind, r, h, on_body, gap):
     assert d.max() < 1e-9 and abs(d[np.argmin(gap)]) < 1e-9, d
 
 
-@pytest.mark.parametrize("kind", ["capsule", "cylinder"])
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("trimesh-" + k, role="random",
+                                                                          note="a tessellated floor"))
+                                  for k in ["capsule", "cylinder"]])
 def test_capsules_and_cylinders_get_no_ghost_normals_from_a_tessellated_floor(kind):
     # any orientation, anywhere over a flat floor of 128 triangles, its lowest point within 4 mm of
     # the floor in or out: the floor is one plane, so every contact normal is its normal, the
@@ -356,7 +366,9 @@ def test_capsules_and_cylinders_get_no_ghost_normals_from_a_tessellated_floor(ki
         _assert_on_body(kind, r, h, on_body, c.gap)
 
 
-@pytest.mark.parametrize("kind", ["capsule", "cylinder"])
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("trimesh-" + k, role="random",
+                                                                          note="a valley"))
+                                  for k in ["capsule", "cylinder"]])
 def test_capsules_and_cylinders_in_a_valley_touch_its_faces(kind):
     # a V valley (faces z = -s x for x < 0 and z = s x for x > 0, s = 0.4, fold along y, cut into
     # triangles; the fold is concave, so inactive), the body anywhere near the fold in any

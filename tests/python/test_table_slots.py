@@ -1,122 +1,16 @@
 """Every slot of the dispatch table (docs/conventions.md, "The dispatch table") has a golden test and
-a random-pair test.
+a random-pair test; test_slot_coverage.py checks that from the tests' `slots` marks (these, the
+other test files' and the C++ tests') and prints the coverage table.
 
 Golden: a hand-made configuration whose gaps, normals and points are asserted against a closed
-form. Random-pair: seeded random placements checked against an independent reference separation,
-with every contact point's two witnesses (point -+ gap/2 normal) on or inside their shapes.
-
-The reference separation of the random pairs is made by construction: tests/python/helpers.py says
-how, and why it is exact.
-A sample of every slot is also checked with signorini.oracle (no code shared with the core or with
-the above): g(d) = (s_B(-d) - s_A(d)) . d from its support mappings is delta, and its brute-force
-search for the best direction (support_separation, which can only fall short: it maximises g)
-finds nothing better than delta.
-
-Coverage (slot -> golden test; random-pair test). (A, B) and (B, A) are one slot: the table runs the
-(A, B) test with the normal reversed, and the random tests here call both orders. "C++" names
-tests/cpp/test_contacts.cpp, "GJK" tests/cpp/test_gjk_epa.cpp, "rp" test_random_pairs.py, "tt"
-test_trimesh_tunnelling.py, "fz" test_fuzz.py; names without a file are in this file.
-"Smoke" = C++ NarrowPhase.EveryItemKindPairHasATestAndAnUnsetKindThrows (every slot, axis-aligned,
-gap and normal only); "rp20" = rp::test_every_convex_pair_touching_or_shallow_has_finite_unit_normals
-(20 pairs per kind pair, deepest gap only, 5 mm for cylinders); "GJK random" =
-GjkEpa.RandomPairsOfEveryKind... (the distance routine alone, not the slot's manifold).
-
-Before this file:
-  sphere-sphere     golden: C++ SpherePairsHaveOnePoint... (gap; no point, no normal); smoke
-                    random: rp20; GJK random
-  sphere-capsule    golden: C++ SpherePairsHaveOnePoint... (side: gap and feature)
-                    random: rp20; GJK random
-  sphere-cylinder   golden: smoke only
-                    random: rp20; GJK random
-  sphere-polytope   golden: smoke only
-                    random: fz::test_point_distance_matches_the_cores_closest_points (gap only); rp20
-  capsule-capsule   golden: C++ ParallelCapsulesTouchAlongTwoPointsCrossedOnOne (gap, normal)
-                    random: rp20; GJK random
-  capsule-cylinder  golden: smoke only
-                    random: rp20 (5 mm)
-  capsule-polytope  golden: C++ CapsuleLyingOnABoxOrAPlaneHasTwoPoints (box)
-                    random: rp20
-  cylinder-cylinder golden: smoke only
-                    random: rp20 (5 mm); GJK random
-  cylinder-polytope golden: C++ CylinderStandingHasRimPointsAndLyingHasTwo (on a box: gap, normal)
-                    random: rp20 (5 mm); GJK random and GJK CylinderOnASlab... (distance only)
-  polytope-polytope golden: C++ Manifold.UnitBoxOnALargerBox..., ...Turned45Degrees..., CrossedEdges...,
-                    SeparatedCrossedEdges..., SpeculativeBoxAboveABox...
-                    random: rp::test_box_pairs_match_the_oracle_separating_axes,
-                    test_hull_pairs_match_a_brute_force_support_search, test_separated_box_pairs_off_the_edges...,
-                    test_separated_hull_corners_get_their_closest_pair
-  plane-sphere      golden: none of the core (test_oracle_manifolds tests the oracle's rule)
-                    random: none
-  plane-capsule     golden: C++ CapsuleLyingOnABoxOrAPlaneHasTwoPoints (gap only)
-                    random: none
-  plane-cylinder    golden: C++ CylinderStandingHasRimPointsAndLyingHasTwo (standing, lying)
-                    random: none
-  plane-polytope    golden: C++ BoxFaceDownOnAPlaneHasItsFourBottomCornersWithVertexIds
-                    random: none
-  trimesh-sphere    golden: tt::test_a_sphere_whose_centre_crossed_a_triangle...; C++ SphereRolling...
-                    random: none
-  trimesh-capsule   golden: none
-                    random: rp::test_capsules_and_cylinders_get_no_ghost_normals...[capsule], ..._in_a_valley...
-  trimesh-cylinder  golden: C++ CylinderStandingOnATriangleMeshFloorHasRimPoints (gap, normal)
-                    random: rp::..._no_ghost_normals...[cylinder], ..._in_a_valley...[cylinder]
-  trimesh-polytope  golden: C++ BoxOnATriangleMeshFloorKeepsItsFourCorners...; tt::test_a_box_whose_centre...
-                    random: rp::test_separated_box_corners_over_a_triangle... (separated corners only)
-  (test_crosscheck compares whole scenes with the oracle: boxes, spheres, meshes on planes; not per slot)
-
-After (this file adds; the tests above stay):
-  sphere-sphere     golden: test_golden_sphere_sphere
-                    random: test_random_item_pairs[sphere-sphere]
-  sphere-capsule    golden: test_golden_sphere_capsule
-                    random: test_random_item_pairs[sphere-capsule]
-  sphere-cylinder   golden: test_golden_sphere_cylinder
-                    random: test_random_item_pairs[sphere-cylinder]
-  sphere-polytope   golden: test_golden_sphere_hull
-                    random: test_random_item_pairs[sphere-polytope]
-  capsule-capsule   golden: test_golden_capsule_capsule
-                    random: test_random_item_pairs[capsule-capsule]
-  capsule-cylinder  golden: test_golden_capsule_cylinder
-                    random: test_random_item_pairs[capsule-cylinder],
-                    test_random_support_pairs_with_a_face_near_the_normal[capsule-cylinder]
-  capsule-polytope  golden: test_golden_capsule_hull
-                    random: test_random_item_pairs[capsule-polytope]
-  cylinder-cylinder golden: test_golden_cylinder_cylinder
-                    random: test_random_item_pairs[cylinder-cylinder],
-                    test_random_support_pairs_with_a_face_near_the_normal[cylinder-cylinder]
-  cylinder-polytope golden: test_golden_cylinder_polytope
-                    random: test_random_item_pairs[cylinder-polytope],
-                    test_random_support_pairs_with_a_face_near_the_normal[cylinder-polytope],
-                    test_cylinder_rim_touching_a_polytope_vertex_exactly (was an xfail)
-  polytope-polytope golden: (C++ above); C++ SpeculativeClipThatMissesTheClosestPairGetsItWithTheDistance
-                    (and test_oracle_manifolds::test_speculative_clip_that_misses_the_closest_pair...)
-                    random: test_random_item_pairs[polytope-polytope] (generic corners apart or
-                    touching; a face on one side at least when overlapping),
-                    test_polytopes_touching_corner_to_corner_get_a_contact,
-                    test_polytopes_apart_corner_to_corner_get_their_distance (was an xfail),
-                    test_a_convex_mesh_with_a_vertex_inside_a_face_does_not_crash;
-                    rp::test_separated_box_pairs_off_the_edges... (core = oracle, ids and all,
-                    with closest pairs added beside clipped points)
-  plane-sphere      golden: test_golden_plane_sphere
-                    random: test_random_plane_pairs[sphere]
-  plane-capsule     golden: test_golden_plane_capsule
-                    random: test_random_plane_pairs[capsule]
-  plane-cylinder    golden: test_golden_plane_cylinder
-                    random: test_random_plane_pairs[cylinder]
-  plane-polytope    golden: (C++ above)
-                    random: test_random_plane_pairs[polytope]
-  trimesh-sphere    golden: (tt, C++ above)
-                    random: test_random_floor_pairs[sphere], test_random_lone_triangle_pairs[sphere]
-  trimesh-capsule   golden: test_golden_trimesh_capsule
-                    random: (rp above), test_random_floor_pairs[capsule], test_random_lone_triangle_pairs[capsule]
-  trimesh-cylinder  golden: test_golden_trimesh_cylinder
-                    random: (rp above), test_random_floor_pairs[cylinder], test_random_lone_triangle_pairs[cylinder]
-  trimesh-polytope  golden: (C++, tt above); C++ BoxBesideALoneTrianglesVertexGetsTheClosestPair,
-                    BoxCornerBesideAFloorDiagonalGetsNoGhostOfTheClosestPair (the ghost rule)
-                    random: test_random_lone_triangle_pairs[polytope] (onto the face)
-                    test_a_convex_mesh_with_a_vertex_inside_a_face_does_not_crash
-                    test_random_floor_pairs[polytope] (ghost normals of B's face against a floor vertex: fixed)
-                    test_polytopes_beside_a_lone_triangle_get_their_distance (was an xfail)
-
-Tolerances: tests/python/helpers.py.
+form. Random-pair: seeded random placements checked against a reference separation made by
+construction (helpers.py says how, and why it is exact), with every contact point's two
+witnesses (point -+ gap/2 normal) on or inside their shapes, to the tolerances helpers.py gives.
+A sample of every slot is also checked with signorini.oracle (no code shared with the core or
+with the construction): g(d) = (s_B(-d) - s_A(d)) . d from its support mappings is delta, and its
+brute-force search for the best direction (support_separation, which can only fall short: it
+maximises g) finds nothing better than delta. (A, B) and (B, A) are one slot: the table runs the
+(A, B) test with the normal reversed, and the random tests here call both orders.
 """
 import subprocess
 import sys
@@ -200,7 +94,7 @@ def slot_pair(slot, seed, k, regime=None, flats=None):
     return a, b, d, delta, rho, regime
 
 
-@pytest.mark.parametrize("slot", SLOTS)
+@pytest.mark.parametrize("slot", [pytest.param(s, marks=pytest.mark.slots(s, role="random")) for s in SLOTS])
 def test_random_item_pairs(slot):
     # slot: the item-kind pair named (Sphere, Capsule, Cylinder, Polytope = box, hull, convex mesh
     # piece), both orders. Apart by up to 1 cm, exactly touching, or overlapping by up to 2 cm; the
@@ -289,7 +183,8 @@ def side_of(cylinder, rng):
             return x, n, rho
 
 
-@pytest.mark.parametrize("slot", sorted(SUPPORT_SLOTS))
+@pytest.mark.parametrize("slot", [pytest.param(s, marks=pytest.mark.slots(s, role="random", note="a face near the normal"))
+                                  for s in sorted(SUPPORT_SLOTS)])
 def test_random_support_pairs_with_a_face_near_the_normal(slot):
     # slots: capsule-cylinder, cylinder-cylinder, cylinder-polytope (both orders), the support
     # slots' clipping path: A's face (a cap, a polytope face) 0.5 to 5.5 degrees off d, so the core
@@ -324,7 +219,8 @@ def test_random_support_pairs_with_a_face_near_the_normal(slot):
 STATIC_KINDS = ["sphere", "capsule", "cylinder", "polytope"]
 
 
-@pytest.mark.parametrize("kind", STATIC_KINDS)
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("plane-" + k, role="random"))
+                                  for k in STATIC_KINDS])
 def test_random_plane_pairs(kind):
     # slot: Plane against `kind` (polytope = box, hull, convex mesh), both orders. A plane of random
     # normal n and offset, the body resting on it, pressed in or lifted by delta: the body's lowest
@@ -384,7 +280,8 @@ def floor_pair(kind, seed, k):
     return Placed(body, lowest - R @ x, R), delta, regime
 
 
-@pytest.mark.parametrize("kind", ["sphere", "capsule", "cylinder", "polytope"])
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("trimesh-" + k, role="random", note="a floor"))
+                                  for k in ["sphere", "capsule", "cylinder", "polytope"]])
 def test_random_floor_pairs(kind):
     # slot: TriangleMesh against `kind` (polytope = box, hull, convex mesh): a flat floor of 512
     # triangles (helpers.tessellated_floor(16, 2.0), interior edges inactive), the body anywhere over
@@ -431,7 +328,9 @@ def height_over(V, n_t, b):
     return n_t @ (b.p + b.R @ b.body.support(b.R.T @ -n_t)[0] - V[0])
 
 
-@pytest.mark.parametrize("kind", STATIC_KINDS)
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("trimesh-" + k, role="random",
+                                                                          note="a lone triangle"))
+                                  for k in STATIC_KINDS])
 def test_random_lone_triangle_pairs(kind):
     # slot: TriangleMesh against `kind`, per triangle: the one-sided face, active edges and
     # vertices of a single triangle (lone_triangle_pair). Reference as in test_random_item_pairs
@@ -509,6 +408,7 @@ ALONG_X = rot(1, np.pi / 2)   # body z -> world x
 ALONG_Y = rot(0, -np.pi / 2)  # body z -> world y
 
 
+@pytest.mark.slots("sphere-sphere", role="golden")
 def test_golden_sphere_sphere():
     # slot: Sphere - Sphere. Radii 0.3 and 0.2, centres 0.49 m (1 cm in) and 0.53 m (3 cm apart)
     # apart along d: gap |c_B - c_A| - r_A - r_B, normal d, point midway between c_A + r_A d and
@@ -520,6 +420,7 @@ def test_golden_sphere_sphere():
                         [(0.5 * (0.3 + dist - 0.2) * d, d, g)])
 
 
+@pytest.mark.slots("sphere-capsule", role="golden")
 def test_golden_sphere_capsule():
     # slot: Sphere - Capsule. Capsule radius 0.1, segment z in [-0.4, 0.4]; a ball of radius 0.05
     # beside its side at (0.2, 0, 0.3): closest axis point (0, 0, 0.3), gap 0.2 - 0.15, normal x;
@@ -534,6 +435,7 @@ def test_golden_sphere_capsule():
                         [(0.5 * (q + 0.1 * n + c - 0.05 * n), n, g)])
 
 
+@pytest.mark.slots("sphere-cylinder", role="golden")
 def test_golden_sphere_cylinder():
     # slot: Sphere - Cylinder. Cylinder radius 0.3, half height 0.2 (axis z); a ball of radius 0.1
     # g = 4 mm from its cap (normal z), from its side (normal x), from its top rim (normal
@@ -555,6 +457,7 @@ def test_golden_sphere_cylinder():
 TETRA = 0.2 * np.array([[1.0, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]])
 
 
+@pytest.mark.slots("sphere-polytope", role="golden")
 def test_golden_sphere_hull():
     # slot: Sphere - Polytope (a hull: a regular tetrahedron, vertices 0.2 (+-1, +-1, +-1) with an
     # even number of minus signs). A ball of radius 0.05, 3 mm from the face opposite vertex 0
@@ -576,6 +479,7 @@ def test_golden_sphere_hull():
                     [(0.5 * (on_face + on_ball), n_face, -depth - r)])
 
 
+@pytest.mark.slots("capsule-capsule", role="golden")
 def test_golden_capsule_capsule():
     # slot: Capsule - Capsule. A: radius 0.1, segment x in [-0.5, 0.5]. B: radius 0.05, 1 cm in from
     # above (axes 0.14 apart): lying parallel over x in [0.1, 0.5], the two ends of the overlap
@@ -593,6 +497,7 @@ def test_golden_capsule_capsule():
                     [(0.5 * (end_a + 0.1 * n + end_b - 0.05 * n), n, -0.02)])
 
 
+@pytest.mark.slots("capsule-polytope", role="golden")
 def test_golden_capsule_hull():
     # slot: Capsule - Polytope (a hull: the cube of half side 0.5 with interior points). A capsule
     # of radius 0.1 lying along x 3 mm over the top face, its segment x in [0.4, 1.2] hanging over
@@ -616,6 +521,7 @@ def support_point_tol(radius):
     return np.sqrt(2.0 * radius * 2e-9)
 
 
+@pytest.mark.slots("capsule-cylinder", role="golden")
 def test_golden_capsule_cylinder():
     # slot: Capsule - Cylinder (GJK/EPA + clipping). Cylinder radius 0.3, half height 0.2.
     # - capsule (radius 0.05, segment x in [-0.05, 0.15] at y = 0.05) lying 3 mm over the cap:
@@ -649,6 +555,7 @@ def assert_on_rim(shape_a, p_a, R_a, cyl, p_b, R_b, margin, rim_z, gap):
         assert np.diff(np.append(angles, angles[0] + 2 * np.pi)).max() < np.pi, f"{label}: the axis is outside {X}"
 
 
+@pytest.mark.slots("cylinder-cylinder", role="golden")
 def test_golden_cylinder_cylinder():
     # slot: Cylinder - Cylinder (GJK/EPA + clipping). A: radius 0.3, half height 0.2.
     # - B (radius 0.1) standing on A's cap 3 mm up (or 4 mm in), off-centre: both caps are faces,
@@ -665,6 +572,7 @@ def test_golden_cylinder_cylinder():
 CUBE = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
 
 
+@pytest.mark.slots("cylinder-polytope", role="golden")
 def test_golden_cylinder_polytope():
     # slot: Cylinder - Polytope (GJK/EPA + clipping).
     # - a cylinder (radius 0.2) standing 3 mm over a box's top face z = 0, or 4 mm into it: its cap
@@ -684,6 +592,7 @@ def test_golden_cylinder_polytope():
                     [((0.0, 0.0, 0.3 + g / 2), Z, g)])
 
 
+@pytest.mark.slots("plane-sphere", role="golden")
 def test_golden_plane_sphere():
     # slot: Plane - Sphere. The plane n . x = 0.1, n = (0, 0.6, 0.8); a ball of radius 0.2 whose
     # lowest point is 4 mm into it (or 3 mm above), over (0.3, 0, 0) + 0.1 n: gap, normal n, point
@@ -695,6 +604,7 @@ def test_golden_plane_sphere():
                         [(foot + 0.5 * g * n, n, g)])
 
 
+@pytest.mark.slots("plane-capsule", role="golden")
 def test_golden_plane_capsule():
     # slot: Plane - Capsule. The plane z = 0; a capsule of radius 0.1, half length 0.3, tilted 30
     # degrees about y, its lower end's centre p0 = (0.2, 0.1, 0.1 + g): one point under p0 (the upper
@@ -708,6 +618,7 @@ def test_golden_plane_capsule():
                     [((0.2, 0.1, g / 2), Z, g), ((0.8, 0.1, g / 2), Z, g)])
 
 
+@pytest.mark.slots("plane-cylinder", role="golden")
 def test_golden_plane_cylinder():
     # slot: Plane - Cylinder. The plane z = 0; a cylinder of radius 0.3, half height 0.2, turned 10
     # degrees about its axis and tilted 30 degrees about x (axis a = (0, -1/2, sqrt 3 / 2)): its
@@ -729,6 +640,7 @@ def test_golden_plane_cylinder():
 BIG_TRIANGLE = sg.TriangleMesh(np.array([[-2.0, -2.0, 0.0], [2.0, -2.0, 0.0], [0.0, 2.0, 0.0]]), np.array([[0, 1, 2]]))
 
 
+@pytest.mark.slots("trimesh-capsule", role="golden")
 def test_golden_trimesh_capsule():
     # slot: TriangleMesh - Capsule. One large triangle in z = 0, front +z. A capsule of radius 0.05,
     # segment x in [-0.1, 0.3] at y = 0.2, lying 3 mm above it or 4 mm into it: its segment
@@ -742,6 +654,7 @@ def test_golden_trimesh_capsule():
                         np.array([0.1, 0.2, 0.05 + g]) + 0.2 * a30[:, 2], a30, 0.01, [((0.1, 0.2, g / 2), Z, g)])
 
 
+@pytest.mark.slots("trimesh-cylinder", role="golden")
 def test_golden_trimesh_cylinder():
     # slot: TriangleMesh - Cylinder. One large triangle in z = 0. A cylinder of radius 0.2 standing
     # 3 mm above it or 4 mm in: every point on its bottom rim (assert_on_rim); lying along x (half
@@ -759,6 +672,7 @@ def count_failures(pairs, check):
     return [m for m in (check(p) for p in pairs) if m]
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="generic corners apart")
 def test_polytopes_apart_corner_to_corner_get_their_distance():
     # slot: Polytope - Polytope, both generic (a vertex or edge of each facing the other), apart
     # by 0.1 to 10 mm: the distance is delta exactly (module docstring), and a speculative contact
@@ -779,6 +693,7 @@ def test_polytopes_apart_corner_to_corner_get_their_distance():
     assert not failures, f"{len(failures)} of 300: " + "; ".join(failures[:5])
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="generic corners touching")
 def test_polytopes_touching_corner_to_corner_get_a_contact():
     # slot: Polytope - Polytope, both generic, exactly touching (distance 0, within the margin):
     # there must be a contact of gap 0 (EXACT).
@@ -796,6 +711,7 @@ def test_polytopes_touching_corner_to_corner_get_a_contact():
     assert not failures, f"{len(failures)} of 300: " + "; ".join(failures[:5])
 
 
+@pytest.mark.slots("cylinder-polytope", role="random", note="rim on a vertex, touching")
 def test_cylinder_rim_touching_a_polytope_vertex_exactly():
     # slot: Cylinder - Polytope, both generic (a rim point against a vertex or an edge), exactly
     # touching: deepest gap 0 and witnesses on the shapes to support_tol, as in test_random_item_pairs.
@@ -820,6 +736,7 @@ def test_cylinder_rim_touching_a_polytope_vertex_exactly():
     assert not failures, f"{len(failures)} of 300: " + "; ".join(failures[:5])
 
 
+@pytest.mark.slots("trimesh-polytope", role="random", note="off the face, apart")
 def test_polytopes_beside_a_lone_triangle_get_their_distance():
     # slot: TriangleMesh - Polytope, off the face: a one-triangle mesh (all edges active) and a box,
     # hull or convex mesh apart from its vertex by delta along d (d . n_t >= 0.9), the body wholly
@@ -866,6 +783,8 @@ CRASH = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slots("polytope-polytope", "trimesh-polytope", role="golden",
+                   note="a mesh piece with a vertex inside a face")
 def test_a_convex_mesh_with_a_vertex_inside_a_face_does_not_crash():
     # slots: Polytope - Polytope and TriangleMesh - Polytope, a mesh piece face down 5 mm over a box
     # and over a triangle: four contacts of gap 5 mm. Run in a child process: it crashed (clip_faces
