@@ -315,16 +315,8 @@ def lone_triangle_pair(kind, seed, k, off_face=False, min_cos=0.2, cylinder_touc
     rng = np.random.default_rng([seed, k])
     V, n_t = lone_triangle(rng)
     body = static_body(kind, rng, k)
-    # polytopes and cylinders touching a vertex or an edge: the contact normal is not unique
-    # there, and one pointing behind the triangle, which the one-sided rule would drop, is replaced
-    # by the normal of the body raised by 1e-9 L (trimesh_contacts.cpp). Before, ~4.6 % of all
-    # cylinder-triangle pairs of benchmarks/bench_cylinder_pairs.py got no contact, and of 2,627
-    # polytopes touching a lone triangle's vertex 343 did (all but 13 of them reaching behind the
-    # triangle's plane); with the raise, none wholly in front is missed, and of those reaching
-    # behind 50 still are (their vertex centroid, which the one-sided check takes for the centre,
-    # lies behind the plane) and 17 get a gap 1e-9 to 1.5e-8 m from 0 (bodies ~1 m: the
-    # closest-pair distance near 0 is rounding-limited). The test of the off-face regimes alone
-    # passes off_face=True
+    # touching a vertex or an edge, a polytope or cylinder gets the normal of the body raised by a
+    # hair (docs/conventions.md, "Contacts", static triangle mesh); off_face=True: off the face only
     face = k % 2 == 0 and not off_face
     regime = ("apart", "touch", "over")[k % 3] if face else ("apart", "touch")[k % 2]
     if not off_face:

@@ -340,9 +340,8 @@ def test_capsules_and_cylinders_get_no_ghost_normals_from_a_tessellated_floor(ki
     # the floor in or out: the floor is one plane, so every contact normal is its normal, the
     # deepest gap is the closed form of the lowest point (capsule: z - h |a_z| - r; cylinder:
     # z - h |a_z| - r sqrt(1 - a_z^2)), and every point is on both (its floor witness y - gap/2 n
-    # in z = 0, its body witness y + gap/2 n on the body's surface). Before the inactive-edge rule
-    # for these paths, contacts whose witness lay on an interior edge tilted by up to
-    # 1 - n_z = 0.94 (cylinders) and 0.21 (capsules)
+    # in z = 0, its body witness y + gap/2 n on the body's surface): the inactive-edge rule
+    # (docs/conventions.md, "Contacts", static triangle mesh)
     floor = tessellated_floor()
     r, h = 0.05, 0.1
     shape = sg.Capsule(r, h) if kind == "capsule" else sg.Cylinder(r, h)

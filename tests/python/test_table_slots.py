@@ -675,10 +675,9 @@ def count_failures(pairs, check):
 @pytest.mark.slots("polytope-polytope", role="random", note="generic corners apart")
 def test_polytopes_apart_corner_to_corner_get_their_distance():
     # slot: Polytope - Polytope, both generic (a vertex or edge of each facing the other), apart
-    # by 0.1 to 10 mm: the distance is delta exactly (module docstring), and a speculative contact
-    # must not report more (the solver would let the bodies close the difference in one step).
-    # It did (24 of these 300 pairs, up to 4 mm more) when the reference-face clip kept points but
-    # not the closest pair; that pair is now added (docs/conventions.md, "Manifolds", face contact).
+    # by 0.1 to 10 mm: the distance is delta exactly (helpers.py), and a speculative contact
+    # must not report more (the solver would let the bodies close the difference in one step; the
+    # closest pair after the clip: docs/conventions.md, "Manifolds", face contact).
     seed = zlib.crc32(b"apart polytope-polytope")
 
     def check(k):
@@ -714,11 +713,8 @@ def test_polytopes_touching_corner_to_corner_get_a_contact():
 @pytest.mark.slots("cylinder-polytope", role="random", note="rim on a vertex, touching")
 def test_cylinder_rim_touching_a_polytope_vertex_exactly():
     # slot: Cylinder - Polytope, both generic (a rim point against a vertex or an edge), exactly
-    # touching: deepest gap 0 and witnesses on the shapes to support_tol, as in test_random_item_pairs.
-    # It was a strict xfail: 4 of these 300 pairs reported a gap up to 1.7e-6 m (GJK stopped on a
-    # rounding stall short of contact) and 13 a contact point up to 0.4 mm off the shapes (EPA's
-    # shift of the Minkowski difference lay on its boundary, and its witness face was unrefined);
-    # cpp/src/collision/gjk_epa.cpp says how each was fixed.
+    # touching: deepest gap 0 and witnesses on the shapes to support_tol, as in test_random_item_pairs
+    # (the GJK stall and EPA shift it caught: docs/conventions.md, "Contacts", GJK/EPA).
     seed = zlib.crc32(b"touch cylinder-polytope")
 
     def check(k):
@@ -741,10 +737,8 @@ def test_polytopes_beside_a_lone_triangle_get_their_distance():
     # slot: TriangleMesh - Polytope, off the face: a one-triangle mesh (all edges active) and a box,
     # hull or convex mesh apart from its vertex by delta along d (d . n_t >= 0.9), the body wholly
     # in front of the triangle's plane (no one-sided rule applies): a contact whose deepest gap
-    # is the distance delta (EXACT). Without the closest-pair rule after the face clip 118 of these
-    # 155 pairs got no contact and 30 a deepest gap up to 4.8 mm above the distance. (Of those
-    # reaching behind the plane, 15 of 1,073 get none: the one-sided check takes the vertex
-    # centroid, which lies behind, for the centre.)
+    # is the distance delta (EXACT): the closest pair after the face clip (docs/conventions.md,
+    # "Contacts", static triangle mesh, which says what those reaching behind the plane get).
     seed = zlib.crc32(b"beside polytope")
     pairs = []
     for k in range(1500):
@@ -787,7 +781,7 @@ CRASH = textwrap.dedent("""
                    note="a mesh piece with a vertex inside a face")
 def test_a_convex_mesh_with_a_vertex_inside_a_face_does_not_crash():
     # slots: Polytope - Polytope and TriangleMesh - Polytope, a mesh piece face down 5 mm over a box
-    # and over a triangle: four contacts of gap 5 mm. Run in a child process: it crashed (clip_faces
-    # found no incident face around a deepest vertex inside a merged face and read faces[-1]).
+    # and over a triangle: four contacts of gap 5 mm. In a child process, since it once crashed
+    # (clip_faces read faces[-1] when no incident face lay around a vertex inside a merged face).
     run = subprocess.run([sys.executable, "-c", CRASH], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0 and run.stdout.strip() == "ok", (run.returncode, run.stderr[-500:])
