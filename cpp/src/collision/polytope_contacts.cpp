@@ -153,9 +153,10 @@ struct EdgeBuffers {
 /// s <= L . (c_B - p_i) (c_B B's centroid), so an edge whose largest L . (c_B - p_i) over its
 /// Gauss-map arc (arc_max) is below `bound` goes (likewise B's edges with c_A).
 /// Then minkowski_face in two halves: the side of each A arc's great circle (b x a) that every -B
-/// face normal lies on, once per (edge, face), as bit masks when B has at most 64 faces; the other
-/// half (A's normals against the -B arc's circle, d x c) only for the pairs left. The products are
-/// minkowski_face's, so the same pairs are kept.
+/// face normal lies on, once per (edge, face) (a B edge passes only when its two faces lie on
+/// opposite sides, which most do not), as bit masks when B has at most 64 faces, else tabled; the
+/// other half (A's normals against the -B arc's circle, d x c) only for the pairs left. The
+/// products are minkowski_face's, so the same pairs are kept.
 EdgeQuery edge_query(const View& A, const View& B, double bound, EdgeBuffers& scratch) {
   EdgeQuery q;
   const auto& ea = A.topo->edges;
