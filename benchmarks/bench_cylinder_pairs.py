@@ -8,9 +8,9 @@ seeded pairs of every cylinder pair type (a cylinder against a sphere, a capsule
 box, a convex hull, a convex mesh piece, a plane, a one-triangle mesh), apart, exactly touching,
 and shallowly or deeply overlapping.
 
-The pairs are those of tests/python/test_table_slots.py (whose module docstring has the argument;
-its Body, orient, Placed, place_pair, witnesses and normal_bound are reused here): a random unit d, A's support
-point x_A along d, B's x_B along -d, and B moved so that x_B = x_A + delta d. Then delta is the
+The pairs are made as in tests/python/test_table_slots.py, by tests/python/helpers.py (whose module
+docstring has the argument): a random unit d, A's support point x_A along d, B's x_B along -d,
+and B moved so that x_B = x_A + delta d. Then delta is the
 signed distance exactly when delta >= 0, and when -delta is less than the summed radii rho of
 balls inside the shapes that touch their surfaces at x_A and x_B (a face, a cylinder's cap or
 side, a sphere or capsule: rho > 0; a vertex, an edge or a rim: 0). Regimes cycle with the pair
@@ -48,8 +48,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "python"))
 import signorini as sg  # noqa: E402
 from signorini.oracle import support as osup  # noqa: E402
-from test_table_slots import (  # noqa: E402
-    EXACT, FACE_COS, IDENTITY, MARGIN, Body, Placed, angle, lone_triangle_pair, orient, place_pair, witnesses)
+from helpers import (  # noqa: E402
+    EXACT, FACE_COS, IDENTITY, MARGIN, Body, Placed, angle, lone_triangle_pair, orient, place_pair, support_tol,
+    witnesses)
 
 TYPES = ["sphere", "capsule", "cylinder", "box", "hull", "mesh", "plane", "triangle"]
 REGIMES = ("apart", "touch", "shallow", "deep")
@@ -99,11 +100,6 @@ def timed_collide(f, shape_a, pose_a, shape_b, pose_b):
     return c
 
 
-def item_tol(a, b):
-    """test_table_slots.support_tol: 1e-9 m + GJK/EPA's 1e-9 L (a flat bound for reporting)."""
-    return EXACT + 1e-9 * (a.body.radius() + b.body.radius())
-
-
 def run_items(kind, n, oracle_every):
     seed = zlib.crc32(("bench cylinder-" + kind).encode())
     f = dict(pairs=0, none=0, near=0, gap=0.0, over=0, witness=0.0, normal=0.0, bound=0, ref_bad=0, ref=0, t=0.0)
@@ -122,7 +118,7 @@ def run_items(kind, n, oracle_every):
         cos_f = max(a.best_face_cos(d), b.best_face_cos(-d))
         if FACE_COS - 1e-6 <= cos_f < 1.0 - 1e-12:
             f["near"] += 1
-            tol = item_tol(a, b)
+            tol = support_tol(a, b)
             f["bound"] += not (min(delta, delta / FACE_COS) - 2 * tol <= g <= delta + tol)
             continue
         err = abs(g - delta)
@@ -166,7 +162,7 @@ def run_plane(n, oracle_every):
 
 def run_triangle(n, oracle_every):
     """A one-triangle mesh and the cylinder against its face, or against its edges and vertices
-    from above (test_table_slots.lone_triangle_pair with cylinder_touch: apart, touching, or in by
+    from above (helpers.lone_triangle_pair with cylinder_touch: apart, touching, or in by
     less than the inscribed ball onto the face); the pairs whose cylinder reaches behind the plane
     are skipped. Touching a vertex or an edge, where the normal is not unique, takes the normal of
     the cylinder raised by a hair (lone_triangle_pair says why); a pair with no contact shows in

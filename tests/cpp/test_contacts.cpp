@@ -28,6 +28,7 @@ Mat3 rot_z(double angle) { return Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRota
 
 }  // namespace
 
+// slots golden: plane-polytope
 TEST(Manifold, BoxFaceDownOnAPlaneHasItsFourBottomCornersWithVertexIds) {
   const Box box(Vec3(0.5, 0.5, 0.5));
   const auto out = collide(Plane(Vec3::UnitZ(), 0.0), {}, box, {Vec3(0.2, -0.3, 0.5), Mat3::Identity()}, 1e-3);
@@ -42,6 +43,7 @@ TEST(Manifold, BoxFaceDownOnAPlaneHasItsFourBottomCornersWithVertexIds) {
   }
 }
 
+// slots golden: polytope-polytope
 TEST(Manifold, UnitBoxOnALargerBoxHasFourCornerPointsAndTheExactNormal) {
   const Box ground(Vec3(2.0, 2.0, 0.5)), box(Vec3(0.5, 0.5, 0.5));
   const Pose pg{Vec3(0, 0, -0.5), Mat3::Identity()};
@@ -67,6 +69,7 @@ TEST(Manifold, UnitBoxOnALargerBoxHasFourCornerPointsAndTheExactNormal) {
   for (const Contact& c : swapped) EXPECT_EQ(c.normal, -Vec3::UnitZ());
 }
 
+// slots golden: polytope-polytope
 TEST(Manifold, BoxTurned45DegreesOnABoxKeepsFourPointsOnTheOverlapOctagon) {
   const Box box(Vec3(0.5, 0.5, 0.5));
   const Pose lower{Vec3::Zero(), Mat3::Identity()};
@@ -98,6 +101,7 @@ TEST(Manifold, BoxTurned45DegreesOnABoxKeepsFourPointsOnTheOverlapOctagon) {
   EXPECT_GE(area, 2 * rv * rv * (1 - 1e-9));
 }
 
+// slots golden: polytope-polytope
 TEST(Manifold, CrossedEdgesGiveOneEdgeEdgePointWithTheExactGap) {
   // a box standing on an edge along x, above a box lying on an edge along y
   const Box box(Vec3(0.5, 0.5, 0.5));
@@ -120,6 +124,7 @@ double box_distance(const Vec3& h, const Pose& pose, const Vec3& x) {
   return (local.cwiseAbs() - h).cwiseMax(0.0).norm();
 }
 
+// slots golden: polytope-polytope
 TEST(Manifold, SeparatedCrossedEdgesOffTheirSegmentsGiveTheClosestPairOfTheBoxes) {
   // A unit box on an edge along x (vertices 6 -> 7 at y = 0, z = h, x in [-1/2, 1/2]) and above it
   // a unit box on an edge along y (vertices 1 -> 3, edge 4, at x = 1/2 + ex, z = h + g), both
@@ -171,6 +176,7 @@ TEST(Manifold, SeparatedCrossedEdgesOffTheirSegmentsGiveTheClosestPairOfTheBoxes
   }
 }
 
+// slots golden: polytope-polytope
 TEST(Manifold, SpeculativeBoxAboveABoxHasPositiveGaps) {
   const Box box(Vec3(0.5, 0.5, 0.5));
   const auto out = collide(box, {}, box, {Vec3(0.1, 0, 1.003), Mat3::Identity()}, 0.005);
@@ -179,6 +185,7 @@ TEST(Manifold, SpeculativeBoxAboveABoxHasPositiveGaps) {
   EXPECT_TRUE(collide(box, {}, box, {Vec3(0.1, 0, 1.006), Mat3::Identity()}, 0.005).empty());
 }
 
+// slots golden: polytope-polytope
 TEST(Manifold, SpeculativeClipThatMissesTheClosestPairGetsItWithTheDistance) {
   // A unit box A (axis-aligned at the origin) and a box B (half extents 0.6, 0.6, 0.2) tilted by
   // theta = 0.02 rad about (1, -1, 0) so that its lower face descends towards +x +y, that face
@@ -224,6 +231,7 @@ TEST(Manifold, SpeculativeClipThatMissesTheClosestPairGetsItWithTheDistance) {
   EXPECT_NEAR(least, h, 1e-15);
 }
 
+// slots golden: trimesh-polytope
 TEST(Manifold, BoxBesideALoneTrianglesVertexGetsTheClosestPair) {
   // The triangle (0, 0, 0), (1, 0, 0), (0, 1, 0) (n_t = +z, all edges active) and an axis-aligned
   // box of half extents 0.1 wholly in front of it, beside its vertex 0: the triangle's face clip
@@ -256,6 +264,7 @@ TEST(Manifold, BoxBesideALoneTrianglesVertexGetsTheClosestPair) {
   }
 }
 
+// slots golden: trimesh-polytope
 TEST(Manifold, BoxCornerBesideAFloorDiagonalGetsNoGhostOfTheClosestPair) {
   // A box (half extents 0.1, 0.15, 0.2) turned corner down (its diagonal along z), the lowest corner
   // 2 mm over the two-triangle floor_mesh(2, 1) just beside its diagonal (inactive: flat; the rims
@@ -278,6 +287,8 @@ TEST(Manifold, BoxCornerBesideAFloorDiagonalGetsNoGhostOfTheClosestPair) {
   }
 }
 
+// slots golden: capsule-polytope (a box)
+// slots golden: plane-capsule (gap only)
 TEST(Manifold, CapsuleLyingOnABoxOrAPlaneHasTwoPoints) {
   const Capsule capsule(0.1, 0.4);
   const Mat3 lying = Eigen::AngleAxisd(kPi / 2, Vec3::UnitY()).toRotationMatrix();  // axis along x
@@ -299,6 +310,8 @@ TEST(Manifold, CapsuleLyingOnABoxOrAPlaneHasTwoPoints) {
   for (const Contact& c : on_plane) EXPECT_LT(std::abs(c.gap), 1e-12);
 }
 
+// slots golden: cylinder-polytope (on a box: gap, normal)
+// slots golden: plane-cylinder (standing, lying)
 TEST(Manifold, CylinderStandingHasRimPointsAndLyingHasTwo) {
   const Cylinder cylinder(0.3, 0.5);
   const auto standing = collide(Plane(Vec3::UnitZ(), 0.0), {}, cylinder, {Vec3(0, 0, 0.5), Mat3::Identity()});
@@ -322,6 +335,8 @@ TEST(Manifold, CylinderStandingHasRimPointsAndLyingHasTwo) {
   }
 }
 
+// slots golden: sphere-sphere (gap; no point, no normal)
+// slots golden: sphere-capsule (side: gap and feature)
 TEST(Manifold, SpherePairsHaveOnePointAndSwappingFlipsTheNormal) {
   const Sphere s(0.5);
   const Pose pa{Vec3::Zero(), Mat3::Identity()}, pb{Vec3(0.9, 0.1, 0), Mat3::Identity()};
@@ -354,6 +369,7 @@ TEST(Manifold, SpherePairsHaveOnePointAndSwappingFlipsTheNormal) {
   EXPECT_EQ(side[0].feature_a, feature_id(FeatureKind::Edge, 0));
 }
 
+// slots golden: capsule-capsule (gap, normal)
 TEST(Manifold, ParallelCapsulesTouchAlongTwoPointsCrossedOnOne) {
   const Capsule c(0.1, 0.5);
   const Mat3 along_x = Eigen::AngleAxisd(kPi / 2, Vec3::UnitY()).toRotationMatrix();
@@ -369,6 +385,7 @@ TEST(Manifold, ParallelCapsulesTouchAlongTwoPointsCrossedOnOne) {
   EXPECT_NEAR(crossed[0].gap, -0.01, 1e-15);
 }
 
+// slots golden: trimesh-polytope
 TEST(Manifold, BoxOnATriangleMeshFloorKeepsItsFourCornersWithStableIds) {
   const TriangleMesh floor = floor_mesh(2.0, 4);
   const Box box(Vec3(0.5, 0.4, 0.3));
@@ -389,6 +406,7 @@ TEST(Manifold, BoxOnATriangleMeshFloorKeepsItsFourCornersWithStableIds) {
   }
 }
 
+// slots golden: trimesh-cylinder (gap, normal)
 TEST(Manifold, CylinderStandingOnATriangleMeshFloorHasRimPoints) {
   const TriangleMesh floor = floor_mesh(2.0, 4);
   const auto out = collide(floor, {}, Cylinder(0.3, 0.2), {Vec3(0.1, 0.2, 0.2 - 1e-4), Mat3::Identity()}, 1e-3);
@@ -399,6 +417,7 @@ TEST(Manifold, CylinderStandingOnATriangleMeshFloorHasRimPoints) {
   }
 }
 
+// slots golden: trimesh-sphere
 TEST(Manifold, SphereRollingOverATriangleMeshFloorSeesOnlyTheFaceNormal) {
   const TriangleMesh floor = floor_mesh(2.0, 4);
   for (double x : {0.0, 0.5, 1.0, 0.25}) {  // on vertices, on interior edges, inside faces

@@ -264,6 +264,7 @@ struct Figures {
 
 }  // namespace
 
+// slots random: sphere-sphere, sphere-capsule, sphere-cylinder, capsule-capsule, cylinder-cylinder, cylinder-polytope (the distance routine alone)
 TEST(GjkEpa, RandomPairsOfEveryKindAgreeWithClosedFormsBruteForceAndTheirCertificate) {
   std::map<std::string, Figures> table;
   int stopped_early = 0;
@@ -359,6 +360,7 @@ TEST(GjkEpa, RandomPairsOfEveryKindAgreeWithClosedFormsBruteForceAndTheirCertifi
                 f.max_gjk, f.max_epa);
 }
 
+// slots golden: cylinder-polytope (the distance routine alone)
 TEST(GjkEpa, CylinderOnASlabAndOnALargeTriangleMatchesTheClosedForm) {
   // a cylinder tilted at random above the top face z = 0 of a 10 x 10 m slab (and of a triangle
   // of sides ~20 m in z = 0): gap = z_c - h |a_z| - r sqrt(1 - a_z^2) while the lowest rim point

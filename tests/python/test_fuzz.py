@@ -38,6 +38,8 @@ def test_scenes_are_reproducible_and_cover_what_the_issue_asks_for():
     assert min(radii) < 0.01 and max(radii) > 3.0
 
 
+@pytest.mark.slots("sphere-sphere", "sphere-polytope", "sphere-capsule", "sphere-cylinder", role="random",
+                   note="gap only")
 @pytest.mark.parametrize("shape", [
     sg.Sphere(0.3), sg.Box((0.4, 0.2, 0.1)), sg.Capsule(0.1, 0.3), sg.Cylinder(0.2, 0.35),
     sg.ConvexHull(np.random.default_rng(5).normal(size=(14, 3)) * 0.3),

@@ -21,6 +21,8 @@ from signorini.oracle import manifold as om
 from signorini.oracle import support as osup
 from signorini.oracle.rigid import quat_to_matrix
 
+from helpers import random_hull_points, signed_distance, tessellated_floor
+
 TOL = 1e-6          # m: the issue's figure for shallow overlaps
 N_BOX_PAIRS = 9000
 N_HULL_PAIRS = 1000
@@ -49,6 +51,7 @@ def box_reference(p_a, R_a, h_a, p_b, R_b, h_b):
     return best, s
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="boxes, shallow")
 def test_box_pairs_match_the_oracle_separating_axes():
     rng = np.random.default_rng(20261121)
     worst, done = 0.0, 0
@@ -157,6 +160,7 @@ def check_vertex_pair(c, i, j, x_a, delta, d, k):
     return found
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="boxes apart, off the edges")
 def test_separated_box_pairs_off_the_edges_match_the_oracle_and_the_distance():
     # Boxes apart whose edge lines would meet off the edges: when the edge axis wins, its
     # separation only bounds the distance, so the contact is the boxes' closest pair (a corner
@@ -198,11 +202,7 @@ def test_separated_box_pairs_off_the_edges_match_the_oracle_and_the_distance():
     assert mixed >= 40, mixed  # 55 of them
 
 
-def random_hull_points(rng):
-    k = rng.integers(6, 20)
-    return rng.normal(size=(k, 3)) * rng.uniform(0.1, 0.6, 3)
-
-
+@pytest.mark.slots("polytope-polytope", role="random", note="hulls, shallow")
 def test_hull_pairs_match_a_brute_force_support_search():
     rng = np.random.default_rng(417)
     worst, done = 0.0, 0
@@ -227,6 +227,7 @@ def test_hull_pairs_match_a_brute_force_support_search():
     print(f"{done} hull pairs: largest |gap - reference| = {worst:.2e} m")
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="hull corners apart")
 def test_separated_hull_corners_get_their_closest_pair():
     # Hulls apart whose closest points are a vertex of each, delta apart along a random unit d
     # (A's vertex of largest d . x, B's of least, B placed so that the second is the first plus
@@ -256,6 +257,7 @@ def test_separated_hull_corners_get_their_closest_pair():
     assert closest >= 100, closest  # 142 of the 400 pairs
 
 
+@pytest.mark.slots("trimesh-polytope", role="random", note="box corners apart")
 def test_separated_box_corners_over_a_triangle_get_their_closest_pair():
     # The same for a box in front of a one-triangle mesh (its edges all active): a triangle vertex
     # and a box corner delta apart along d, d . n_t >= 0.2 (the box in front of the face, which
@@ -293,8 +295,11 @@ SHAPES = {
     "cylinder": lambda rng: sg.Cylinder(rng.uniform(0.1, 0.4), rng.uniform(0.05, 0.4)),
     "hull": lambda rng: sg.ConvexHull(random_hull_points(rng)),
 }
+ITEM_KIND = {"sphere": "sphere", "box": "polytope", "capsule": "capsule", "cylinder": "cylinder", "hull": "polytope"}
 
 
+@pytest.mark.slots(*sorted({f"{ITEM_KIND[a]}-{ITEM_KIND[b]}" for a in SHAPES for b in SHAPES}), role="random",
+                   note="20 pairs, deepest gap only, 5 mm for cylinders")
 @pytest.mark.parametrize("kind_a", sorted(SHAPES))
 @pytest.mark.parametrize("kind_b", sorted(SHAPES))
 def test_every_convex_pair_touching_or_shallow_has_finite_unit_normals(kind_a, kind_b):
@@ -319,46 +324,25 @@ def test_every_convex_pair_touching_or_shallow_has_finite_unit_normals(kind_a, k
     assert worst < (TOL if exact else CURVED_TOL), f"{kind_a}-{kind_b}: largest gap error {worst:.2e} m"
 
 
-def _tessellated_floor(n=8, half=1.0):
-    """A flat 2 half x 2 half m floor in z = 0 of n x n squares, two triangles each: every interior
-    edge is inactive (flat)."""
-    xs = np.linspace(-half, half, n + 1)
-    V = np.array([(x, y, 0.0) for y in xs for x in xs])
-    F = []
-    for j in range(n):
-        for i in range(n):
-            a = j * (n + 1) + i
-            F += [(a, a + 1, a + n + 2), (a, a + n + 2, a + n + 1)]
-    return sg.TriangleMesh(V, np.array(F))
-
-
-def _signed_distance(kind, r, h, x):
-    """Signed distance of body-frame points x (K, 3) from a capsule or cylinder (radius r, half
-    height h, axis z)."""
-    if kind == "capsule":
-        return np.linalg.norm(x - np.outer(np.clip(x[:, 2], -h, h), [0, 0, 1]), axis=1) - r
-    d_r, d_z = np.hypot(x[:, 0], x[:, 1]) - r, np.abs(x[:, 2]) - h
-    return np.minimum(np.maximum(d_r, d_z), 0.0) + np.hypot(np.maximum(d_r, 0.0), np.maximum(d_z, 0.0))
-
-
 def _assert_on_body(kind, r, h, on_body, gap):
     """Body witnesses (K, 3, body frame) on the body or inside it (a capsule's segment clipped at a
     triangle's side ends r below a point of its axis, which other axis points may be nearer), the
     deepest one on its surface."""
-    d = _signed_distance(kind, r, h, on_body)
+    d = signed_distance(kind, r, h, on_body)
     assert d.max() < 1e-9 and abs(d[np.argmin(gap)]) < 1e-9, d
 
 
-@pytest.mark.parametrize("kind", ["capsule", "cylinder"])
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("trimesh-" + k, role="random",
+                                                                          note="a tessellated floor"))
+                                  for k in ["capsule", "cylinder"]])
 def test_capsules_and_cylinders_get_no_ghost_normals_from_a_tessellated_floor(kind):
     # any orientation, anywhere over a flat floor of 128 triangles, its lowest point within 4 mm of
     # the floor in or out: the floor is one plane, so every contact normal is its normal, the
     # deepest gap is the closed form of the lowest point (capsule: z - h |a_z| - r; cylinder:
     # z - h |a_z| - r sqrt(1 - a_z^2)), and every point is on both (its floor witness y - gap/2 n
-    # in z = 0, its body witness y + gap/2 n on the body's surface). Before the inactive-edge rule
-    # for these paths, contacts whose witness lay on an interior edge tilted by up to
-    # 1 - n_z = 0.94 (cylinders) and 0.21 (capsules)
-    floor = _tessellated_floor()
+    # in z = 0, its body witness y + gap/2 n on the body's surface): the inactive-edge rule
+    # (docs/conventions.md, "Contacts", static triangle mesh)
+    floor = tessellated_floor()
     r, h = 0.05, 0.1
     shape = sg.Capsule(r, h) if kind == "capsule" else sg.Cylinder(r, h)
     rng = np.random.default_rng(11)
@@ -381,7 +365,9 @@ def test_capsules_and_cylinders_get_no_ghost_normals_from_a_tessellated_floor(ki
         _assert_on_body(kind, r, h, on_body, c.gap)
 
 
-@pytest.mark.parametrize("kind", ["capsule", "cylinder"])
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("trimesh-" + k, role="random",
+                                                                          note="a valley"))
+                                  for k in ["capsule", "cylinder"]])
 def test_capsules_and_cylinders_in_a_valley_touch_its_faces(kind):
     # a V valley (faces z = -s x for x < 0 and z = s x for x > 0, s = 0.4, fold along y, cut into
     # triangles; the fold is concave, so inactive), the body anywhere near the fold in any

@@ -1,143 +1,16 @@
 """Every slot of the dispatch table (docs/conventions.md, "The dispatch table") has a golden test and
-a random-pair test.
+a random-pair test; test_slot_coverage.py checks that from the tests' `slots` marks (these, the
+other test files' and the C++ tests') and prints the coverage table.
 
 Golden: a hand-made configuration whose gaps, normals and points are asserted against a closed
-form. Random-pair: seeded random placements checked against an independent reference separation,
-with every contact point's two witnesses (point -+ gap/2 normal) on or inside their shapes.
-
-The reference separation of the random pairs is made, not searched for: a random unit d (A -> B),
-x_A a point of A's support set along d, x_B one of B's along -d, and B moved so that
-x_B = x_A + delta d. Then
-  - delta >= 0: the planes d . x = d . x_A and d . x = d . x_A + delta separate A and B, and
-    |x_B - x_A| = delta, so the distance is delta exactly, and the closest-point direction
-    (unique for convex sets apart) is d;
-  - delta < 0: if a ball of radius rho_A inside A touches A's surface at x_A (its centre
-    x_A - rho_A d) and one of radius rho_B inside B touches at x_B, the Minkowski difference B - A
-    holds a ball of radius rho = rho_A + rho_B tangent to the support plane at the origin's foot,
-    so for -delta < rho the penetration depth is -delta exactly and its direction d is unique.
-    rho is 0 at a vertex, an edge or a rim, r for spheres and capsules, and at a point of a face
-    (polytope face, cylinder cap or side) the largest inscribed ball there, in closed form.
-A sample of every slot is also checked with signorini.oracle (no code shared with the core or with
-the above): g(d) = (s_B(-d) - s_A(d)) . d from its support mappings is delta, and its brute-force
-search for the best direction (support_separation, which can only fall short: it maximises g)
-finds nothing better than delta.
-
-Coverage (slot -> golden test; random-pair test). (A, B) and (B, A) are one slot: the table runs the
-(A, B) test with the normal reversed, and the random tests here call both orders. "C++" names
-tests/cpp/test_contacts.cpp, "GJK" tests/cpp/test_gjk_epa.cpp, "rp" test_random_pairs.py, "tt"
-test_trimesh_tunnelling.py, "fz" test_fuzz.py; names without a file are in this file.
-"Smoke" = C++ NarrowPhase.EveryItemKindPairHasATestAndAnUnsetKindThrows (every slot, axis-aligned,
-gap and normal only); "rp20" = rp::test_every_convex_pair_touching_or_shallow_has_finite_unit_normals
-(20 pairs per kind pair, deepest gap only, 5 mm for cylinders); "GJK random" =
-GjkEpa.RandomPairsOfEveryKind... (the distance routine alone, not the slot's manifold).
-
-Before this file:
-  sphere-sphere     golden: C++ SpherePairsHaveOnePoint... (gap; no point, no normal); smoke
-                    random: rp20; GJK random
-  sphere-capsule    golden: C++ SpherePairsHaveOnePoint... (side: gap and feature)
-                    random: rp20; GJK random
-  sphere-cylinder   golden: smoke only
-                    random: rp20; GJK random
-  sphere-polytope   golden: smoke only
-                    random: fz::test_point_distance_matches_the_cores_closest_points (gap only); rp20
-  capsule-capsule   golden: C++ ParallelCapsulesTouchAlongTwoPointsCrossedOnOne (gap, normal)
-                    random: rp20; GJK random
-  capsule-cylinder  golden: smoke only
-                    random: rp20 (5 mm)
-  capsule-polytope  golden: C++ CapsuleLyingOnABoxOrAPlaneHasTwoPoints (box)
-                    random: rp20
-  cylinder-cylinder golden: smoke only
-                    random: rp20 (5 mm); GJK random
-  cylinder-polytope golden: C++ CylinderStandingHasRimPointsAndLyingHasTwo (on a box: gap, normal)
-                    random: rp20 (5 mm); GJK random and GJK CylinderOnASlab... (distance only)
-  polytope-polytope golden: C++ Manifold.UnitBoxOnALargerBox..., ...Turned45Degrees..., CrossedEdges...,
-                    SeparatedCrossedEdges..., SpeculativeBoxAboveABox...
-                    random: rp::test_box_pairs_match_the_oracle_separating_axes,
-                    test_hull_pairs_match_a_brute_force_support_search, test_separated_box_pairs_off_the_edges...,
-                    test_separated_hull_corners_get_their_closest_pair
-  plane-sphere      golden: none of the core (test_oracle_manifolds tests the oracle's rule)
-                    random: none
-  plane-capsule     golden: C++ CapsuleLyingOnABoxOrAPlaneHasTwoPoints (gap only)
-                    random: none
-  plane-cylinder    golden: C++ CylinderStandingHasRimPointsAndLyingHasTwo (standing, lying)
-                    random: none
-  plane-polytope    golden: C++ BoxFaceDownOnAPlaneHasItsFourBottomCornersWithVertexIds
-                    random: none
-  trimesh-sphere    golden: tt::test_a_sphere_whose_centre_crossed_a_triangle...; C++ SphereRolling...
-                    random: none
-  trimesh-capsule   golden: none
-                    random: rp::test_capsules_and_cylinders_get_no_ghost_normals...[capsule], ..._in_a_valley...
-  trimesh-cylinder  golden: C++ CylinderStandingOnATriangleMeshFloorHasRimPoints (gap, normal)
-                    random: rp::..._no_ghost_normals...[cylinder], ..._in_a_valley...[cylinder]
-  trimesh-polytope  golden: C++ BoxOnATriangleMeshFloorKeepsItsFourCorners...; tt::test_a_box_whose_centre...
-                    random: rp::test_separated_box_corners_over_a_triangle... (separated corners only)
-  (test_crosscheck compares whole scenes with the oracle: boxes, spheres, meshes on planes; not per slot)
-
-After (this file adds; the tests above stay):
-  sphere-sphere     golden: test_golden_sphere_sphere
-                    random: test_random_item_pairs[sphere-sphere]
-  sphere-capsule    golden: test_golden_sphere_capsule
-                    random: test_random_item_pairs[sphere-capsule]
-  sphere-cylinder   golden: test_golden_sphere_cylinder
-                    random: test_random_item_pairs[sphere-cylinder]
-  sphere-polytope   golden: test_golden_sphere_hull
-                    random: test_random_item_pairs[sphere-polytope]
-  capsule-capsule   golden: test_golden_capsule_capsule
-                    random: test_random_item_pairs[capsule-capsule]
-  capsule-cylinder  golden: test_golden_capsule_cylinder
-                    random: test_random_item_pairs[capsule-cylinder],
-                    test_random_support_pairs_with_a_face_near_the_normal[capsule-cylinder]
-  capsule-polytope  golden: test_golden_capsule_hull
-                    random: test_random_item_pairs[capsule-polytope]
-  cylinder-cylinder golden: test_golden_cylinder_cylinder
-                    random: test_random_item_pairs[cylinder-cylinder],
-                    test_random_support_pairs_with_a_face_near_the_normal[cylinder-cylinder]
-  cylinder-polytope golden: test_golden_cylinder_polytope
-                    random: test_random_item_pairs[cylinder-polytope],
-                    test_random_support_pairs_with_a_face_near_the_normal[cylinder-polytope],
-                    test_cylinder_rim_touching_a_polytope_vertex_exactly (was an xfail)
-  polytope-polytope golden: (C++ above); C++ SpeculativeClipThatMissesTheClosestPairGetsItWithTheDistance
-                    (and test_oracle_manifolds::test_speculative_clip_that_misses_the_closest_pair...)
-                    random: test_random_item_pairs[polytope-polytope] (generic corners apart or
-                    touching; a face on one side at least when overlapping),
-                    test_polytopes_touching_corner_to_corner_get_a_contact,
-                    test_polytopes_apart_corner_to_corner_get_their_distance (was an xfail),
-                    test_a_convex_mesh_with_a_vertex_inside_a_face_does_not_crash;
-                    rp::test_separated_box_pairs_off_the_edges... (core = oracle, ids and all,
-                    with closest pairs added beside clipped points)
-  plane-sphere      golden: test_golden_plane_sphere
-                    random: test_random_plane_pairs[sphere]
-  plane-capsule     golden: test_golden_plane_capsule
-                    random: test_random_plane_pairs[capsule]
-  plane-cylinder    golden: test_golden_plane_cylinder
-                    random: test_random_plane_pairs[cylinder]
-  plane-polytope    golden: (C++ above)
-                    random: test_random_plane_pairs[polytope]
-  trimesh-sphere    golden: (tt, C++ above)
-                    random: test_random_floor_pairs[sphere], test_random_lone_triangle_pairs[sphere]
-  trimesh-capsule   golden: test_golden_trimesh_capsule
-                    random: (rp above), test_random_floor_pairs[capsule], test_random_lone_triangle_pairs[capsule]
-  trimesh-cylinder  golden: test_golden_trimesh_cylinder
-                    random: (rp above), test_random_floor_pairs[cylinder], test_random_lone_triangle_pairs[cylinder]
-  trimesh-polytope  golden: (C++, tt above); C++ BoxBesideALoneTrianglesVertexGetsTheClosestPair,
-                    BoxCornerBesideAFloorDiagonalGetsNoGhostOfTheClosestPair (the ghost rule)
-                    random: test_random_lone_triangle_pairs[polytope] (onto the face)
-                    test_a_convex_mesh_with_a_vertex_inside_a_face_does_not_crash
-                    test_random_floor_pairs[polytope] (ghost normals of B's face against a floor vertex: fixed)
-                    test_polytopes_beside_a_lone_triangle_get_their_distance (was an xfail)
-
-Tolerances (m):
-  EXACT = 1e-9: closed forms (spheres, capsules, polytopes, planes, triangles) evaluate a few dozen
-    double operations on coordinates below 3 m, i.e. rounding of ~1e-15; 1e-9 is the issue's figure.
-  support pairs (a cylinder against anything but a sphere): GJK stops at a duality gap of 1e-12 of
-    the pair's scale and EPA at 1e-10 L (docs/conventions.md), L = the pair's summed bounding radii
-    (< 2 m here); a clipped manifold takes the support pair only when it is deeper than every
-    clipped point by 1e-9 L. Hence 1e-9 + 1e-9 L/m on gaps and witnesses.
-  witnesses: on or inside their shape within the gap tolerance; the deepest contact's on the
-    surface (a clipped capsule's body witness may lie inside, see rp::_assert_on_body).
-  normals: where the direction is unique (module docstring), closed forms to EXACT; a support
-    pair's normal n to the angle its gap tolerance allows, sqrt(4 tol / (rho + delta))
-    (test_random_item_pairs).
+form. Random-pair: seeded random placements checked against a reference separation made by
+construction (helpers.py says how, and why it is exact), with every contact point's two
+witnesses (point -+ gap/2 normal) on or inside their shapes, to the tolerances helpers.py gives.
+A sample of every slot is also checked with signorini.oracle (no code shared with the core or
+with the construction): g(d) = (s_B(-d) - s_A(d)) . d from its support mappings is delta, and its
+brute-force search for the best direction (support_separation, which can only fall short: it
+maximises g) finds nothing better than delta. (A, B) and (B, A) are one slot: the table runs the
+(A, B) test with the normal reversed, and the random tests here call both orders.
 """
 import subprocess
 import sys
@@ -150,38 +23,13 @@ import pytest
 import signorini as sg
 from signorini.oracle import support as osup
 from signorini.oracle.rigid import matrix_to_quat as quat_of, quat_to_matrix
-from test_random_pairs import _signed_distance, _tessellated_floor, random_hull_points
 
-EXACT = 1e-9
-MARGIN = 0.01        # m: the random pairs are apart by at most this (minus a hair)
-FACE_COS = 0.995     # a face within acos(0.995) = 5.7 degrees of the normal is clipped as a face
-                     # (support_feature in cpp/src/collision/round_contacts.cpp; rp's CURVED_TOL note)
-IDENTITY = (1.0, 0.0, 0.0, 0.0)
-Z = np.array([0.0, 0.0, 1.0])
+from helpers import (EXACT, FACE_COS, IDENTITY, KINDS, MARGIN, Z, Body, Placed, aligning, angle, lone_triangle_pair,
+                     normal_bound, orient, place_pair, random_rotation, static_body, support_tol, tessellated_floor,
+                     witnesses)
 
 
 # --------------------------------------------------------------------------- rotations
-
-def random_rotation(rng):
-    q = rng.normal(size=4)
-    return quat_to_matrix(q / np.linalg.norm(q))
-
-
-def frame(v):
-    """A rotation whose first column is the unit vector v."""
-    v = v / np.linalg.norm(v)
-    t = np.cross(v, [1.0, 0.0, 0.0] if abs(v[0]) < 0.9 else [0.0, 1.0, 0.0])
-    t /= np.linalg.norm(t)
-    return np.column_stack([v, t, np.cross(v, t)])
-
-
-def aligning(n_local, d, rng):
-    """A rotation R with R n_local = d, turned about d at random."""
-    phi = rng.uniform(0.0, 2.0 * np.pi)
-    c, s = np.cos(phi), np.sin(phi)
-    spin = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-    return frame(d) @ spin @ frame(n_local).T
-
 
 def rot(axis, angle):
     """Rotation matrix about a coordinate axis (0, 1, 2) by angle (rad)."""
@@ -192,185 +40,7 @@ def rot(axis, angle):
     return R
 
 
-# --------------------------------------------------------------------------- convex bodies
-
-class Body:
-    """A random convex shape of one kind with its geometry in its own frame: signed distance,
-    support points, its flat features (faces, cylinder caps and sides) and their inscribed balls."""
-
-    def __init__(self, kind, rng):
-        self.kind = kind
-        if kind == "sphere":
-            self.r = rng.uniform(0.1, 0.5)
-            self.shape = sg.Sphere(self.r)
-        elif kind == "capsule":
-            self.r, self.h = rng.uniform(0.05, 0.3), rng.uniform(0.05, 0.5)
-            self.shape = sg.Capsule(self.r, self.h)
-        elif kind == "cylinder":
-            self.r, self.h = rng.uniform(0.1, 0.4), rng.uniform(0.05, 0.4)
-            self.shape = sg.Cylinder(self.r, self.h)
-        else:
-            if kind == "box":
-                h = rng.uniform(0.1, 0.5, 3)
-                self.shape = sg.Box(h)
-                V = np.array([[sx * h[0], sy * h[1], sz * h[2]] for sz in (-1, 1) for sy in (-1, 1) for sx in (-1, 1)])
-                F = np.array(sg.ConvexHull(V).faces)   # the box's 12 triangles, for sampling its faces
-            elif kind == "hull":
-                self.shape = sg.ConvexHull(random_hull_points(rng))
-                V, F = np.asarray(self.shape.vertices), np.asarray(self.shape.faces)
-            else:
-                # a convex mesh (a mesh piece): the hull's triangles of random points or of a prism
-                # (its caps merge into one polygon face each). Never a vertex inside a face: see
-                # test_a_convex_mesh_with_a_vertex_inside_a_face_does_not_crash
-                if rng.integers(2):
-                    pts = random_hull_points(rng)
-                else:
-                    k, r, hh = int(rng.integers(5, 10)), rng.uniform(0.1, 0.4), rng.uniform(0.05, 0.4)
-                    phi = 2.0 * np.pi * np.arange(k) / k
-                    pts = np.array([(r * np.cos(p), r * np.sin(p), z) for z in (-hh, hh) for p in phi])
-                hull = sg.ConvexHull(pts)
-                V, F = np.asarray(hull.vertices), np.asarray(hull.faces)
-                self.shape = sg.Mesh(V, F)
-            self.V = V
-            T = V[F]
-            n = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
-            n /= np.linalg.norm(n, axis=1)[:, None]
-            n *= np.where(np.einsum("ij,ij->i", n, T[:, 0] - V.mean(axis=0)) >= 0, 1.0, -1.0)[:, None]
-            self.T, self.N, self.D = T, n, np.einsum("ij,ij->i", n, T[:, 0])
-
-    @property
-    def polytope(self):
-        return self.kind in ("box", "hull", "mesh")
-
-    def radius(self):
-        """Bounding radius about the body origin (the core's L uses the same)."""
-        if self.kind == "sphere":
-            return self.r
-        if self.kind == "capsule":
-            return self.r + self.h
-        if self.kind == "cylinder":
-            return np.hypot(self.r, self.h)
-        return np.linalg.norm(self.V, axis=1).max()
-
-    def sd(self, x):
-        """Signed distance (K,) of body-frame points x (K, 3). Polytopes: the largest face-plane
-        distance, exact inside and a lower bound outside (within the dihedral factor)."""
-        x = np.atleast_2d(x)
-        if self.kind == "sphere":
-            return np.linalg.norm(x, axis=1) - self.r
-        if self.kind in ("capsule", "cylinder"):
-            return _signed_distance(self.kind, self.r, self.h, x)
-        return np.max(x @ self.N.T - self.D, axis=1)
-
-    def support(self, d):
-        """(x, rho): a point of the support set along unit d (body frame) and the radius of a ball
-        inside the body touching its surface there (0 where no such ball is known)."""
-        if self.kind == "sphere":
-            return self.r * d, self.r
-        if self.kind == "capsule":
-            return np.copysign(self.h, d[2]) * Z + self.r * d, self.r
-        if self.kind == "cylinder":
-            u = np.array([d[0], d[1], 0.0])
-            if np.linalg.norm(u) < 1e-12:  # along the axis: the cap's centre
-                return np.copysign(self.h, d[2]) * Z, min(self.r, self.h)
-            return np.copysign(self.h, d[2]) * Z + self.r * u / np.linalg.norm(u), 0.0
-        return self.V[np.argmax(self.V @ d)], 0.0
-
-    def flat(self, rng):
-        """A random point of a flat support feature (polytope face, cylinder cap or side, capsule
-        side): (x, outward normal, inscribed-ball radius) in the body frame."""
-        if self.kind == "capsule":
-            phi = rng.uniform(0.0, 2.0 * np.pi)
-            n = np.array([np.cos(phi), np.sin(phi), 0.0])
-            return self.r * n + rng.uniform(-self.h, self.h) * Z, n, self.r
-        if self.kind == "cylinder":
-            phi = rng.uniform(0.0, 2.0 * np.pi)
-            if rng.integers(2):  # a cap, at radius t from the axis: ball of radius min(r - t, h)
-                n = np.array([0.0, 0.0, rng.choice([-1.0, 1.0])])
-                t = self.r * np.sqrt(rng.uniform(0.0, 0.9))
-                return np.array([t * np.cos(phi), t * np.sin(phi), n[2] * self.h]), n, min(self.r - t, self.h)
-            n = np.array([np.cos(phi), np.sin(phi), 0.0])  # the side, at height z: min(r, h - |z|)
-            z = rng.uniform(-0.9, 0.9) * self.h
-            return self.r * n + z * Z, n, min(self.r, self.h - abs(z))
-        k = rng.integers(len(self.T))
-        x = rng.dirichlet([2.0, 2.0, 2.0]) @ self.T[k]
-        n = self.N[k]
-        # the ball of radius rho centred at x - rho n is inside every face plane j:
-        # n_j . (x - rho n) + rho <= d_j, i.e. rho (1 - n_j . n) <= d_j - n_j . x
-        cos = self.N @ n
-        other = cos < 1.0 - 1e-9
-        return x, n, max(0.0, float(np.min((self.D[other] - self.N[other] @ x) / (1.0 - cos[other]))))
-
-    def face_normals(self):
-        """Normals (body frame) of the faces the core may clip (polytope faces, cylinder caps)."""
-        if self.polytope:
-            return self.N
-        if self.kind == "cylinder":
-            return np.array([Z, -Z])
-        return np.zeros((0, 3))
-
-
-class Placed:
-    """A body at (p, R), R exactly the matrix the core builds from the quaternion q."""
-
-    def __init__(self, body, p, R):
-        self.body, self.q = body, quat_of(R)
-        self.R = quat_to_matrix(self.q)
-        self.p = np.asarray(p, dtype=float)
-
-    @property
-    def pose(self):
-        return (self.p, self.q)
-
-    def sd(self, X):
-        return self.body.sd((np.atleast_2d(X) - self.p) @ self.R)
-
-    def support_fn(self):
-        return osup.support_of(sg.shape_dict(self.body.shape), self.p, self.R)
-
-    def best_face_cos(self, d):
-        """The largest cosine between d (world) and a clippable face normal of the body."""
-        N = self.body.face_normals()
-        return float(np.max(N @ (self.R.T @ d))) if len(N) else -1.0
-
-
-def orient(body, d, rng, flat):
-    """A rotation of `body` and its local support point along d: (R, x_local, rho)."""
-    if flat:
-        x, n, rho = body.flat(rng)
-        return quat_to_matrix(quat_of(aligning(n, d, rng))), x, rho
-    R = random_rotation(rng)
-    x, rho = body.support(R.T @ d)
-    return R, x, rho
-
-
-def place_pair(A, B, rng, regime, flat_a, flat_b, delta_of=None):
-    """A at random, B against it along a random d as in the module docstring: (a, b, d, delta, rho).
-    delta_of(regime, rho, rng), when given, draws delta for regimes of its own (the benchmarks')."""
-    d = rng.normal(size=3)
-    d /= np.linalg.norm(d)
-    R_a, x_a, rho_a = orient(A, d, rng, flat_a)
-    R_b, x_b, rho_b = orient(B, -d, rng, flat_b)
-    a = Placed(A, rng.uniform(-1.0, 1.0, 3), R_a)
-    rho = rho_a + rho_b
-    if delta_of is not None:
-        delta = delta_of(regime, rho, rng)
-    elif regime == "apart":
-        delta = rng.uniform(1e-4, MARGIN - 1e-4)
-    elif regime == "touch":
-        delta = 0.0
-    else:  # shallow: at most half the inscribed balls' radius (so that rho + delta >= rho / 2) and 2 cm
-        delta = -rng.uniform(1e-4, 1.0) * min(0.5 * rho, 0.02)
-    x_world = a.p + a.R @ x_a
-    R_b = quat_to_matrix(quat_of(R_b))
-    b = Placed(B, x_world + delta * d - R_b @ x_b, R_b)
-    return a, b, d, delta, rho
-
-
-def witnesses(c):
-    half = 0.5 * c.gap[:, None] * c.normal
-    return c.point - half, c.point + half
-
+# --------------------------------------------------------------------------- checks
 
 def check_basics(c, who):
     assert len(c) >= 1, f"{who}: no contact"
@@ -399,28 +69,8 @@ def check_reference(support_a, support_b, d, delta, who):
     assert sep <= delta + EXACT, f"{who}: the oracle's search finds {sep} > {delta}"
 
 
-def normal_bound(tol, rho, delta):
-    """Largest angle (rad) between a support pair's normal n and the unique direction d: its gap
-    g(n) >= delta - 2 tol (its gap within tol of delta, its certificate gap - g(n) within tol),
-    while the inscribed ball (module docstring; for delta > 0 the ball of radius delta about the
-    origin outside B - A) gives g(n) <= delta - (rho + delta)(1 - cos angle); so
-    angle <= sqrt(4 tol / (rho + delta)) to first order. None when the direction is not unique."""
-    return np.sqrt(4.0 * tol / (rho + delta)) if delta != 0.0 and rho + delta > 0.0 else None
-
-
-def angle(u, v):
-    """Angle (rad) between vectors, accurate near 0 (arccos of a dot product is not: 1.5e-8 at 1 ulp)."""
-    return float(np.arctan2(np.linalg.norm(np.cross(u, v)), u @ v))
-
-
-def support_tol(a, b):
-    """Gap and witness tolerance of a support (GJK/EPA) pair, m (module docstring)."""
-    return EXACT + 1e-9 * (a.body.radius() + b.body.radius())
-
-
 # --------------------------------------------------------------------------- random item pairs
 
-KINDS = {"sphere": ("sphere",), "capsule": ("capsule",), "cylinder": ("cylinder",), "polytope": ("box", "hull", "mesh")}
 SLOTS = ["sphere-sphere", "sphere-capsule", "sphere-cylinder", "sphere-polytope", "capsule-capsule",
          "capsule-cylinder", "capsule-polytope", "cylinder-cylinder", "cylinder-polytope", "polytope-polytope"]
 SUPPORT_SLOTS = {"capsule-cylinder", "cylinder-cylinder", "cylinder-polytope"}  # GJK/EPA + clipping
@@ -444,11 +94,11 @@ def slot_pair(slot, seed, k, regime=None, flats=None):
     return a, b, d, delta, rho, regime
 
 
-@pytest.mark.parametrize("slot", SLOTS)
+@pytest.mark.parametrize("slot", [pytest.param(s, marks=pytest.mark.slots(s, role="random")) for s in SLOTS])
 def test_random_item_pairs(slot):
     # slot: the item-kind pair named (Sphere, Capsule, Cylinder, Polytope = box, hull, convex mesh
     # piece), both orders. Apart by up to 1 cm, exactly touching, or overlapping by up to 2 cm; the
-    # reference separation delta and its direction d are exact by construction (module docstring).
+    # reference separation delta and its direction d are exact by construction (helpers.py).
     # Closed-form slots: the deepest gap is delta and its normal d to 1e-9. Support slots (a cylinder
     # against a capsule, cylinder or polytope): support_tol, normals within normal_bound, when the
     # supporting features meet along d or no face lies within 5.7 degrees of d. A face that near
@@ -533,7 +183,8 @@ def side_of(cylinder, rng):
             return x, n, rho
 
 
-@pytest.mark.parametrize("slot", sorted(SUPPORT_SLOTS))
+@pytest.mark.parametrize("slot", [pytest.param(s, marks=pytest.mark.slots(s, role="random", note="a face near the normal"))
+                                  for s in sorted(SUPPORT_SLOTS)])
 def test_random_support_pairs_with_a_face_near_the_normal(slot):
     # slots: capsule-cylinder, cylinder-cylinder, cylinder-polytope (both orders), the support
     # slots' clipping path: A's face (a cap, a polytope face) 0.5 to 5.5 degrees off d, so the core
@@ -568,12 +219,8 @@ def test_random_support_pairs_with_a_face_near_the_normal(slot):
 STATIC_KINDS = ["sphere", "capsule", "cylinder", "polytope"]
 
 
-def static_body(kind, rng, k):
-    """The k-th body of a kind: polytopes cycle box, hull, mesh with k // 3 (regimes with k % 3)."""
-    return Body(KINDS[kind][(k // 3) % len(KINDS[kind])], rng)
-
-
-@pytest.mark.parametrize("kind", STATIC_KINDS)
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("plane-" + k, role="random"))
+                                  for k in STATIC_KINDS])
 def test_random_plane_pairs(kind):
     # slot: Plane against `kind` (polytope = box, hull, convex mesh), both orders. A plane of random
     # normal n and offset, the body resting on it, pressed in or lifted by delta: the body's lowest
@@ -613,7 +260,7 @@ def test_random_plane_pairs(kind):
         assert abs(c.gap[i] - delta) <= EXACT, f"{who}: deepest gap {c.gap[i]}"
 
 
-FLOOR_HALF = 2.0  # m: rp::_tessellated_floor(16, 2.0), 0.25 m squares
+FLOOR_HALF = 2.0  # m: helpers.tessellated_floor(16, 2.0), 0.25 m squares
 
 
 def fits_floor(b, half=FLOOR_HALF):
@@ -633,17 +280,18 @@ def floor_pair(kind, seed, k):
     return Placed(body, lowest - R @ x, R), delta, regime
 
 
-@pytest.mark.parametrize("kind", ["sphere", "capsule", "cylinder", "polytope"])
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("trimesh-" + k, role="random", note="a floor"))
+                                  for k in ["sphere", "capsule", "cylinder", "polytope"]])
 def test_random_floor_pairs(kind):
     # slot: TriangleMesh against `kind` (polytope = box, hull, convex mesh): a flat floor of 512
-    # triangles (rp::_tessellated_floor(16, 2.0), interior edges inactive), the body anywhere over
+    # triangles (helpers.tessellated_floor(16, 2.0), interior edges inactive), the body anywhere over
     # it in any orientation or face down, its lowest point delta above the floor (apart, touching,
     # or 0.1 to 20 mm in). The deepest gap is the lowest point's height (closed form, EXACT; the
     # triangle path clips the face's own contact, exact also for cylinders); every normal is the
     # floor's +z, whatever the kind (docs/conventions.md: a normal other than n_t from an inactive
-    # edge or a vertex between two is a ghost; for capsules and cylinders the rp floor test checks
+    # edge or a vertex between two is a ghost; for capsules and cylinders test_random_pairs checks
     # the same); floor witnesses in z = 0 over the floor, body witnesses on or in the body.
-    floor = _tessellated_floor(16, FLOOR_HALF)
+    floor = tessellated_floor(16, FLOOR_HALF)
     seed = zlib.crc32(("floor " + kind).encode())
     done = 0
     for k in range(400):
@@ -664,12 +312,6 @@ def test_random_floor_pairs(kind):
     assert done >= 350, done
 
 
-def lone_triangle(rng):
-    V = rng.normal(size=(3, 3)) * 0.5
-    n_t = np.cross(V[1] - V[0], V[2] - V[0])
-    return V, n_t / np.linalg.norm(n_t)
-
-
 def triangle_distance(V, n_t, X):
     """Distance of points X (K, 3) from the triangle V, for points whose foot lies in it (else inf)."""
     h = (X - V[0]) @ n_t
@@ -681,56 +323,14 @@ def triangle_distance(V, n_t, X):
     return np.where(inside, np.abs(h), np.inf)
 
 
-def lone_triangle_pair(kind, seed, k, off_face=False, min_cos=0.2, cylinder_touch=False):
-    """A one-triangle mesh (all three edges active) and a body against it along d: d = n_t onto a
-    random point of the face (apart, touching, or in by less than the body's inscribed ball), or
-    a random d with d . n_t >= min_cos onto the triangle's vertex furthest along d (apart; touching
-    too except for cylinders, unless cylinder_touch: see below). Returns
-    (V, n_t, b, d, delta, rho, regime, face), or None when the body's centre is behind the triangle's
-    plane (a body is then left alone or pushed back through: the one-sided rules)."""
-    rng = np.random.default_rng([seed, k])
-    V, n_t = lone_triangle(rng)
-    body = static_body(kind, rng, k)
-    # polytopes and cylinders touching a vertex or an edge: the contact normal is not unique
-    # there, and one pointing behind the triangle, which the one-sided rule would drop, is replaced
-    # by the normal of the body raised by 1e-9 L (trimesh_contacts.cpp). Before, ~4.6 % of all
-    # cylinder-triangle pairs of benchmarks/bench_cylinder_pairs.py got no contact, and of 2,627
-    # polytopes touching a lone triangle's vertex 343 did (all but 13 of them reaching behind the
-    # triangle's plane); with the raise, none wholly in front is missed, and of those reaching
-    # behind 50 still are (their vertex centroid, which the one-sided check takes for the centre,
-    # lies behind the plane) and 17 get a gap 1e-9 to 1.5e-8 m from 0 (bodies ~1 m: the
-    # closest-pair distance near 0 is rounding-limited). The test of the off-face regimes alone
-    # passes off_face=True
-    face = k % 2 == 0 and not off_face
-    regime = ("apart", "touch", "over")[k % 3] if face else ("apart", "touch")[k % 2]
-    if not off_face:
-        regime = "apart" if kind == "cylinder" and not face and not cylinder_touch else regime
-    if face:
-        d, x_a = n_t, rng.dirichlet([2.0, 2.0, 2.0]) @ V
-    else:
-        d = rng.normal(size=3)
-        d /= np.linalg.norm(d)
-        if d @ n_t < min_cos:
-            d = d - (d @ n_t - min_cos - rng.uniform(0.0, 1.0 - min_cos)) * n_t
-            d /= np.linalg.norm(d)
-        x_a = V[np.argmax(V @ d)]
-    round_body = body.kind in ("sphere", "capsule")
-    flat = (regime == "over" and not round_body) or (bool(rng.integers(2)) and body.kind != "sphere")
-    R, x, rho = orient(body, -d, rng, flat)
-    delta = {"apart": rng.uniform(1e-4, MARGIN - 1e-4), "touch": 0.0,
-             "over": -rng.uniform(1e-4, 1.0) * min(0.5 * rho, 0.02)}[regime]
-    b = Placed(body, x_a + delta * d - R @ x, R)
-    if n_t @ (b.p - V[0]) <= 0.0:
-        return None
-    return V, n_t, b, d, delta, rho, regime, face
-
-
 def height_over(V, n_t, b):
     """Height of the body's lowest point over the triangle's plane (negative: it reaches behind)."""
     return n_t @ (b.p + b.R @ b.body.support(b.R.T @ -n_t)[0] - V[0])
 
 
-@pytest.mark.parametrize("kind", STATIC_KINDS)
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("trimesh-" + k, role="random",
+                                                                          note="a lone triangle"))
+                                  for k in STATIC_KINDS])
 def test_random_lone_triangle_pairs(kind):
     # slot: TriangleMesh against `kind`, per triangle: the one-sided face, active edges and
     # vertices of a single triangle (lone_triangle_pair). Reference as in test_random_item_pairs
@@ -808,6 +408,7 @@ ALONG_X = rot(1, np.pi / 2)   # body z -> world x
 ALONG_Y = rot(0, -np.pi / 2)  # body z -> world y
 
 
+@pytest.mark.slots("sphere-sphere", role="golden")
 def test_golden_sphere_sphere():
     # slot: Sphere - Sphere. Radii 0.3 and 0.2, centres 0.49 m (1 cm in) and 0.53 m (3 cm apart)
     # apart along d: gap |c_B - c_A| - r_A - r_B, normal d, point midway between c_A + r_A d and
@@ -819,6 +420,7 @@ def test_golden_sphere_sphere():
                         [(0.5 * (0.3 + dist - 0.2) * d, d, g)])
 
 
+@pytest.mark.slots("sphere-capsule", role="golden")
 def test_golden_sphere_capsule():
     # slot: Sphere - Capsule. Capsule radius 0.1, segment z in [-0.4, 0.4]; a ball of radius 0.05
     # beside its side at (0.2, 0, 0.3): closest axis point (0, 0, 0.3), gap 0.2 - 0.15, normal x;
@@ -833,6 +435,7 @@ def test_golden_sphere_capsule():
                         [(0.5 * (q + 0.1 * n + c - 0.05 * n), n, g)])
 
 
+@pytest.mark.slots("sphere-cylinder", role="golden")
 def test_golden_sphere_cylinder():
     # slot: Sphere - Cylinder. Cylinder radius 0.3, half height 0.2 (axis z); a ball of radius 0.1
     # g = 4 mm from its cap (normal z), from its side (normal x), from its top rim (normal
@@ -854,6 +457,7 @@ def test_golden_sphere_cylinder():
 TETRA = 0.2 * np.array([[1.0, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]])
 
 
+@pytest.mark.slots("sphere-polytope", role="golden")
 def test_golden_sphere_hull():
     # slot: Sphere - Polytope (a hull: a regular tetrahedron, vertices 0.2 (+-1, +-1, +-1) with an
     # even number of minus signs). A ball of radius 0.05, 3 mm from the face opposite vertex 0
@@ -875,6 +479,7 @@ def test_golden_sphere_hull():
                     [(0.5 * (on_face + on_ball), n_face, -depth - r)])
 
 
+@pytest.mark.slots("capsule-capsule", role="golden")
 def test_golden_capsule_capsule():
     # slot: Capsule - Capsule. A: radius 0.1, segment x in [-0.5, 0.5]. B: radius 0.05, 1 cm in from
     # above (axes 0.14 apart): lying parallel over x in [0.1, 0.5], the two ends of the overlap
@@ -892,6 +497,7 @@ def test_golden_capsule_capsule():
                     [(0.5 * (end_a + 0.1 * n + end_b - 0.05 * n), n, -0.02)])
 
 
+@pytest.mark.slots("capsule-polytope", role="golden")
 def test_golden_capsule_hull():
     # slot: Capsule - Polytope (a hull: the cube of half side 0.5 with interior points). A capsule
     # of radius 0.1 lying along x 3 mm over the top face, its segment x in [0.4, 1.2] hanging over
@@ -915,6 +521,7 @@ def support_point_tol(radius):
     return np.sqrt(2.0 * radius * 2e-9)
 
 
+@pytest.mark.slots("capsule-cylinder", role="golden")
 def test_golden_capsule_cylinder():
     # slot: Capsule - Cylinder (GJK/EPA + clipping). Cylinder radius 0.3, half height 0.2.
     # - capsule (radius 0.05, segment x in [-0.05, 0.15] at y = 0.05) lying 3 mm over the cap:
@@ -948,6 +555,7 @@ def assert_on_rim(shape_a, p_a, R_a, cyl, p_b, R_b, margin, rim_z, gap):
         assert np.diff(np.append(angles, angles[0] + 2 * np.pi)).max() < np.pi, f"{label}: the axis is outside {X}"
 
 
+@pytest.mark.slots("cylinder-cylinder", role="golden")
 def test_golden_cylinder_cylinder():
     # slot: Cylinder - Cylinder (GJK/EPA + clipping). A: radius 0.3, half height 0.2.
     # - B (radius 0.1) standing on A's cap 3 mm up (or 4 mm in), off-centre: both caps are faces,
@@ -964,6 +572,7 @@ def test_golden_cylinder_cylinder():
 CUBE = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
 
 
+@pytest.mark.slots("cylinder-polytope", role="golden")
 def test_golden_cylinder_polytope():
     # slot: Cylinder - Polytope (GJK/EPA + clipping).
     # - a cylinder (radius 0.2) standing 3 mm over a box's top face z = 0, or 4 mm into it: its cap
@@ -983,6 +592,7 @@ def test_golden_cylinder_polytope():
                     [((0.0, 0.0, 0.3 + g / 2), Z, g)])
 
 
+@pytest.mark.slots("plane-sphere", role="golden")
 def test_golden_plane_sphere():
     # slot: Plane - Sphere. The plane n . x = 0.1, n = (0, 0.6, 0.8); a ball of radius 0.2 whose
     # lowest point is 4 mm into it (or 3 mm above), over (0.3, 0, 0) + 0.1 n: gap, normal n, point
@@ -994,6 +604,7 @@ def test_golden_plane_sphere():
                         [(foot + 0.5 * g * n, n, g)])
 
 
+@pytest.mark.slots("plane-capsule", role="golden")
 def test_golden_plane_capsule():
     # slot: Plane - Capsule. The plane z = 0; a capsule of radius 0.1, half length 0.3, tilted 30
     # degrees about y, its lower end's centre p0 = (0.2, 0.1, 0.1 + g): one point under p0 (the upper
@@ -1007,6 +618,7 @@ def test_golden_plane_capsule():
                     [((0.2, 0.1, g / 2), Z, g), ((0.8, 0.1, g / 2), Z, g)])
 
 
+@pytest.mark.slots("plane-cylinder", role="golden")
 def test_golden_plane_cylinder():
     # slot: Plane - Cylinder. The plane z = 0; a cylinder of radius 0.3, half height 0.2, turned 10
     # degrees about its axis and tilted 30 degrees about x (axis a = (0, -1/2, sqrt 3 / 2)): its
@@ -1028,6 +640,7 @@ def test_golden_plane_cylinder():
 BIG_TRIANGLE = sg.TriangleMesh(np.array([[-2.0, -2.0, 0.0], [2.0, -2.0, 0.0], [0.0, 2.0, 0.0]]), np.array([[0, 1, 2]]))
 
 
+@pytest.mark.slots("trimesh-capsule", role="golden")
 def test_golden_trimesh_capsule():
     # slot: TriangleMesh - Capsule. One large triangle in z = 0, front +z. A capsule of radius 0.05,
     # segment x in [-0.1, 0.3] at y = 0.2, lying 3 mm above it or 4 mm into it: its segment
@@ -1041,6 +654,7 @@ def test_golden_trimesh_capsule():
                         np.array([0.1, 0.2, 0.05 + g]) + 0.2 * a30[:, 2], a30, 0.01, [((0.1, 0.2, g / 2), Z, g)])
 
 
+@pytest.mark.slots("trimesh-cylinder", role="golden")
 def test_golden_trimesh_cylinder():
     # slot: TriangleMesh - Cylinder. One large triangle in z = 0. A cylinder of radius 0.2 standing
     # 3 mm above it or 4 mm in: every point on its bottom rim (assert_on_rim); lying along x (half
@@ -1058,12 +672,12 @@ def count_failures(pairs, check):
     return [m for m in (check(p) for p in pairs) if m]
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="generic corners apart")
 def test_polytopes_apart_corner_to_corner_get_their_distance():
     # slot: Polytope - Polytope, both generic (a vertex or edge of each facing the other), apart
-    # by 0.1 to 10 mm: the distance is delta exactly (module docstring), and a speculative contact
-    # must not report more (the solver would let the bodies close the difference in one step).
-    # It did (24 of these 300 pairs, up to 4 mm more) when the reference-face clip kept points but
-    # not the closest pair; that pair is now added (docs/conventions.md, "Manifolds", face contact).
+    # by 0.1 to 10 mm: the distance is delta exactly (helpers.py), and a speculative contact
+    # must not report more (the solver would let the bodies close the difference in one step; the
+    # closest pair after the clip: docs/conventions.md, "Manifolds", face contact).
     seed = zlib.crc32(b"apart polytope-polytope")
 
     def check(k):
@@ -1078,6 +692,7 @@ def test_polytopes_apart_corner_to_corner_get_their_distance():
     assert not failures, f"{len(failures)} of 300: " + "; ".join(failures[:5])
 
 
+@pytest.mark.slots("polytope-polytope", role="random", note="generic corners touching")
 def test_polytopes_touching_corner_to_corner_get_a_contact():
     # slot: Polytope - Polytope, both generic, exactly touching (distance 0, within the margin):
     # there must be a contact of gap 0 (EXACT).
@@ -1095,13 +710,11 @@ def test_polytopes_touching_corner_to_corner_get_a_contact():
     assert not failures, f"{len(failures)} of 300: " + "; ".join(failures[:5])
 
 
+@pytest.mark.slots("cylinder-polytope", role="random", note="rim on a vertex, touching")
 def test_cylinder_rim_touching_a_polytope_vertex_exactly():
     # slot: Cylinder - Polytope, both generic (a rim point against a vertex or an edge), exactly
-    # touching: deepest gap 0 and witnesses on the shapes to support_tol, as in test_random_item_pairs.
-    # It was a strict xfail: 4 of these 300 pairs reported a gap up to 1.7e-6 m (GJK stopped on a
-    # rounding stall short of contact) and 13 a contact point up to 0.4 mm off the shapes (EPA's
-    # shift of the Minkowski difference lay on its boundary, and its witness face was unrefined);
-    # cpp/src/collision/gjk_epa.cpp says how each was fixed.
+    # touching: deepest gap 0 and witnesses on the shapes to support_tol, as in test_random_item_pairs
+    # (the GJK stall and EPA shift it caught: docs/conventions.md, "Contacts", GJK/EPA).
     seed = zlib.crc32(b"touch cylinder-polytope")
 
     def check(k):
@@ -1119,14 +732,13 @@ def test_cylinder_rim_touching_a_polytope_vertex_exactly():
     assert not failures, f"{len(failures)} of 300: " + "; ".join(failures[:5])
 
 
+@pytest.mark.slots("trimesh-polytope", role="random", note="off the face, apart")
 def test_polytopes_beside_a_lone_triangle_get_their_distance():
     # slot: TriangleMesh - Polytope, off the face: a one-triangle mesh (all edges active) and a box,
     # hull or convex mesh apart from its vertex by delta along d (d . n_t >= 0.9), the body wholly
     # in front of the triangle's plane (no one-sided rule applies): a contact whose deepest gap
-    # is the distance delta (EXACT). Without the closest-pair rule after the face clip 118 of these
-    # 155 pairs got no contact and 30 a deepest gap up to 4.8 mm above the distance. (Of those
-    # reaching behind the plane, 15 of 1,073 get none: the one-sided check takes the vertex
-    # centroid, which lies behind, for the centre.)
+    # is the distance delta (EXACT): the closest pair after the face clip (docs/conventions.md,
+    # "Contacts", static triangle mesh, which says what those reaching behind the plane get).
     seed = zlib.crc32(b"beside polytope")
     pairs = []
     for k in range(1500):
@@ -1165,9 +777,11 @@ CRASH = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slots("polytope-polytope", "trimesh-polytope", role="golden",
+                   note="a mesh piece with a vertex inside a face")
 def test_a_convex_mesh_with_a_vertex_inside_a_face_does_not_crash():
     # slots: Polytope - Polytope and TriangleMesh - Polytope, a mesh piece face down 5 mm over a box
-    # and over a triangle: four contacts of gap 5 mm. Run in a child process: it crashed (clip_faces
-    # found no incident face around a deepest vertex inside a merged face and read faces[-1]).
+    # and over a triangle: four contacts of gap 5 mm. In a child process, since it once crashed
+    # (clip_faces read faces[-1] when no incident face lay around a vertex inside a merged face).
     run = subprocess.run([sys.executable, "-c", CRASH], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0 and run.stdout.strip() == "ok", (run.returncode, run.stderr[-500:])

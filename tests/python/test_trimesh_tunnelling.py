@@ -18,6 +18,7 @@ def floor_mesh(half_width=2.0, cells=4):
                                               "waves": [], "noise_seed": 0}))
 
 
+@pytest.mark.slots("trimesh-sphere", role="golden", note="centre crossed a triangle")
 def test_a_sphere_whose_centre_crossed_a_triangle_is_pushed_back_along_the_face_normal():
     # centre 0.3 r below the floor, inside a triangle: the sphere's lowest point is r + 0.3 r deep
     r, depth = 0.05, 0.015
@@ -29,6 +30,7 @@ def test_a_sphere_whose_centre_crossed_a_triangle_is_pushed_back_along_the_face_
     assert np.allclose(c.point[0], (0.13, 0.21, -(r + depth) / 2), atol=1e-15)
 
 
+@pytest.mark.slots("trimesh-polytope", role="golden", note="centre crossed a triangle")
 def test_a_box_whose_centre_crossed_a_triangle_gets_its_corners_pushed_up():
     # a 4 x 3 x 2 cm box, centre 5 mm below the floor: its four bottom corners are 15 mm deep, its
     # top ones 5 mm above (beyond the margin); every point lies within |gap| / 2 of both shapes

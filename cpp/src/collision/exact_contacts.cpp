@@ -1,7 +1,5 @@
-// Contacts computed exactly by hand. Planes: FCL 0.7's halfspace distance queries crash (DESIGN.md)
-// and the exact answer is one dot product per feature. Spheres against anything: FCL's GJK/EPA
-// witness points carry ~1e-5 m of tangential error (measured), which tilts the normal of a shallow
-// contact and sets a frictionless body sliding; the closest point to a centre is exact and cheap.
+// Contacts computed exactly by hand: against a plane, one dot product per feature; a sphere against
+// anything, the closest point to its centre (why not FCL's: docs/conventions.md, "Contacts").
 #include <algorithm>
 #include <cmath>
 #include <type_traits>

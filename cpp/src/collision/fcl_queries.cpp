@@ -1,7 +1,7 @@
 // Everything that touches FCL 0.7: the broad phase (DynamicAABBTreeCollisionManager) and the
 // candidate triangles of static triangle meshes (BVHModel<OBBRSS>). FCL's signed distance is not
-// used: the narrow phase is exact without it (see round_contacts.cpp for what libccd did to
-// cylinders here).
+// used: the narrow phase is exact without it (docs/conventions.md, "Contacts", says what FCL and
+// libccd did).
 #include <algorithm>
 #include <cmath>
 #include <limits>

@@ -34,7 +34,7 @@ struct Vertex {
 /// The radius by which an item rounds its core: a sphere is a point and a capsule a segment with
 /// a radius. GJK and EPA run on the cores and the radii are added at the end, which makes sphere
 /// and capsule pairs exact for GJK and spares EPA the doubly curved surfaces it converges slowly on
-/// (measured: 128 expansions left 1e-4 m on two overlapping spheres).
+/// (docs/conventions.md, "Contacts", GJK/EPA).
 double rounding(const Item& it) {
   if (it.sphere) return it.sphere->radius;
   if (it.capsule) return it.capsule->radius;
@@ -426,13 +426,9 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
     const Vec3 v_new = S.reduce(enclosed);
     if (enclosed) break;
     if (!(v_new.squaredNorm() < vv)) {
-      // Near contact, where the origin sits on a ridge of D (a cylinder's rim against a vertex or
-      // an edge), GJK alternates between steps that halve |v| and steps whose new vertex, far
-      // along the ridge, gets a barycentric weight of ~1e-10 and leaves |v| unchanged up to the
-      // rounding of v (~1e-16 scale, amplified by the sliver triangle). Such a step still turns
-      // v onto the new triangle's plane, and the next one progresses again; stopping there left
-      // |v| at up to 1.7e-6 m on exactly touching pairs (returned as the distance), so one step
-      // that keeps its new vertex and grows |v| by no more than rounding is let through.
+      // on a ridge of D every other step leaves |v| unchanged up to rounding yet turns v, and the
+      // next progresses: one such step that keeps its new vertex is let through (docs/conventions.md,
+      // "Contacts", GJK/EPA)
       const bool kept = S.n > 0 && S.p[S.n - 1].z == w.z;
       if (!graced && kept && v_new.norm() <= vn + kRound * scale) {
         graced = true;
@@ -473,14 +469,10 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
 
   // ---- touching or overlapping: D' = D - c holds the origin inside ----
   // c = v + 2 shift e, e the unit vector from v (GJK's closest point, a point of D; 0 when a
-  // tetrahedron enclosed the origin) towards q = (B's interior point) - (A's), a point inside D:
-  // every point of the segment (v, q] is inside D (D convex), so c is, whatever the shape of D
-  // about the origin. (Before: c = 2 shift n0, n0 GJK's last direction, which is not inside D
-  // when the origin lies on the edge of a flat facet of D and v in that facet, a cylinder's rim
-  // exactly on a vertex: c then lay on D's boundary, EPA stopped on a face through the origin of
-  // D' and its witnesses were up to 0.4 mm off the shapes. It stays as the second try.) GJK on
-  // D' runs until a tetrahedron holds the origin; a separating plane means c was not inside D,
-  // and the next candidate is tried.
+  // tetrahedron enclosed the origin) towards q = (B's interior point) - (A's), inside D: the segment
+  // (v, q] lies inside D (convex), so c does. c = 2 shift n0 (GJK's last direction) is the second
+  // try (docs/conventions.md, "Contacts", GJK/EPA). GJK on D' runs until a tetrahedron holds the
+  // origin; a separating plane means c was not inside D, and the next candidate is tried.
   st.used_epa = true;
   Distance fallback;  // if EPA cannot start: GJK's gap along its last direction
   S.witnesses(fallback.w_a, fallback.w_b);
@@ -627,21 +619,9 @@ Distance gjk_epa(const Item& a, const Item& b, EpaScratch& epa, GjkEpaStats* sta
     best = chosen;
   }
 
-  // The witnesses: the point z* = gap n of D (n = -m the normal chosen above) is where the origin
-  // leaves D; in D' it is z*' = gap n - c. Its face is found by walking from the chosen face
-  // towards the ray from the origin of D' through z*' (the origin is inside D', so the ray leaves
-  // through exactly one face): across the edge opposite a vertex with a negative ray coordinate.
-  // The chosen face itself can be a different triangle of the same flat facet of D (a cap of a
-  // cylinder against a vertex is a disc of D tiled by many triangles), and the origin's projection
-  // onto it, clamped into it, can then be far from z*: measured 0.39 m on a cylinder-triangle pair.
-  // The ray coordinates l_k = r . (z_k+1 x z_k+2) are those of the hit point, up to their sum.
-  // The face the ray leaves by has vertices on D's boundary, but is itself only as close to it as
-  // EPA refined it: when it is not the face EPA converged on (the ray and the nearest face part
-  // when c is not along the normal, e.g. after a GJK stall at |v| ~ 1e-8 m, c ~ v), its hit point
-  // can lie inside D by up to ~|c| and the witnesses off the shapes by as much (measured 4.7e-9 m
-  // on a cylinder rim touching a hull's vertex). So that face is expanded like EPA's nearest one
-  // until the support along its normal lies within EPA's tolerance of it (its vertices then span
-  // a flat piece of D's boundary, within tolerance), and the ray walked again; a few expansions.
+  // the witnesses: from the face that the ray from the origin of D' through z*' = gap n - c (n = -m)
+  // leaves by (walk), expanded like EPA's nearest face until within EPA's tolerance and walked again
+  // (docs/conventions.md, "Contacts", GJK/EPA)
   const Vec3 m_best = E.faces[best].m;
   const Vec3 ray = -gap * m_best - c;
   st.shift = c.norm();

@@ -1,12 +1,9 @@
 // Signed distance of two convex items from their support mappings alone: GJK (Gilbert, Johnson,
 // Keerthi 1988) on the Minkowski difference for separated items, with the signed-volumes distance
 // subalgorithm (Montanari, Petrinic, Barbieri 2017), and EPA (expanding polytope algorithm, van
-// den Bergen 2001) for touching and overlapping ones.
-//
-// Why our own code and not libccd / FCL: measured here, libccd's EPA inside libfcl aborts the
-// process (an assertion in ComputeVisiblePatch) on some touching cylinder pairs, reverses the
-// normal of exactly touching ones and leaves up to ~1e-3 m of GJK tolerance in the gap; the
-// narrow phase needs 1e-9 m and must never abort. Internal to cpp/src/collision/.
+// den Bergen 2001) for touching and overlapping ones. Our own rather than libccd's inside FCL, which
+// can abort and is far from the 1e-9 m the narrow phase needs (docs/conventions.md, "Contacts").
+// Internal to cpp/src/collision/.
 #pragma once
 
 #include "collision/collision.hpp"

@@ -70,13 +70,9 @@ void finish_manifold(std::vector<Contact>& c, double threshold, double L, std::v
     for (const int k : index) out.push_back(c[k]);
     return;
   }
-  // reduction to 4, the points ranked by their end gaps (the gaps they close to in the step at
-  // their velocities; without a motion, their gaps): deepest, farthest from it, largest triangle,
-  // largest added area, each taken from the touching points (end gap <= max(deepest end gap, 0) +
-  // tol) while they offer one. By gaps, a torus resting on its bottom ring would otherwise get the
-  // farther points of the rings beside it, hovering within the margin, and stand on one point; by
-  // end gaps, a torus landing tilted gets the points of the side coming down, which the step
-  // closes, and does not vault over the edge between 4 points of the side already down
+  // reduction to 4 by end gaps (gaps without a motion): deepest, farthest from it, largest
+  // triangle, largest added area, each from the touching points while they offer one (why:
+  // docs/conventions.md, "Manifolds")
   const auto end_gap = [motion](const Contact& x) { return motion ? motion->end_gap(x) : x.gap; };
   const std::size_t i1 = first_best(c, index, tol, [&](const Contact& x) { return -end_gap(x); });
   const Vec3 p1 = c[index[i1]].point, n = c[index[i1]].normal;

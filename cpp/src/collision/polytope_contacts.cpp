@@ -1,9 +1,8 @@
 // Convex polytope pairs (boxes, hulls, convex mesh pieces) by separating axes and reference/incident
-// face clipping (docs/conventions.md, "Manifolds"). Written here because FCL 0.7 returns one contact
-// per pair and its EPA depths carry ~1e-5 m of error (DESIGN.md, measured); the separating-axis
-// depth of two polytopes is exact and the clipped face gives the 4-point manifold a box needs to lie
-// still. Edge pairs are pruned on the Gauss map (only those that form a face of the Minkowski
-// difference can realise the separation).
+// face clipping (docs/conventions.md, "Manifolds"): the separating-axis depth is exact and the
+// clipped face gives the 4-point manifold a box needs to lie still (why not FCL's: "Contacts").
+// Edge pairs are pruned on the Gauss map (only those that form a face of the Minkowski difference
+// can realise the separation).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -139,19 +138,6 @@ double arc_max(const Vec3& a, const Vec3& b, const Vec3& w) {
   return std::max(aw, bw);
 }
 
-/// The largest separation over the edge pairs of A and B that span a face of the Minkowski
-/// difference (Gauss-map pruning), among the pairs that could reach `bound` (below it, an edge
-/// axis can neither beat the faces nor reach the threshold: the caller says which).
-/// Edges that cannot reach it are dropped first: if edge i of A supports A along L with B at
-/// separation s, every point of B, its centroid c_B too, has L . (c_B - p_i) >= s, so s is at most
-/// the largest L . (c_B - p_i) over the edge's Gauss-map arc (likewise for B's edges with c_A);
-/// edges facing away from the other body go.
-/// The arc test of minkowski_face is then split in two halves. First, which side of each A arc's
-/// great circle (normal b x a) every -B face normal lies on, once per (edge, face) rather than per
-/// edge pair: a B edge can only pass when its two faces lie on opposite sides, which most do not.
-/// For B with at most 64 faces the sides are bit masks, and the second half (A's normals against
-/// the -B arc's circle, d x c) is computed only for the pairs left; otherwise it is tabled like the
-/// first. The products are the ones minkowski_face computes, so the pairs kept are the same.
 /// Buffers of edge_query (members of PolytopeScratch): the kept edges of A and B, A's Gauss-map
 /// sides (kept E_A x F_B), B's arc circle normals (kept E_B) and sides (F_A x kept E_B).
 struct EdgeBuffers {
@@ -160,6 +146,17 @@ struct EdgeBuffers {
   std::vector<Vec3> dxc;
 };
 
+/// The largest separation over the edge pairs of A and B that span a face of the Minkowski
+/// difference (Gauss-map pruning), among the pairs that could reach `bound` (below it, an edge
+/// axis can neither beat the faces nor reach the threshold: the caller says which).
+/// Edges first: if edge i of A supports A along L with B at separation s, then
+/// s <= L . (c_B - p_i) (c_B B's centroid), so an edge whose largest L . (c_B - p_i) over its
+/// Gauss-map arc (arc_max) is below `bound` goes (likewise B's edges with c_A).
+/// Then minkowski_face in two halves: the side of each A arc's great circle (b x a) that every -B
+/// face normal lies on, once per (edge, face) (a B edge passes only when its two faces lie on
+/// opposite sides, which most do not), as bit masks when B has at most 64 faces, else tabled; the
+/// other half (A's normals against the -B arc's circle, d x c) only for the pairs left. The
+/// products are minkowski_face's, so the same pairs are kept.
 EdgeQuery edge_query(const View& A, const View& B, double bound, EdgeBuffers& scratch) {
   EdgeQuery q;
   const auto& ea = A.topo->edges;
@@ -253,14 +250,11 @@ struct BoxEdges {
   }
 };
 
-/// edge_query for two boxes, with the same result: a box has 3 edge directions of 4 parallel
-/// edges, and for a pair of directions (k of A, m of B) only the edges that support A along +-L
-/// and B along -+L (L = e_k x R_ab e_m) can span a face of the Minkowski difference, so 2 of the
-/// 16 parallel pairs are tested (18 pairs instead of 144). Written by hand because the general
-/// test's cost is most of a box stack's contact detection.
-/// Directions whose separation, |L . t_ab| - r_A(L) - r_B(L) for unit L (the box projection
-/// formula), lies below `bound` by more than rounding are skipped: the caller passes a bound that
-/// such an axis can neither win nor return at (an edge must beat the faces, or reach the threshold).
+/// edge_query for two boxes, with the same result (the general test costs most of a box stack's
+/// contact detection): for edge directions k of A and m of B only the edges supporting A along +-L
+/// and B along -+L (L = e_k x R_ab e_m) can span a face of the Minkowski difference, so 2 of the 16
+/// parallel pairs are tested (18 pairs instead of 144). A direction whose separation
+/// |L . t_ab| - r_A(L) - r_B(L) (unit L) lies below `bound` by more than rounding is skipped.
 EdgeQuery box_edge_query(const View& A, const View& B, const Mat3& R_ab, const Vec3& t_ab, double bound) {
   const BoxEdges ea(*A.topo), eb(*B.topo);
   const Vec3 h_a = A.topo->vertex(7), h_b = B.topo->vertex(7);  // vertex 7 = (+h_x, +h_y, +h_z)
@@ -364,21 +358,12 @@ bool foot_inside(const View& S, int f, const Vec3& foot) {
 ///   5. each face of A against each vertex of B (likewise);
 /// each in (feature of A, feature of B) index order. With D the least distance, the pair chosen is,
 /// among those within D + tie, the one of the lowest summed dimension (vertex 0, edge 1, face 2),
-/// first in that order: a vertex reached through any of its edges is the same vertex, and the
-/// oracle (signorini.oracle.manifold.closest_features) resolves near-equal pairs the same way.
-/// Only features with a vertex in the slab b_lo - bound - 2 tie <= L . x (A), L . x <= a_hi +
-/// bound + 2 tie (B) are visited: a pair (p, q) with |q - p| <= bound + tie has L . p >= L . q -
-/// |q - p| >= b_lo - bound - tie, so the others cannot be chosen, and the result is that of the
-/// full search (the oracle's). A box pair visits at most 8 x 12 + 12 x 8 + 144 + 48 + 48 pairs.
-///
-/// Written here rather than taken from gjk_epa: GJK's witnesses are as exact on these pairs
-/// (measured on 2,000 random box pairs apart by 0.1 to 20 mm, corner against corner and corner
-/// against edge: |gap - distance| <= 5e-16 m, witnesses within 6e-16 m), but they are barycentric
-/// combinations of its last simplex and carry no features: the ids (the warm-start keys) would
-/// have to be recovered from the points with a tolerance, and the oracle would have to re-derive
-/// GJK's iterations to agree on them. The search names the features directly, is exact to
-/// rounding, and runs only for separated pairs whose best axis is an edge pair with closest points
-/// off the edges (rare).
+/// first in that order (as the oracle's closest_features: a vertex reached through any of its edges
+/// is the same vertex). Only features with a vertex in the slab b_lo - bound - 2 tie <= L . x (A),
+/// L . x <= a_hi + bound + 2 tie (B) are visited: a pair (p, q) with |q - p| <= bound + tie has
+/// L . p >= L . q - |q - p| >= b_lo - bound - tie, so the result is the full search's. A box pair
+/// visits at most 8 x 12 + 12 x 8 + 144 + 48 + 48 pairs. Not gjk_epa, whose witnesses carry no
+/// feature ids (docs/conventions.md, "Manifolds", edge contact).
 bool closest_features(const View& A, const View& B, const Vec3& L, double bound, double tie,
                       ClosestBuffers& buffers, ClosestPair& best) {
   const auto& ea = A.topo->edges;
@@ -483,15 +468,13 @@ bool closest_features(const View& A, const View& B, const Vec3& L, double bound,
 }
 
 /// The edge-edge contact of the query e (A's edge e.edge_a against B's e.edge_b along e.axis, in
-/// A's frame; pa is A's pose, threshold and the pair's length scale L in m), appended to out:
-/// - when the closest points of the two edge lines lie on both edges (parameters in [0, 1]) or the
-///   shapes overlap (e.separation <= 0): one point, midway between those closest points, gap
+/// A's frame; pa is A's pose, threshold and the pair's length scale L in m), appended to out
+/// (docs/conventions.md, "Manifolds", edge contact):
+/// - the edge lines' closest points on both edges, or the shapes overlapping: their midpoint, gap
 ///   e.separation, normal e.axis, ids (edge of A, edge of B);
-/// - when the shapes are apart (e.separation > 0) and either closest point lies off its edge, the
-///   axis's separation is only a lower bound of their distance and no point lies within half of it
-///   of both shapes: the contact is the closest pair of the polytopes (closest_features, ties
-///   within 1e-12 L): gap = |q - p|, normal (q - p) / gap, point (p + q) / 2, the ids of the
-///   features holding p and q; only when gap < threshold.
+/// - apart with a closest point off its edge (the separation only bounds the distance): the
+///   polytopes' closest pair p, q (closest_features, ties 1e-12 L), gap |q - p|, normal
+///   (q - p) / gap, point (p + q) / 2, when gap < threshold.
 void edge_contact(const View& A, const View& B, const EdgeQuery& e, const Pose& pa, double threshold, double L,
                   ClosestBuffers& buffers, std::vector<Contact>& out) {
   const auto& EA = A.topo->edges[e.edge_a];
@@ -663,19 +646,12 @@ void clip_faces(const View& ref, int f, const View& inc, bool ref_is_a, double t
 }
 
 /// The closest-pair rule after a face clip (docs/conventions.md, "Manifolds", face contact), for
-/// two polytopes A and B (views in A's frame) apart or touching. Each clipped point's gap is the
-/// distance between a point of B and a point of A (its foot on the reference face, or the two
-/// edges' points of a crossing), so the least gap of the clipped points out[first..] (all below the
-/// threshold; inf when there are none) bounds the distance from above; `lower`, the separation along
-/// the caller's best axis (two polytopes: the larger face separation), bounds it from below. When
-/// the least gap exceeds lower by more than 1e-9 L the clip may have missed the closest pair (two
-/// corners facing each other; an incident face whose nearest part lies beside the reference face),
-/// and the closest pair (closest_features, ties 1e-12 L) is appended when it is nearer than the
-/// threshold and than every clipped point by more than 1e-9 L: the deepest gap is then the
-/// distance, and the manifold's reduction keeps it (its first point is the deepest, ties within
-/// 1e-9 L). It replaces the clipped points with its ids or within 1e-9 L of its point (the manifold
-/// would drop it as their duplicate, or hold one id pair twice); the others stay (the face the
-/// bodies will rest on). Allocates nothing once out and the buffers have grown.
+/// two polytopes A and B (views in A's frame) apart or touching: the least gap g_min of the clipped
+/// points out[first..] bounds the distance from above and `lower` (the separation along the
+/// caller's best axis) from below; when g_min > lower + 1e-9 L the closest pair (closest_features,
+/// ties 1e-12 L) is appended if nearer than the threshold and than g_min - 1e-9 L, replacing the
+/// clipped points with its ids or within 1e-9 L of its point. Allocates nothing once out and the
+/// buffers have grown.
 /// Inputs: axis (unit, A -> B, A's frame: narrows the search), n_touch (unit, A -> B, A's frame: the
 /// normal of a pair touching, closest points within 1e-12 L), lower, L, threshold (m), pa (A's pose:
 /// out is in the world frame), first (the clip's first contact in out).
@@ -744,8 +720,7 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
     return;
   }
   // faces are preferred: B's face only when better than A's by tol, an edge only when better than
-  // both by tol (tol = 5e-4 L). Two stacked boxes tilted by a hair have an edge axis that beats the
-  // face axis by ~0.2 L theta; taking it would leave one contact point and the stack would rock.
+  // both by tol (tol = 5e-4 L), or a tilted stack would rock on one point ("Manifolds", box against box)
   // a box's vertices all lie at |h| (vertex 7 = (+h_x, +h_y, +h_z)): the same number, 8 times cheaper
   const double L = boxes ? a.vertex(7).norm() + b.vertex(7).norm() : radius_of(a) + radius_of(b);
   // an edge axis matters when it beats both faces by at least 1e-9 L, or reaches the threshold
@@ -766,11 +741,8 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
   else
     clip_faces(A, fa.face, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
-  // apart or touching, the clip can miss the closest pair (two corners facing each other: it keeps
-  // nothing; an incident face whose nearest part lies beside the reference face: it keeps farther
-  // points), which is then added, so that a speculative contact's deepest gap is the distance;
-  // touching (closest points within 1e-12 L, the separation 0 up to rounding), along the better
-  // face axis
+  // apart or touching, the clip can miss the closest pair, which is then added (touching: along the
+  // better face axis) so that a speculative contact's deepest gap is the distance
   const bool b_better = fb.separation > fa.separation;
   closest_pair_after_clip(A, B, b_better ? Vec3(-n_face) : n_face, b_better ? Vec3(-n_face) : n_face,
                           std::max(fa.separation, fb.separation), L, threshold, pa, scratch.closest, first, out);
@@ -840,12 +812,8 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
     }
   }
   if (!(e.separation < threshold)) return;
-  // Overlapping, an edge axis is a contact only where the two edge lines meet on both edges. With
-  // every axis of two convex polytopes that always holds for the best one (the origin's nearest
-  // facet of the Minkowski difference holds its projection), but a one-sided triangle offers only
-  // its front face and its active edges, and the best of those can be an edge pair whose lines meet
-  // off the edges (measured: 7 cm off the mesh, a box pressed into a ridge of a height field); the
-  // faces then make the manifold.
+  // overlapping, an edge axis is a contact only where the edge lines meet on both edges; a triangle's
+  // best axis can miss that, and the faces then make the manifold (docs/conventions.md, "Contacts")
   bool edge_meets = e.edge_a >= 0 && e.separation > 0.0;
   if (e.edge_a >= 0 && !edge_meets) {
     const auto& ea = tri.edges[e.edge_a];
@@ -885,18 +853,10 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
     clip_faces(B, fb.face, A, false, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out);
   else
     clip_faces(A, 0, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out, &active);
-  // apart or touching, the clip can miss the closest pair (B beside a vertex or an edge of the
-  // triangle: the face clip keeps nothing, or farther points), added as for two polytopes, the best
-  // of the triangle's face axis, B's and the edge axes bounding the distance from below; touching,
-  // along that axis. One whose normal is not n_t and whose triangle witness lies on an inactive
-  // edge or a vertex between two is a ghost, which trimesh_item's without_ghosts replaces by the
-  // face's own contact (face_only, above, adds no closest pair); one whose normal does not leave
-  // the front side is dropped there too (keep_front). A triangle without active edges (inside a
-  // flat or concave region) clipped by its own face adds none: a closest pair with its witness in
-  // the face has B's lowest point along -n_t there, which the clip holds, and one on the rim is a
-  // ghost replaced by that same clip, unless B's point lies exactly over the rim (normal n_t), where
-  // B reaches lower over the neighbouring triangle (measured: a box hovering tilted over a
-  // tessellated floor searched every triangle under its rim, twice the floor's detection time)
+  // apart or touching, the clip can miss the closest pair: added as for two polytopes, the best of
+  // the face, B's and the edge axes bounding the distance from below (ghosts and back-facing
+  // normals are dropped in trimesh_item); none for a triangle without active edges clipped by its
+  // own face (docs/conventions.md, "Contacts", static triangle mesh)
   if (!b_face && !active[0] && !active[1] && !active[2]) return;
   double lower = sep_a;
   Vec3 n_lower = A.n[0];

@@ -350,13 +350,12 @@ Vec3 support_point(const Item& it, const Vec3& d) {
   if (it.sphere) return p + it.sphere->radius * d;
   if (it.capsule) return p + (R.col(2).dot(d) >= 0.0 ? 1.0 : -1.0) * it.capsule->half_length * R.col(2) + it.capsule->radius * d;
   if (it.cylinder) {
-    // the rim point along d's part normal to the axis, taken in the body's x y coordinates: d - (a.d) a
-    // would keep a rounding residue along a that dividing by a small |u| blows up (3e-6 m measured
-    // for d within 1e-11 rad of the axis)
+    // the rim point along d's part normal to the axis, from the body's x y coordinates: d - (a.d) a
+    // keeps a rounding residue along a that a small |u| blows up (docs/conventions.md, "Contacts")
     const Vec3 a = R.col(2);
     const double c = a.dot(d), x = R.col(0).dot(d), y = R.col(1).dot(d);
-    // |x|, |y| <= 1: no overflow, and below 1e-154 un is 0 and the cap's centre (a support point
-    // to that precision) is returned; std::hypot's care costs ~10 % of a cylinder pair's time
+    // |x|, |y| <= 1: no overflow, so no std::hypot; below 1e-154 un is 0 and the cap's centre (a
+    // support point to that precision) is returned
     const double un = std::sqrt(x * x + y * y);
     const Vec3 centre = p + (c >= 0.0 ? 1.0 : -1.0) * it.cylinder->half_height * a;
     return un > 0.0 ? Vec3(centre + (it.cylinder->radius / un) * (x * R.col(0) + y * R.col(1))) : centre;

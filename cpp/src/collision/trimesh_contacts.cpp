@@ -194,9 +194,8 @@ bool ghost_of_inactive_edge(const TriangleMesh& mesh, Eigen::Index t, const Pose
 /// triangle t (gaps along n_t), plus B's support point along -n_t when it lies over the triangle
 /// and deeper than those (a cylinder's cap is sampled at 8 rim points), as in convex_by_support;
 /// none when all of it lies beside the triangle, where a neighbouring face makes the contact (as
-/// for spheres). Every point lies inside the triangle (on the mesh) and on B. (Moving B's support
-/// point onto this face's plane without the clip put points over a neighbouring face that is not in
-/// this plane, up to 5 cm off the mesh.)
+/// for spheres). Every point lies inside the triangle (on the mesh) and on B (hence the clip:
+/// docs/conventions.md, "Contacts", static triangle mesh).
 void face_contact(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Item& b, double threshold,
                   Scratch& scratch, std::vector<Contact>& out) {
   const auto index = static_cast<std::uint32_t>(t);
@@ -233,8 +232,8 @@ void face_contact(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, cons
 /// Inactive-edge filtering for the contacts from index `first` that a capsule or a polytope B got
 /// from triangle t: if one is a ghost (ghost_of_inactive_edge, its witness y - gap/2 n), the ghosts
 /// and the face-normal points give way to the face's own contact, made by face_only(out); a point on
-/// an active edge stays. (A polytope's test offers only the triangle's active edges, but B's own
-/// faces as references: a box face tilted over a floor vertex gave that face's normal.)
+/// an active edge stays. A polytope needs it too: its test offers only the triangle's active edges,
+/// but B's own faces as references.
 template <class FaceOnly>
 void without_ghosts(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, std::size_t first,
                     std::vector<Contact>& out, FaceOnly face_only) {
@@ -305,10 +304,8 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
         return touching_behind;
       };
       if (contacts_at(b.pose) && out.size() == first) {
-        // touching at a vertex or an edge the normal is not unique, and the separating axis may
-        // be one pointing behind the triangle (keep_front drops it), as for cylinders below: B
-        // raised off the triangle by a hair has a unique normal, one of the touching pair's too;
-        // the gaps are less the raise along it (1e-9 L first; then 1e-8 L and 1e-7 L)
+        // touching at a vertex or an edge, the separating axis may point behind the triangle: B
+        // raised by a hair (1e-9 L, 1e-8 L, 1e-7 L) has a unique normal, as for cylinders below
         for (double hair = tiny; hair <= 1.01e2 * tiny && out.size() == first; hair *= 10.0) {
           Pose raised = b.pose;
           raised.p += hair * n_t;
@@ -345,11 +342,8 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       const Vec3 n_t = pa.R * mesh.normals[t];
       const double L = radius + radius_of_triangle(tri);
       if (!(dist.normal.dot(n_t) > 0.0) && std::abs(dist.gap) <= 1e-9 * L) {
-        // touching at a vertex or an edge the normal is not unique, and EPA may return one that
-        // points behind the triangle (keep_front would drop the contact). B raised off the
-        // triangle by a hair has a unique normal, which is one of the touching pair's too; the
-        // gap is its distance less the raise along that normal (exact to second order in it)
-        // (1e-9 L first; where GJK cannot resolve that, 1e-8 L, then 1e-7 L)
+        // touching at a vertex or an edge, EPA's normal may point behind the triangle: B raised
+        // by a hair (1e-9 L, 1e-8 L, 1e-7 L) has a unique one (docs/conventions.md, "Contacts")
         for (double hair = 1e-9 * L; hair <= 1.01e-7 * L; hair *= 10.0) {
           Item raised = b;
           raised.pose.p += hair * n_t;

@@ -157,12 +157,8 @@ TriangleMesh::TriangleMesh(Points v, Triangles f) : vertices(std::move(v)), face
   for (Eigen::Index k = 0; k < F; ++k)
     for (int s = 0; s < 3; ++s) users[std::minmax(faces(k, s), faces(k, (s + 1) % 3))].push_back({k, s});
 
-  // side s of face k (v_s -> v_s+1) is active when it is a boundary edge, a non-manifold one (3+
-  // faces), or when the fold towards the neighbour is convex by more than 1e-6 rad. The fold angle
-  // is atan2(-d, t) for the neighbour's opposite vertex o, with w = o - v_s, d = n . w (height above
-  // this face's plane) and t = (e x n) . w (how far o lies beyond the edge, in the plane; e the edge
-  // direction, e x n points out of this face): 0 for a flat continuation, > 0 convex, < 0 concave.
-  // It needs no consistent orientation of the neighbour.
+  // side s of face k (v_s -> v_s+1) is active when a boundary edge, a non-manifold one, or a fold
+  // atan2(-n . w, (e x n) . w) > 1e-6 rad, w = o - v_s (docs/conventions.md, "Contacts")
   active_edge.assign(static_cast<std::size_t>(F), {true, true, true});
   for (Eigen::Index k = 0; k < F; ++k)
     for (int s = 0; s < 3; ++s) {

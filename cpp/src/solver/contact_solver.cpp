@@ -310,9 +310,8 @@ inline double update_normal(const Row& r, double bias, double& alpha, Velocities
 /// wait on each other through the body velocities: their velocities are read from A and B once,
 /// each later row adds the changes of the rows before it through the Delassus entries W_jk, and
 /// the three force changes reach A and B together at the end. Same sums, other rounding.
-/// Always inlined: A and B then stay in registers through the rows (GCC stopped inlining it once
-/// the sweep loop had two instantiations, with and without spin rows, and the pyramid's step
-/// took 10% longer).
+/// Always inlined, so that A and B stay in registers through the rows (docs/conventions.md, "One
+/// step", 3c).
 [[gnu::always_inline]] inline void contact_rows(const SolverSettings& s, const Row* r, double* alpha,
                                                 BodyVelocity& A, BodyVelocity& B, double& change) {
   if (!(r[0].delta > 0.0)) return;  // both bodies static: never produced by the narrow phase

@@ -586,13 +586,8 @@ def contact_box_box(p_A, R_A, h_A, p_B, R_B, h_B, threshold):
     if not a_is_ref:
         n = -n
     fa_ids, fb_ids = (ref_id, inc_id) if a_is_ref else (inc_id, ref_id)
-    # apart or touching, the clip can miss the closest pair (corners facing each other: it keeps
-    # nothing; an incident face whose nearest part lies beside the reference face: farther points).
-    # Every clipped gap is the distance of a point of B from one of A, and the larger face
-    # separation a lower bound of it: when the least clipped gap below the threshold (inf if none)
-    # exceeds that by more than 1e-9 L, the boxes' closest pair is added if nearer than threshold
-    # and than every clipped point by more than 1e-9 L (touching within 1e-12 L: normal along the
-    # better face axis, A -> B), replacing the clipped points with its ids or within 1e-9 L of it
+    # apart or touching, the clip can miss the closest pair, added when the least clipped gap exceeds
+    # the larger face separation by 1e-9 L (docs/conventions.md, "Manifolds", face contact)
     lower = max(sat["sep_A"], sat["sep_B"])
     least = float(gap[gap < threshold].min()) if np.any(gap < threshold) else np.inf
     if lower >= -1e-12 * L_scale and least > lower + 1e-9 * L_scale:
