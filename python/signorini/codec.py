@@ -215,15 +215,16 @@ def scene_bodies(world, mesh_file: Callable, names=None) -> list[dict]:
     p, R, v, w = world.positions, world.rotations, world.velocities, world.angular_velocities
     q_now = world.orientations
     forces, torques = world.forces, world.torques
-    pending = (("step_forces", "a force for the next step only (apply_force)"),
-               ("step_torques", "a torque for the next step only (apply_force at a point)"),
-               ("impulses", "a pending impulse (apply_impulse)"),
-               ("angular_impulses", "a pending angular impulse (apply_impulse at a point)"))
-    for attribute, what in pending:
-        values = getattr(world, attribute)
-        for i in np.nonzero(np.any(values != 0.0, axis=1))[0]:
-            raise ValueError(f"{world.label(int(i))}: {what} cannot be written to a scene file; step the world "
-                             "first, or keep it with save_state")
+    # a torque comes only with its force, an angular impulse with its impulse (at a point)
+    pending = ((("step_forces", "step_torques"), "a force for the next step only (apply_force)"),
+               (("impulses", "angular_impulses"), "a pending impulse (apply_impulse)"))
+    for attributes, what in pending:
+        held = np.zeros(n, dtype=bool)
+        for attribute in attributes:
+            held |= np.any(getattr(world, attribute) != 0.0, axis=1)
+        if held.any():
+            raise ValueError(f"{world.label(int(np.argmax(held)))}: {what} cannot be written to a scene file; "
+                             "step the world first, or keep it with save_state")
     models = body_models(world)
     bodies = []
     for i, model in enumerate(models):

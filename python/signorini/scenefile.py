@@ -36,6 +36,15 @@ written. A file reads like this (every table and key optional unless marked)::
     orientation = [1.0, 0.0, 0.0, 0.0]   # quaternion w, x, y, z
     velocity = [0.0, 0.0, 0.0]
     angular_velocity = [0.0, 0.0, 0.0]
+    kinematic = false            # moved by its velocity only (then density and mass are optional)
+    inertia = [[0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]]   # kg m^2, with mass (explicit)
+    force = [0.0, 0.0, 0.0]      # persistent external force (N) and torque (N m), world
+    torque = [0.0, 0.0, 0.0]
+    group = 1                    # collision filter bits (World.set_collision_filter)
+    mask = 4294967295
+    enabled = true               # false: neither moves nor collides (World.set_enabled)
+
+    disabled_pairs = [[0, 1]]    # top level: body indices that never collide (World.disable_collision)
 
 Shapes (``type``): ``sphere`` (radius), ``box`` (half_extents), ``capsule`` (radius, half_length),
 ``cylinder`` (radius, half_height), ``plane`` (normal, offset; static only), ``hull`` (points),
@@ -43,7 +52,7 @@ Shapes (``type``): ``sphere`` (radius), ``box`` (half_extents), ``capsule`` (rad
 or inline ``vertices`` and ``faces``; ``trimesh`` is static only), ``compound`` (``parts``, each a
 ``shape`` with a ``position`` and ``orientation`` in the compound frame).
 
-``load_scene(path)`` gives the World; ``read_scene(path)`` gives a ``scenes.Scene`` (the world with
+``load_scene(path)`` gives the World; ``read_scene(path)`` gives a ``Scene`` (the world with
 its name, time step, step count, description and body names). ``save_scene(world or scene, path)``
 writes a file and the mesh files it refers to (``<stem>.meshes/mesh_<k>.npz`` next to it, exact
 float64 arrays with the convex pieces of decomposed meshes, so loading needs no decomposition).
@@ -53,7 +62,12 @@ velocities) as long as its state is still the one it was added with, so loading 
 stepping it is bit-identical to stepping the original. A body that has moved since is written with
 its current position and velocities (exact) and the quaternion of its rotation matrix (to the last
 bit or two); so is a compound part with a turned pose (a Compound keeps its parts' rotation
-matrices, not the quaternions they were given). The warm-start cache and the time are state, not scene: ``World.save_state`` keeps those.
+matrices, not the quaternions they were given). Kinematic and enabled flags, explicit mass and
+inertia, filter bits, disabled pairs, names, materials and persistent wrenches are kept, so a saved
+world with kinematic or filtered bodies steps bit for bit like the original too. What a file cannot
+hold (a pending impulse or a force for the next step only) is refused at save time with a
+ValueError naming the body, never dropped. The warm-start cache and the time are state, not scene:
+``World.save_state`` keeps those. The conversions themselves are ``signorini.codec``'s.
 
 Errors: a missing or malformed file, an unknown key (every table forbids extra keys), a wrong type,
 an unknown material or a value the core rejects each raise ``SceneFileError`` (a ValueError) naming
@@ -372,7 +386,7 @@ def _mesh_reader(base: Path):
 
 
 def read_scene(path):
-    """The ``scenes.Scene`` of a scene file: its World (in the file's initial state), name (the
+    """The ``Scene`` of a scene file: its World (in the file's initial state), name (the
     [scene] name or the file's stem), dt, steps, description, snapshot times and body names
     (None when no body has one). Raises FileNotFoundError or SceneFileError naming the file, the
     key and the problem; nothing is half built."""
@@ -416,7 +430,7 @@ def load_scene(path):
 
 # writing ---------------------------------------------------------------------------------------
 def save_scene(world_or_scene, path) -> Path:
-    """Writes a World (or a ``scenes.Scene``: its world with its name, dt, steps, description and
+    """Writes a World (or a ``Scene``: its world with its name, dt, steps, description and
     body names) to a TOML scene file, and its meshes to ``<stem>.meshes/`` next to it; returns the
     path. ``load_scene(path)`` rebuilds it (bit-identical stepping; see the module doc)."""
     path = Path(path)
