@@ -311,7 +311,9 @@ class World:
                 raise ValueError(f"{who}: {e}") from None
         index = self._core.add_body(shape, *args)
         # what it was added with (save_scene writes a body that has not moved with these values)
-        self._args.append(codec.BodyArgs(shape, *args[2:4], *args[5:9], inertia=args[4]))
+        # (copies: a caller's array changed later must not change the record)
+        self._args.append(codec.BodyArgs(shape, *args[2:4], *(readonly(np.array(a)) for a in args[5:9]),
+                                         inertia=None if args[4] is None else readonly(np.array(args[4]))))
         return index
 
     def remove_body(self, i: int) -> None:
