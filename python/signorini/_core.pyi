@@ -172,7 +172,7 @@ class TriangleMesh:
         ...
 class Compound:
     """
-    Convex parts on one body: a list of (shape, (position, orientation)), shape a Sphere, Box, Capsule, Cylinder, ConvexHull or convex Mesh (which becomes the ConvexHull of its vertices), position (3,) m and orientation (w, x, y, z) (normalised) in the compound frame. A dynamic compound is re-centred on its centre of mass.
+    Convex parts on one body: a list of (shape, (position, orientation)), shape a Sphere, Box, Capsule, Cylinder, ConvexHull or convex Mesh (which becomes the ConvexHull of its vertices), position (3,) m and orientation (w, x, y, z) (normalised) in the compound frame, or instead of the quaternion a (3, 3) compound-from-part rotation matrix (kept exactly). A dynamic compound is re-centred on its centre of mass.
     """
     def __getstate__(self) -> tuple[list]:
         ...

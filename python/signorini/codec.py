@@ -98,10 +98,12 @@ def floats(a) -> list:
     return [float(x) for x in np.asarray(a, dtype=np.float64).ravel()]
 
 
-def shape_to_data(shape, mesh_file: Optional[Callable] = None) -> dict:
+def shape_to_data(shape, mesh_file: Optional[Callable] = None, exact: bool = False) -> dict:
     """A shape in the data form (module doc). ``mesh_file(vertices, faces, pieces) -> str`` names
     the file a mesh or triangle mesh is written to (hulls are then written as points); without it
-    meshes, hulls and triangle meshes give their sizes (num_vertices, num_faces)."""
+    meshes, hulls and triangle meshes give their sizes (num_vertices, num_faces). ``exact``: a
+    compound part whose quaternion would not give back its rotation matrix to the bit is written
+    with its "rotation" (3, 3) instead (scene files)."""
     kind = shape_kind(shape)
     if kind == "sphere":
         return {"type": "sphere", "radius": float(shape.radius)}
@@ -114,9 +116,15 @@ def shape_to_data(shape, mesh_file: Optional[Callable] = None) -> dict:
     if kind == "plane":
         return {"type": "plane", "normal": floats(shape.normal), "offset": float(shape.offset)}
     if kind == "compound":
-        return {"type": "compound", "parts": [
-            {"shape": shape_to_data(part, mesh_file), "position": floats(pos), "orientation": floats(q)}
-            for part, (pos, q) in shape.parts]}
+        parts = []
+        for k, (part, (pos, q)) in enumerate(shape.parts):
+            d = {"shape": shape_to_data(part, mesh_file, exact), "position": floats(pos)}
+            if exact and not np.array_equal(quat_to_matrix(q), shape.rotations[k]):
+                d["rotation"] = [floats(row) for row in shape.rotations[k]]
+            else:
+                d["orientation"] = floats(q)
+            parts.append(d)
+        return {"type": "compound", "parts": parts}
     if mesh_file is None:
         return {"type": kind, "num_vertices": int(len(shape.vertices)), "num_faces": int(len(shape.faces))}
     if kind == "hull":
@@ -161,8 +169,11 @@ def shape_from_data(d: dict, mesh_arrays: Callable = inline_mesh_arrays, where: 
             vertices, faces, _ = mesh_arrays(d, where)
             return TriangleMesh(vertices, faces)
         if kind == "compound":
+            # a part's "rotation" (3, 3), when given, is its exact matrix (instead of the quaternion)
             return Compound([(shape_from_data(p["shape"], mesh_arrays, f"{where}.parts[{k}].shape"),
-                              (p.get("position", (0.0, 0.0, 0.0)), p.get("orientation", (1.0, 0.0, 0.0, 0.0))))
+                              (p.get("position", (0.0, 0.0, 0.0)),
+                               p["rotation"] if p.get("rotation") is not None
+                               else p.get("orientation", (1.0, 0.0, 0.0, 0.0))))
                              for k, p in enumerate(d["parts"])])
     except (TypeError, ValueError) as e:
         message = str(e)
@@ -233,7 +244,7 @@ def scene_bodies(world, mesh_file: Callable, names=None) -> list[dict]:
         if names is not None and names[i]:
             table["name"] = str(names[i])
         # no record of what was given (an old pickle): the core's shape (re-centred), mass and inertia
-        table["shape"] = shape_to_data(given.shape if given is not None else world.shape(i), mesh_file)
+        table["shape"] = shape_to_data(given.shape if given is not None else world.shape(i), mesh_file, exact=True)
         if model["static"]:
             table["static"] = True
         if model["kinematic"]:

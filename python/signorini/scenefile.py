@@ -50,7 +50,9 @@ Shapes (``type``): ``sphere`` (radius), ``box`` (half_extents), ``capsule`` (rad
 ``cylinder`` (radius, half_height), ``plane`` (normal, offset; static only), ``hull`` (points),
 ``mesh`` and ``trimesh`` (``file`` relative to the scene file's folder, with an optional ``scale``,
 or inline ``vertices`` and ``faces``; ``trimesh`` is static only), ``compound`` (``parts``, each a
-``shape`` with a ``position`` and ``orientation`` in the compound frame).
+``shape`` with a ``position`` and ``orientation`` in the compound frame, or instead of the
+orientation its exact ``rotation`` matrix, which ``save_scene`` writes when the part's quaternion
+would not give the matrix back to the bit).
 
 ``load_scene(path)`` gives the World; ``read_scene(path)`` gives a ``Scene`` (the world with
 its name, time step, step count, description and body names). ``save_scene(world or scene, path)``
@@ -61,8 +63,8 @@ Exactness: a body is written with the values it was added with (shape, density o
 velocities) as long as its state is still the one it was added with, so loading a saved scene and
 stepping it is bit-identical to stepping the original. A body that has moved since is written with
 its current position and velocities (exact) and the quaternion of its rotation matrix (to the last
-bit or two); so is a compound part with a turned pose (a Compound keeps its parts' rotation
-matrices, not the quaternions they were given). Kinematic and enabled flags, explicit mass and
+bit or two). A compound part keeps its rotation matrix exactly (as ``rotation`` when its quaternion
+would not give it back). Kinematic and enabled flags, explicit mass and
 inertia, filter bits, disabled pairs, names, materials and persistent wrenches are kept, so a saved
 world with kinematic or filtered bodies steps bit for bit like the original too. What a file cannot
 hold (a pending impulse or a force for the next step only) is refused at save time with a
@@ -225,6 +227,14 @@ class CompoundPart(_Table):
     shape: PartShape
     position: Vec3 = (0.0, 0.0, 0.0)
     orientation: Quat = (1.0, 0.0, 0.0, 0.0)
+    rotation: Optional[Tuple[Vec3, Vec3, Vec3]] = Field(None, description="compound-from-part rotation matrix, "
+                                                        "kept exactly (instead of orientation)")
+
+    @model_validator(mode="after")
+    def _orientation_or_rotation(self):
+        if self.rotation is not None and "orientation" in self.model_fields_set:
+            raise ValueError("give either orientation or rotation")
+        return self
 
 
 class CompoundShape(_Table):
