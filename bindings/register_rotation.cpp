@@ -26,7 +26,8 @@ Array exactly(const py::handle& x, const std::vector<py::ssize_t>& shape, const 
   Array a = Array::ensure(x);
   if (!a) throw py::type_error(who + ": " + what + " must be an array of numbers, got " + std::string(py::repr(x)));
   const std::vector<py::ssize_t> got(a.shape(), a.shape() + a.ndim());
-  if (got != shape) throw py::value_error(who + ": " + what + " must have shape " + text(shape) + ", got shape " + text(got));
+  if (got != shape)
+    throw py::value_error(who + ": " + what + " must have shape " + text(shape) + ", got shape " + text(got));
   return a;
 }
 
