@@ -71,9 +71,18 @@ Compound::Part compound_part(const py::handle& item, std::size_t i) {
   const Vec3 position = vec3(pq[0], who, "position");
   auto q = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(pq[1]);
   if (!q) throw py::type_error(who + ": orientation must be 4 numbers (w, x, y, z)");
-  if (q.ndim() != 1 || q.shape(0) != 4)
+  // a (3, 3) orientation is the rotation matrix itself, kept exactly (scene files write one when
+  // the part's quaternion would not give back its matrix to the bit)
+  const bool is_matrix = q.ndim() == 2 && q.shape(0) == 3 && q.shape(1) == 3;
+  if (!is_matrix && (q.ndim() != 1 || q.shape(0) != 4))
     throw py::value_error(who + ": orientation must have shape (4,), got " + std::string(py::str(py::tuple(q.attr("shape")))));
-  const Quat4 orientation(q.at(0), q.at(1), q.at(2), q.at(3));
+  Quat4 orientation = Quat4(1.0, 0.0, 0.0, 0.0);
+  Mat3 rotation = Mat3::Identity();
+  if (is_matrix)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) rotation(r, c) = q.at(r, c);
+  else
+    orientation = Quat4(q.at(0), q.at(1), q.at(2), q.at(3));
   const py::object s = pair[0];
   Primitive shape = Sphere(1.0);
   if (py::isinstance<Sphere>(s)) shape = s.cast<Sphere>();
@@ -95,6 +104,7 @@ Compound::Part compound_part(const py::handle& item, std::size_t i) {
     throw py::type_error(who + ": shape must be a Sphere, Box, Capsule, Cylinder, ConvexHull or convex Mesh, got " +
                          std::string(py::str(py::type::of(s).attr("__name__"))));
   }
+  if (is_matrix) return Compound::Part{std::move(shape), position, rotation};  // checked by Compound
   try {
     return Compound::make_part(std::move(shape), position, orientation);
   } catch (const std::invalid_argument& e) {
@@ -323,7 +333,8 @@ void register_shapes(py::module_& m) {
   py::class_<Compound>(m, "Compound",
                        "Convex parts on one body: a list of (shape, (position, orientation)), shape a Sphere, Box, "
                        "Capsule, Cylinder, ConvexHull or convex Mesh (which becomes the ConvexHull of its vertices), "
-                       "position (3,) m and orientation (w, x, y, z) (normalised) in the compound frame. A dynamic "
+                       "position (3,) m and orientation (w, x, y, z) (normalised) in the compound frame, or instead "
+                       "of the quaternion a (3, 3) compound-from-part rotation matrix (kept exactly). A dynamic "
                        "compound is re-centred on its centre of mass.")
       .def(py::init([](const py::object& items) {
              if (!py::isinstance<py::iterable>(items) || py::isinstance<py::str>(items))

@@ -14,8 +14,8 @@ the viewer (``python -m signorini view``) and the video, glTF and USD exports re
 from typing import TYPE_CHECKING
 
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
-from .world import (BodyIndexError, Contacts, SavedState, SolverStats, SolverWarning, World, mass_properties,
-                    shape_dict)
+from .world import BodyIndexError, Contacts, SavedState, SolverStats, SolverWarning, World, mass_properties
+from .codec import shape_to_dict as shape_dict
 from .collision import Feature, collide, feature
 from .trajectory import Record, Recorder, load_trajectory, save_trajectory
 from . import meshfile

@@ -6,7 +6,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['BodyIndexError', 'Box', 'Capsule', 'Compound', 'ConvexHull', 'Cylinder', 'FrictionCone', 'Gyroscopic', 'Mesh', 'Plane', 'SolverSettings', 'Sphere', 'TriangleMesh', 'World', 'collide', 'mass_properties']
+__all__: list[str] = ['BodyIndexError', 'Box', 'Capsule', 'Compound', 'ConvexHull', 'Cylinder', 'FrictionCone', 'Gyroscopic', 'Mesh', 'Plane', 'SolverSettings', 'Sphere', 'TriangleMesh', 'World', 'collide', 'mass_properties', 'matrix_to_quat', 'quat_to_matrix']
 class Sphere:
     """
     Ball of the given radius (m), centred at the body origin.
@@ -204,7 +204,7 @@ class TriangleMesh:
         ...
 class Compound:
     """
-    Convex parts on one body: a list of (shape, (position, orientation)), shape a Sphere, Box, Capsule, Cylinder, ConvexHull or convex Mesh (which becomes the ConvexHull of its vertices), position (3,) m and orientation (w, x, y, z) (normalised) in the compound frame. A dynamic compound is re-centred on its centre of mass.
+    Convex parts on one body: a list of (shape, (position, orientation)), shape a Sphere, Box, Capsule, Cylinder, ConvexHull or convex Mesh (which becomes the ConvexHull of its vertices), position (3,) m and orientation (w, x, y, z) (normalised) in the compound frame, or instead of the quaternion a (3, 3) compound-from-part rotation matrix (kept exactly). A dynamic compound is re-centred on its centre of mass.
     """
     def __getstate__(self) -> tuple[list]:
         ...
@@ -575,4 +575,12 @@ def collide(shape_a: typing.Any, position_a: typing.Annotated[numpy.typing.Array
 def mass_properties(shape: typing.Any, density: typing.SupportsFloat | typing.SupportsIndex) -> tuple[float, typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"], typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 3]"]]:
     """
     (mass kg, com (3,) m in the shape frame, inertia (3, 3) kg m^2 about the com) for a uniform density.
+    """
+def matrix_to_quat(R: typing.Any) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[4, 1]"]:
+    """
+    Unit quaternion (4,) (w, x, y, z), w >= 0, of a rotation matrix (3, 3). ValueError for a wrong shape or a non-finite or zero matrix.
+    """
+def quat_to_matrix(q: typing.Any) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 3]"]:
+    """
+    Rotation matrix (3, 3), world-from-body, of a quaternion (4,) (w, x, y, z), made unit first as the World does (equal to World.rotations to the bit). ValueError for a wrong shape or a non-finite or zero quaternion.
     """

@@ -15,7 +15,8 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _core
-from .world import Contacts, _scalar, _vector
+from .arguments import as_scalar, as_vector
+from .world import Contacts
 
 KINDS = ("shape", "vertex", "edge", "face")
 
@@ -44,7 +45,7 @@ def _pose(pose, who: str):
         raise TypeError(f"collide: {who} must be a pair (position, orientation), orientation a quaternion "
                         f"(w, x, y, z), got {pose!r}")
     # the core checks the values (finite, non-zero quaternion)
-    return _vector(pose[0], 3, "collide", f"{who} position"), _vector(pose[1], 4, "collide", f"{who} orientation")
+    return as_vector(pose[0], 3, "collide", f"{who} position"), as_vector(pose[1], 4, "collide", f"{who} orientation")
 
 
 def collide(shape_a, pose_a, shape_b, pose_b, margin: float = 0.0) -> Contacts:
@@ -58,5 +59,5 @@ def collide(shape_a, pose_a, shape_b, pose_b, margin: float = 0.0) -> Contacts:
     """
     p_a, q_a = _pose(pose_a, "pose_a")
     p_b, q_b = _pose(pose_b, "pose_b")
-    m = _scalar(margin, "collide", "margin")
+    m = as_scalar(margin, "collide", "margin")
     return Contacts(**_core.collide(shape_a, p_a, q_a, shape_b, p_b, q_b, m))

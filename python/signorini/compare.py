@@ -22,7 +22,8 @@ import numpy as np
 
 from . import oracle
 from .meshes import torus
-from .world import World, Box, Mesh, Plane, Sphere
+from ._core import Box, Capsule, Cylinder, Mesh, Plane, Sphere
+from .world import World
 
 STATE_KEYS = ("position", "rotation", "velocity", "angular_velocity")
 
@@ -133,7 +134,6 @@ def stack() -> tuple[World, float, int]:
     """Box-box manifolds and capsules: three boxes dropped into a stack on a static box, each turned
     about the vertical, a capsule lying on the ground with a sphere landing on it, a cylinder
     standing on the ground."""
-    from . import Capsule, Cylinder
     w = World(gravity=(0, 0, -9.81), **SOLVER)
     w.add_static(Plane(normal=(0, 0, 1), offset=0.0))
     w.add_static(Box(half_extents=(0.6, 0.6, 0.1)), position=(0, 0, 0.1))
@@ -151,7 +151,6 @@ def spinners() -> tuple[World, float, int]:
     (one sliding too, one spinning about a tilted axis), a ball dropped spinning onto a resting one
     (a sphere-sphere point), a capsule spinning upright on its end; the ground's spinning friction
     and the bodies' differ (a pair takes the larger), one ball has none against a ground with some."""
-    from . import Capsule
     w = World(gravity=(0, 0, -9.81), **SOLVER)
     w.add_static(Plane(normal=(0, 0, 1), offset=0.0), spinning_friction=0.0005)
     w.add_body(Sphere(0.1), mass=1.0, position=(0, 0, 0.1), angular_velocity=(0, 0, 8.0), spinning_friction=0.002)

@@ -50,6 +50,12 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from . import codec
+from ._core import Compound, Mesh, Plane, TriangleMesh
+from .collision import feature
+from .meshes import box_mesh, cylinder_mesh, icosphere
+from .world import SolverWarning, World
+
 DTS = (1.0 / 60.0, 1.0 / 240.0, 1.0 / 1000.0)
 KINDS = ("sphere", "box", "capsule", "cylinder", "hull", "convex_mesh", "compound")
 FLOORS = ("plane", "heightfield", "both")
@@ -206,49 +212,35 @@ def generate(seed: int, index: int) -> dict:
 
 
 def make_shape(d: dict):
-    """The signorini shape of a description from ``generate``."""
-    import signorini as sg
-    from .meshes import box_mesh, cylinder_mesh, icosphere
-
+    """The signorini shape of a description from ``generate``: the codec's data form, plus
+    "convex_mesh" (an icosphere, prism or box mesh of the given form and size)."""
     t = d["type"]
-    if t == "sphere":
-        return sg.Sphere(d["radius"])
-    if t == "box":
-        return sg.Box(d["half_extents"])
-    if t == "capsule":
-        return sg.Capsule(d["radius"], d["half_length"])
-    if t == "cylinder":
-        return sg.Cylinder(d["radius"], d["half_height"])
-    if t == "hull":
-        return sg.ConvexHull(np.array(d["points"]))
     if t == "convex_mesh":
         if d["form"] == "icosphere":
             v, f = icosphere(1.0, 1)
-            return sg.Mesh(v * np.array(d["scale"]), f)
+            return Mesh(v * np.array(d["scale"]), f)
         if d["form"] == "prism":
-            return sg.Mesh(*cylinder_mesh(d["radius"], d["half_height"], d["sides"]))
-        return sg.Mesh(*box_mesh(d["scale"]))
+            return Mesh(*cylinder_mesh(d["radius"], d["half_height"], d["sides"]))
+        return Mesh(*box_mesh(d["scale"]))
     if t == "compound":
-        return sg.Compound([(make_shape(p["shape"]), (p["position"], p["orientation"])) for p in d["parts"]])
-    raise ValueError(f"unknown shape type {t!r}")
+        return Compound([(make_shape(p["shape"]), (p["position"], p["orientation"])) for p in d["parts"]])
+    return codec.shape_from_data(d)
 
 
 def build(scene: dict):
     """(world, floor) for a scene; floor = {"plane": z or None, "heightfield": (vertices, faces) or None}."""
-    import signorini as sg
-
-    world = sg.World(**scene.get("world", {}))
+    world = World(**scene.get("world", {}))
     floor = {"plane": None, "heightfield": None}
     if "heightfield" in scene:
         v, f = heightfield_mesh(scene["heightfield"])
-        world.add_static(sg.TriangleMesh(v, f))
+        world.add_static(TriangleMesh(v, f))
         floor["heightfield"] = (v, f)
     if scene["floor"] == "plane":
         floor["plane"] = 0.0
     elif scene["floor"] == "both":
         floor["plane"] = float(floor["heightfield"][0][:, 2].min()) - 0.05
     if floor["plane"] is not None:
-        world.add_static(sg.Plane((0.0, 0.0, 1.0), floor["plane"]))
+        world.add_static(Plane((0.0, 0.0, 1.0), floor["plane"]))
     # bodies start above the highest floor point under them
     top = 0.0 if floor["heightfield"] is None else float(floor["heightfield"][0][:, 2].max())
     for b in scene["bodies"]:
@@ -401,8 +393,6 @@ def run(scene: dict, log=None) -> dict:
     """Runs a scene in this process and checks every step; returns the result as plain data:
     {"scene": "SEED:INDEX", "failures": {class: first message}, "steps", "max_step_ms",
     "max_overlap" (relative), "max_energy_gain" (relative), "max_point_error" (m), "wall" (s)}."""
-    import signorini as sg
-
     start = time.perf_counter()
     name = f"{scene['seed']}:{scene['index']}"
     failures: dict[str, str] = {}
@@ -417,7 +407,7 @@ def run(scene: dict, log=None) -> dict:
     dt = scene["dt"]
     steps = int(round(scene["duration"] / dt))
     n = world.num_bodies
-    shapes = [sg.shape_dict(world.shape(i)) for i in range(n)]
+    shapes = [codec.shape_to_dict(world.shape(i)) for i in range(n)]
     static = world.is_static
     inner = np.array([math.inf if static[i] else _inner_size(shapes[i]) for i in range(n)])
     radius = np.array([0.0 if static[i] else _bounding_radius(shapes[i]) for i in range(n)])
@@ -466,7 +456,7 @@ def run(scene: dict, log=None) -> dict:
                     max_point_error = max(max_point_error, float(excess[j]))
                     if excess[j] > POINT_TOLERANCE * (1.0 + size):
                         other = (c.body_b if side == "A" else c.body_a)[rows[j]]
-                        kinds = "-".join(sg.feature(f[rows[j]]).kind for f in (c.feature_a, c.feature_b))
+                        kinds = "-".join(feature(f[rows[j]]).kind for f in (c.feature_a, c.feature_b))
                         fail("off_shape", f"step {k} (t = {world.time:.4f} s): contact {c.body_a[rows[j]]} - "
                                           f"{c.body_b[rows[j]]} ({kinds}, gap {gap[rows[j]]:.4g} m) lies {d[j]:.4g} m from body {i}, "
                                           f"{excess[j]:.3g} m more than |gap| (1/2 + {POINT_SLACK:g}) "
@@ -474,7 +464,7 @@ def run(scene: dict, log=None) -> dict:
         t0 = time.perf_counter()
         try:
             with warnings.catch_warnings():
-                warnings.simplefilter("ignore", sg.SolverWarning)
+                warnings.simplefilter("ignore", SolverWarning)
                 world.step(dt)
         except Exception as e:  # noqa: BLE001 - every failure is reported, none is fatal
             text = str(e)

@@ -2,7 +2,7 @@
 ``xml.etree`` (MuJoCo itself is not needed).
 
     w = sg.load_mjcf("model.xml")            # the World
-    scene = sg.read_mjcf("model.xml")        # a scenes.Scene: the World, dt = option timestep, names
+    scene = sg.read_mjcf("model.xml")        # a scenefile.Scene: the World, dt = option timestep, names
 
 What is imported:
 
@@ -59,7 +59,7 @@ from typing import Collection, Optional
 import numpy as np
 
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Plane, Sphere, TriangleMesh
-from .oracle.rigid import matrix_to_quat  # Shepperd's method (pure NumPy)
+from .codec import matrix_to_quat
 
 __all__ = ["load_mjcf", "read_mjcf", "MJCFError"]
 
@@ -526,11 +526,11 @@ class _Reader:
 
 
 def read_mjcf(path):
-    """The ``scenes.Scene`` of an MJCF file: its World (static geoms, then the free bodies in file
+    """The ``scenefile.Scene`` of an MJCF file: its World (static geoms, then the free bodies in file
     order), dt from ``<option timestep>`` (MuJoCo's default 0.002 s), 500 steps, body names (the
     body's name, or the geom's for static ones). Raises FileNotFoundError or MJCFError naming the
     file, the line, the element and the problem; nothing is half built."""
-    from .scenes import Scene
+    from .scenefile import Scene  # pydantic loads only when a file is read
     from .world import World, mass_properties
 
     path = Path(path)

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .render import _force_scale, body_colours, default_camera
+from .render import body_colours, default_camera, default_force_scale
 from .trajectory import Record
 
 __all__ = ["write_html", "three_js"]
@@ -81,7 +81,7 @@ def _data(record: Record, title: str) -> dict:
         "quat": _b64(record.orientations, "<f4"),
         "vel": _b64(record.velocities, "<f4"),
         "contacts": contacts,
-        "force_scale": _force_scale(record),
+        "force_scale": default_force_scale(record),
         "normal_length": 0.06 * size,
         "camera": {"targets": _b64(camera["targets"], "<f4"), "offset": [float(x) for x in camera["offset"]],
                    "up": [float(x) for x in camera["up"]], "fov": camera["fov"], "follow": camera["follow"]},

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .oracle.rigid import quat_to_matrix
+from .codec import quat_to_matrix
 from .trajectory import Record
 
 __all__ = ["default_camera", "camera_at", "render_frame", "write_video", "video_frames", "PALETTE"]
@@ -125,7 +125,7 @@ def render_frame(record: Record, f: int, camera: dict | None = None, size=(640, 
     """Picture of frame f as (height, width, 3) uint8 RGB; see the module docstring.
 
     ``camera`` defaults to ``default_camera(record)`` and ``force_scale`` (m per N) to
-    ``_force_scale(record)``; pass both when drawing many frames, they cost a pass over the run.
+    ``default_force_scale(record)``; pass both when drawing many frames, they cost a pass over the run.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.collections import LineCollection, PolyCollection
@@ -190,7 +190,7 @@ def render_frame(record: Record, f: int, camera: dict | None = None, size=(640, 
     # contact points and force arrows on top
     c = record.frame_contacts(f)
     if len(c["gap"]):
-        scale = _force_scale(record) if force_scale is None else force_scale
+        scale = default_force_scale(record) if force_scale is None else force_scale
         if forces and scale > 0:
             start, _ = project(c["point"])
             end, _ = project(c["point"] + scale * c["force"])
@@ -207,7 +207,7 @@ def render_frame(record: Record, f: int, camera: dict | None = None, size=(640, 
     return np.asarray(image, dtype=np.uint8)
 
 
-def _force_scale(record: Record) -> float:
+def default_force_scale(record: Record) -> float:
     """Metres of arrow per newton: the 90th percentile of the run's contact forces is drawn a fifth
     of the view's half height (0 when there are no forces)."""
     if record.contacts is None or len(record.contacts["gap"]) == 0:
@@ -249,7 +249,7 @@ def write_video(path, record: Record, fps: float = 30.0, size=(640, 480), progre
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     camera = default_camera(record)
-    scale = _force_scale(record)
+    scale = default_force_scale(record)
     frames = video_frames(record, fps)
     writer = imageio.get_writer(path, fps=fps, codec="libx264", quality=7, macro_block_size=2,
                                 ffmpeg_log_level="error")

@@ -36,14 +36,25 @@ written. A file reads like this (every table and key optional unless marked)::
     orientation = [1.0, 0.0, 0.0, 0.0]   # quaternion w, x, y, z
     velocity = [0.0, 0.0, 0.0]
     angular_velocity = [0.0, 0.0, 0.0]
+    kinematic = false            # moved by its velocity only (then density and mass are optional)
+    inertia = [[0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]]   # kg m^2, with mass (explicit)
+    force = [0.0, 0.0, 0.0]      # persistent external force (N) and torque (N m), world
+    torque = [0.0, 0.0, 0.0]
+    group = 1                    # collision filter bits (World.set_collision_filter)
+    mask = 4294967295
+    enabled = true               # false: neither moves nor collides (World.set_enabled)
+
+    disabled_pairs = [[0, 1]]    # top level: body indices that never collide (World.disable_collision)
 
 Shapes (``type``): ``sphere`` (radius), ``box`` (half_extents), ``capsule`` (radius, half_length),
 ``cylinder`` (radius, half_height), ``plane`` (normal, offset; static only), ``hull`` (points),
 ``mesh`` and ``trimesh`` (``file`` relative to the scene file's folder, with an optional ``scale``,
 or inline ``vertices`` and ``faces``; ``trimesh`` is static only), ``compound`` (``parts``, each a
-``shape`` with a ``position`` and ``orientation`` in the compound frame).
+``shape`` with a ``position`` and ``orientation`` in the compound frame, or instead of the
+orientation its exact ``rotation`` matrix, which ``save_scene`` writes when the part's quaternion
+would not give the matrix back to the bit).
 
-``load_scene(path)`` gives the World; ``read_scene(path)`` gives a ``scenes.Scene`` (the world with
+``load_scene(path)`` gives the World; ``read_scene(path)`` gives a ``Scene`` (the world with
 its name, time step, step count, description and body names). ``save_scene(world or scene, path)``
 writes a file and the mesh files it refers to (``<stem>.meshes/mesh_<k>.npz`` next to it, exact
 float64 arrays with the convex pieces of decomposed meshes, so loading needs no decomposition).
@@ -52,8 +63,13 @@ Exactness: a body is written with the values it was added with (shape, density o
 velocities) as long as its state is still the one it was added with, so loading a saved scene and
 stepping it is bit-identical to stepping the original. A body that has moved since is written with
 its current position and velocities (exact) and the quaternion of its rotation matrix (to the last
-bit or two); so is a compound part with a turned pose (a Compound keeps its parts' rotation
-matrices, not the quaternions they were given). The warm-start cache and the time are state, not scene: ``World.save_state`` keeps those.
+bit or two). A compound part keeps its rotation matrix exactly (as ``rotation`` when its quaternion
+would not give it back). Kinematic and enabled flags, explicit mass and
+inertia, filter bits, disabled pairs, names, materials and persistent wrenches are kept, so a saved
+world with kinematic or filtered bodies steps bit for bit like the original too. What a file cannot
+hold (a pending impulse or a force for the next step only) is refused at save time with a
+ValueError naming the body, never dropped. The warm-start cache and the time are state, not scene:
+``World.save_state`` keeps those. The conversions themselves are ``signorini.codec``'s.
 
 Errors: a missing or malformed file, an unknown key (every table forbids extra keys), a wrong type,
 an unknown material or a value the core rejects each raise ``SceneFileError`` (a ValueError) naming
@@ -62,29 +78,27 @@ No physics here: values are converted to the types the ``World`` facade takes; t
 """
 from __future__ import annotations
 
-import hashlib
 import json
-import re
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Dict, List, Literal, Optional, Tuple, Union
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
-from . import meshfile
-from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
+from . import codec, meshfile
+from .world import World
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - Python < 3.11
     import tomli as tomllib
 
-__all__ = ["SceneFile", "SceneFileError", "load_scene", "read_scene", "save_scene", "scene_schema",
+__all__ = ["Scene", "SceneFile", "SceneFileError", "load_scene", "read_scene", "save_scene", "scene_schema",
            "FORMAT", "SCHEMA_PATH", "schema_text"]
 
 #: the format version this module writes (``format = 1`` at the top of a file)
-FORMAT: Literal[1] = 1
+FORMAT: Literal[1] = codec.SCENE_FORMAT
 
 # strict scalars: a number given as a string ("0.5") or a boolean given as 1 is an error, not a
 # silent conversion (an int is still a float)
@@ -95,6 +109,37 @@ Str = Annotated[str, Strict()]
 Vec3 = Tuple[Float, Float, Float]
 Quat = Tuple[Float, Float, Float, Float]
 Face = Tuple[Int, Int, Int]
+Bits = Annotated[int, Strict(), Field(ge=0, le=0xFFFFFFFF)]
+
+
+@dataclass
+class Scene:
+    """A world ready to run, with how to run it (what ``read_scene`` and ``read_mjcf`` give, and the
+    built-in scenes of ``signorini.scenes``).
+
+    Fields:
+    - name: the registry name (str);
+    - world: the ``signorini.World``, in its initial state (running the scene advances it);
+    - dt: time step (s);
+    - steps: number of steps of a full run (the simulated time is dt * steps);
+    - description: one line for ``python -m signorini list`` and the plot title;
+    - snapshot_times: times (s) of the 3-D snapshots in the plot, or None for evenly spaced ones;
+    - names: one name per body (recorded trajectories, the player and the exports use them), or
+      None for "<kind>_<index>".
+    """
+
+    name: str
+    world: World
+    dt: float
+    steps: int
+    description: str
+    snapshot_times: Optional[Tuple[float, ...]] = None
+    names: Optional[Tuple[str, ...]] = None
+
+    @property
+    def duration(self) -> float:
+        """Simulated time of a full run (s)."""
+        return self.dt * self.steps
 
 
 class SceneFileError(ValueError):
@@ -182,6 +227,14 @@ class CompoundPart(_Table):
     shape: PartShape
     position: Vec3 = (0.0, 0.0, 0.0)
     orientation: Quat = (1.0, 0.0, 0.0, 0.0)
+    rotation: Optional[Tuple[Vec3, Vec3, Vec3]] = Field(None, description="compound-from-part rotation matrix, "
+                                                        "kept exactly (instead of orientation)")
+
+    @model_validator(mode="after")
+    def _orientation_or_rotation(self):
+        if self.rotation is not None and "orientation" in self.model_fields_set:
+            raise ValueError("give either orientation or rotation")
+        return self
 
 
 class CompoundShape(_Table):
@@ -205,12 +258,16 @@ class Material(_Table):
 
 
 class Body(_Table):
-    """One body: a static one never moves; a dynamic one takes exactly one of density and mass."""
+    """One body: a static one never moves; a dynamic one takes exactly one of density and mass (a
+    kinematic one may take neither)."""
     name: Optional[Str] = None
     shape: AnyShape
     static: Bool = False
+    kinematic: Bool = Field(False, description="moved by its velocity only, pushing others as an infinite mass")
     density: Optional[Float] = Field(None, description="kg/m^3 (dynamic bodies)")
     mass: Optional[Float] = Field(None, description="kg (dynamic bodies)")
+    inertia: Optional[Tuple[Vec3, Vec3, Vec3]] = Field(None, description="kg m^2 about the centre of mass, body "
+                                                       "axes (with mass; the shape's origin is then the centre of mass)")
     material: Optional[Str] = Field(None, description="a name in [materials]")
     friction: Optional[Float] = Field(None, description="overrides the material's (default 0.5)")
     restitution: Optional[Float] = Field(None, description="overrides the material's (default 0)")
@@ -219,6 +276,11 @@ class Body(_Table):
     orientation: Quat = Field((1.0, 0.0, 0.0, 0.0), description="quaternion (w, x, y, z), world-from-body")
     velocity: Vec3 = Field((0.0, 0.0, 0.0), description="m/s, world")
     angular_velocity: Vec3 = Field((0.0, 0.0, 0.0), description="rad/s, world")
+    force: Vec3 = Field((0.0, 0.0, 0.0), description="persistent external force at the centre of mass, N, world")
+    torque: Vec3 = Field((0.0, 0.0, 0.0), description="persistent external torque, N m, world")
+    group: Bits = Field(1, description="collision filter: the categories the body belongs to (32 bits)")
+    mask: Bits = Field(0xFFFFFFFF, description="collision filter: the categories it collides with (32 bits)")
+    enabled: Bool = Field(True, description="false: the body neither moves nor collides")
 
 
 class WorldSettings(_Table):
@@ -255,6 +317,8 @@ class SceneFile(_Table):
     world: WorldSettings = WorldSettings()
     materials: Dict[Str, Material] = {}
     bodies: List[Body] = []
+    disabled_pairs: List[Tuple[Int, Int]] = Field([], description="pairs of body indices (in the order of "
+                                                                  "[[bodies]]) that never collide")
 
 
 def scene_schema() -> dict:
@@ -317,104 +381,51 @@ def _body_name(raw: dict, loc) -> str:
     return ""
 
 
-def _mesh_arrays(spec: _MeshData, base: Path, where: str):
-    """(vertices, faces, pieces) of a mesh or trimesh spec (file relative to base, or inline)."""
-    if spec.file is not None:
-        file = Path(spec.file)
-        file = file if file.is_absolute() else base / file
-        try:
-            return meshfile.read_mesh_arrays(file, spec.scale)
-        except (FileNotFoundError, ValueError) as e:
-            raise ValueError(f"{where}.file: {e}") from None
-    vertices = np.array(spec.vertices, dtype=np.float64).reshape(-1, 3) * spec.scale
-    return vertices, np.array(spec.faces, dtype=np.int64).reshape(-1, 3), []
-
-
-def _build_shape(spec, base: Path, where: str):
-    """A signorini shape object from a shape spec; ValueError prefixed by the key (``where``)."""
-    try:
-        if isinstance(spec, SphereShape):
-            return Sphere(spec.radius)
-        if isinstance(spec, BoxShape):
-            return Box(spec.half_extents)
-        if isinstance(spec, CapsuleShape):
-            return Capsule(spec.radius, spec.half_length)
-        if isinstance(spec, CylinderShape):
-            return Cylinder(spec.radius, spec.half_height)
-        if isinstance(spec, PlaneShape):
-            return Plane(spec.normal, spec.offset)
-        if isinstance(spec, HullShape):
-            return ConvexHull(np.array(spec.points, dtype=np.float64).reshape(-1, 3))
-        if isinstance(spec, MeshShape):
-            vertices, faces, pieces = _mesh_arrays(spec, base, where)
-            mesh = Mesh(vertices, faces)
-            return mesh.with_pieces(pieces) if pieces else mesh
-        if isinstance(spec, TriangleMeshShape):
-            vertices, faces, _ = _mesh_arrays(spec, base, where)
-            return TriangleMesh(vertices, faces)
-        if isinstance(spec, CompoundShape):
-            parts = [(_build_shape(p.shape, base, f"{where}.parts[{k}].shape"), (p.position, p.orientation))
-                     for k, p in enumerate(spec.parts)]
-            return Compound(parts)
-    except (TypeError, ValueError) as e:
-        message = str(e)
-        raise ValueError(message if message.startswith(where) else f"{where}: {message}") from None
-    raise TypeError(f"{where}: unknown shape spec {type(spec).__name__}")  # the model admits no other
-
-
-def _world(model: SceneFile):
-    from .world import World
-
-    return World(**model.world.model_dump())
+def _mesh_reader(base: Path):
+    """codec.shape_from_data's mesh reader: a ``file`` relative to base, or inline arrays."""
+    def read(d: dict, where: str):
+        if d.get("file") is not None:
+            file = Path(d["file"])
+            file = file if file.is_absolute() else base / file
+            try:
+                return meshfile.read_mesh_arrays(file, d.get("scale", 1.0))
+            except (FileNotFoundError, ValueError) as e:
+                raise ValueError(f"{where}.file: {e}") from None
+        return codec.inline_mesh_arrays(d, where)
+    return read
 
 
 def read_scene(path):
-    """The ``scenes.Scene`` of a scene file: its World (in the file's initial state), name (the
+    """The ``Scene`` of a scene file: its World (in the file's initial state), name (the
     [scene] name or the file's stem), dt, steps, description, snapshot times and body names
     (None when no body has one). Raises FileNotFoundError or SceneFileError naming the file, the
     key and the problem; nothing is half built."""
-    from .scenes import Scene
-
     path = Path(path)
     model, _ = _parse(path)
     base = path.parent
     where_file = f"scene file {str(path)!r}"
     try:
-        world = _world(model)
+        world = World(**model.world.model_dump())
     except (TypeError, ValueError) as e:
         raise SceneFileError(f"{where_file}: world: {e}") from None
     names: list[str] = []
     for i, body in enumerate(model.bodies):
         key = f"bodies[{i}]" + (f" ({body.name!r})" if body.name else "")
         try:
-            shape = _build_shape(body.shape, base, "shape")
+            shape = codec.shape_from_data(body.shape.model_dump(), _mesh_reader(base), "shape")
             if body.material is not None and body.material not in model.materials:
                 known = ", ".join(sorted(model.materials)) or "none"
                 raise ValueError(f"material: unknown material {body.material!r} (known: {known})")
             material = model.materials[body.material] if body.material is not None else Material()
-            friction = material.friction if body.friction is None else body.friction
-            restitution = material.restitution if body.restitution is None else body.restitution
-            spinning = material.spinning_friction if body.spinning_friction is None else body.spinning_friction
-            # the body's name, into the world (find, errors naming the body)
-            kwargs: dict[str, Any] = {"name": body.name} if body.name else {}
-            if body.static:
-                # checked here because add_static takes none of these (the world stays unchanged)
-                for field in ("density", "mass"):
-                    if getattr(body, field) is not None:
-                        raise ValueError(f"{field}: a static body takes neither mass nor density")
-                for field in ("velocity", "angular_velocity"):
-                    if any(getattr(body, field)):
-                        raise ValueError(f"{field}: a static body cannot have a velocity")
-                world.add_static(shape, position=body.position, orientation=body.orientation, friction=friction,
-                                 restitution=restitution, spinning_friction=spinning, **kwargs)
-            else:
-                world.add_body(shape, density=body.density, mass=body.mass, position=body.position,
-                               orientation=body.orientation, velocity=body.velocity,
-                               angular_velocity=body.angular_velocity, friction=friction, restitution=restitution,
-                               spinning_friction=spinning, **kwargs)
+            codec.add_scene_body(world, body.model_dump(exclude={"shape"}), shape, material.model_dump())
         except (TypeError, ValueError) as e:
             raise SceneFileError(f"{where_file}: {key}: {e}") from None
         names.append(body.name if body.name else "")
+    for k, (i, j) in enumerate(model.disabled_pairs):
+        try:
+            world.disable_collision(i, j)
+        except (TypeError, ValueError) as e:
+            raise SceneFileError(f"{where_file}: disabled_pairs[{k}]: {e}") from None
     info = model.scene
     return Scene(
         name=info.name or path.stem, world=world, dt=info.dt, steps=info.steps, description=info.description,
@@ -428,154 +439,10 @@ def load_scene(path):
 
 
 # writing ---------------------------------------------------------------------------------------
-class _MeshWriter:
-    """Writes each distinct mesh once, as <stem>.meshes/mesh_<k>.npz next to the scene file."""
-
-    def __init__(self, path: Path):
-        self.folder = path.parent / f"{path.stem}.meshes"
-        self.written: dict[str, str] = {}
-
-    def __call__(self, vertices, faces, pieces=()) -> str:
-        h = hashlib.sha256()
-        for a in (np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64),
-                  *[np.ascontiguousarray(p, dtype=np.float64) for p in pieces]):
-            h.update(str(a.shape).encode())
-            h.update(a.tobytes())
-        digest = h.hexdigest()
-        if digest not in self.written:
-            if not self.written:
-                self.folder.mkdir(parents=True, exist_ok=True)
-            name = f"mesh_{len(self.written)}.npz"
-            meshfile.write_npz_mesh(self.folder / name, vertices, faces, pieces)
-            self.written[digest] = f"{self.folder.name}/{name}"
-        return self.written[digest]
-
-
-def _floats(a) -> list:
-    return [float(x) for x in np.asarray(a, dtype=np.float64).ravel()]
-
-
-def _shape_table(shape, meshes: _MeshWriter) -> dict:
-    """A shape object as its TOML table (meshes written to files)."""
-    if isinstance(shape, Sphere):
-        return {"type": "sphere", "radius": float(shape.radius)}
-    if isinstance(shape, Box):
-        return {"type": "box", "half_extents": _floats(shape.half_extents)}
-    if isinstance(shape, Capsule):
-        return {"type": "capsule", "radius": float(shape.radius), "half_length": float(shape.half_length)}
-    if isinstance(shape, Cylinder):
-        return {"type": "cylinder", "radius": float(shape.radius), "half_height": float(shape.half_height)}
-    if isinstance(shape, Plane):
-        return {"type": "plane", "normal": _floats(shape.normal), "offset": float(shape.offset)}
-    if isinstance(shape, ConvexHull):
-        return {"type": "hull", "points": [_floats(p) for p in np.asarray(shape.vertices)]}
-    if isinstance(shape, Mesh):
-        return {"type": "mesh", "file": meshes(shape.vertices, shape.faces, list(shape.pieces))}
-    if isinstance(shape, TriangleMesh):
-        return {"type": "trimesh", "file": meshes(shape.vertices, shape.faces)}
-    if isinstance(shape, Compound):
-        return {"type": "compound", "parts": [
-            {"shape": _shape_table(part, meshes), "position": _floats(pos), "orientation": _floats(q)}
-            for part, (pos, q) in shape.parts]}
-    raise TypeError(f"not a signorini shape: {shape!r}")
-
-
-def _rotation_of(quaternions: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) rotation matrices the core makes of (N, 4) quaternions, read back from a scratch world."""
-    from .world import World
-
-    scratch = World()
-    scratch.add_static(Sphere(1.0))
-    out = np.empty((len(quaternions), 3, 3))
-    for k, q in enumerate(quaternions):
-        scratch.set_orientation(0, q)
-        out[k] = scratch.rotations[0]
-    return out
-
-
-def _body_tables(world, meshes: _MeshWriter, names) -> list[dict]:
-    """One TOML table per body: the values it was added with while its state is unchanged, its
-    current state otherwise (see the module doc)."""
-    n = world.num_bodies
-    given = getattr(world, "_given", None)
-    if given is not None and len(given) != n:
-        given = None
-    p, R, v, w = world.positions, world.rotations, world.velocities, world.angular_velocities
-    q_now, static, masses = world.orientations, world.is_static, world.masses
-    frictions, restitutions, spinning = world.frictions, world.restitutions, world.spinning_frictions
-    unchanged = np.zeros(n, dtype=bool)
-    if given is not None and n:
-        R_given = _rotation_of(np.array([g.orientation for g in given]))
-        for i, g in enumerate(given):
-            unchanged[i] = (np.array_equal(p[i], g.position) and np.array_equal(v[i], g.velocity)
-                            and np.array_equal(w[i], g.angular_velocity) and np.array_equal(R[i], R_given[i]))
-    bodies = []
-    for i in range(n):
-        table: dict[str, Any] = {}
-        if names is not None and names[i]:
-            table["name"] = str(names[i])
-        if given is not None:
-            g = given[i]
-            shape = g.shape
-        else:
-            # no record of what was given: the core's shape (re-centred) and mass
-            shape = world.shape(i)
-        table["shape"] = _shape_table(shape, meshes)
-        if static[i]:
-            table["static"] = True
-        elif given is not None:
-            table.update({"density": float(g.density)} if g.density is not None else {"mass": float(g.mass)})
-        else:
-            table["mass"] = float(masses[i])
-        # the defaults (friction 0.5, restitution 0, spinning friction 0, identity orientation, zero
-        # velocities) are left out
-        if float(frictions[i]) != 0.5:
-            table["friction"] = float(frictions[i])
-        if not _is_zero(restitutions[i]):
-            table["restitution"] = float(restitutions[i])
-        if not _is_zero(spinning[i]):
-            table["spinning_friction"] = float(spinning[i])
-        if unchanged[i]:
-            position, orientation = g.position, g.orientation
-            velocity, angular_velocity = g.velocity, g.angular_velocity
-        else:
-            position, orientation, velocity, angular_velocity = p[i], q_now[i], v[i], w[i]
-        table["position"] = _floats(position)
-        if not (orientation[0] == 1.0 and not np.signbit(orientation[0]) and _is_zero(orientation[1:])):
-            table["orientation"] = _floats(orientation)
-        for key, value in (("velocity", velocity), ("angular_velocity", angular_velocity)):
-            if not _is_zero(value):
-                table[key] = _floats(value)
-        bodies.append(table)
-    return bodies
-
-
-# an array of scalars that tomli-w spread over lines: "[\n    1.0,\n    2.0,\n]" (no brackets inside)
-_SPREAD_ARRAY = re.compile(r"\[\n((?:[ \t]*[^\[\]\n]*,\n)+)[ \t]*\]")
-
-
-def _compact_arrays(text: str) -> str:
-    """tomli-w's output with every array of scalars on one line ([1.0, 2.0, 3.0]); an array of
-    arrays keeps one inner array per line. Strings never hold a raw newline in tomli-w's output,
-    so the pattern only meets arrays."""
-    return _SPREAD_ARRAY.sub(lambda m: "[" + ", ".join(x.strip().rstrip(",") for x in m.group(1).splitlines()) + "]",
-                             text)
-
-
-def _is_zero(a) -> bool:
-    """True when every component is +0.0 (the file's default; -0.0 is written out)."""
-    a = np.asarray(a, dtype=np.float64)
-    return not np.any(a != 0.0) and not np.any(np.signbit(a))
-
-
 def save_scene(world_or_scene, path) -> Path:
-    """Writes a World (or a ``scenes.Scene``: its world with its name, dt, steps, description and
+    """Writes a World (or a ``Scene``: its world with its name, dt, steps, description and
     body names) to a TOML scene file, and its meshes to ``<stem>.meshes/`` next to it; returns the
     path. ``load_scene(path)`` rebuilds it (bit-identical stepping; see the module doc)."""
-    import tomli_w
-
-    from .world import World
-
     path = Path(path)
     if path.suffix.lower() != ".toml":
         raise ValueError(f"scene file {str(path)!r}: a scene file's name must end in .toml")
@@ -589,21 +456,10 @@ def save_scene(world_or_scene, path) -> Path:
         if scene.snapshot_times is not None:
             info["snapshot_times"] = [float(t) for t in scene.snapshot_times]
     else:
-        world, info = world_or_scene, {}
-        # the world's body names
-        names = [world.name(i) for i in range(world.num_bodies)] if hasattr(world, "name") else None
-    settings = {"gravity": _floats(world.gravity), "contact_margin": float(world._core.contact_margin),
-                **world.solver}
-    meshes = _MeshWriter(path)
-    document = {"format": FORMAT, "scene": info, "world": settings, "bodies": _body_tables(world, meshes, names)}
-    if not info:
-        del document["scene"]
-    header = "# signorini scene file: python -m signorini run <this file>; format in signorini.scenefile\n"
-    text = header + _compact_arrays(tomli_w.dumps(document))
-    SceneFile.model_validate(json.loads(json.dumps(document)))  # what is written reads back
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text)
-    return path
+        world, info, names = world_or_scene, {}, None  # None: the world's own body names
+    # what is written reads back (checked before the file is written)
+    return codec.write_scene(world, path, info, names,
+                             check=lambda document: SceneFile.model_validate(json.loads(json.dumps(document))))
 
 
 #: the shipped JSON Schema (``python -m signorini.scenes`` writes it again; a test compares)

@@ -33,50 +33,26 @@ poses, masses) into pybullet, so each scene is written only here.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable
-
-if TYPE_CHECKING:
-    from .world import World
+from typing import Callable
 
 import numpy as np
 
 from . import meshes
+from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
+from .scenefile import SCHEMA_PATH, Scene, read_scene, save_scene, schema_text
+from .world import World
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python < 3.11
+    import tomli as tomllib
 
 __all__ = ["Scene", "SCENES", "GENERATORS", "SCENE_DIR", "build", "scene_info", "write_scene_files", "DEFAULT_SCENE",
            "axis_angle_quaternion", "pyramid", "rain", "hull_pile"]
 
 DEFAULT_SCENE = "torus"
-
-
-@dataclass
-class Scene:
-    """A world ready to run, with how to run it.
-
-    Fields:
-    - name: the registry name (str);
-    - world: the ``signorini.World``, in its initial state (running the scene advances it);
-    - dt: time step (s);
-    - steps: number of steps of a full run (the simulated time is dt * steps);
-    - description: one line for ``python -m signorini list`` and the plot title;
-    - snapshot_times: times (s) of the 3-D snapshots in the plot, or None for evenly spaced ones;
-    - names: one name per body (recorded trajectories, the player and the exports use them), or
-      None for "<kind>_<index>".
-    """
-
-    name: str
-    world: "World"
-    dt: float
-    steps: int
-    description: str
-    snapshot_times: tuple[float, ...] | None = None
-    names: tuple[str, ...] | None = None
-
-    @property
-    def duration(self) -> float:
-        """Simulated time of a full run (s)."""
-        return self.dt * self.steps
 
 
 def axis_angle_quaternion(axis, angle: float) -> tuple[float, float, float, float]:
@@ -89,8 +65,6 @@ def axis_angle_quaternion(axis, angle: float) -> tuple[float, float, float, floa
 
 def _torus() -> Scene:
     """The CSC417 assignment setting: a torus dropped onto a tilted plane, gravity -0.98 y."""
-    import signorini as sg
-
     # the tilted ground: normal normalize(0.7, 0.7, 0) through the point (0, -0.1, 0)
     normal = np.array([0.7, 0.7, 0.0]) / np.linalg.norm([0.7, 0.7, 0.0])
     offset = float(normal @ np.array([0.0, -0.1, 0.0]))  # -0.0707 m: the origin is 0.0707 m above
@@ -99,8 +73,8 @@ def _torus() -> Scene:
     # substeps=1: the assignment's stepping, one solve per step of 1/240 s. The landing of a tumbling
     # torus is chaotic: with the default substeps of 1/960 s it comes down on its rim and rolls
     # down the slope instead of lying flat (energy falls either way)
-    world = sg.World(gravity=(0.0, -0.98, 0.0), contact_margin=0.001, substeps=1)
-    world.add_static(sg.Plane(normal=tuple(normal), offset=offset))
+    world = World(gravity=(0.0, -0.98, 0.0), contact_margin=0.001, substeps=1)
+    world.add_static(Plane(normal=tuple(normal), offset=offset))
 
     # a torus of outer radius R + r = 0.055 m < 0.0707 m clears the plane in any orientation
     R, r = 0.04, 0.015
@@ -108,7 +82,7 @@ def _torus() -> Scene:
 
     # tilt its axis 50 degrees about the downhill direction (1, -1, 0) and make it tumble
     world.add_body(
-        sg.Mesh(vertices, faces),
+        Mesh(vertices, faces),
         density=1000.0,
         position=(0.0, 0.0, 0.0),
         orientation=axis_angle_quaternion((1.0, -1.0, 0.0), math.radians(50.0)),
@@ -129,20 +103,18 @@ def _torus() -> Scene:
 
 def _boxes() -> Scene:
     """Boxes and spheres dropped on the ground z = 0; two spheres meet head on."""
-    import signorini as sg
-
-    world = sg.World(gravity=(0.0, 0.0, -9.81))
-    world.add_static(sg.Plane(normal=(0.0, 0.0, 1.0), offset=0.0))
+    world = World(gravity=(0.0, 0.0, -9.81))
+    world.add_static(Plane(normal=(0.0, 0.0, 1.0), offset=0.0))
 
     # a cube tilted onto its edge, and a long flat box spinning as it falls
     world.add_body(
-        sg.Box(half_extents=(0.2, 0.2, 0.2)),
+        Box(half_extents=(0.2, 0.2, 0.2)),
         density=500.0,
         position=(0.0, 0.0, 0.5),
         orientation=axis_angle_quaternion((1.0, 1.0, 0.0), math.radians(30.0)),
     )
     world.add_body(
-        sg.Box(half_extents=(0.4, 0.2, 0.1)),
+        Box(half_extents=(0.4, 0.2, 0.1)),
         density=500.0,
         position=(1.2, -0.2, 0.4),
         orientation=axis_angle_quaternion((0.0, 0.0, 1.0), math.radians(20.0)),
@@ -150,13 +122,13 @@ def _boxes() -> Scene:
     )
 
     # two equal spheres sliding towards each other: they meet near x = 0, y = 1
-    world.add_body(sg.Sphere(radius=0.15), mass=1.0, position=(-1.0, 1.0, 0.6), velocity=(1.5, 0.0, 0.0))
-    world.add_body(sg.Sphere(radius=0.15), mass=1.0, position=(1.0, 1.0, 0.6), velocity=(-1.5, 0.0, 0.0))
+    world.add_body(Sphere(radius=0.15), mass=1.0, position=(-1.0, 1.0, 0.6), velocity=(1.5, 0.0, 0.0))
+    world.add_body(Sphere(radius=0.15), mass=1.0, position=(1.0, 1.0, 0.6), velocity=(-1.5, 0.0, 0.0))
 
     # a small sphere dropped on the cube, and one dropped off-centre on a resting sphere
-    world.add_body(sg.Sphere(radius=0.1), mass=0.5, position=(0.05, 0.0, 1.4))
-    world.add_body(sg.Sphere(radius=0.2), mass=2.0, position=(-1.0, -1.0, 0.2))
-    world.add_body(sg.Sphere(radius=0.12), mass=0.5, position=(-0.93, -1.0, 1.2))
+    world.add_body(Sphere(radius=0.1), mass=0.5, position=(0.05, 0.0, 1.4))
+    world.add_body(Sphere(radius=0.2), mass=2.0, position=(-1.0, -1.0, 0.2))
+    world.add_body(Sphere(radius=0.12), mass=0.5, position=(-0.93, -1.0, 1.2))
 
     return Scene(
         name="boxes",
@@ -174,11 +146,8 @@ def _boxes() -> Scene:
 def _shapes() -> Scene:
     """Every collidable of the lecture on a tessellated floor: a stack of boxes, a capsule, a
     cylinder, a convex hull, a compound (a table) and a torus decomposed into convex pieces."""
-    import signorini as sg
 
-    from . import meshes
-
-    world = sg.World(gravity=(0.0, 0.0, -9.81), contact_margin=0.002)
+    world = World(gravity=(0.0, 0.0, -9.81), contact_margin=0.002)
     # the floor: a 2 m x 2 m static triangle mesh of 8 x 8 cells (128 triangles)
     n, s = 8, 1.0
     grid = np.linspace(-s, s, n + 1)
@@ -188,27 +157,27 @@ def _shapes() -> Scene:
         for j in range(n):
             a, b = i * (n + 1) + j, (i + 1) * (n + 1) + j
             faces += [(a, b, b + 1), (a, b + 1, a + 1)]
-    world.add_static(sg.TriangleMesh(vertices, np.array(faces)))
+    world.add_static(TriangleMesh(vertices, np.array(faces)))
 
     # a stack of three boxes, each turned a little about the vertical
     for k in range(3):
-        world.add_body(sg.Box((0.1, 0.1, 0.1)), density=500.0, position=(-0.5, -0.5, 0.1 + 0.2 * k + 0.001 * k),
+        world.add_body(Box((0.1, 0.1, 0.1)), density=500.0, position=(-0.5, -0.5, 0.1 + 0.2 * k + 0.001 * k),
                        orientation=axis_angle_quaternion((0.0, 0.0, 1.0), math.radians(15.0 * k)))
     # a capsule dropped lying, a cylinder dropped standing, a hull tumbling
-    world.add_body(sg.Capsule(0.05, 0.15), density=500.0, position=(0.4, -0.5, 0.3),
+    world.add_body(Capsule(0.05, 0.15), density=500.0, position=(0.4, -0.5, 0.3),
                    orientation=axis_angle_quaternion((0.0, 1.0, 0.0), math.radians(90.0)))
-    world.add_body(sg.Cylinder(0.08, 0.1), density=500.0, position=(0.0, -0.5, 0.3))
+    world.add_body(Cylinder(0.08, 0.1), density=500.0, position=(0.0, -0.5, 0.3))
     rng = np.random.default_rng(7)
-    world.add_body(sg.ConvexHull(rng.normal(size=(20, 3)) * 0.08), density=500.0, position=(0.5, 0.4, 0.4),
+    world.add_body(ConvexHull(rng.normal(size=(20, 3)) * 0.08), density=500.0, position=(0.5, 0.4, 0.4),
                    angular_velocity=(1.0, 2.0, 0.0))
     # a compound table: a top and four legs
-    legs = [(sg.Box((0.02, 0.02, 0.1)), ((sx * 0.12, sy * 0.12, -0.1), (1, 0, 0, 0))) for sx in (-1, 1) for sy in (-1, 1)]
-    world.add_body(sg.Compound([(sg.Box((0.15, 0.15, 0.02)), ((0.0, 0.0, 0.02), (1, 0, 0, 0)))] + legs),
+    legs = [(Box((0.02, 0.02, 0.1)), ((sx * 0.12, sy * 0.12, -0.1), (1, 0, 0, 0))) for sx in (-1, 1) for sy in (-1, 1)]
+    world.add_body(Compound([(Box((0.15, 0.15, 0.02)), ((0.0, 0.0, 0.02), (1, 0, 0, 0)))] + legs),
                    density=500.0, position=(-0.4, 0.4, 0.3))
     # a torus (non-convex: decomposed by CoACD, cached) falling onto a ball
-    world.add_body(sg.Sphere(0.06), density=500.0, position=(0.0, 0.3, 0.06))
+    world.add_body(Sphere(0.06), density=500.0, position=(0.0, 0.3, 0.06))
     v, f = meshes.torus(0.12, 0.035, 32, 16)
-    world.add_body(sg.Mesh(v, f), density=500.0, position=(0.0, 0.3, 0.4),
+    world.add_body(Mesh(v, f), density=500.0, position=(0.0, 0.3, 0.4),
                    orientation=axis_angle_quaternion((1.0, 0.0, 0.0), math.radians(20.0)))
     return Scene(
         name="shapes",
@@ -236,34 +205,32 @@ def _pile() -> Scene:
     convex meshes, compounds, decomposed tori) dropped from a 5 x 5 x 4 grid into a 1.6 m square pit
     walled by static boxes, friction 0.5, spinning friction ``PILE_SPINNING_FRICTION``, no
     restitution."""
-    import signorini as sg
-
-    world = sg.World(gravity=(0.0, 0.0, -9.81))
+    world = World(gravity=(0.0, 0.0, -9.81))
     spin = PILE_SPINNING_FRICTION
     _walled_bin(world, half_width=0.8, height=1.0, thickness=0.1, friction=0.5, spinning_friction=spin)
     rng = np.random.default_rng(2026)
     ico_v, ico_f = meshes.icosphere(0.09, 1)
     torus_v, torus_f = meshes.torus(0.09, 0.03, 24, 12)
-    legs = [(sg.Box((0.015, 0.015, 0.05)), ((sx * 0.07, sy * 0.07, -0.05), (1, 0, 0, 0)))
+    legs = [(Box((0.015, 0.015, 0.05)), ((sx * 0.07, sy * 0.07, -0.05), (1, 0, 0, 0)))
             for sx in (-1, 1) for sy in (-1, 1)]
 
     def shape(k: int) -> object:
         kind = k % 8
         if kind == 0:
-            return sg.Sphere(0.08)
+            return Sphere(0.08)
         if kind == 1:
-            return sg.Box((0.09, 0.07, 0.05))
+            return Box((0.09, 0.07, 0.05))
         if kind == 2:
-            return sg.Capsule(0.05, 0.07)
+            return Capsule(0.05, 0.07)
         if kind == 3:
-            return sg.Cylinder(0.07, 0.05)
+            return Cylinder(0.07, 0.05)
         if kind == 4:
-            return sg.ConvexHull(rng.normal(size=(16, 3)) * 0.06)
+            return ConvexHull(rng.normal(size=(16, 3)) * 0.06)
         if kind == 5:
-            return sg.Mesh(ico_v, ico_f)
+            return Mesh(ico_v, ico_f)
         if kind == 6:
-            return sg.Compound([(sg.Box((0.09, 0.09, 0.015)), ((0.0, 0.0, 0.015), (1, 0, 0, 0)))] + legs)
-        return sg.Mesh(torus_v, torus_f)
+            return Compound([(Box((0.09, 0.09, 0.015)), ((0.0, 0.0, 0.015), (1, 0, 0, 0)))] + legs)
+        return Mesh(torus_v, torus_f)
 
     k = 0
     for layer in range(4):
@@ -295,9 +262,7 @@ def _walled_bin(world, half_width: float, height: float, thickness: float, frict
     """The ground plane z = 0 and four static box walls around the square |x|, |y| < half_width,
     ``thickness`` (m) thick and ``height`` (m) high; friction and spinning friction as given,
     restitution 0."""
-    import signorini as sg
-
-    world.add_static(sg.Plane(normal=(0.0, 0.0, 1.0), offset=0.0), friction=friction, restitution=0.0,
+    world.add_static(Plane(normal=(0.0, 0.0, 1.0), offset=0.0), friction=friction, restitution=0.0,
                      spinning_friction=spinning_friction)
     for axis in (0, 1):
         for side in (-1.0, 1.0):
@@ -305,7 +270,7 @@ def _walled_bin(world, half_width: float, height: float, thickness: float, frict
             half[axis] = 0.5 * thickness
             centre = [0.0, 0.0, 0.5 * height]
             centre[axis] = side * (half_width + 0.5 * thickness)
-            world.add_static(sg.Box(tuple(half)), position=tuple(centre), friction=friction, restitution=0.0,
+            world.add_static(Box(tuple(half)), position=tuple(centre), friction=friction, restitution=0.0,
                              spinning_friction=spinning_friction)
 
 
@@ -327,14 +292,12 @@ def pyramid(base: int = 20, gap: float = 0.001, friction: float = 0.5) -> Scene:
     base - 1, ..., 1 boxes, each row centred on x = 0 with ``gap`` (m) between neighbours and
     resting exactly on the row below (210 boxes for base 20), friction ``friction``, restitution 0.
     Nothing moves if the solver holds the stack: every box should stay where it starts (10 s)."""
-    import signorini as sg
-
-    world = sg.World(gravity=(0.0, 0.0, -9.81))
-    world.add_static(sg.Plane(normal=(0.0, 0.0, 1.0), offset=0.0), friction=friction, restitution=0.0)
+    world = World(gravity=(0.0, 0.0, -9.81))
+    world.add_static(Plane(normal=(0.0, 0.0, 1.0), offset=0.0), friction=friction, restitution=0.0)
     for row in range(base):
         m = base - row
         for j in range(m):
-            world.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0,
+            world.add_body(Box((0.5, 0.5, 0.5)), mass=1.0,
                            position=((j - 0.5 * (m - 1)) * (1.0 + gap), 0.0, 0.5 + row),
                            friction=friction, restitution=0.0)
     return Scene(
@@ -353,9 +316,7 @@ def rain(spheres: int = 1000, boxes: int = 200, seed: int = 240, friction: float
     random orientations), density 500, rained from rest off a jittered grid (0.36 m spacing,
     bodies at most 0.157 m from their centre, so none overlap) into a 4 m square bin walled 1 m
     high; the boxes are spread evenly through the grid. Friction ``friction``, restitution 0 (5 s)."""
-    import signorini as sg
-
-    world = sg.World(gravity=(0.0, 0.0, -9.81))
+    world = World(gravity=(0.0, 0.0, -9.81))
     _walled_bin(world, half_width=2.0, height=1.0, thickness=0.2, friction=friction)
     rng = np.random.default_rng(seed)
     total = spheres + boxes
@@ -367,10 +328,10 @@ def rain(spheres: int = 1000, boxes: int = 200, seed: int = 240, friction: float
         dx, dy = rng.uniform(-0.02, 0.02, size=2)
         shape: object
         if is_box[k]:
-            shape = sg.Box((0.12, 0.08, 0.06))
+            shape = Box((0.12, 0.08, 0.06))
             orientation = axis_angle_quaternion(rng.normal(size=3), rng.uniform(0.0, math.pi))
         else:
-            shape = sg.Sphere(0.1)
+            shape = Sphere(0.1)
             orientation = (1.0, 0.0, 0.0, 0.0)
         world.add_body(shape, density=500.0, position=(x + dx, y + dy, z), orientation=orientation,
                        friction=friction, restitution=0.0)
@@ -390,15 +351,13 @@ def hull_pile(hulls: int = 200, points: int = 16, seed: int = 417, friction: flo
     (uniform directions, radii uniform in [0.06, 0.12] m), density 500, dropped from rest with
     random orientations off a 0.5 m grid (a hull lies within 0.24 m of its centre of mass, so
     none overlap) into a 3 m square bin walled 1 m high. Friction ``friction``, restitution 0 (5 s)."""
-    import signorini as sg
-
-    world = sg.World(gravity=(0.0, 0.0, -9.81))
+    world = World(gravity=(0.0, 0.0, -9.81))
     _walled_bin(world, half_width=1.5, height=1.0, thickness=0.2, friction=friction)
     rng = np.random.default_rng(seed)
     for x, y, z in _grid(hulls, half_width=1.5, spacing=0.5, z0=0.4):
         d = rng.normal(size=(points, 3))
         cloud = d / np.linalg.norm(d, axis=1, keepdims=True) * rng.uniform(0.06, 0.12, size=(points, 1))
-        world.add_body(sg.ConvexHull(cloud), density=500.0, position=(x, y, z),
+        world.add_body(ConvexHull(cloud), density=500.0, position=(x, y, z),
                        orientation=axis_angle_quaternion(rng.normal(size=3), rng.uniform(0.0, math.pi)),
                        friction=friction, restitution=0.0)
     return Scene(
@@ -433,8 +392,6 @@ SCENES: dict[str, Path] = {name: SCENE_DIR / f"{name}.toml" for name in GENERATO
 def build(name: str = DEFAULT_SCENE) -> Scene:
     """A fresh ``Scene`` (a new World each call) read from the shipped scene file of a built-in
     scene; ValueError naming the scene and the known ones."""
-    from .scenefile import read_scene
-
     try:
         path = SCENES[name]
     except KeyError:
@@ -446,12 +403,6 @@ def build(name: str = DEFAULT_SCENE) -> Scene:
 def scene_info(name: str) -> dict:
     """A built-in scene's [scene] table and body count, read from its file without building it
     (for ``python -m signorini list``): {"name", "description", "dt", "steps", "bodies"}."""
-    import sys
-
-    if sys.version_info >= (3, 11):
-        import tomllib
-    else:  # pragma: no cover
-        import tomli as tomllib
     if name not in SCENES:
         raise ValueError(f"unknown scene {name!r} (known scenes: {', '.join(sorted(SCENES))})")
     with open(SCENES[name], "rb") as f:
@@ -465,15 +416,11 @@ def scene_info(name: str) -> dict:
 def write_scene_files(folder: Path = SCENE_DIR, names=None) -> list[Path]:
     """Runs the generators and writes their scene files (and mesh files) into ``folder``; returns
     the paths. The shipped files are written by this once and checked against it by the tests."""
-    from .scenefile import save_scene
-
     return [save_scene(GENERATORS[name](), Path(folder) / f"{name}.toml") for name in (names or GENERATORS)]
 
 
 if __name__ == "__main__":
     # python -m signorini.scenes: the shipped scene files and the scene file JSON Schema, again
-    from .scenefile import SCHEMA_PATH, schema_text
-
     for written in write_scene_files():
         print(f"written      {written}")
     SCHEMA_PATH.write_text(schema_text())

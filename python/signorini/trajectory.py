@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import meshes
+from . import codec, meshes
 from .world import SolverWarning
 
 __all__ = ["Record", "Recorder", "save_trajectory", "load_trajectory", "shape_params", "body_names",
@@ -182,27 +182,9 @@ def shape_params(shape) -> dict:
     (radius, half_height), plane (normal, offset), mesh / hull / trimesh (num_vertices,
     num_faces; the geometry itself is the body's draw mesh), compound (parts: a list of
     {"shape": params, "position": (3,), "orientation": (4,) w x y z}). Attributes are tested
-    rather than classes, so any object with the same attributes works.
+    rather than classes for look-alike objects (the codec's data form, ``codec.shape_to_data``).
     """
-    name = type(shape).__name__.lower()
-    if hasattr(shape, "parts"):
-        return {"type": "compound", "parts": [
-            {"shape": shape_params(part), "position": [float(x) for x in pose[0]],
-             "orientation": [float(x) for x in pose[1]]} for part, pose in shape.parts]}
-    if hasattr(shape, "half_length"):
-        return {"type": "capsule", "radius": float(shape.radius), "half_length": float(shape.half_length)}
-    if hasattr(shape, "half_height"):
-        return {"type": "cylinder", "radius": float(shape.radius), "half_height": float(shape.half_height)}
-    if hasattr(shape, "vertices") and hasattr(shape, "faces"):
-        kind = {"convexhull": "hull", "trianglemesh": "trimesh"}.get(name, "mesh")
-        return {"type": kind, "num_vertices": int(len(shape.vertices)), "num_faces": int(len(shape.faces))}
-    if hasattr(shape, "half_extents"):
-        return {"type": "box", "half_extents": [float(x) for x in shape.half_extents]}
-    if hasattr(shape, "radius"):
-        return {"type": "sphere", "radius": float(shape.radius)}
-    if hasattr(shape, "normal") and hasattr(shape, "offset"):
-        return {"type": "plane", "normal": [float(x) for x in shape.normal], "offset": float(shape.offset)}
-    raise TypeError(f"shape_params: not a shape: {type(shape).__name__}")
+    return codec.shape_to_data(shape)
 
 
 def body_names(world, names=None) -> list[str]:

@@ -22,7 +22,7 @@ import time as _time
 
 import numpy as np
 
-from .render import body_colours, default_camera
+from .render import body_colours, default_camera, default_force_scale
 from .trajectory import CONTACT_KEYS, Record, Recorder
 
 __all__ = ["Viewer"]
@@ -60,7 +60,7 @@ class Viewer:
         self._thread = None
 
         camera = default_camera(base)
-        self._force_scale = _force_scale_of(base, camera)
+        self.force_scale = _force_scale_of(base, camera)
         self._normal_length = 0.06 * float(np.linalg.norm(camera["offset"]))
 
         self.server = viser.ViserServer(host=host, port=port, verbose=verbose)
@@ -143,13 +143,13 @@ class Viewer:
                 k = len(c["point"])
                 self.points.visible = bool(self.show_points.value and k)
                 self.normals.visible = bool(self.show_normals.value and k)
-                self.forces.visible = bool(self.show_forces.value and k and self._force_scale > 0)
+                self.forces.visible = bool(self.show_forces.value and k and self.force_scale > 0)
                 if k:
                     p = np.asarray(c["point"], dtype=np.float32)
                     self.points.points = p
                     self.points.colors = np.zeros((k, 3), dtype=np.uint8)
                     self.normals.points = np.stack([p, p + self._normal_length * c["normal"]], axis=1).astype(np.float32)
-                    self.forces.points = np.stack([p, p + self._force_scale * c["force"]], axis=1).astype(np.float32)
+                    self.forces.points = np.stack([p, p + self.force_scale * c["force"]], axis=1).astype(np.float32)
                 self.timeline.max = max(self.frames - 1, 1)
                 self.timeline.value = f  # calls _scrub with no client: ignored there
                 self.clock.content = f"t = {d['time']:.3f} s, frame {f + 1} / {self.frames}, {k} contacts"
@@ -248,9 +248,7 @@ class Viewer:
 def _force_scale_of(record: Record, camera: dict) -> float:
     """Metres of arrow per newton: the record's own scale, or for a live scene (no forces yet) the
     weight of the heaviest dynamic body drawn a fifth of the view's size."""
-    from .render import _force_scale
-
-    scale = _force_scale(record)
+    scale = default_force_scale(record)
     if scale > 0:
         return scale
     masses = [m for m, s in zip(record.masses, record.is_static) if not s]

@@ -10,25 +10,16 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple, Optional
+from typing import Optional
 
 import numpy as np
 
-from . import _core
+from . import _core, codec
+from .arguments import (ALL_BITS, INT_MAX, as_bits, as_count, as_flag, as_indices, as_name, as_number, as_rows,
+                        as_scalar, as_vector, readonly)
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 
 Shape = (Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, TriangleMesh, Compound)
-
-
-class _Given(NamedTuple):
-    """A body's arguments as add_body converted them (shape after any decomposition)."""
-    shape: object
-    density: Optional[float]
-    mass: Optional[float]
-    position: np.ndarray
-    orientation: np.ndarray
-    velocity: np.ndarray
-    angular_velocity: np.ndarray
 
 
 BodyIndexError = _core.BodyIndexError
@@ -131,8 +122,6 @@ class SavedState:
         return f"SavedState({self.num_bodies} bodies, t={self.time:g} s, {len(self.data)} bytes)"
 
 
-ALL_BITS = 0xFFFFFFFF
-
 SOLVER_DEFAULTS = {
     "erp": 0.2, "tolerance": 1e-6, "max_iterations": 30, "slop": 0.001, "max_push_velocity": 1.0,
     "restitution_threshold": 0.5, "friction_cone": "pyramid", "gyroscopic": "midpoint",
@@ -151,7 +140,7 @@ def _solver_settings(who: str, current=None, **given):
             if key in ("friction_cone", "gyroscopic") and not isinstance(value, str):
                 value = value.name
         if key in ("max_iterations", "substeps"):
-            value = _count(value, who, key)
+            value = as_count(value, who, key)
         elif key == "warm_start":
             if not isinstance(value, (bool, np.bool_)):
                 raise TypeError(f"{who}: warm_start must be True or False, got {value!r}")
@@ -165,111 +154,9 @@ def _solver_settings(who: str, current=None, **given):
                 raise ValueError(f"{who}: gyroscopic must be 'midpoint', 'implicit' or 'explicit', got {value!r}")
             value = getattr(_core.Gyroscopic, value)
         else:
-            value = _scalar(value, who, key)
+            value = as_scalar(value, who, key)
         setattr(s, key, value)
     return s
-
-
-def _readonly(a: np.ndarray) -> np.ndarray:
-    a.flags.writeable = False
-    return a
-
-
-def _vector(x, n: int, who: str, what: str) -> np.ndarray:
-    """x as a float64 array of shape (n,), or a TypeError / ValueError naming who and what."""
-    if isinstance(x, (str, bytes)):
-        raise TypeError(f"{who}: {what} must be {n} numbers, got {x!r}")
-    try:
-        a = np.asarray(x, dtype=np.float64)
-    except OverflowError:
-        raise ValueError(f"{who}: {what} has a number too large for a double (at most about 1.8e308)") from None
-    except (TypeError, ValueError):
-        raise TypeError(f"{who}: {what} must be {n} numbers, got {x!r}") from None
-    if a.shape != (n,):
-        raise ValueError(f"{who}: {what} must have shape ({n},), got shape {a.shape}")
-    return a
-
-
-def _rows(x, cols: int, who: str, what: str) -> np.ndarray:
-    """x as a C-contiguous float64 array of shape (n, cols) (a single row may be given as (cols,))."""
-    if isinstance(x, (str, bytes)):
-        raise TypeError(f"{who}: {what} must be numbers of shape (n, {cols}), got {x!r}")
-    try:
-        a = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{who}: {what} must be numbers of shape (n, {cols}), got {x!r}") from None
-    if a.shape == (cols,):
-        a = a[None, :]
-    if a.ndim != 2 or a.shape[1] != cols:
-        raise ValueError(f"{who}: {what} must have shape (n, {cols}), got shape {a.shape}")
-    return np.ascontiguousarray(a)
-
-
-def _indices(x, who: str) -> np.ndarray:
-    """x as an int64 array of shape (n,) (one integer gives one index); the core checks the range."""
-    a = np.asarray(x)
-    if a.ndim == 0:
-        a = a.reshape(1)
-    if a.dtype == np.bool_ or not (a.dtype.kind in "iu" or (a.size == 0 and a.dtype.kind == "f")):
-        raise TypeError(f"{who}: indices must be integers, got {x!r}")
-    if a.ndim != 1:
-        raise ValueError(f"{who}: indices must have shape (n,), got shape {a.shape}")
-    if a.dtype.kind == "u" and a.size and a.max() > np.iinfo(np.int64).max:
-        raise BodyIndexError(f"{who}: index {a.max()} is out of range")
-    return np.ascontiguousarray(a, dtype=np.int64)
-
-
-def _bits(x, who: str, what: str) -> int:
-    """x as a 32-bit unsigned integer (collision filter bits)."""
-    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)) or not 0 <= x <= ALL_BITS:
-        raise TypeError(f"{who}: {what} must be an integer of 32 bits (0 to 0xFFFFFFFF), got {x!r}")
-    return int(x)
-
-
-def _flag(x, who: str, what: str) -> bool:
-    if not isinstance(x, (bool, np.bool_)):
-        raise TypeError(f"{who}: {what} must be True or False, got {x!r}")
-    return bool(x)
-
-
-def _name(x, who: str) -> str:
-    if x is None:
-        return ""
-    if not isinstance(x, str):
-        raise TypeError(f"{who}: name must be a string, got {x!r}")
-    return x
-
-
-def _scalar(x, who: str, what: str):
-    """x as a float (None stays None), or a TypeError / ValueError naming who and what."""
-    if x is None:
-        return None
-    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{who}: {what} must be a number, got {x!r}")
-    try:
-        return float(x)
-    except OverflowError:
-        raise ValueError(f"{who}: {what} is too large for a double: an integer of {len(str(abs(int(x))))} digits "
-                         "(at most about 1.8e308)") from None
-
-
-def _required(x, who: str, what: str) -> float:
-    """Like _scalar, but None is a TypeError too."""
-    if x is None:
-        raise TypeError(f"{who}: {what} must be a number, got None")
-    return _scalar(x, who, what)
-
-
-INT_MAX = 2**31 - 1  # the core's counts are C ints
-
-
-def _count(x, who: str, what: str) -> int:
-    """x as an int the core can hold, or a TypeError / ValueError naming who and what."""
-    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)):
-        raise TypeError(f"{who}: {what} must be an integer, got {x!r}")
-    if not -INT_MAX - 1 <= x <= INT_MAX:
-        raise ValueError(f"{who}: {what} = {x} is too large: at most {INT_MAX}")
-    return int(x)
 
 
 def _solid(mesh) -> bool:
@@ -319,16 +206,16 @@ class World:
                  restitution_threshold: float = 0.5, friction_cone: str = "pyramid",
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
                  warn_velocity: float = 0.01):
-        g = _vector(gravity, 3, "World", "gravity")
+        g = as_vector(gravity, 3, "World", "gravity")
         solver = _solver_settings(
             "World", erp=erp, tolerance=tolerance, max_iterations=max_iterations, slop=slop,
             max_push_velocity=max_push_velocity, restitution_threshold=restitution_threshold,
             friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
             warn_velocity=warn_velocity)
-        self._core = _core.World(g, _scalar(contact_margin, "World", "contact_margin"), solver)
+        self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), solver)
         # what each body was added with, in index order (save_scene writes a body that has not
         # moved with these values, so a saved scene steps bit for bit like the original)
-        self._given: list[_Given] = []
+        self._args: list[Optional[codec.BodyArgs]] = []
         self._unconverged_substeps = 0  # flagged substeps so far (see warn_velocity)
         self._warned = False
 
@@ -400,7 +287,7 @@ class World:
         if not isinstance(shape, Shape):
             raise TypeError(f"{who}: shape must be a Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, "
                             f"TriangleMesh or Compound, got {type(shape).__name__}")
-        kinematic = _flag(kinematic, who, "kinematic")
+        kinematic = as_flag(kinematic, who, "kinematic")
         if inertia is not None:
             try:
                 inertia = np.asarray(inertia, dtype=np.float64)
@@ -408,12 +295,12 @@ class World:
                 raise TypeError(f"{who}: inertia must be a (3, 3) array of numbers, got {inertia!r}") from None
             if inertia.shape != (3, 3):
                 raise ValueError(f"{who}: inertia must have shape (3, 3), got shape {inertia.shape}")
-        args = (is_static, kinematic, _scalar(density, who, "density"), _scalar(mass, who, "mass"), inertia,
-                _vector(position, 3, who, "position"), _vector(orientation, 4, who, "orientation"),
-                _vector(velocity, 3, who, "velocity"), _vector(angular_velocity, 3, who, "angular_velocity"),
-                _required(friction, who, "friction"), _required(restitution, who, "restitution"),
-                _required(spinning_friction, who, "spinning_friction"), _name(name, who),
-                _bits(group, who, "group"), _bits(mask, who, "mask"), _flag(enabled, who, "enabled"))
+        args = (is_static, kinematic, as_scalar(density, who, "density"), as_scalar(mass, who, "mass"), inertia,
+                as_vector(position, 3, who, "position"), as_vector(orientation, 4, who, "orientation"),
+                as_vector(velocity, 3, who, "velocity"), as_vector(angular_velocity, 3, who, "angular_velocity"),
+                as_number(friction, who, "friction"), as_number(restitution, who, "restitution"),
+                as_number(spinning_friction, who, "spinning_friction"), as_name(name, who),
+                as_bits(group, who, "group"), as_bits(mask, who, "mask"), as_flag(enabled, who, "enabled"))
         if (not is_static and isinstance(shape, Mesh) and not shape.pieces and not shape.is_convex()
                 and _solid(shape)):
             # a dynamic non-convex mesh collides with other bodies through convex pieces
@@ -424,7 +311,9 @@ class World:
                 raise ValueError(f"{who}: {e}") from None
         index = self._core.add_body(shape, *args)
         # what it was added with (save_scene writes a body that has not moved with these values)
-        self._given.append(_Given(shape, *args[2:4], *args[5:9]))
+        # (copies: a caller's array changed later must not change the record)
+        self._args.append(codec.BodyArgs(shape, *args[2:4], *(readonly(np.array(a)) for a in args[5:9]),
+                                         inertia=None if args[4] is None else readonly(np.array(args[4]))))
         return index
 
     def remove_body(self, i: int) -> None:
@@ -438,17 +327,17 @@ class World:
         bodies, ``remove_bodies`` does it in one pass."""
         i = self._index(i)
         self._core.remove_body(i)
-        del self._given[i]
+        del self._args[i]
 
     def remove_bodies(self, indices) -> None:
         """Removes the bodies at ``indices`` ((K,) integers, any order, each once) in one O(N + K)
         pass with one broad-phase rebuild; the result is that of ``remove_body`` on each, from the
         highest index down: the bodies that stay keep their order and close up. An index out of
         range (BodyIndexError) or given twice (ValueError) changes nothing."""
-        ii = _indices(indices, "remove_bodies")
+        ii = as_indices(indices, "remove_bodies")
         self._core.remove_bodies(ii)
         for i in sorted(set(int(k) for k in ii), reverse=True):
-            del self._given[i]
+            del self._args[i]
 
     def _index(self, i) -> int:
         """i as an int (the core checks the range and raises BodyIndexError)."""
@@ -459,9 +348,16 @@ class World:
             raise BodyIndexError(f"body index {i} is out of range: the world has {self.num_bodies} bodies")
         return i
 
-    def _label(self, i: int) -> str:
+    def label(self, i: int) -> str:
         """How errors name body i, "body 3 'ball' (Sphere)" (BodyIndexError when there is no body i)."""
-        return self._core.label(i)
+        return self._core.label(self._index(i))
+
+    def body_args(self, i: int) -> Optional[codec.BodyArgs]:
+        """What body i was added with (shape after any decomposition, density or mass, inertia, pose
+        and velocities, as converted), or None when unknown (a world unpickled from an old pickle)."""
+        i = self._index(i)
+        self.label(i)
+        return self._args[i]
 
     def shape(self, i: int):
         """The shape of body i (a mesh body's vertices are centred on its centre of mass)."""
@@ -470,7 +366,7 @@ class World:
     def name(self, i: int) -> str:
         """Body i's name ("" when it has none)."""
         i = self._index(i)
-        self._label(i)
+        self.label(i)
         return self._core.names[i]
 
     @property
@@ -489,85 +385,85 @@ class World:
 
     def set_position(self, i: int, position) -> None:
         i = self._index(i)
-        self._core.set_position(i, _vector(position, 3, self._label(i), "position"))
+        self._core.set_position(i, as_vector(position, 3, self.label(i), "position"))
 
     def set_orientation(self, i: int, orientation) -> None:
         i = self._index(i)
-        self._core.set_orientation(i, _vector(orientation, 4, self._label(i), "orientation"))
+        self._core.set_orientation(i, as_vector(orientation, 4, self.label(i), "orientation"))
 
     def set_velocity(self, i: int, velocity) -> None:
         i = self._index(i)
-        self._core.set_velocity(i, _vector(velocity, 3, self._label(i), "velocity"))
+        self._core.set_velocity(i, as_vector(velocity, 3, self.label(i), "velocity"))
 
     def set_angular_velocity(self, i: int, angular_velocity) -> None:
         i = self._index(i)
-        self._core.set_angular_velocity(i, _vector(angular_velocity, 3, self._label(i), "angular_velocity"))
+        self._core.set_angular_velocity(i, as_vector(angular_velocity, 3, self.label(i), "angular_velocity"))
 
     def set_positions(self, indices, positions) -> None:
         """Sets the positions (n, 3) of bodies ``indices`` (n,) in one call; every row is checked
         before any is written (on an error the world is unchanged)."""
-        self._core.set_positions(_indices(indices, "set_positions"), _rows(positions, 3, "set_positions", "positions"))
+        self._core.set_positions(as_indices(indices, "set_positions"), as_rows(positions, 3, "set_positions", "positions"))
 
     def set_orientations(self, indices, orientations) -> None:
         """Sets the orientations (n, 4), quaternions (w, x, y, z), of bodies ``indices`` in one call."""
-        self._core.set_orientations(_indices(indices, "set_orientations"),
-                                    _rows(orientations, 4, "set_orientations", "orientations"))
+        self._core.set_orientations(as_indices(indices, "set_orientations"),
+                                    as_rows(orientations, 4, "set_orientations", "orientations"))
 
     def set_velocities(self, indices, velocities) -> None:
         """Sets the linear velocities (n, 3) of bodies ``indices`` in one call (m/s, world)."""
-        self._core.set_velocities(_indices(indices, "set_velocities"),
-                                  _rows(velocities, 3, "set_velocities", "velocities"))
+        self._core.set_velocities(as_indices(indices, "set_velocities"),
+                                  as_rows(velocities, 3, "set_velocities", "velocities"))
 
     def set_angular_velocities(self, indices, angular_velocities) -> None:
         """Sets the angular velocities (n, 3) of bodies ``indices`` in one call (rad/s, world)."""
-        self._core.set_angular_velocities(_indices(indices, "set_angular_velocities"),
-                                          _rows(angular_velocities, 3, "set_angular_velocities",
+        self._core.set_angular_velocities(as_indices(indices, "set_angular_velocities"),
+                                          as_rows(angular_velocities, 3, "set_angular_velocities",
                                                 "angular_velocities"))
 
     def set_external_wrench(self, i: int, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0)) -> None:
         """Sets a world-frame force (N, at the centre of mass) and torque (N m) applied every step
         until changed (persistent; ``apply_force`` adds a force for one step only)."""
         i = self._index(i)
-        self._core.set_external_wrench(i, _vector(force, 3, self._label(i), "force"),
-                                       _vector(torque, 3, self._label(i), "torque"))
+        self._core.set_external_wrench(i, as_vector(force, 3, self.label(i), "force"),
+                                       as_vector(torque, 3, self.label(i), "torque"))
 
     def apply_impulse(self, i: int, impulse, point=None) -> None:
         """Applies an impulse J (3,) N s, world, at world ``point`` (m; None: the centre of mass)
         at the start of the next step: v += J / m and omega += I_w^-1 ((point - x) x J). Calls before
         a step add up. Dynamic bodies only (a disabled one ignores it)."""
         i = self._index(i)
-        who = self._label(i)
-        self._core.apply_impulse(i, _vector(impulse, 3, who, "impulse"),
-                                 None if point is None else _vector(point, 3, who, "point"))
+        who = self.label(i)
+        self._core.apply_impulse(i, as_vector(impulse, 3, who, "impulse"),
+                                 None if point is None else as_vector(point, 3, who, "point"))
 
     def apply_force(self, i: int, force, point=None) -> None:
         """Applies a force F (3,) N, world, at world ``point`` (m; None: the centre of mass) during
         the next step only (the first step of the next ``step()`` call), with the torque
         (point - x) x F, on top of the persistent ``set_external_wrench``. Dynamic bodies only."""
         i = self._index(i)
-        who = self._label(i)
-        self._core.apply_force(i, _vector(force, 3, who, "force"),
-                               None if point is None else _vector(point, 3, who, "point"))
+        who = self.label(i)
+        self._core.apply_force(i, as_vector(force, 3, who, "force"),
+                               None if point is None else as_vector(point, 3, who, "point"))
 
     def set_kinematic(self, i: int, kinematic: bool = True) -> None:
         """Makes body i kinematic (moved by its velocity only, an infinite mass for the bodies it
         pushes, no gravity) or dynamic again (it needs a mass). Its velocity is kept."""
         i = self._index(i)
-        self._core.set_kinematic(i, _flag(kinematic, self._label(i), "kinematic"))
+        self._core.set_kinematic(i, as_flag(kinematic, self.label(i), "kinematic"))
 
     def set_enabled(self, i: int, enabled: bool) -> None:
         """Disables (False) or enables body i. A disabled body keeps its pose and velocity, feels
         no gravity or forces and collides with nothing; enabled again, it carries on from there."""
         i = self._index(i)
-        self._core.set_enabled(i, _flag(enabled, self._label(i), "enabled"))
+        self._core.set_enabled(i, as_flag(enabled, self.label(i), "enabled"))
 
     def set_collision_filter(self, i: int, group: int = 1, mask: int = ALL_BITS) -> None:
         """Collision filter bits of body i (32 each): bodies a and b collide only when
         ``group_a & mask_b`` and ``group_b & mask_a`` are both non-zero (Box2D's category and
         mask bits). The defaults (1, all bits) collide with everything."""
         i = self._index(i)
-        who = self._label(i)
-        self._core.set_collision_filter(i, _bits(group, who, "group"), _bits(mask, who, "mask"))
+        who = self.label(i)
+        self._core.set_collision_filter(i, as_bits(group, who, "group"), as_bits(mask, who, "mask"))
 
     def disable_collision(self, i: int, j: int) -> None:
         """Bodies i and j never collide with each other (whatever their filter bits say)."""
@@ -581,10 +477,10 @@ class World:
         """Sets body i's friction (mu >= 0), restitution (e in [0, 1]) and/or spinning friction
         (mu_spin >= 0, m); None keeps it."""
         i = self._index(i)
-        who = self._label(i)
-        mu = _scalar(friction, who, "friction")
-        e = _scalar(restitution, who, "restitution")
-        mu_spin = _scalar(spinning_friction, who, "spinning_friction")
+        who = self.label(i)
+        mu = as_scalar(friction, who, "friction")
+        e = as_scalar(restitution, who, "restitution")
+        mu_spin = as_scalar(spinning_friction, who, "spinning_friction")
         self._core.set_material(i, float(self._core.frictions[i]) if mu is None else mu,
                                 float(self._core.restitutions[i]) if e is None else e,
                                 float(self._core.spinning_frictions[i]) if mu_spin is None else mu_spin)
@@ -608,16 +504,10 @@ class World:
         """The model (settings; per body its shape as stored, static and kinematic flags, mass and
         inertia, material, name, filter bits; disabled pairs) and the saved state."""
         c = self._core
-        masses, inertias, statics, kinematic = c.masses, c.inertias, c.is_static, c.is_kinematic
-        frictions, restitutions, names, groups, masks = c.frictions, c.restitutions, c.names, c.groups, c.masks
-        spinning = c.spinning_frictions
-        bodies = [{"shape": c.shape(i), "static": bool(statics[i]), "kinematic": bool(kinematic[i]),
-                   "mass": float(masses[i]), "inertia": inertias[i], "friction": float(frictions[i]),
-                   "restitution": float(restitutions[i]), "spinning_friction": float(spinning[i]),
-                   "name": names[i], "group": int(groups[i]), "mask": int(masks[i])} for i in range(c.num_bodies)]
+        bodies = [{"shape": c.shape(i), **model} for i, model in enumerate(codec.body_models(self))]
         return {"version": 1, "gravity": np.array(c.gravity), "contact_margin": c.contact_margin,
                 "solver": self.solver, "bodies": bodies, "excluded_pairs": list(c.excluded_pairs),
-                "state": self.save_state(), "given": [tuple(g) for g in self._given]}
+                "state": self.save_state(), "given": [None if g is None else tuple(g) for g in self._args]}
 
     def __setstate__(self, d: dict) -> None:
         if d.get("version") != 1:
@@ -635,15 +525,18 @@ class World:
         for i, j in d["excluded_pairs"]:
             c.set_pair_collision(i, j, False)
         self.restore_state(d["state"])
-        self._given = [_Given(*g) for g in d.get("given", ())]  # for save_scene
+        # for save_scene; a record of an older version (no inertia) is unknown, not guessed
+        given = d.get("given") or [None] * c.num_bodies
+        self._args = [codec.BodyArgs(*g) if g is not None and len(g) == len(codec.BodyArgs._fields) else None
+                      for g in given]
 
     # stepping ---------------------------------------------------------------------------------
     def step(self, dt: float, steps: int = 1) -> None:
         """Advances ``steps`` steps of ``dt`` seconds (dt > 0 and finite)."""
-        dt = _required(dt, "step", "dt")
+        dt = as_number(dt, "step", "dt")
         if isinstance(steps, (int, np.integer)) and not isinstance(steps, (bool, np.bool_)) and steps > INT_MAX:
             raise ValueError(f"step: steps = {steps} is too large: at most {INT_MAX} per call (call step again)")
-        steps = _count(steps, "step", "steps")
+        steps = as_count(steps, "step", "steps")
         if steps < 0:
             raise ValueError(f"step: steps must be >= 0, got {steps}")
         self._core.step(dt, int(steps))
@@ -707,70 +600,100 @@ class World:
         return self._core.torques
 
     @property
+    def step_forces(self) -> np.ndarray:
+        """(N, 3) forces for the next step only (``apply_force``), world (N); a read-only view."""
+        return self._core.step_forces
+
+    @property
+    def step_torques(self) -> np.ndarray:
+        """(N, 3) torques for the next step only (``apply_force`` at a point), world (N m); a read-only view."""
+        return self._core.step_torques
+
+    @property
+    def impulses(self) -> np.ndarray:
+        """(N, 3) pending impulses (``apply_impulse``), applied at the start of the next step (N s); a read-only view."""
+        return self._core.impulses
+
+    @property
+    def angular_impulses(self) -> np.ndarray:
+        """(N, 3) pending angular impulses about the centres of mass (N m s); a read-only view."""
+        return self._core.angular_impulses
+
+    @property
     def masses(self) -> np.ndarray:
         """(N,) masses (kg); infinity for static bodies."""
-        return _readonly(self._core.masses)
+        return readonly(self._core.masses)
 
     @property
     def inertias(self) -> np.ndarray:
         """(N, 3, 3) inertia tensors about the centre of mass, body axes (kg m^2); zero for static."""
-        return _readonly(self._core.inertias)
+        return readonly(self._core.inertias)
 
     @property
     def frictions(self) -> np.ndarray:
         """(N,) friction coefficients mu."""
-        return _readonly(self._core.frictions)
+        return readonly(self._core.frictions)
 
     @property
     def restitutions(self) -> np.ndarray:
         """(N,) restitution coefficients e."""
-        return _readonly(self._core.restitutions)
+        return readonly(self._core.restitutions)
 
     @property
     def spinning_frictions(self) -> np.ndarray:
         """(N,) spinning (torsional) friction coefficients mu_spin (m)."""
-        return _readonly(self._core.spinning_frictions)
+        return readonly(self._core.spinning_frictions)
 
     @property
     def contact_forces(self) -> np.ndarray:
         """(N, 3) summed contact force on each body in the last step (N, world), static ones too."""
-        return _readonly(self._core.contact_forces)
+        return readonly(self._core.contact_forces)
 
     @property
     def contact_torques(self) -> np.ndarray:
         """(N, 3) summed contact torque about each body's com in the last step (N m, world)."""
-        return _readonly(self._core.contact_torques)
+        return readonly(self._core.contact_torques)
 
     @property
     def warm_start_cache(self) -> dict:
         """The forces the next step starts from: body_a, body_b (K,), feature_a, feature_b (K,)
         uint64, alpha (K,) N, friction (K, 3) N world, spin (K,) N m (the torsional friction
         torque about the normal), sorted by key."""
-        return {k: _readonly(v) for k, v in self._core.warm_start_cache.items()}
+        return {k: readonly(v) for k, v in self._core.warm_start_cache.items()}
 
     @property
     def is_static(self) -> np.ndarray:
         """(N,) bool."""
-        return _readonly(self._core.is_static)
+        return readonly(self._core.is_static)
 
     @property
     def is_kinematic(self) -> np.ndarray:
         """(N,) bool: bodies moved by their velocity only."""
-        return _readonly(self._core.is_kinematic)
+        return readonly(self._core.is_kinematic)
 
     @property
     def enabled(self) -> np.ndarray:
         """(N,) bool: False for disabled bodies (``set_enabled``)."""
-        return _readonly(self._core.enabled)
+        return readonly(self._core.enabled)
 
     @property
     def collision_filters(self) -> tuple:
         """(groups, masks): two (N,) uint32 arrays of collision filter bits."""
-        return _readonly(self._core.groups), _readonly(self._core.masks)
+        return readonly(self._core.groups), readonly(self._core.masks)
+
+    @property
+    def contact_margin(self) -> float:
+        """The contact margin (m) the world was made with."""
+        return self._core.contact_margin
+
+    @property
+    def disabled_pairs(self) -> list:
+        """Pairs (i, j), i < j, sorted, that never collide (``disable_collision``)."""
+        return [tuple(p) for p in self._core.excluded_pairs]
 
     @property
     def gravity(self) -> np.ndarray:
-        return _readonly(np.array(self._core.gravity))
+        return readonly(np.array(self._core.gravity))
 
     @property
     def contacts(self) -> Contacts:
@@ -785,7 +708,7 @@ class World:
 
     def detect_contacts(self, dt: float) -> Contacts:
         """Contacts the current state would give for a step of dt, without stepping (alpha = 0)."""
-        return Contacts(**self._core.detect_contacts(_required(dt, "detect_contacts", "dt")))
+        return Contacts(**self._core.detect_contacts(as_number(dt, "detect_contacts", "dt")))
 
     def kinetic_energy(self) -> float:
         """1/2 sum (m |v|^2 + omega . I_w omega) (J)."""
@@ -802,25 +725,9 @@ class World:
         force and torque (``apply_force``); ``impulse``, ``angular_impulse`` (N, 3): pending
         impulses about the centres of mass (``apply_impulse``)."""
         c = self._core
-        masses, inv_masses, inertias, inv_inertias = c.masses, c.inv_masses, c.inertias, c.inv_inertias
-        frictions, restitutions, statics = c.frictions, c.restitutions, c.is_static
-        spinning = c.spinning_frictions
-        kinematic, enabled, groups, masks = c.is_kinematic, c.enabled, c.groups, c.masks
-        bodies = [{
-            "shape": shape_dict(c.shape(i)),
-            "static": bool(statics[i]),
-            "kinematic": bool(kinematic[i]),
-            "enabled": bool(enabled[i]),
-            "mass": float(masses[i]),
-            "inv_mass": float(inv_masses[i]),
-            "inertia": inertias[i],
-            "inv_inertia": inv_inertias[i],
-            "friction": float(frictions[i]),
-            "restitution": float(restitutions[i]),
-            "spinning_friction": float(spinning[i]),
-            "group": int(groups[i]),
-            "mask": int(masks[i]),
-        } for i in range(c.num_bodies)]
+        inv_masses, inv_inertias = c.inv_masses, c.inv_inertias
+        bodies = [{"shape": codec.shape_to_dict(c.shape(i)), **model, "inv_mass": float(inv_masses[i]),
+                   "inv_inertia": inv_inertias[i]} for i, model in enumerate(codec.body_models(self))]
         return {
             "gravity": np.array(c.gravity),
             "settings": {"contact_margin": c.contact_margin, **self.solver},
@@ -835,44 +742,16 @@ class World:
         }
 
     def save_scene(self, path) -> Path:
-        """Writes this world to a TOML scene file (``signorini.save_scene``); returns the path."""
-        from .scenefile import save_scene
-
-        return save_scene(self, path)
+        """Writes this world to a TOML scene file (``signorini.save_scene``); returns the path.
+        ValueError naming the body for what a scene file cannot hold (a pending impulse or
+        one-step force)."""
+        return codec.write_scene(self, path)
 
     def __repr__(self) -> str:
         return f"World({self.num_bodies} bodies, t={self.time:g} s)"
 
 
-def shape_dict(shape) -> dict:
-    """A shape as the oracle's plain dict ({"type": "sphere", "radius": r}, ...)."""
-    if isinstance(shape, Sphere):
-        return {"type": "sphere", "radius": shape.radius}
-    if isinstance(shape, Box):
-        return {"type": "box", "half_extents": np.array(shape.half_extents)}
-    if isinstance(shape, Plane):
-        return {"type": "plane", "normal": np.array(shape.normal), "offset": shape.offset}
-    if isinstance(shape, Mesh):
-        d = {"type": "mesh", "vertices": np.array(shape.vertices), "faces": np.array(shape.faces)}
-        if shape.pieces:
-            d["pieces"] = [np.array(p) for p in shape.pieces]  # convex pieces' hull vertices (n_i, 3)
-        return d
-    if isinstance(shape, Capsule):
-        return {"type": "capsule", "radius": shape.radius, "half_length": shape.half_length}
-    if isinstance(shape, Cylinder):
-        return {"type": "cylinder", "radius": shape.radius, "half_height": shape.half_height}
-    if isinstance(shape, ConvexHull):
-        return {"type": "hull", "vertices": np.array(shape.vertices), "faces": np.array(shape.faces)}
-    if isinstance(shape, TriangleMesh):
-        return {"type": "trimesh", "vertices": np.array(shape.vertices), "faces": np.array(shape.faces)}
-    if isinstance(shape, Compound):
-        # (part dict, position (3,), compound-from-part rotation (3, 3)) exactly as the core holds them
-        return {"type": "compound", "parts": [(shape_dict(s), np.array(pos), R.copy())
-                                              for (s, (pos, _)), R in zip(shape.parts, shape.rotations)]}
-    raise TypeError(f"not a signorini shape: {shape!r}")
-
-
 def mass_properties(shape, density: float):
     """(mass kg, com (3,) m in the shape's frame, inertia (3, 3) kg m^2 about the com) for a
     uniform density (kg/m^3). A mesh must be closed and outward-oriented."""
-    return _core.mass_properties(shape, _scalar(density, type(shape).__name__, "density"))
+    return _core.mass_properties(shape, as_scalar(density, type(shape).__name__, "density"))

@@ -1,10 +1,14 @@
 // Rotations: Rodrigues against the matrix exponential, orthonormality over 1e5 steps, quaternions.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <random>
+#include <stdexcept>
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include "math/rotation.hpp"
+#include "signorini/rotation.hpp"
 
 using namespace signorini;
 
@@ -61,4 +65,25 @@ TEST(Rotation, QuaternionRoundTrip) {
   // a quarter turn about z takes x to y
   const Quat4 qz(std::sqrt(0.5), 0, 0, std::sqrt(0.5));
   EXPECT_LT((math::quat_to_matrix(qz) * Vec3::UnitX() - Vec3::UnitY()).norm(), 1e-15);
+}
+
+TEST(Rotation, PublicFunctionsAreTheWorldsMaths) {
+  // rotation_matrix is what World makes of a body's quaternion, to the bit; rotation_quaternion inverts it
+  std::mt19937 rng(20);
+  std::normal_distribution<double> N(0.0, 1.0);
+  for (int trial = 0; trial < 200; ++trial) {
+    const Quat4 q = 3.0 * Quat4(N(rng), N(rng), N(rng), N(rng));
+    const Mat3 R = rotation_matrix(q);
+    EXPECT_TRUE(R == math::quat_to_matrix(math::unit_quaternion(q)));
+    const Quat4 back = rotation_quaternion(R);
+    const Quat4 unit = math::unit_quaternion(q) * (q[0] < 0.0 ? -1.0 : 1.0);
+    EXPECT_GE(back[0], 0.0);
+    EXPECT_LT((back - unit).norm(), 1e-15);
+  }
+  EXPECT_THROW(rotation_matrix(Quat4::Zero()), std::invalid_argument);
+  EXPECT_THROW(rotation_matrix(Quat4(std::nan(""), 0.0, 0.0, 1.0)), std::invalid_argument);
+  EXPECT_THROW(rotation_quaternion(Mat3::Zero()), std::invalid_argument);
+  Mat3 bad = Mat3::Identity();
+  bad(1, 2) = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(rotation_quaternion(bad), std::invalid_argument);
 }

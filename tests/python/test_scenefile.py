@@ -105,6 +105,112 @@ def test_a_moved_world_is_saved_in_its_current_state(tmp_path):
     np.testing.assert_allclose(b.inertias, a.inertias, rtol=1e-15)
 
 
+def flagged_world():
+    """Kinematic bodies (added with and without a mass, and made kinematic later), explicit
+    inertia, filter bits, a disabled pair, a disabled body, a persistent wrench and names."""
+    w = sg.World()
+    w.add_static(sg.Plane((0, 0, 1), 0.0), name="ground", friction=0.8)
+    # a paddle sweeping along the ground, kinematic without a mass
+    w.add_body(sg.Box((0.5, 0.1, 0.05)), kinematic=True, position=(-1.0, -0.5, 0.06), velocity=(1.0, 0.0, 0.0),
+               name="paddle")
+    w.add_body(sg.Sphere(0.1), mass=2.0, kinematic=True, position=(0.5, 0.8, 0.3), angular_velocity=(0, 0, 3.0))
+    w.add_body(sg.Box((0.1, 0.1, 0.1)), mass=1.5, inertia=np.diag([0.01, 0.02, 0.03]), position=(0, 0, 0.12),
+               orientation=(0.9, 0.1, 0.2, 0.3), spinning_friction=0.001, restitution=0.3, group=8, name="block")
+    # falls through the block (group 8 is not in its mask) onto the ground
+    w.add_body(sg.Sphere(0.05), density=800.0, position=(0.05, 0.0, 0.5), group=2, mask=0xFFFFFFF7, name="ghost")
+    w.add_body(sg.Capsule(0.05, 0.1), density=600.0, position=(0.3, 0.0, 0.4))
+    w.add_body(sg.Cylinder(0.05, 0.1), density=600.0, position=(0.3, 0.0, 0.7), enabled=False, name="off")
+    w.add_body(sg.Box((0.05, 0.05, 0.05)), density=500.0, position=(-0.3, 0.2, 0.3))
+    w.set_kinematic(7, True)
+    w.set_velocity(7, (0.0, 0.0, -0.1))
+    w.add_body(sg.Sphere(0.08), density=300.0, position=(0.3, 0.0, 0.2), name="free")
+    w.disable_collision(5, 8)  # the capsule falls through the ball below it
+    w.set_collision_filter(5, 4, 0xFF)
+    w.set_material(6, friction=0.2)
+    w.set_external_wrench(8, (0.0, 0.2, 0.0), (0.0, 0.0, 0.01))
+    return w
+
+
+def test_kinematic_inertia_filters_disabled_pairs_and_enabled_flags_round_trip_bit_for_bit(tmp_path):
+    a = flagged_world()
+    path = a.save_scene(tmp_path / "flags.toml")
+    b = sg.load_scene(path)
+    assert_same_world(a, b)
+    for key in ("is_kinematic", "enabled", "names", "disabled_pairs", "forces", "torques"):
+        assert np.array_equal(getattr(a, key), getattr(b, key)), key
+    assert all(np.array_equal(x, y) for x, y in zip(a.collision_filters, b.collision_filters))
+    assert np.array_equal(b.is_kinematic, [False, True, True, False, False, False, False, True, False])
+    assert list(b.enabled).count(False) == 1 and b.disabled_pairs == [(5, 8)]
+    assert np.array_equal(b.inertias[3], np.diag([0.01, 0.02, 0.03])) and b.masses[1] == np.inf
+    for _ in range(200):
+        a.step(1 / 240)
+        b.step(1 / 240)
+    assert_same_world(a, b, STATE + ("orientations",))
+    assert np.array_equal(a.contacts.alpha, b.contacts.alpha)
+    # the flags acted: the paddle slid 200/240 m without falling, the disabled body stayed put,
+    # the ghost fell through the block to the ground, the capsule through the ball, which the
+    # wrench rolled along +y
+    assert b.positions[1, 2] == 0.06 and b.positions[1, 0] == pytest.approx(-1.0 + 200 / 240, abs=1e-12)
+    assert np.array_equal(b.positions[6], (0.3, 0.0, 0.7))
+    assert b.positions[4, 2] == pytest.approx(0.05, abs=0.002)
+    assert b.positions[5, 2] < 0.2 and b.positions[8, 1] > 0.03
+
+
+def test_a_compound_with_turned_parts_round_trips_bit_for_bit(tmp_path):
+    # quaternions that are not unit: a Compound keeps the matrices, which the file keeps exactly
+    rng = np.random.default_rng(4)
+    parts = [(sg.Box((0.1, 0.05, 0.02)), ((0.0, 0.0, 0.0), tuple(rng.normal(size=4)))),
+             (sg.Sphere(0.04), ((0.1, 0.0, 0.05), tuple(rng.normal(size=4)))),
+             (sg.Capsule(0.02, 0.05), ((-0.1, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)))]
+    a = sg.World()
+    a.add_static(sg.Plane((0, 0, 1), 0.0))
+    a.add_body(sg.Compound(parts), density=500.0, position=(0, 0, 0.3), angular_velocity=(1.0, 2.0, 3.0))
+    path = a.save_scene(tmp_path / "compound.toml")
+    assert path.read_text().count("rotation = [") == 2 and path.read_text().count("orientation = [1.0, 0.0") == 1
+    b = sg.load_scene(path)
+    assert np.array_equal(a.shape(1).rotations, b.shape(1).rotations)
+    assert_same_world(a, b)
+    a.step(1 / 240, 200)
+    b.step(1 / 240, 200)
+    assert_same_world(a, b, STATE)
+
+
+@pytest.mark.parametrize("pending, what", [
+    (lambda w, i: w.apply_force(i, (1.0, 0.0, 0.0), point=w.positions[i] + (0.0, 0.0, 0.1)),
+     "a force for the next step only (apply_force)"),
+    (lambda w, i: w.apply_impulse(i, (0.0, 0.0, 1.0)), "a pending impulse (apply_impulse)"),
+])
+def test_what_a_scene_file_cannot_hold_is_refused_naming_the_body(tmp_path, pending, what):
+    w = flagged_world()
+    pending(w, 8)
+    before = w.save_state()
+    with pytest.raises(ValueError, match=re.escape(f"body 8 'free' (Sphere): {what}")):
+        w.save_scene(tmp_path / "pending.toml")
+    with pytest.raises(ValueError, match=re.escape(f"body 8 'free' (Sphere): {what}")):
+        sg.save_scene(w, tmp_path / "pending.toml")
+    assert not (tmp_path / "pending.toml").exists() and w.save_state().data == before.data
+
+
+@pytest.mark.parametrize("table, message", [
+    ("kinematic = true", "bodies[0] ('wall'): kinematic: a static body cannot be kinematic"),
+    ("inertia = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]", "bodies[0] ('wall'): inertia: a static body"),
+    ("force = [0.0, 0.0, 1.0]", "bodies[0] ('wall'): force: a static body cannot have a force"),
+    ("mask = 4294967296", "bodies[0].mask (body 'wall'): Input should be less than or equal to 4294967295"),
+])
+def test_flags_a_static_body_cannot_take_are_errors(tmp_path, table, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(f'[[bodies]]\nname = "wall"\nstatic = true\n{table}\nshape = {{ type = "sphere", radius = 1.0 }}\n')
+    with pytest.raises(sg.SceneFileError, match=re.escape(message)):
+        sg.load_scene(path)
+
+
+def test_a_disabled_pair_out_of_range_names_its_key(tmp_path):
+    path = tmp_path / "pairs.toml"
+    path.write_text('disabled_pairs = [[0, 3]]\n[[bodies]]\nshape = { type = "sphere", radius = 1.0 }\nmass = 1.0\n')
+    with pytest.raises(sg.SceneFileError, match=re.escape("disabled_pairs[0]: ")):
+        sg.load_scene(path)
+
+
 def test_a_hand_written_file_with_materials_and_inline_mesh(tmp_path):
     (tmp_path / "drop.toml").write_text("""
 [scene]
