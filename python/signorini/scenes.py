@@ -58,7 +58,9 @@ DEFAULT_SCENE = "torus"
 def axis_angle_quaternion(axis, angle: float) -> tuple[float, float, float, float]:
     """Unit quaternion (w, x, y, z) of a rotation by angle (rad) about axis (3,) (any length > 0)."""
     a = np.asarray(axis, dtype=np.float64)
-    a = a / np.linalg.norm(a)
+    # plain IEEE arithmetic, not np.linalg.norm: its BLAS kernel differs by CPU, and the shipped
+    # scene files must be what this gives on any machine
+    a = a / math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
     s = math.sin(0.5 * angle)
     return (math.cos(0.5 * angle), s * a[0], s * a[1], s * a[2])
 

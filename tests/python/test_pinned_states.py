@@ -14,8 +14,10 @@ from signorini import fuzz, scenes
 
 PINNED = {
     # built-in mixed pile (spheres, boxes, capsules, cylinders, hulls, meshes, compounds, decomposed
-    # tori in a walled pit), 400 steps of 1/240 s: bodies landing on each other
-    "pile": "300ed2e99821f4cd4d46b0523d09c0303c97943c3ddfcd7cfc232fa97e52d612",
+    # tori in a walled pit), 400 steps of 1/240 s: bodies landing on each other (re-pinned once, when
+    # the shipped pile.toml was written again with the last bits of 9 orientations changed; the
+    # restructuring had kept the earlier pin)
+    "pile": "ed7e148b3566e6b445437906a37a1dfc6d6d9537392c4f0808678003f339b813",
     # the 210-box pyramid, 150 steps of 1/240 s
     "pyramid": "5ab68a0fe70285054a9cd92dea4fbffc8c70ebbd4d03a18d2072170f79d60ff7",
     # fuzzer scene 1:103: 14 bodies of all 7 kinds on a triangle-mesh height field, its full 1.5 s
