@@ -9,5 +9,6 @@ cmake -S . -B build/cpp -G Ninja -DCMAKE_BUILD_TYPE=Release -DSIGNORINI_BUILD_TE
   -DSIGNORINI_BUILD_PYTHON=OFF >/dev/null
 cmake --build build/cpp
 ctest --test-dir build/cpp --output-on-failure
-lint-imports
+# the import-linter contracts of pyproject.toml, by the interpreter the package is installed in
+python3 -c "import sys; from importlinter.cli import lint_imports_command; sys.exit(lint_imports_command())"
 python3 -m pytest -q tests/python

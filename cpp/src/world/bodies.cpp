@@ -240,23 +240,14 @@ void World::remove_bodies(const std::vector<BodyIndex>& indices) {
   pairs.erase(std::remove_if(pairs.begin(), pairs.end(), [&](const auto& p) { return gone(p.first) || gone(p.second); }),
               pairs.end());
   for (auto& p : pairs) p = {to[p.first], to[p.second]};
-  auto& cache = solver_->cache;
-  cache.erase(std::remove_if(cache.begin(), cache.end(),
-                             [&](const CachedContact& c) { return gone(c.body_a) || gone(c.body_b); }),
-              cache.end());
-  for (CachedContact& c : cache) {
-    c.body_a = to[c.body_a];
-    c.body_b = to[c.body_b];
-  }
+  const auto renumber = [&](auto& list) {
+    list.erase(std::remove_if(list.begin(), list.end(), [&](const auto& c) { return gone(c.body_a) || gone(c.body_b); }),
+               list.end());
+    for (auto& c : list) c.body_a = to[c.body_a], c.body_b = to[c.body_b];
+  };
+  renumber(solver_->cache);
   if (contacts_.use_count() > 1) contacts_ = std::make_shared<std::vector<Contact>>(*contacts_);
-  auto& contacts = *contacts_;
-  contacts.erase(std::remove_if(contacts.begin(), contacts.end(),
-                                [&](const Contact& c) { return gone(c.body_a) || gone(c.body_b); }),
-                 contacts.end());
-  for (Contact& c : contacts) {
-    c.body_a = to[c.body_a];
-    c.body_b = to[c.body_b];
-  }
+  renumber(*contacts_);
 }
 
 }  // namespace signorini
