@@ -353,7 +353,7 @@ def _origin_checked(bind_host: str):
 
     def serve(handler, *args, process_request=None, **kwargs):
         async def checked(connection, request):
-            if request.headers.get("Upgrade", "").lower() == "websocket":
+            if request.headers.get_all("Upgrade"):  # only such a request can become a websocket
                 port = connection.local_address[1]
                 if not own_origin(request.headers.get("Origin"), bind_host, port, request.headers.get("Host")):
                     return connection.respond(http.HTTPStatus.FORBIDDEN,

@@ -312,7 +312,6 @@ class World:
         return self._add(shape, True, False, None, None, None, position, orientation, (0.0, 0.0, 0.0),
                          (0.0, 0.0, 0.0), friction, restitution, spinning_friction, name, group, mask, enabled)
 
-    @_locked
     def _add(self, shape, is_static, kinematic, density, mass, inertia, position, orientation, velocity,
              angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled) -> int:
         who = f"body {self.num_bodies} ({type(shape).__name__})"
@@ -341,11 +340,13 @@ class World:
                 shape = decompose(shape)
             except ValueError as e:
                 raise ValueError(f"{who}: {e}") from None
-        index = self._core.add_body(shape, *args)
         # what it was added with (save_scene writes a body that has not moved with these values)
         # (copies: a caller's array changed later must not change the record)
-        self._args.append(codec.BodyArgs(shape, *args[2:4], *(readonly(np.array(a)) for a in args[5:9]),
-                                         inertia=None if args[4] is None else readonly(np.array(args[4]))))
+        record = codec.BodyArgs(shape, *args[2:4], *(readonly(np.array(a)) for a in args[5:9]),
+                                inertia=None if args[4] is None else readonly(np.array(args[4])))
+        with self._lock:  # the checks and a mesh's decomposition above run without it
+            index = self._core.add_body(shape, *args)
+            self._args.append(record)
         return index
 
     @_locked
