@@ -140,7 +140,7 @@ void register_world(py::module_& m) {
         w.set_settings(s);
       })
       .def("shape", [](const World& w, BodyIndex i) {
-        if (i < 0 || static_cast<std::size_t>(i) >= w.num_bodies()) throw std::out_of_range("body index " + std::to_string(i) + " is out of range");
+        w.label(i);  // BodyIndexError naming the index and the body count
         return bindings::from_shape(w.model().shape[i]);
       })
       .def_property_readonly("num_bodies", &World::num_bodies)
@@ -208,7 +208,18 @@ void register_world(py::module_& m) {
       .def_property_readonly("solver", [](const World& w) { return w.settings().solver; })
       // last step
       .def_property_readonly("contacts", [](const World& w) { return bindings::contact_views(w.shared_contacts()); })
-      .def("detect_contacts", [](const World& w, double dt) { return contact_arrays(w.detect_contacts(dt)); }, py::arg("dt"))
+      .def(
+          "detect_contacts",
+          [](const World& w, double dt) {
+            std::vector<Contact> found;
+            {
+              // the narrow phase runs without the GIL, as step does (it may wait for the world's lock)
+              const py::gil_scoped_release release;
+              found = w.detect_contacts(dt);
+            }
+            return contact_arrays(found);
+          },
+          py::arg("dt"))
       .def_property_readonly("solver_stats", [](const World& w) {
         const SolverStats& s = w.solver_stats();
         py::dict d;

@@ -47,7 +47,10 @@ def as_rows(x, cols: int, who: str, what: str) -> np.ndarray:
 
 
 def as_indices(x, who: str) -> np.ndarray:
-    """x as an int64 array of shape (n,) (one integer gives one index); the core checks the range."""
+    """x as an int64 array of shape (n,) (one integer gives one index); the core checks the range.
+    Bools are not indices, not even among integers (NumPy reads [1, True] as [1, 1])."""
+    if isinstance(x, (list, tuple)) and any(isinstance(k, (bool, np.bool_)) for k in x):
+        raise TypeError(f"{who}: indices must be integers, got {x!r}")
     a = np.asarray(x)
     if a.ndim == 0:
         a = a.reshape(1)

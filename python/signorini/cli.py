@@ -164,9 +164,18 @@ def make_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="examples:\n  python -m signorini view boxes               # simulated live, http://127.0.0.1:8080\n"
                "  python -m signorini view out/boxes.npz        # a saved trajectory\n"
-               "  python -m signorini view my_scene.toml --host 0.0.0.0 --port 9000")
+               "  python -m signorini view my_scene.toml --host 0.0.0.0 --port 9000\n\n"
+               "who can connect:\n"
+               "  By default the viewer listens on 127.0.0.1: only this machine can reach it, and only\n"
+               "  the viewer's own page can open its websocket (a page of another site open in your\n"
+               "  browser is refused). With --host 0.0.0.0 (or another address of this machine) ANYONE\n"
+               "  WHO CAN REACH THIS MACHINE ON THE NETWORK can open the viewer, watch the simulation\n"
+               "  and control it (play, pause, step, scrub): there is no password and no encryption.\n"
+               "  Use it on a network you trust only. The share-URL feature (a public tunnel) is off.")
     view.add_argument("source", help="a built-in scene name or a scene file .toml (simulated live), or a trajectory .npz")
-    view.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1; 0.0.0.0 for all)")
+    view.add_argument("--host", default="127.0.0.1",
+                      help="address to serve on (default 127.0.0.1, this machine only; 0.0.0.0 serves every "
+                           "network interface: anyone on the network can view and control the simulation)")
     view.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
 
     commands.add_parser("list", help="list the built-in scenes", formatter_class=argparse.RawDescriptionHelpFormatter,

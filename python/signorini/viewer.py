@@ -12,13 +12,32 @@ arrows (``/contacts/forces``, m per N as in the HTML player). The panel: play / 
 frame; a live scene takes one more step at the end), a timeline slider, speed, toggles for contact
 points, normals and forces, and the state of the body last clicked (name, mass, position,
 velocity, angular velocity, its contacts). ``serve_forever()`` blocks until Ctrl-C.
+
+Who may connect: the page's websocket controls the simulation, so the server accepts it only from
+its own page. A websocket request whose ``Origin`` is not the address the viewer serves (for a
+loopback bind: http://127.0.0.1:PORT, http://localhost:PORT or http://[::1]:PORT; for a wildcard
+bind 0.0.0.0 or ::, the address the browser asked for, if it is an IP address, a loopback name or
+this machine's name) is refused with HTTP 403 before the handshake, so a page of another site open
+in the same browser cannot connect. viser has no hook for this: ``_origin_checked`` wraps
+``websockets.asyncio.server.serve`` while the viser server starts (its ``process_request`` sees
+every request first), and the viewer refuses to run if viser did not start through it. viser's
+share URL (a public tunnel through viser's relay) is off: the share button is hidden and a share
+request from a page is refused, so the server never contacts anything outside this machine.
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import http
+import inspect
+import ipaddress
 import math
+import re
+import socket
 import threading
 import time as _time
+from urllib.parse import urlsplit
 
 import numpy as np
 
@@ -63,7 +82,13 @@ class Viewer:
         self.force_scale = _force_scale_of(base, camera)
         self._normal_length = 0.06 * float(np.linalg.norm(camera["offset"]))
 
-        self.server = viser.ViserServer(host=host, port=port, verbose=verbose)
+        with _origin_checked(host) as applied:
+            self.server = _local_server_class()(host=host, port=port, verbose=verbose)
+        if not applied:
+            self.server.stop()
+            raise RuntimeError(f"viser {viser.__version__} did not start its server through "
+                               "websockets.asyncio.server.serve: the viewer will not serve without its Origin check")
+        self.server.gui.configure_theme(show_share_button=False)
         self.port = self.server.get_port()
         self.server.scene.set_up_direction(tuple(float(x) for x in camera["up"]))
 
@@ -255,3 +280,114 @@ def _force_scale_of(record: Record, camera: dict) -> float:
     weight = max(masses, default=1.0) * max(float(np.linalg.norm(record.gravity)), 1.0)
     half_height = float(np.linalg.norm(camera["offset"])) * math.sin(math.radians(0.5 * camera["fov"]))
     return 0.2 * half_height / weight
+
+
+# who may connect ------------------------------------------------------------------------------------
+_LOOPBACK_NAMES = {"localhost", "localhost.localdomain", "ip6-localhost"}
+_WILDCARDS = {"", "0.0.0.0", "::"}
+_NETLOC = re.compile(r"(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+)(:[0-9]{1,5})?")  # host[:port], no user
+_serving = threading.Lock()  # one viewer at a time wraps websockets' serve
+
+
+def _is_loopback(name: str) -> bool:
+    if name in _LOOPBACK_NAMES:
+        return True
+    try:
+        return ipaddress.ip_address(name).is_loopback
+    except ValueError:
+        return False
+
+
+def _is_address_or_own_name(name: str) -> bool:
+    """An IP address, a loopback name or this machine's name: not a name a stranger's DNS serves."""
+    try:
+        ipaddress.ip_address(name)
+        return True
+    except ValueError:
+        pass
+    own = {socket.gethostname().lower(), socket.getfqdn().lower()}
+    return _is_loopback(name) or name in own
+
+
+def own_origin(origin: str | None, bind_host: str, port: int, host_header: str | None = None) -> bool:
+    """True when a websocket request's ``Origin`` header is the page of this server: scheme http,
+    this port, and the host it serves (any loopback name for a loopback bind; for a wildcard bind
+    the host of the request's ``Host`` header, when that is an IP address, a loopback name or this
+    machine's name: a foreign name could be DNS rebinding). Inputs: the header values (None when
+    absent: refused), the host the server was bound to and the port it listens on."""
+    if not origin:
+        return False
+    try:
+        parts = urlsplit(origin.strip())
+        origin_port = parts.port or 80
+    except ValueError:
+        return False
+    name = (parts.hostname or "").lower()
+    if parts.scheme != "http" or not _NETLOC.fullmatch(parts.netloc) or origin_port != port:
+        return False
+    if parts.path or parts.query or parts.fragment:
+        return False
+    bind = bind_host.strip("[]").lower()
+    if _is_loopback(bind):
+        return _is_loopback(name)
+    if bind in _WILDCARDS:
+        try:
+            asked = urlsplit("//" + (host_header or "").strip())
+            asked_name, asked_port = (asked.hostname or "").lower(), asked.port or 80
+        except ValueError:
+            return False
+        return name == asked_name and asked_port == port and _is_address_or_own_name(name)
+    return name == bind
+
+
+@contextlib.contextmanager
+def _origin_checked(bind_host: str):
+    """While the viser server starts: its ``websockets.asyncio.server.serve`` call gets a
+    ``process_request`` that answers a websocket request from a foreign ``Origin`` with 403 before
+    the handshake (and hands every other request to viser's own). Yields a list that is non-empty
+    once viser's serve went through the check."""
+    import websockets.asyncio.server as ws_server
+
+    applied = []
+    original = ws_server.serve
+
+    def serve(handler, *args, process_request=None, **kwargs):
+        async def checked(connection, request):
+            if request.headers.get_all("Upgrade"):  # only such a request can become a websocket
+                port = connection.local_address[1]
+                if not own_origin(request.headers.get("Origin"), bind_host, port, request.headers.get("Host")):
+                    return connection.respond(http.HTTPStatus.FORBIDDEN,
+                                              "the signorini viewer accepts connections from its own page only\n")
+            response = process_request(connection, request) if process_request is not None else None
+            return await response if inspect.isawaitable(response) else response
+
+        applied.append(handler)
+        return original(handler, *args, process_request=checked, **kwargs)
+
+    with _serving:
+        ws_server.serve = serve
+        try:
+            yield applied
+        finally:
+            ws_server.serve = original
+
+
+@functools.lru_cache(maxsize=None)
+def _local_server_class():
+    """viser.ViserServer without its share URL (built on first use: viser is imported lazily)."""
+    import viser
+
+    class LocalServer(viser.ViserServer):
+        """A viser server whose share URL is refused: a share request would open a public tunnel
+        through viser's relay (share.viser.studio). ``refused_share_requests`` counts them."""
+
+        refused_share_requests = 0
+
+        def request_share_url(self, verbose: bool = True) -> None:
+            self.refused_share_requests += 1
+            return None
+
+        def disconnect_share_url(self) -> None:
+            return None
+
+    return LocalServer

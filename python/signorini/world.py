@@ -4,9 +4,18 @@ No physics lives here: every number is computed by the C++ core. This layer turn
 arguments into the exact types and shapes the core takes; the core checks the values (finite,
 in range, a valid body index...) and its errors name the body and the problem. The state and
 contact arrays are read-only views of the core's storage, not copies.
+
+Threads: a World is safe to share between threads. Each method and property holds the world's
+re-entrant lock (``World.lock``) for its whole call, core call and Python-side records (what each
+body was added with, the warning counters) together, so calls on one World run one at a time and
+none sees another half done. ``step`` keeps the lock while the core steps with the GIL released:
+other worlds step in parallel in other threads, and other threads' calls on this world wait for
+the lock without holding the GIL. README "Threads" says what is and is not safe.
 """
 from __future__ import annotations
 
+import functools
+import threading
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -159,6 +168,15 @@ def _solver_settings(who: str, current=None, **given):
     return s
 
 
+def _locked(method):
+    """The method, run holding its world's lock (``World.lock``)."""
+    @functools.wraps(method)
+    def locked(self, *args, **kwargs):
+        with self._lock:
+            return method(self, *args, **kwargs)
+    return locked
+
+
 def _solid(mesh) -> bool:
     """True when the mesh is a closed solid of positive volume (else add_body reports why)."""
     try:
@@ -213,12 +231,23 @@ class World:
             friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
             warn_velocity=warn_velocity)
         self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), solver)
+        # held by every method and property (see World.lock); kept by __setstate__
+        self._lock = self.__dict__.get("_lock") or threading.RLock()
         # what each body was added with, in index order (save_scene writes a body that has not
         # moved with these values, so a saved scene steps bit for bit like the original)
         self._args: list[Optional[codec.BodyArgs]] = []
         self._unconverged_substeps = 0  # flagged substeps so far (see warn_velocity)
         self._warned = False
 
+    @property
+    def lock(self) -> threading.RLock:
+        """The world's re-entrant lock. Every method and property holds it for its whole call, so
+        calls from several threads run one at a time; hold it yourself (``with world.lock:``) to
+        make several calls one unit, such as ``remove_body(find(name))`` or a ``save_state`` and
+        the ``restore_state`` that undoes another thread's steps (README "Threads")."""
+        return self._lock
+
+    @_locked
     def set_solver(self, **settings) -> None:
         """Changes solver settings by keyword (the names of the constructor's); the others stay."""
         unknown = set(settings) - set(SOLVER_DEFAULTS)
@@ -228,12 +257,14 @@ class World:
         self._warned = False  # new settings: their first unconverged step warns again
 
     @property
+    @_locked
     def unconverged_substeps(self) -> int:
         """Solver substeps so far (``substeps`` per step) that ended with the contact solver unconverged and a contact approaching
         faster than ``warn_velocity`` (only the first of them raised a ``SolverWarning``)."""
         return self._unconverged_substeps
 
     @property
+    @_locked
     def solver(self) -> dict:
         """The solver settings as a dict (the constructor's keywords)."""
         s = self._core.solver
@@ -309,13 +340,16 @@ class World:
                 shape = decompose(shape)
             except ValueError as e:
                 raise ValueError(f"{who}: {e}") from None
-        index = self._core.add_body(shape, *args)
         # what it was added with (save_scene writes a body that has not moved with these values)
         # (copies: a caller's array changed later must not change the record)
-        self._args.append(codec.BodyArgs(shape, *args[2:4], *(readonly(np.array(a)) for a in args[5:9]),
-                                         inertia=None if args[4] is None else readonly(np.array(args[4]))))
+        record = codec.BodyArgs(shape, *args[2:4], *(readonly(np.array(a)) for a in args[5:9]),
+                                inertia=None if args[4] is None else readonly(np.array(args[4])))
+        with self._lock:  # the checks and a mesh's decomposition above run without it
+            index = self._core.add_body(shape, *args)
+            self._args.append(record)
         return index
 
+    @_locked
     def remove_body(self, i: int) -> None:
         """Removes body i. Indices behave like a Python list's: every body after i moves down one
         index (body i + 1 becomes body i, ...), names follow their bodies, and the warm-start cache,
@@ -329,18 +363,23 @@ class World:
         self._core.remove_body(i)
         del self._args[i]
 
+    @_locked
     def remove_bodies(self, indices) -> None:
         """Removes the bodies at ``indices`` ((K,) integers, any order, each once) in one O(N + K)
         pass with one broad-phase rebuild; the result is that of ``remove_body`` on each, from the
         highest index down: the bodies that stay keep their order and close up. An index out of
         range (BodyIndexError) or given twice (ValueError) changes nothing."""
         ii = as_indices(indices, "remove_bodies")
+        beyond = ii[(ii < -2**31) | (ii >= 2**31)]  # not even a C int: the core could not name it
+        if beyond.size:
+            raise BodyIndexError(f"body index {beyond[0]} is out of range: the world has {self.num_bodies} bodies")
         self._core.remove_bodies(ii)
         for i in sorted(set(int(k) for k in ii), reverse=True):
             del self._args[i]
 
     def _index(self, i) -> int:
-        """i as an int (the core checks the range and raises BodyIndexError)."""
+        """i as an int (the core checks the range and raises BodyIndexError naming the index and
+        the body count): a Python or NumPy integer, not a bool; negative indices are out of range."""
         if isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer)):
             raise TypeError(f"body index must be an integer, got {i!r}")
         i = int(i)
@@ -348,10 +387,12 @@ class World:
             raise BodyIndexError(f"body index {i} is out of range: the world has {self.num_bodies} bodies")
         return i
 
+    @_locked
     def label(self, i: int) -> str:
         """How errors name body i, "body 3 'ball' (Sphere)" (BodyIndexError when there is no body i)."""
         return self._core.label(self._index(i))
 
+    @_locked
     def body_args(self, i: int) -> Optional[codec.BodyArgs]:
         """What body i was added with (shape after any decomposition, density or mass, inertia, pose
         and velocities, as converted), or None when unknown (a world unpickled from an old pickle)."""
@@ -359,10 +400,14 @@ class World:
         self.label(i)
         return self._args[i]
 
+    @_locked
     def shape(self, i: int):
         """The shape of body i (a mesh body's vertices are centred on its centre of mass)."""
-        return self._core.shape(self._index(i))
+        i = self._index(i)
+        self.label(i)
+        return self._core.shape(i)
 
+    @_locked
     def name(self, i: int) -> str:
         """Body i's name ("" when it has none)."""
         i = self._index(i)
@@ -370,10 +415,12 @@ class World:
         return self._core.names[i]
 
     @property
+    @_locked
     def names(self) -> list:
         """Every body's name ("" for unnamed ones), in index order."""
         return self._core.names
 
+    @_locked
     def find(self, name: str) -> int:
         """The index of the body called ``name``; KeyError when there is none."""
         if not isinstance(name, str):
@@ -383,43 +430,52 @@ class World:
             raise KeyError(f"no body is named {name!r}")
         return i
 
+    @_locked
     def set_position(self, i: int, position) -> None:
         i = self._index(i)
         self._core.set_position(i, as_vector(position, 3, self.label(i), "position"))
 
+    @_locked
     def set_orientation(self, i: int, orientation) -> None:
         i = self._index(i)
         self._core.set_orientation(i, as_vector(orientation, 4, self.label(i), "orientation"))
 
+    @_locked
     def set_velocity(self, i: int, velocity) -> None:
         i = self._index(i)
         self._core.set_velocity(i, as_vector(velocity, 3, self.label(i), "velocity"))
 
+    @_locked
     def set_angular_velocity(self, i: int, angular_velocity) -> None:
         i = self._index(i)
         self._core.set_angular_velocity(i, as_vector(angular_velocity, 3, self.label(i), "angular_velocity"))
 
+    @_locked
     def set_positions(self, indices, positions) -> None:
         """Sets the positions (n, 3) of bodies ``indices`` (n,) in one call; every row is checked
         before any is written (on an error the world is unchanged)."""
         self._core.set_positions(as_indices(indices, "set_positions"), as_rows(positions, 3, "set_positions", "positions"))
 
+    @_locked
     def set_orientations(self, indices, orientations) -> None:
         """Sets the orientations (n, 4), quaternions (w, x, y, z), of bodies ``indices`` in one call."""
         self._core.set_orientations(as_indices(indices, "set_orientations"),
                                     as_rows(orientations, 4, "set_orientations", "orientations"))
 
+    @_locked
     def set_velocities(self, indices, velocities) -> None:
         """Sets the linear velocities (n, 3) of bodies ``indices`` in one call (m/s, world)."""
         self._core.set_velocities(as_indices(indices, "set_velocities"),
                                   as_rows(velocities, 3, "set_velocities", "velocities"))
 
+    @_locked
     def set_angular_velocities(self, indices, angular_velocities) -> None:
         """Sets the angular velocities (n, 3) of bodies ``indices`` in one call (rad/s, world)."""
         self._core.set_angular_velocities(as_indices(indices, "set_angular_velocities"),
                                           as_rows(angular_velocities, 3, "set_angular_velocities",
                                                 "angular_velocities"))
 
+    @_locked
     def set_external_wrench(self, i: int, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0)) -> None:
         """Sets a world-frame force (N, at the centre of mass) and torque (N m) applied every step
         until changed (persistent; ``apply_force`` adds a force for one step only)."""
@@ -427,6 +483,7 @@ class World:
         self._core.set_external_wrench(i, as_vector(force, 3, self.label(i), "force"),
                                        as_vector(torque, 3, self.label(i), "torque"))
 
+    @_locked
     def apply_impulse(self, i: int, impulse, point=None) -> None:
         """Applies an impulse J (3,) N s, world, at world ``point`` (m; None: the centre of mass)
         at the start of the next step: v += J / m and omega += I_w^-1 ((point - x) x J). Calls before
@@ -436,6 +493,7 @@ class World:
         self._core.apply_impulse(i, as_vector(impulse, 3, who, "impulse"),
                                  None if point is None else as_vector(point, 3, who, "point"))
 
+    @_locked
     def apply_force(self, i: int, force, point=None) -> None:
         """Applies a force F (3,) N, world, at world ``point`` (m; None: the centre of mass) during
         the next step only (the first step of the next ``step()`` call), with the torque
@@ -445,18 +503,21 @@ class World:
         self._core.apply_force(i, as_vector(force, 3, who, "force"),
                                None if point is None else as_vector(point, 3, who, "point"))
 
+    @_locked
     def set_kinematic(self, i: int, kinematic: bool = True) -> None:
         """Makes body i kinematic (moved by its velocity only, an infinite mass for the bodies it
         pushes, no gravity) or dynamic again (it needs a mass). Its velocity is kept."""
         i = self._index(i)
         self._core.set_kinematic(i, as_flag(kinematic, self.label(i), "kinematic"))
 
+    @_locked
     def set_enabled(self, i: int, enabled: bool) -> None:
         """Disables (False) or enables body i. A disabled body keeps its pose and velocity, feels
         no gravity or forces and collides with nothing; enabled again, it carries on from there."""
         i = self._index(i)
         self._core.set_enabled(i, as_flag(enabled, self.label(i), "enabled"))
 
+    @_locked
     def set_collision_filter(self, i: int, group: int = 1, mask: int = ALL_BITS) -> None:
         """Collision filter bits of body i (32 each): bodies a and b collide only when
         ``group_a & mask_b`` and ``group_b & mask_a`` are both non-zero (Box2D's category and
@@ -465,14 +526,17 @@ class World:
         who = self.label(i)
         self._core.set_collision_filter(i, as_bits(group, who, "group"), as_bits(mask, who, "mask"))
 
+    @_locked
     def disable_collision(self, i: int, j: int) -> None:
         """Bodies i and j never collide with each other (whatever their filter bits say)."""
         self._core.set_pair_collision(self._index(i), self._index(j), False)
 
+    @_locked
     def enable_collision(self, i: int, j: int) -> None:
         """Undoes ``disable_collision(i, j)``: the pair collides again if their filter bits allow."""
         self._core.set_pair_collision(self._index(i), self._index(j), True)
 
+    @_locked
     def set_material(self, i: int, friction=None, restitution=None, spinning_friction=None) -> None:
         """Sets body i's friction (mu >= 0), restitution (e in [0, 1]) and/or spinning friction
         (mu_spin >= 0, m); None keeps it."""
@@ -486,11 +550,13 @@ class World:
                                 float(self._core.spinning_frictions[i]) if mu_spin is None else mu_spin)
 
     # saved states and pickling ----------------------------------------------------------------------
+    @_locked
     def save_state(self) -> SavedState:
         """The dynamic state (see ``SavedState``): after ``restore_state`` of it, the following
         steps are bit-identical to those that followed the save."""
         return SavedState(self._core.save_state(), self.num_bodies, self.time)
 
+    @_locked
     def restore_state(self, state: SavedState) -> None:
         """Puts back a ``save_state()`` of this world (or of one built the same way, such as its
         unpickled copy). A state of a different world (body count, shape kinds, static flags or
@@ -500,6 +566,7 @@ class World:
             raise TypeError(f"restore_state: expected a SavedState from World.save_state(), got {type(state).__name__}")
         self._core.restore_state(state.data)
 
+    @_locked
     def __getstate__(self) -> dict:
         """The model (settings; per body its shape as stored, static and kinematic flags, mass and
         inertia, material, name, filter bits; disabled pairs) and the saved state."""
@@ -510,9 +577,18 @@ class World:
                 "state": self.save_state(), "given": [None if g is None else tuple(g) for g in self._args]}
 
     def __setstate__(self, d: dict) -> None:
+        """Builds the pickled world in a new core, then (holding the lock) puts it in place of this
+        world's: a thread using this World sees the old world or the new one, never half of each."""
         if d.get("version") != 1:
             raise ValueError(f"World: cannot unpickle version {d.get('version')!r} (this is version 1)")
-        self.__init__(gravity=d["gravity"], contact_margin=d["contact_margin"], **d["solver"])
+        new = World(gravity=d["gravity"], contact_margin=d["contact_margin"], **d["solver"])
+        new._fill(d)
+        lock = self.__dict__.setdefault("_lock", threading.RLock())
+        with lock:
+            self.__dict__.update({k: v for k, v in new.__dict__.items() if k != "_lock"})
+
+    def _fill(self, d: dict) -> None:
+        """Adds __getstate__'s bodies, disabled pairs, saved state and records to this new world."""
         c = self._core
         zero, unit = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
         for b in d["bodies"]:
@@ -531,6 +607,7 @@ class World:
                       for g in given]
 
     # stepping ---------------------------------------------------------------------------------
+    @_locked
     def step(self, dt: float, steps: int = 1) -> None:
         """Advances ``steps`` steps of ``dt`` seconds (dt > 0 and finite)."""
         dt = as_number(dt, "step", "dt")
@@ -556,105 +633,126 @@ class World:
     # step, setter and restore_state, and keep the world alive. Adding or removing a body changes
     # the body count: views taken before stay valid memory but no longer match; read them again.
     @property
+    @_locked
     def num_bodies(self) -> int:
         return self._core.num_bodies
 
     @property
+    @_locked
     def time(self) -> float:
         """Simulated time (s)."""
         return self._core.time
 
     @property
+    @_locked
     def positions(self) -> np.ndarray:
         """(N, 3) centre-of-mass positions, world (m); a read-only view."""
         return self._core.positions
 
     @property
+    @_locked
     def orientations(self) -> np.ndarray:
         """(N, 4) unit quaternions (w, x, y, z) with w >= 0, world-from-body; a read-only view."""
         return self._core.orientations
 
     @property
+    @_locked
     def rotations(self) -> np.ndarray:
         """(N, 3, 3) rotation matrices R, world-from-body; a read-only view."""
         return self._core.rotations
 
     @property
+    @_locked
     def velocities(self) -> np.ndarray:
         """(N, 3) linear velocities of the centres of mass, world (m/s); a read-only view."""
         return self._core.velocities
 
     @property
+    @_locked
     def angular_velocities(self) -> np.ndarray:
         """(N, 3) angular velocities, world (rad/s); a read-only view."""
         return self._core.angular_velocities
 
     @property
+    @_locked
     def forces(self) -> np.ndarray:
         """(N, 3) persistent external forces (``set_external_wrench``), world (N); a read-only view."""
         return self._core.forces
 
     @property
+    @_locked
     def torques(self) -> np.ndarray:
         """(N, 3) persistent external torques about the centres of mass, world (N m); a read-only view."""
         return self._core.torques
 
     @property
+    @_locked
     def step_forces(self) -> np.ndarray:
         """(N, 3) forces for the next step only (``apply_force``), world (N); a read-only view."""
         return self._core.step_forces
 
     @property
+    @_locked
     def step_torques(self) -> np.ndarray:
         """(N, 3) torques for the next step only (``apply_force`` at a point), world (N m); a read-only view."""
         return self._core.step_torques
 
     @property
+    @_locked
     def impulses(self) -> np.ndarray:
         """(N, 3) pending impulses (``apply_impulse``), applied at the start of the next step (N s); a read-only view."""
         return self._core.impulses
 
     @property
+    @_locked
     def angular_impulses(self) -> np.ndarray:
         """(N, 3) pending angular impulses about the centres of mass (N m s); a read-only view."""
         return self._core.angular_impulses
 
     @property
+    @_locked
     def masses(self) -> np.ndarray:
         """(N,) masses (kg); infinity for static bodies."""
         return readonly(self._core.masses)
 
     @property
+    @_locked
     def inertias(self) -> np.ndarray:
         """(N, 3, 3) inertia tensors about the centre of mass, body axes (kg m^2); zero for static."""
         return readonly(self._core.inertias)
 
     @property
+    @_locked
     def frictions(self) -> np.ndarray:
         """(N,) friction coefficients mu."""
         return readonly(self._core.frictions)
 
     @property
+    @_locked
     def restitutions(self) -> np.ndarray:
         """(N,) restitution coefficients e."""
         return readonly(self._core.restitutions)
 
     @property
+    @_locked
     def spinning_frictions(self) -> np.ndarray:
         """(N,) spinning (torsional) friction coefficients mu_spin (m)."""
         return readonly(self._core.spinning_frictions)
 
     @property
+    @_locked
     def contact_forces(self) -> np.ndarray:
         """(N, 3) summed contact force on each body in the last step (N, world), static ones too."""
         return readonly(self._core.contact_forces)
 
     @property
+    @_locked
     def contact_torques(self) -> np.ndarray:
         """(N, 3) summed contact torque about each body's com in the last step (N m, world)."""
         return readonly(self._core.contact_torques)
 
     @property
+    @_locked
     def warm_start_cache(self) -> dict:
         """The forces the next step starts from: body_a, body_b (K,), feature_a, feature_b (K,)
         uint64, alpha (K,) N, friction (K, 3) N world, spin (K,) N m (the torsional friction
@@ -662,40 +760,48 @@ class World:
         return {k: readonly(v) for k, v in self._core.warm_start_cache.items()}
 
     @property
+    @_locked
     def is_static(self) -> np.ndarray:
         """(N,) bool."""
         return readonly(self._core.is_static)
 
     @property
+    @_locked
     def is_kinematic(self) -> np.ndarray:
         """(N,) bool: bodies moved by their velocity only."""
         return readonly(self._core.is_kinematic)
 
     @property
+    @_locked
     def enabled(self) -> np.ndarray:
         """(N,) bool: False for disabled bodies (``set_enabled``)."""
         return readonly(self._core.enabled)
 
     @property
+    @_locked
     def collision_filters(self) -> tuple:
         """(groups, masks): two (N,) uint32 arrays of collision filter bits."""
         return readonly(self._core.groups), readonly(self._core.masks)
 
     @property
+    @_locked
     def contact_margin(self) -> float:
         """The contact margin (m) the world was made with."""
         return self._core.contact_margin
 
     @property
+    @_locked
     def disabled_pairs(self) -> list:
         """Pairs (i, j), i < j, sorted, that never collide (``disable_collision``)."""
         return [tuple(p) for p in self._core.excluded_pairs]
 
     @property
+    @_locked
     def gravity(self) -> np.ndarray:
         return readonly(np.array(self._core.gravity))
 
     @property
+    @_locked
     def contacts(self) -> Contacts:
         """Contacts of the last step (found at its start) with their solved forces and impulses:
         read-only views of the core's contact list (body_a, body_b int32). Unlike the state views,
@@ -703,22 +809,27 @@ class World:
         return Contacts(**self._core.contacts)
 
     @property
+    @_locked
     def solver_stats(self) -> SolverStats:
         return SolverStats(**self._core.solver_stats)
 
+    @_locked
     def detect_contacts(self, dt: float) -> Contacts:
         """Contacts the current state would give for a step of dt, without stepping (alpha = 0)."""
         return Contacts(**self._core.detect_contacts(as_number(dt, "detect_contacts", "dt")))
 
+    @_locked
     def kinetic_energy(self) -> float:
         """1/2 sum (m |v|^2 + omega . I_w omega) (J)."""
         return self._core.kinetic_energy()
 
+    @_locked
     def potential_energy(self) -> float:
         """-sum m g . p over dynamic bodies (J), relative to the origin."""
         return self._core.potential_energy()
 
     # the oracle's view --------------------------------------------------------------------------
+    @_locked
     def snapshot(self) -> dict:
         """The whole world as plain NumPy data (copies), the input format of ``signorini.oracle``.
         Linear in the body count. ``step_force``, ``step_torque`` (N, 3): the next step's one-step
@@ -741,12 +852,14 @@ class World:
             "impulse": np.array(c.impulses), "angular_impulse": np.array(c.angular_impulses),
         }
 
+    @_locked
     def save_scene(self, path) -> Path:
         """Writes this world to a TOML scene file (``signorini.save_scene``); returns the path.
         ValueError naming the body for what a scene file cannot hold (a pending impulse or
         one-step force)."""
         return codec.write_scene(self, path)
 
+    @_locked
     def __repr__(self) -> str:
         return f"World({self.num_bodies} bodies, t={self.time:g} s)"
 

@@ -131,3 +131,122 @@ def test_the_view_command_serves_a_trajectory_until_stopped(tmp_path, record):
         reader.join(timeout=5)
     assert process.returncode == 0, "".join(lines)
     assert any(f"http://127.0.0.1:{port}" in line for line in lines)
+
+
+# who may connect: the websocket controls the simulation, so only the viewer's own page may open it
+def ws_connect(viewer, origin):
+    """Opens the viewer's websocket as a page of `origin` would (None: no Origin header); returns
+    the first message's size, or the HTTP status the server refused the handshake with."""
+    import viser
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+
+    try:
+        with connect(f"ws://127.0.0.1:{viewer.port}", origin=origin, open_timeout=10,
+                     subprotocols=[f"viser-v{viser.__version__}"]) as ws:
+            return len(ws.recv(timeout=10))
+    except InvalidStatus as e:
+        return e.response.status_code
+
+
+@pytest.mark.parametrize("origin", [None, "null", "http://evil.example", "http://evil.example:{port}",
+                                    "http://127.0.0.1:{other}", "https://127.0.0.1:{port}", "http://127.0.0.2.nip.io:{port}",
+                                    "http://localhost.evil.example:{port}", "file://", "http://[::1]x:{port}"])
+def test_a_page_of_another_origin_is_refused_before_the_handshake(replay, origin):
+    origin = None if origin is None else origin.format(port=replay.port, other=replay.port + 1)
+    assert ws_connect(replay, origin) == 403
+    assert replay.server.get_clients() == {}
+
+
+@pytest.mark.parametrize("origin", ["http://127.0.0.1:{port}", "http://localhost:{port}", "http://LOCALHOST:{port}"])
+def test_the_viewers_own_page_connects(replay, origin):
+    assert ws_connect(replay, origin.format(port=replay.port)) > 0
+
+
+@pytest.mark.parametrize("bind, origin, host, accepted", [
+    ("127.0.0.1", "http://[::1]:8080", "[::1]:8080", True),
+    ("localhost", "http://127.0.0.1:8080", "127.0.0.1:8080", True),
+    ("192.168.1.5", "http://192.168.1.5:8080", "192.168.1.5:8080", True),
+    ("192.168.1.5", "http://localhost:8080", "localhost:8080", False),
+    ("0.0.0.0", "http://192.168.1.5:8080", "192.168.1.5:8080", True),
+    ("0.0.0.0", "http://192.168.1.5:8080", "192.168.1.6:8080", False),
+    ("0.0.0.0", "http://rebound.example:8080", "rebound.example:8080", False),  # DNS rebinding
+    ("0.0.0.0", "http://192.168.1.5:9090", "192.168.1.5:9090", False),
+    ("::", "http://[fe80::1]:8080", "[fe80::1]:8080", True),
+])
+def test_own_origin_for_each_kind_of_bind(bind, origin, host, accepted):
+    from signorini.viewer import own_origin
+
+    assert own_origin(origin, bind, 8080, host) is accepted
+
+
+def test_in_a_browser_only_the_viewers_own_page_opens_the_websocket(replay, tmp_path):
+    """Chromium sends the Origin itself: from the viewer's page the websocket opens; from a page of
+    another local server (another origin) it is refused and no client appears."""
+    import functools
+    import http.server
+
+    import viser
+
+    (tmp_path / "index.html").write_text("<html><body>another site</body></html>")
+    other = http.server.ThreadingHTTPServer(
+        ("127.0.0.1", free_port()), functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(tmp_path)))
+    threading.Thread(target=other.serve_forever, daemon=True).start()
+    opening = """([url, protocol]) => new Promise(resolve => {
+        const ws = new WebSocket(url, [protocol]);
+        ws.onopen = () => { ws.close(); resolve("open"); };
+        ws.onerror = () => resolve("refused");
+    })"""
+    args = [f"ws://127.0.0.1:{replay.port}", f"viser-v{viser.__version__}"]
+    try:
+        with playwright.sync_playwright() as p:
+            browser = launch(p)
+            try:
+                page = browser.new_page()
+                page.goto(f"http://127.0.0.1:{other.server_address[1]}/")
+                assert page.evaluate(opening, args) == "refused"
+                assert replay.server.get_clients() == {}
+                page.goto(f"http://127.0.0.1:{replay.port}/")
+                assert page.evaluate(opening, args) == "open"
+            finally:
+                browser.close()
+    finally:
+        other.shutdown()
+        other.server_close()
+
+
+def test_the_share_url_is_off_and_a_share_request_reaches_nothing(replay, monkeypatch):
+    """The served theme hides the share button, and a share request from the page (as the button
+    sends it) is refused: no tunnel to viser's relay is ever made."""
+    import time
+
+    import msgspec
+    import viser
+    import viser._viser
+    from websockets.sync.client import connect
+
+    tunnels = []
+    monkeypatch.setattr(viser._viser, "ViserTunnel", lambda *a, **k: tunnels.append(a) or pytest.fail(f"a tunnel {a}"))
+    serializer = replay.server.get_scene_serializer()
+    themes = [m for _, m in serializer._messages if m["type"] == "ThemeConfigurationMessage"]
+    assert themes and themes[-1]["show_share_button"] is False
+
+    with connect(f"ws://127.0.0.1:{replay.port}", origin=f"http://127.0.0.1:{replay.port}", open_timeout=10,
+                 subprotocols=[f"viser-v{viser.__version__}"]) as ws:
+        ws.send(msgspec.msgpack.encode({"type": "ShareUrlRequest"}))
+        deadline = time.monotonic() + 30
+        while replay.server.refused_share_requests == 0:
+            assert time.monotonic() < deadline, "the share request was not handled"
+            time.sleep(0.05)
+    assert replay.server.request_share_url() is None
+    assert tunnels == [] and replay.server._share_tunnel is None
+
+
+def test_view_help_says_what_host_0_0_0_0_exposes(capsys):
+    from signorini.cli import make_parser
+
+    with pytest.raises(SystemExit):
+        make_parser().parse_args(["view", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "0.0.0.0 serves every network interface: anyone on the network can view and control the simulation" in text
+    assert "only the viewer's own page can open its websocket" in text and "share-URL feature (a public tunnel) is off" in text

@@ -790,3 +790,78 @@ def test_scene_files_keep_names_and_follow_remove_body_and_pickling(tmp_path):
         world.step(DT, 30)
         loaded.step(DT, 30)
         assert np.array_equal(loaded.positions, world.positions)
+
+
+# every facade method that takes a body index: a call with index i (the other arguments valid)
+INDEX_CALLS = {
+    "label": lambda w, i: w.label(i),
+    "body_args": lambda w, i: w.body_args(i),
+    "shape": lambda w, i: w.shape(i),
+    "name": lambda w, i: w.name(i),
+    "remove_body": lambda w, i: w.remove_body(i),
+    "remove_bodies": lambda w, i: w.remove_bodies([i]),
+    "set_position": lambda w, i: w.set_position(i, (0.0, 0.0, 3.0)),
+    "set_orientation": lambda w, i: w.set_orientation(i, (1.0, 0.0, 0.0, 0.0)),
+    "set_velocity": lambda w, i: w.set_velocity(i, (0.0, 0.0, 0.0)),
+    "set_angular_velocity": lambda w, i: w.set_angular_velocity(i, (0.0, 0.0, 0.0)),
+    "set_positions": lambda w, i: w.set_positions([i], [(0.0, 0.0, 3.0)]),
+    "set_orientations": lambda w, i: w.set_orientations([i], [(1.0, 0.0, 0.0, 0.0)]),
+    "set_velocities": lambda w, i: w.set_velocities([i], [(0.0, 0.0, 0.0)]),
+    "set_angular_velocities": lambda w, i: w.set_angular_velocities([i], [(0.0, 0.0, 0.0)]),
+    "set_external_wrench": lambda w, i: w.set_external_wrench(i, (0.0, 0.0, 1.0)),
+    "apply_impulse": lambda w, i: w.apply_impulse(i, (0.0, 0.0, 1.0)),
+    "apply_force": lambda w, i: w.apply_force(i, (0.0, 0.0, 1.0)),
+    "set_kinematic": lambda w, i: w.set_kinematic(i, True),
+    "set_enabled": lambda w, i: w.set_enabled(i, False),
+    "set_collision_filter": lambda w, i: w.set_collision_filter(i, 2, 2),
+    "set_material": lambda w, i: w.set_material(i, friction=0.1),
+    "disable_collision": lambda w, i: w.disable_collision(0, i),
+    "enable_collision": lambda w, i: w.enable_collision(i, 0),
+}
+OUT_OF_RANGE = [-1, -2, 2, 7, np.int64(-1), np.int32(2), np.uint64(2), 2**31, -2**31 - 1, 2**40, -2**63]
+NOT_INDICES = [True, False, np.bool_(True), 1.0, np.float64(1.0), "1", None, 1 + 0j]
+
+
+def test_every_index_taking_method_is_listed():
+    """A World method with a parameter i, j or indices is in INDEX_CALLS (a new one must be added)."""
+    import inspect
+    taking = {name for name, f in vars(sg.World).items() if callable(f) and not name.startswith("_")
+              and {"i", "j", "indices"} & set(inspect.signature(f).parameters)}
+    assert taking == set(INDEX_CALLS)
+
+
+@pytest.mark.parametrize("method", sorted(INDEX_CALLS))
+@pytest.mark.parametrize("index", OUT_OF_RANGE, ids=repr)
+def test_an_index_out_of_range_raises_body_index_error_naming_it(method, index):
+    """Negative, too large and huge indices, Python or NumPy integers: BodyIndexError (an
+    IndexError and a ValueError) naming the index, and the world unchanged (``w.shape(-1)`` was a
+    bare IndexError)."""
+    w = ground_and_boxes(1)
+    assert_refused(w, lambda w: INDEX_CALLS[method](w, index), sg.BodyIndexError, [str(int(index)), "out of range"])
+    assert_refused(w, lambda w: INDEX_CALLS[method](w, index), IndexError, [])
+
+
+@pytest.mark.parametrize("method", sorted(INDEX_CALLS))
+@pytest.mark.parametrize("index", NOT_INDICES, ids=repr)
+def test_an_index_that_is_not_an_integer_raises_type_error(method, index):
+    """Bools, floats (even integral ones), strings, None: TypeError saying indices are integers."""
+    w = ground_and_boxes(1)
+    assert_refused(w, lambda w: INDEX_CALLS[method](w, index), TypeError, ["integer"])
+
+
+@pytest.mark.parametrize("method", sorted(INDEX_CALLS))
+def test_a_numpy_integer_index_is_the_same_as_a_python_one(method):
+    a, b = ground_and_boxes(1), ground_and_boxes(1)
+    got_a, got_b = INDEX_CALLS[method](a, 1), INDEX_CALLS[method](b, np.int64(1))
+    assert type(got_a) is type(got_b) and fingerprint(a) == fingerprint(b)
+
+
+@pytest.mark.parametrize("method", ["remove_bodies", "set_positions", "set_velocities"])
+@pytest.mark.parametrize("indices", [[1, True], (np.bool_(False), 1), [1, 1.0]], ids=repr)
+def test_a_list_of_indices_with_a_bool_or_a_float_in_it_raises_type_error(method, indices):
+    """NumPy would read [1, True] as [1, 1]: a bool among integers is refused as it is alone."""
+    w = ground_and_boxes(2)
+    call = {"remove_bodies": lambda w: w.remove_bodies(indices),
+            "set_positions": lambda w: w.set_positions(indices, [(0.0, 0.0, 3.0)] * 2),
+            "set_velocities": lambda w: w.set_velocities(indices, [(0.0, 0.0, 0.0)] * 2)}[method]
+    assert_refused(w, call, TypeError, ["integers"])
