@@ -57,7 +57,6 @@ import importlib.util
 import math
 import os
 import re
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -199,7 +198,8 @@ def rain(tiny: bool = False, **world_kwargs) -> BenchScene:
     for event, k in enumerate(rain_release_steps(400)):
         releases[k] = columns[event % grid]
     n = grid * grid * group * 14
-    return BenchScene("rain", world, DT, 400, f"{grid} x {grid} cells, {group} stack(s) of 14 capsules each, {n} capsules",
+    return BenchScene("rain", world, DT, 400,
+                      f"{grid} x {grid} cells, {group} stack(s) of 14 capsules each, {n} capsules",
                       releases=releases, box3d="rain")
 
 
@@ -399,7 +399,6 @@ class Variant:
     row: str
     kind: str
     make: object  # () -> run object
-    runs: list = dataclasses.field(default_factory=list)
     times: list = dataclasses.field(default_factory=list)
 
 
@@ -538,7 +537,8 @@ def make_rows(name, variants, info, quality, available) -> list[dict]:
         by_row.setdefault(v.row, {})[v.kind] = v
     for row_name, kinds in by_row.items():
         ms, q1, q3 = _median(kinds["main"].times)
-        row = {"scene": name, "engine": row_name, "size": info["size"], "bodies": info["bodies"], "steps": info["steps"],
+        row = {"scene": name, "engine": row_name, "size": info["size"], "bodies": info["bodies"],
+               "steps": info["steps"],
                "ms": ms, "q1": q1, "q3": q3, "ratio": None, "threads2_ms": None, "sleep_ratio": None,
                **quality.get(row_name, {})}
         if "threads" in kinds:
@@ -696,7 +696,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     for row in rows:
         if row["engine"] != "box3d app" and row.get("displacement") is not None and _stands_scene(row["scene"]):
             held = row["displacement"] < 0.01
-            verdict = ("stays settled" if held else "moves") if row["scene"] == "sleep" else ("stands" if held else "falls")
+            if row["scene"] == "sleep":
+                verdict = "stays settled" if held else "moves"
+            else:
+                verdict = "stands" if held else "falls"
             print(f"{row['scene']}, {row['engine']}: {verdict} (largest box displacement "
                   f"{row['displacement'] * 1000:.2f} mm; 1 cm allowed)")
     if box3d:
