@@ -97,7 +97,6 @@ class BenchScene:
 
     - world: the signorini World; bodies released later are in it, disabled, at their release pose;
     - dt (s), steps: Box3D's step and step count; settle: untimed steps before timing starts;
-    - sleeping: whether Box3D's scene lets bodies sleep;
     - releases: step index -> body indices put (back) at their release pose, at rest, enabled;
     - stands: whether "every box within 1 cm of its start" is the scene's pass mark;
     - size: what was built, in words; box3d: the Box3D benchmark of the same name, or None.
@@ -107,11 +106,15 @@ class BenchScene:
     dt: float
     steps: int
     size: str
-    sleeping: bool = True
     settle: int = 0
     releases: dict = dataclasses.field(default_factory=dict)
     stands: bool = False
     box3d: str | None = None
+
+    @property
+    def sleeping(self) -> bool:
+        """Whether Box3D's scene lets bodies sleep."""
+        return BOX3D_SLEEPING[self.name]
 
 
 def from_y_up(x: float, y: float, z: float) -> tuple[float, float, float]:
@@ -142,7 +145,7 @@ def large_pyramid(tiny: bool = False, **world_kwargs) -> BenchScene:
     _ground(world, 400.0, 400.0)
     _pyramid(world, base, 0.5, -0.5 * base, 0.0)
     return BenchScene("large_pyramid", world, DT, 200, f"base {base}, {base * (base + 1) // 2} cubes",
-                      sleeping=False, stands=True, box3d="large_pyramid")
+                      stands=True, box3d="large_pyramid")
 
 
 def many_pyramids(tiny: bool = False, **world_kwargs) -> BenchScene:
@@ -161,7 +164,7 @@ def many_pyramids(tiny: bool = False, **world_kwargs) -> BenchScene:
         depth += step
     n = count * count * base * (base + 1) // 2
     return BenchScene("many_pyramids", world, DT, 100, f"{count} x {count} pyramids of base {base}, {n} cubes",
-                      sleeping=False, stands=True, box3d="many_pyramids")
+                      stands=True, box3d="many_pyramids")
 
 
 def rain_release_steps(steps: int) -> list[int]:
@@ -195,7 +198,8 @@ def rain(tiny: bool = False, **world_kwargs) -> BenchScene:
                         world.set_enabled(i, False)
                         columns[column].append(i)
     releases = {}
-    for event, k in enumerate(rain_release_steps(400)):
+    # Box3D's schedule over 10 simulated minutes, for runs longer than its 400 steps
+    for event, k in enumerate(rain_release_steps(36000)):
         releases[k] = columns[event % grid]
     n = grid * grid * group * 14
     return BenchScene("rain", world, DT, 400,
@@ -504,10 +508,14 @@ def bench_scene(name: str, args, available: dict) -> list[dict]:
                     run_steps(run, 0, scene.settle, {})
                     run.mark_start()
                 first = 0
-                for length in peers.chunk_lengths(steps, args.chunks):
+                lengths = peers.chunk_lengths(steps, args.chunks)
+                for chunk, length in enumerate(lengths):
                     for v, run in runs:
                         v.times.append(1e3 * run_steps(run, first, length, releases) / length)
                     first += length
+                    # progress on stderr, so stdout keeps the figures alone
+                    print(f"    {name}: repeat {repeat + 1}/{args.repeats}, chunk {chunk + 1}/{len(lengths)}",
+                          file=sys.stderr, flush=True)
                 if repeat == 0:
                     for v, run in runs:
                         if v.kind != "main":
