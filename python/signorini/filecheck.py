@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import re
 import zipfile
+import zlib
 from pathlib import Path
 from typing import Iterable
 
@@ -184,7 +185,10 @@ def read_npz(path: Path, max_total_bytes: int, names: Iterable[str] | None = Non
                 array = buf.view(dtype)
                 out[key] = array.reshape(shape[::-1]).T if fortran else array.reshape(shape)
             return out
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, OSError, NotImplementedError) as e:
+    except FileLimitError:
+        raise
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, EOFError, OSError, NotImplementedError,
+            ValueError) as e:
         raise FileLimitError(f"unreadable as .npz: {type(e).__name__}: {e}") from None
 
 

@@ -49,7 +49,8 @@ line and the element.
 
 Limits: the file is at most ``MAX_MJCF_BYTES`` (64 MiB) and its elements nest at most
 ``MAX_MJCF_DEPTH`` (64) deep, counted by the expat parser as it reads, before any tree that deep
-is built or walked; numbers are finite. Mesh files (``<mesh file>`` under ``meshdir``/``assetdir``)
+is built or walked; numbers are finite; ``<option timestep>`` lies in a scene file's dt bounds
+(``scenefile.MIN_DT``, ``MAX_DT``: [1e-6, 1] s). Mesh files (``<mesh file>`` under ``meshdir``/``assetdir``)
 resolve (symlinks followed) inside the MJCF file's folder or inside a folder passed as
 ``read_mjcf(path, package_dirs=[...])``; anything else (``meshdir="/"``, ``..``, an absolute path,
 a symlink leading out) is refused with the same message whether or not that path exists. Running
@@ -363,6 +364,10 @@ class _Reader:
                 settings["gravity"] = g
             if "timestep" in el.attrib:
                 dt = float(self.given(el, el.attrib, "timestep", 1)[0])
+                from .scenefile import MAX_DT, MIN_DT  # a scene file's bounds (pydantic loads only here)
+
+                if not MIN_DT <= dt <= MAX_DT:
+                    raise self.error(el, f"timestep={dt!r} must lie in [{MIN_DT:g}, {MAX_DT:g}] s")
             cone = el.get("cone")
             if cone is not None:
                 if cone not in ("pyramidal", "elliptic"):
@@ -660,7 +665,10 @@ def _add_free_body(reader: _Reader, world, body: ET.Element, pose: _Pose, parts:
     densities = []
     for part in parts:
         if part.mass is not None:
-            volume = mass_properties(part.shape, 1.0)[0]
+            try:
+                volume = mass_properties(part.shape, 1.0)[0]
+            except (TypeError, ValueError) as e:
+                raise reader.error(part.element, str(e)) from None
             densities.append(part.mass / volume)
         else:
             densities.append(part.density)
@@ -675,7 +683,10 @@ def _add_free_body(reader: _Reader, world, body: ET.Element, pose: _Pose, parts:
     if len(spinning) > 1:
         raise reader.error(body, f"its geoms have different torsional frictions {sorted(spinning)} m (condim 4 or 6; "
                                  "0 for condim 1 or 3); a signorini body has one spinning friction")
-    volume, com, inertia = mass_properties(shape, 1.0)
+    try:
+        volume, com, inertia = mass_properties(shape, 1.0)
+    except (TypeError, ValueError) as e:
+        raise reader.error(body, str(e)) from None
     given_mass = parts[0].mass if len(parts) == 1 and parts[0].mass is not None else None
     density = densities[0]
     inertial = body.find("inertial")

@@ -157,6 +157,20 @@ def test_values_a_trajectory_cannot_hold_are_refused(trajectory_file, tmp_path, 
         sg.load_trajectory(path)
 
 
+def test_a_corrupt_deflate_stream_is_a_value_error(trajectory_file, tmp_path):
+    # found by the loader fuzz: zlib.error escaped
+    data = bytearray(trajectory_file.read_bytes())
+    with zipfile.ZipFile(trajectory_file) as z:
+        info = z.getinfo("positions.npy")
+    at = info.header_offset  # the local header's own name and extra lengths (bytes 26..30)
+    start = at + 30 + int.from_bytes(data[at + 26:at + 28], "little") + int.from_bytes(data[at + 28:at + 30], "little")
+    data[start] = 0xFF  # a deflate block of the reserved type 3
+    path = tmp_path / "inflate.npz"
+    path.write_bytes(bytes(data))
+    with pytest.raises(ValueError, match=r"inflate\.npz.*positions"):
+        sg.load_trajectory(path)
+
+
 def test_the_valid_trajectory_still_loads(trajectory_file):
     r = sg.load_trajectory(trajectory_file)
     assert r.frames == 5 and r.num_bodies == 2 and r.contacts is not None
@@ -206,6 +220,24 @@ def test_deeply_nested_bodies_are_an_mjcf_error(tmp_path):
     path.write_text("<mujoco><worldbody>" + "<body>" * 100_000 + "</body>" * 100_000 + "</worldbody></mujoco>")
     with pytest.raises(sg.MJCFError, match=r"deep\.xml.*line 1 <body>: elements nested deeper than"):
         sg.load_mjcf(path)
+
+
+def test_mjcf_timestep_out_of_bounds_is_refused(tmp_path):
+    path = tmp_path / "slow.xml"
+    path.write_text('<mujoco><option timestep="1e-300"/><worldbody><geom type="sphere" size="1"/></worldbody></mujoco>')
+    with pytest.raises(sg.MJCFError, match=r"slow\.xml.*line 1 <option>: timestep=1e-300 must lie in"):
+        sg.read_mjcf(path)
+
+
+def test_mjcf_mass_of_a_broken_mesh_geom_is_an_mjcf_error(tmp_path):
+    # found by the loader fuzz: the free body's mass properties raised a bare ValueError
+    write_ball(tmp_path / "ball.obj")
+    path = tmp_path / "wide.xml"
+    path.write_text('<mujoco><asset><mesh name="b" file="ball.obj" scale="2147483648 1 1"/></asset><worldbody>'
+                    '<body name="x"><freejoint/><geom type="mesh" mesh="b" mass="1"/>'
+                    '<geom type="sphere" size="0.1" pos="0.2 18446744073709551616 0"/></body></worldbody></mujoco>')
+    with pytest.raises(sg.MJCFError, match=r"wide\.xml.*line 1 <(geom|body)"):
+        sg.read_mjcf(path)
 
 
 # paths ------------------------------------------------------------------------------------------
