@@ -353,3 +353,20 @@ def test_mesh_npz_with_a_huge_header_or_bad_values_is_a_value_error(tmp_path):
     f_out[0, 0] = 10**9
     with pytest.raises(ValueError, match=r"faces\.npz.*faces"):
         sg.load_mesh(rewrite(good, tmp_path / "faces.npz", faces=f_out))
+
+
+def test_oversized_mesh_file_is_refused_before_trimesh_reads_it(tmp_path):
+    path = tmp_path / "big.stl"
+    with open(path, "wb") as f:
+        f.truncate(65 * 2**20)
+    with pytest.raises(ValueError, match=r"big\.stl.*over the limit of 67,108,864"):
+        sg.load_mesh(path)
+
+
+def test_deep_mjcf_is_refused_in_little_memory(tmp_path):
+    # 1.1 MB of nested bodies: refused at the 65th level, long before the tree is built
+    path = tmp_path / "deep.xml"
+    path.write_text("<mujoco><worldbody>" + "<body>" * 100_000 + "</body>" * 100_000 + "</worldbody></mujoco>")
+    out = in_child(f"sg.load_mjcf({str(path)!r})", cap_mb=256)
+    assert out["error"] == "MJCFError" and "nested deeper" in out["message"], out
+    assert out["rss_mb"] < 16, out
