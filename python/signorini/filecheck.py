@@ -50,10 +50,12 @@ def check_size(path: Path, max_bytes: int) -> int:
     return size
 
 
-# strings and comments skipped, then the characters that open, close or separate
-_TOML_TOKENS = re.compile(r'"""(?:[^\\]|\\[\s\S])*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\'|#[^\n]*'
-                          r'|[\[\]{}=,.\n]')
-_JSON_TOKENS = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{}]')
+# strings and comments skipped, then the characters that open, close or separate. An unterminated
+# string runs to the end of its line (or of the text), so each quote starts one token ending where
+# a scan would: no match restarts inside a string (which made '"\"\"\"...' quadratic)
+_TOML_TOKENS = re.compile(r'"""(?:[^\\]|\\[\s\S])*?(?:"""|\Z)|\'\'\'[\s\S]*?(?:\'\'\'|\Z)|"(?:[^"\\\n]|\\.)*"?'
+                          r"|'[^'\n]*'?|#[^\n]*|[\[\]{}=,.\n]")
+_JSON_TOKENS = re.compile(r'"(?:[^"\\]|\\[\s\S])*"?|[\[\]{}]')
 
 
 def toml_depth(text: str, limit: int) -> int:

@@ -370,3 +370,15 @@ def test_deep_mjcf_is_refused_in_little_memory(tmp_path):
     out = in_child(f"sg.load_mjcf({str(path)!r})", cap_mb=256)
     assert out["error"] == "MJCFError" and "nested deeper" in out["message"], out
     assert out["rss_mb"] < 16, out
+
+
+def test_unterminated_quotes_are_scanned_in_linear_time(trajectory_file, tmp_path):
+    # the depth scans restarted a string match at every quote of '"\"\"\"...': quadratic (hours here)
+    quotes = '"' + '\\"' * 200_000
+    scene = tmp_path / "quotes.toml"
+    scene.write_text("x = " + quotes + "\n")
+    out = in_child(f"sg.load_scene({str(scene)!r})", timeout=60)
+    assert out["error"] == "SceneFileError" and "not valid TOML" in out["message"], out
+    path = rewrite(trajectory_file, tmp_path / "quotes.npz", shapes=np.array(quotes))
+    out = in_child(f"sg.load_trajectory({str(path)!r})", timeout=60)
+    assert out["error"] == "ValueError" and "quotes.npz" in out["message"], out
