@@ -7,7 +7,7 @@ meshes, each loaded in a child process under a memory cap.
 Mutation k of seed s depends only on (s, k): a kind (scene, trajectory, MJCF, OBJ, STL, .npz mesh,
 in turn) and one to three mutations of that kind's valid sample: byte flips, a truncation, a
 duplicated or deleted span, a huge or non-finite number put in place of one, or a deep nesting
-inserted (arrays, dotted keys, elements, JSON); trajectories and .npz meshes are also mutated one
+inserted (arrays, dotted keys, elements, JSON) or a run of escaped quotes never closed; trajectories and .npz meshes are also mutated one
 array at a time (its .npy header or data) and zipped again.
 
 Each load runs in a forked child whose address space is capped at what it holds plus ``CAP_MB``
@@ -166,11 +166,11 @@ def _deep(rng: random.Random, kind: str) -> bytes:
     k = rng.choice((64, 1000, 100_000))
     if kind == "scene":
         return rng.choice((b"x = " + b"[" * k + b"]" * k + b"\n", b"a." * k + b"a = 1\n", b"[" + b"t." * k + b"t]\n",
-                           b"y = " + b"{ a = " * k + b"1" + b" }" * k + b"\n", b"[" * k))
+                           b"y = " + b"{ a = " * k + b"1" + b" }" * k + b"\n", b"[" * k, b'z = "' + b'\\"' * k))
     if kind == "mjcf":
         return rng.choice((b"<body>" * k + b"</body>" * k, b"<body>" * k, b"<default class='c'>" * k))
     if kind == "trajectory":  # the shapes JSON
-        return rng.choice((b"[" * k + b"]" * k, b'{"a":' * k + b"1" + b"}" * k, b"[" * k))
+        return rng.choice((b"[" * k + b"]" * k, b'{"a":' * k + b"1" + b"}" * k, b"[" * k, b'"' + b'\\"' * k))
     return b"v 1 2 3\n" * k if kind == "obj" else b"\x00" * k
 
 
