@@ -10,17 +10,22 @@ The ``.npz`` mesh file holds the arrays exactly (float64 vertices, int64 faces, 
 pieces of a decomposed mesh: ``piece_count`` and ``piece_<k>``), so a scene saved with its meshes
 loads bit for bit, without decomposing again. It is what ``save_scene`` writes.
 
+Limits: a mesh file is at most ``MAX_MESH_BYTES`` (64 MiB; for ``.npz`` files, also once its arrays
+are decompressed, checked from their headers before they are read); vertices are finite and faces
+index existing vertices. Running out of memory or stack reading a file is reported as the
+ValueError below.
+
 Every error names the file and the problem.
 """
 from __future__ import annotations
 
 import os
-import zipfile
 from pathlib import Path
 from typing import Any, Union
 
 import numpy as np
 
+from . import filecheck
 from ._core import Mesh, TriangleMesh
 
 __all__ = ["load_mesh", "read_mesh_arrays", "write_npz_mesh", "MESH_SUFFIXES"]
@@ -29,6 +34,11 @@ __all__ = ["load_mesh", "read_mesh_arrays", "write_npz_mesh", "MESH_SUFFIXES"]
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".npz")
 
 PathLike = Union[str, "os.PathLike[str]"]
+
+#: the largest mesh file read (and the most its .npz arrays may hold decompressed): a binary STL of
+#: 64 MiB holds 1.3 million triangles, far more than a contact mesh needs, and bounds what trimesh
+#: builds from it (a few times the file)
+MAX_MESH_BYTES = 64 * 2**20
 
 
 def _mesh_error(path: Path, problem: str) -> ValueError:
@@ -54,17 +64,47 @@ def read_mesh_arrays(path: PathLike, scale: float = 1.0) -> tuple[np.ndarray, np
     if suffix not in MESH_SUFFIXES:
         raise _mesh_error(path, f"unknown mesh format {suffix or '(no suffix)'!r}; "
                                 f"known: {', '.join(MESH_SUFFIXES)}")
+    try:
+        vertices, faces, pieces = _read(path, suffix)
+    except (MemoryError, RecursionError) as e:
+        raise _mesh_error(path, f"out of memory or stack reading it ({type(e).__name__})") from None
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
+        raise _mesh_error(path, f"vertices must be (n, 3) and faces (k, 3), got {vertices.shape} and {faces.shape}")
+    if len(vertices) == 0 or len(faces) == 0:
+        raise _mesh_error(path, f"holds no triangles ({len(vertices)} vertices, {len(faces)} faces)")
+    if not np.all(np.isfinite(vertices)) or not all(np.all(np.isfinite(p)) for p in pieces):
+        raise _mesh_error(path, "a vertex coordinate is not finite (NaN or infinity)")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise _mesh_error(path, f"faces index vertices outside 0..{len(vertices) - 1}")
+    if scale != 1.0:
+        vertices = vertices * float(scale)
+        pieces = [p * float(scale) for p in pieces]
+    return vertices, faces, pieces
+
+
+def _read(path: Path, suffix: str) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """The arrays of a mesh file as it holds them (checked by the caller)."""
     pieces: list[np.ndarray] = []
+    try:
+        filecheck.check_size(path, MAX_MESH_BYTES)
+    except filecheck.FileLimitError as e:
+        raise _mesh_error(path, str(e)) from None
     if suffix == ".npz":
         try:
-            with np.load(path, allow_pickle=False) as data:
-                vertices = np.array(data["vertices"], dtype=np.float64)
-                faces = np.array(data["faces"], dtype=np.int64)
-                count = int(data["piece_count"]) if "piece_count" in data.files else 0
-                pieces = [np.array(data[f"piece_{k}"], dtype=np.float64) for k in range(count)]
+            data = filecheck.read_npz(path, MAX_MESH_BYTES)
+            count = data["piece_count"] if "piece_count" in data else np.int64(0)
+            if count.shape != () or count.dtype.kind not in "iu" or not 0 <= int(count) <= len(data):
+                raise _mesh_error(path, f"piece_count must be one integer in 0..{len(data)}, got {count}")
+            vertices = np.asarray(data["vertices"], dtype=np.float64)
+            faces = np.asarray(data["faces"], dtype=np.int64)
+            pieces = [np.asarray(data[f"piece_{k}"], dtype=np.float64).reshape(-1, 3) for k in range(int(count))]
         except KeyError as e:
             raise _mesh_error(path, f"not a signorini mesh file: no array {e.args[0]!r}") from None
-        except (OSError, ValueError, zipfile.BadZipFile) as e:
+        except filecheck.FileLimitError as e:
+            raise _mesh_error(path, f"unreadable as .npz: {e}") from None
+        except (OSError, TypeError, ValueError) as e:
+            if str(e).startswith("mesh file"):
+                raise
             raise _mesh_error(path, f"unreadable as .npz: {e}") from None
     else:
         import trimesh
@@ -80,13 +120,6 @@ def read_mesh_arrays(path: PathLike, scale: float = 1.0) -> tuple[np.ndarray, np
             raise _mesh_error(path, f"holds no triangle mesh (read as {type(loaded).__name__})")
         vertices = np.array(loaded.vertices, dtype=np.float64)
         faces = np.array(loaded.faces, dtype=np.int64)
-    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
-        raise _mesh_error(path, f"vertices must be (n, 3) and faces (k, 3), got {vertices.shape} and {faces.shape}")
-    if len(vertices) == 0 or len(faces) == 0:
-        raise _mesh_error(path, f"holds no triangles ({len(vertices)} vertices, {len(faces)} faces)")
-    if scale != 1.0:
-        vertices = vertices * float(scale)
-        pieces = [p * float(scale) for p in pieces]
     return vertices, faces, pieces
 
 
@@ -96,8 +129,9 @@ def load_mesh(path: PathLike, scale: float = 1.0, static: bool = False) -> Mesh 
     Inputs: path of an OBJ, STL, PLY, OFF or GLB file (read by trimesh; corners shared by several
     triangles are merged) or a signorini .npz mesh file (exact arrays, with convex pieces when it
     has them); scale (> 0) multiplies every coordinate (e.g. 0.001 for a file in millimetres).
-    Coordinates are metres after scaling, in the file's own frame. Raises FileNotFoundError for a
-    missing file and ValueError naming the file for an unreadable, empty or invalid one.
+    Coordinates are metres after scaling, in the file's own frame. Limits (file size, finite
+    vertices, faces in range) in the module doc. Raises FileNotFoundError for a missing file and
+    ValueError naming the file for an unreadable, empty, invalid or over-limit one.
     """
     path = Path(path)
     vertices, faces, pieces = read_mesh_arrays(path, scale)

@@ -46,6 +46,15 @@ pairs and excludes, height fields, includes, plugins...) is an ``MJCFError`` lis
 unsupported element with its line, so a model is never imported with a part silently missing.
 Errors for a missing or malformed file, an unknown geom type or a bad value name the file, the
 line and the element.
+
+Limits: the file is at most ``MAX_MJCF_BYTES`` (64 MiB) and its elements nest at most
+``MAX_MJCF_DEPTH`` (64) deep, counted by the expat parser as it reads, before any tree that deep
+is built or walked; numbers are finite; ``<option timestep>`` lies in a scene file's dt bounds
+(``scenefile.MIN_DT``, ``MAX_DT``: [1e-6, 1] s). Mesh files (``<mesh file>`` under ``meshdir``/``assetdir``)
+resolve (symlinks followed) inside the MJCF file's folder or inside a folder passed as
+``read_mjcf(path, package_dirs=[...])``; anything else (``meshdir="/"``, ``..``, an absolute path,
+a symlink leading out) is refused with the same message whether or not that path exists. Running
+out of memory or stack is an ``MJCFError`` too.
 """
 from __future__ import annotations
 
@@ -58,10 +67,17 @@ from typing import Collection, Optional
 
 import numpy as np
 
+from . import filecheck
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Plane, Sphere, TriangleMesh
 from .codec import matrix_to_quat
 
-__all__ = ["load_mjcf", "read_mjcf", "MJCFError"]
+__all__ = ["load_mjcf", "read_mjcf", "MJCFError", "MAX_MJCF_BYTES", "MAX_MJCF_DEPTH"]
+
+# limits (module doc): MuJoCo's menagerie models are under 1 MB of XML (meshes apart), 64 MiB is far
+# above any hand-written or exported model while bounding the tree built in memory
+MAX_MJCF_BYTES = 64 * 2**20
+# a humanoid's kinematic tree nests bodies about 15 deep; 64 keeps the reader's recursion shallow
+MAX_MJCF_DEPTH = 64
 
 
 class MJCFError(ValueError):
@@ -103,18 +119,31 @@ def _layered_friction(base: str, given: str) -> str:
     return " ".join(given.split() + base.split()[len(own):])
 
 
+class _TooDeep(Exception):
+    """An element nested deeper than MAX_MJCF_DEPTH: (line, tag)."""
+
+
 def _parse_with_lines(text: bytes) -> tuple[ET.Element, dict]:
     """The element tree of an XML document and each element's line ({id(element): line}), from
-    expat (ElementTree itself keeps no line numbers). Raises expat.ExpatError."""
+    expat (ElementTree itself keeps no line numbers). Raises expat.ExpatError, or _TooDeep at the
+    first element nested deeper than MAX_MJCF_DEPTH (before it is built)."""
     builder = ET.TreeBuilder()
     parser = expat.ParserCreate()
     lines: dict[int, int] = {}
+    depth = [0]
 
     def start(tag, attrs):
+        depth[0] += 1
+        if depth[0] > MAX_MJCF_DEPTH:
+            raise _TooDeep(parser.CurrentLineNumber, tag)
         lines[id(builder.start(tag, attrs))] = parser.CurrentLineNumber
 
+    def end(tag):
+        depth[0] -= 1
+        builder.end(tag)
+
     parser.StartElementHandler = start
-    parser.EndElementHandler = builder.end
+    parser.EndElementHandler = end
     parser.CharacterDataHandler = builder.data
     parser.Parse(text, True)
     return builder.close(), lines
@@ -185,19 +214,27 @@ class _Part:
 
 
 class _Reader:
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, package_dirs=()):
         self.path = path
+        self.package_dirs = [Path(d) for d in package_dirs]
         self.unsupported: list[str] = []
         try:
+            filecheck.check_size(path, MAX_MJCF_BYTES)
             text = path.read_bytes()
         except FileNotFoundError:
             raise FileNotFoundError(f"MJCF file {str(path)!r} does not exist") from None
+        except filecheck.FileLimitError as e:
+            raise MJCFError(f"MJCF file {str(path)!r}: {e}") from None
         except OSError as e:
             raise MJCFError(f"MJCF file {str(path)!r}: unreadable: {e}") from None
         try:
             self.root, self.lines = _parse_with_lines(text)
         except expat.ExpatError as e:
             raise MJCFError(f"MJCF file {str(path)!r}: malformed XML: {e}") from None
+        except _TooDeep as e:
+            line, tag = e.args
+            raise MJCFError(f"MJCF file {str(path)!r}: line {line} <{tag}>: elements nested deeper than "
+                            f"{MAX_MJCF_DEPTH} levels (limit)") from None
         if self.root.tag != "mujoco":
             raise MJCFError(f"MJCF file {str(path)!r}: the root element is <{self.root.tag}>, not <mujoco>")
         self.angle_scale = math.pi / 180.0
@@ -327,6 +364,10 @@ class _Reader:
                 settings["gravity"] = g
             if "timestep" in el.attrib:
                 dt = float(self.given(el, el.attrib, "timestep", 1)[0])
+                from .scenefile import MAX_DT, MIN_DT  # a scene file's bounds (pydantic loads only here)
+
+                if not MIN_DT <= dt <= MAX_DT:
+                    raise self.error(el, f"timestep={dt!r} must lie in [{MIN_DT:g}, {MAX_DT:g}] s")
             cone = el.get("cone")
             if cone is not None:
                 if cone not in ("pyramidal", "elliptic"):
@@ -444,8 +485,9 @@ class _Reader:
         if "file" in mattrs:
             from .meshfile import read_mesh_arrays
 
-            file = self.meshdir / mattrs["file"]
             try:
+                file = filecheck.inside(mattrs["file"], self.meshdir, [self.path.parent, *self.package_dirs],
+                                        "mesh file")
                 vertices, faces, _ = read_mesh_arrays(file)
             except (FileNotFoundError, ValueError) as e:
                 raise self.error(mesh_el, str(e)) from None
@@ -525,16 +567,25 @@ class _Reader:
                 self.skip(child)
 
 
-def read_mjcf(path):
+def read_mjcf(path, *, package_dirs=()):
     """The ``scenefile.Scene`` of an MJCF file: its World (static geoms, then the free bodies in file
     order), dt from ``<option timestep>`` (MuJoCo's default 0.002 s), 500 steps, body names (the
-    body's name, or the geom's for static ones). Raises FileNotFoundError or MJCFError naming the
-    file, the line, the element and the problem; nothing is half built."""
+    body's name, or the geom's for static ones). Mesh files are read from inside the MJCF file's
+    folder and the folders in ``package_dirs`` (paths) only; limits in the module doc. Raises
+    FileNotFoundError or MJCFError naming the file, the line, the element and the problem; nothing
+    is half built."""
+    path = Path(path)
+    try:
+        return _read_mjcf(path, package_dirs)
+    except (RecursionError, MemoryError) as e:
+        raise MJCFError(f"MJCF file {str(path)!r}: out of memory or stack reading it ({type(e).__name__})") from None
+
+
+def _read_mjcf(path: Path, package_dirs):
     from .scenefile import Scene  # pydantic loads only when a file is read
     from .world import World, mass_properties
 
-    path = Path(path)
-    reader = _Reader(path)
+    reader = _Reader(path, package_dirs)
     settings, dt = reader.read()
     worldbodies = reader.root.findall("worldbody")
     if not worldbodies:
@@ -614,7 +665,10 @@ def _add_free_body(reader: _Reader, world, body: ET.Element, pose: _Pose, parts:
     densities = []
     for part in parts:
         if part.mass is not None:
-            volume = mass_properties(part.shape, 1.0)[0]
+            try:
+                volume = mass_properties(part.shape, 1.0)[0]
+            except (TypeError, ValueError) as e:
+                raise reader.error(part.element, str(e)) from None
             densities.append(part.mass / volume)
         else:
             densities.append(part.density)
@@ -629,7 +683,10 @@ def _add_free_body(reader: _Reader, world, body: ET.Element, pose: _Pose, parts:
     if len(spinning) > 1:
         raise reader.error(body, f"its geoms have different torsional frictions {sorted(spinning)} m (condim 4 or 6; "
                                  "0 for condim 1 or 3); a signorini body has one spinning friction")
-    volume, com, inertia = mass_properties(shape, 1.0)
+    try:
+        volume, com, inertia = mass_properties(shape, 1.0)
+    except (TypeError, ValueError) as e:
+        raise reader.error(body, str(e)) from None
     given_mass = parts[0].mass if len(parts) == 1 and parts[0].mass is not None else None
     density = densities[0]
     inertial = body.find("inertial")
@@ -677,6 +734,7 @@ def _check_inertial(reader: _Reader, el: ET.Element, volume: float, com, inertia
     return m
 
 
-def load_mjcf(path):
-    """The World of an MJCF file (see ``read_mjcf`` and the module doc for the subset)."""
-    return read_mjcf(path).world
+def load_mjcf(path, *, package_dirs=()):
+    """The World of an MJCF file (see ``read_mjcf`` and the module doc for the subset, the limits
+    and ``package_dirs``, the folders besides the file's own that mesh files may be read from)."""
+    return read_mjcf(path, package_dirs=package_dirs).world

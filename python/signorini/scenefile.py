@@ -71,9 +71,19 @@ hold (a pending impulse or a force for the next step only) is refused at save ti
 ValueError naming the body, never dropped. The warm-start cache and the time are state, not scene:
 ``World.save_state`` keeps those. The conversions themselves are ``signorini.codec``'s.
 
+Limits (checked before the file is parsed, or as its values are read): the file is at most
+``MAX_SCENE_BYTES`` (32 MiB); arrays, tables and dotted keys nest at most ``MAX_SCENE_DEPTH`` (32)
+levels, found by a linear scan before the TOML parser runs; ``[scene] dt`` lies in [``MIN_DT``,
+``MAX_DT``] = [1e-6, 1] s, ``steps`` in [0, ``MAX_STEPS``] = [0, 10^7], ``snapshot_times`` are finite
+and >= 0; every other value is checked by the core as the World is built (finite poses and
+velocities, positive sizes and masses...). A mesh ``file`` resolves (symlinks followed) inside the
+scene file's folder, or inside a folder passed as ``read_scene(path, allow_paths=[...])``;
+anything else (``..`` out of it, an absolute path elsewhere, a symlink leading out) is refused
+with the same message whether or not that path exists.
+
 Errors: a missing or malformed file, an unknown key (every table forbids extra keys), a wrong type,
-an unknown material or a value the core rejects each raise ``SceneFileError`` (a ValueError) naming
-the file, the key (``bodies[3].shape.radius``), the body's name when it has one, and the problem.
+an unknown material, a value the core rejects, a limit above or running out of memory or stack
+each raise ``SceneFileError`` (a ValueError) naming the file, the key (``bodies[3].shape.radius``), the body's name when it has one, and the problem.
 No physics here: values are converted to the types the ``World`` facade takes; the core checks them.
 """
 from __future__ import annotations
@@ -86,7 +96,7 @@ from typing import Annotated, Any, Dict, List, Literal, Optional, Tuple, Union
 
 from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
-from . import codec, meshfile
+from . import codec, filecheck, meshfile
 from .world import World
 
 if sys.version_info >= (3, 11):
@@ -99,6 +109,17 @@ __all__ = ["Scene", "SceneFile", "SceneFileError", "load_scene", "read_scene", "
 
 #: the format version this module writes (``format = 1`` at the top of a file)
 FORMAT: Literal[1] = codec.SCENE_FORMAT
+
+# limits (module doc): the largest shipped scene (1,200 bodies) is 0.23 MB, so 32 MiB holds over
+# 100,000 bodies while bounding what the parser and the model may build
+MAX_SCENE_BYTES = 32 * 2**20
+# a compound part's vector is 6 levels deep (bodies, shape, parts, shape, key, array); 32 leaves room
+# for hand-written layouts and stops the 50,000-deep keys and arrays that cost gigabytes or the stack
+MAX_SCENE_DEPTH = 32
+# time step bounds (s): below 1 us a run of MAX_STEPS covers 10 s; above 1 s contacts are not resolved
+MIN_DT, MAX_DT = 1e-6, 1.0
+# at most 10^7 steps in a run (11.6 h of simulated time at 1/240 s), so a run's length is bounded
+MAX_STEPS = 10_000_000
 
 # strict scalars: a number given as a string ("0.5") or a boolean given as 1 is an error, not a
 # silent conversion (an int is still a float)
@@ -304,9 +325,9 @@ class SceneInfo(_Table):
     """How to run the scene: its name, a one-line description, the time step (s) and step count."""
     name: Optional[Str] = None
     description: Str = ""
-    dt: Float = 1.0 / 240.0
-    steps: Int = 240
-    snapshot_times: Optional[List[Float]] = None
+    dt: Float = Field(1.0 / 240.0, ge=MIN_DT, le=MAX_DT, description="s, the suggested time step")
+    steps: Int = Field(240, ge=0, le=MAX_STEPS, description="steps of a full run")
+    snapshot_times: Optional[List[Annotated[float, Strict(), Field(ge=0.0, allow_inf_nan=False)]]] = None
 
 
 class SceneFile(_Table):
@@ -345,19 +366,30 @@ def _key(loc) -> str:
 
 
 def _parse(path: Path) -> tuple[SceneFile, dict]:
-    """The validated model and the raw TOML dict of a file; SceneFileError naming file and key."""
+    """The validated model and the raw TOML dict of a file; SceneFileError naming file and key.
+    Size and depth are checked before the TOML parser runs (module doc, limits)."""
     if not path.is_file():
         raise FileNotFoundError(f"scene file {str(path)!r} does not exist" if not path.exists()
                                 else f"scene file {str(path)!r} is not a file")
     try:
-        with open(path, "rb") as f:
-            raw = tomllib.load(f)
+        filecheck.check_size(path, MAX_SCENE_BYTES)
+        text = path.read_bytes().decode("utf-8")
+        filecheck.toml_depth(text, MAX_SCENE_DEPTH)
+        raw = tomllib.loads(text)
+    except filecheck.FileLimitError as e:
+        raise SceneFileError(f"scene file {str(path)!r}: {e}") from None
     except tomllib.TOMLDecodeError as e:
         raise SceneFileError(f"scene file {str(path)!r}: not valid TOML: {e}") from None
     except (OSError, UnicodeDecodeError) as e:
         raise SceneFileError(f"scene file {str(path)!r}: unreadable: {e}") from None
+    except (RecursionError, MemoryError) as e:
+        raise SceneFileError(f"scene file {str(path)!r}: out of memory or stack parsing it ({type(e).__name__})") \
+            from None
     try:
         model = SceneFile.model_validate(raw)
+    except (RecursionError, MemoryError) as e:
+        raise SceneFileError(f"scene file {str(path)!r}: out of memory or stack checking it ({type(e).__name__})") \
+            from None
     except ValidationError as e:
         problems = []
         for err in e.errors():
@@ -381,13 +413,13 @@ def _body_name(raw: dict, loc) -> str:
     return ""
 
 
-def _mesh_reader(base: Path):
-    """codec.shape_from_data's mesh reader: a ``file`` relative to base, or inline arrays."""
+def _mesh_reader(base: Path, allow_paths=()):
+    """codec.shape_from_data's mesh reader: a ``file`` relative to base, inside base or one of
+    allow_paths (module doc), or inline arrays."""
     def read(d: dict, where: str):
         if d.get("file") is not None:
-            file = Path(d["file"])
-            file = file if file.is_absolute() else base / file
             try:
+                file = filecheck.inside(d["file"], base, [base, *allow_paths], "mesh file")
                 return meshfile.read_mesh_arrays(file, d.get("scale", 1.0))
             except (FileNotFoundError, ValueError) as e:
                 raise ValueError(f"{where}.file: {e}") from None
@@ -395,15 +427,24 @@ def _mesh_reader(base: Path):
     return read
 
 
-def read_scene(path):
+def read_scene(path, *, allow_paths=()):
     """The ``Scene`` of a scene file: its World (in the file's initial state), name (the
     [scene] name or the file's stem), dt, steps, description, snapshot times and body names
-    (None when no body has one). Raises FileNotFoundError or SceneFileError naming the file, the
-    key and the problem; nothing is half built."""
+    (None when no body has one). Mesh files are read from inside the scene file's folder and the
+    folders in ``allow_paths`` (paths) only. Limits in the module doc (file size, nesting depth,
+    dt and steps bounds). Raises FileNotFoundError or SceneFileError naming the file, the key and
+    the problem; nothing is half built."""
     path = Path(path)
+    where_file = f"scene file {str(path)!r}"
+    try:
+        return _read_scene(path, [Path(a) for a in allow_paths], where_file)
+    except (RecursionError, MemoryError) as e:
+        raise SceneFileError(f"{where_file}: out of memory or stack building it ({type(e).__name__})") from None
+
+
+def _read_scene(path: Path, allow_paths: list, where_file: str):
     model, _ = _parse(path)
     base = path.parent
-    where_file = f"scene file {str(path)!r}"
     try:
         world = World(**model.world.model_dump())
     except (TypeError, ValueError) as e:
@@ -412,7 +453,7 @@ def read_scene(path):
     for i, body in enumerate(model.bodies):
         key = f"bodies[{i}]" + (f" ({body.name!r})" if body.name else "")
         try:
-            shape = codec.shape_from_data(body.shape.model_dump(), _mesh_reader(base), "shape")
+            shape = codec.shape_from_data(body.shape.model_dump(), _mesh_reader(base, allow_paths), "shape")
             if body.material is not None and body.material not in model.materials:
                 known = ", ".join(sorted(model.materials)) or "none"
                 raise ValueError(f"material: unknown material {body.material!r} (known: {known})")
@@ -433,9 +474,10 @@ def read_scene(path):
         names=tuple(n or f"body_{i}" for i, n in enumerate(names)) if any(names) else None)
 
 
-def load_scene(path):
-    """The World described by a scene file (see ``read_scene`` for the name, dt and steps too)."""
-    return read_scene(path).world
+def load_scene(path, *, allow_paths=()):
+    """The World described by a scene file (see ``read_scene`` for the name, dt and steps too, the
+    limits and ``allow_paths``, the folders besides the file's own that mesh files may be read from)."""
+    return read_scene(path, allow_paths=allow_paths).world
 
 
 # writing ---------------------------------------------------------------------------------------

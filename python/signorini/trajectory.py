@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import codec, meshes
+from . import codec, filecheck, meshes
 from .world import SolverWarning
 
 __all__ = ["Record", "Recorder", "save_trajectory", "load_trajectory", "shape_params", "body_names",
@@ -476,11 +476,34 @@ _ARRAYS = ("masses", "is_static", "gravity", "frame_step", "time", "positions", 
            "angular_velocities", "kinetic_energy", "potential_energy", "step_time", "num_contacts", "min_gap")
 
 
-def load_trajectory(path) -> Record:
+#: the most bytes a trajectory's arrays may hold once decompressed, all together (a 1,000-body run
+#: of 5,000 frames with its contacts is about 0.8 GB); checked from the arrays' headers before any is
+#: read, so a small file claiming gigabytes is refused at once; ``load_trajectory(max_bytes=)`` raises it
+MAX_TRAJECTORY_BYTES = 1 << 30
+#: deepest nesting of the ``shapes`` JSON (a compound part's box is 6 deep; the format is otherwise flat)
+MAX_SHAPES_DEPTH = 16
+# arrays of numbers that must be finite (min_gap is NaN for steps without contacts; masses are inf
+# for static bodies, checked apart)
+_FINITE = ("gravity", "time", "positions", "orientations", "velocities", "angular_velocities", "kinetic_energy",
+           "potential_energy", "step_time", "mesh_vertices")
+_SCALARS = ("format", "version", "scene", "dt", "stride", "wall_time", "shapes", "has_contacts")
+
+
+def load_trajectory(path, *, max_bytes: int = MAX_TRAJECTORY_BYTES) -> Record:
     """Read a trajectory written by ``save_trajectory`` (or the command line).
 
-    Raises FileNotFoundError for a missing file and ValueError naming the file for anything that
-    is not a readable signorini trajectory (not an .npz, truncated, missing or inconsistent arrays).
+    Limits, checked before the arrays are read: the arrays hold at most ``max_bytes`` once
+    decompressed (``MAX_TRAJECTORY_BYTES``, 1 GiB, by default), each array's .npy header agrees
+    with its zip entry's size and that size with what deflate can hold in the compressed bytes, no
+    array holds Python objects; the ``shapes`` JSON is nested at most ``MAX_SHAPES_DEPTH`` deep.
+    Values, checked after: poses, velocities, times, energies, gravity and draw meshes are finite,
+    masses > 0 (inf for static bodies), the mesh and contact offsets start at 0, never decrease and
+    end at their array's length, faces index their own body's vertices, contacts name bodies that
+    exist, ``dt`` >= 0 and ``stride`` >= 1.
+
+    Raises FileNotFoundError for a missing file and ValueError naming the file and the array for
+    anything that is not a readable signorini trajectory (not an .npz, truncated, over a limit,
+    missing, inconsistent or non-finite arrays; running out of memory is reported the same way).
     """
     path = Path(path)
     if not path.is_file():
@@ -488,18 +511,15 @@ def load_trajectory(path) -> Record:
     if not zipfile.is_zipfile(path):
         raise ValueError(f"{path}: not a signorini trajectory (not an .npz file: no zip archive inside)")
     try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
-        raise ValueError(f"{path}: not a readable signorini trajectory (.npz): {e}") from None
-    if str(data.get("format", "")) != TRAJECTORY_FORMAT:
-        raise ValueError(f"{path}: not a signorini trajectory (no format marker {TRAJECTORY_FORMAT!r}; "
-                         "written by an older version or another program?)")
-    missing = [k for k in _ARRAYS + ("scene", "dt", "stride", "names", "shapes", "mesh_vertices", "mesh_faces",
-                                     "mesh_vertex_offsets", "mesh_face_offsets") if k not in data]
-    if missing:
-        raise ValueError(f"{path}: trajectory is missing {', '.join(missing)}")
-    try:
+        data = filecheck.read_npz(path, max_bytes)
+        if "format" not in data or data["format"].shape != () or str(data["format"]) != TRAJECTORY_FORMAT:
+            raise ValueError(f"{path}: not a signorini trajectory (no format marker {TRAJECTORY_FORMAT!r}; "
+                             "written by an older version or another program?)")
+        missing = [k for k in _ARRAYS + ("scene", "dt", "stride", "names", "shapes", "mesh_vertices", "mesh_faces",
+                                         "mesh_vertex_offsets", "mesh_face_offsets") if k not in data]
+        if missing:
+            raise ValueError(f"{path}: trajectory is missing {', '.join(missing)}")
+        _check_values(data, path)
         vo, fo = data["mesh_vertex_offsets"], data["mesh_face_offsets"]
         draw = [(data["mesh_vertices"][vo[i]:vo[i + 1]], data["mesh_faces"][fo[i]:fo[i + 1]])
                 for i in range(len(vo) - 1)]
@@ -509,14 +529,94 @@ def load_trajectory(path) -> Record:
         record = Record(
             scene=str(data["scene"]), dt=float(data["dt"]), stride=int(data["stride"]),
             wall_time=float(data.get("wall_time", 0.0)), names=[str(x) for x in data["names"]],
-            shapes=json.loads(str(data["shapes"])), draw_meshes=draw,
+            shapes=_shapes(str(data["shapes"]), path), draw_meshes=draw,
             solver={k[len("solver_"):]: v for k, v in data.items() if k.startswith("solver_")},
             contacts=contacts, **{k: data[k] for k in _ARRAYS},
         )
-    except (KeyError, ValueError, IndexError) as e:
-        raise ValueError(f"{path}: corrupt trajectory: {e}") from None
-    _check(record, path)
+        _check(record, path)
+    except filecheck.FileLimitError as e:
+        raise ValueError(f"{path}: not a readable signorini trajectory (.npz): {e}") from None
+    except (KeyError, IndexError, TypeError, OverflowError) as e:
+        raise ValueError(f"{path}: corrupt trajectory: {type(e).__name__}: {e}") from None
+    except (MemoryError, RecursionError) as e:
+        raise ValueError(f"{path}: corrupt trajectory: out of memory or nested too deep reading it "
+                         f"({type(e).__name__})") from None
+    except ValueError as e:
+        message = str(e)
+        raise ValueError(message if message.startswith(str(path)) else f"{path}: corrupt trajectory: {message}") \
+            from None
     return record
+
+
+def _shapes(text: str, path) -> list:
+    """The ``shapes`` JSON: a list of dicts each with a string "type", nested at most MAX_SHAPES_DEPTH."""
+    filecheck.json_depth(text, MAX_SHAPES_DEPTH)
+    shapes = json.loads(text)
+    if not isinstance(shapes, list) or not all(isinstance(d, dict) and isinstance(d.get("type"), str)
+                                               for d in shapes):
+        raise ValueError(f"{path}: corrupt trajectory: shapes must be a list of {{\"type\": ...}} objects")
+    return shapes
+
+
+def _offsets(data: dict, key: str, rows: int, parts: int, path) -> np.ndarray:
+    """An offsets array (parts + 1,) int: 0 first, never decreasing, rows last; else ValueError."""
+    o = data[key]
+    if o.dtype.kind not in "iu" or o.shape != (parts + 1,) or o[0] != 0 or o[-1] != rows or np.any(np.diff(o) < 0):
+        shown = o[:6].tolist() if o.ndim == 1 else o.shape
+        raise ValueError(f"{path}: corrupt trajectory: {key} must be {parts + 1} integers from 0 up to {rows}, "
+                         f"never decreasing; got {shown}{' ...' if o.size > 6 else ''}")
+    return o.astype(np.int64)
+
+
+def _check_values(data: dict, path) -> None:
+    """ValueError naming the file and the array for a value a trajectory cannot hold (see
+    ``load_trajectory``); runs on the file's arrays before a Record is built from them."""
+    def bad(key: str, problem: str):
+        return ValueError(f"{path}: corrupt trajectory: {key} {problem}")
+
+    for key in _SCALARS:
+        if key in data and data[key].shape != ():
+            raise bad(key, f"must be a single value, got shape {data[key].shape}")
+    for key in _ARRAYS + ("mesh_vertices", "mesh_faces"):
+        if data[key].dtype.kind not in "biuf":
+            raise bad(key, f"must hold numbers, got dtype {data[key].dtype}")
+    for key in _FINITE:
+        if not np.all(np.isfinite(data[key])):
+            raise bad(key, "holds a value that is not finite (NaN or infinity)")
+    masses = data["masses"]
+    if np.any(np.isnan(masses)) or np.any(masses <= 0):
+        raise bad("masses", "must be > 0 (inf for static bodies)")
+    dt, stride = data["dt"], data["stride"]
+    if dt.dtype.kind not in "iuf" or not (math.isfinite(float(dt)) and float(dt) >= 0):
+        raise bad("dt", f"must be a finite number >= 0, got {dt}")
+    if stride.dtype.kind not in "iu" or int(stride) < 1:
+        raise bad("stride", f"must be an integer >= 1, got {stride}")
+    n = len(data["names"]) if data["names"].ndim == 1 else -1
+    vertices, faces = data["mesh_vertices"], data["mesh_faces"]
+    if vertices.ndim != 2 or vertices.shape[1:] != (3,) or faces.ndim != 2 or faces.shape[1:] != (3,):
+        raise bad("mesh_vertices", f"and mesh_faces must be (V, 3) and (K, 3), got {vertices.shape} and {faces.shape}")
+    vo = _offsets(data, "mesh_vertex_offsets", len(vertices), max(n, 0), path)
+    fo = _offsets(data, "mesh_face_offsets", len(faces), max(n, 0), path)
+    # each body's faces index its own vertices: 0 <= face < its vertex count
+    counts = np.repeat(np.diff(vo), np.diff(fo))
+    if faces.size and (faces.dtype.kind not in "iu" or np.any(faces < 0) or np.any(faces >= counts[:, None])):
+        raise bad("mesh_faces", "index vertices outside their body's draw mesh")
+    if "has_contacts" in data and bool(data["has_contacts"]):
+        missing = [f"contact_{k}" for k in ("offsets",) + CONTACT_KEYS if f"contact_{k}" not in data]
+        if missing:
+            raise bad("contacts", f"are missing {', '.join(missing)}")
+        c = len(data["contact_gap"]) if data["contact_gap"].ndim == 1 else -1
+        frames = len(data["time"]) if data["time"].ndim == 1 else 0
+        _offsets(data, "contact_offsets", c, frames, path)
+        for k in CONTACT_KEYS:
+            a = data[f"contact_{k}"]
+            if a.shape != ((c, 3) if k in ("point", "normal", "force") else (c,)) or a.dtype.kind not in "iuf":
+                raise bad(f"contact_{k}", f"must be {c} rows of numbers, got {a.shape} {a.dtype}")
+            if k in ("body_a", "body_b"):
+                if np.any(a < 0) or np.any(a >= n):
+                    raise bad(f"contact_{k}", f"names a body outside 0..{n - 1}")
+            elif not np.all(np.isfinite(a)):
+                raise bad(f"contact_{k}", "holds a value that is not finite (NaN or infinity)")
 
 
 def _check(r: Record, path) -> None:
@@ -535,3 +635,7 @@ def _check(r: Record, path) -> None:
         raise ValueError(f"{path}: trajectory has no frames")
     if r.contacts is not None and len(r.contacts["offsets"]) != f + 1:
         raise ValueError(f"{path}: corrupt trajectory: contact offsets do not match {f} frames")
+    for k, v in r.solver.items():
+        if v.shape != (t,) or v.dtype.kind not in "biuf":
+            raise ValueError(f"{path}: corrupt trajectory: solver_{k} has shape {v.shape} {v.dtype}, expected ({t},) "
+                             "numbers")
