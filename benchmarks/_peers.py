@@ -51,6 +51,16 @@ def load_pybullet():
     return pybullet, bullet_client.BulletClient
 
 
+def timed_steps(step, steps: int) -> float:
+    """Calls step() ``steps`` times; returns the summed wall time of the calls alone (s)."""
+    total = 0.0
+    for _ in range(steps):
+        t0 = time.perf_counter()
+        step()
+        total += time.perf_counter() - t0
+    return total
+
+
 def load_rapier():
     """The rapier3d module, or None if it is not installed."""
     try:
@@ -163,12 +173,7 @@ class PybulletTwin:
 
     def run_chunk(self, steps: int) -> float:
         """Steps ``steps`` times; returns the summed wall time of the steps alone (s)."""
-        total, step = 0.0, self.pb.stepSimulation
-        for _ in range(steps):
-            t0 = time.perf_counter()
-            step()
-            total += time.perf_counter() - t0
-        return total
+        return timed_steps(self.pb.stepSimulation, steps)
 
     def state(self):
         """Positions (N_dyn, 3) of the dynamic bodies (NaN where not created) and their kinetic energy (J)."""
@@ -261,12 +266,7 @@ class RapierTwin:
 
     def run_chunk(self, steps: int) -> float:
         """Steps ``steps`` times; returns the summed wall time of the steps alone (s)."""
-        total, step = 0.0, self.rw.step
-        for _ in range(steps):
-            t0 = time.perf_counter()
-            step()
-            total += time.perf_counter() - t0
-        return total
+        return timed_steps(self.rw.step, steps)
 
     def state(self):
         """Positions (N_dyn, 3) of the dynamic bodies (NaN where disabled) and their kinetic energy (J)."""

@@ -41,19 +41,21 @@ versions of the scenes (a 5-box-base pyramid, 40 spheres and 10 boxes, 20 hulls)
 from __future__ import annotations
 
 import argparse
-import contextlib
 import math
-import os
 import statistics
 import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 
 import signorini as sg
 from signorini import scenes
 from signorini.oracle import matrix_to_quat, quat_to_matrix
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # benchmarks/ is not a package
+import _peers as peers  # noqa: E402  (pybullet's quiet connect and loader)
 
 DT = 1.0 / 240.0
 SWEEPS = 10
@@ -71,29 +73,9 @@ CERTIFICATE = ("residual", "max_penetration_velocity", "max_complementarity", "m
                "max_dissipation_violation")
 
 
-@contextlib.contextmanager
-def quiet_stdout():
-    """Silences file descriptor 1 (pybullet's C code prints "argv[0]=" on connect straight to it,
-    which would break up the progress lines; its build time on import goes to stderr)."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "w") as devnull:
-            os.dup2(devnull.fileno(), 1)
-            yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-
-
 def load_pybullet():
     """The pybullet module and its BulletClient class, or (None, None) if it is not installed."""
-    try:
-        import pybullet
-        from pybullet_utils import bullet_client
-    except ImportError:
-        return None, None
-    return pybullet, bullet_client.BulletClient
+    return peers.load_pybullet() or (None, None)
 
 
 class SignoriniRun:
@@ -159,7 +141,7 @@ class PybulletRun:
 
     def __init__(self, world, pybullet, client_class):
         self.p = pybullet
-        with quiet_stdout():
+        with peers.quiet_stdout():
             self.pb = client_class(connection_mode=pybullet.DIRECT)
         pb = self.pb
         pb.setGravity(*np.asarray(world.gravity, dtype=float))
