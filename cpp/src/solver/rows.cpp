@@ -1,0 +1,365 @@
+#include "solver/rows.hpp"
+
+#include <array>
+#include <limits>
+
+namespace signorini::solver::rows {
+
+/// tangent_basis treats components of a unit normal that differ by less than this as tied.
+constexpr double kTangentTie = 1e-9;
+
+namespace {
+
+/// Below this slip speed (m/s) a contact counts as sticking for the maximum-dissipation check.
+constexpr double kSlidingSpeed = 1e-3;
+
+bool key_less(const CachedContact& x, const CachedContact& y) {
+  if (x.body_a != y.body_a) return x.body_a < y.body_a;
+  if (x.body_b != y.body_b) return x.body_b < y.body_b;
+  if (x.feature_a != y.feature_a) return x.feature_a < y.feature_a;
+  return x.feature_b < y.feature_b;
+}
+
+bool same_key(const CachedContact& x, const CachedContact& y) { return !key_less(x, y) && !key_less(y, x); }
+
+/// true when contact i is the only one of its body pair: the contact list holds each pair's
+/// contacts next to each other (docs/conventions.md, "Order"), so its neighbours tell.
+bool alone_in_pair(const std::vector<Contact>& contacts, std::size_t i) {
+  const auto same_pair = [&](std::size_t j) {
+    return contacts[j].body_a == contacts[i].body_a && contacts[j].body_b == contacts[i].body_b;
+  };
+  return (i == 0 || !same_pair(i - 1)) && (i + 1 == contacts.size() || !same_pair(i + 1));
+}
+
+/// The rows of one contact between bodies a and b, acting at lever arms r_a = y_a - p_a on A and
+/// r_b = y_b - p_b on B, along the directions d[0..2] (unit, world; normal, t1, t2):
+/// J_A = -(r_a x d, d), J_B = (r_b x d, d), delta = dt (J_A M_A^-1 J_A + J_B M_B^-1 J_B).
+/// dI_inv holds dt I_X^-1 per body (world). What the rows share (bodies, masses) is read once.
+void make_rows(const Model& model, const std::vector<Mat3>& dI_inv, int a, int b, const Vec3& r_a, const Vec3& r_b,
+               const Vec3* d, double dt, Row* r) {
+  // static and kinematic bodies have infinite mass here: contacts never change their velocities
+  const bool a_moves = !model.is_static[a] && !model.is_kinematic[a];
+  const bool b_moves = !model.is_static[b] && !model.is_kinematic[b];
+  const double dinv_mass_a = a_moves ? dt * model.inv_mass[a] : 0.0;
+  const double dinv_mass_b = b_moves ? dt * model.inv_mass[b] : 0.0;
+  for (int k = 0; k < 3; ++k) {
+    Row& x = r[k];
+    x.a = a;
+    x.b = b;
+    x.a_moves = a_moves;
+    x.b_moves = b_moves;
+    x.J_lin = d[k];
+    x.JA_ang = -r_a.cross(d[k]);
+    x.JB_ang = r_b.cross(d[k]);
+    x.dMJA_ang = a_moves ? Vec3(dI_inv[a] * x.JA_ang) : Vec3::Zero();
+    x.dMJB_ang = b_moves ? Vec3(dI_inv[b] * x.JB_ang) : Vec3::Zero();
+    x.dinv_mass_a = dinv_mass_a;
+    x.dinv_mass_b = dinv_mass_b;
+    x.delta = x.JB_ang.dot(x.dMJB_ang) + x.JA_ang.dot(x.dMJA_ang) + (dinv_mass_a + dinv_mass_b) * d[k].squaredNorm();
+    x.inv_delta = x.delta > 0.0 ? 1.0 / x.delta : 0.0;
+    x.bias = 0.0;
+    x.mu = 0.0;
+    x.W_n = x.W_t1 = 0.0;
+  }
+}
+
+/// W_jk = dt J_j M^-1 J_k^T (s/kg) of two rows on the same bodies: how much a force change of row k
+/// moves row j's velocity.
+double coupling(const Row& j, const Row& k) {
+  return j.JB_ang.dot(k.dMJB_ang) + j.JA_ang.dot(k.dMJA_ang) + (k.dinv_mass_a + k.dinv_mass_b) * j.J_lin.dot(k.J_lin);
+}
+
+}  // namespace
+
+// ---- a. prepare ---------------------------------------------------------------------------------
+/// The solve order (docs/conventions.md, "Solve order"): contacts coloured greedily in contact
+/// order, each taking the lowest of 64 colours that none of its moving bodies has yet (the rest
+/// share a 65th), then listed colour by colour, in contact order within a colour. Consecutive
+/// contacts then rarely share a body, so a sweep does not wait for one contact's velocity update
+/// before starting the next (the idea of Box2D v3's graph colouring, here for one thread).
+/// Out: d.order (K: solve position -> contact), d.slot (K: contact -> solve position).
+static void solve_order(const Model& model, const std::vector<Contact>& contacts, SolverData& d) {
+  const std::size_t K = contacts.size();
+  constexpr int kColours = 65;
+  assign_n(d.colours_used, model.size(), std::uint64_t(0));
+  d.slot.resize(K);  // the colour of each contact first
+  std::array<int, kColours + 1> start{};
+  for (std::size_t i = 0; i < K; ++i) {
+    const int a = contacts[i].body_a, b = contacts[i].body_b;
+    const bool a_moves = !model.is_static[a] && !model.is_kinematic[a];
+    const bool b_moves = !model.is_static[b] && !model.is_kinematic[b];
+    const std::uint64_t taken = (a_moves ? d.colours_used[a] : 0) | (b_moves ? d.colours_used[b] : 0);
+    int colour = kColours - 1;
+    if (~taken != 0) {
+      colour = 0;
+      while (taken >> colour & 1) ++colour;
+      if (a_moves) d.colours_used[a] |= std::uint64_t(1) << colour;
+      if (b_moves) d.colours_used[b] |= std::uint64_t(1) << colour;
+    }
+    d.slot[i] = colour;
+    ++start[colour + 1];
+  }
+  for (int c = 0; c < kColours; ++c) start[c + 1] += start[c];
+  d.order.resize(K);
+  for (std::size_t i = 0; i < K; ++i) {
+    const int k = start[d.slot[i]]++;
+    d.order[k] = static_cast<int>(i);
+    d.slot[i] = k;
+  }
+}
+
+/// Rows (normal, t1, t2 per contact, stored in solve order), pair materials, u_i = J_n q_dot*
+/// (before the solve), and the spin rows (a contact alone in its body pair, with
+/// mu_spin = max(mu_spin_A, mu_spin_B) > 0, in solve order).
+void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
+             const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d) {
+  const std::size_t K = contacts.size();
+  solve_order(model, contacts, d);
+  d.rows.resize(3 * K);
+  assign_n(d.alpha, 3 * K, 0.0);
+  d.u.resize(K);
+  d.e.resize(K);
+  bool spinning = false;  // some contact's pair has spinning friction
+  for (std::size_t i = 0; i < K; ++i) {
+    const Contact& c = contacts[i];
+    const int a = c.body_a, b = c.body_b;
+    const Material& ma = model.material[a];
+    const Material& mb = model.material[b];
+    const double mu = std::sqrt(ma.friction * mb.friction);
+    Vec3 dir[3];
+    dir[0] = c.normal;
+    tangent_basis(c.normal, dir[1], dir[2]);
+    Row* r = &d.rows[3 * d.slot[i]];
+    const Vec3 r_a = (anchor_a ? (*anchor_a)[i] : c.point) - state.p[a];
+    const Vec3 r_b = (anchor_b ? (*anchor_b)[i] : c.point) - state.p[b];
+    make_rows(model, d.dI_inv, a, b, r_a, r_b, dir, dt, r);
+    // a speculative contact may close its gap, no more; an overlap is left to the position pass
+    r[0].bias = std::max(c.gap, 0.0) / dt;
+    for (int k = 1; k <= 2; ++k) {
+      r[k].mu = mu;
+      r[k].W_n = coupling(r[k], r[0]);
+    }
+    r[2].W_t1 = coupling(r[2], r[1]);
+    d.u[i] = row_velocity(r[0], d.qd);
+    d.e[i] = std::max(ma.restitution, mb.restitution);
+    spinning = spinning || ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0;
+  }
+  // spin rows: J_A = (-n, 0), J_B = (n, 0), delta = dt (n . I_A^-1 n + n . I_B^-1 n); none, and
+  // nothing more to do, when no pair has spinning friction
+  d.spin_rows.clear();
+  if (spinning) assign_n(d.spin_slot, K, -1);
+  for (std::size_t k = 0; spinning && k < K; ++k) {
+    const int i = d.order[k];
+    const Contact& c = contacts[i];
+    const double mu_spin =
+        std::max(model.material[c.body_a].spinning_friction, model.material[c.body_b].spinning_friction);
+    if (!(mu_spin > 0.0) || !alone_in_pair(contacts, static_cast<std::size_t>(i))) continue;
+    const Row& r = d.rows[3 * k];
+    SpinRow q;
+    q.n = c.normal;
+    q.dMJA_ang = r.a_moves ? Vec3(d.dI_inv[r.a] * -c.normal) : Vec3::Zero();
+    q.dMJB_ang = r.b_moves ? Vec3(d.dI_inv[r.b] * c.normal) : Vec3::Zero();
+    q.delta = q.n.dot(q.dMJB_ang) - q.n.dot(q.dMJA_ang);
+    if (!(q.delta > 0.0)) continue;
+    q.inv_delta = 1.0 / q.delta;
+    q.mu_spin = mu_spin;
+    d.spin_slot[k] = static_cast<int>(d.spin_rows.size());
+    d.spin_rows.push_back(q);
+  }
+  assign_n(d.spin_alpha, d.spin_rows.size(), 0.0);
+}
+
+// ---- b. warm start ------------------------------------------------------------------------------
+/// Forces of the previous step for contacts with the same key, clamped to the friction set (a spin
+/// row's torque to [-mu_spin alpha_n, mu_spin alpha_n]).
+bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts, SolverData& d) {
+  if (d.cache.empty()) return false;
+  bool found = false;
+  assign_n(d.cache_used, d.cache.size(), char(0));
+  CachedContact key, previous;
+  auto cursor = d.cache.begin();  // the first entry not below the previous contact's key
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    const Contact& c = contacts[i];
+    key.body_a = c.body_a;
+    key.body_b = c.body_b;
+    key.feature_a = c.feature_a;
+    key.feature_b = c.feature_b;
+    // the first entry not below the key: the narrow phase lists contacts in key order, so it is
+    // found by walking on from the previous one (everything before the cursor is below the key);
+    // a key that goes back is searched for from the start
+    auto it = cursor;
+    if (i > 0 && !key_less(key, previous)) {
+      while (it != d.cache.end() && key_less(*it, key)) ++it;
+    } else {
+      it = std::lower_bound(d.cache.begin(), d.cache.end(), key, key_less);
+    }
+    cursor = it;
+    previous = key;
+    if (it == d.cache.end() || !same_key(*it, key)) continue;
+    const std::size_t j = static_cast<std::size_t>(it - d.cache.begin());
+    if (d.cache_used[j]) continue;  // an equal key earlier in contact order took it
+    d.cache_used[j] = 1;
+    found = true;
+    const std::size_t k = 3 * static_cast<std::size_t>(d.slot[i]);
+    const Row* r = &d.rows[k];
+    const double alpha_n = it->alpha;
+    double a1 = it->friction.dot(r[1].J_lin), a2 = it->friction.dot(r[2].J_lin);
+    const double bound = r[1].mu * alpha_n;
+    if (s.friction_cone == FrictionCone::Cone) {
+      clamp_to_disk(a1, a2, bound);
+    } else {
+      a1 = std::clamp(a1, -bound, bound);
+      a2 = std::clamp(a2, -bound, bound);
+    }
+    d.alpha[k] = alpha_n;
+    d.alpha[k + 1] = a1;
+    d.alpha[k + 2] = a2;
+    if (!d.spin_rows.empty() && d.spin_slot[d.slot[i]] >= 0) {
+      const std::size_t j = static_cast<std::size_t>(d.spin_slot[d.slot[i]]);
+      const double spin_bound = d.spin_rows[j].mu_spin * alpha_n;
+      d.spin_alpha[j] = std::clamp(it->spin, -spin_bound, spin_bound);
+    }
+  }
+  return found;
+}
+
+void apply_forces(SolverData& d) {
+  // each contact's normal, t1 and t2 rows, then its spin row
+  const bool spin = !d.spin_rows.empty();
+  for (std::size_t k = 0; k < d.rows.size(); ++k) {
+    if (d.alpha[k] != 0.0) apply(d.rows[k], d.alpha[k], d.qd);
+    if (spin && k % 3 == 2 && d.spin_slot[k / 3] >= 0) {
+      const std::size_t j = static_cast<std::size_t>(d.spin_slot[k / 3]);
+      const Row& r = d.rows[k - 2];
+      if (d.spin_alpha[j] != 0.0) apply_spin(d.spin_rows[j], r, d.spin_alpha[j], d.qd[r.a], d.qd[r.b]);
+    }
+  }
+}
+
+// ---- d. restitution -----------------------------------------------------------------------------
+/// Newton's law on the contacts flagged restitutive (they approached faster than the threshold and pushed):
+/// n^T (v_B - v_A) >= -e u. Returns the sweeps used.
+int restitution(const SolverSettings& s, SolverData& d) {
+  const std::size_t K = d.u.size();
+  if (std::none_of(d.restitutive.begin(), d.restitutive.begin() + K, [](char x) { return x != 0; })) return 0;
+  int sweeps = 0;
+  bool converged = false;
+  while (!converged && sweeps < s.max_iterations) {
+    ++sweeps;
+    double change = 0.0;
+    for (std::size_t k = 0; k < K; ++k) {  // in solve order
+      const int i = d.order[k];
+      if (d.restitutive[i])
+        change = std::max(change, update_normal(d.rows[3 * k], d.e[i] * d.u[i], d.alpha[3 * k], d.qd));
+    }
+    converged = s.tolerance > 0.0 && change <= s.tolerance;
+  }
+  return sweeps;
+}
+
+// ---- f. store -----------------------------------------------------------------------------------
+/// Forces and velocities per contact, summed forces per body, the next cache, the certificate.
+void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats) {
+  const std::size_t K = contacts.size();
+  d.cache_next.resize(K);
+  for (std::size_t i = 0; i < K; ++i) {
+    Contact& c = contacts[i];
+    const Row* r = &d.rows[3 * d.slot[i]];
+    const double* alpha = &d.alpha[3 * d.slot[i]];
+    // forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2 (on B; A gets the opposite)
+    c.alpha = alpha[0];
+    c.impulse = dt * alpha[0];
+    c.friction = alpha[1] * r[1].J_lin + alpha[2] * r[2].J_lin;
+    c.force = alpha[0] * c.normal + c.friction;
+    for (int k = 0; k < 3; ++k) {
+      d.body_force[r[k].a] -= alpha[k] * r[k].J_lin;
+      d.body_torque[r[k].a] += alpha[k] * r[k].JA_ang;
+      d.body_force[r[k].b] += alpha[k] * r[k].J_lin;
+      d.body_torque[r[k].b] += alpha[k] * r[k].JB_ang;
+    }
+    // torsional friction: spin_torque n on B, the opposite on A
+    const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[d.slot[i]];
+    c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
+    if (spin >= 0) {
+      d.body_torque[c.body_a] -= c.spin_torque * c.normal;
+      d.body_torque[c.body_b] += c.spin_torque * c.normal;
+    }
+    // velocities after the solve: normal and slip
+    const double vn = row_velocity(r[0], d.qd);
+    const double vt1 = row_velocity(r[1], d.qd), vt2 = row_velocity(r[2], d.qd);
+    c.normal_velocity = vn;
+    c.slip = vt1 * r[1].J_lin + vt2 * r[2].J_lin;
+
+    // the certificate: w_i against the row's own target
+    const double b = d.restitutive[i] ? d.e[i] * d.u[i] : r[0].bias;
+    const double w = vn + b;
+    const double mu = r[1].mu;
+    stats.max_alpha_negative = std::max(stats.max_alpha_negative, -alpha[0]);
+    stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, -w);
+    stats.max_complementarity = std::max(stats.max_complementarity, std::abs(alpha[0] * w));
+    stats.max_cone_violation = std::max(stats.max_cone_violation, c.friction.norm() - mu * alpha[0]);
+    const double slip_speed = c.slip.norm();
+    if (slip_speed > kSlidingSpeed)
+      stats.max_dissipation_violation = std::max(stats.max_dissipation_violation,
+                                                 (c.friction + (mu * alpha[0] / slip_speed) * c.slip).norm());
+    stats.max_overlap = std::max(stats.max_overlap, -c.gap);
+    // natural residual delta |alpha - P(alpha - w / delta)| per row
+    if (r[0].delta > 0.0) {
+      stats.residual = std::max(stats.residual, r[0].delta * std::abs(alpha[0] - std::max(alpha[0] - w / r[0].delta, 0.0)));
+      const double bound = mu * alpha[0];
+      if (s.friction_cone == FrictionCone::Cone) {
+        const double delta_t = std::max(r[1].delta, r[2].delta);
+        double p1 = alpha[1] - vt1 / delta_t, p2 = alpha[2] - vt2 / delta_t;
+        clamp_to_disk(p1, p2, bound);
+        stats.residual = std::max({stats.residual, delta_t * std::abs(alpha[1] - p1), delta_t * std::abs(alpha[2] - p2)});
+      } else {
+        const double p1 = std::clamp(alpha[1] - vt1 / r[1].delta, -bound, bound);
+        const double p2 = std::clamp(alpha[2] - vt2 / r[2].delta, -bound, bound);
+        stats.residual = std::max({stats.residual, r[1].delta * std::abs(alpha[1] - p1), r[2].delta * std::abs(alpha[2] - p2)});
+      }
+      if (spin >= 0) {  // the spin row: P onto [-mu_spin alpha_n, mu_spin alpha_n] (rad/s)
+        const SpinRow& q = d.spin_rows[spin];
+        const double spin_bound = q.mu_spin * alpha[0];
+        const double p = std::clamp(c.spin_torque - spin_velocity(q, d.qd[c.body_a], d.qd[c.body_b]) / q.delta,
+                                    -spin_bound, spin_bound);
+        stats.residual = std::max(stats.residual, q.delta * std::abs(c.spin_torque - p));
+      }
+    }
+
+    // the cache for the next step's warm start: the force before restitution
+    CachedContact& e = d.cache_next[i];
+    e.body_a = c.body_a;
+    e.body_b = c.body_b;
+    e.feature_a = c.feature_a;
+    e.feature_b = c.feature_b;
+    e.alpha = d.alpha_iter[i];
+    e.friction = c.friction;
+    e.spin = c.spin_torque;
+    e.order = static_cast<int>(i);
+  }
+  // sorted by key (first in contact order on equal keys), one entry per key; the narrow phase
+  // lists contacts by body pair and feature ids, so this is usually sorted already
+  const auto before = [](const CachedContact& x, const CachedContact& y) {
+    return key_less(x, y) || (same_key(x, y) && x.order < y.order);
+  };
+  if (!std::is_sorted(d.cache_next.begin(), d.cache_next.end(), before))
+    std::sort(d.cache_next.begin(), d.cache_next.end(), before);
+  d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(), same_key), d.cache_next.end());
+}
+
+}  // namespace signorini::solver::rows
+
+namespace signorini::solver {
+
+void tangent_basis(const Vec3& n, Vec3& t1, Vec3& t2) {
+  // the first axis within kTangentTie of the smallest |n_k|: a normal of a stack or a wall has two
+  // components that are zero up to rounding, and choosing between them by their rounding noise
+  // would turn the friction pyramid by 90 degrees from one computation of the normal to the next
+  const Vec3 m = n.cwiseAbs();
+  const double least = m.minCoeff() + rows::kTangentTie;
+  const int k = m[0] <= least ? 0 : m[1] <= least ? 1 : 2;
+  t1 = n.cross(Vec3::Unit(k)).normalized();
+  t2 = n.cross(t1);
+}
+
+}  // namespace signorini::solver
