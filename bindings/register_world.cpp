@@ -19,6 +19,8 @@ void register_world(py::module_& m) {
       .value("midpoint", Gyroscopic::Midpoint)
       .value("implicit", Gyroscopic::Implicit)
       .value("explicit", Gyroscopic::Explicit);
+  py::enum_<SolverMethod>(m, "SolverMethod").value("pgs", SolverMethod::PGS).value("soft", SolverMethod::Soft);
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<SolverMethod>>(m.attr("SolverMethod")));
   bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<FrictionCone>>(m.attr("FrictionCone")));
   bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<Gyroscopic>>(m.attr("Gyroscopic")));
 
@@ -36,14 +38,22 @@ void register_world(py::module_& m) {
       .def_readwrite("warm_start", &SolverSettings::warm_start)
       .def_readwrite("substeps", &SolverSettings::substeps)
       .def_readwrite("warn_velocity", &SolverSettings::warn_velocity)
+      .def_readwrite("method", &SolverSettings::method)
+      .def_readwrite("contact_hertz", &SolverSettings::contact_hertz)
+      .def_readwrite("damping_ratio", &SolverSettings::damping_ratio)
+      .def_readwrite("soft_iterations", &SolverSettings::soft_iterations)
+      .def_readwrite("relax_iterations", &SolverSettings::relax_iterations)
       .def(py::pickle(
           [](const SolverSettings& s) {
             return py::make_tuple(s.erp, s.tolerance, s.max_iterations, s.slop, s.max_push_velocity,
                                   s.restitution_threshold, s.friction_cone, s.gyroscopic, s.warm_start, s.substeps,
-                                  s.warn_velocity);
+                                  s.warn_velocity, s.method, s.contact_hertz, s.damping_ratio, s.soft_iterations,
+                                  s.relax_iterations);
           },
           [](const py::tuple& t) {
-            if (t.size() != 11) throw py::value_error("SolverSettings: a pickled state has 11 items");
+            // 11 items: a pickle from before the soft step (its settings keep their defaults)
+            if (t.size() != 16 && t.size() != 11)
+              throw py::value_error("SolverSettings: a pickled state has 16 items (11 before the soft step)");
             SolverSettings s;
             s.erp = t[0].cast<double>();
             s.tolerance = t[1].cast<double>();
@@ -56,6 +66,13 @@ void register_world(py::module_& m) {
             s.warm_start = t[8].cast<bool>();
             s.substeps = t[9].cast<int>();
             s.warn_velocity = t[10].cast<double>();
+            if (t.size() == 16) {
+              s.method = t[11].cast<SolverMethod>();
+              s.contact_hertz = t[12].cast<double>();
+              s.damping_ratio = t[13].cast<double>();
+              s.soft_iterations = t[14].cast<int>();
+              s.relax_iterations = t[15].cast<int>();
+            }
             return s;
           }));
   bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<SolverSettings>>(m.attr("SolverSettings")));

@@ -135,6 +135,7 @@ SOLVER_DEFAULTS = {
     "erp": 0.2, "tolerance": 1e-6, "max_iterations": 30, "slop": 0.001, "max_push_velocity": 1.0,
     "restitution_threshold": 0.5, "friction_cone": "pyramid", "gyroscopic": "midpoint",
     "warm_start": True, "substeps": 0, "warn_velocity": 0.01,
+    "solver": "pgs", "contact_hertz": 30.0, "damping_ratio": 10.0, "soft_iterations": 1, "relax_iterations": 1,
 }
 
 
@@ -148,7 +149,9 @@ def _solver_settings(who: str, current=None, **given):
             value = getattr(current, key) if current is not None else default
             if key in ("friction_cone", "gyroscopic") and not isinstance(value, str):
                 value = value.name
-        if key in ("max_iterations", "substeps"):
+            if key == "solver" and current is not None:
+                value = current.method.name
+        if key in ("max_iterations", "substeps", "soft_iterations", "relax_iterations"):
             value = as_count(value, who, key)
         elif key == "warm_start":
             if not isinstance(value, (bool, np.bool_)):
@@ -162,6 +165,11 @@ def _solver_settings(who: str, current=None, **given):
             if value not in ("midpoint", "implicit", "explicit"):
                 raise ValueError(f"{who}: gyroscopic must be 'midpoint', 'implicit' or 'explicit', got {value!r}")
             value = getattr(_core.Gyroscopic, value)
+        elif key == "solver":
+            if value not in ("pgs", "soft"):
+                raise ValueError(f"{who}: solver must be 'pgs' or 'soft', got {value!r}")
+            s.method = getattr(_core.SolverMethod, value)
+            continue
         else:
             value = as_scalar(value, who, key)
         setattr(s, key, value)
@@ -214,6 +222,16 @@ class World:
         (m/s) is flagged: the world's first flagged step raises a ``SolverWarning``, and
         ``unconverged_substeps`` counts every flagged substep (a loop of ``step(dt)`` warns once, not once a
         step; ``set_solver`` re-arms the warning).
+    solver : "pgs" (the lecture's hard PGS, swept to ``tolerance`` in every substep, with a
+        split-impulse position pass) or "soft" (the soft step of docs/conventions.md: per substep
+        one warm start, ``soft_iterations`` sweeps on soft contacts, the poses, ``relax_iterations``
+        rigid sweeps; restitution last; ``substeps`` 0 then runs substeps of at most 1/240 s).
+    contact_hertz : soft step: a contact's stiffness as its spring's frequency (Hz, > 0), at most a
+        quarter of the substep rate; twice this against a static or kinematic body.
+    damping_ratio : soft step: the spring's damping ratio (>= 0; half this against a static or
+        kinematic body).
+    soft_iterations, relax_iterations : soft step: sweeps per substep with the soft bias (>= 1) and
+        rigid sweeps after the poses move (>= 0).
 
     The defaults (``SOLVER_DEFAULTS``) stand a 10-box stack and a 210-box pyramid.
     """
@@ -223,14 +241,16 @@ class World:
                  max_push_velocity: float = 1.0,
                  restitution_threshold: float = 0.5, friction_cone: str = "pyramid",
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
-                 warn_velocity: float = 0.01):
+                 warn_velocity: float = 0.01, solver: str = "pgs", contact_hertz: float = 30.0,
+                 damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1):
         g = as_vector(gravity, 3, "World", "gravity")
-        solver = _solver_settings(
+        settings = _solver_settings(
             "World", erp=erp, tolerance=tolerance, max_iterations=max_iterations, slop=slop,
             max_push_velocity=max_push_velocity, restitution_threshold=restitution_threshold,
             friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
-            warn_velocity=warn_velocity)
-        self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), solver)
+            warn_velocity=warn_velocity, solver=solver, contact_hertz=contact_hertz, damping_ratio=damping_ratio,
+            soft_iterations=soft_iterations, relax_iterations=relax_iterations)
+        self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), settings)
         # held by every method and property (see World.lock); kept by __setstate__
         self._lock = self.__dict__.get("_lock") or threading.RLock()
         # what each body was added with, in index order (save_scene writes a body that has not

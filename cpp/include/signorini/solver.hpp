@@ -17,7 +17,15 @@ enum class Gyroscopic {
   Explicit,  ///< the lecture's explicit term: gains energy on fast spinners
 };
 
+/// Which contact solver a step runs (docs/conventions.md, "One step" and "The soft step").
+enum class SolverMethod {
+  PGS,   ///< the lecture's hard PGS, swept to the tolerance in every substep, with a split-impulse position pass
+  Soft,  ///< the soft step: per substep a warm start, biased sweeps on soft contacts, the poses, relax sweeps; restitution last
+};
+
 struct SolverSettings {
+  /// Which solver a step runs.
+  SolverMethod method = SolverMethod::PGS;
   /// Fraction of an overlap (negative gap) the position pass removes per step, in [0, 1].
   /// Positive gaps are always used whole (speculative contacts).
   double erp = 0.2;
@@ -43,15 +51,31 @@ struct SolverSettings {
   /// is >= 1; 0 (the default) takes the fewest that keep each at most auto_substep
   /// (substep_count()). Substeps cost solver sweeps, not contact detection.
   int substeps = 0;
-  /// The longest automatic substep (s): 4 substeps at dt = 1/240, 16 at dt = 1/60, so that the
-  /// quality (a 10-box stack stands within 1 mm) and the solver's cost per simulated second do not
-  /// depend on dt.
+  /// The longest automatic substep of the PGS (s): 4 substeps at dt = 1/240, 16 at dt = 1/60, so
+  /// that the quality (a 10-box stack stands within 1 mm) and the solver's cost per simulated
+  /// second do not depend on dt.
   static constexpr double auto_substep = 1.0 / 960.0;
+  /// The longest automatic substep of the soft step (s): 1 at dt = 1/240, 4 at dt = 1/60 (Box2D
+  /// v3's default of 4 substeps at 60 Hz).
+  static constexpr double soft_auto_substep = 1.0 / 240.0;
   /// The number of substeps a step of dt runs.
   int substep_count(double dt) const;
   /// A step that ends unconverged with max_penetration_velocity above this (m/s) is counted in
   /// World::step_report() (the Python layer warns).
   double warn_velocity = 0.01;
+
+  // ---- the soft step (method = Soft; docs/conventions.md, "The soft step") ----
+  /// Stiffness of a contact as the natural frequency of its spring (Hz, > 0), capped at a quarter
+  /// of the substep rate; a contact with a static or kinematic body gets twice this.
+  double contact_hertz = 30.0;
+  /// Damping ratio of a contact's spring (>= 0; 1 is critical); a contact with a static or
+  /// kinematic body gets half this.
+  double damping_ratio = 10.0;
+  /// Sweeps with the soft bias per substep (>= 1).
+  int soft_iterations = 1;
+  /// Sweeps without bias per substep, after the poses move (>= 0): they take back the bias's
+  /// velocity so that pushing out of an overlap does not become kinetic energy.
+  int relax_iterations = 1;
 };
 
 /// What the last solve did, and how well its contacts satisfy the Signorini conditions (the

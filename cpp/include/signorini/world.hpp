@@ -207,10 +207,16 @@ class World {
   /// non-finite state, an energy explosion) is undone and throws std::runtime_error naming the
   /// body or bodies.
   void step_once(double dt);
+  /// step_once with the soft step (SolverMethod::Soft): contacts once, then per substep
+  /// unconstrained velocity -> solve -> poses -> relax, then restitution and store (soft_step.hpp).
+  void soft_step_once(double dt);
   /// The step's contacts carried to substep k into contacts_next_ (k = 0: as detected).
   void carry_contacts(int k);
   /// After substep k of h: the next warm-starts from its cache; its figures go to the report.
   void end_substep(const SolverStats& stats, double h);
+  /// Counts a solve that ended unconverged with a contact approaching faster than warn_velocity in
+  /// the report (the worst at `time`).
+  void end_substep_flags(const SolverStats& stats, double time);
   /// Keeps a step the guard let through: its last contacts and figures, what the meshes remember,
   /// the new rotations' quaternions; the one-step forces are spent.
   void commit_step(const SolverStats& stats);

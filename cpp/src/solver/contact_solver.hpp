@@ -66,6 +66,19 @@ struct BodyVelocity {
   Vec3 v = Vec3::Zero();      ///< m/s, world
 };
 
+/// A contact as the soft step carries it through its substeps (docs/conventions.md, "The soft
+/// step"), in solve order beside its rows.
+struct SoftPoint {
+  Vec3 r_a = Vec3::Zero(), r_b = Vec3::Zero();  ///< the point's lever arms at the step's start, y - p_A and y - p_B (m, world)
+  double gap0 = 0.0;         ///< the gap at detection (m)
+  double s = 0.0;            ///< the gap now: gap0 + n . (y_B(t) - y_A(t)), y_X carried with body X (m)
+  double bias_rate = 0.0;    ///< omega / (2 zeta + h omega) (1/s)
+  double mass_scale = 1.0;   ///< h omega (2 zeta + h omega) / (1 + h omega (2 zeta + h omega))
+  double impulse_scale = 0.0;///< 1 / (1 + h omega (2 zeta + h omega))
+  double impulse = 0.0;      ///< normal impulse over the step so far, sum of h alpha (N s)
+  double alpha_max = 0.0;    ///< largest normal force of a substep so far (N)
+};
+
 /// Everything the solver keeps between steps (the cache) or reuses (scratch), as flat arrays.
 struct SolverData {
   // rows: 3 per contact (normal, t1, t2), in solve order (contact order[k] at 3k); their forces
@@ -100,6 +113,12 @@ struct SolverData {
   std::vector<CachedContact> cache, cache_next;
   std::vector<char> cache_used;     ///< per cache entry: already given to a contact this step
   std::vector<double> alpha_iter;   ///< per contact: alpha_n after the iterate stage (N)
+  // the soft step: per contact in solve order; per body the pose at the step's start and how far
+  // it has moved since (dp = p - p0, dR = R R0^T)
+  std::vector<SoftPoint> soft;
+  double h = 0.0;  ///< the substep (s)
+  std::vector<Vec3> p0, dp;
+  std::vector<Mat3> R0, dR;
 };
 
 /// Tangent basis of a unit normal n: k = the first axis whose |n_k| is within 1e-9 of the

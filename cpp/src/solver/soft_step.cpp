@@ -1,0 +1,196 @@
+#include "solver/soft_step.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "dynamics/rigid_body.hpp"
+#include "solver/rows.hpp"
+
+namespace signorini::solver {
+namespace {
+
+using namespace rows;
+
+/// A contact's spring is at most this fraction of the substep rate (Hz per 1/h): stiffer springs
+/// than the substep can resolve only add energy (Catto, "Solver2D"; Box2D v3 uses 0.25).
+constexpr double kMaxHertzPerRate = 0.25;
+
+/// The soft constraint of a spring of `hertz` and damping ratio zeta over a substep h (Catto,
+/// "Soft Constraints", GDC 2011): with omega = 2 pi hertz, a1 = 2 zeta + h omega, a2 = h omega a1,
+/// bias_rate = omega / a1, mass_scale = a2 / (1 + a2), impulse_scale = 1 / (1 + a2).
+void soften(SoftPoint& p, double hertz, double zeta, double h) {
+  const double omega = 2.0 * M_PI * hertz;
+  const double a1 = 2.0 * zeta + h * omega;
+  const double a2 = h * omega * a1;
+  const double a3 = 1.0 / (1.0 + a2);
+  p.bias_rate = omega / a1;
+  p.mass_scale = a2 * a3;
+  p.impulse_scale = a3;
+}
+
+/// d.qd <- (v, omega).
+void load(const std::vector<Vec3>& v, const std::vector<Vec3>& omega, SolverData& d) {
+  d.qd.resize(v.size());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    d.qd[i].omega = omega[i];
+    d.qd[i].v = v[i];
+  }
+}
+
+/// (v, omega) <- d.qd.
+void unload(const SolverData& d, std::vector<Vec3>& v, std::vector<Vec3>& omega) {
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    v[i] = d.qd[i].v;
+    omega[i] = d.qd[i].omega;
+  }
+}
+
+/// Every contact's gap now, s = gap0 + n . ((dp_B + dR_B r_B - r_B) - (dp_A + dR_A r_A - r_A)):
+/// its point carried with each body from the step's start (dp = p - p0, dR = R R0^T).
+void update_gaps(const Model& model, const State& state, SolverData& d) {
+  const std::size_t N = model.size();
+  d.dp.resize(N);
+  d.dR.resize(N);
+  for (std::size_t i = 0; i < N; ++i) {
+    d.dp[i] = state.p[i] - d.p0[i];
+    d.dR[i].noalias() = state.R[i] * d.R0[i].transpose();
+  }
+  for (std::size_t k = 0; k < d.soft.size(); ++k) {
+    SoftPoint& p = d.soft[k];
+    const Row& r = d.rows[3 * k];
+    const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * p.r_b - p.r_b;
+    const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * p.r_a - p.r_a;
+    p.s = p.gap0 + r.J_lin.dot(moved_b - moved_a);
+  }
+}
+
+/// One sweep over every contact in solve order: the normal row by the soft rule (biased: the
+/// spring while the contact overlaps; not biased: rigid), then its friction rows
+/// and its spin row. A contact with a positive gap is rigid with the speculative bias gap / h
+/// either way.
+template <bool kSpin>
+void sweep(const SolverSettings& s, SolverData& d, bool biased) {
+  const double inv_h = 1.0 / d.h;
+  std::vector<BodyVelocity>& qd = d.qd;
+  double change = 0.0;  // not used: the soft step runs a fixed number of sweeps
+  for (std::size_t k = 0; k < d.soft.size(); ++k) {
+    const Row* r = &d.rows[3 * k];
+    double* alpha = &d.alpha[3 * k];
+    const SoftPoint& p = d.soft[k];
+    SoftNormal normal;
+    if (p.s > 0.0) {
+      normal.bias = p.s * inv_h;
+    } else if (biased) {
+      // the spring on the whole overlap (no slop: the relax sweeps keep a resting contact still)
+      normal.bias = std::max(p.mass_scale * p.bias_rate * p.s, -s.max_push_velocity);
+      normal.mass_scale = p.mass_scale;
+      normal.impulse_scale = p.impulse_scale;
+    }
+    BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
+    contact_rows(s, r, alpha, A, B, change, normal);
+    if constexpr (kSpin) {
+      const int j = d.spin_slot[k];
+      if (j >= 0) spin_row(d.spin_rows[j], r[0], alpha[0], d.spin_alpha[j], A, B, change);
+    }
+    if (r[0].a_moves) qd[r[0].a] = A;
+    if (r[0].b_moves) qd[r[0].b] = B;
+  }
+}
+
+void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count) {
+  for (int i = 0; i < count; ++i) d.spin_rows.empty() ? sweep<false>(s, d, biased) : sweep<true>(s, d, biased);
+}
+
+}  // namespace
+
+void soft_begin(const Model& model, const State& state, double h, const SolverSettings& settings,
+                const std::vector<Contact>& contacts, SolverData& d) {
+  const std::size_t N = model.size(), K = contacts.size();
+  d.h = h;
+  d.dI_inv.resize(N);
+  d.p0.resize(N);
+  d.R0.resize(N);
+  for (std::size_t i = 0; i < N; ++i) {
+    d.dI_inv[i] = h * dynamics::inverse_inertia_world(model, state, i);
+    d.p0[i] = state.p[i];
+    d.R0[i] = state.R[i];
+  }
+  load(state.v, state.omega, d);  // u_i: the approach at the step's start, before gravity's kick
+  prepare(model, state, h, contacts, nullptr, nullptr, d);
+  const double hertz = std::min(settings.contact_hertz, kMaxHertzPerRate / h);
+  d.soft.resize(K);
+  for (std::size_t i = 0; i < K; ++i) {
+    const Contact& c = contacts[i];
+    const std::size_t k = static_cast<std::size_t>(d.slot[i]);
+    const Row& r = d.rows[3 * k];
+    SoftPoint& p = d.soft[k];
+    p = SoftPoint();
+    p.r_a = c.point - state.p[c.body_a];
+    p.r_b = c.point - state.p[c.body_b];
+    p.gap0 = p.s = c.gap;
+    // against a body that does not move the spring is twice as stiff and half as damped (Box2D v3)
+    if (r.a_moves && r.b_moves)
+      soften(p, hertz, settings.damping_ratio, h);
+    else
+      soften(p, 2.0 * hertz, 0.5 * settings.damping_ratio, h);
+  }
+  if (settings.warm_start) recall_forces(settings, contacts, d);
+}
+
+void soft_solve(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
+                std::vector<Vec3>& omega, SolverData& d) {
+  load(v, omega, d);
+  apply_forces(d);  // the last substep's forces (the cache's in the first) as this one's first guess
+  update_gaps(model, state, d);
+  sweeps(settings, d, true, settings.soft_iterations);
+  unload(d, v, omega);
+}
+
+void soft_relax(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
+                std::vector<Vec3>& omega, SolverData& d) {
+  load(v, omega, d);
+  update_gaps(model, state, d);
+  sweeps(settings, d, false, settings.relax_iterations);
+  unload(d, v, omega);
+  for (std::size_t k = 0; k < d.soft.size(); ++k) {
+    SoftPoint& p = d.soft[k];
+    p.impulse += d.h * d.alpha[3 * k];
+    p.alpha_max = std::max(p.alpha_max, d.alpha[3 * k]);
+  }
+}
+
+SolverStats soft_end(const Model& model, const State& /*state*/, const SolverSettings& settings,
+                     std::vector<Contact>& contacts, std::vector<Vec3>& v, std::vector<Vec3>& omega, SolverData& d) {
+  const std::size_t N = model.size(), K = contacts.size();
+  SolverStats stats;
+  stats.contacts = static_cast<int>(K);
+  stats.iterations = settings.soft_iterations + settings.relax_iterations;
+  d.body_force.assign(N, Vec3::Zero());
+  d.body_torque.assign(N, Vec3::Zero());
+  load(v, omega, d);
+  // the cache keeps the forces before restitution
+  d.alpha_iter.resize(K);
+  for (std::size_t i = 0; i < K; ++i) d.alpha_iter[i] = d.alpha[3 * d.slot[i]];
+  // restitution: the contacts that approached faster than the threshold and pushed in some substep
+  d.restitutive.assign(K, char(0));
+  for (std::size_t i = 0; i < K; ++i)
+    d.restitutive[i] =
+        d.e[i] > 0.0 && d.u[i] < -settings.restitution_threshold && d.soft[d.slot[i]].alpha_max > 0.0;
+  stats.restitution_iterations = restitution(settings, d);
+  // the certificate's targets: the rigid contact at its end gap (speculative: close it, no more)
+  for (std::size_t k = 0; k < d.soft.size(); ++k) d.rows[3 * k].bias = std::max(d.soft[k].s, 0.0) / d.h;
+  store(d.h, settings, contacts, d, stats);
+  for (std::size_t i = 0; i < K; ++i) {
+    const std::size_t k = static_cast<std::size_t>(d.slot[i]);
+    contacts[i].impulse = d.soft[k].impulse + d.h * (d.alpha[3 * k] - d.alpha_iter[i]);  // restitution's part
+  }
+  unload(d, v, omega);
+  stats.converged = stats.max_penetration_velocity <= settings.warn_velocity;
+  stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
+  stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);
+  stats.max_cone_violation = std::max(stats.max_cone_violation, 0.0);
+  stats.max_overlap = std::max(stats.max_overlap, 0.0);
+  return stats;
+}
+
+}  // namespace signorini::solver

@@ -11,6 +11,7 @@
 #include "dynamics/rigid_body.hpp"
 #include "math/rotation.hpp"
 #include "solver/contact_solver.hpp"
+#include "solver/soft_step.hpp"
 #include "world/checks.hpp"
 #include "world/step_guard.hpp"
 
@@ -46,6 +47,13 @@ void World::set_settings(const WorldSettings& s) {
   checks::require(q.substeps >= 0, "substeps must be >= 1, or 0 for automatic, got " + std::to_string(q.substeps));
   checks::require(std::isfinite(q.warn_velocity) && q.warn_velocity >= 0.0,
           "warn_velocity must be finite and >= 0, got " + std::to_string(q.warn_velocity));
+  checks::require(q.method == SolverMethod::PGS || q.method == SolverMethod::Soft, "method must be PGS or Soft");
+  checks::require(std::isfinite(q.contact_hertz) && q.contact_hertz > 0.0,
+          "contact_hertz must be finite and > 0, got " + std::to_string(q.contact_hertz));
+  checks::require(std::isfinite(q.damping_ratio) && q.damping_ratio >= 0.0,
+          "damping_ratio must be finite and >= 0, got " + std::to_string(q.damping_ratio));
+  checks::require(q.soft_iterations >= 1, "soft_iterations must be >= 1, got " + std::to_string(q.soft_iterations));
+  checks::require(q.relax_iterations >= 0, "relax_iterations must be >= 0, got " + std::to_string(q.relax_iterations));
   settings_ = s;
 }
 
@@ -61,7 +69,8 @@ void World::step(double dt, int steps) {
 int SolverSettings::substep_count(double dt) const {
   if (substeps >= 1) return substeps;
   // 1e-9: dt = k / 960 gives k substeps despite its rounding; capped so that a huge dt stays an int
-  return static_cast<int>(std::clamp(std::ceil(dt / auto_substep - 1e-9), 1.0, 1e6));
+  const double longest = method == SolverMethod::Soft ? soft_auto_substep : auto_substep;
+  return static_cast<int>(std::clamp(std::ceil(dt / longest - 1e-9), 1.0, 1e6));
 }
 
 std::vector<Contact>& World::own_contacts() {
@@ -70,6 +79,7 @@ std::vector<Contact>& World::own_contacts() {
 }
 
 void World::step_once(double dt) {
+  if (settings_.solver.method == SolverMethod::Soft) return soft_step_once(dt);
   const int n = settings_.solver.substep_count(dt);
   const double h = dt / n;
   guard_->begin(state_, *solver_);                     // checkpoint: what an undo puts back
@@ -90,6 +100,31 @@ void World::step_once(double dt) {
   commit_step(stats);
 }
 
+void World::soft_step_once(double dt) {
+  const int n = settings_.solver.substep_count(dt);
+  const double h = dt / n;
+  const SolverSettings& q = settings_.solver;
+  guard_->begin(state_, *solver_);                     // checkpoint: what an undo puts back
+  dynamics::apply_impulses(model_, state_);            // pending impulses change v and omega
+  guard_->measure_start(model_, state_);               // the kinetic energy the step answers to
+  detect_contacts(dt, contacts_base_);                 // once, as far as the whole step reaches
+  carry_contacts(0);                                   // the step's contacts, to be written by the solver
+  solver::soft_begin(model_, state_, h, q, contacts_next_, *solver_);
+  for (int k = 0; k < n; ++k) {
+    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, q.gyroscopic, v_, omega_);
+    solver::soft_solve(model_, state_, q, v_, omega_, *solver_);
+    dynamics::advance(model_, state_, v_, omega_, v_, omega_, h);  // the poses move with the solved velocities
+    solver::soft_relax(model_, state_, q, state_.v, state_.omega, *solver_);
+    guard_->check_finite(model_, state_, *solver_);    // checkpoint: nothing non-finite is kept
+    ++report_.steps;
+  }
+  const SolverStats stats = solver::soft_end(model_, state_, q, contacts_next_, state_.v, state_.omega, *solver_);
+  end_substep_flags(stats, state_.time);
+  solver_->cache.swap(solver_->cache_next);
+  guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_);  // checkpoint: no explosion
+  commit_step(stats);
+}
+
 void World::carry_contacts(int k) {
   if (k == 0) {
     // copied into kept storage, grown geometrically (a copy assignment allocates the exact size)
@@ -103,11 +138,15 @@ void World::carry_contacts(int k) {
 void World::end_substep(const SolverStats& stats, double h) {
   solver_->cache.swap(solver_->cache_next);
   ++report_.steps;
+  end_substep_flags(stats, state_.time - h);
+}
+
+void World::end_substep_flags(const SolverStats& stats, double time) {
   if (!stats.converged && stats.max_penetration_velocity > settings_.solver.warn_velocity) {
     ++report_.flagged;
     if (stats.max_penetration_velocity > report_.worst_penetration_velocity) {
       report_.worst_penetration_velocity = stats.max_penetration_velocity;
-      report_.worst_time = state_.time - h;
+      report_.worst_time = time;
     }
   }
 }
