@@ -6,7 +6,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['BodyIndexError', 'Box', 'Capsule', 'Compound', 'ConvexHull', 'Cylinder', 'FrictionCone', 'Gyroscopic', 'Mesh', 'Plane', 'SolverSettings', 'Sphere', 'TriangleMesh', 'World', 'collide', 'mass_properties', 'matrix_to_quat', 'quat_to_matrix']
+__all__: list[str] = ['BodyIndexError', 'Box', 'Capsule', 'Compound', 'ConvexHull', 'Cylinder', 'FrictionCone', 'Gyroscopic', 'Mesh', 'Plane', 'SolverMethod', 'SolverSettings', 'Sphere', 'TriangleMesh', 'World', 'collide', 'mass_properties', 'matrix_to_quat', 'quat_to_matrix']
 class Sphere:
     """
     Ball of the given radius (m), centred at the body origin.
@@ -329,11 +329,61 @@ class Gyroscopic:
     @property
     def value(self) -> int:
         ...
+class SolverMethod:
+    """
+    Members:
+    
+      pgs
+    
+      soft
+    """
+    __members__: typing.ClassVar[dict[str, SolverMethod]]
+    pgs: typing.ClassVar[SolverMethod]
+    soft: typing.ClassVar[SolverMethod]
+    @typing.overload
+    def __eq__(self, other: SolverMethod) -> bool:
+        ...
+    @typing.overload
+    def __eq__(self, other: typing.Any) -> bool:
+        ...
+    def __getstate__(self) -> int:
+        ...
+    def __hash__(self) -> int:
+        ...
+    def __index__(self) -> int:
+        ...
+    def __init__(self, value: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    def __int__(self) -> int:
+        ...
+    @typing.overload
+    def __ne__(self, other: SolverMethod) -> bool:
+        ...
+    @typing.overload
+    def __ne__(self, other: typing.Any) -> bool:
+        ...
+    def __reduce__(self) -> tuple:
+        ...
+    def __reduce_ex__(self, protocol: typing.SupportsInt | typing.SupportsIndex) -> tuple:
+        ...
+    def __repr__(self) -> str:
+        ...
+    def __setstate__(self, state: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    def __str__(self) -> str:
+        ...
+    @property
+    def name(self) -> str:
+        ...
+    @property
+    def value(self) -> int:
+        ...
 class SolverSettings:
     friction_cone: FrictionCone
     gyroscopic: Gyroscopic
+    method: SolverMethod
     warm_start: bool
-    def __getstate__(self) -> tuple[float, float, int, float, float, float, FrictionCone, Gyroscopic, bool, int, float]:
+    def __getstate__(self) -> tuple[float, float, int, float, float, float, FrictionCone, Gyroscopic, bool, int, float, SolverMethod, float, float, int, int]:
         ...
     def __init__(self) -> None:
         ...
@@ -342,6 +392,18 @@ class SolverSettings:
     def __reduce_ex__(self, protocol: typing.SupportsInt | typing.SupportsIndex) -> tuple:
         ...
     def __setstate__(self, arg0: tuple) -> None:
+        ...
+    @property
+    def contact_hertz(self) -> float:
+        ...
+    @contact_hertz.setter
+    def contact_hertz(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def damping_ratio(self) -> float:
+        ...
+    @damping_ratio.setter
+    def damping_ratio(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
     def erp(self) -> float:
@@ -362,6 +424,12 @@ class SolverSettings:
     def max_push_velocity(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
+    def relax_iterations(self) -> int:
+        ...
+    @relax_iterations.setter
+    def relax_iterations(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
     def restitution_threshold(self) -> float:
         ...
     @restitution_threshold.setter
@@ -372,6 +440,12 @@ class SolverSettings:
         ...
     @slop.setter
     def slop(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def soft_iterations(self) -> int:
+        ...
+    @soft_iterations.setter
+    def soft_iterations(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
         ...
     @property
     def substeps(self) -> int:

@@ -319,6 +319,11 @@ class WorldSettings(_Table):
     warm_start: Bool = True
     substeps: Int = 0
     warn_velocity: Float = 0.01
+    solver: Literal["pgs", "soft"] = "pgs"
+    contact_hertz: Float = 30.0
+    damping_ratio: Float = 10.0
+    soft_iterations: Int = 1
+    relax_iterations: Int = 1
 
 
 class SceneInfo(_Table):

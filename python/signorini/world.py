@@ -139,6 +139,15 @@ SOLVER_DEFAULTS = {
 }
 
 
+def _setting(s, key: str):
+    """Setting `key` of a _core.SolverSettings as the constructor takes it (enums by name; the
+    keyword ``solver`` is the core's ``method``)."""
+    if key == "solver":
+        return s.method.name
+    value = getattr(s, key)
+    return value.name if key in ("friction_cone", "gyroscopic") else value
+
+
 def _solver_settings(who: str, current=None, **given):
     """A _core.SolverSettings from keyword values (None = keep current or the default), checked
     for type here and for range by the core."""
@@ -146,11 +155,7 @@ def _solver_settings(who: str, current=None, **given):
     for key, default in SOLVER_DEFAULTS.items():
         value = given.get(key)
         if value is None:
-            value = getattr(current, key) if current is not None else default
-            if key in ("friction_cone", "gyroscopic") and not isinstance(value, str):
-                value = value.name
-            if key == "solver" and current is not None:
-                value = current.method.name
+            value = _setting(current, key) if current is not None else default
         if key in ("max_iterations", "substeps", "soft_iterations", "relax_iterations"):
             value = as_count(value, who, key)
         elif key == "warm_start":
@@ -288,8 +293,7 @@ class World:
     def solver(self) -> dict:
         """The solver settings as a dict (the constructor's keywords)."""
         s = self._core.solver
-        return {k: (getattr(s, k).name if k in ("friction_cone", "gyroscopic") else getattr(s, k))
-                for k in SOLVER_DEFAULTS}
+        return {k: _setting(s, k) for k in SOLVER_DEFAULTS}
 
     # bodies -----------------------------------------------------------------------------------
     def add_body(self, shape, *, density=None, mass=None, inertia=None, position=(0.0, 0.0, 0.0),
