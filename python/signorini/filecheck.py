@@ -31,8 +31,8 @@ from typing import Iterable
 
 import numpy as np
 
-__all__ = ["FileLimitError", "RatioLimitError", "check_size", "toml_depth", "json_depth", "read_npz", "inside",
-           "DEFLATE_MAX_RATIO"]
+__all__ = ["FileLimitError", "RatioLimitError", "OutsideError", "check_size", "toml_depth", "json_depth", "read_npz",
+           "inside", "DEFLATE_MAX_RATIO"]
 
 #: deflate's largest possible expansion (a run of one byte: 258 bytes per 2-bit code, ~1032:1), so
 #: an entry claiming more than this times its compressed bytes cannot be honest
@@ -47,6 +47,10 @@ class FileLimitError(ValueError):
 
 class RatioLimitError(FileLimitError):
     """An .npz whose arrays hold more bytes per byte of the file than its loader allows."""
+
+
+class OutsideError(FileLimitError):
+    """A path a file names that resolves outside the folders it may be read from (``inside``)."""
 
 
 def check_size(path: Path, max_bytes: int) -> int:
@@ -214,7 +218,7 @@ def read_npz(path: Path, max_total_bytes: int, names: Iterable[str] | None = Non
 def inside(name: str, base: Path, allowed: Iterable[Path], what: str) -> Path:
     """The path ``name`` (as a file wrote it) resolved against the folder ``base``, when it lands
     (symlinks followed) inside one of the ``allowed`` folders (the file's own folder first); else
-    FileLimitError saying so, with the same words whether or not the outside path exists (nothing
+    OutsideError saying so, with the same words whether or not the outside path exists (nothing
     about it is revealed)."""
     folders = [Path(a).resolve() for a in allowed]
     try:
@@ -222,6 +226,6 @@ def inside(name: str, base: Path, allowed: Iterable[Path], what: str) -> Path:
     except (OSError, RuntimeError, ValueError):
         target = None
     if target is None or not any(target.is_relative_to(folder) for folder in folders):
-        raise FileLimitError(f"{what} {name!r} is outside the folders it may be read from (the file's own folder"
+        raise OutsideError(f"{what} {name!r} is outside the folders it may be read from (the file's own folder"
                              f"{' and the ones allowed' if len(folders) > 1 else ''}); refused")
     return target
