@@ -79,21 +79,21 @@ py::array readonly_view(const py::handle& owner, const T* data, std::vector<py::
   return a;
 }
 
-/// (N, 3) read-only view of a vector of Vec3 (24-byte rows), base `owner`.
-inline py::array vec3_view(const py::handle& owner, const std::vector<Vec3>& xs) {
-  return readonly_view(owner, xs.empty() ? nullptr : xs[0].data(), {static_cast<py::ssize_t>(xs.size()), 3},
+/// (n, 3) read-only view of the n Vec3 (24-byte rows) at xs, base `owner`.
+inline py::array vec3_view(const py::handle& owner, const Vec3* xs, std::size_t n) {
+  return readonly_view(owner, n ? xs->data() : nullptr, {static_cast<py::ssize_t>(n), 3},
                        {static_cast<py::ssize_t>(sizeof(Vec3)), sizeof(double)});
 }
 
-/// (N, 4) read-only view of a vector of Quat4, base `owner`.
-inline py::array quat_view(const py::handle& owner, const std::vector<Quat4>& xs) {
-  return readonly_view(owner, xs.empty() ? nullptr : xs[0].data(), {static_cast<py::ssize_t>(xs.size()), 4},
+/// (n, 4) read-only view of the n Quat4 at xs, base `owner`.
+inline py::array quat_view(const py::handle& owner, const Quat4* xs, std::size_t n) {
+  return readonly_view(owner, n ? xs->data() : nullptr, {static_cast<py::ssize_t>(n), 4},
                        {static_cast<py::ssize_t>(sizeof(Quat4)), sizeof(double)});
 }
 
-/// (N, 3, 3) read-only view of a vector of column-major Mat3 (row stride 1 double, column stride 3).
-inline py::array mat3_view(const py::handle& owner, const std::vector<Mat3>& xs) {
-  return readonly_view(owner, xs.empty() ? nullptr : xs[0].data(), {static_cast<py::ssize_t>(xs.size()), 3, 3},
+/// (n, 3, 3) read-only view of the n column-major Mat3 at xs (row stride 1 double, column stride 3).
+inline py::array mat3_view(const py::handle& owner, const Mat3* xs, std::size_t n) {
+  return readonly_view(owner, n ? xs->data() : nullptr, {static_cast<py::ssize_t>(n), 3, 3},
                        {static_cast<py::ssize_t>(sizeof(Mat3)), sizeof(double), 3 * sizeof(double)});
 }
 

@@ -1,5 +1,8 @@
 // World: construction, bodies, stepping, state and contact arrays (state and contacts as read-only
-// zero-copy views, model arrays as copies; shapes in comments), saved states.
+// zero-copy views, model arrays as copies; shapes in comments), saved states. What is read from the
+// World's model or state directly is read holding World::lock() (locked_copy, state_view), so
+// another thread's call (a step without the GIL, an add_body moving the arrays) is never seen half
+// done; Python objects are built after the lock is released.
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
@@ -12,6 +15,45 @@
 
 using namespace signorini;
 using bindings::contact_arrays;
+
+namespace {
+
+/// f(w) (a copy of what it reads) run holding the World's lock. Nothing Python runs under it:
+/// Python code may switch threads, and a thread calling into this World waits for the lock
+/// holding the GIL.
+template <class F>
+auto locked_copy(const World& w, F&& f) {
+  const auto held = w.lock();
+  return f(w);
+}
+
+/// A read-only zero-copy view (base: the Python World) of one of the World's state arrays, its
+/// address and length taken together under the lock (add_body may move the array; the old
+/// storage is kept, see World::push_keeping); its values then show later steps as they run.
+template <class T, class View>
+py::array state_view(const py::object& self, std::vector<T> State::*array, View view) {
+  const World& w = self.cast<const World&>();
+  const auto [data, n] = locked_copy(w, [array](const World& w) {
+    const std::vector<T>& xs = w.state().*array;
+    return std::pair(xs.data(), xs.size());
+  });
+  return view(self, data, n);
+}
+
+/// field(model, i) of every body i, read under the lock, as an (N,) array.
+template <class T>
+py::array_t<T> per_body(const World& w, T (*field)(const Model&, std::size_t)) {
+  const std::vector<T> values = locked_copy(w, [field](const World& w) {
+    std::vector<T> out(w.model().size());
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = field(w.model(), i);
+    return out;
+  });
+  py::array_t<T> out(static_cast<py::ssize_t>(values.size()));
+  std::copy(values.begin(), values.end(), out.mutable_data());
+  return out;
+}
+
+}  // namespace
 
 void register_world(py::module_& m) {
   py::enum_<FrictionCone>(m, "FrictionCone").value("pyramid", FrictionCone::Pyramid).value("cone", FrictionCone::Cone);
@@ -132,11 +174,12 @@ void register_world(py::module_& m) {
       .def("set_orientations", &World::set_orientations)
       .def("set_velocities", &World::set_velocities)
       .def("set_angular_velocities", &World::set_angular_velocities)
+      // no point: the centre of mass, read by the World under its lock once the index is checked
       .def("apply_impulse", [](World& w, BodyIndex i, const Vec3& J, std::optional<Vec3> point) {
-        w.apply_impulse(i, J, point ? *point : w.state().p.at(i));
+        w.apply_impulse(i, J, point);
       })
       .def("apply_force", [](World& w, BodyIndex i, const Vec3& f, std::optional<Vec3> point) {
-        w.apply_force(i, f, point ? *point : w.state().p.at(i));
+        w.apply_force(i, f, point);
       })
       .def("set_kinematic", &World::set_kinematic)
       .def("set_enabled", &World::set_enabled)
@@ -152,73 +195,77 @@ void register_world(py::module_& m) {
         w.set_material(i, Material{friction, restitution, spinning_friction});
       })
       .def("set_solver", [](World& w, const SolverSettings& solver) {
+        const auto held = w.lock();  // read, change, write as one call
         WorldSettings s = w.settings();
         s.solver = solver;
         w.set_settings(s);
       })
       .def("shape", [](const World& w, BodyIndex i) {
-        w.label(i);  // BodyIndexError naming the index and the body count
-        return bindings::from_shape(w.model().shape[i]);
+        return bindings::from_shape(locked_copy(w, [i](const World& w) {
+          w.label(i);  // BodyIndexError naming the index and the body count
+          return w.model().shape[i];
+        }));
       })
       .def_property_readonly("num_bodies", &World::num_bodies)
-      .def_property_readonly("time", [](const World& w) { return w.state().time; })
+      .def_property_readonly("time", [](const World& w) {
+        return locked_copy(w, [](const World& w) { return w.state().time; });
+      })
       // state (N x 3, N x 3 x 3, N x 4): read-only views of the core's arrays, base = this World
-      .def_property_readonly("positions", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().p); })
-      .def_property_readonly("rotations", [](const py::object& self) { return bindings::mat3_view(self, self.cast<const World&>().state().R); })
-      .def_property_readonly("orientations", [](const py::object& self) { return bindings::quat_view(self, self.cast<const World&>().state().q); })
-      .def_property_readonly("velocities", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().v); })
-      .def_property_readonly("angular_velocities", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().omega); })
-      .def_property_readonly("forces", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().f_ext); })
-      .def_property_readonly("torques", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().tau_ext); })
+      .def_property_readonly("positions", [](const py::object& self) { return state_view(self, &State::p, bindings::vec3_view); })
+      .def_property_readonly("rotations", [](const py::object& self) { return state_view(self, &State::R, bindings::mat3_view); })
+      .def_property_readonly("orientations", [](const py::object& self) { return state_view(self, &State::q, bindings::quat_view); })
+      .def_property_readonly("velocities", [](const py::object& self) { return state_view(self, &State::v, bindings::vec3_view); })
+      .def_property_readonly("angular_velocities", [](const py::object& self) { return state_view(self, &State::omega, bindings::vec3_view); })
+      .def_property_readonly("forces", [](const py::object& self) { return state_view(self, &State::f_ext, bindings::vec3_view); })
+      .def_property_readonly("torques", [](const py::object& self) { return state_view(self, &State::tau_ext, bindings::vec3_view); })
       // the next step's one-step force and torque, and pending impulse and angular impulse (N x 3)
-      .def_property_readonly("step_forces", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().f_step); })
-      .def_property_readonly("step_torques", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().tau_step); })
-      .def_property_readonly("impulses", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().impulse); })
-      .def_property_readonly("angular_impulses", [](const py::object& self) { return bindings::vec3_view(self, self.cast<const World&>().state().angular_impulse); })
+      .def_property_readonly("step_forces", [](const py::object& self) { return state_view(self, &State::f_step, bindings::vec3_view); })
+      .def_property_readonly("step_torques", [](const py::object& self) { return state_view(self, &State::tau_step, bindings::vec3_view); })
+      .def_property_readonly("impulses", [](const py::object& self) { return state_view(self, &State::impulse, bindings::vec3_view); })
+      .def_property_readonly("angular_impulses", [](const py::object& self) { return state_view(self, &State::angular_impulse, bindings::vec3_view); })
       // model
-      .def_property_readonly("masses", [](const World& w) { return py::array_t<double>(py::cast(w.model().mass)); })
-      .def_property_readonly("inv_masses", [](const World& w) { return py::array_t<double>(py::cast(w.model().inv_mass)); })
-      .def_property_readonly("inertias", [](const World& w) { return bindings::stack_of(w.model().I_body); })
-      .def_property_readonly("inv_inertias", [](const World& w) { return bindings::stack_of(w.model().I_body_inv); })
+      .def_property_readonly("masses", [](const World& w) {
+        return py::array_t<double>(py::cast(locked_copy(w, [](const World& w) { return w.model().mass; })));
+      })
+      .def_property_readonly("inv_masses", [](const World& w) {
+        return py::array_t<double>(py::cast(locked_copy(w, [](const World& w) { return w.model().inv_mass; })));
+      })
+      .def_property_readonly("inertias", [](const World& w) {
+        return bindings::stack_of(locked_copy(w, [](const World& w) { return w.model().I_body; }));
+      })
+      .def_property_readonly("inv_inertias", [](const World& w) {
+        return bindings::stack_of(locked_copy(w, [](const World& w) { return w.model().I_body_inv; }));
+      })
       .def_property_readonly("frictions", [](const World& w) {
-        py::array_t<double> out(static_cast<py::ssize_t>(w.num_bodies()));
-        for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().material[i].friction;
-        return out;
+        return per_body<double>(w, [](const Model& m, std::size_t i) { return m.material[i].friction; });
       })
       .def_property_readonly("restitutions", [](const World& w) {
-        py::array_t<double> out(static_cast<py::ssize_t>(w.num_bodies()));
-        for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().material[i].restitution;
-        return out;
+        return per_body<double>(w, [](const Model& m, std::size_t i) { return m.material[i].restitution; });
       })
       .def_property_readonly("spinning_frictions", [](const World& w) {
-        py::array_t<double> out(static_cast<py::ssize_t>(w.num_bodies()));
-        for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().material[i].spinning_friction;
-        return out;
+        return per_body<double>(w, [](const Model& m, std::size_t i) { return m.material[i].spinning_friction; });
       })
       .def_property_readonly("is_static", [](const World& w) {
-        std::vector<bool> s(w.model().is_static.begin(), w.model().is_static.end());
-        return py::array_t<bool>(py::cast(s));
+        return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.is_static[i]; });
       })
       .def_property_readonly("is_kinematic", [](const World& w) {
-        std::vector<bool> s(w.model().is_kinematic.begin(), w.model().is_kinematic.end());
-        return py::array_t<bool>(py::cast(s));
+        return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.is_kinematic[i]; });
       })
       .def_property_readonly("enabled", [](const World& w) {
-        std::vector<bool> s(w.model().enabled.begin(), w.model().enabled.end());
-        return py::array_t<bool>(py::cast(s));
+        return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.enabled[i]; });
       })
       .def_property_readonly("groups", [](const World& w) {
-        py::array_t<std::uint32_t> out(static_cast<py::ssize_t>(w.num_bodies()));
-        for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().filter[i].group;
-        return out;
+        return per_body<std::uint32_t>(w, [](const Model& m, std::size_t i) { return m.filter[i].group; });
       })
       .def_property_readonly("masks", [](const World& w) {
-        py::array_t<std::uint32_t> out(static_cast<py::ssize_t>(w.num_bodies()));
-        for (std::size_t i = 0; i < w.num_bodies(); ++i) out.mutable_at(i) = w.model().filter[i].mask;
-        return out;
+        return per_body<std::uint32_t>(w, [](const Model& m, std::size_t i) { return m.filter[i].mask; });
       })
-      .def_property_readonly("names", [](const World& w) { return w.model().name; })
-      .def_property_readonly("excluded_pairs", [](const World& w) { return w.model().excluded_pairs; })
+      .def_property_readonly("names", [](const World& w) {
+        return locked_copy(w, [](const World& w) { return w.model().name; });
+      })
+      .def_property_readonly("excluded_pairs", [](const World& w) {
+        return locked_copy(w, [](const World& w) { return w.model().excluded_pairs; });
+      })
       // settings
       .def_property_readonly("gravity", [](const World& w) { return w.settings().gravity; })
       .def_property_readonly("contact_margin", [](const World& w) { return w.settings().contact_margin; })

@@ -2,9 +2,9 @@
 
     python -m signorini run [SCENE | FILE.toml] [--out DIR] [--steps N] [--dt DT] [--stride S] [--quiet]
                             [--html PATH | --no-html] [--no-plot] [--video [PATH]] [--fps F]
-                            [--size WxH] [--gltf [PATH]] [--usd [PATH]]
+                            [--size WxH] [--gltf [PATH]] [--usd [PATH]] [--allow-path DIR ...]
     python -m signorini export TRAJECTORY [--out DIR] [--html ...] [--video ...] [--gltf ...] [--usd ...] [--png]
-    python -m signorini view SCENE_OR_FILE_OR_TRAJECTORY [--host H] [--port P]
+    python -m signorini view SCENE_OR_FILE_OR_TRAJECTORY [--host H] [--port P] [--allow-path DIR ...]
     python -m signorini list
 
 ``run`` builds a built-in scene (default ``torus``) or reads a scene file (``signorini.scenefile``), runs it while recording (a progress bar once a
@@ -15,8 +15,12 @@ request an MP4 (``signorini.render``), a binary glTF and a USD stage (``signorin
 the path given or ``<out>/<scene>.<ext>``. It prints a summary naming every file written.
 ``export`` writes the same files from a saved trajectory, without the simulator; ``view`` serves
 the interactive viewer (``signorini.viewer``) of a scene (simulated live) or a trajectory file.
-Bad arguments (an unknown scene, steps or stride < 1, dt <= 0, a bad size) exit with code 2 and
-argparse's message; a missing or unreadable trajectory file exits with code 2 naming the file.
+A scene file reads mesh files from its own folder only, and from each folder given with
+``--allow-path DIR`` (repeatable; ``run`` and ``view``); a mesh anywhere else is refused, the
+message naming the rule and the option.
+Bad arguments (an unknown scene, steps or stride < 1, dt <= 0, a bad size, an ``--allow-path``
+that is not a folder) exit with code 2 and argparse's message; a missing or unreadable scene or
+trajectory file exits with code 2 naming the file.
 """
 
 from __future__ import annotations
@@ -43,17 +47,38 @@ def _scene_name(text: str) -> str:
     return text
 
 
-def _read_scene(source: str) -> "scenes.Scene":
-    """The Scene of a built-in name or a scene file, or exit 2 naming the file and the problem."""
+def _read_scene(source: str, allow_paths=()) -> "scenes.Scene":
+    """The Scene of a built-in name or a scene file (its meshes read from its own folder and the
+    allow_paths folders), or exit 2 naming the file and the problem."""
     if source in scenes.SCENES:
         return scenes.build(source)
-    from .scenefile import read_scene
+    from .scenefile import ScenePathError, read_scene
 
     try:
-        return read_scene(source)
+        return read_scene(source, allow_paths=allow_paths)
     except (FileNotFoundError, ValueError) as e:
-        print(f"python -m signorini: error: {e}", file=sys.stderr)
+        how = ""
+        if isinstance(e, ScenePathError):
+            how = ("\n  a scene file's meshes are read from its own folder and from folders given with "
+                   "--allow-path DIR (repeatable) only")
+        print(f"python -m signorini: error: {e}{how}", file=sys.stderr)
         raise SystemExit(2) from None
+
+
+def _folder(text: str) -> Path:
+    """argparse type: an existing folder (``--allow-path``)."""
+    path = Path(text)
+    if not path.is_dir():
+        raise argparse.ArgumentTypeError(f"not a folder: {text!r}")
+    return path
+
+
+def _add_allow_path(p: argparse.ArgumentParser) -> None:
+    """``--allow-path DIR``, repeatable, for the commands that read scene files."""
+    p.add_argument("--allow-path", action="append", default=[], type=_folder, metavar="DIR", dest="allow_paths",
+                   help="a folder a scene file's mesh files may also be read from, besides the scene file's own "
+                        "(repeat it for more; relative to the current folder). Without it a mesh outside the "
+                        "scene file's folder (../, an absolute path, a symlink leading out) is refused")
 
 
 def _positive_int(text: str, what: str = "steps") -> int:
@@ -137,7 +162,8 @@ def make_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="examples:\n  python -m signorini run                       # the torus, into signorini-out/\n"
                "  python -m signorini run boxes --steps 240 --out out --video --gltf\n"
-               "  python -m signorini run path/to/scene.toml --quiet   # any scene file (signorini.scenefile)")
+               "  python -m signorini run path/to/scene.toml --quiet   # any scene file (signorini.scenefile)\n"
+               "  python -m signorini run scenes/a.toml --allow-path assets   # meshes also from assets/")
     run.add_argument(
         "scene", nargs="?", default=scenes.DEFAULT_SCENE, type=_scene_name,
         help=f"a built-in scene name (default {scenes.DEFAULT_SCENE}; see 'list') or a scene file .toml",
@@ -148,6 +174,7 @@ def make_parser() -> argparse.ArgumentParser:
     run.add_argument("--stride", type=_stride, default=1, help="keep every S-th step as a frame (default 1)")
     run.add_argument("--no-plot", action="store_true", help="write no PNG")
     _add_outputs(run, html_default=True)
+    _add_allow_path(run)
 
     export = commands.add_parser(
         "export", help="write the player, video, glTF or USD of a saved trajectory",
@@ -177,6 +204,7 @@ def make_parser() -> argparse.ArgumentParser:
                       help="address to serve on (default 127.0.0.1, this machine only; 0.0.0.0 serves every "
                            "network interface: anyone on the network can view and control the simulation)")
     view.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
+    _add_allow_path(view)
 
     commands.add_parser("list", help="list the built-in scenes", formatter_class=argparse.RawDescriptionHelpFormatter,
                         epilog="example:\n  python -m signorini list | head -2")
@@ -225,7 +253,7 @@ def _run(args: argparse.Namespace) -> int:
     """Build, run, save, draw and summarise one scene."""
     from . import output
 
-    scene = _read_scene(args.scene)
+    scene = _read_scene(args.scene, args.allow_paths)
     record = output.run(scene, steps=args.steps, dt=args.dt, progress=not args.quiet, stride=args.stride)
     files = [output.save_trajectory(args.out / f"{scene.name}.npz", record)]
     files += _write_outputs(args, record, args.out, html_default=True, scene=scene)
@@ -261,7 +289,7 @@ def _view(args: argparse.Namespace) -> int:
 
     source: object
     if args.source in scenes.SCENES or args.source.lower().endswith(".toml"):
-        source = _read_scene(args.source)
+        source = _read_scene(args.source, args.allow_paths)
     elif Path(args.source).suffix == ".npz" or Path(args.source).exists():
         source = _load(args.source)
     else:

@@ -11,9 +11,11 @@ naming the file:
   refused before a parser recurses or builds 50,000 tables;
 - ``read_npz``: the arrays of an ``.npz`` (a zip of ``.npy``) with every member's ``.npy`` header
   read from its zip entry first, and shape x itemsize checked against the entry's stated size,
-  against what deflate can hold in the compressed bytes (``DEFLATE_MAX_RATIO``) and against the
-  caller's maximum, before any array is allocated; the data is then read in bounded chunks, so no
-  more than the stated size is ever decompressed;
+  against what deflate can hold in the compressed bytes (``DEFLATE_MAX_RATIO``), against the
+  caller's maximum and, when the caller gives one, against a bound on the arrays' bytes per byte
+  of the file (above a floor), before any array is allocated; the data is then read in bounded
+  chunks, so no more than the stated size is ever decompressed and the memory a file can make the
+  loader take stays within that bound times its size;
 - ``inside``: the rule for paths a file names (meshes of a scene or MJCF file): they resolve
   (symlinks followed) inside the file's own folder or a folder the caller allowed; the error does
   not say whether the outside path exists.
@@ -29,7 +31,8 @@ from typing import Iterable
 
 import numpy as np
 
-__all__ = ["FileLimitError", "check_size", "toml_depth", "json_depth", "read_npz", "inside", "DEFLATE_MAX_RATIO"]
+__all__ = ["FileLimitError", "RatioLimitError", "OutsideError", "check_size", "toml_depth", "json_depth", "read_npz",
+           "inside", "DEFLATE_MAX_RATIO"]
 
 #: deflate's largest possible expansion (a run of one byte: 258 bytes per 2-bit code, ~1032:1), so
 #: an entry claiming more than this times its compressed bytes cannot be honest
@@ -40,6 +43,14 @@ _CHUNK = 1 << 20
 
 class FileLimitError(ValueError):
     """A file over one of its loader's limits, or not what it claims; the message says which."""
+
+
+class RatioLimitError(FileLimitError):
+    """An .npz whose arrays hold more bytes per byte of the file than its loader allows."""
+
+
+class OutsideError(FileLimitError):
+    """A path a file names that resolves outside the folders it may be read from (``inside``)."""
 
 
 def check_size(path: Path, max_bytes: int) -> int:
@@ -142,13 +153,17 @@ def _member_header(z: zipfile.ZipFile, info: zipfile.ZipInfo, max_array_bytes: i
     return shape, fortran, dtype, nbytes, header
 
 
-def read_npz(path: Path, max_total_bytes: int, names: Iterable[str] | None = None) -> dict[str, np.ndarray]:
+def read_npz(path: Path, max_total_bytes: int, names: Iterable[str] | None = None, *,
+             max_ratio: float | None = None, ratio_floor: int = 0) -> dict[str, np.ndarray]:
     """The arrays of an .npz, {name without .npy: array}, reading only the members in ``names``
-    (all when None). Every member's header is checked first (see the module doc) and the total of
-    the members read must be at most max_total_bytes; then each is read in chunks into an array of
-    its stated size (nothing more is decompressed). FileLimitError for anything else, including a
-    zip that is not one, a CRC mismatch, duplicated or non-.npy members."""
+    (all when None). Every member's header is checked first (see the module doc): the total of
+    the members read must be at most max_total_bytes and, with max_ratio, at most max_ratio times
+    the file's size once it is over ratio_floor bytes (a small file may always hold ratio_floor);
+    then each is read in chunks into an array of its stated size (nothing more is decompressed).
+    FileLimitError for anything else, including a zip that is not one, a CRC mismatch, duplicated
+    or non-.npy members."""
     try:
+        size = Path(path).stat().st_size
         with zipfile.ZipFile(path) as z:
             infos = z.infolist()
             wanted = None if names is None else set(names)
@@ -167,6 +182,12 @@ def read_npz(path: Path, max_total_bytes: int, names: Iterable[str] | None = Non
                 total += seen[key][4]
                 if total > max_total_bytes:
                     raise FileLimitError(f"its arrays hold more than {max_total_bytes:,} bytes (limit)")
+            if max_ratio is not None and total > max(ratio_floor, max_ratio * size):
+                largest = max((e for e in seen.values() if e), key=lambda e: e[4])
+                raise RatioLimitError(
+                    f"{largest[0].filename} and the other arrays hold {total:,} bytes once decompressed (this one "
+                    f"{largest[4]:,}) from a file of {size:,} bytes: {total / max(size, 1):,.0f}:1, over the limit "
+                    f"of {max_ratio:g}:1 for arrays of more than {ratio_floor:,} bytes")
             out = {}
             for key, entry in seen.items():
                 if not entry:
@@ -197,7 +218,7 @@ def read_npz(path: Path, max_total_bytes: int, names: Iterable[str] | None = Non
 def inside(name: str, base: Path, allowed: Iterable[Path], what: str) -> Path:
     """The path ``name`` (as a file wrote it) resolved against the folder ``base``, when it lands
     (symlinks followed) inside one of the ``allowed`` folders (the file's own folder first); else
-    FileLimitError saying so, with the same words whether or not the outside path exists (nothing
+    OutsideError saying so, with the same words whether or not the outside path exists (nothing
     about it is revealed)."""
     folders = [Path(a).resolve() for a in allowed]
     try:
@@ -205,6 +226,6 @@ def inside(name: str, base: Path, allowed: Iterable[Path], what: str) -> Path:
     except (OSError, RuntimeError, ValueError):
         target = None
     if target is None or not any(target.is_relative_to(folder) for folder in folders):
-        raise FileLimitError(f"{what} {name!r} is outside the folders it may be read from (the file's own folder"
+        raise OutsideError(f"{what} {name!r} is outside the folders it may be read from (the file's own folder"
                              f"{' and the ones allowed' if len(folders) > 1 else ''}); refused")
     return target

@@ -104,8 +104,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python < 3.11
     import tomli as tomllib
 
-__all__ = ["Scene", "SceneFile", "SceneFileError", "load_scene", "read_scene", "save_scene", "scene_schema",
-           "FORMAT", "SCHEMA_PATH", "schema_text"]
+__all__ = ["Scene", "SceneFile", "SceneFileError", "ScenePathError", "load_scene", "read_scene", "save_scene",
+           "scene_schema", "FORMAT", "SCHEMA_PATH", "schema_text"]
 
 #: the format version this module writes (``format = 1`` at the top of a file)
 FORMAT: Literal[1] = codec.SCENE_FORMAT
@@ -165,6 +165,11 @@ class Scene:
 
 class SceneFileError(ValueError):
     """A scene file that cannot be read: the message names the file, the key and the problem."""
+
+
+class ScenePathError(SceneFileError):
+    """A scene file naming a mesh file outside the folders it may be read from (its own and those
+    in ``allow_paths``); a SceneFileError, told apart so that callers can say how to allow one."""
 
 
 class _Table(BaseModel):
@@ -427,7 +432,9 @@ def _mesh_reader(base: Path, allow_paths=()):
                 file = filecheck.inside(d["file"], base, [base, *allow_paths], "mesh file")
                 return meshfile.read_mesh_arrays(file, d.get("scale", 1.0))
             except (FileNotFoundError, ValueError) as e:
-                raise ValueError(f"{where}.file: {e}") from None
+                # the path rule's refusal keeps its type up to _read_scene (codec keeps it too)
+                kind = filecheck.OutsideError if isinstance(e, filecheck.OutsideError) else ValueError
+                raise kind(f"{where}.file: {e}") from None
         return codec.inline_mesh_arrays(d, where)
     return read
 
@@ -465,7 +472,8 @@ def _read_scene(path: Path, allow_paths: list, where_file: str):
             material = model.materials[body.material] if body.material is not None else Material()
             codec.add_scene_body(world, body.model_dump(exclude={"shape"}), shape, material.model_dump())
         except (TypeError, ValueError) as e:
-            raise SceneFileError(f"{where_file}: {key}: {e}") from None
+            kind = ScenePathError if isinstance(e, filecheck.OutsideError) else SceneFileError
+            raise kind(f"{where_file}: {key}: {e}") from None
         names.append(body.name if body.name else "")
     for k, (i, j) in enumerate(model.disabled_pairs):
         try:

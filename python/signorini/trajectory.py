@@ -480,6 +480,16 @@ _ARRAYS = ("masses", "is_static", "gravity", "frame_step", "time", "positions", 
 #: of 5,000 frames with its contacts is about 0.8 GB); checked from the arrays' headers before any is
 #: read, so a small file claiming gigabytes is refused at once; ``load_trajectory(max_bytes=)`` raises it
 MAX_TRAJECTORY_BYTES = 1 << 30
+#: the most bytes a trajectory's arrays may hold per byte of the file once they hold more than
+#: ``TRAJECTORY_RATIO_FLOOR``, checked from the headers too, so that what a file makes the loader
+#: take in memory stays within this multiple of its size. The built-in scenes' recordings hold 1.4
+#: to 6.1 bytes per byte of file (contacts included; their most compressible member, the contacts'
+#: body indices, 106 to 191); a world of almost only static or resting bodies records mostly
+#: repeated poses and zero velocities, about 220 (so over the floor, 256 MiB of arrays, it needs
+#: ``load_trajectory(max_ratio=None)``); deflated zeros reach 1,032. README "Files" has the figures
+MAX_TRAJECTORY_RATIO = 64
+#: arrays of at most this many bytes (256 MiB) load whatever their ratio (a small file's floor)
+TRAJECTORY_RATIO_FLOOR = 256 << 20
 #: deepest nesting of the ``shapes`` JSON (a compound part's box is 6 deep; the format is otherwise flat)
 MAX_SHAPES_DEPTH = 16
 # arrays of numbers that must be finite (min_gap is NaN for steps without contacts; masses are inf
@@ -489,13 +499,17 @@ _FINITE = ("gravity", "time", "positions", "orientations", "velocities", "angula
 _SCALARS = ("format", "version", "scene", "dt", "stride", "wall_time", "shapes", "has_contacts")
 
 
-def load_trajectory(path, *, max_bytes: int = MAX_TRAJECTORY_BYTES) -> Record:
+def load_trajectory(path, *, max_bytes: int = MAX_TRAJECTORY_BYTES,
+                    max_ratio: float | None = MAX_TRAJECTORY_RATIO) -> Record:
     """Read a trajectory written by ``save_trajectory`` (or the command line).
 
     Limits, checked before the arrays are read: the arrays hold at most ``max_bytes`` once
-    decompressed (``MAX_TRAJECTORY_BYTES``, 1 GiB, by default), each array's .npy header agrees
-    with its zip entry's size and that size with what deflate can hold in the compressed bytes, no
-    array holds Python objects; the ``shapes`` JSON is nested at most ``MAX_SHAPES_DEPTH`` deep.
+    decompressed (``MAX_TRAJECTORY_BYTES``, 1 GiB, by default) and, above
+    ``TRAJECTORY_RATIO_FLOOR`` (256 MiB), at most ``max_ratio`` times the file's size
+    (``MAX_TRAJECTORY_RATIO``, 64; None: no bound, for a file you trust), each array's .npy header
+    agrees with its zip entry's size and that size with what deflate can hold in the compressed
+    bytes, no array holds Python objects; the ``shapes`` JSON is nested at most
+    ``MAX_SHAPES_DEPTH`` deep.
     Values, checked after: poses, velocities, times, energies, gravity and draw meshes are finite,
     masses > 0 (inf for static bodies), the mesh and contact offsets start at 0, never decrease and
     end at their array's length, faces index their own body's vertices, contacts name bodies that
@@ -505,13 +519,18 @@ def load_trajectory(path, *, max_bytes: int = MAX_TRAJECTORY_BYTES) -> Record:
     anything that is not a readable signorini trajectory (not an .npz, truncated, over a limit,
     missing, inconsistent or non-finite arrays; running out of memory is reported the same way).
     """
+    if max_ratio is not None:
+        if isinstance(max_ratio, (bool, np.bool_)) or not isinstance(max_ratio, (int, float, np.integer, np.floating)):
+            raise TypeError(f"load_trajectory: max_ratio must be a number or None, got {max_ratio!r}")
+        if not max_ratio > 0:
+            raise ValueError(f"load_trajectory: max_ratio must be > 0 (or None: no bound), got {max_ratio!r}")
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such trajectory file")
     if not zipfile.is_zipfile(path):
         raise ValueError(f"{path}: not a signorini trajectory (not an .npz file: no zip archive inside)")
     try:
-        data = filecheck.read_npz(path, max_bytes)
+        data = filecheck.read_npz(path, max_bytes, max_ratio=max_ratio, ratio_floor=TRAJECTORY_RATIO_FLOOR)
         if "format" not in data or data["format"].shape != () or str(data["format"]) != TRAJECTORY_FORMAT:
             raise ValueError(f"{path}: not a signorini trajectory (no format marker {TRAJECTORY_FORMAT!r}; "
                              "written by an older version or another program?)")
@@ -535,7 +554,9 @@ def load_trajectory(path, *, max_bytes: int = MAX_TRAJECTORY_BYTES) -> Record:
         )
         _check(record, path)
     except filecheck.FileLimitError as e:
-        raise ValueError(f"{path}: not a readable signorini trajectory (.npz): {e}") from None
+        lift = "; load_trajectory(path, max_ratio=None) reads a file you trust" \
+            if isinstance(e, filecheck.RatioLimitError) else ""
+        raise ValueError(f"{path}: not a readable signorini trajectory (.npz): {e}{lift}") from None
     except (KeyError, IndexError, TypeError, OverflowError) as e:
         raise ValueError(f"{path}: corrupt trajectory: {type(e).__name__}: {e}") from None
     except (MemoryError, RecursionError) as e:

@@ -1,8 +1,11 @@
 // The World: validation that leaves the world unchanged, pipeline order, resting and momentum.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
+#include <set>
 #include <thread>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -412,4 +415,84 @@ TEST(WorldThreads, BodiesAddedAndRemovedDuringStepsWaitForThem) {
   ASSERT_EQ(shared.num_bodies(), n);
   State s = shared.state();
   expect_same_state(alone.state(), s);
+}
+
+namespace {
+
+/// What a reader copies out of a World, as numbers to compare bit for bit.
+std::vector<double> numbers(const std::vector<Vec3>& xs) {
+  std::vector<double> out;
+  for (const Vec3& x : xs) out.insert(out.end(), x.data(), x.data() + 3);
+  return out;
+}
+
+std::vector<double> numbers(const std::vector<CachedContact>& cache) {
+  std::vector<double> out;
+  for (const CachedContact& c : cache)
+    out.insert(out.end(), {double(c.body_a), double(c.body_b), double(c.feature_a), double(c.feature_b), c.alpha,
+                           c.friction.x(), c.friction.y(), c.friction.z(), c.spin});
+  return out;
+}
+
+std::vector<double> numbers(const std::vector<Contact>& contacts) {
+  std::vector<double> out;
+  for (const Contact& c : contacts)
+    out.insert(out.end(), {double(c.body_a), double(c.body_b), c.point.x(), c.point.z(), c.gap, c.alpha,
+                           c.force.x(), c.force.z()});
+  return out;
+}
+
+}  // namespace
+
+TEST(WorldThreads, LastStepFiguresAreCopiesTakenUnderTheLock) {
+  // a reference to the solver's arrays would be read after the lock is released, while another
+  // thread's step zeroes and re-sums them
+  const World* w = nullptr;
+  EXPECT_TRUE((std::is_same_v<decltype(w->contact_forces()), std::vector<Vec3>>));
+  EXPECT_TRUE((std::is_same_v<decltype(w->contact_torques()), std::vector<Vec3>>));
+  EXPECT_TRUE((std::is_same_v<decltype(w->warm_start_cache()), std::vector<CachedContact>>));
+  EXPECT_TRUE((std::is_same_v<decltype(w->contacts()), std::vector<Contact>>));
+  EXPECT_TRUE((std::is_same_v<decltype(w->settings()), WorldSettings>));
+}
+
+TEST(WorldThreads, FiguresReadDuringAnotherThreadsStepsAreThoseOfAFinishedStep) {
+  // a reader in a second thread copies the contact forces, torques, warm-start cache and contacts
+  // while the main thread steps: each copy equals, bit for bit, what the main thread read between
+  // two of its steps (never a step's half-written arrays, which read as zeros or partial sums)
+  const double dt = 1.0 / 240.0;
+  World world;
+  busy_stack(world);
+  world.step(dt);  // from here on every step has contacts: no finished step has all-zero forces
+  using Numbers = std::vector<double>;
+  std::set<Numbers> finished[4], seen[4];
+  auto read = [&world](std::set<Numbers>* into) {
+    into[0].insert(numbers(world.contact_forces()));
+    into[1].insert(numbers(world.contact_torques()));
+    into[2].insert(numbers(world.warm_start_cache()));
+    into[3].insert(numbers(world.contacts()));
+  };
+  read(finished);
+  std::atomic<bool> done{false};
+  std::atomic<int> reads{0};
+  std::thread reader([&] {
+    while (!done.load()) {
+      read(seen);
+      ++reads;
+    }
+  });
+  for (int s = 0; s < 300; ++s) {
+    world.step(dt);
+    read(finished);
+    std::this_thread::yield();  // a chance for the reader between two steps
+  }
+  done = true;
+  reader.join();
+  EXPECT_GT(reads.load(), 0);
+  const char* what[4] = {"contact_forces", "contact_torques", "warm_start_cache", "contacts"};
+  for (int k = 0; k < 4; ++k) {
+    int torn = 0;
+    for (const Numbers& x : seen[k]) torn += finished[k].count(x) == 0;
+    EXPECT_EQ(torn, 0) << what[k] << ": " << torn << " of " << seen[k].size()
+                       << " distinct reads match no finished step";
+  }
 }

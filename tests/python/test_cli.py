@@ -216,3 +216,79 @@ def test_a_bad_scene_file_exits_2_naming_the_file_and_key(tmp_path):
     assert "bad.toml" in result.stderr and "bodies[0].spin" in result.stderr and "Traceback" not in result.stderr
     result = run_cli("run", str(tmp_path / "missing.toml"), "--out", str(tmp_path / "out"))
     assert result.returncode == 2 and "missing.toml" in result.stderr and "does not exist" in result.stderr
+
+
+def scene_with_meshes(root: Path, *folders: str) -> Path:
+    """root/scenes/s.toml: a ground and one mesh ball per folder, each ball's .npz file in
+    root/<folder>/ (outside the scene file's folder), 5 steps."""
+    from signorini import meshes, meshfile
+
+    text = "[scene]\ndt = 0.01\nsteps = 5\n[[bodies]]\nstatic = true\nshape = { type = 'plane', normal = [0, 0, 1] }\n"
+    for k, folder in enumerate(folders):
+        (root / folder).mkdir(parents=True)
+        meshfile.write_npz_mesh(root / folder / "ball.npz", *meshes.icosphere(0.2, 1))
+        text += (f"[[bodies]]\nshape = {{ type = 'mesh', file = '../{folder}/ball.npz' }}\ndensity = 500\n"
+                 f"position = [{k}, 0, 1]\n")
+    (root / "scenes").mkdir(parents=True)
+    (root / "scenes" / "s.toml").write_text(text)
+    return root / "scenes" / "s.toml"
+
+
+def test_run_allow_path_lets_a_scene_read_meshes_from_named_folders(tmp_path):
+    scene = scene_with_meshes(tmp_path, "assets", "more")
+    out = ["--out", str(tmp_path / "out"), "--no-plot", "--no-html", "--quiet"]
+    # without the option: refused, the message naming the file, the key, the rule and the option
+    result = run_cli("run", str(scene), *out)
+    assert result.returncode == 2, result.stderr
+    assert "s.toml" in result.stderr and "bodies[1]" in result.stderr and "outside the folders" in result.stderr
+    assert "--allow-path DIR" in result.stderr and "Traceback" not in result.stderr
+    assert not (tmp_path / "out" / "s.npz").exists()
+    # one folder allowed, the other still refused; relative folders are read from the current one
+    result = run_cli("run", str(scene), *out, "--allow-path", "assets", cwd=tmp_path)
+    assert result.returncode == 2 and "bodies[2]" in result.stderr and "--allow-path" in result.stderr
+    # both: the run loads and writes its trajectory
+    result = run_cli("run", str(scene), *out, "--allow-path", "assets", "--allow-path", str(tmp_path / "more"),
+                     cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    from signorini.trajectory import load_trajectory
+
+    record = load_trajectory(tmp_path / "out" / "s.npz")
+    assert record.num_bodies == 3 and record.steps == 5
+
+
+def test_allow_path_must_be_a_folder(tmp_path):
+    (tmp_path / "file.txt").write_text("")
+    for command in ("run", "view"):
+        for bad in (tmp_path / "nowhere", tmp_path / "file.txt"):
+            result = run_cli(command, "boxes", "--allow-path", str(bad))
+            assert result.returncode == 2 and "--allow-path" in result.stderr and "not a folder" in result.stderr
+
+
+def test_view_allow_path_reaches_the_scene_loader(tmp_path, monkeypatch, capsys):
+    """view reads a scene file with the folders of --allow-path (the viewer itself replaced by a
+    stand-in that records what it was given); without them it exits 2 before serving."""
+    from signorini import cli, viewer
+
+    scene = scene_with_meshes(tmp_path, "assets")
+    served = []
+
+    class StandIn:
+        def __init__(self, source, **kwargs):
+            served.append(source)
+            self.port = kwargs["port"]
+
+        def serve_forever(self):
+            pass
+
+    monkeypatch.setattr(viewer, "Viewer", StandIn)
+    with pytest.raises(SystemExit) as e:
+        cli.main(["view", str(scene)])
+    assert e.value.code == 2 and "--allow-path" in capsys.readouterr().err and served == []
+    assert cli.main(["view", str(scene), "--allow-path", str(tmp_path / "assets")]) == 0
+    assert len(served) == 1 and served[0].world.num_bodies == 2
+
+
+@pytest.mark.parametrize("command", ["run", "view"])
+def test_the_help_of_commands_reading_scene_files_names_allow_path(command):
+    result = run_cli(command, "--help")
+    assert result.returncode == 0 and "--allow-path DIR" in result.stdout and "repeat" in result.stdout

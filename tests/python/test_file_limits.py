@@ -23,7 +23,8 @@ trimesh = pytest.importorskip("trimesh")
 PYTHON = str(Path(sg.__file__).resolve().parents[1])
 
 # the child: imports first, then caps its address space at what it has plus cap_mb, runs the code
-# and prints the exception it ended with (type, message) and how far its peak RSS grew (MiB)
+# and prints the exception it ended with (type, message), how far its peak RSS grew (MiB) and the
+# code's own measure ``_peak`` if it set one
 _CHILD = """
 import json, resource, sys, time
 import numpy as np, trimesh
@@ -42,13 +43,14 @@ try:
 except BaseException as _e:
     _out = {{"error": type(_e).__name__, "message": str(_e)[:4000]}}
 _out["rss_mb"] = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - _rss0) / 1024
+_out["peak"] = globals().get("_peak")  # set by code that measures with tracemalloc
 print("RESULT " + json.dumps(_out))
 """
 
 
 def in_child(code: str, cap_mb: int = 512, timeout: float = 120.0) -> dict:
     """Run code in a fresh interpreter capped at cap_mb MiB more than it holds after its imports;
-    {"error": exception type name or None, "message", "rss_mb": peak RSS growth}."""
+    {"error": exception type name or None, "message", "rss_mb": peak RSS growth, "peak": _peak or None}."""
     source = _CHILD.format(cap=cap_mb, code=textwrap.indent(textwrap.dedent(code), "    "))
     env = {**os.environ, "PYTHONPATH": PYTHON}
     try:
@@ -121,6 +123,101 @@ def test_trajectory_bomb_is_refused_from_its_headers_in_little_memory(trajectory
     assert "bomb.npz" in out["message"] and "positions" in out["message"] and "limit" in out["message"]
     # refused from the headers: memory grew by far less than the file's own size
     assert out["rss_mb"] < 3 * path.stat().st_size / 2**20 + 16, out
+
+
+def write_zeros_member(z: zipfile.ZipFile, name: str, shape, descr="<f8", last: bytes = b"") -> None:
+    """A member of deflated zeros of the given shape (its last bytes ``last``), streamed in."""
+    with z.open(f"{name}.npy", "w", force_zip64=True) as f:
+        f.write(npy_header(shape, descr))
+        left = int(np.prod(shape)) * np.dtype(descr).itemsize - len(last)
+        zeros = bytes(1 << 22)
+        while left:
+            f.write(zeros[:min(left, len(zeros))])
+            left -= min(left, len(zeros))
+        f.write(last)
+
+
+def test_a_consistent_trajectory_of_deflated_zeros_is_refused_by_its_ratio_in_little_memory(trajectory_file, tmp_path):
+    # reproducer: every array agreeing with the others, all under the 1 GiB cap, ~1 GB of deflated
+    # zeros in a few MB; it was decompressed in full before its values were checked (a NaN at the
+    # very end of positions)
+    path = tmp_path / "zeros.npz"
+    frames = 4_400_000
+    with np.load(trajectory_file) as z:
+        data = {k: z[k] for k in z.files if not k.startswith("contact_")}
+    data["has_contacts"] = np.array(False)
+    n = len(data["names"])
+    big = {"positions": (frames, n, 3), "orientations": (frames, n, 4), "velocities": (frames, n, 3),
+           "angular_velocities": (frames, n, 3), "time": (frames,), "frame_step": (frames,),
+           "kinetic_energy": (frames,), "potential_energy": (frames,)}
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED, compresslevel=1) as z:
+        for k, v in data.items():
+            if k not in big:
+                buf = io.BytesIO()
+                np.save(buf, v)
+                z.writestr(f"{k}.npy", buf.getvalue())
+        for k, shape in big.items():
+            descr = "<i8" if k == "frame_step" else "<f8"
+            write_zeros_member(z, k, shape, descr, np.float64(np.nan).tobytes() if k == "positions" else b"")
+    size = path.stat().st_size
+    claimed = sum(int(np.prod(s)) * 8 for s in big.values())
+    assert claimed < 2**30 < claimed * 1.1 and size < 8e6  # under the 1 GiB cap
+    assert claimed > 64 * size  # over the ratio bound (MAX_TRAJECTORY_RATIO), which refuses it
+    out = in_child(f"""
+        import tracemalloc
+        tracemalloc.start()
+        try:
+            sg.load_trajectory({str(path)!r})
+        finally:
+            _peak = tracemalloc.get_traced_memory()[1]  # bytes, numpy's arrays included
+    """, cap_mb=512)
+    assert out["error"] == "ValueError", out
+    message = out["message"]
+    assert "zeros.npz" in message and "orientations.npy" in message, message  # the largest array
+    assert "over the limit of 64:1" in message and "max_ratio=None" in message, message
+    # refused from the headers: memory grew by a small multiple of the file's own size at most
+    assert out["rss_mb"] < 3 * size / 2**20 + 16, out
+    assert out["peak"] < 3 * size, out
+
+
+def test_the_ratio_bound_has_a_floor_and_can_be_lifted(tmp_path):
+    from signorini import filecheck
+
+    path = tmp_path / "zeros.npz"
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+        write_zeros_member(z, "a", (1 << 20,))  # 8 MiB of zeros in about 8 KB
+    size = path.stat().st_size
+    with pytest.raises(filecheck.RatioLimitError, match=r"a\.npy and the other arrays hold 8,388,608 bytes"):
+        filecheck.read_npz(path, 1 << 30, max_ratio=64, ratio_floor=1 << 20)
+    assert filecheck.read_npz(path, 1 << 30, max_ratio=64, ratio_floor=8 << 20)["a"].shape == (1 << 20,)
+    assert filecheck.read_npz(path, 1 << 30, max_ratio=(8 << 20) / size, ratio_floor=0)["a"].shape == (1 << 20,)
+    assert filecheck.read_npz(path, 1 << 30)["a"].shape == (1 << 20,)
+
+
+def test_load_trajectory_max_ratio_is_checked_and_lifts_the_bound(trajectory_file, monkeypatch):
+    ratio = sum(i.file_size for i in zipfile.ZipFile(trajectory_file).infolist()) / trajectory_file.stat().st_size
+    monkeypatch.setattr(sg.trajectory, "TRAJECTORY_RATIO_FLOOR", 0)
+    with pytest.raises(ValueError, match=r"run\.npz: .*over the limit of 1:1.*max_ratio=None"):
+        sg.load_trajectory(trajectory_file, max_ratio=1)
+    assert sg.load_trajectory(trajectory_file, max_ratio=ratio * 2).frames == 5
+    assert sg.load_trajectory(trajectory_file, max_ratio=None).frames == 5
+    for bad, error in ((0, ValueError), (-1.0, ValueError), (float("nan"), ValueError), ("64", TypeError),
+                       (True, TypeError)):
+        with pytest.raises(error, match="max_ratio"):
+            sg.load_trajectory(trajectory_file, max_ratio=bad)
+
+
+@pytest.mark.parametrize("name", ["boxes", "shapes"])
+def test_the_projects_own_recordings_stay_far_under_the_ratio_bound(name, tmp_path):
+    """The recordings of the built-in scenes hold at most about 6 bytes per byte of file (README
+    "Files"): an eighth of MAX_TRAJECTORY_RATIO, so the bound refuses none of them."""
+    from signorini import output, scenes
+
+    scene = scenes.build(name)
+    path = sg.save_trajectory(tmp_path / f"{name}.npz", output.run(scene, progress=False))
+    ratio = sum(i.file_size for i in zipfile.ZipFile(path).infolist()) / path.stat().st_size
+    assert ratio < sg.trajectory.MAX_TRAJECTORY_RATIO / 8, ratio
+    assert sg.load_trajectory(path, max_ratio=sg.trajectory.MAX_TRAJECTORY_RATIO / 8).frames > 1
 
 
 def test_npy_header_claiming_2_40_items_is_a_value_error(trajectory_file, tmp_path):

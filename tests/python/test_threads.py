@@ -239,3 +239,82 @@ def test_many_worlds_in_two_threads_equal_one_thread_and_do_not_wait_for_each_ot
         print("ok")
     """)
     assert out.startswith("ok")
+
+
+def test_the_cores_last_step_figures_read_during_another_threads_steps_are_those_of_a_finished_step():
+    """The compiled core's contact_forces, contact_torques, warm_start_cache and contacts, read in a
+    loop by one thread while another steps the world: each read equals, bit for bit, one the stepping
+    thread made between two of its steps. The core used to hand the bindings references to the
+    solver's arrays, read after its lock was released while the next step zeroed and re-summed them.
+    The facade serialises its calls with its own lock, so the reader calls the core (``w._core``)."""
+    out = run_child("""
+        core = build()._core
+        core.step(DT, 1)
+
+        def figures():
+            cache, c = core.warm_start_cache, core.contacts
+            return (core.contact_forces.tobytes(), core.contact_torques.tobytes(),
+                    b"".join(np.ascontiguousarray(cache[k]).tobytes() for k in sorted(cache)),
+                    b"".join(np.ascontiguousarray(c[k]).tobytes()
+                             for k in ("body_a", "body_b", "point", "alpha", "force")))
+
+        finished, seen = [set() for _ in range(4)], [set() for _ in range(4)]
+        done = threading.Event()
+
+        def note(into):
+            for kept, x in zip(into, figures()):
+                kept.add(x)
+
+        def stepper():
+            note(finished)
+            for _ in range(300):
+                core.step(DT, 1)
+                note(finished)
+            done.set()
+
+        def reader():
+            while not done.is_set():
+                note(seen)
+
+        errors = run_threads(stepper, reader)
+        assert errors == [], errors
+        assert all(len(s) > 1 for s in seen), [len(s) for s in seen]  # it did read during the steps
+        torn = [len(s - f) for s, f in zip(seen, finished)]
+        assert torn == [0, 0, 0, 0], (torn, [len(s) for s in seen])
+        print("ok", [len(s) for s in seen])
+    """)
+    assert out.startswith("ok")
+
+
+def test_a_cores_view_taken_while_another_thread_adds_bodies_shows_the_bodies_of_one_moment():
+    """A state view of the core (``positions``) taken while another thread adds bodies (which moves
+    the array when it grows) has the address and length of one moment: its rows are exactly the
+    positions of the first bodies added, never rows past the end of an old array."""
+    out = run_child("""
+        w = build(far=0)
+        core = w._core
+        expected = [tuple(p) for p in np.array(core.positions)]
+        expected += [(2000.0 + 3.0 * k, 0.0, 0.0) for k in range(400)]
+        expected = np.array(expected)
+        done = threading.Event()
+
+        def adder():
+            for p in expected[MAIN:]:
+                w.add_body(sg.Sphere(0.1), density=500.0, position=p, group=2, mask=2)
+            done.set()
+
+        def reader():
+            lengths = set()
+            while not done.is_set():
+                view = core.positions
+                n = len(view)
+                assert MAIN <= n <= len(expected), n
+                assert np.array_equal(np.array(view), expected[:n]), n
+                lengths.add(n)
+            assert len(lengths) > 1, lengths
+
+        errors = run_threads(adder, reader)
+        assert errors == [], errors
+        print("ok")
+    """)
+    assert out.startswith("ok")

@@ -865,3 +865,69 @@ def test_a_list_of_indices_with_a_bool_or_a_float_in_it_raises_type_error(method
             "set_positions": lambda w: w.set_positions(indices, [(0.0, 0.0, 3.0)] * 2),
             "set_velocities": lambda w: w.set_velocities(indices, [(0.0, 0.0, 0.0)] * 2)}[method]
     assert_refused(w, call, TypeError, ["integers"])
+
+
+# every method of the compiled core's World whose first argument is a body index (or indices)
+_ONE = np.zeros((1, 3))
+CORE_INDEX_CALLS = {
+    "apply_force": lambda c, i: c.apply_force(i, (0.0, 0.0, 1.0), None),
+    "apply_impulse": lambda c, i: c.apply_impulse(i, (0.0, 0.0, 1.0), None),
+    "label": lambda c, i: c.label(i),
+    "remove_bodies": lambda c, i: c.remove_bodies([i]),
+    "remove_body": lambda c, i: c.remove_body(i),
+    "set_angular_velocities": lambda c, i: c.set_angular_velocities(np.array([i]), _ONE),
+    "set_angular_velocity": lambda c, i: c.set_angular_velocity(i, (0.0, 0.0, 0.0)),
+    "set_collision_filter": lambda c, i: c.set_collision_filter(i, 2, 2),
+    "set_enabled": lambda c, i: c.set_enabled(i, False),
+    "set_external_wrench": lambda c, i: c.set_external_wrench(i, (0.0, 0.0, 1.0), (0.0, 0.0, 0.0)),
+    "set_kinematic": lambda c, i: c.set_kinematic(i, True),
+    "set_material": lambda c, i: c.set_material(i, 0.1, 0.0, 0.0),
+    "set_orientation": lambda c, i: c.set_orientation(i, (1.0, 0.0, 0.0, 0.0)),
+    "set_orientations": lambda c, i: c.set_orientations(np.array([i]), np.array([[1.0, 0.0, 0.0, 0.0]])),
+    "set_pair_collision": lambda c, i: c.set_pair_collision(i, 0, False),
+    "set_position": lambda c, i: c.set_position(i, (0.0, 0.0, 3.0)),
+    "set_positions": lambda c, i: c.set_positions(np.array([i]), _ONE),
+    "set_velocities": lambda c, i: c.set_velocities(np.array([i]), _ONE),
+    "set_velocity": lambda c, i: c.set_velocity(i, (0.0, 0.0, 0.0)),
+    "shape": lambda c, i: c.shape(i),
+}
+
+
+def test_every_index_taking_core_method_is_listed():
+    """A method of _core.World whose first argument is an integer or an integer array (read from
+    the stubs, which test_stubs keeps equal to the built module) is in CORE_INDEX_CALLS."""
+    import re
+    stub = (Path(sg.__file__).parent / "_core.pyi").read_text()
+    body = stub[stub.index("\nclass World"):]
+    body = body[:body.index("\nclass ", 1)] if "\nclass " in body[1:] else body
+    integers = ("typing.SupportsInt", "collections.abc.Sequence[typing.SupportsInt",
+                "typing.Annotated[numpy.typing.ArrayLike, numpy.int64")
+    taking = {name for name, first in re.findall(r"    def (\w+)\(self, \w+: ([^\n]*)", body)
+              if not name.startswith("_") and first.startswith(integers)}
+    assert taking == set(CORE_INDEX_CALLS)
+
+
+@pytest.mark.parametrize("method", sorted(CORE_INDEX_CALLS))
+@pytest.mark.parametrize("index", [-1, 2, 2**31 - 1])
+def test_the_core_raises_body_index_error_naming_the_index(method, index):
+    """The compiled core refuses a body index out of range as the facade does: BodyIndexError (an
+    IndexError and a ValueError) naming the index, nothing changed. Its apply_impulse and
+    apply_force without a point read the centre of mass with std::vector::at, a bare IndexError."""
+    w = ground_and_boxes(1)
+    call = lambda w: CORE_INDEX_CALLS[method](w._core, index)  # noqa: E731
+    assert_refused(w, call, sg.BodyIndexError, [str(index), "out of range"])
+    assert_refused(w, call, ValueError, [])
+
+
+@pytest.mark.parametrize("method", ["apply_impulse", "apply_force"])
+def test_the_cores_push_without_a_point_acts_at_the_centre_of_mass(method):
+    """No point: the push goes through the centre of mass (no angular impulse or torque), bit for
+    bit as with the body's position given as the point."""
+    a, b = ground_and_boxes(1), ground_and_boxes(1)
+    a.set_angular_velocity(1, (0.0, 0.0, 0.0))
+    getattr(a._core, method)(1, (0.3, -0.2, 1.0), None)
+    getattr(b._core, method)(1, (0.3, -0.2, 1.0), np.array(b.positions[1]))
+    a.step(DT)
+    b.step(DT)
+    assert fingerprint(a) == fingerprint(b)
+    assert np.any(a.velocities[1] != 0)

@@ -75,10 +75,12 @@ struct StepReport {
 
 /// Threads: every public member function takes the world's lock, so calls from several threads on
 /// one World run one at a time (a step waits for an add_body in another thread, and the other way
-/// round) and none sees another half done. The references and views that model(), state() and the
-/// array accessors hand out are read without it: they stay valid during a step (the storage does
-/// not move) but show the step's progress, and adding or removing bodies may move them. Many
-/// worlds in many threads never wait for each other.
+/// round) and none sees another half done. What they return is a copy taken under the lock
+/// (contacts, contact forces and torques, the warm-start cache, settings, figures), except the
+/// references model() and state(): those are read without it, stay valid during a step (the
+/// storage does not move) but show the step's progress, and adding or removing bodies may move
+/// them; hold lock() to read them as one picture. Many worlds in many threads never wait for each
+/// other.
 class World {
  public:
   /// A step is an energy explosion (undone and reported, like a non-finite step) when its final
@@ -128,9 +130,10 @@ class World {
   /// For the next step only (then zeroed; the first step of the next step() call): an impulse J
   /// (N s, world) at world point x (m) adds J / m to v and I_w^-1 ((x - p) x J) to omega at the start
   /// of the step; a force F (N) at x acts through the whole step with torque (x - p) x F. Several
-  /// calls add up. Dynamic bodies only (a disabled body ignores them).
-  void apply_impulse(BodyIndex i, const Vec3& impulse, const Vec3& point);
-  void apply_force(BodyIndex i, const Vec3& force, const Vec3& point);
+  /// calls add up. Dynamic bodies only (a disabled body ignores them). Without a point, at the
+  /// body's centre of mass (read under the lock, with the index checked).
+  void apply_impulse(BodyIndex i, const Vec3& impulse, const std::optional<Vec3>& point = std::nullopt);
+  void apply_force(BodyIndex i, const Vec3& force, const std::optional<Vec3>& point = std::nullopt);
   /// Makes a dynamic body kinematic (its velocity kept, from now on moved by it alone) or a kinematic
   /// one dynamic again (needs a finite mass). Static bodies cannot change.
   void set_kinematic(BodyIndex i, bool kinematic);
@@ -154,14 +157,20 @@ class World {
   /// differ) or damaged bytes throw std::invalid_argument and change nothing.
   void restore_state(const std::string& saved);
 
+  /// The static model and the dynamic state, read without the lock (see Threads above).
   const Model& model() const { return model_; }
   const State& state() const { return state_; }
-  const WorldSettings& settings() const { return settings_; }
+  /// The world's lock, held by the caller until the returned object goes: meanwhile no call of
+  /// another thread runs on this World, so model() and state() read as one picture (this thread's
+  /// own calls still run: the lock is recursive). Hold it briefly.
+  [[nodiscard]] std::unique_lock<std::recursive_mutex> lock() const { return std::unique_lock(mutex_); }
+  WorldSettings settings() const;
   void set_settings(const WorldSettings& settings);
   std::size_t num_bodies() const;
 
-  /// Contacts of the last step (detected at its start), with their solved forces and velocities.
-  const std::vector<Contact>& contacts() const;
+  /// Contacts of the last step (detected at its start), with their solved forces and velocities;
+  /// a copy (shared_contacts() shares the list without copying).
+  std::vector<Contact> contacts() const;
   /// The same list, shared: a holder keeps it valid and unchanged (the World moves to a new list
   /// at the next step when it is held, and reuses it when not).
   std::shared_ptr<const std::vector<Contact>> shared_contacts() const;
@@ -170,11 +179,12 @@ class World {
   /// What the last call of step() did (for warnings).
   StepReport step_report() const;
   /// Per body, the summed contact force (N, world) and torque about its com (N m, world) of the
-  /// last step; static bodies included (the reaction on the ground).
-  const std::vector<Vec3>& contact_forces() const;
-  const std::vector<Vec3>& contact_torques() const;
-  /// The warm-start cache the next step starts from, sorted by key (docs/conventions.md, 3 b).
-  const std::vector<CachedContact>& warm_start_cache() const;
+  /// last step; static bodies included (the reaction on the ground). Copies: a step in another
+  /// thread rewrites the solver's own arrays as it runs.
+  std::vector<Vec3> contact_forces() const;
+  std::vector<Vec3> contact_torques() const;
+  /// The warm-start cache the next step starts from, sorted by key (docs/conventions.md, 3 b); a copy.
+  std::vector<CachedContact> warm_start_cache() const;
 
   /// Orientation of body i as a unit quaternion (w, x, y, z), w >= 0.
   Quat4 orientation(BodyIndex i) const;
@@ -200,9 +210,10 @@ class World {
   template <class T> void push_keeping(std::vector<T>& v, const T& x);
   /// A velocity for body i must be finite, and zero for a static body.
   void check_velocity(BodyIndex i, const char* what, const Vec3& x) const;
-  /// A push (`what`: "impulse" or "force") of body i at a world point: both finite, and the body
-  /// dynamic (static and kinematic bodies have infinite mass).
-  void check_push(BodyIndex i, const char* what, const Vec3& push, const Vec3& point) const;
+  /// A push (`what`: "impulse" or "force") of body i at a world point (its centre of mass when
+  /// none): both finite, and the body dynamic (static and kinematic bodies have infinite mass).
+  /// Returns the point.
+  Vec3 check_push(BodyIndex i, const char* what, const Vec3& push, const std::optional<Vec3>& point) const;
   /// One step of dt, as a pipeline of named stages (world.cpp); a step the guard refuses (a
   /// non-finite state, an energy explosion) is undone and throws std::runtime_error naming the
   /// body or bodies.

@@ -130,28 +130,29 @@ void World::set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torq
   state_.tau_ext[i] = torque;
 }
 
-void World::check_push(BodyIndex i, const char* what, const Vec3& push, const Vec3& point) const {
+Vec3 World::check_push(BodyIndex i, const char* what, const Vec3& push, const std::optional<Vec3>& point) const {
   check_index(i);
   const std::string who = label(i);
   checks::require_finite(who, what, push);
-  checks::require_finite(who, "point", point);
+  if (point) checks::require_finite(who, "point", *point);
   if (model_.is_static[i] || model_.is_kinematic[i])
     throw std::invalid_argument(who + ": a " + (model_.is_static[i] ? "static" : "kinematic") + " body takes no " +
                                 what + "s (it has infinite mass); set its velocity instead");
+  return point ? *point : state_.p[i];
 }
 
-void World::apply_impulse(BodyIndex i, const Vec3& impulse, const Vec3& point) {
+void World::apply_impulse(BodyIndex i, const Vec3& impulse, const std::optional<Vec3>& point) {
   const Lock lock(mutex_);
-  check_push(i, "impulse", impulse, point);
+  const Vec3 x = check_push(i, "impulse", impulse, point);
   state_.impulse[i] += impulse;
-  state_.angular_impulse[i] += (point - state_.p[i]).cross(impulse);
+  state_.angular_impulse[i] += (x - state_.p[i]).cross(impulse);
 }
 
-void World::apply_force(BodyIndex i, const Vec3& force, const Vec3& point) {
+void World::apply_force(BodyIndex i, const Vec3& force, const std::optional<Vec3>& point) {
   const Lock lock(mutex_);
-  check_push(i, "force", force, point);
+  const Vec3 x = check_push(i, "force", force, point);
   state_.f_step[i] += force;
-  state_.tau_step[i] += (point - state_.p[i]).cross(force);
+  state_.tau_step[i] += (x - state_.p[i]).cross(force);
 }
 
 void World::set_kinematic(BodyIndex i, bool kinematic) {

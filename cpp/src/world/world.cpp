@@ -182,7 +182,12 @@ std::size_t World::num_bodies() const {
   return model_.size();
 }
 
-const std::vector<Contact>& World::contacts() const {
+WorldSettings World::settings() const {
+  const Lock lock(mutex_);
+  return settings_;
+}
+
+std::vector<Contact> World::contacts() const {
   const Lock lock(mutex_);
   return *contacts_;
 }
@@ -202,17 +207,17 @@ StepReport World::step_report() const {
   return report_;
 }
 
-const std::vector<Vec3>& World::contact_forces() const {
+std::vector<Vec3> World::contact_forces() const {
   const Lock lock(mutex_);
   return solver_->body_force;
 }
 
-const std::vector<Vec3>& World::contact_torques() const {
+std::vector<Vec3> World::contact_torques() const {
   const Lock lock(mutex_);
   return solver_->body_torque;
 }
 
-const std::vector<CachedContact>& World::warm_start_cache() const {
+std::vector<CachedContact> World::warm_start_cache() const {
   const Lock lock(mutex_);
   return solver_->cache;
 }
