@@ -40,7 +40,7 @@ export PIP_BREAK_SYSTEM_PACKAGES=1 PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_ROOT_USER
 # pybind11 and pybind11-stubgen pinned: the committed stubs are what these two versions write
 runtime=("scikit-build-core>=0.10" "pybind11==3.1.0" "numpy>=1.22" "matplotlib>=3.6" "tqdm>=4.60" "coacd>=1.0"
          "pythreejs>=2.4" "pillow>=9" "imageio>=2.20" "imageio-ffmpeg>=0.4.8" "pygltflib>=1.15" "usd-core>=23.0"
-         "viser>=1.0" "trimesh>=4" "pydantic>=2" "tomli-w>=1")
+         "viser>=1.0" "trimesh>=4" "networkx>=2.6" "pydantic>=2" "tomli-w>=1")
 tests=("pytest>=7" "scipy>=1.8" "playwright>=1.40" "mujoco>=3" "pybind11-stubgen==3.0.0" "import-linter>=2.17")
 # runs a command showing only its lines that match a pattern; its exit status is the command's (pipefail)
 show() { local pattern=$1; shift; "$@" 2>&1 | { grep --line-buffered -E "$pattern" || true; }; }
