@@ -335,11 +335,11 @@ class World:
         if (not is_static and isinstance(shape, Mesh) and not shape.pieces and not shape.is_convex()
                 and _solid(shape)):
             # a dynamic non-convex mesh collides with other bodies through convex pieces
-            from .decompose import decompose
+            from .decomposition import decompose
             try:
                 shape = decompose(shape)
-            except ValueError as e:
-                raise ValueError(f"{who}: {e}") from None
+            except (ValueError, RuntimeError) as e:
+                raise type(e)(f"{who}: {e}") from None
         # what it was added with (save_scene writes a body that has not moved with these values)
         # (copies: a caller's array changed later must not change the record)
         record = codec.BodyArgs(shape, *args[2:4], *(readonly(np.array(a)) for a in args[5:9]),

@@ -230,8 +230,8 @@ def boxes(centres, half=0.1):
 
 @pytest.mark.parametrize("keyword", ["o", "g"])
 def test_objects_that_are_all_convex_are_the_pieces_without_decomposition(tmp_path, monkeypatch, keyword):
-    import importlib
-    monkeypatch.setattr(importlib.import_module("signorini.decompose"), "convex_pieces", lambda *a, **k: pytest.fail("decomposed again"))
+    from signorini import decomposition
+    monkeypatch.setattr(decomposition, "convex_pieces", lambda *a, **k: pytest.fail("decomposed again"))
     centres = [(0, 0, 0), (0.3, 0, 0), (0, 0.3, 0.1)]
     path = write_obj(tmp_path / "vhacd.obj", boxes(centres), keyword=keyword, seams=True)
     mesh = sg.load_mesh(path)
