@@ -144,7 +144,6 @@ class _Read:
     vertices: np.ndarray
     faces: np.ndarray
     pieces: list
-    objects: int = 1
     not_convex: tuple | None = None
 
 
@@ -230,14 +229,13 @@ def _read(path: Path, suffix: str, static: bool) -> _Read:
             offsets = np.cumsum([0] + [len(v) for v, _ in arrays[:-1]])
             return _Read(np.concatenate([v for v, _ in arrays]),
                          np.concatenate([f + o for (_, f), o in zip(arrays, offsets)]),
-                         [v for v, _ in arrays], objects=len(arrays))
+                         [v for v, _ in arrays])
         name = g.metadata.get("name") or f"object {objects.index(g)}"
         union = _union(trimesh, objects)
         return _Read(np.array(union.vertices, dtype=np.float64), np.array(union.faces, dtype=np.int64), [],
-                     objects=len(objects), not_convex=(name, problem))
+                     not_convex=(name, problem))
     union = objects[0] if len(objects) == 1 else _union(trimesh, objects)
-    return _Read(np.array(union.vertices, dtype=np.float64), np.array(union.faces, dtype=np.int64), [],
-                 objects=len(objects))
+    return _Read(np.array(union.vertices, dtype=np.float64), np.array(union.faces, dtype=np.int64), [])
 
 
 def _union(trimesh, objects):
@@ -276,12 +274,12 @@ def _signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
 
 def _closedness_problem(faces: np.ndarray) -> str:
     """'' when every directed edge appears once and its reverse once (closed, consistently wound)."""
-    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    unique, counts = np.unique(edges, axis=0, return_counts=True)
-    if counts.max() > 1:
+    start, end = faces.ravel(), faces[:, [1, 2, 0]].ravel()
+    n = int(faces.max()) + 1 if len(faces) else 0
+    edges, uses = np.unique(start * n + end, return_counts=True)
+    if len(uses) and uses.max() > 1:
         return "an edge is used twice in the same direction"
-    forward = set(map(tuple, unique))
-    if any((b, a) not in forward for a, b in unique):
+    if not np.all(np.isin(end * n + start, edges)):
         return "it is open"
     return ""
 
