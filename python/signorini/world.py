@@ -297,8 +297,12 @@ class World:
         (``find``). ``group`` / ``mask``: collision filter bits (see ``set_collision_filter``).
         ``enabled=False`` adds it disabled (``set_enabled``).
 
-        On any bad argument raises ValueError or TypeError naming the body, and the world is
-        unchanged.
+        A non-convex ``Mesh`` without convex pieces is decomposed first (``sg.decompose`` with
+        its defaults: cached, but the first time it can take minutes, with an estimate and a
+        progress bar on stderr; Ctrl-C stops it and adds nothing).
+
+        On any bad argument raises ValueError or TypeError naming the body (RuntimeError when
+        CoACD fails), and the world is unchanged.
         """
         return self._add(shape, False, kinematic, density, mass, inertia, position, orientation, velocity,
                          angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled)
