@@ -180,6 +180,12 @@ def test_keyboard_interrupt_terminates_the_worker_and_caches_nothing(tmp_path, m
     with pytest.raises(KeyboardInterrupt):
         sg.decompose(torus(), progress=False)
     assert len(workers) == 1 and workers[0].returncode == -signal.SIGTERM   # terminated, not finished
+    # the same through add_body: the body is not added
+    w = sg.World()
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    with pytest.raises(KeyboardInterrupt):
+        w.add_body(torus(), density=100.0)
+    assert w.num_bodies == 1 and len(workers) == 2 and workers[1].returncode == -signal.SIGTERM
     assert not (tmp_path / "cache").exists()
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith("signorini-coacd-")] == []
 
