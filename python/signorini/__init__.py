@@ -19,7 +19,8 @@ from .codec import shape_to_dict as shape_dict
 from .collision import Feature, collide, feature
 from .trajectory import Record, Recorder, load_trajectory, save_trajectory
 from . import meshfile
-from .meshfile import load_mesh
+from .meshfile import MeshRepairWarning, load_mesh, save_mesh
+from .decomposition import decompose
 
 if TYPE_CHECKING:
     from .mjcf import MJCFError, load_mjcf, read_mjcf
@@ -41,6 +42,7 @@ def __getattr__(name: str):
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
            "Compound", "mass_properties", "Contacts", "SolverStats", "SavedState",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
-           "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "load_scene", "read_scene",
+           "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "save_mesh", "decompose",
+           "MeshRepairWarning", "load_scene", "read_scene",
            "save_scene", "SceneFileError", "load_mjcf", "read_mjcf", "MJCFError"]
 __version__ = "0.1.0"

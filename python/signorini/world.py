@@ -321,8 +321,12 @@ class World:
         (``find``). ``group`` / ``mask``: collision filter bits (see ``set_collision_filter``).
         ``enabled=False`` adds it disabled (``set_enabled``).
 
-        On any bad argument raises ValueError or TypeError naming the body, and the world is
-        unchanged.
+        A non-convex ``Mesh`` without convex pieces is decomposed first (``sg.decompose`` with
+        its defaults: cached, but the first time it can take minutes, with an estimate and a
+        progress bar on stderr; Ctrl-C stops it and adds nothing).
+
+        On any bad argument raises ValueError or TypeError naming the body (RuntimeError when
+        CoACD fails), and the world is unchanged.
         """
         return self._add(shape, False, kinematic, density, mass, inertia, position, orientation, velocity,
                          angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled)
@@ -359,11 +363,11 @@ class World:
         if (not is_static and isinstance(shape, Mesh) and not shape.pieces and not shape.is_convex()
                 and _solid(shape)):
             # a dynamic non-convex mesh collides with other bodies through convex pieces
-            from .decompose import decompose
+            from .decomposition import decompose
             try:
                 shape = decompose(shape)
-            except ValueError as e:
-                raise ValueError(f"{who}: {e}") from None
+            except (ValueError, RuntimeError) as e:
+                raise type(e)(f"{who}: {e}") from None
         # what it was added with (save_scene writes a body that has not moved with these values)
         # (copies: a caller's array changed later must not change the record)
         record = codec.BodyArgs(shape, *args[2:4], *(readonly(np.array(a)) for a in args[5:9]),
