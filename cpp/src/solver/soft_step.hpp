@@ -1,9 +1,9 @@
 // The soft step (docs/conventions.md, "The soft step"): Catto's soft-constraint substepping, as in
 // Box2D v3 and Box3D, on the lecture's rows. A step of dt detects its contacts once and runs n
 // substeps of h = dt / n:
-//   begin (once) -> per substep: [unconstrained velocity] -> solve -> [poses move] -> relax
-//   -> end (once): restitution, store.
-// Each contact is a spring-damper of documented stiffness while it overlaps beyond the slop
+//   begin (once) -> per substep: [unconstrained velocity] -> solve -> [poses move] -> relax (and
+//   restitution where a contact first pushes) -> end (once): store.
+// Each contact is a spring-damper of documented stiffness while it overlaps
 // (solve), and rigid in the relax sweeps, which take the spring's velocity back so that pushing
 // out of an overlap moves the poses without becoming kinetic energy. Rows are built once per step
 // at the start poses; each contact's gap is carried with its two bodies from substep to substep.
@@ -30,12 +30,13 @@ void soft_solve(const Model& model, const State& state, const SolverSettings& se
                 std::vector<Vec3>& omega, SolverData& d);
 
 /// A substep's relax, after the poses moved. In/out: v, omega (N, world): relax_iterations sweeps
-/// with rigid contacts (speculative ones still close their gap) on the velocities of solve.
+/// with rigid contacts (speculative ones still close their gap) on the velocities of solve; then
+/// restitution on the contacts that pushed for the first time in this substep, with e > 0 and an
+/// approach u (their J_n q_dot before the biased sweep) faster than the threshold: n^T (v_B - v_A) >= -e u.
 void soft_relax(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
                 std::vector<Vec3>& omega, SolverData& d);
 
-/// Ends the step. In/out: v, omega (N) = the relaxed velocities; restitution on the contacts that
-/// approached faster than the threshold at the step's start and pushed in some substep.
+/// Ends the step. In: v, omega (N) = the last substep's velocities.
 /// Out: contacts[i].alpha, friction, force, spin_torque (the last substep's, N and N m), impulse
 /// (the step's whole normal impulse, N s), normal_velocity, slip; d.body_force, d.body_torque;
 /// d.cache_next; returns the stats with the certificate against the rigid targets (each contact's
