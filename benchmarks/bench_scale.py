@@ -30,8 +30,9 @@ benchmark app steps 1/60 with 4 substeps), and Box3D's step counts:
 
 Engines, all in this process with the scene's dt; each scene is built by one function and
 mirrored into the peers (``benchmarks/_peers.py``):
-- signorini with its defaults (and, with ``--sweeps N``, a second row "signorini fast" set to
-  ``set_solver(max_iterations=N, substeps=--substeps)``);
+- signorini with its defaults, a row "signorini soft" with ``set_solver(solver="soft")`` (the soft
+  step at its defaults) and, with ``--sweeps N``, a row "signorini fast" set to
+  ``set_solver(max_iterations=N, substeps=--substeps)``;
 - pybullet (optional), DIRECT mode, 10 solver iterations, one solve per step;
 - rapier3d (optional, the official Rapier wheel), its default integration parameters, 1 thread.
 Sleeping follows Box3D's scene (off in the two pyramid scenes, on elsewhere) in every engine
@@ -438,6 +439,7 @@ def make_variants(name: str, args, available: dict) -> list[Variant]:
             variants.append(Variant("signorini", "threads", signorini({}, threads=2, sleeping=main_sleep)))
         if sleep_scene and available["sleeping"]:
             variants.append(Variant("signorini", "sleep_on", signorini({}, sleeping=True)))
+        variants.append(Variant("signorini soft", "main", signorini({"solver": "soft"}, sleeping=main_sleep)))
         if args.sweeps is not None:
             fast = {"max_iterations": args.sweeps, "substeps": args.substeps}
             variants.append(Variant("signorini fast", "main", signorini(fast, sleeping=main_sleep)))
