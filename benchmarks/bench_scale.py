@@ -30,8 +30,9 @@ benchmark app steps 1/60 with 4 substeps), and Box3D's step counts:
 
 Engines, all in this process with the scene's dt; each scene is built by one function and
 mirrored into the peers (``benchmarks/_peers.py``):
-- signorini with its defaults, a row "signorini soft" with ``set_solver(solver="soft")`` (the soft
-  step at its defaults) and, with ``--sweeps N``, a row "signorini fast" set to
+- signorini with its defaults (engine ``signorini``), a row "signorini soft" with
+  ``set_solver(solver="soft")`` (engine ``soft``: the soft step at its defaults) and, with
+  ``--sweeps N``, a row "signorini fast" set to
   ``set_solver(max_iterations=N, substeps=--substeps)``;
 - pybullet (optional), DIRECT mode, 10 solver iterations, one solve per step;
 - rapier3d (optional, the official Rapier wheel), its default integration parameters, 1 thread.
@@ -42,7 +43,7 @@ and "sleep on/off" print ``n/a (not implemented)`` while signorini's World lacks
 Timing: the run is cut into ``--chunks`` chunks and the engines' chunks alternate, so a load
 spike hits all; each step is timed alone (releases, certificate and state reads are not) and a
 chunk's ms/step is its total over its length. ms/step is the median over the chunks of all
-``--repeats`` runs, with the 25-75 % range. "sg/this" is signorini's default median over the row's.
+``--repeats`` runs, with the 25-75 % range. "sg/this" is signorini's first row (its defaults, else the soft step) over the row's.
 ``--box3d PATH`` also runs Box3D's own benchmark app on the matching scene (1 thread, its own
 scene at its own size and sleeping, in a child process after ours) and prints its ms/step.
 
@@ -296,7 +297,7 @@ def sleep_pile(tiny: bool = False, **world_kwargs) -> BenchScene:
 
 SCENES = {"large_pyramid": large_pyramid, "many_pyramids": many_pyramids, "rain": rain,
           "convex_pile": convex_pile, "large_world": large_world, "sleep": sleep_pile}
-ENGINES = ("signorini", "pybullet", "rapier3d")
+ENGINES = ("signorini", "soft", "pybullet", "rapier3d")
 # whether Box3D's scene lets bodies sleep (its two pyramid scenes switch sleeping off)
 BOX3D_SLEEPING = {"large_pyramid": False, "many_pyramids": False, "rain": True, "convex_pile": True,
                   "large_world": True, "sleep": True}
@@ -422,7 +423,7 @@ def make_variants(name: str, args, available: dict) -> list[Variant]:
 
     sleep_scene = name == "sleep"
     variants = []
-    if "signorini" in args.engines:
+    if "signorini" in args.engines or "soft" in args.engines:
         def signorini(solver, threads=1, sleeping=None):
             def make():
                 kw = {}
@@ -434,12 +435,14 @@ def make_variants(name: str, args, available: dict) -> list[Variant]:
             return make
 
         main_sleep = False if sleep_scene else None
-        variants.append(Variant("signorini", "main", signorini({}, sleeping=main_sleep)))
-        if available["threads"]:
-            variants.append(Variant("signorini", "threads", signorini({}, threads=2, sleeping=main_sleep)))
-        if sleep_scene and available["sleeping"]:
-            variants.append(Variant("signorini", "sleep_on", signorini({}, sleeping=True)))
-        variants.append(Variant("signorini soft", "main", signorini({"solver": "soft"}, sleeping=main_sleep)))
+        if "signorini" in args.engines:
+            variants.append(Variant("signorini", "main", signorini({}, sleeping=main_sleep)))
+            if available["threads"]:
+                variants.append(Variant("signorini", "threads", signorini({}, threads=2, sleeping=main_sleep)))
+            if sleep_scene and available["sleeping"]:
+                variants.append(Variant("signorini", "sleep_on", signorini({}, sleeping=True)))
+        if "soft" in args.engines:
+            variants.append(Variant("signorini soft", "main", signorini({"solver": "soft"}, sleeping=main_sleep)))
         if args.sweeps is not None:
             fast = {"max_iterations": args.sweeps, "substeps": args.substeps}
             variants.append(Variant("signorini fast", "main", signorini(fast, sleeping=main_sleep)))
@@ -569,7 +572,8 @@ def make_rows(name, variants, info, quality, available) -> list[dict]:
         else:
             row["sleep"] = "-"
         rows.append(row)
-    base = next((r["ms"] for r in rows if r["engine"] == "signorini"), None)
+    # the ratios are signorini's first row (its defaults, else the soft step) over each row
+    base = next((r["ms"] for r in rows if r["engine"].startswith("signorini")), None)
     for row in rows:
         row["ratio"] = base / row["ms"] if base is not None and row["ms"] > 0 else None
     return rows

@@ -59,7 +59,7 @@ def check_rows(bench, rows, engines, out):
 
 def test_tiny_scenes_signorini_alone_give_a_finite_row_each(capsys):
     bench = load_bench()
-    rows = bench.main(["--tiny", "--seconds", "0.25", "--chunks", "3", "--engines", "signorini",
+    rows = bench.main(["--tiny", "--seconds", "0.25", "--chunks", "3", "--engines", "signorini,soft",
                        "--sweeps", "10", "--substeps", "1"])
     out = capsys.readouterr().out
     check_rows(bench, rows, ["signorini", "signorini soft", "signorini fast"], out)
