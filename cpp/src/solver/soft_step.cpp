@@ -45,21 +45,22 @@ void unload(const SolverData& d, std::vector<Vec3>& v, std::vector<Vec3>& omega)
   }
 }
 
-/// Every contact's gap now, s = gap0 + n . ((dp_B + dR_B r_B - r_B) - (dp_A + dR_A r_A - r_A)):
-/// its point carried with each body from the step's start (dp = p - p0, dR = R R0^T).
+/// Every contact's gap now, s = gap0 + n . ((dp_B + D_B l_B) - (dp_A + D_A l_A)): its point carried
+/// with each body from the step's start (dp = p - p0, D = R - R0, l_X = R0_X^T r_X the lever arm in
+/// X's frame), exactly gap0 until a body moves.
 void update_gaps(const Model& model, const State& state, SolverData& d) {
   const std::size_t N = model.size();
   d.dp.resize(N);
   d.dR.resize(N);
   for (std::size_t i = 0; i < N; ++i) {
     d.dp[i] = state.p[i] - d.p0[i];
-    d.dR[i].noalias() = state.R[i] * d.R0[i].transpose();
+    d.dR[i] = state.R[i] - d.R0[i];
   }
   for (std::size_t k = 0; k < d.soft.size(); ++k) {
     SoftPoint& p = d.soft[k];
     const Row& r = d.rows[3 * k];
-    const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * p.r_b - p.r_b;
-    const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * p.r_a - p.r_a;
+    const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * p.l_b;
+    const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * p.l_a;
     p.s = p.gap0 + r.J_lin.dot(moved_b - moved_a);
   }
 }
@@ -127,8 +128,8 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
     const Row& r = d.rows[3 * k];
     SoftPoint& p = d.soft[k];
     p = SoftPoint();
-    p.r_a = c.point - state.p[c.body_a];
-    p.r_b = c.point - state.p[c.body_b];
+    p.l_a = state.R[c.body_a].transpose() * (c.point - state.p[c.body_a]);
+    p.l_b = state.R[c.body_b].transpose() * (c.point - state.p[c.body_b]);
     p.gap0 = p.s = c.gap;
     // against a body that does not move the spring is twice as stiff and half as damped (Box2D v3)
     if (r.a_moves && r.b_moves)
