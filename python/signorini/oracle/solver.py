@@ -56,8 +56,17 @@ DEFAULT_SETTINGS = {
     "warm_start": True,
     "substeps": 0,                  # 0: automatic, the fewest substeps of at most AUTO_SUBSTEP
     "warn_velocity": 0.01,          # m/s
+    # which solver a step runs: "pgs" (this module) or "soft" (the soft step, ``soft``), and the
+    # soft step's settings
+    "solver": "pgs",
+    "contact_hertz": 30.0,          # Hz, a contact spring's natural frequency
+    "damping_ratio": 10.0,          # the spring's damping ratio zeta
+    "soft_iterations": 1,           # sweeps with the soft bias per substep
+    "relax_iterations": 1,          # rigid sweeps per substep, after the poses move
 }
-AUTO_SUBSTEP = 1.0 / 960.0         # s, the longest automatic substep
+AUTO_SUBSTEP = 1.0 / 960.0         # s, the longest automatic substep of the PGS
+SOFT_AUTO_SUBSTEP = 1.0 / 240.0    # s, the longest automatic substep of the soft step
+SOLVERS = ("pgs", "soft")
 FRICTION_CONES = ("pyramid", "cone")
 DEFAULT_FRICTION = 0.5
 DEFAULT_RESTITUTION = 0.0
@@ -73,16 +82,28 @@ def solver_settings(snapshot):
     """The snapshot's settings with the documented defaults for missing keys, checked.
 
     Output: dict with every key of ``DEFAULT_SETTINGS``, numbers as float / int / bool.
-    Raises ValueError for an unknown friction_cone or gyroscopic, or substeps < 0.
+    Raises ValueError for an unknown friction_cone, gyroscopic or solver, substeps < 0, and for
+    the soft step's settings out of range (contact_hertz > 0, damping_ratio >= 0,
+    soft_iterations >= 1, relax_iterations >= 0).
     """
     given = snapshot.get("settings") or {}
     s = {key: given.get(key, default) for key, default in DEFAULT_SETTINGS.items()}
     for key in ("contact_margin", "erp", "tolerance", "slop", "max_push_velocity",
-                "restitution_threshold", "warn_velocity"):
+                "restitution_threshold", "warn_velocity", "contact_hertz", "damping_ratio"):
         s[key] = float(s[key])
-    s["max_iterations"] = int(s["max_iterations"])
-    s["substeps"] = int(s["substeps"])
+    for key in ("max_iterations", "substeps", "soft_iterations", "relax_iterations"):
+        s[key] = int(s[key])
     s["warm_start"] = bool(s["warm_start"])
+    if s["solver"] not in SOLVERS:
+        raise ValueError(f"solver must be one of {SOLVERS}, got {s['solver']!r}")
+    if not (np.isfinite(s["contact_hertz"]) and s["contact_hertz"] > 0.0):
+        raise ValueError(f"contact_hertz must be finite and > 0, got {s['contact_hertz']}")
+    if not (np.isfinite(s["damping_ratio"]) and s["damping_ratio"] >= 0.0):
+        raise ValueError(f"damping_ratio must be finite and >= 0, got {s['damping_ratio']}")
+    if s["soft_iterations"] < 1:
+        raise ValueError(f"soft_iterations must be >= 1, got {s['soft_iterations']}")
+    if s["relax_iterations"] < 0:
+        raise ValueError(f"relax_iterations must be >= 0, got {s['relax_iterations']}")
     if s["friction_cone"] not in FRICTION_CONES:
         raise ValueError(f"friction_cone must be one of {FRICTION_CONES}, got {s['friction_cone']!r}")
     if s["gyroscopic"] not in GYROSCOPIC_OPTIONS:
@@ -94,10 +115,12 @@ def solver_settings(snapshot):
 
 def substep_count(settings, dt):
     """Substeps of a step of dt s: settings["substeps"] when >= 1, else the fewest that keep each
-    at most AUTO_SUBSTEP (1e-9 absorbs the rounding of dt = k / 960)."""
+    at most AUTO_SUBSTEP (PGS) or SOFT_AUTO_SUBSTEP (the soft step); 1e-9 absorbs the rounding of
+    dt = k / 960 or k / 240."""
     if settings["substeps"] >= 1:
         return settings["substeps"]
-    return int(min(max(np.ceil(dt / AUTO_SUBSTEP - 1e-9), 1), 10**6))
+    longest = SOFT_AUTO_SUBSTEP if settings["solver"] == "soft" else AUTO_SUBSTEP
+    return int(min(max(np.ceil(dt / longest - 1e-9), 1), 10**6))
 
 
 def empty_cache():
