@@ -4,13 +4,15 @@
 
 Two comparisons:
 - lockstep: every step starts both from the core's state; the oracle is handed the core's contact
-  list and re-derives the unconstrained velocity, the PGS sweep and the integration. This isolates
-  the dynamics and the solver (one-step agreement).
+  list and re-derives the unconstrained velocity, the solve (the PGS, or the soft step of
+  World(solver="soft")) and the integration, and the step's state, contact forces and certificate
+  are compared. This isolates the dynamics and the solver (one-step agreement).
 - free: the oracle detects its own contacts and runs on its own from the initial state, and the two
   trajectories are compared step by step (needs a scene whose pairs the oracle detects exactly:
   plane against sphere, box or mesh vertices; sphere against sphere).
 
-Prints the largest per-step differences of positions, rotations, velocities and angular velocities.
+Prints the largest per-step differences of positions, rotations, velocities and angular velocities
+(and, lockstep, of the contacts and the certificate).
 """
 from __future__ import annotations
 
@@ -26,6 +28,21 @@ from ._core import Box, Capsule, Cylinder, Mesh, Plane, Sphere
 from .world import World
 
 STATE_KEYS = ("position", "rotation", "velocity", "angular_velocity")
+# what lockstep also compares after each step: the step's contacts (Contacts) and its certificate
+# (SolverStats). Forces are measured against the step's largest normal force F (at least 1 N): a
+# force's rounding is a few ulps of the forces it is summed with, so a pile of heavy boxes and a
+# ball are held to the same relative 1e-10; impulses against F dt, spin torques and the
+# complementarity against F times 1 m and 1 m/s. Velocities (m/s) and the overlap (m) are absolute,
+# as the state's.
+CONTACT_KEYS = ("alpha", "impulse", "friction", "spin_torque", "normal_velocity", "slip")
+CERTIFICATE_KEYS = ("residual", "max_alpha_negative", "max_penetration_velocity", "max_complementarity",
+                    "max_cone_violation", "max_dissipation_violation", "max_overlap")
+STAT_KEYS = ("contacts", "iterations", "restitution_iterations", "position_iterations", "converged")
+# the scale of each compared quantity, in units of F (force), F dt (impulse) or 1 (absolute)
+_SCALE = {"alpha": "F", "friction": "F", "spin_torque": "F", "impulse": "F dt", "normal_velocity": "1",
+          "slip": "1", "residual": "1", "max_alpha_negative": "F", "max_penetration_velocity": "1",
+          "max_complementarity": "F", "max_cone_violation": "F", "max_dissipation_violation": "F",
+          "max_overlap": "1"}
 
 
 @dataclass
@@ -37,6 +54,16 @@ class Report:
     max_diff: dict = field(default_factory=dict)
     worst_step: dict = field(default_factory=dict)
     contact_count_mismatches: int = 0
+    # lockstep: the steps whose solver counts (STAT_KEYS) differ, and the first of them
+    stat_mismatches: int = 0
+    first_stat_mismatch: str = ""
+    # lockstep, soft step: the steps in which a contact's gap was zero to rounding in a biased
+    # sweep (``oracle.soft.soft_sweep``), those in which the core took another side than the
+    # oracle's sign, and those with too many such contacts to try every side (compared as the
+    # oracle chose)
+    tied_steps: int = 0
+    retied_steps: int = 0
+    untried_steps: int = 0
 
     @property
     def largest(self) -> float:
@@ -44,10 +71,18 @@ class Report:
 
     def lines(self) -> list[str]:
         out = [f"{self.mode}: {self.steps} steps"]
-        for k in STATE_KEYS:
-            out.append(f"  {k:17s} max |core - oracle| = {self.max_diff[k]:.3e}  (step {self.worst_step[k]})")
+        for k in (*STATE_KEYS, *CONTACT_KEYS, *CERTIFICATE_KEYS):
+            if k in self.max_diff:
+                scale = "" if _SCALE.get(k, "1") == "1" else f" / {_SCALE[k]}"
+                out.append(f"  {k:25s} max |core - oracle|{scale:6s} = {self.max_diff[k]:.3e}  "
+                           f"(step {self.worst_step[k]})")
         if self.mode == "free":
             out.append(f"  steps whose contact count differs: {self.contact_count_mismatches}")
+        if self.mode == "lockstep":
+            out.append(f"  steps whose solver counts differ: {self.stat_mismatches} {self.first_stat_mismatch}")
+        if self.tied_steps:
+            out.append(f"  steps with a gap zero to rounding: {self.tied_steps}, taken on the other side by "
+                       f"the core: {self.retied_steps}, too many to try: {self.untried_steps}")
         return out
 
 
@@ -55,28 +90,86 @@ def _state(snapshot: dict) -> dict:
     return {k: np.asarray(snapshot[k], dtype=float) for k in STATE_KEYS}
 
 
-def _track(report: Report, core: dict, orc: dict, k: int) -> None:
-    for key in STATE_KEYS:
-        d = float(np.max(np.abs(core[key] - orc[key]))) if core[key].size else 0.0
+def _track(report: Report, core: dict, orc: dict, k: int, keys=STATE_KEYS, scale=None) -> None:
+    for key in keys:
+        c, o = np.asarray(core[key], dtype=float), np.asarray(orc[key], dtype=float)
+        d = float(np.max(np.abs(c - o))) if c.size else 0.0
+        if scale is not None:
+            d /= scale[_SCALE[key]]
         if d >= report.max_diff.get(key, -1.0):
             report.max_diff[key] = d
             report.worst_step[key] = k
 
 
+def _track_solve(report: Report, world: World, info: dict, dt: float, k: int) -> None:
+    """The step's contacts, certificate and solver counts, core (world) against oracle (info)."""
+    contacts, stats = world.contacts, world.solver_stats
+    F = max(1.0, float(np.max(contacts.alpha, initial=0.0)))
+    scale = {"F": F, "F dt": F * dt, "1": 1.0}
+    _track(report, {key: getattr(contacts, key) for key in CONTACT_KEYS}, info, k, CONTACT_KEYS, scale)
+    _track(report, {key: getattr(stats, key) for key in CERTIFICATE_KEYS}, info, k, CERTIFICATE_KEYS, scale)
+    core_counts = {key: getattr(stats, key) for key in STAT_KEYS}
+    oracle_counts = {key: info["contacts"]["gap"].shape[0] if key == "contacts" else info[key] for key in STAT_KEYS}
+    if {key: int(v) for key, v in core_counts.items()} != {key: int(v) for key, v in oracle_counts.items()}:
+        report.stat_mismatches += 1
+        if not report.first_stat_mismatch:
+            report.first_stat_mismatch = f"(first: step {k}, core {core_counts}, oracle {oracle_counts})"
+
+
 def lockstep(world: World, dt: float, steps: int) -> Report:
     """Steps the world; after every step compares it with one oracle step from the same state and
-    the same contacts (those the step detects at its start; its substeps carry them along). The
-    world is advanced by `steps` steps."""
+    the same contacts (those the step detects at its start; its substeps carry them along): the
+    state (STATE_KEYS), the step's contacts (CONTACT_KEYS) and certificate (CERTIFICATE_KEYS), in
+    the scales of ``_SCALE``, and the solver's counts (STAT_KEYS, which must be equal). The oracle
+    runs the world's solver (``solver`` "pgs" or "soft"). The world is advanced by `steps` steps."""
     report = Report("lockstep", steps)
     for k in range(steps):
         before = world.snapshot()
-        contacts = world.detect_contacts(dt).as_dict()
+        detected = world.detect_contacts(dt).as_dict()
+        contacts = {key: detected[key] for key in ("body_a", "body_b", "point", "normal", "gap", "feature_a",
+                                                   "feature_b")}
         world.step(dt)
-        expected, _ = oracle.step(before, dt, contacts={key: contacts[key] for key in
-                                                        ("body_a", "body_b", "point", "normal", "gap",
-                                                         "feature_a", "feature_b")})
-        _track(report, _state(world.snapshot()), _state(expected), k + 1)
+        core = _state(world.snapshot())
+        expected, info = oracle.step(before, dt, contacts=contacts)
+        if info.get("tied"):
+            expected, info = _closest_sides(report, core, before, dt, contacts, expected, info)
+        _track(report, core, _state(expected), k + 1)
+        _track_solve(report, world, info, dt, k + 1)
     return report
+
+
+# at most this many contacts of one step whose gap is zero to rounding get every side tried (2^m
+# oracle steps)
+MAX_TIED = 4
+
+
+def _closest_sides(report: Report, core: dict, before: dict, dt: float, contacts: dict, expected: dict,
+                   info: dict) -> tuple[dict, dict]:
+    """A soft step in which some contacts' gaps were zero to rounding in a biased sweep: the soft
+    rule is discontinuous there (rigid above 0, a spring at and below), and which side the core's
+    rounding put each on is not the oracle's to know. Returns, of the oracle's steps with every
+    choice of sides for these contacts, the one closest to the core's state (largest absolute
+    difference); the core must then agree with it as with any other step."""
+    tied = info["tied"]
+    report.tied_steps += 1
+    if len(tied) > MAX_TIED:
+        report.untried_steps += 1
+        return expected, info
+
+    def distance(state: dict) -> float:
+        return max(float(np.max(np.abs(core[key] - np.asarray(state[key], dtype=float)), initial=0.0))
+                   for key in STATE_KEYS)
+
+    best, best_distance, moved = (expected, info), distance(expected), False
+    for m in range(2 ** len(tied)):
+        sides = {i: bool(m >> j & 1) for j, i in enumerate(tied)}
+        state, other = oracle.step(before, dt, contacts=contacts, ties=sides)
+        d = distance(state)
+        if d < best_distance:
+            best, best_distance, moved = (state, other), d, True
+    report.retied_steps += moved
+    return best
+
 
 
 def free(world: World, dt: float, steps: int) -> Report:

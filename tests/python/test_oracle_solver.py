@@ -104,9 +104,17 @@ def test_settings_defaults_and_checks():
     s = o.solver_settings({"settings": {"erp": 0.3}})
     assert s["erp"] == 0.3 and s == {**o.DEFAULT_SETTINGS, "erp": 0.3}
     assert o.solver_settings({}) == o.DEFAULT_SETTINGS
-    for bad in ({"friction_cone": "square"}, {"gyroscopic": "rk4"}, {"substeps": -1}):
+    for bad in ({"friction_cone": "square"}, {"gyroscopic": "rk4"}, {"substeps": -1}, {"solver": "tgs"},
+                {"contact_hertz": 0.0}, {"contact_hertz": np.inf}, {"damping_ratio": -1.0},
+                {"soft_iterations": 0}, {"relax_iterations": -1}):
         with pytest.raises(ValueError):
             o.solver_settings({"settings": bad})
+    # automatic substeps: the fewest of at most 1/960 s (PGS) or 1/240 s (the soft step)
+    from signorini.oracle.solver import substep_count
+    soft = o.solver_settings({"settings": {"solver": "soft"}})
+    assert [substep_count(o.DEFAULT_SETTINGS, dt) for dt in (1 / 960, 1 / 240, 1 / 60)] == [1, 4, 16]
+    assert [substep_count(soft, dt) for dt in (1 / 960, 1 / 240, 1 / 60, 1 / 30)] == [1, 1, 4, 8]
+    assert substep_count({**soft, "substeps": 3}, 1 / 60) == 3
 
 
 def test_rows_are_the_jacobian_transposes_and_delta_is_their_mass():

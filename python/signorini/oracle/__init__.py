@@ -15,10 +15,13 @@ Modules, in the order of a step:
               Coulomb friction, pyramid or cone, and torsional friction at single-point contacts),
               restitution, position pass (split impulse), store, and the Signorini certificate;
               materials and the warm-start cache
+    soft      the soft step (settings["solver"] = "soft"): Catto's soft-constraint substepping on
+              the same rows: softness, the gap carried with the bodies, biased and relax sweeps,
+              restitution and store at the end
     pgs       the lecture's frictionless projected Gauss-Seidel (cold start, erp bias)
     lcp       the frictionless problem as an LCP, solved exactly by enumeration (small K)
     step      one step (contacts, then substeps of velocity, solve, integrate on the contacts
-              carried along: carry_contacts) and a rollout
+              carried along: carry_contacts; or the soft step) and a rollout
 
 A snapshot (``World.snapshot()``, or built by hand) holds gravity, settings (defaults in
 ``solver.DEFAULT_SETTINGS`` for missing keys), bodies (shape, static, mass, inv_mass, inertia,
@@ -101,15 +104,18 @@ from .rigid import (
 from .solver import (
     DEFAULT_SETTINGS,
     alone_in_pair,
+    apply_forces,
     certificate,
     contact_materials,
     empty_cache,
+    friction_rows,
     iterate,
     position_pass,
     position_targets,
     prepare_rows,
     project_friction,
     read_cache,
+    recall_forces,
     restitution,
     restitutive_contacts,
     solve_contacts,
@@ -121,6 +127,7 @@ from .solver import (
     tangent_basis,
     warm_start,
 )
+from .soft import carried_gaps, contact_softness, gap_rounding, soft_step, soft_sweep, softness
 from .step import carry_contacts, copy_snapshot, rollout, step, step_once
 from .support import (
     fibonacci_sphere,
@@ -152,4 +159,6 @@ __all__ = [
     "carry_contacts", "step", "step_once", "store", "support_box", "support_capsule", "support_cylinder",
     "support_hull", "support_of", "support_separation", "support_sphere", "tangent_basis",
     "unconstrained_velocity", "velocities_from_alpha", "warm_start", "world_inertia",
+    "apply_forces", "carried_gaps", "contact_softness", "friction_rows", "gap_rounding", "recall_forces",
+    "soft_step", "soft_sweep", "softness",
 ]

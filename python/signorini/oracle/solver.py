@@ -56,8 +56,17 @@ DEFAULT_SETTINGS = {
     "warm_start": True,
     "substeps": 0,                  # 0: automatic, the fewest substeps of at most AUTO_SUBSTEP
     "warn_velocity": 0.01,          # m/s
+    # which solver a step runs: "pgs" (this module) or "soft" (the soft step, ``soft``), and the
+    # soft step's settings
+    "solver": "pgs",
+    "contact_hertz": 30.0,          # Hz, a contact spring's natural frequency
+    "damping_ratio": 10.0,          # the spring's damping ratio zeta
+    "soft_iterations": 1,           # sweeps with the soft bias per substep
+    "relax_iterations": 1,          # rigid sweeps per substep, after the poses move
 }
-AUTO_SUBSTEP = 1.0 / 960.0         # s, the longest automatic substep
+AUTO_SUBSTEP = 1.0 / 960.0         # s, the longest automatic substep of the PGS
+SOFT_AUTO_SUBSTEP = 1.0 / 240.0    # s, the longest automatic substep of the soft step
+SOLVERS = ("pgs", "soft")
 FRICTION_CONES = ("pyramid", "cone")
 DEFAULT_FRICTION = 0.5
 DEFAULT_RESTITUTION = 0.0
@@ -73,16 +82,28 @@ def solver_settings(snapshot):
     """The snapshot's settings with the documented defaults for missing keys, checked.
 
     Output: dict with every key of ``DEFAULT_SETTINGS``, numbers as float / int / bool.
-    Raises ValueError for an unknown friction_cone or gyroscopic, or substeps < 0.
+    Raises ValueError for an unknown friction_cone, gyroscopic or solver, substeps < 0, and for
+    the soft step's settings out of range (contact_hertz > 0, damping_ratio >= 0,
+    soft_iterations >= 1, relax_iterations >= 0).
     """
     given = snapshot.get("settings") or {}
     s = {key: given.get(key, default) for key, default in DEFAULT_SETTINGS.items()}
     for key in ("contact_margin", "erp", "tolerance", "slop", "max_push_velocity",
-                "restitution_threshold", "warn_velocity"):
+                "restitution_threshold", "warn_velocity", "contact_hertz", "damping_ratio"):
         s[key] = float(s[key])
-    s["max_iterations"] = int(s["max_iterations"])
-    s["substeps"] = int(s["substeps"])
+    for key in ("max_iterations", "substeps", "soft_iterations", "relax_iterations"):
+        s[key] = int(s[key])
     s["warm_start"] = bool(s["warm_start"])
+    if s["solver"] not in SOLVERS:
+        raise ValueError(f"solver must be one of {SOLVERS}, got {s['solver']!r}")
+    if not (np.isfinite(s["contact_hertz"]) and s["contact_hertz"] > 0.0):
+        raise ValueError(f"contact_hertz must be finite and > 0, got {s['contact_hertz']}")
+    if not (np.isfinite(s["damping_ratio"]) and s["damping_ratio"] >= 0.0):
+        raise ValueError(f"damping_ratio must be finite and >= 0, got {s['damping_ratio']}")
+    if s["soft_iterations"] < 1:
+        raise ValueError(f"soft_iterations must be >= 1, got {s['soft_iterations']}")
+    if s["relax_iterations"] < 0:
+        raise ValueError(f"relax_iterations must be >= 0, got {s['relax_iterations']}")
     if s["friction_cone"] not in FRICTION_CONES:
         raise ValueError(f"friction_cone must be one of {FRICTION_CONES}, got {s['friction_cone']!r}")
     if s["gyroscopic"] not in GYROSCOPIC_OPTIONS:
@@ -94,10 +115,12 @@ def solver_settings(snapshot):
 
 def substep_count(settings, dt):
     """Substeps of a step of dt s: settings["substeps"] when >= 1, else the fewest that keep each
-    at most AUTO_SUBSTEP (1e-9 absorbs the rounding of dt = k / 960)."""
+    at most AUTO_SUBSTEP (PGS) or SOFT_AUTO_SUBSTEP (the soft step); 1e-9 absorbs the rounding of
+    dt = k / 960 or k / 240."""
     if settings["substeps"] >= 1:
         return settings["substeps"]
-    return int(min(max(np.ceil(dt / AUTO_SUBSTEP - 1e-9), 1), 10**6))
+    longest = SOFT_AUTO_SUBSTEP if settings["solver"] == "soft" else AUTO_SUBSTEP
+    return int(min(max(np.ceil(dt / longest - 1e-9), 1), 10**6))
 
 
 def empty_cache():
@@ -293,7 +316,7 @@ def prepare_rows(snapshot, contacts, q_dot_star, dt):
             "spin_MJ_A": spin_MJ_A, "spin_MJ_B": spin_MJ_B, "spin_delta": spin_delta}
 
 
-class _Sweep:
+class RowSweep:
     """The rows as Python lists (scalar NumPy indexing is slow) and the two row operations
     every stage uses: the row velocity J q_dot and the update q_dot += dt d_alpha M^-1 J."""
 
@@ -368,20 +391,32 @@ def project_friction(a1, a2, bound, friction_cone):
 # --------------------------------------------------------------------------- b. warm start
 
 def warm_start(rows, contacts, cache, q_dot, dt, friction_cone, alpha_spin=None):
-    """Stage b: start each contact from the cached forces of the same key, and apply them.
+    """Stage b: start each contact from the cached forces of the same key, and apply them:
+    ``recall_forces``, then ``apply_forces``.
+
+    Inputs: rows (``prepare_rows``), contacts (needs feature_a, feature_b when the cache is not
+            empty), cache (``read_cache``), q_dot (N, 6) modified in place, dt s, friction_cone,
+            alpha_spin (K,) N m written in place (None: the spin rows are not warm-started).
+    Output: alpha (3K,) N, the rows' starting forces.
+    """
+    alpha = recall_forces(rows, contacts, cache, friction_cone, alpha_spin)
+    apply_forces(rows, alpha, q_dot, dt, alpha_spin)
+    return alpha
+
+
+def recall_forces(rows, contacts, cache, friction_cone, alpha_spin=None):
+    """The previous step's forces for contacts with the same key, not applied.
 
     A contact whose key (body_a, body_b, feature_a, feature_b) is in the cache (the first such
     contact in contact order; the first cache entry of that key) gets alpha_n = the cached
     normal force and alpha_t1 = f . t1, alpha_t2 = f . t2 from the cached friction force f,
     projected onto its friction set of alpha_n (``project_friction``); a contact with a spin row
     gets alpha_spin = the cached spin torque clamped to [-mu_spin alpha_n, mu_spin alpha_n].
-    The rows' alpha are then applied to q_dot in solve order (each contact's normal, t1, t2, then
-    its spin row).  Other contacts start from zero.
+    Other contacts start from zero.
 
-    Inputs: rows (``prepare_rows``), contacts (needs feature_a, feature_b when the cache is not
-            empty), cache (``read_cache``), q_dot (N, 6) modified in place, dt s, friction_cone,
-            alpha_spin (K,) N m written in place (None: the spin rows are not warm-started).
-    Output: alpha (3K,) N, the rows' starting forces.
+    Inputs: rows, contacts, cache, friction_cone as ``warm_start``; alpha_spin (K,) N m written in
+            place (None: not recalled).
+    Output: alpha (3K,) N.
     """
     K = len(rows["mu"])
     alpha = np.zeros(3 * K)
@@ -415,16 +450,23 @@ def warm_start(rows, contacts, cache, q_dot, dt, friction_cone, alpha_spin=None)
         if alpha_spin is not None and rows["spin"][i]:
             bound = float(rows["mu_spin"][i]) * alpha_n
             alpha_spin[i] = min(max(float(cache["spin"][j]), -bound), bound)
+    return alpha
 
-    # apply them in solve order
-    sweep = _Sweep(rows, dt)
+
+def apply_forces(rows, alpha, q_dot, dt, alpha_spin=None, sweep=None):
+    """q_dot += dt M^-1 J^T alpha: every row's force applied, in solve order (each contact's
+    normal, t1, t2, then its spin row's torque).
+
+    Inputs: rows, alpha (3K,) N, q_dot (N, 6) modified in place, dt s, alpha_spin (K,) N m (None:
+            no spin torques), sweep (the rows' ``RowSweep`` for dt, when the caller has one).
+    """
+    sweep = RowSweep(rows, dt) if sweep is None else sweep
     for i in rows["order"].tolist():
         for k in (3 * i, 3 * i + 1, 3 * i + 2):
             if alpha[k] != 0.0:
                 sweep.apply(k, float(alpha[k]), q_dot)
         if alpha_spin is not None and sweep.spin[i] and alpha_spin[i] != 0.0:
             sweep.spin_apply(i, float(alpha_spin[i]), q_dot)
-    return alpha
 
 
 # --------------------------------------------------------------------------- c. iterate
@@ -460,12 +502,10 @@ def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone, al
             (None: start the spin rows from 0 and keep their torques to this call).
     Outputs: (iterations, converged); converged is True with 0 sweeps when there are no rows.
     """
-    sweep = _Sweep(rows, dt)
+    sweep = RowSweep(rows, dt)
     K = len(rows["mu"])
-    spin = sweep.spin
     tau = [0.0] * K if alpha_spin is None else np.asarray(alpha_spin, dtype=float).tolist()
     bias, mu = rows["bias"].tolist(), rows["mu"].tolist()
-    delta = sweep.delta
     order = rows["order"].tolist()
     x = alpha.tolist()
     iterations, converged = 0, K == 0
@@ -473,49 +513,71 @@ def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone, al
         iterations += 1
         change = 0.0
         for i in order:
-            n, k1, k2 = 3 * i, 3 * i + 1, 3 * i + 2
             # normal: the lecture's projection onto alpha >= 0
-            change = max(change, sweep.update_normal(n, bias[i], x, q_dot))
-            # friction: Coulomb, bounded by mu times the current normal force
-            if delta[k1] > 0.0:
-                bound = mu[i] * x[n]
-                if friction_cone == "cone":
-                    delta_t = max(delta[k1], delta[k2])
-                    a1 = x[k1] - sweep.velocity(k1, q_dot) / delta_t
-                    a2 = x[k2] - sweep.velocity(k2, q_dot) / delta_t
-                    a1, a2 = project_friction(a1, a2, bound, "cone")
-                    d1, d2 = a1 - x[k1], a2 - x[k2]
-                    x[k1], x[k2] = a1, a2
-                    if d1 != 0.0:
-                        sweep.apply(k1, d1, q_dot)
-                    if d2 != 0.0:
-                        sweep.apply(k2, d2, q_dot)
-                    change = max(change, delta[k1] * abs(d1), delta[k2] * abs(d2))
-                else:
-                    for k in (k1, k2):
-                        gamma = sweep.velocity(k, q_dot) - delta[k] * x[k]
-                        a = min(max(-gamma / delta[k], -bound), bound)
-                        d_alpha = a - x[k]
-                        if d_alpha == 0.0:
-                            continue
-                        x[k] = a
-                        sweep.apply(k, d_alpha, q_dot)
-                        change = max(change, delta[k] * abs(d_alpha))
-            # spin: torsional friction, bounded by mu_spin times the current normal force
-            if spin[i]:
-                bound = sweep.mu_spin[i] * x[n]
-                gamma = sweep.spin_velocity(i, q_dot) - sweep.spin_delta[i] * tau[i]
-                t = min(max(-gamma / sweep.spin_delta[i], -bound), bound)
-                d_tau = t - tau[i]
-                if d_tau != 0.0:
-                    tau[i] = t
-                    sweep.spin_apply(i, d_tau, q_dot)
-                    change = max(change, sweep.spin_delta[i] * abs(d_tau))
+            change = max(change, sweep.update_normal(3 * i, bias[i], x, q_dot))
+            # friction and spin, bounded by the current normal force
+            change = max(change, friction_rows(sweep, i, mu[i], x, tau, q_dot, friction_cone))
         converged = tolerance > 0.0 and change <= tolerance
     alpha[:] = x
     if alpha_spin is not None:
         alpha_spin[:] = tau
     return iterations, converged
+
+
+def friction_rows(sweep, i, mu_i, x, tau, q_dot, friction_cone):
+    """Contact i's friction rows and its spin row in a sweep, after its normal row (``iterate``):
+        pyramid: each tangent row in turn, gamma = J q_dot - delta alpha,
+                 alpha <- clamp(-gamma / delta, -mu alpha_n, mu alpha_n)
+        cone:    both tangent rows from the same q_dot with one scale delta_t = max(delta_1, delta_2):
+                 a_k = alpha_k - J_k q_dot / delta_t, (a_1, a_2) scaled onto the disk
+                 |a| <= mu alpha_n when outside it, then applied (t1, then t2)
+        spin:    (a contact with a spin row) gamma = J q_dot - delta alpha,
+                 alpha <- clamp(-gamma / delta, -mu_spin alpha_n, mu_spin alpha_n)
+    with alpha_n = x[3 i], the contact's current normal force.
+
+    Inputs: sweep (``RowSweep``), contact i, mu_i, x (3K list, N) and tau (K list, N m) the forces,
+            modified in place; q_dot (N, 6) modified in place; friction_cone.
+    Output: the largest delta |d_alpha| of these rows (m/s; rad/s for the spin row).
+    """
+    n, k1, k2 = 3 * i, 3 * i + 1, 3 * i + 2
+    delta = sweep.delta
+    change = 0.0
+    # friction: Coulomb, bounded by mu times the current normal force
+    if delta[k1] > 0.0:
+        bound = mu_i * x[n]
+        if friction_cone == "cone":
+            delta_t = max(delta[k1], delta[k2])
+            a1 = x[k1] - sweep.velocity(k1, q_dot) / delta_t
+            a2 = x[k2] - sweep.velocity(k2, q_dot) / delta_t
+            a1, a2 = project_friction(a1, a2, bound, "cone")
+            d1, d2 = a1 - x[k1], a2 - x[k2]
+            x[k1], x[k2] = a1, a2
+            if d1 != 0.0:
+                sweep.apply(k1, d1, q_dot)
+            if d2 != 0.0:
+                sweep.apply(k2, d2, q_dot)
+            change = max(change, delta[k1] * abs(d1), delta[k2] * abs(d2))
+        else:
+            for k in (k1, k2):
+                gamma = sweep.velocity(k, q_dot) - delta[k] * x[k]
+                a = min(max(-gamma / delta[k], -bound), bound)
+                d_alpha = a - x[k]
+                if d_alpha == 0.0:
+                    continue
+                x[k] = a
+                sweep.apply(k, d_alpha, q_dot)
+                change = max(change, delta[k] * abs(d_alpha))
+    # spin: torsional friction, bounded by mu_spin times the current normal force
+    if sweep.spin[i]:
+        bound = sweep.mu_spin[i] * x[n]
+        gamma = sweep.spin_velocity(i, q_dot) - sweep.spin_delta[i] * tau[i]
+        t = min(max(-gamma / sweep.spin_delta[i], -bound), bound)
+        d_tau = t - tau[i]
+        if d_tau != 0.0:
+            tau[i] = t
+            sweep.spin_apply(i, d_tau, q_dot)
+            change = max(change, sweep.spin_delta[i] * abs(d_tau))
+    return change
 
 
 # --------------------------------------------------------------------------- d. restitution
@@ -540,7 +602,7 @@ def restitution(rows, alpha, q_dot, restitutive, dt, tolerance, max_iterations):
     contacts = [i for i in rows["order"].tolist() if restitutive[i]]
     if not contacts:
         return 0
-    sweep = _Sweep(rows, dt)
+    sweep = RowSweep(rows, dt)
     target = (rows["e"] * rows["u"]).tolist()
     x = alpha.tolist()
     sweeps, converged = 0, False
@@ -585,7 +647,7 @@ def position_pass(rows, b_pos, n_bodies, dt, tolerance, max_iterations):
     beta = np.zeros(K)
     if not np.any(b_pos > 0.0):
         return q_p, beta, 0
-    sweep = _Sweep(rows, dt)
+    sweep = RowSweep(rows, dt)
     x = np.zeros(3 * K).tolist()      # the normal rows' beta at 3 i (the tangent slots stay 0)
     order = rows["order"].tolist()
     target = (-b_pos).tolist()

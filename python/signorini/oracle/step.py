@@ -6,6 +6,8 @@
     4. integrate the poses with q_dot_pos + q_p; keep the velocities after restitution (integrate)
 with 1 once per step and 2-4 in n substeps of dt / n (``substeps``, or automatic: the fewest of
 at most 1/960 s), each on the step's contacts carried along by the motion (carry_contacts).
+With ``settings["solver"] == "soft"`` the step is the soft step (``soft.soft_step``): 0 and 1 as
+above, then substeps of at most 1/240 s when automatic, each solve -> integrate -> relax.
 """
 
 import copy
@@ -14,6 +16,7 @@ import numpy as np
 
 from .contacts import detect_contacts
 from .rigid import apply_impulses, integrate, unconstrained_velocity
+from .soft import soft_step
 from .solver import solve_contacts, solver_settings, substep_count
 
 # the per-contact and per-step figures of the solve that ``step`` reports in its info
@@ -103,22 +106,23 @@ def carry_contacts(contacts, detected, now):
     return out
 
 
-def step(snapshot, dt, contacts=None):
+def step(snapshot, dt, contacts=None, ties=None):
     """Advance the snapshot by one step of dt seconds: contacts detected once (reaching as far as
     the whole step moves), then n substeps of dt / n (``substeps``, or automatic), each solving the
     step's contacts carried along by the motion since detection (``carry_contacts``); the info is
-    the last substep's.
+    the last substep's. With settings["solver"] == "soft", the soft step (``soft.soft_step``, whose
+    info says what differs: impulse is the whole step's).
 
     Inputs: snapshot dict (settings, bodies with friction, restitution and spinning_friction,
             optional cache; missing
             keys take the documented defaults), dt s, contacts dict (the step's; detected from the
-            current state when None).
+            current state when None), ties (the soft step only: ``soft.soft_step``).
     Outputs: (new_snapshot, info)
         new_snapshot: a copy with position (N, 3), rotation (N, 3, 3), velocity (N, 3),
                       angular_velocity (N, 3) and cache (the warm start of the next step) updated;
                       the input is not modified.
         info: contacts (the dict used); per contact (K): alpha N (after restitution),
-              impulse = dt alpha N s, friction (K, 3) N on B, force (K, 3) = alpha n + friction N,
+              impulse = h alpha N s (h = dt / n), friction (K, 3) N on B, force (K, 3) = alpha n + friction N,
               spin_torque N m (torsional friction on B about n), normal_velocity m/s, slip (K, 3)
               m/s, mu, restitution, mu_spin m; per body: body_force,
               body_torque (N, 3) (N, N m about the com, world); iterations, restitution_iterations,
@@ -134,11 +138,16 @@ def step(snapshot, dt, contacts=None):
     snapshot = apply_impulses(snapshot)
     if contacts is None:
         contacts = detect_contacts(snapshot, dt)
-    state, info, flagged = snapshot, None, 0
-    for k in range(n):
-        state, info = step_once(state, dt / n, contacts if k == 0 else carry_contacts(contacts, snapshot, state))
-        # the substeps the Python layer warns about: unconverged and approaching too fast
-        flagged += (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
+    if settings["solver"] == "soft":
+        # the soft step: its substeps share one set of rows; flagged once, at its end
+        state, info = soft_step(snapshot, contacts, dt, n, ties)
+        flagged = (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
+    else:
+        state, info, flagged = snapshot, None, 0
+        for k in range(n):
+            state, info = step_once(state, dt / n, contacts if k == 0 else carry_contacts(contacts, snapshot, state))
+            # the substeps the Python layer warns about: unconverged and approaching too fast
+            flagged += (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
     info["flagged"] = int(flagged)
     # the one-step force and torque are spent
     for key in ("step_force", "step_torque"):

@@ -1,0 +1,322 @@
+"""The soft step (docs/conventions.md, "The soft step"): Catto's soft-constraint substepping (Catto,
+"Soft Constraints", GDC 2011; "Solver2D", 2024; Box2D v3's soft step) on the lecture's rows,
+re-derived here from its equations and never from the core.
+
+A step of dt detects its contacts once and runs n substeps of h = dt / n (``substep_count``: at
+most 1/240 s each when automatic):
+
+    begin      rows once, at the step's start poses, with dt folded as h (``prepare_rows``);
+               u_i = J_n q_dot from the velocities at the step's start (before gravity's kick);
+               each contact's softness (``softness``); the previous step's forces recalled
+               (``recall_forces``), not applied
+    per substep k:
+      velocity   q_dot* = the unconstrained velocity of the current state over h
+      solve      the current forces applied again as this substep's first guess (``apply_forces``;
+                 the cache's in the first substep), the gaps carried to the current poses
+                 (``carried_gaps``), soft_iterations sweeps with the soft bias (``soft_sweep``)
+      advance    the poses move over h with the solved velocities (``integrate``)
+      relax      the gaps carried to the new poses, relax_iterations sweeps with rigid contacts,
+                 whose velocities are kept; then restitution (3d) on the contacts that push for
+                 the first time in this substep (alpha 0 after every substep before) with e > 0 and
+                 an approach u = J_n q_dot before the biased sweep below -restitution_threshold:
+                 n^T (v_B - v_A) >= -e u, so that the rebound starts within h of the impact
+    end        store (the last substep's forces, the next cache of its forces before restitution),
+               the step's whole normal impulse sum_k h alpha_k, the certificate against the rigid
+               targets
+
+The normal row of contact i (its force alpha >= 0, N) is updated in a sweep by
+    alpha <- max(alpha - (mass_scale J q_dot + b) / delta - impulse_scale alpha, 0)
+with its gap s_i (m) carried with the bodies and
+    s_i > 0 (either sweep)        b = s_i / h, mass_scale = 1, impulse_scale = 0
+                                  (speculative: the rigid contact closes its gap, no more)
+    s_i <= 0, biased (solve)      b = max(mass_scale bias_rate s_i, -max_push_velocity)
+                                  (the spring-damper on the whole overlap: no slop)
+    s_i <= 0, not biased (relax)  b = 0, mass_scale = 1, impulse_scale = 0 (rigid)
+Friction and spin rows follow the normal row as in the PGS (``solver.friction_rows``). With
+mass_scale 1 and impulse_scale 0 the rule is the lecture's projection
+alpha <- max(-gamma / delta, 0), gamma = J q_dot + b - delta alpha.
+
+Why it is a spring: a sphere of mass m resting on the ground (one normal row, delta = h / m)
+with alpha = m g: gravity's kick gives J q_dot* = -g h, the applied force brings it back to
+J q_dot = -g h + delta alpha = 0, and the biased sweep keeps alpha when
+b / delta + impulse_scale alpha = 0, i.e. mass_scale bias_rate s = -impulse_scale g h:
+    s = -g h / (a2 bias_rate) = -g h a1 / (h omega a1 omega) = -g / omega^2,
+the static deflection of a spring of natural frequency omega (m omega^2 |s| = m g). The poses
+then do not move, and the relax sweep (b = 0, J q_dot = 0) keeps alpha too: the sphere rests at
+that overlap for good (tests/python/test_oracle_soft.py checks it, and the core).
+"""
+
+import numpy as np
+
+from .rigid import body_arrays, integrate, motion_flags, unconstrained_velocity
+from .solver import (
+    RowSweep,
+    apply_forces,
+    certificate,
+    friction_rows,
+    prepare_rows,
+    read_cache,
+    recall_forces,
+    restitution,
+    solver_settings,
+    store,
+)
+
+# a contact's spring is at most this fraction of the substep rate 1 / h (Hz per Hz): stiffer
+# springs than the substep can resolve only add energy (Catto, "Solver2D"; Box2D v3 uses 0.25)
+MAX_HERTZ_PER_RATE = 0.25
+# the carried gap s is a sum of terms as large as the detected gap, the lever arms and the
+# displacements, each a few roundings deep (R R0^T, its product with r, the sums): two evaluations
+# of it in another order differ by a few ulps of the largest; within this many ulps of
+# (|gap| + |r_A| + |r_B| + |dp_A| + |dp_B|) the sign of s is rounding's to decide
+GAP_ROUNDING_ULPS = 16
+
+
+def softness(hertz, zeta, h):
+    """The soft constraint of a spring of natural frequency ``hertz`` (Hz) and damping ratio zeta
+    over a substep h (s) (Catto, "Soft Constraints", GDC 2011):
+        omega = 2 pi hertz,  a1 = 2 zeta + h omega,  a2 = h omega a1,
+        bias_rate = omega / a1  (1/s),  mass_scale = a2 / (1 + a2),  impulse_scale = 1 / (1 + a2).
+    Inputs may be arrays of one shape; outputs (bias_rate, mass_scale, impulse_scale) have it."""
+    omega = 2.0 * np.pi * np.asarray(hertz, dtype=float)
+    a1 = 2.0 * np.asarray(zeta, dtype=float) + h * omega
+    a2 = h * omega * a1
+    return omega / a1, a2 / (1.0 + a2), 1.0 / (1.0 + a2)
+
+
+def contact_softness(snapshot, contacts, settings, h):
+    """Each contact's softness (``softness``) for a substep h: the spring of
+    hertz = min(contact_hertz, MAX_HERTZ_PER_RATE / h) and damping_ratio between two bodies that
+    move; twice as stiff (2 hertz) and half as damped (damping_ratio / 2) against a static or
+    kinematic body (Box2D v3: such a contact carries the whole load alone).
+
+    Inputs: snapshot (bodies), contacts dict (body_a, body_b; K), settings (``solver_settings``),
+            h s.  Output dict of (K,) arrays: bias_rate 1/s, mass_scale, impulse_scale, hertz Hz,
+            zeta.
+    """
+    static, _, _, _ = body_arrays(snapshot)
+    kinematic, _ = motion_flags(snapshot)
+    moves = ~static & ~kinematic
+    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
+    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
+    both = moves[A] & moves[B]
+    hertz = min(settings["contact_hertz"], MAX_HERTZ_PER_RATE / h)
+    f = np.where(both, hertz, 2.0 * hertz)
+    zeta = np.where(both, settings["damping_ratio"], 0.5 * settings["damping_ratio"])
+    bias_rate, mass_scale, impulse_scale = softness(f, zeta, h)
+    return {"bias_rate": bias_rate, "mass_scale": mass_scale, "impulse_scale": impulse_scale,
+            "hertz": f, "zeta": zeta}
+
+
+def carried_gaps(contacts, start, now):
+    """Each contact's gap with its point carried rigidly by each of its two bodies from the step's
+    start to now: the point y moves with body X to y_X = p_X + dR_X (y - p_X0), dR_X = R_X R_X0^T,
+    so with r_X = y - p_X0 and dp_X = p_X - p_X0,
+        s = gap + n . ((dp_B + dR_B r_B - r_B) - (dp_A + dR_A r_A - r_A)).
+    The normal stays as detected.
+
+    Inputs: contacts dict (K; body_a, body_b, point, normal, gap as detected at ``start``), two
+            snapshots (position (N, 3), rotation (N, 3, 3)): the step's start and now.
+    Output: s (K,) m.
+    """
+    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
+    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
+    n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
+    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    gap = np.asarray(contacts["gap"], dtype=float).reshape(-1)
+    p0, p = np.asarray(start["position"], dtype=float), np.asarray(now["position"], dtype=float)
+    R0, R = np.asarray(start["rotation"], dtype=float), np.asarray(now["rotation"], dtype=float)
+    dR = np.einsum("kij,klj->kil", R, R0)
+
+    def moved(X):  # y_X - y: how far the point moved with body X
+        r = y - p0[X]
+        return (p[X] - p0[X]) + np.einsum("kij,kj->ki", dR[X], r) - r
+
+    return gap + np.einsum("ki,ki->k", n, moved(B) - moved(A)) if len(gap) else gap.copy()
+
+
+def gap_rounding(contacts, start, now):
+    """How far the sign of each carried gap (``carried_gaps``) is rounding's to decide (m, (K,)):
+    GAP_ROUNDING_ULPS ulps of |gap| + |r_A| + |r_B| + |dp_A| + |dp_B|, the magnitudes s is summed
+    from. Inputs as ``carried_gaps``."""
+    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
+    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
+    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    gap = np.asarray(contacts["gap"], dtype=float).reshape(-1)
+    p0, p = np.asarray(start["position"], dtype=float), np.asarray(now["position"], dtype=float)
+    size = (np.abs(gap) + np.linalg.norm(y - p0[A], axis=1) + np.linalg.norm(y - p0[B], axis=1)
+            + np.linalg.norm(p[A] - p0[A], axis=1) + np.linalg.norm(p[B] - p0[B], axis=1))
+    return GAP_ROUNDING_ULPS * np.finfo(float).eps * size
+
+
+def soft_sweep(sweep, rows, soft, s, x, tau, q_dot, h, biased, max_push_velocity, friction_cone,
+               band=None, ties=None, tied=None):
+    """One sweep over every contact in solve order: its normal row by the soft rule of the module
+    doc (biased: the spring on an overlap; not biased: rigid; a positive gap s_i: rigid with the
+    speculative bias s_i / h either way), then its friction rows and its spin row
+    (``friction_rows``).
+
+    The biased rule is discontinuous at s_i = 0 (rigid above, a damped spring at and below), and
+    a contact that closed its gap speculatively ends at a gap of rounding size: which side it is on
+    is then rounding's choice, and two correct evaluations may choose differently. A contact with
+    |s_i| <= band_i in a biased sweep is added to ``tied``, and takes the side ties[i] (True: as
+    s_i > 0) when ``ties`` names it. The relax rule is continuous at 0 (b = max(s_i, 0) / h).
+
+    Inputs: sweep (``RowSweep`` of the rows for h), rows, soft (``contact_softness``), s (K,) m the
+            gaps now, x (3K list, N) and tau (K list, N m) the forces, modified in place, q_dot
+            (N, 6) modified in place, h s, biased, max_push_velocity m/s, friction_cone;
+            band (K,) m (``gap_rounding``), ties {contact: bool}, tied (a set, added to) or None.
+    """
+    mu = rows["mu"].tolist()
+    bias_rate, mass_scale = soft["bias_rate"].tolist(), soft["mass_scale"].tolist()
+    impulse_scale = soft["impulse_scale"].tolist()
+    gap = np.asarray(s, dtype=float).tolist()
+    band = [0.0] * len(gap) if band is None else np.asarray(band, dtype=float).tolist()
+    for i in rows["order"].tolist():
+        n = 3 * i
+        delta = sweep.delta[n]
+        if not delta > 0.0:
+            continue  # both bodies static: never produced by the narrow phase
+        speculative = gap[i] > 0.0
+        if biased and abs(gap[i]) <= band[i]:
+            if tied is not None:
+                tied.add(i)
+            if ties is not None and i in ties:
+                speculative = bool(ties[i])
+        if speculative:
+            b, m_scale, i_scale = gap[i] / h, 1.0, 0.0
+        elif biased:
+            b = max(mass_scale[i] * bias_rate[i] * gap[i], -max_push_velocity)
+            m_scale, i_scale = mass_scale[i], impulse_scale[i]
+        else:
+            b, m_scale, i_scale = 0.0, 1.0, 0.0
+        # normal: alpha <- max(alpha - (mass_scale J q_dot + b) / delta - impulse_scale alpha, 0)
+        alpha = max(x[n] - (m_scale * sweep.velocity(n, q_dot) + b) / delta - i_scale * x[n], 0.0)
+        if alpha != x[n]:
+            sweep.apply(n, alpha - x[n], q_dot)
+            x[n] = alpha
+        # friction and spin, bounded by the new normal force, as in the PGS
+        friction_rows(sweep, i, mu[i], x, tau, q_dot, friction_cone)
+
+
+def _moved(snapshot, q_dot, h):
+    """The snapshot after its poses moved over h with q_dot (N, 6) = (omega, v), which it then
+    keeps as its velocities."""
+    position, rotation = integrate(snapshot, q_dot[:, 3:], q_dot[:, :3], h)
+    new = dict(snapshot)
+    new["position"], new["rotation"] = position, rotation
+    new["velocity"], new["angular_velocity"] = q_dot[:, 3:].copy(), q_dot[:, :3].copy()
+    return new
+
+
+def normal_velocities(rows, q_dot):
+    """J_n q_dot of every contact's normal row (K,) m/s, for velocities q_dot (N, 6)."""
+    a, b = rows["a"][0::3], rows["b"][0::3]
+    return (np.einsum("ki,ki->k", rows["J_B"][0::3], q_dot[b]) + np.einsum("ki,ki->k", rows["J_A"][0::3], q_dot[a])
+            if len(a) else np.zeros(0))
+
+
+def soft_step(snapshot, contacts, dt, n, ties=None):
+    """One soft step of dt in n substeps of h = dt / n (the module doc), from a snapshot whose
+    pending impulses are applied, on the contacts detected at its start.
+
+    Inputs: snapshot (bodies, settings, cache, state at the step's start), contacts dict (K; with
+            feature_a, feature_b for the warm start), dt s, n substeps, ties {contact: bool} (the
+            side a contact whose gap is zero to rounding takes in a biased sweep: ``soft_sweep``;
+            None: the sign of its gap as computed here).
+    Outputs: (new_snapshot, info) as ``step.step``: new_snapshot with position, rotation, velocity,
+            angular_velocity (the last substep's, after its restitution) and cache (the last
+            substep's forces before restitution: normal forces, friction forces, spin torques);
+            info: the ``store`` keys of the last substep's forces (alpha N, friction, force,
+            spin_torque, normal_velocity, slip, body_force, body_torque), but impulse (K,) N s =
+            the step's whole normal impulse, sum_k h alpha_k (restitution's included); the
+            ``certificate`` keys against the rigid targets (b_i = max(s_i, 0) / h with s_i the gap
+            at the step's end, or e_i u_i for a contact that bounced in the last substep);
+            iterations = soft_iterations + relax_iterations (per substep), restitution_iterations
+            (summed over the substeps), position_iterations = 0, converged = True (a fixed number
+            of sweeps: never unconverged); mu, restitution, mu_spin (K,); u (K,) m/s: J_n q_dot at
+            the step's start, or for a contact that bounced the approach its restitution answered;
+            and the soft step's own: gap_end (K,) m, alpha_max (K,) N (the largest normal force
+            after a substep), restitutive (K,) bool (bounced in the last substep), bounced (K,)
+            bool (in some substep), hertz, zeta (K,), substeps n; tied: the contacts (sorted list)
+            whose gap was zero to rounding (``gap_rounding``) in a biased sweep of some substep.
+    """
+    s = solver_settings(snapshot)
+    h = dt / n
+    start = snapshot
+
+    # begin: rows at the start poses, u_i from the start velocities, softness, the recalled forces
+    q_start = np.hstack([np.asarray(start["angular_velocity"], dtype=float).reshape(-1, 3),
+                         np.asarray(start["velocity"], dtype=float).reshape(-1, 3)])
+    rows = prepare_rows(start, contacts, q_start, h)
+    K = len(rows["mu"])
+    soft = contact_softness(start, contacts, s, h)
+    sweep = RowSweep(rows, h)
+    alpha_spin = np.zeros(K)
+    alpha = (recall_forces(rows, contacts, read_cache(start), s["friction_cone"], alpha_spin)
+             if s["warm_start"] else np.zeros(3 * K))
+    impulse, alpha_max = np.zeros(K), np.zeros(K)
+    u, u_before = rows["u"].copy(), np.zeros(K)
+    restitutive, bounced = np.zeros(K, dtype=bool), np.zeros(K, dtype=bool)
+    restitution_iterations = 0
+
+    state = start
+    x, tau = alpha.tolist(), alpha_spin.tolist()
+    tied = set()
+    for _ in range(n):
+        # the unconstrained velocity of the current state
+        v_star, omega_star = unconstrained_velocity(state, h)
+        q_dot = np.hstack([omega_star, v_star])
+        # solve: the current forces as the first guess, the soft sweeps at the current gaps; the
+        # approach of a contact that has not pushed yet is kept for its restitution
+        apply_forces(rows, np.asarray(x), q_dot, h, np.asarray(tau), sweep)
+        gap, band = carried_gaps(contacts, start, state), gap_rounding(contacts, start, state)
+        u_before = np.where(alpha_max == 0.0, normal_velocities(rows, q_dot), u_before)
+        for _ in range(s["soft_iterations"]):
+            soft_sweep(sweep, rows, soft, gap, x, tau, q_dot, h, True, s["max_push_velocity"], s["friction_cone"],
+                       band, ties, tied)
+        # the poses move with the solved velocities
+        state = _moved(state, q_dot, h)
+        # relax: rigid sweeps at the new gaps; their velocities are kept
+        gap = carried_gaps(contacts, start, state)
+        for _ in range(s["relax_iterations"]):
+            soft_sweep(sweep, rows, soft, gap, x, tau, q_dot, h, False, s["max_push_velocity"], s["friction_cone"])
+        # restitution on the contacts that push for the first time, e > 0, that approached faster
+        # than the threshold: n^T (v_B - v_A) >= -e u_before (the cache keeps the forces before it)
+        alpha = np.asarray(x, dtype=float)
+        alpha_iter = alpha[0::3].copy()
+        restitutive = ((alpha_max == 0.0) & (alpha_iter > 0.0) & (rows["e"] > 0.0)
+                       & (u_before < -s["restitution_threshold"]))
+        u = np.where(restitutive, u_before, u)
+        if np.any(restitutive):
+            restitution_iterations += restitution(dict(rows, u=u), alpha, q_dot, restitutive, h, s["tolerance"],
+                                                  s["max_iterations"])
+            x = alpha.tolist()
+        bounced |= restitutive
+        state["velocity"], state["angular_velocity"] = q_dot[:, 3:].copy(), q_dot[:, :3].copy()
+        alpha_n = alpha[0::3]
+        impulse += h * alpha_n
+        alpha_max = np.maximum(alpha_max, alpha_n)
+    alpha, alpha_spin = np.asarray(x, dtype=float), np.asarray(tau, dtype=float)
+
+    # end: store the last substep's forces, the whole impulse, the certificate against the rigid
+    # contact at its end gap (or e u for a contact that bounced in the last substep)
+    rows = dict(rows, u=u)
+    out = store(rows, contacts, start, alpha, alpha_iter, q_dot, h, alpha_spin)
+    out["impulse"] = impulse
+    rigid = dict(rows, bias=np.maximum(gap, 0.0) / h)
+    out.update(certificate(rigid, alpha, q_dot, restitutive, out["friction"], out["slip"],
+                           s["friction_cone"], out["spin_torque"]))
+    out.update({
+        "mu": rows["mu"], "restitution": rows["e"], "mu_spin": rows["mu_spin"], "u": u,
+        "iterations": s["soft_iterations"] + s["relax_iterations"],
+        "restitution_iterations": restitution_iterations, "position_iterations": 0, "converged": True,
+        "gap_end": gap, "alpha_max": alpha_max, "restitutive": restitutive, "bounced": bounced,
+        "hertz": soft["hertz"], "zeta": soft["zeta"], "substeps": n, "tied": sorted(tied),
+    })
+
+    new = dict(state)
+    new["velocity"], new["angular_velocity"] = q_dot[:, 3:].copy(), q_dot[:, :3].copy()
+    new["cache"] = out.pop("cache")
+    info = {"contacts": contacts, **out}
+    return new, info
