@@ -66,7 +66,7 @@ from .solver import (
 # springs than the substep can resolve only add energy (Catto, "Solver2D"; Box2D v3 uses 0.25)
 MAX_HERTZ_PER_RATE = 0.25
 # the carried gap s is a sum of terms as large as the detected gap, the lever arms and the
-# displacements, each a few roundings deep (R R0^T, its product with r, the sums): two evaluations
+# displacements, each a few roundings deep (R0^T r, (R - R0) l, the sums): two evaluations
 # of it in another order differ by a few ulps of the largest; within this many ulps of
 # (|gap| + |r_A| + |r_B| + |dp_A| + |dp_B|) the sign of s is rounding's to decide
 GAP_ROUNDING_ULPS = 16
@@ -110,10 +110,10 @@ def contact_softness(snapshot, contacts, settings, h):
 
 def carried_gaps(contacts, start, now):
     """Each contact's gap with its point carried rigidly by each of its two bodies from the step's
-    start to now: the point y moves with body X to y_X = p_X + dR_X (y - p_X0), dR_X = R_X R_X0^T,
-    so with r_X = y - p_X0 and dp_X = p_X - p_X0,
-        s = gap + n . ((dp_B + dR_B r_B - r_B) - (dp_A + dR_A r_A - r_A)).
-    The normal stays as detected.
+    start to now: the point y moves with body X to y_X = p_X + R_X l_X, l_X = R_X0^T (y - p_X0) its
+    lever arm in X's frame, so with dp_X = p_X - p_X0,
+        s = gap + n . ((dp_B + (R_B - R_B0) l_B) - (dp_A + (R_A - R_A0) l_A)),
+    exactly gap until a body moves. The normal stays as detected.
 
     Inputs: contacts dict (K; body_a, body_b, point, normal, gap as detected at ``start``), two
             snapshots (position (N, 3), rotation (N, 3, 3)): the step's start and now.
@@ -126,11 +126,11 @@ def carried_gaps(contacts, start, now):
     gap = np.asarray(contacts["gap"], dtype=float).reshape(-1)
     p0, p = np.asarray(start["position"], dtype=float), np.asarray(now["position"], dtype=float)
     R0, R = np.asarray(start["rotation"], dtype=float), np.asarray(now["rotation"], dtype=float)
-    dR = np.einsum("kij,klj->kil", R, R0)
+    D = R - R0
 
     def moved(X):  # y_X - y: how far the point moved with body X
-        r = y - p0[X]
-        return (p[X] - p0[X]) + np.einsum("kij,kj->ki", dR[X], r) - r
+        lever = np.einsum("kji,kj->ki", R0[X], y - p0[X])  # R0^T (y - p0)
+        return (p[X] - p0[X]) + np.einsum("kij,kj->ki", D[X], lever)
 
     return gap + np.einsum("ki,ki->k", n, moved(B) - moved(A)) if len(gap) else gap.copy()
 
