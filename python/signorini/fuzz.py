@@ -509,16 +509,24 @@ def describe(scene: dict) -> str:
     return "\n".join(lines)
 
 
-def reproducer(name: str) -> str:
-    return f"python -m signorini.fuzz --scene {name}"
+def reproducer(name: str, solver: str | None = None) -> str:
+    return f"python -m signorini.fuzz --scene {name}" + (f" --solver {solver}" if solver else "")
 
 
-def run_isolated(seed: int, index: int, timeout: float) -> dict:
+def with_solver(scene: dict, solver: str | None) -> dict:
+    """The scene with its World's ``solver`` setting replaced (None: as generated, the default)."""
+    if solver is not None:
+        scene = {**scene, "world": {**scene.get("world", {}), "solver": solver}}
+    return scene
+
+
+def run_isolated(seed: int, index: int, timeout: float, solver: str | None = None) -> dict:
     """Runs scene SEED:INDEX in a child process (crash isolation, timeout); its result dict."""
     name = f"{seed}:{index}"
     start = time.perf_counter()
     try:
-        proc = subprocess.run([sys.executable, "-m", "signorini.fuzz", "--scene", name, "--json"],
+        proc = subprocess.run([sys.executable, "-m", "signorini.fuzz", "--scene", name, "--json"] +
+                              (["--solver", solver] if solver else []),
                               capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         return {"scene": name, "failures": {"timeout": f"no result after {timeout:g} s"},
@@ -533,16 +541,17 @@ def run_isolated(seed: int, index: int, timeout: float) -> dict:
     return {"scene": name, "failures": {"crash": f"{why}: {tail[0]}"}, "wall": time.perf_counter() - start}
 
 
-def run_many(count: int, seed: int, jobs: int = 1, timeout: float = 300.0, out=print) -> dict:
+def run_many(count: int, seed: int, jobs: int = 1, timeout: float = 300.0, out=print,
+             solver: str | None = None) -> dict:
     """Runs scenes 0..count-1 of seed, each in its own process, `jobs` at a time; prints one line per
     failure (with its reproducer) and the summary line; returns {"results": [...], "counts": {...},
     "summary": str}."""
     results = [None] * count
 
     def one(index):
-        results[index] = run_isolated(seed, index, timeout)
+        results[index] = run_isolated(seed, index, timeout, solver)
         for kind, message in results[index]["failures"].items():
-            out(f"FAIL {kind} {results[index]['scene']}: {message}  | {reproducer(results[index]['scene'])}")
+            out(f"FAIL {kind} {results[index]['scene']}: {message}  | {reproducer(results[index]['scene'], solver)}")
         return results[index]
 
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
@@ -557,7 +566,7 @@ def run_many(count: int, seed: int, jobs: int = 1, timeout: float = 300.0, out=p
         r = max(got, key=lambda r: r[key])
         return f"{format(r[key], fmt)} ({r['scene']})"
 
-    summary = (f"fuzz {count} scenes, seed {seed}: {clean} clean; " +
+    summary = (f"fuzz {count} scenes, seed {seed}{f', solver {solver}' if solver else ''}: {clean} clean; " +
                ", ".join(f"{kind} {counts[kind]}" for kind in FAILURES) +
                f"; deepest overlap {worst('max_overlap', '.0%')} of inner size, worst point off its shapes "
                f"{worst('max_point_error', '.2g')} m, largest energy gain {worst('max_energy_gain', '.2%')}, "
@@ -574,13 +583,15 @@ def main(argv=None) -> int:
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per scene (default 300)")
     parser.add_argument("--scene", help="run scene SEED:INDEX in this process and report in detail")
     parser.add_argument("--json", action="store_true", help="with --scene: print the result as one JSON line")
+    parser.add_argument("--solver", choices=("pgs", "soft"), help="run every scene with this solver "
+                        "(default: as generated, the World's default)")
     args = parser.parse_args(argv)
     if args.scene:
         try:
             seed, index = (int(x) for x in args.scene.split(":"))
         except ValueError:
             parser.error(f"--scene takes SEED:INDEX, got {args.scene!r}")
-        scene = generate(seed, index)
+        scene = with_solver(generate(seed, index), args.solver)
         if args.json:
             print(json.dumps(run(scene)))
             return 0
@@ -596,7 +607,7 @@ def main(argv=None) -> int:
         parser.error("give N SEED, or --scene SEED:INDEX")
     if args.count < 0 or args.jobs < 1:
         parser.error("N must be >= 0 and -j >= 1")
-    report = run_many(args.count, args.seed, args.jobs, args.timeout)
+    report = run_many(args.count, args.seed, args.jobs, args.timeout, solver=args.solver)
     return 1 if any(report["counts"].values()) else 0
 
 

@@ -137,3 +137,13 @@ def test_the_summary_counts_every_scene(sample):
     for r in report["results"]:
         for key in ("max_overlap", "max_energy_gain", "max_point_error"):
             assert math.isfinite(r[key])
+
+
+def test_the_solver_option_runs_every_scene_with_that_solver():
+    scene = fuzz.generate(1, 4)
+    soft = fuzz.with_solver(scene, "soft")
+    assert soft["world"]["solver"] == "soft" and fuzz.with_solver(scene, None) is scene
+    assert "solver" not in scene.get("world", {})  # the scene itself is not changed
+    world, _ = fuzz.build(soft)
+    assert world.solver["solver"] == "soft"
+    assert fuzz.reproducer("1:4", "soft").endswith("--scene 1:4 --solver soft")
