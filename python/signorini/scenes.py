@@ -12,7 +12,8 @@ and a user can read or copy it. The generators below wrote the files once
 Scenes:
 - ``torus`` (the default): the CSC417 rigid-body assignment setting. A torus mesh tumbles onto a
   static plane tilted 45 degrees (normal normalize(0.7, 0.7, 0) through (0, -0.1, 0)) under
-  gravity (0, -0.98, 0), lands and slides down the slope (there is no friction yet).
+  gravity (0, -0.98, 0), lands, wobbles down flat and slides down the slope against friction 0.5
+  (the default, on both bodies) at g (sin 45 - 0.5 cos 45) = 0.3465 m/s^2.
 - ``boxes``: boxes and spheres dropped on the ground plane z = 0 under gravity (0, 0, -9.81);
   two spheres meet head on, one lands on a box, one on another sphere.
 - ``shapes``: every collidable shape on a triangle-mesh floor.
@@ -96,8 +97,8 @@ def _torus() -> Scene:
         world=world,
         dt=1.0 / 240.0,
         steps=1200,
-        description="torus mesh tumbles onto a 45-degree plane (CSC417 setting), g = 0.98 m/s^2; "
-        "no friction: it lands, wobbles down flat and slides",
+        description="torus mesh tumbles onto a 45-degree plane (CSC417 setting), g = 0.98 m/s^2, "
+        "friction 0.5: it lands, wobbles down flat and slides down at g (sin 45 - 0.5 cos 45) = 0.3465 m/s^2",
         snapshot_times=(0.0, 0.3, 0.9, 2.0, 5.0),
         names=("ground", "torus"),
     )

@@ -1,7 +1,7 @@
 """Built-in scenes: they build, start clear of the ground, and end where physics says they should.
 
-The end states are closed-form predictions (a frictionless body resting on a slope accelerates at
-g sin(theta) and conserves energy; two equal spheres meeting head on in a perfectly inelastic
+The end states are closed-form predictions (a body sliding down a slope against Coulomb friction
+accelerates at g (sin(theta) - mu cos(theta)) and loses exactly the friction's work; two equal spheres meeting head on in a perfectly inelastic
 contact stop), not numbers read off a run.
 """
 
@@ -128,6 +128,20 @@ def test_torus_lands_flat_then_slides_at_g_sin_45_minus_mu_cos_45():
     m = record.masses[1]
     assert energy[0] - energy[-1] == pytest.approx(mu * m * g / math.sqrt(2.0) * (s[-1] - s[0]), rel=1e-3)
     assert np.all(np.diff(energy) <= 1e-12 * abs(energy).max())
+
+
+def test_torus_description_states_its_friction_and_acceleration():
+    # the description is what `run` and the player show: it must name the friction the bodies
+    # have and the acceleration the test above measures, computed here from the built world
+    scene = scenes.build("torus")
+    world = scene.world
+    mu = math.sqrt(world.frictions[0] * world.frictions[1])
+    g = float(np.linalg.norm(world.gravity))
+    acceleration = g * (1.0 - mu) / math.sqrt(2.0)
+    assert mu > 0 and "no friction" not in scene.description
+    assert f"friction {mu:g}" in scene.description
+    assert f"{acceleration:.4f} m/s^2" in scene.description
+    assert scenes.__doc__.count(f"{acceleration:.4f} m/s^2") == 1 and "no friction" not in scenes.__doc__
 
 
 def test_boxes_spheres_meeting_head_on_stop():
