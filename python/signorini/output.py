@@ -21,7 +21,8 @@ from tqdm import tqdm
 from . import meshes
 from .trajectory import Record, Recorder, load_trajectory, save_trajectory
 
-__all__ = ["Record", "run", "save_trajectory", "load_trajectory", "summary", "format_summary", "plot"]
+__all__ = ["Record", "run", "save_trajectory", "load_trajectory", "summary", "format_summary", "energy_change_text",
+           "plot"]
 
 
 def run(scene, steps: int | None = None, dt: float | None = None, progress: bool | None = None,
@@ -60,8 +61,9 @@ def summary(record: Record, window: float = 1.0) -> dict:
 
     Inputs: record; window (s), the final stretch over which the penetration is reported.
     Output dict: bodies, dynamic, steps, simulated_time (s), wall_time (s), initial_energy,
-    final_energy, energy_drift (final - initial, J), energy_scale (J, max(|E0|, max kinetic
-    energy), what the drift is compared with), max_penetration_last (m, over the last ``window``
+    final_energy, energy_change (final - initial, J: negative when contacts and friction
+    dissipated energy, positive when the world gained some), energy_scale (J, max(|E0|, max kinetic
+    energy), what the change is compared with), max_penetration_last (m, over the last ``window``
     seconds; 0 if no overlap), contact_steps (steps with contacts), iterations_median and
     iterations_max (over steps with contacts; 0 when there were none), max_residual (m/s),
     not_converged (steps whose PGS stopped at max_iterations), certificate_run and
@@ -81,7 +83,7 @@ def summary(record: Record, window: float = 1.0) -> dict:
         "wall_time": record.wall_time,
         "initial_energy": float(energy[0]),
         "final_energy": float(energy[-1]),
-        "energy_drift": float(energy[-1] - energy[0]),
+        "energy_change": float(energy[-1] - energy[0]),
         "energy_scale": scale,
         "max_penetration_last": float(record.penetration[late].max()) if late.any() else 0.0,
         "window": window,
@@ -107,18 +109,34 @@ CERTIFICATE = (
 )
 
 
+def energy_change_text(change: float, scale: float) -> str:
+    """The energy line's verdict: what a change of total energy (final - initial, J) is.
+
+    A loss is what contacts and friction take (dissipated), a gain is named a gain with where it
+    can come from (contacts and friction never add energy), and a change within rounding of
+    ``scale`` (J, ``summary``'s energy_scale) is kept. The percentage is of ``scale``.
+    """
+    pct = f" ({100.0 * abs(change) / scale:.3g} % of {scale:.3g} J, the larger of the initial energy's size and the " \
+        "peak kinetic energy)" if scale > 0 else ""
+    if abs(change) <= 1e-9 * scale or change == 0.0:
+        return f"kept (changed by {change:+.2g} J, rounding)"
+    if change < 0:
+        return f"dissipated {-change:.3g} J by contacts and friction{pct}"
+    return (f"gained {change:.3g} J{pct}: contacts and friction only dissipate, so it came from external forces, "
+            "kinematic bodies or the integration")
+
+
 def format_summary(record: Record, files=()) -> str:
     """The few lines the command line prints after a run; ``files`` are the paths written."""
     s = summary(record)
-    drift_pct = 100.0 * s["energy_drift"] / s["energy_scale"] if s["energy_scale"] > 0 else 0.0
     speed = s["steps"] / s["wall_time"] if s["wall_time"] > 0 else float("inf")
     lines = [
         f"scene        {record.scene}",
         f"bodies       {s['bodies']} ({s['dynamic']} dynamic)",
         f"steps        {s['steps']} x dt {record.dt:.6g} s = {s['simulated_time']:.4g} s simulated",
         f"wall time    {s['wall_time']:.3f} s in World.step ({speed:.0f} steps/s)",
-        f"energy       initial {s['initial_energy']:.6g} J, final {s['final_energy']:.6g} J, "
-        f"drift {s['energy_drift']:+.3g} J ({drift_pct:+.2f} % of {s['energy_scale']:.3g} J)",
+        f"energy       initial {s['initial_energy']:.6g} J, final {s['final_energy']:.6g} J: "
+        + energy_change_text(s["energy_change"], s["energy_scale"]),
         f"penetration  largest in the last {s['window']:g} s: {1e3 * s['max_penetration_last']:.3g} mm",
         f"solver       iterations median {s['iterations_median']:g}, max {s['iterations_max']} "
         f"over {s['contact_steps']} steps with contacts; max residual {s['max_residual']:.2e} m/s, "

@@ -159,9 +159,51 @@ def test_summary_numbers():
     assert s["contact_steps"] == 190
     assert s["iterations_max"] == 4
     assert s["iterations_median"] == 2
-    assert s["energy_drift"] == pytest.approx(0.0, abs=1e-9)
+    assert s["energy_change"] == pytest.approx(0.0, abs=1e-9)
     text = output.format_summary(record, files=["a.npz", "b.png"])
     assert "ballistic" in text and "a.npz" in text and "b.png" in text and "last 1 s: 2 mm" in text
+    # ballistic motion keeps its energy, and the summary says so
+    assert "J: kept (changed by" in text and "drift" not in text
+
+
+def _real_scene(world, steps):
+    return SimpleNamespace(name="real", world=world, dt=1.0 / 240.0, steps=steps, description="",
+                           snapshot_times=None)
+
+
+def test_summary_names_a_friction_loss_as_dissipated():
+    # a box slid along the ground at 1 m/s: friction takes its kinetic energy, 0.5 m v^2 = 4 J
+    w = sg.World(gravity=(0, 0, -9.81))
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    w.add_body(sg.Box((0.1, 0.1, 0.1)), mass=8.0, position=(0, 0, 0.1), velocity=(1.0, 0, 0))
+    record = output.run(_real_scene(w, 120), progress=False)
+    s = output.summary(record)
+    assert s["energy_change"] == pytest.approx(-4.0, rel=1e-3)
+    line = next(x for x in output.format_summary(record).splitlines() if x.startswith("energy"))
+    assert f"dissipated 4 J by contacts and friction ({400 / s['energy_scale']:.3g} % of {s['energy_scale']:.3g} J," in line
+    assert "drift" not in line and "gained" not in line and "-" not in line.split(":", 1)[1]
+
+
+def test_summary_names_a_gain_as_a_gain():
+    # a ball lifted by a steady force twice its weight gains m g h over the rise h
+    w = sg.World(gravity=(0, 0, -9.81))
+    ball = w.add_body(sg.Sphere(0.1), mass=1.0, position=(0, 0, 1.0))
+    w.set_external_wrench(ball, force=(0, 0, 2 * 9.81))
+    record = output.run(_real_scene(w, 48), progress=False)
+    s = output.summary(record)
+    rise = record.positions[-1, ball, 2] - record.positions[0, ball, 2]
+    assert s["energy_change"] == pytest.approx(9.81 * rise + 0.5 * record.velocities[-1, ball, 2] ** 2, rel=1e-6)
+    line = next(x for x in output.format_summary(record).splitlines() if x.startswith("energy"))
+    assert f"gained {s['energy_change']:.3g} J (" in line and "dissipated" not in line and "drift" not in line
+
+
+def test_energy_change_text_for_a_loss_a_gain_and_rounding():
+    assert output.energy_change_text(-0.27, 0.2585) == (
+        "dissipated 0.27 J by contacts and friction (104 % of 0.259 J, the larger of the initial energy's size "
+        "and the peak kinetic energy)")
+    assert output.energy_change_text(0.5, 10.0).startswith("gained 0.5 J (5 % of 10 J,")
+    assert output.energy_change_text(1e-15, 10.0).startswith("kept")
+    assert output.energy_change_text(0.0, 0.0).startswith("kept")
 
 
 def test_plot_writes_a_png(tmp_path):
