@@ -13,7 +13,8 @@ trajectory with its scene (``signorini.trajectory``), ``<scene>.png`` (energy, c
 effort and 3-D snapshots) and ``<scene>.html`` (the offline player, ``signorini.player``); on
 request an MP4 (``signorini.render``), a binary glTF and a USD stage (``signorini.export``), each at
 the path given or ``<out>/<scene>.<ext>``. It prints a summary naming every file written.
-``export`` writes the same files from a saved trajectory, without the simulator; ``view`` serves
+``export`` writes the same files from a saved trajectory, without the simulator: those asked for,
+or the HTML player alone when none is asked for; ``view`` serves
 the interactive viewer (``signorini.viewer``) of a scene (simulated live) or a trajectory file.
 A scene file reads mesh files from its own folder only, and from each folder given with
 ``--allow-path DIR`` (repeatable; ``run`` and ``view``); a mesh anywhere else is refused, the
@@ -132,7 +133,8 @@ def _add_outputs(p: argparse.ArgumentParser, html_default: bool) -> None:
     """The output options shared by ``run`` and ``export``."""
     html = p.add_mutually_exclusive_group()
     html.add_argument("--html", type=Path, metavar="PATH",
-                      help="the offline HTML player (default <out>/<scene>.html" + ("" if html_default else ", only when asked")
+                      help="the offline HTML player (default <out>/<scene>.html" + (
+                          "" if html_default else "; written when no other output is asked for, or with --html")
                       + ")")
     if html_default:
         html.add_argument("--no-html", action="store_true", help="write no HTML player")

@@ -113,6 +113,19 @@ def test_export_writes_from_a_saved_trajectory(tmp_path):
     assert str(tmp_path / "boxes.html") in result.stdout and (tmp_path / "boxes.html").is_file()
 
 
+def test_export_help_says_when_the_player_is_written():
+    # a bare `export x.npz` writes the player (test above): the help must say so, not "only when asked"
+    from signorini.cli import make_parser
+
+    parser = make_parser()
+    export = parser._subparsers._group_actions[0].choices["export"]
+    help_text = " ".join(export.format_help().split())
+    assert "only when asked" not in help_text
+    assert "written when no other output is asked for, or with --html" in help_text
+    run = parser._subparsers._group_actions[0].choices["run"]
+    assert "no other output" not in " ".join(run.format_help().split())  # run writes it unless --no-html
+
+
 @pytest.mark.parametrize("command", ["export", "view"])
 def test_missing_or_corrupt_trajectory_exits_2_naming_it(tmp_path, command):
     result = run_cli(command, str(tmp_path / "nowhere.npz"))
