@@ -200,7 +200,12 @@ void register_shapes(py::module_& m) {
       .def(py::init([](const py::object& vertices, const py::object& faces) {
              return Mesh(points(vertices, "Mesh", "vertices"), triangles(faces, "Mesh"));
            }),
-           py::arg("vertices"), py::arg("faces"))
+           py::arg("vertices"), py::arg("faces"),
+           "A mesh from vertices (n, 3) float, m, and faces (k, 3) int, vertex indices of triangles "
+           "counter-clockwise seen from outside. Needs at least 3 finite vertices and one face; a face "
+           "indexing a missing vertex or of zero area raises ValueError. Closedness and winding are "
+           "checked when it is added as a dynamic body (closedness_problem() says what is wrong); a "
+           "non-convex one is decomposed then (signorini.decompose). To read a file: signorini.load_mesh.")
       .def_readonly("vertices", &Mesh::vertices)
       .def_readonly("faces", &Mesh::faces)
       .def("is_convex", &Mesh::is_convex)
@@ -305,7 +310,10 @@ void register_shapes(py::module_& m) {
       .def(py::init([](const py::object& vertices, const py::object& faces) {
              return TriangleMesh(points(vertices, "TriangleMesh", "vertices"), triangles(faces, "TriangleMesh"));
            }),
-           py::arg("vertices"), py::arg("faces"))
+           py::arg("vertices"), py::arg("faces"),
+           "A static triangle mesh from vertices (n, 3) float, m, and faces (k, 3) int, vertex indices "
+           "of triangles counter-clockwise seen from the side bodies touch; it need not be closed. To "
+           "read a file: signorini.load_mesh(path, static=True).")
       .def_readonly("vertices", &TriangleMesh::vertices)
       .def_readonly("faces", &TriangleMesh::faces)
       .def_property_readonly(

@@ -18,7 +18,7 @@ from .world import BodyIndexError, Contacts, SavedState, SolverStats, SolverWarn
 from .codec import shape_to_dict as shape_dict
 from .collision import Feature, collide, feature
 from .trajectory import Record, Recorder, load_trajectory, save_trajectory
-from . import meshfile
+from . import meshes, meshfile
 from .meshfile import MeshRepairWarning, load_mesh, save_mesh
 from .decomposition import decompose
 
@@ -39,10 +39,17 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'signorini' has no attribute {name!r}")
 
 
+def __dir__() -> list[str]:
+    """The module's names, the lazily imported ones included (so ``dir(sg)`` lists ``load_mjcf``)."""
+    return sorted(set(globals()) | set(_LAZY))
+
+
+# the public API: every name the README and docs use as ``sg.<name>`` (tests/python/test_api.py
+# checks it), the submodules meshes and meshfile included
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
            "Compound", "mass_properties", "Contacts", "SolverStats", "SavedState",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "save_mesh", "decompose",
            "MeshRepairWarning", "load_scene", "read_scene",
-           "save_scene", "SceneFileError", "load_mjcf", "read_mjcf", "MJCFError"]
+           "save_scene", "SceneFileError", "load_mjcf", "read_mjcf", "MJCFError", "meshes", "meshfile"]
 __version__ = "0.1.0"

@@ -74,7 +74,9 @@ class Mesh:
     def __getstate__(self) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"], typing.Annotated[numpy.typing.NDArray[numpy.int64], "[m, 3]"], list]:
         ...
     def __init__(self, vertices: typing.Any, faces: typing.Any) -> None:
-        ...
+        """
+        A mesh from vertices (n, 3) float, m, and faces (k, 3) int, vertex indices of triangles counter-clockwise seen from outside. Needs at least 3 finite vertices and one face; a face indexing a missing vertex or of zero area raises ValueError. Closedness and winding are checked when it is added as a dynamic body (closedness_problem() says what is wrong); a non-convex one is decomposed then (signorini.decompose). To read a file: signorini.load_mesh.
+        """
     def __reduce__(self) -> tuple:
         ...
     def __reduce_ex__(self, protocol: typing.SupportsInt | typing.SupportsIndex) -> tuple:
@@ -177,7 +179,9 @@ class TriangleMesh:
     def __getstate__(self) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"], typing.Annotated[numpy.typing.NDArray[numpy.int64], "[m, 3]"]]:
         ...
     def __init__(self, vertices: typing.Any, faces: typing.Any) -> None:
-        ...
+        """
+        A static triangle mesh from vertices (n, 3) float, m, and faces (k, 3) int, vertex indices of triangles counter-clockwise seen from the side bodies touch; it need not be closed. To read a file: signorini.load_mesh(path, static=True).
+        """
     def __reduce__(self) -> tuple:
         ...
     def __reduce_ex__(self, protocol: typing.SupportsInt | typing.SupportsIndex) -> tuple:

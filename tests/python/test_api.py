@@ -17,6 +17,34 @@ def make_world():
     return w
 
 
+def test_all_lists_every_name_the_docs_use_and_dir_shows_them():
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    texts = [root / "README.md", *sorted((root / "docs").glob("*.md"))]
+    used = {name for path in texts for name in re.findall(r"\bsg\.([A-Za-z_]\w*)", path.read_text())}
+    assert {"World", "load_mjcf", "load_scene", "meshfile"} <= used  # the scan finds what it should
+    assert sorted(used - set(sg.__all__)) == []
+    listed = dir(sg)
+    for name in sg.__all__:
+        assert hasattr(sg, name), name
+        assert name in listed, name  # the lazily imported ones too
+    assert len(set(sg.__all__)) == len(sg.__all__)
+    # `from signorini import *` gives exactly the public API
+    namespace: dict = {}
+    exec("from signorini import *", namespace)
+    assert set(namespace) - {"__builtins__"} == set(sg.__all__)
+
+
+def test_mesh_constructors_have_docstrings():
+    for cls in (sg.Mesh, sg.TriangleMesh):
+        doc = cls.__init__.__doc__
+        # pybind11 puts the signature first; a docstring follows it
+        assert len(doc.strip().splitlines()) > 1, doc
+        assert "(n, 3)" in doc and "(k, 3)" in doc and "load_mesh" in doc
+
+
 def world_state(w):
     """Everything observable about a world, for before/after comparisons."""
     s = w.snapshot()
