@@ -42,8 +42,9 @@ Ignored, because they do not change the rigid bodies: sites, cameras, lights, se
 keyframes, visual, statistic, size, custom, textures and materials, and the contact-tuning
 attributes (solref, solimp, margin, gap, priority, contype, conaffinity, rgba, group).
 Everything else (hinge, slide and ball joints, actuators, tendons, equality constraints, contact
-pairs and excludes, height fields, includes, plugins...) is an ``MJCFError`` listing every
-unsupported element with its line, so a model is never imported with a part silently missing.
+pairs and excludes, height fields, includes, frames, plugins...) is an ``MJCFError`` listing every
+unsupported element with its line, in line order, the joints inside a ``<frame>`` too (as MuJoCo
+writes a converted URDF), so a model is never imported with a part silently missing.
 Errors for a missing or malformed file, an unknown geom type or a bad value name the file, the
 line and the element.
 
@@ -90,6 +91,7 @@ _TOP_READ = {"compiler", "option", "default", "asset", "worldbody"}
 _TOP_IGNORED = {"size", "visual", "statistic", "sensor", "keyframe", "custom"}
 _BODY_READ = {"geom", "body", "inertial", "freejoint", "joint"}
 _BODY_IGNORED = {"site", "camera", "light"}
+_TREE_TAGS = {"body", "geom", "inertial", "frame"}  # inside an unsupported element: listed by it
 _ASSET_IGNORED = {"texture", "material"}
 _GEOM_ATTRS = {"type", "size", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "fromto", "density", "mass",
                "friction", "condim", "mesh", "name", "class"}
@@ -217,7 +219,7 @@ class _Reader:
     def __init__(self, path: Path, package_dirs=()):
         self.path = path
         self.package_dirs = [Path(d) for d in package_dirs]
-        self.unsupported: list[str] = []
+        self.unsupported: list[tuple[float, str]] = []  # (line, what), listed in line order
         try:
             filecheck.check_size(path, MAX_MJCF_BYTES)
             text = path.read_bytes()
@@ -254,7 +256,29 @@ class _Reader:
         return MJCFError(f"MJCF file {str(self.path)!r}: {self.where(el)}: {problem}")
 
     def skip(self, el: ET.Element, why: str = "") -> None:
-        self.unsupported.append(f"{self.where(el)}{' (' + why + ')' if why else ''}")
+        self.unsupported.append((self.lines.get(id(el), math.inf),
+                                 f"{self.where(el)}{' (' + why + ')' if why else ''}"))
+
+    def skip_tree(self, el: ET.Element) -> None:
+        """An unsupported element of the body tree (a ``<frame>``, ``<replicate>``...) and,
+        inside it, every element that is unsupported anywhere (joints above all), so the error
+        lists each joint a model has wherever it sits."""
+        self.skip(el, "with everything inside it" if len(el) else "")
+        for inner in el.iter():
+            if inner is el:
+                continue
+            if inner.tag in ("joint", "freejoint"):
+                self.skip(inner, "free joint" if inner.tag == "freejoint" else f"{inner.get('type', 'hinge')} joint")
+            elif inner.tag not in _TREE_TAGS and inner.tag not in _BODY_IGNORED:
+                self.skip(inner)
+
+    def unsupported_list(self) -> list[str]:
+        """The unsupported elements in file (line) order, each once."""
+        listed: list[str] = []
+        for _, what in sorted(self.unsupported, key=lambda item: item[0]):
+            if what not in listed:
+                listed.append(what)
+        return listed
 
     def check_attrs(self, el: ET.Element, known: Collection[str], ignored: Collection[str] = frozenset()) -> None:
         extra = sorted(set(el.attrib) - set(known) - set(ignored))
@@ -564,7 +588,7 @@ class _Reader:
             elif child.tag in ("joint", "freejoint"):
                 pass  # read by the caller
             else:
-                self.skip(child)
+                self.skip_tree(child)
 
 
 def read_mjcf(path, *, package_dirs=()):
@@ -615,7 +639,7 @@ def _read_mjcf(path: Path, package_dirs):
                 holder.append(child)
                 reader.body_parts(holder, _Pose(), "main", False, static_parts)
             elif child.tag not in _BODY_IGNORED:
-                reader.skip(child)
+                reader.skip_tree(child)
 
     # each free body: its parts in its own frame
     bodies = []
@@ -625,7 +649,7 @@ def _read_mjcf(path: Path, package_dirs):
         reader.body_parts(body, _Pose(), cls, True, parts)
         bodies.append((body, pose, parts))
     if reader.unsupported:
-        listed = "\n  ".join(reader.unsupported)
+        listed = "\n  ".join(reader.unsupported_list())
         raise MJCFError(f"MJCF file {str(path)!r}: outside the subset signorini imports (free bodies and static "
                         f"geoms; see signorini.mjcf):\n  {listed}")
 

@@ -219,6 +219,41 @@ def test_everything_outside_the_subset_is_listed_in_one_error(tmp_path):
         assert needle in message, (needle, message)
 
 
+def test_unsupported_elements_inside_frames_are_listed_in_line_order(tmp_path):
+    # as MuJoCo writes a converted URDF (r2d2): the wheels' hinges sit in bodies inside <frame>s
+    path = write(tmp_path, """<mujoco>
+  <worldbody>
+    <body name="ball" pos="0 0 2"><freejoint/><geom type="sphere" size="0.1" hfield="x"/></body>
+    <body name="base" pos="0 0 1">
+      <geom type="box" size="0.2 0.1 0.1"/>
+      <frame name="left" pos="0 0.2 0">
+        <body name="left_wheel"><joint name="left_hinge" type="hinge"/><geom type="sphere" size="0.05"/></body>
+        <frame><body name="left_rear"><joint name="left_rear_hinge"/><geom type="sphere" size="0.05"/></body></frame>
+      </frame>
+      <frame name="right" pos="0 -0.2 0">
+        <body name="right_wheel"><joint name="right_hinge" type="hinge"/><geom type="sphere" size="0.05"/></body>
+      </frame>
+    </body>
+    <frame name="top"><body name="lid"><joint name="lid_slide" type="slide"/></body></frame>
+  </worldbody>
+  <actuator><motor joint="left_hinge"/></actuator>
+</mujoco>""")
+    with pytest.raises(sg.MJCFError) as e:
+        sg.load_mjcf(path)
+    listed = str(e.value).split("\n")[1:]
+    assert [line.strip() for line in listed] == [
+        "line 3 <geom> (attribute hfield)",
+        "line 6 <frame name='left'> (with everything inside it)",
+        "line 7 <joint name='left_hinge'> (hinge joint)",
+        "line 8 <joint name='left_rear_hinge'> (hinge joint)",
+        "line 10 <frame name='right'> (with everything inside it)",
+        "line 11 <joint name='right_hinge'> (hinge joint)",
+        "line 14 <frame name='top'> (with everything inside it)",
+        "line 14 <joint name='lid_slide'> (slide joint)",
+        "line 16 <actuator>",
+    ], str(e.value)
+
+
 @pytest.mark.parametrize("text, message", [
     ("<mujoco><worldbody><geom type='sphere' size='0.1'></worldbody></mujoco>", r"malformed XML: mismatched tag: line 1"),
     ("<robot/>", r"root element is <robot>"),
