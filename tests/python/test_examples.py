@@ -1,9 +1,10 @@
-"""The README's Python snippets run as written (in order, in one namespace, as a reader would
-paste them), its TOML scene file loads, and every script in examples/ runs and passes the check
-it states (each asserts its physical claim)."""
+"""The README's Python snippets run as written: each on its own, as a script in a fresh empty
+folder and its own process (a block whose first line is ``# writes here: a, b`` must leave exactly
+those names there, any other block nothing), and all in order in one namespace, as a reader would
+paste them; its TOML scene file loads, and every script in examples/ runs and passes the check it
+states (each asserts its physical claim)."""
 import os
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -18,15 +19,40 @@ README = ROOT / "README.md"
 EXAMPLES = sorted((ROOT / "examples").glob("*.py"))
 
 
+WRITES = re.compile(r"#\s*writes here:\s*(.+)")
+
+
 def blocks(language: str) -> list[str]:
     return re.findall(rf"```{language}\n(.*?)```", README.read_text(), flags=re.S)
 
 
+def test_the_readme_blocks_that_write_files_say_so():
+    snippets = blocks("python")
+    assert len(snippets) >= 5
+    assert [i for i, code in enumerate(snippets) if WRITES.match(code.splitlines()[0])] == [3, 4]
+
+
+@pytest.mark.parametrize("index", range(len(blocks("python"))))
+def test_readme_python_block_runs_alone_in_an_empty_folder(index, tmp_path):
+    code = blocks("python")[index]
+    script = tmp_path / "block.py"
+    script.write_text(code)
+    folder = tmp_path / "work"
+    folder.mkdir()
+    env = dict(os.environ, PYTHONPATH=str(Path(signorini.__file__).resolve().parent.parent),
+               SIGNORINI_CACHE=str(tmp_path / "cache"))  # any decomposition cached outside the folder
+    result = subprocess.run([sys.executable, str(script)], cwd=folder, env=env, capture_output=True, text=True,
+                            timeout=300)
+    assert result.returncode == 0, f"README.md python block {index + 1}:\n{code}\n{result.stderr}"
+    said = WRITES.match(code.splitlines()[0])
+    written = {name.strip() for name in said.group(1).split(",")} if said else set()
+    assert set(os.listdir(folder)) == written, f"README.md python block {index + 1} left {sorted(os.listdir(folder))}"
+
+
 def test_readme_python_snippets_run(tmp_path, monkeypatch):
     snippets = blocks("python")
-    assert len(snippets) >= 4
-    # the snippets write run.npz, ball.stl, drop.toml here and read examples/data/boxes.xml
-    shutil.copytree(ROOT / "examples" / "data", tmp_path / "examples" / "data")
+    assert len(snippets) >= 5
+    # the snippets write run.npz, ball.stl, drop.toml, model.xml here
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}
     for k, code in enumerate(snippets):
@@ -35,7 +61,7 @@ def test_readme_python_snippets_run(tmp_path, monkeypatch):
         except Exception as e:  # name the block that failed
             raise AssertionError(f"README.md python block {k + 1} fails: {type(e).__name__}: {e}\n{code}") from e
     assert (tmp_path / "run.npz").is_file() and (tmp_path / "drop.toml").is_file()
-    assert namespace["w3"].num_bodies == 4 and namespace["d2"].num_bodies == 2
+    assert namespace["w3"].num_bodies == 2 and namespace["d2"].num_bodies == 2
 
 
 def test_readme_scene_file_loads(tmp_path):
