@@ -51,8 +51,10 @@ class Contacts:
     point: (K, 3) world contact points y_i (m), midway between the witness points on A and B.
     normal: (K, 3) world unit normals n_i.
     gap: (K,) signed distances along n_i (m), negative when overlapping.
-    alpha: (K,) normal forces alpha_i >= 0 (N), as in the lecture notes.
-    impulse: (K,) impulses dt * alpha_i (N s) applied as +impulse n on B and -impulse n on A.
+    alpha: (K,) normal forces alpha_i >= 0 (N), as in the lecture notes, of the step's last substep.
+    impulse: (K,) the step's whole normal impulses (N s), summed over its substeps, applied as
+        +impulse n on B and -impulse n on A: impulse / dt is the mean normal force over the step
+        (as users of other engines compute a force); alpha * dt / substeps is the last substep's.
     friction: (K, 3) friction forces on B (N, world, tangent to n); A gets the opposite.
     force: (K, 3) total contact forces on B, alpha n + friction (N, world).
     spin_torque: (K,) torsional friction torques on B about n_i (N m; B gets spin_torque n, A the

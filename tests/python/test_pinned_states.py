@@ -12,16 +12,19 @@ import pytest
 
 from signorini import fuzz, scenes
 
+# re-pinned once more when Contacts.impulse became the step's whole impulse (summed over the
+# substeps, issue 25): with the last substep's h alpha in its place the digests are the earlier
+# pins, bit for bit, so nothing else moved
 PINNED = {
     # built-in mixed pile (spheres, boxes, capsules, cylinders, hulls, meshes, compounds, decomposed
     # tori in a walled pit), 400 steps of 1/240 s: bodies landing on each other (re-pinned once, when
     # the shipped pile.toml was written again with the last bits of 9 orientations changed; the
     # restructuring had kept the earlier pin)
-    "pile": "ed7e148b3566e6b445437906a37a1dfc6d6d9537392c4f0808678003f339b813",
+    "pile": "d55c0c8f6f3d04aa191697f671776c40ded65e05b363ebf4840a42f22157f19e",
     # the 210-box pyramid, 150 steps of 1/240 s
-    "pyramid": "5ab68a0fe70285054a9cd92dea4fbffc8c70ebbd4d03a18d2072170f79d60ff7",
+    "pyramid": "897cfeaad98d6543b94d6d90b791b0ee46cbdc271265fb2b6fc092e6af654d9d",
     # fuzzer scene 1:103: 14 bodies of all 7 kinds on a triangle-mesh height field, its full 1.5 s
-    "fuzz 1:103": "4175836903ead2520241068053c1f5876c714daff8cb4b8598c90f634dd9cc6c",
+    "fuzz 1:103": "cda76a15cb85d86a8c83fd9f07df88f8822e832647498f6fb20769c1f0132056",
 }
 
 

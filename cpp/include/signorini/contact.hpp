@@ -33,7 +33,10 @@ struct Contact {
   FeatureId feature_b = 0;     ///< feature of B the point comes from
   // written by the solver (docs/conventions.md, step 3 f and "The Signorini certificate")
   double alpha = 0.0;          ///< normal force alpha_i >= 0 (N), as in the notes
-  double impulse = 0.0;        ///< dt * alpha_i (N s), applied as -impulse n on A and +impulse n on B
+  /// the step's whole normal impulse, sum over its substeps of h alpha_i (N s), applied as
+  /// -impulse n on A and +impulse n on B: impulse / dt is the mean normal force over the step
+  /// (alpha is the last substep's)
+  double impulse = 0.0;
   Vec3 friction = Vec3::Zero();///< friction force on B (N, world, tangent); A gets -friction
   Vec3 force = Vec3::Zero();   ///< total contact force on B, alpha n + friction (N, world)
   /// torsional friction torque on B about n_i (N m; B gets spin_torque n_i, A the opposite); 0

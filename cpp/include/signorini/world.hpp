@@ -223,6 +223,9 @@ class World {
   void soft_step_once(double dt);
   /// The step's contacts carried to substep k into contacts_next_ (k = 0: as detected).
   void carry_contacts(int k);
+  /// After substep k's solve: each contact's impulse becomes the sum over the substeps so far
+  /// (Contacts.impulse is the step's whole normal impulse).
+  void sum_impulses(int k);
   /// After substep k of h: the next warm-starts from its cache; its figures go to the report.
   void end_substep(const SolverStats& stats, double h);
   /// Counts a solve that ended unconverged with a contact approaching faster than warn_velocity in
@@ -255,6 +258,7 @@ class World {
   std::vector<Contact> contacts_next_;   ///< a substep's contacts (carried), kept when the step succeeds
   std::vector<Vec3> anchor_a_, anchor_b_;///< a carried contact's point moved with A and with B
   std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
+  std::vector<double> impulse_sum_;      ///< per contact: its normal impulse over the substeps so far (N s)
 };
 
 }  // namespace signorini

@@ -92,6 +92,7 @@ void World::step_once(double dt) {
     dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, settings_.solver.gyroscopic, v_, omega_);
     stats = solver::solve_contacts(model_, state_, h, settings_.solver, contacts_next_, v_, omega_, *solver_,
                                    k == 0 ? nullptr : &anchor_a_, k == 0 ? nullptr : &anchor_b_);
+    sum_impulses(k);                                   // Contacts.impulse: the whole step's
     dynamics::advance(model_, state_, solver_->v_move, solver_->omega_move, v_, omega_, h);
     guard_->check_finite(model_, state_, *solver_);    // checkpoint: nothing non-finite is kept
     end_substep(stats, h);
@@ -132,6 +133,18 @@ void World::carry_contacts(int k) {
     contacts_next_ = contacts_base_;
   } else {
     collision::carry_contacts(contacts_base_, guard_->start(), state_, contacts_next_, anchor_a_, anchor_b_);
+  }
+}
+
+void World::sum_impulses(int k) {
+  const std::size_t K = contacts_next_.size();
+  if (k == 0) {
+    if (impulse_sum_.capacity() < K) impulse_sum_.reserve(2 * K);
+    impulse_sum_.assign(K, 0.0);
+  }
+  for (std::size_t i = 0; i < K; ++i) {
+    impulse_sum_[i] += contacts_next_[i].impulse;
+    contacts_next_[i].impulse = impulse_sum_[i];
   }
 }
 

@@ -110,8 +110,8 @@ def step(snapshot, dt, contacts=None, ties=None):
     """Advance the snapshot by one step of dt seconds: contacts detected once (reaching as far as
     the whole step moves), then n substeps of dt / n (``substeps``, or automatic), each solving the
     step's contacts carried along by the motion since detection (``carry_contacts``); the info is
-    the last substep's. With settings["solver"] == "soft", the soft step (``soft.soft_step``, whose
-    info says what differs: impulse is the whole step's).
+    the last substep's but for impulse, the whole step's (summed over the substeps). With
+    settings["solver"] == "soft", the soft step (``soft.soft_step``).
 
     Inputs: snapshot dict (settings, bodies with friction, restitution and spinning_friction,
             optional cache; missing
@@ -122,7 +122,8 @@ def step(snapshot, dt, contacts=None, ties=None):
                       angular_velocity (N, 3) and cache (the warm start of the next step) updated;
                       the input is not modified.
         info: contacts (the dict used); per contact (K): alpha N (after restitution),
-              impulse = h alpha N s (h = dt / n), friction (K, 3) N on B, force (K, 3) = alpha n + friction N,
+              impulse = sum over the substeps of h alpha N s (h = dt / n; the step's whole normal
+              impulse, so impulse / dt is the mean normal force over the step), friction (K, 3) N on B, force (K, 3) = alpha n + friction N,
               spin_torque N m (torsional friction on B about n), normal_velocity m/s, slip (K, 3)
               m/s, mu, restitution, mu_spin m; per body: body_force,
               body_torque (N, 3) (N, N m about the com, world); iterations, restitution_iterations,
@@ -143,11 +144,13 @@ def step(snapshot, dt, contacts=None, ties=None):
         state, info = soft_step(snapshot, contacts, dt, n, ties)
         flagged = (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
     else:
-        state, info, flagged = snapshot, None, 0
+        state, info, flagged, impulse = snapshot, None, 0, 0.0
         for k in range(n):
             state, info = step_once(state, dt / n, contacts if k == 0 else carry_contacts(contacts, snapshot, state))
+            impulse = impulse + np.asarray(info["impulse"], dtype=float)  # the step's: summed over its substeps
             # the substeps the Python layer warns about: unconverged and approaching too fast
             flagged += (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
+        info["impulse"] = impulse
     info["flagged"] = int(flagged)
     # the one-step force and torque are spent
     for key in ("step_force", "step_torque"):
