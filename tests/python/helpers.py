@@ -26,9 +26,12 @@ Tolerances (m):
   normals: where the direction is unique, closed forms to EXACT; a support pair's normal n to the
     angle its gap tolerance allows, sqrt(4 tol / (rho + delta)) (normal_bound).
 """
+import math
+
 import numpy as np
 
 import signorini as sg
+from signorini import scenes
 from signorini.oracle import support as osup
 from signorini.oracle.rigid import matrix_to_quat as quat_of, quat_to_matrix
 
@@ -341,3 +344,32 @@ def lone_triangle_pair(kind, seed, k, off_face=False, min_cos=0.2, cylinder_touc
     return V, n_t, b, d, delta, rho, regime, face
 
 
+# ---- scenes shared by the solver tests (tests/python/test_solver.py, test_soft_step.py) ----------
+
+def block_on_slope(mu, dt, angle_deg=30.0, **world_kwargs):
+    """A 1 kg unit box resting on a plane tilted by angle about y, in World(**world_kwargs);
+    returns (world, body, downhill)."""
+    th = math.radians(angle_deg)
+    n = np.array([-math.sin(th), 0.0, math.cos(th)])
+    w = sg.World(**world_kwargs)
+    w.add_static(sg.Plane(normal=n, offset=0.0), friction=mu)
+    q = scenes.axis_angle_quaternion((0, 1, 0), -th)
+    b = w.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0, position=0.5 * n, orientation=q, friction=mu)
+    downhill = np.array([math.cos(th), 0.0, math.sin(th)]) * -1.0
+    return w, b, downhill
+
+
+def first_rebound_apex(dt, e=0.5, h=1.0, r=0.1, **settings):
+    """Apex of a sphere's first rebound over its drop height h (bottom of the sphere)."""
+    w = sg.World(**settings)
+    w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0), restitution=e)
+    b = w.add_body(sg.Sphere(r), mass=1.0, position=(0, 0, h + r), restitution=e)
+    z, vz = [], []
+    for _ in range(round(1.5 / dt)):
+        w.step(dt)
+        z.append(w.positions[b][2] - r)
+        vz.append(w.velocities[b][2])
+    z, vz = np.array(z), np.array(vz)
+    up = int(np.argmax(vz > 0))
+    down = up + int(np.argmax(vz[up:] <= 0))
+    return z[up:down + 1].max() / h

@@ -17,23 +17,15 @@ import pytest
 import signorini as sg
 from signorini import scenes
 
-import test_solver
-from test_solver import G, first_rebound_apex
+from helpers import block_on_slope, first_rebound_apex
+
+G = 9.81
 
 
 def static_omega(dt, contact_hertz=30.0, substeps=0):
     """omega (rad/s) of a contact with a static body: 2 pi * 2 * min(contact_hertz, h / 4)."""
     n = substeps or math.ceil(dt * 240 - 1e-9)
     return 2.0 * math.pi * 2.0 * min(contact_hertz, 0.25 * n / dt)
-
-
-@pytest.fixture
-def soft_worlds(monkeypatch):
-    """test_solver's scene builders make soft worlds."""
-    world = sg.World
-    monkeypatch.setattr(test_solver.sg, "World", lambda *a, **k: world(*a, **{"solver": "soft", **k}))
-    yield
-    monkeypatch.setattr(test_solver.sg, "World", world)
 
 
 @pytest.mark.parametrize("dt, hertz, substeps", [(1 / 60, 30.0, 0), (1 / 240, 30.0, 0), (1 / 60, 10.0, 8),
@@ -66,13 +58,19 @@ def test_a_box_rests_on_four_equal_springs():
 
 
 @pytest.mark.parametrize("dt", [1 / 240, 1 / 60])
-def test_block_slides_down_a_30_degree_slope_at_g_sin_minus_mu_cos(dt, soft_worlds):
-    test_solver.test_block_slides_down_a_30_degree_slope_at_g_sin_minus_mu_cos(dt)
+def test_block_slides_down_a_30_degree_slope_at_g_sin_minus_mu_cos(dt):
+    w, b, downhill = block_on_slope(0.5, dt, solver="soft")
+    w.step(dt, round(0.25 / dt))  # sliding from the first step; measure after the springs settle
+    t0, v0 = w.time, w.velocities[b] @ downhill
+    w.step(dt, round(2.0 / dt))
+    a = (w.velocities[b] @ downhill - v0) / (w.time - t0)
+    exact = G * (math.sin(math.radians(30)) - 0.5 * math.cos(math.radians(30)))  # 0.657 m/s^2
+    assert a == pytest.approx(exact, rel=1e-6)
 
 
 @pytest.mark.parametrize("dt", [1 / 240, 1 / 60])
-def test_block_holds_on_a_30_degree_slope_when_mu_exceeds_tan_30(dt, soft_worlds):
-    w, b, _ = test_solver.block_on_slope(0.7, dt)
+def test_block_holds_on_a_30_degree_slope_when_mu_exceeds_tan_30(dt):
+    w, b, _ = block_on_slope(0.7, dt, solver="soft")
     p0 = w.positions[b].copy()
     w.step(dt, round(2.0 / dt))
     # it moves only as far as its springs compress (g cos 30 / omega^2 = 0.06 mm, and the tilt of
@@ -90,9 +88,26 @@ def test_ball_with_e_half_rebounds_to_a_quarter_of_its_drop_height(dt, substeps)
     assert first_rebound_apex(dt, substeps=substeps, solver="soft") == pytest.approx(0.25, rel=0.04)
 
 
-def test_newtons_cradle_and_head_on_collisions_keep_momentum_and_energy(soft_worlds):
-    test_solver.test_newtons_cradle_passes_the_impact_speed_to_the_last_ball()
-    test_solver.test_head_on_collision_with_e_1_keeps_energy_and_e_0_sticks()
+def test_newtons_cradle_and_head_on_collisions_keep_momentum_and_energy():
+    # five equal frictionless spheres 2 cm apart, e = 1: each impact exchanges the velocities
+    w = sg.World(gravity=(0, 0, 0), solver="soft")
+    for k in range(5):
+        w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.22 * k, 0, 0), friction=0.0, restitution=1.0)
+    w.set_velocity(0, (1.0, 0, 0))
+    w.step(1 / 240, 480)
+    v = w.velocities[:, 0]
+    assert v[-1] == pytest.approx(1.0, rel=0.01) and np.all(np.abs(v[:-1]) < 0.01)
+    assert w.kinetic_energy() == pytest.approx(0.5, rel=1e-9)
+    # head on: e = 1 swaps the velocities, e = 0 stops both
+    for e, expected in ((1.0, (-1.0, 1.0)), (0.0, (0.0, 0.0))):
+        w = sg.World(gravity=(0, 0, 0), solver="soft")
+        a = w.add_body(sg.Sphere(0.1), mass=1.0, position=(-0.3, 0, 0), velocity=(1, 0, 0), friction=0.0,
+                       restitution=e)
+        b = w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.3, 0, 0), velocity=(-1, 0, 0), friction=0.0,
+                       restitution=e)
+        w.step(1 / 240, 240)
+        assert w.velocities[a][0] == pytest.approx(expected[0], abs=1e-12)
+        assert w.velocities[b][0] == pytest.approx(expected[1], abs=1e-12)
 
 
 @pytest.mark.parametrize("dt", [1 / 240, 1 / 60])

@@ -15,19 +15,9 @@ import signorini as sg
 from signorini import scenes
 from signorini.scenes import axis_angle_quaternion
 
+from helpers import block_on_slope, first_rebound_apex
+
 G = 9.81
-
-
-def block_on_slope(mu, dt, angle_deg=30.0):
-    """A 1 kg unit box resting on a plane tilted by angle about y; returns (world, body, downhill)."""
-    th = math.radians(angle_deg)
-    n = np.array([-math.sin(th), 0.0, math.cos(th)])
-    w = sg.World()
-    w.add_static(sg.Plane(normal=n, offset=0.0), friction=mu)
-    q = axis_angle_quaternion((0, 1, 0), -th)
-    b = w.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0, position=0.5 * n, orientation=q, friction=mu)
-    downhill = np.array([math.cos(th), 0.0, math.sin(th)]) * -1.0
-    return w, b, downhill
 
 
 @pytest.mark.parametrize("dt", [1 / 240, 1 / 60])
@@ -66,22 +56,6 @@ def test_box_pushed_sideways_below_mu_m_g_stays_above_it_accelerates(force):
     else:
         a = (w.velocities[b][0] - v0) / (w.time - t0)
         assert a == pytest.approx((force * m - mu * m * G) / m, rel=1e-6)
-
-
-def first_rebound_apex(dt, e=0.5, h=1.0, r=0.1, **settings):
-    """Apex of a sphere's first rebound over its drop height h (bottom of the sphere)."""
-    w = sg.World(**settings)
-    w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0), restitution=e)
-    b = w.add_body(sg.Sphere(r), mass=1.0, position=(0, 0, h + r), restitution=e)
-    z, vz = [], []
-    for _ in range(round(1.5 / dt)):
-        w.step(dt)
-        z.append(w.positions[b][2] - r)
-        vz.append(w.velocities[b][2])
-    z, vz = np.array(z), np.array(vz)
-    up = int(np.argmax(vz > 0))
-    down = up + int(np.argmax(vz[up:] <= 0))
-    return z[up:down + 1].max() / h
 
 
 @pytest.mark.parametrize("dt, substeps", [(1 / 1000, 1), (1 / 240, 4), (1 / 60, 8)])
