@@ -164,6 +164,7 @@ def test_summary_numbers():
     assert "ballistic" in text and "a.npz" in text and "b.png" in text and "last 1 s: 2 mm" in text
 
 
+@pytest.mark.slow
 def test_plot_writes_a_png(tmp_path):
     record = output.run(make_scene(steps=30), progress=False)
     path = output.plot(tmp_path / "run.png", record, make_scene(snapshot_times=(0.0, 0.1, 0.3)))

@@ -242,6 +242,7 @@ def test_hull_pairs_match_a_brute_force_support_search():
     print(f"{done} hull pairs: largest |gap - reference| = {worst:.2e} m")
 
 
+@pytest.mark.slow
 @pytest.mark.slots("polytope-polytope", role="random", note="hull corners apart")
 def test_separated_hull_corners_get_their_closest_pair():
     # Hulls apart whose closest points are a vertex of each, delta apart along a random unit d
