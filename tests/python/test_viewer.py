@@ -113,8 +113,12 @@ def test_the_view_command_serves_a_trajectory_until_stopped(tmp_path, record):
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(Path(signorini.__file__).resolve().parent.parent),
                                          env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    # the child gets Ctrl-C's default action even where pytest runs with SIGINT ignored (started in
+    # the background by a non-interactive shell: its children inherit the ignore, and Python then
+    # installs no KeyboardInterrupt handler, so the viewer would never stop)
     process = subprocess.Popen([sys.executable, "-m", "signorini", "view", str(path), "--port", str(port)],
-                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env)
+                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # the command prints its address once the viewer is built, then serves until Ctrl-C
     lines = []
     reader = threading.Thread(target=lambda: lines.extend(process.stdout), daemon=True)
