@@ -27,6 +27,7 @@ Tolerances (m):
     angle its gap tolerance allows, sqrt(4 tol / (rho + delta)) (normal_bound).
 """
 import math
+import os
 
 import numpy as np
 
@@ -42,6 +43,13 @@ FACE_COS = 0.995     # a face within acos(0.995) = 5.7 degrees of the normal is 
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
 Z = np.array([0.0, 0.0, 1.0])
 KINDS = {"sphere": ("sphere",), "capsule": ("capsule",), "cylinder": ("cylinder",), "polytope": ("box", "hull", "mesh")}
+FULL = os.environ.get("SIGNORINI_FULL", "") not in ("", "0")
+
+
+def sample(default, full):
+    """The size of a seeded random sample: `default` in the default suite, `full` with
+    SIGNORINI_FULL=1 (the default sample is the first `default` of the full one: same seed)."""
+    return full if FULL else default
 
 
 # --------------------------------------------------------------------------- shapes and floors

@@ -6,9 +6,12 @@ import importlib.util
 import math
 from pathlib import Path
 
+import pytest
+
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_cylinder_pairs.py"
 
 
+@pytest.mark.slow
 def test_every_cylinder_pair_type_prints_a_row(capsys):
     spec = importlib.util.spec_from_file_location("bench_cylinder_pairs", BENCH)
     bench = importlib.util.module_from_spec(spec)

@@ -23,6 +23,7 @@ def run_cli(*args, cwd=None):
     )
 
 
+@pytest.mark.slow
 def test_run_boxes_writes_record_and_picture(tmp_path):
     out = tmp_path / "out"
     result = run_cli("run", "boxes", "--steps", "50", "--out", str(out))
@@ -82,6 +83,7 @@ def test_list_names_every_scene():
         assert name in result.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", sorted(scenes.SCENES))
 def test_every_scene_writes_every_output(tmp_path, scene):
     out = tmp_path / "out"
@@ -155,6 +157,7 @@ def test_bad_output_options_exit_2(tmp_path, args, message):
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_work_longer_than_a_second_shows_a_progress_bar(tmp_path):
     # 0.5 s of the shapes scene drawn at 240 pictures per second: 121 pictures, a few seconds of
     # rendering, so the video's bar appears (test_every_scene_writes_every_output checks that

@@ -13,6 +13,7 @@ from signorini import compare, oracle
 from signorini.meshes import box_mesh, icosphere, torus
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres", "torus", "boxes", "stack", "spinners"])
 def test_one_step_agrees_to_1e_10(scene):
     world, dt, steps = compare.build(scene)
@@ -22,6 +23,7 @@ def test_one_step_agrees_to_1e_10(scene):
     assert world.solver_stats.contacts > 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", ["tumbling_box", "mesh_drop", "spheres", "stack", "spinners"])
 def test_free_rollout_agrees_over_500_steps_to_1e_8(scene):
     # one substep a step: with the default 4 (carried contacts, checked step by step to 1e-10 by

@@ -93,6 +93,7 @@ def test_usd_has_one_xform_per_body_with_time_samples(tmp_path, record):
         np.testing.assert_allclose(np.array(mesh.GetPointsAttr().Get()), record.draw_meshes[i][0], atol=1e-6)
 
 
+@pytest.mark.slow
 def test_video_frame_count_and_size(tmp_path, record):
     import imageio.v2 as imageio
 

@@ -99,6 +99,7 @@ def npy_header(shape, descr="<f8") -> bytes:
     return buf.getvalue()
 
 
+@pytest.mark.slow
 def test_trajectory_bomb_is_refused_from_its_headers_in_little_memory(trajectory_file, tmp_path):
     # reproducer: a few MB of deflated zeros standing for 3.17 GB of positions
     path = tmp_path / "bomb.npz"
@@ -469,6 +470,7 @@ def test_deep_mjcf_is_refused_in_little_memory(tmp_path):
     assert out["rss_mb"] < 16, out
 
 
+@pytest.mark.slow
 def test_unterminated_quotes_are_scanned_in_linear_time(trajectory_file, tmp_path):
     # the depth scans restarted a string match at every quote of '"\"\"\"...': quadratic (hours here)
     quotes = '"' + '\\"' * 200_000

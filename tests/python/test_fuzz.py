@@ -92,6 +92,7 @@ def test_the_checks_catch_a_tunnelled_body_and_an_energy_gain():
     assert result["failures"] == {} and result["max_energy_gain"] < 1e-6
 
 
+@pytest.mark.slow
 def test_a_scene_runs_alone_and_prints_its_reproducer_line():
     out = subprocess.run([sys.executable, "-m", "signorini.fuzz", "--scene", "5:3", "--json"],
                          capture_output=True, text=True, timeout=300, check=True).stdout
@@ -108,6 +109,7 @@ def sample():
     return report, lines
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["crash", "timeout", "exception", "nonfinite", "explosion", "tunnel", "off_shape",
                                   "energy"])
 def test_a_seeded_sample_meets_the_targets(sample, kind):
@@ -129,6 +131,7 @@ def test_scenes_that_had_contact_points_off_their_shapes_are_clean(name):
     assert result["max_point_error"] < 1e-6
 
 
+@pytest.mark.slow
 def test_the_summary_counts_every_scene(sample):
     report, lines = sample
     assert len(report["results"]) == SAMPLE_SCENES

@@ -15,6 +15,7 @@ pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="fork, RLIMIT_AS
 pytest.importorskip("trimesh")
 
 
+@pytest.mark.slow
 def test_mutated_files_end_only_in_their_loaders_documented_errors():
     # 240 files, 40 of each kind (about 15 s on one core)
     summary = fuzz_files.run(240, seed=26)

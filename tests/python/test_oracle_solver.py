@@ -578,6 +578,7 @@ def test_midpoint_rule_solves_its_equation():
     np.testing.assert_allclose(o.free_rotation(I, w, dt, "implicit"), expected, rtol=1e-15)
 
 
+@pytest.mark.slow
 def test_midpoint_keeps_energy_and_momentum_of_the_tennis_racket():
     # 20 rad/s about the unstable middle axis flips over and over in 10 s; the midpoint rule keeps
     # 1/2 w.I w and |I w| exactly but for rounding, ~eps per step: 2400 steps random-walk to ~1e-13,
@@ -590,6 +591,7 @@ def test_midpoint_keeps_energy_and_momentum_of_the_tennis_racket():
     assert np.min(np.einsum("kji,kj->ki", out["rotation"][:, 0], out["angular_velocity"][:, 0])[:, 1]) < -10
 
 
+@pytest.mark.slow
 def test_implicit_loses_energy_and_explicit_gains():
     # Catto's backward-Euler step dissipates every step (44% in these 10 s), the explicit term
     # adds dt^2/2 |I^-1 (w x I w)|_I^2 every step (+127%).  Per step allowance: rounding, 4 eps E.

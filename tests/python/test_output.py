@@ -206,6 +206,7 @@ def test_energy_change_text_for_a_loss_a_gain_and_rounding():
     assert output.energy_change_text(0.0, 0.0).startswith("kept")
 
 
+@pytest.mark.slow
 def test_plot_writes_a_png(tmp_path):
     record = output.run(make_scene(steps=30), progress=False)
     path = output.plot(tmp_path / "run.png", record, make_scene(snapshot_times=(0.0, 0.1, 0.3)))

@@ -52,6 +52,7 @@ def run(name: str):
     return world
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(PINNED))
 def test_busy_scene_ends_in_its_pinned_state(name):
     world = run(name)

@@ -71,6 +71,7 @@ def boxes_of(page, bodies):
     return [page.evaluate(f"window.signoriniPlayer.screenBox({i})") for i in bodies]
 
 
+@pytest.mark.slow
 def test_player_replays_offline_and_only_moving_bodies_change_pixels(browser, page_file):
     path, record = page_file
     page, errors, requests = open_page(browser, path)
@@ -123,6 +124,7 @@ def test_player_replays_offline_and_only_moving_bodies_change_pixels(browser, pa
     assert errors == []
 
 
+@pytest.mark.slow
 def test_player_controls_toggle_layers_and_play(browser, page_file):
     path, record = page_file
     page, errors, _ = open_page(browser, path)

@@ -117,6 +117,7 @@ def test_multi_point_manifolds_get_no_spin_row_and_their_results_do_not_change()
     assert np.all(np.abs(w.angular_velocities[1:, 2]) < [2.0, 3.0, 4.0, 3.0])
 
 
+@pytest.mark.slow
 def test_spin_rows_agree_with_the_oracle_contact_by_contact():
     # the compare scene "spinners" (spheres on the ground and on a sphere, an upright capsule), one
     # step at a time from the core's state and contacts: torques, forces and the next cache as the

@@ -94,6 +94,7 @@ def slot_pair(slot, seed, k, regime=None, flats=None):
     return a, b, d, delta, rho, regime
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("slot", [pytest.param(s, marks=pytest.mark.slots(s, role="random")) for s in SLOTS])
 def test_random_item_pairs(slot):
     # slot: the item-kind pair named (Sphere, Capsule, Cylinder, Polytope = box, hull, convex mesh
@@ -328,6 +329,7 @@ def height_over(V, n_t, b):
     return n_t @ (b.p + b.R @ b.body.support(b.R.T @ -n_t)[0] - V[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slots("trimesh-" + k, role="random",
                                                                           note="a lone triangle"))
                                   for k in STATIC_KINDS])

@@ -77,6 +77,7 @@ def test_live_scene_steps_the_simulator_and_can_be_scrubbed_back():
         viewer.stop()
 
 
+@pytest.mark.slow
 def test_a_browser_connects_to_the_viewer(replay):
     with playwright.sync_playwright() as p:
         browser = launch(p)
@@ -95,6 +96,7 @@ def test_a_browser_connects_to_the_viewer(replay):
             browser.close()
 
 
+@pytest.mark.slow
 def test_the_view_command_serves_a_trajectory_until_stopped(tmp_path, record):
     """``python -m signorini view FILE`` as a user runs it: it serves, then Ctrl-C ends it cleanly."""
     import os
@@ -111,8 +113,12 @@ def test_the_view_command_serves_a_trajectory_until_stopped(tmp_path, record):
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(Path(signorini.__file__).resolve().parent.parent),
                                          env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    # the child gets Ctrl-C's default action even where pytest runs with SIGINT ignored (started in
+    # the background by a non-interactive shell: its children inherit the ignore, and Python then
+    # installs no KeyboardInterrupt handler, so the viewer would never stop)
     process = subprocess.Popen([sys.executable, "-m", "signorini", "view", str(path), "--port", str(port)],
-                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env)
+                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # the command prints its address once the viewer is built, then serves until Ctrl-C
     lines = []
     reader = threading.Thread(target=lambda: lines.extend(process.stdout), daemon=True)
@@ -180,6 +186,7 @@ def test_own_origin_for_each_kind_of_bind(bind, origin, host, accepted):
     assert own_origin(origin, bind, 8080, host) is accepted
 
 
+@pytest.mark.slow
 def test_in_a_browser_only_the_viewers_own_page_opens_the_websocket(replay, tmp_path):
     """Chromium sends the Origin itself: from the viewer's page the websocket opens; from a page of
     another local server (another origin) it is refused and no client appears."""

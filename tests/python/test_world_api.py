@@ -186,6 +186,7 @@ def test_bad_batches_leave_the_world_unchanged(call, error, words):
 
 # ---- saved states and pickling -----------------------------------------------------------------
 
+@pytest.mark.slow
 def test_restore_state_continues_bit_identically_on_the_pyramid():
     w = scenes.build("pyramid").world
     w.step(DT, 60)
@@ -364,6 +365,7 @@ def test_pickled_world_steps_bit_identically():
     assert fingerprint(w2) == fingerprint(w)
 
 
+@pytest.mark.slow
 def test_pickled_pyramid_steps_bit_identically():
     w = scenes.build("pyramid").world
     w.step(DT, 30)
@@ -430,6 +432,7 @@ def test_remove_body_mid_run_renumbers_contacts_and_the_cache():
     assert np.allclose(w.positions[1:, 2], 0.5, atol=2e-3)
 
 
+@pytest.mark.slow
 def test_remove_bodies_is_remove_body_of_each_in_one_pass():
     # a pile mid-run: removing five bodies at once leaves the same world, bit for bit (state,
     # names, contacts, warm-start cache and the run after) as removing them one by one
@@ -742,6 +745,7 @@ def test_readme_scripting_further_snippet_runs():
 
 # ---- the oracle follows kinematic, disabled and filtered bodies ----------------------------------
 
+@pytest.mark.slow
 def test_kinematic_disabled_and_filtered_bodies_agree_with_the_oracle():
     from signorini import compare
     w = sg.World(tolerance=0.0)  # every stage to its sweep limit: no stopping test on rounding
@@ -759,6 +763,7 @@ def test_kinematic_disabled_and_filtered_bodies_agree_with_the_oracle():
     assert w.positions[4].tolist() == [1.0, 0, 0.1]
 
 
+@pytest.mark.slow
 def test_impulses_and_one_step_forces_agree_with_an_oracle_rollout():
     from signorini import compare
     w = sg.World(tolerance=0.0, substeps=2)
