@@ -3,8 +3,8 @@
 # package itself (editable, built by scikit-build-core into the cached build/ folder, so a warm
 # rebuild only recompiles what changed; the build shows its progress).
 #   bash scripts/install.sh           # runtime: what 'python3 -m signorini run' needs (README command 1)
-#   bash scripts/install.sh --test    # and the test tools: GoogleTest, Chromium, pytest, scipy,
-#                                     # playwright, mujoco, pybind11-stubgen, import-linter, pybullet
+#   bash scripts/install.sh --test    # and the test tools: GoogleTest, Chromium, pytest, pytest-xdist,
+#                                     # scipy, playwright, mujoco, pybind11-stubgen, import-linter, pybullet
 #                                     # (its pybullet_data meshes) (README command 2)
 # Runtime: the compiler, CMake, ninja, Eigen 3.4, FCL 0.7 and libccd, Qhull (Debian packages), the
 # Python build tools and the pyproject dependencies. Test: GoogleTest and Chromium (the browser
@@ -42,8 +42,8 @@ export PIP_BREAK_SYSTEM_PACKAGES=1 PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_ROOT_USER
 runtime=("scikit-build-core>=0.10" "pybind11==3.1.0" "numpy>=1.22" "matplotlib>=3.6" "tqdm>=4.60" "coacd>=1.0"
          "pythreejs>=2.4" "pillow>=9" "imageio>=2.20" "imageio-ffmpeg>=0.4.8" "pygltflib>=1.15" "usd-core>=23.0"
          "viser>=1.0" "trimesh>=4" "networkx>=2.6" "pydantic>=2" "tomli-w>=1")
-tests=("pytest>=7" "scipy>=1.8" "playwright>=1.40" "mujoco>=3" "pybind11-stubgen==3.0.0" "import-linter>=2.17"
-       "pybullet>=3.2.6")
+tests=("pytest>=7" "pytest-xdist>=3" "scipy>=1.8" "playwright>=1.40" "mujoco>=3" "pybind11-stubgen==3.0.0"
+       "import-linter>=2.17" "pybullet>=3.2.6")
 # runs a command showing only its lines that match a pattern; its exit status is the command's (pipefail)
 show() { local pattern=$1; shift; "$@" 2>&1 | { grep --line-buffered -E "$pattern" || true; }; }
 
