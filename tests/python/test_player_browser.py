@@ -149,8 +149,11 @@ def test_player_controls_toggle_layers_and_play(browser, page_file):
         settle(page)
         assert np.array_equal(view(), bare), toggle
 
-    # the play button runs the clock from the start; pause stops it
+    # the play button runs the clock from the start; pause stops it (at a quarter speed the 0.5 s
+    # recording plays for 2 s, so a loaded machine still clicks pause before it reaches the end
+    # and stops by itself, when the click would start it again)
     page.keyboard.press("Home")
+    page.select_option("#speed", "0.25")
     settle(page)
     page.click("#play")
     page.wait_for_function("window.signoriniPlayer.frame > 10")
