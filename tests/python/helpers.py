@@ -381,3 +381,26 @@ def first_rebound_apex(dt, e=0.5, h=1.0, r=0.1, **settings):
     up = int(np.argmax(vz > 0))
     down = up + int(np.argmax(vz[up:] <= 0))
     return z[up:down + 1].max() / h
+
+
+def newtons_cradle(**world_kwargs):
+    """Five equal frictionless 1 kg spheres (r = 0.1 m) 2 cm apart on the x axis, e = 1, no gravity,
+    the first at 1 m/s towards the others, after 2 s of dt 1/240 in World(**world_kwargs)."""
+    w = sg.World(gravity=(0, 0, 0), **world_kwargs)
+    for k in range(5):
+        w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.22 * k, 0, 0), friction=0.0, restitution=1.0)
+    w.set_velocity(0, (1.0, 0, 0))
+    w.step(1 / 240, 480)
+    return w
+
+
+def head_on_velocities(e, **world_kwargs):
+    """Two frictionless 1 kg spheres meeting head on at 1 m/s each with restitution e, no gravity:
+    their x velocities after 1 s of dt 1/240 in World(**world_kwargs)."""
+    w = sg.World(gravity=(0, 0, 0), **world_kwargs)
+    a = w.add_body(sg.Sphere(0.1), mass=1.0, position=(-0.3, 0, 0), velocity=(1, 0, 0), friction=0.0,
+                   restitution=e)
+    b = w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.3, 0, 0), velocity=(-1, 0, 0), friction=0.0,
+                   restitution=e)
+    w.step(1 / 240, 240)
+    return w.velocities[a][0], w.velocities[b][0]

@@ -17,7 +17,7 @@ import pytest
 import signorini as sg
 from signorini import scenes
 
-from helpers import block_on_slope, first_rebound_apex
+from helpers import block_on_slope, first_rebound_apex, head_on_velocities, newtons_cradle
 
 G = 9.81
 
@@ -90,24 +90,15 @@ def test_ball_with_e_half_rebounds_to_a_quarter_of_its_drop_height(dt, substeps)
 
 def test_newtons_cradle_and_head_on_collisions_keep_momentum_and_energy():
     # five equal frictionless spheres 2 cm apart, e = 1: each impact exchanges the velocities
-    w = sg.World(gravity=(0, 0, 0), solver="soft")
-    for k in range(5):
-        w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.22 * k, 0, 0), friction=0.0, restitution=1.0)
-    w.set_velocity(0, (1.0, 0, 0))
-    w.step(1 / 240, 480)
+    w = newtons_cradle(solver="soft")
     v = w.velocities[:, 0]
     assert v[-1] == pytest.approx(1.0, rel=0.01) and np.all(np.abs(v[:-1]) < 0.01)
     assert w.kinetic_energy() == pytest.approx(0.5, rel=1e-9)
     # head on: e = 1 swaps the velocities, e = 0 stops both
     for e, expected in ((1.0, (-1.0, 1.0)), (0.0, (0.0, 0.0))):
-        w = sg.World(gravity=(0, 0, 0), solver="soft")
-        a = w.add_body(sg.Sphere(0.1), mass=1.0, position=(-0.3, 0, 0), velocity=(1, 0, 0), friction=0.0,
-                       restitution=e)
-        b = w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.3, 0, 0), velocity=(-1, 0, 0), friction=0.0,
-                       restitution=e)
-        w.step(1 / 240, 240)
-        assert w.velocities[a][0] == pytest.approx(expected[0], abs=1e-12)
-        assert w.velocities[b][0] == pytest.approx(expected[1], abs=1e-12)
+        va, vb = head_on_velocities(e, solver="soft")
+        assert va == pytest.approx(expected[0], abs=1e-12)
+        assert vb == pytest.approx(expected[1], abs=1e-12)
 
 
 @pytest.mark.parametrize("dt", [1 / 240, 1 / 60])

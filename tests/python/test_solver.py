@@ -15,7 +15,7 @@ import signorini as sg
 from signorini import scenes
 from signorini.scenes import axis_angle_quaternion
 
-from helpers import FULL, block_on_slope, first_rebound_apex
+from helpers import FULL, block_on_slope, first_rebound_apex, head_on_velocities, newtons_cradle
 
 G = 9.81
 
@@ -68,11 +68,7 @@ def test_ball_with_e_half_rebounds_to_a_quarter_of_its_drop_height(dt, substeps)
 
 def test_newtons_cradle_passes_the_impact_speed_to_the_last_ball():
     # five equal frictionless spheres 2 cm apart, e = 1: each impact exchanges the velocities
-    w = sg.World(gravity=(0, 0, 0))
-    balls = [w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.22 * k, 0, 0), friction=0.0, restitution=1.0)
-             for k in range(5)]
-    w.set_velocity(balls[0], (1.0, 0, 0))
-    w.step(1 / 240, 480)
+    w = newtons_cradle()
     v = w.velocities[:, 0]
     assert v[-1] == pytest.approx(1.0, rel=0.01)
     assert np.all(np.abs(v[:-1]) < 0.01)
@@ -81,14 +77,9 @@ def test_newtons_cradle_passes_the_impact_speed_to_the_last_ball():
 
 def test_head_on_collision_with_e_1_keeps_energy_and_e_0_sticks():
     for e, expected in ((1.0, (-1.0, 1.0)), (0.0, (0.0, 0.0))):
-        w = sg.World(gravity=(0, 0, 0))
-        a = w.add_body(sg.Sphere(0.1), mass=1.0, position=(-0.3, 0, 0), velocity=(1, 0, 0), friction=0.0,
-                       restitution=e)
-        b = w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.3, 0, 0), velocity=(-1, 0, 0), friction=0.0,
-                       restitution=e)
-        w.step(1 / 240, 240)
-        assert w.velocities[a][0] == pytest.approx(expected[0], abs=1e-12)
-        assert w.velocities[b][0] == pytest.approx(expected[1], abs=1e-12)
+        va, vb = head_on_velocities(e)
+        assert va == pytest.approx(expected[0], abs=1e-12)
+        assert vb == pytest.approx(expected[1], abs=1e-12)
 
 
 @pytest.mark.parametrize("dt", [1 / 240, 1 / 60])

@@ -135,10 +135,6 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
     data.v_move[i] = data.v_pos[i] + data.qd_p[i].v;
     data.omega_move[i] = data.omega_pos[i] + data.qd_p[i].omega;
   }
-  stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
-  stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);
-  stats.max_cone_violation = std::max(stats.max_cone_violation, 0.0);
-  stats.max_overlap = std::max(stats.max_overlap, 0.0);
   return stats;
 }
 

@@ -345,6 +345,11 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   if (!std::is_sorted(d.cache_next.begin(), d.cache_next.end(), before))
     std::sort(d.cache_next.begin(), d.cache_next.end(), before);
   d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(), same_key), d.cache_next.end());
+  // maxima of violations: 0 when nothing violates (and when there are no contacts)
+  stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
+  stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);
+  stats.max_cone_violation = std::max(stats.max_cone_violation, 0.0);
+  stats.max_overlap = std::max(stats.max_overlap, 0.0);
 }
 
 }  // namespace signorini::solver::rows

@@ -209,7 +209,7 @@ int restitution(const SolverSettings& s, SolverData& d);
 
 /// Forces and velocities per contact (from d.alpha and d.qd), summed forces per body, the next
 /// cache (normal forces d.alpha_iter), the certificate (against each row's bias, or e u for a
-/// restitutive contact). c.impulse = dt alpha.
+/// restitutive contact; its violation maxima at least 0). c.impulse = dt alpha.
 void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats);
 
 }  // namespace signorini::solver::rows

@@ -206,10 +206,6 @@ SolverStats soft_end(const Model& model, const State& /*state*/, const SolverSet
   // a fixed number of sweeps by design: never flagged as unconverged (the certificate says what
   // the contacts satisfy)
   stats.converged = true;
-  stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
-  stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);
-  stats.max_cone_violation = std::max(stats.max_cone_violation, 0.0);
-  stats.max_overlap = std::max(stats.max_overlap, 0.0);
   return stats;
 }
 
