@@ -158,7 +158,8 @@ def test_one_world_hammered_from_four_threads():
             rng = np.random.default_rng(2)
             for k in range(25):
                 w.step(DT)
-                p, v = np.array(w.positions), np.array(w.velocities)
+                with w.lock:  # two reads as one unit: another thread may add a body between them
+                    p, v = np.array(w.positions), np.array(w.velocities)
                 assert p.shape == v.shape and p.shape[0] >= MAIN
                 c = w.contacts
                 assert len(c.body_a) == len(c.point) == len(c.alpha)
