@@ -140,11 +140,12 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   if (settings.warm_start) recall_forces(settings, contacts, d);
 }
 
-void soft_solve(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
+void soft_solve(const Model& /*model*/, const State& /*state*/, const SolverSettings& settings, std::vector<Vec3>& v,
                 std::vector<Vec3>& omega, SolverData& d) {
   load(v, omega, d);
   apply_forces(d);  // the last substep's forces (the cache's in the first) as this one's first guess
-  update_gaps(model, state, d);
+  // the gaps are those soft_relax left (or soft_begin's in the first substep): the poses have not
+  // moved since
   // the approach of each contact that has not pushed yet, for restitution if it pushes now
   for (std::size_t k = 0; k < d.soft.size(); ++k)
     if (d.soft[k].alpha_max == 0.0) d.soft[k].u_before = row_velocity(d.rows[3 * k], d.qd);
