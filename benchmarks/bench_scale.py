@@ -46,6 +46,9 @@ chunk's ms/step is its total over its length. ms/step is the median over the chu
 ``--repeats`` runs, with the 25-75 % range. "sg/this" is signorini's first row (its defaults, else the soft step) over the row's.
 ``--box3d PATH`` also runs Box3D's own benchmark app on the matching scene (1 thread, its own
 scene at its own size and sleeping, in a child process after ours) and prints its ms/step.
+``--box3d-sag PATH`` runs ``benchmarks/box3d/pyramid_sag.c`` (built against a Box3D checkout, see
+its header) for large_pyramid over the same simulated time and dt, 4 substeps, and prints Box3D's
+largest box displacement in the box3d app row's "max disp m", judged by the same 1 cm rule.
 
 Quality, at the end of the first repeat: the largest displacement of a dynamic body from its start
 (m; a pyramid stands when every box stays within 1 cm), the deepest penetration now (m), the
@@ -552,7 +555,7 @@ def make_rows(name, variants, info, quality, available) -> list[dict]:
     for row_name, kinds in by_row.items():
         ms, q1, q3 = _median(kinds["main"].times)
         row = {"scene": name, "engine": row_name, "size": info["size"], "bodies": info["bodies"],
-               "steps": info["steps"],
+               "steps": info["steps"], "dt": info["dt"], "settle": info["settle"] or 0,
                "ms": ms, "q1": q1, "q3": q3, "ratio": None, "threads2_ms": None, "sleep_ratio": None,
                **quality.get(row_name, {})}
         if "threads" in kinds:
@@ -606,6 +609,23 @@ def run_box3d(path: str, name: str, repeats: int, timeout: float = 1800.0) -> di
     return {"ms": ms, "q1": q1, "q3": q3, "steps": steps, "runs": len(totals)}
 
 
+BOX3D_SAG = re.compile(r"^result steps=(\d+) max_disp=([0-9.eE+-]+) top_dz=([0-9.eE+-]+) boxes_over_1cm=(\d+)")
+
+
+def run_box3d_sag(path: str, steps: int, dt: float, timeout: float = 3600.0) -> dict:
+    """``pyramid_sag`` (benchmarks/box3d/pyramid_sag.c) for ``steps`` steps of ``dt`` with 4
+    substeps. Returns {"displacement", "top_dz", "over"} (m, m, boxes beyond 1 cm) or {"error"}."""
+    try:
+        done = subprocess.run([os.path.abspath(path), str(steps), "4", repr(1.0 / dt)], capture_output=True,
+                              text=True, timeout=timeout)
+    except (OSError, subprocess.TimeoutExpired) as error:
+        return {"error": str(error)}
+    for line in done.stdout.splitlines():
+        if m := BOX3D_SAG.match(line):
+            return {"displacement": float(m.group(2)), "top_dz": float(m.group(3)), "over": int(m.group(4))}
+    return {"error": f"exit {done.returncode}: {(done.stdout + done.stderr)[-300:]}"}
+
+
 COLUMNS = [  # header, width, row key, format (None: the row's own text)
     ("scene", 13, "scene", "s"), ("engine", 14, "engine", "s"), ("bodies", 6, "bodies", "d"),
     ("steps", 5, "steps", "d"), ("ms/step", 9, "ms", ".3f"), ("25-75 %", 17, "range", None),
@@ -628,7 +648,7 @@ def format_table(rows) -> str:
         cells = []
         for _, width, key, fmt in COLUMNS:
             if key == "range":
-                text = f"{row['q1']:.3f}-{row['q3']:.3f}"
+                text = "-" if row.get("q1") is None else f"{row['q1']:.3f}-{row['q3']:.3f}"
             elif row.get(key) is None:
                 text = "-"
             elif fmt is None:
@@ -657,6 +677,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--substeps", type=int, default=1, help="substeps of the --sweeps row (default 1)")
     parser.add_argument("--box3d", default=None, metavar="PATH", help="Box3D's benchmark app, run on the "
                         "matching scenes for a same-machine calibration")
+    parser.add_argument("--box3d-sag", default=None, metavar="PATH", help="benchmarks/box3d/pyramid_sag.c built "
+                        "against Box3D: its large_pyramid's largest box displacement, same time and dt")
     args = parser.parse_args(argv)
     names = [n.strip() for n in args.scenes.split(",") if n.strip()]
     if unknown := [n for n in names if n not in SCENES]:
@@ -704,12 +726,28 @@ def main(argv: list[str] | None = None) -> list[dict]:
                 rows.append({"scene": name, "engine": "box3d app", "bodies": None, "steps": result["steps"],
                              "ms": result["ms"], "q1": result["q1"], "q3": result["q3"],
                              "ratio": base / result["ms"] if base else None, "threads2": "-", "sleep": "-"})
+        if args.box3d_sag and name == "large_pyramid" and not args.tiny and scene_rows:
+            ours = scene_rows[0]
+            sag_steps = ours["settle"] + ours["steps"]  # the simulated time our quality columns saw
+            sag = run_box3d_sag(args.box3d_sag, sag_steps, ours["dt"])
+            if "error" in sag:
+                print(f"  {name}: Box3D pyramid_sag failed: {sag['error']}")
+            else:
+                row = next((r for r in rows if r["scene"] == name and r["engine"] == "box3d app"), None)
+                if row is None:
+                    row = {"scene": name, "engine": "box3d app", "bodies": None, "steps": sag_steps,
+                           "ms": None, "q1": None, "q3": None, "ratio": None, "threads2": "-", "sleep": "-"}
+                    rows.append(row)
+                row["displacement"] = sag["displacement"]
+                print(f"  {name}: Box3D's own solver (pyramid_sag, {sag_steps} steps, 4 substeps): "
+                      f"largest box displacement {sag['displacement']:.3f} m, top box {sag['top_dz']:+.3f} m, "
+                      f"{sag['over']} boxes beyond 1 cm")
 
     print()
     print(format_table(rows))
     print()
     for row in rows:
-        if row["engine"] != "box3d app" and row.get("displacement") is not None and _stands_scene(row["scene"]):
+        if row.get("displacement") is not None and _stands_scene(row["scene"]):
             held = row["displacement"] < 0.01
             if row["scene"] == "sleep":
                 verdict = "stays settled" if held else "moves"
