@@ -124,14 +124,15 @@ void register_world(py::module_& m) {
                                          py::make_tuple(py::handle(PyExc_IndexError), py::handle(PyExc_ValueError)));
 
   py::class_<World>(m, "World")
-      .def(py::init([](const Vec3& gravity, double margin, const SolverSettings& solver) {
+      .def(py::init([](const Vec3& gravity, double margin, const SolverSettings& solver, int threads) {
              WorldSettings s;
              s.gravity = gravity;
              s.contact_margin = margin;
              s.solver = solver;
+             s.threads = threads;
              return std::make_unique<World>(s);
            }),
-           py::arg("gravity"), py::arg("contact_margin"), py::arg("solver"))
+           py::arg("gravity"), py::arg("contact_margin"), py::arg("solver"), py::arg("threads") = 0)
       .def(
           "add_body",
           [](World& w, const py::object& shape, bool is_static, bool is_kinematic, std::optional<double> density,
@@ -270,6 +271,13 @@ void register_world(py::module_& m) {
       .def_property_readonly("gravity", [](const World& w) { return w.settings().gravity; })
       .def_property_readonly("contact_margin", [](const World& w) { return w.settings().contact_margin; })
       .def_property_readonly("solver", [](const World& w) { return w.settings().solver; })
+      .def_property_readonly("threads", [](const World& w) { return w.settings().threads; })
+      .def("set_threads", [](World& w, int threads) {
+        const auto held = w.lock();  // read, change, write as one call
+        WorldSettings s = w.settings();
+        s.threads = threads;
+        w.set_settings(s);
+      }, py::arg("threads"))
       // last step
       .def_property_readonly("contacts", [](const World& w) { return bindings::contact_views(w.shared_contacts()); })
       .def(

@@ -20,7 +20,7 @@ case "${1:-}" in
   *) echo "usage: bash scripts/install.sh [--test]" >&2; exit 2 ;;
 esac
 
-packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libqhull-dev)
+packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libqhull-dev libtbb-dev)
 [ "$with_tests" = 1 ] && packages+=(libgtest-dev chromium)
 python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip)
 # the extension compiles against Python.h

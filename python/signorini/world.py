@@ -185,6 +185,16 @@ def _solver_settings(who: str, current=None, **given):
     return s
 
 
+def _threads(who: str, threads) -> Optional[int]:
+    """threads as given: None (the machine's cores) or an int >= 1, else a TypeError / ValueError."""
+    if threads is None:
+        return None
+    threads = as_count(threads, who, "threads")
+    if threads < 1:
+        raise ValueError(f"{who}: threads must be >= 1 (or None for the machine's cores), got {threads}")
+    return threads
+
+
 def _locked(method):
     """The method, run holding its world's lock (``World.lock``)."""
     @functools.wraps(method)
@@ -251,15 +261,18 @@ class World:
                  restitution_threshold: float = 0.5, friction_cone: str = "pyramid",
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
                  warn_velocity: float = 0.01, solver: str = "pgs", contact_hertz: float = 30.0,
-                 damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1):
+                 damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1,
+                 threads: Optional[int] = None):
         g = as_vector(gravity, 3, "World", "gravity")
+        given_threads = _threads("World", threads)
         settings = _solver_settings(
             "World", erp=erp, tolerance=tolerance, max_iterations=max_iterations, slop=slop,
             max_push_velocity=max_push_velocity, restitution_threshold=restitution_threshold,
             friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
             warn_velocity=warn_velocity, solver=solver, contact_hertz=contact_hertz, damping_ratio=damping_ratio,
             soft_iterations=soft_iterations, relax_iterations=relax_iterations)
-        self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), settings)
+        self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), settings, given_threads or 0)
+        self._threads = given_threads  # as given (None: the machine's cores), for pickles
         # held by every method and property (see World.lock); kept by __setstate__
         self._lock = self.__dict__.get("_lock") or threading.RLock()
         # what each body was added with, in index order (save_scene writes a body that has not
@@ -275,6 +288,19 @@ class World:
         make several calls one unit, such as ``remove_body(find(name))`` or a ``save_state`` and
         the ``restore_state`` that undoes another thread's steps (README "Threads")."""
         return self._lock
+
+    @property
+    @_locked
+    def threads(self) -> int:
+        """The step's worker threads (README "Threads"): results are bit-identical for every count."""
+        return self._core.threads
+
+    @_locked
+    def set_threads(self, threads: Optional[int]) -> None:
+        """Sets the step's worker threads (an integer >= 1; None: the machine's cores)."""
+        given = _threads("set_threads", threads)
+        self._core.set_threads(given or 0)
+        self._threads = given
 
     @_locked
     def set_solver(self, **settings) -> None:
@@ -606,14 +632,15 @@ class World:
         bodies = [{"shape": c.shape(i), **model} for i, model in enumerate(codec.body_models(self))]
         return {"version": 1, "gravity": np.array(c.gravity), "contact_margin": c.contact_margin,
                 "solver": self.solver, "bodies": bodies, "excluded_pairs": list(c.excluded_pairs),
-                "state": self.save_state(), "given": [None if g is None else tuple(g) for g in self._args]}
+                "state": self.save_state(), "given": [None if g is None else tuple(g) for g in self._args],
+                "threads": self._threads}
 
     def __setstate__(self, d: dict) -> None:
         """Builds the pickled world in a new core, then (holding the lock) puts it in place of this
         world's: a thread using this World sees the old world or the new one, never half of each."""
         if d.get("version") != 1:
             raise ValueError(f"World: cannot unpickle version {d.get('version')!r} (this is version 1)")
-        new = World(gravity=d["gravity"], contact_margin=d["contact_margin"], **d["solver"])
+        new = World(gravity=d["gravity"], contact_margin=d["contact_margin"], threads=d.get("threads"), **d["solver"])
         new._fill(d)
         lock = self.__dict__.setdefault("_lock", threading.RLock())
         with lock:

@@ -132,6 +132,33 @@ TEST(Allocation, StepsOfABusyPileAllocateNothingAfterWarmUp) {
   EXPECT_GT(w.contacts().size(), 100u);
 }
 
+/// Steps on two threads (the soft step and the PGS): a 17 x 17 grid of boxes on a plane, so that
+/// a colour holds more contacts than one task and the solve is split over the threads; oneTBB's
+/// tasks come from its own pools once warm.
+TEST(Allocation, StepsOnTwoThreadsAllocateNothingAfterWarmUp) {
+  for (SolverMethod method : {SolverMethod::Soft, SolverMethod::PGS}) {
+    WorldSettings settings;
+    settings.threads = 2;
+    settings.solver.method = method;
+    settings.solver.max_iterations = 4;
+    World w(settings);
+    BodyDesc ground;
+    ground.is_static = true;
+    ground.shape = Plane(Vec3(0, 0, 1), 0.0);
+    w.add_body(ground);
+    for (int i = 0; i < 17; ++i)
+      for (int j = 0; j < 17; ++j) {
+        BodyDesc d;
+        d.shape = Box(Vec3(0.1, 0.1, 0.1));
+        d.density = 500.0;
+        d.position = Vec3(0.3 * i, 0.3 * j, 0.12);
+        w.add_body(d);
+      }
+    expect_quiet(allocations_after_warm_up(w, 1.0 / 240.0));
+    EXPECT_EQ(w.contacts().size(), 4u * 289u);  // each box on four corners: 289 in each of 4 colours
+  }
+}
+
 TEST(Allocation, StepsOfABusyPileWithSpinRowsAllocateNothingAfterWarmUp) {
   World w;
   build_pit(w, 0.002);

@@ -137,6 +137,57 @@ TEST(World, SoftStepSettingsOutOfRangeAreRefusedAndTheWorldIsUnchanged) {
   }
 }
 
+/// A 20 x 20 grid of tilted box stacks of 3 falling on a plane: every colour of the solve order
+/// holds more contacts than one task takes (rows::kContactsPerTask), so the colours are split over
+/// threads. The state after 40 steps, as bytes.
+std::vector<double> grid_of_stacks(const WorldSettings& settings) {
+  World world(settings);
+  world.add_body(ground());
+  for (int i = 0; i < 20; ++i)
+    for (int j = 0; j < 20; ++j)
+      for (int k = 0; k < 3; ++k) {
+        BodyDesc d = box_at(0.55 + 1.05 * k);
+        d.position.x() = 1.2 * i + 0.03 * k;
+        d.position.y() = 1.2 * j;
+        d.orientation = Quat4(1.0, 0.01 * (i % 3), 0.01 * (j % 2), 0.02 * k);
+        world.add_body(d);
+      }
+  world.step(1.0 / 60.0, 40);
+  std::vector<double> bytes;
+  for (std::size_t i = 0; i < world.state().p.size(); ++i)
+    for (const Vec3& x : {world.state().p[i], world.state().v[i], world.state().omega[i]})
+      bytes.insert(bytes.end(), x.data(), x.data() + 3);
+  for (const Contact& c : world.contacts()) bytes.push_back(c.alpha);
+  return bytes;
+}
+
+TEST(World, EveryThreadCountGivesTheBitsOfOneThread) {
+  for (SolverMethod method : {SolverMethod::PGS, SolverMethod::Soft}) {
+    WorldSettings settings;
+    settings.solver.method = method;
+    settings.solver.max_iterations = 5;  // the PGS: a fixed number of sweeps, so that it is quick
+    settings.threads = 1;
+    const std::vector<double> one = grid_of_stacks(settings);
+    for (int threads : {2, 3, 0}) {
+      settings.threads = threads;
+      EXPECT_EQ(grid_of_stacks(settings), one) << "threads " << threads << ", method " << static_cast<int>(method);
+    }
+  }
+}
+
+TEST(World, ThreadsBelowZeroAreRefusedAndTheWorldIsUnchanged) {
+  WorldSettings settings;
+  settings.threads = 2;
+  World world(settings);
+  EXPECT_EQ(world.settings().threads, 2);
+  settings.threads = -1;
+  EXPECT_THROW(world.set_settings(settings), std::invalid_argument);
+  EXPECT_EQ(world.settings().threads, 2);
+  settings.threads = 0;  // the machine's cores
+  world.set_settings(settings);
+  EXPECT_GE(world.settings().threads, 1);
+}
+
 TEST(World, DeterministicBitForBit) {
   auto run = []() {
     World world;

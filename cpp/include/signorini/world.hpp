@@ -26,12 +26,16 @@ namespace signorini {
 
 namespace collision { class BroadPhase; struct Scratch; struct ContactMemory; }
 namespace solver { struct SolverData; }
+namespace parallel { class Pool; }
 class StepGuard;
 
 struct WorldSettings {
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  ///< m/s^2
   double contact_margin = 0.005;         ///< m: pairs closer than this get (speculative) contacts
   SolverSettings solver;
+  /// worker threads of the step (>= 1; 0: the machine's cores). Results are bit-identical for every
+  /// count (docs/conventions.md, "Threads").
+  int threads = 0;
 };
 
 /// A body index that is not in the world (std::out_of_range; Python's BodyIndexError).
@@ -252,6 +256,7 @@ class World {
   std::unique_ptr<collision::Scratch> scratch_;  ///< the narrow phase's buffers (contact detection
                                                  ///< is const but reuses them: one World per thread)
   std::unique_ptr<solver::SolverData> solver_;  ///< rows, forces and the warm-start cache
+  std::unique_ptr<parallel::Pool> pool_;        ///< the step's worker threads (settings_.threads of them)
   std::unique_ptr<StepGuard> guard_;            ///< the step's checkpoints and what an undo restores
   // step scratch, kept between steps so that a step reuses its buffers instead of allocating
   std::vector<Contact> contacts_base_;   ///< the step's contacts as detected

@@ -20,26 +20,28 @@ using namespace rows;
 template <bool kSpin>
 int sweeps(const SolverSettings& s, SolverData& d, bool& converged) {
   Velocities& qd = d.qd;
-  const std::size_t K = d.rows.size() / 3;
-  converged = K == 0;
+  converged = d.rows.empty();
   int sweeps = 0;
   while (!converged && sweeps < s.max_iterations) {
     ++sweeps;
-    double change = 0.0;
-    for (std::size_t k = 0; k < K; ++k) {  // in solve order, as the rows are stored
-      const Row* r = &d.rows[3 * k];
-      double* alpha = &d.alpha[3 * k];
-      // the contact's two bodies, held locally through its three rows (the same arithmetic; the
-      // velocities need not go through memory between rows) and stored back after
-      BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
-      contact_rows(s, r, alpha, A, B, change, HardNormal{});
-      if constexpr (kSpin) {
-        const int j = d.spin_slot[k];
-        if (j >= 0) spin_row(d.spin_rows[j], r[0], alpha[0], d.spin_alpha[j], A, B, change);
+    const double change = by_colour(d, [&](std::size_t first, std::size_t end) {
+      double change = 0.0;
+      for (std::size_t k = first; k < end; ++k) {  // in solve order, as the rows are stored
+        const Row* r = &d.rows[3 * k];
+        double* alpha = &d.alpha[3 * k];
+        // the contact's two bodies, held locally through its three rows (the same arithmetic; the
+        // velocities need not go through memory between rows) and stored back after
+        BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
+        contact_rows(s, r, alpha, A, B, change, HardNormal{});
+        if constexpr (kSpin) {
+          const int j = d.spin_slot[k];
+          if (j >= 0) spin_row(d.spin_rows[j], r[0], alpha[0], d.spin_alpha[j], A, B, change);
+        }
+        if (r[0].a_moves) qd[r[0].a] = A;
+        if (r[0].b_moves) qd[r[0].b] = B;
       }
-      if (r[0].a_moves) qd[r[0].a] = A;
-      if (r[0].b_moves) qd[r[0].b] = B;
-    }
+      return change;
+    });
     converged = s.tolerance > 0.0 && change <= s.tolerance;
   }
   return sweeps;

@@ -13,6 +13,7 @@
 #include "signorini/state.hpp"
 
 namespace signorini::serial { struct Writer; struct Reader; }
+namespace signorini::parallel { class Pool; }
 
 namespace signorini::solver {
 
@@ -82,6 +83,11 @@ struct SoftPoint {
 
 /// Everything the solver keeps between steps (the cache) or reuses (scratch), as flat arrays.
 struct SolverData {
+  /// the step's worker threads (the World's; null: the calling thread alone)
+  const parallel::Pool* pool = nullptr;
+  /// solve positions where each colour starts (colour c: [colour_start[c], colour_start[c + 1]));
+  /// the last colour is the shared one, whose contacts may share bodies
+  std::vector<int> colour_start;
   // rows: 3 per contact (normal, t1, t2), in solve order (contact order[k] at 3k); their forces
   // alpha (N); the solve order (order: position -> contact, slot: contact -> position) and the
   // colours each body has taken while it was made (a bit per colour)

@@ -100,6 +100,7 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
     ++start[colour + 1];
   }
   for (int c = 0; c < kColours; ++c) start[c + 1] += start[c];
+  d.colour_start.assign(start.begin(), start.end());  // 66 ints: the capacity stays after the first step
   d.order.resize(K);
   for (std::size_t i = 0; i < K; ++i) {
     const int k = start[d.slot[i]]++;
@@ -225,15 +226,19 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
 
 void apply_forces(SolverData& d) {
   // each contact's normal, t1 and t2 rows, then its spin row
+  // (colour by colour: the same sums in the same order per body for every thread count)
   const bool spin = !d.spin_rows.empty();
-  for (std::size_t k = 0; k < d.rows.size(); ++k) {
-    if (d.alpha[k] != 0.0) apply(d.rows[k], d.alpha[k], d.qd);
-    if (spin && k % 3 == 2 && d.spin_slot[k / 3] >= 0) {
-      const std::size_t j = static_cast<std::size_t>(d.spin_slot[k / 3]);
-      const Row& r = d.rows[k - 2];
-      if (d.spin_alpha[j] != 0.0) apply_spin(d.spin_rows[j], r, d.spin_alpha[j], d.qd[r.a], d.qd[r.b]);
+  by_colour(d, [&](std::size_t first, std::size_t end) {
+    for (std::size_t k = 3 * first; k < 3 * end; ++k) {
+      if (d.alpha[k] != 0.0) apply(d.rows[k], d.alpha[k], d.qd);
+      if (spin && k % 3 == 2 && d.spin_slot[k / 3] >= 0) {
+        const std::size_t j = static_cast<std::size_t>(d.spin_slot[k / 3]);
+        const Row& r = d.rows[k - 2];
+        if (d.spin_alpha[j] != 0.0) apply_spin(d.spin_rows[j], r, d.spin_alpha[j], d.qd[r.a], d.qd[r.b]);
+      }
     }
-  }
+    return 0.0;
+  });
 }
 
 // ---- d. restitution -----------------------------------------------------------------------------

@@ -7,13 +7,56 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <mutex>
 #include <vector>
 
+#include "parallel/pool.hpp"
 #include "solver/contact_solver.hpp"
 
 namespace signorini::solver::rows {
 
 using Velocities = std::vector<BodyVelocity>;
+
+/// Contacts per task below which a colour is not split over threads (a task costs about as much
+/// as this many contacts' rows).
+constexpr std::size_t kContactsPerTask = 256;
+
+/// f(begin, end) over [0, n) on d.pool's threads (the calling thread alone without a pool), for
+/// work whose items write only their own outputs.
+template <class F>
+void for_ranges(const SolverData& d, std::size_t n, std::size_t grain, F&& f) {
+  if (d.pool != nullptr)
+    d.pool->for_ranges(n, grain, f);
+  else if (n > 0)
+    f(std::size_t(0), n);
+}
+
+/// sweep(begin, end) over the solve positions [0, K), K = d.rows.size() / 3, in solve order colour by
+/// colour; each colour but the shared last one (whose contacts share no moving body) spread over
+/// d.pool's threads, so that every thread count gives the bits of one thread. sweep returns the
+/// largest change of its positions; returns the largest over all.
+template <class Sweep>
+double by_colour(const SolverData& d, Sweep&& sweep) {
+  const std::size_t K = d.rows.size() / 3;
+  if (d.pool == nullptr || d.pool->threads() <= 1 || K <= kContactsPerTask) return sweep(std::size_t(0), K);
+  double change = 0.0;
+  std::mutex joined;  // only the tasks' maxima meet here (a max: the order they arrive in does not matter)
+  const std::size_t colours = d.colour_start.size() - 1;
+  for (std::size_t c = 0; c < colours; ++c) {
+    const std::size_t first = static_cast<std::size_t>(d.colour_start[c]);
+    const std::size_t n = static_cast<std::size_t>(d.colour_start[c + 1]) - first;
+    if (c + 1 == colours) {
+      if (n > 0) change = std::max(change, sweep(first, first + n));
+      break;
+    }
+    d.pool->for_ranges(n, kContactsPerTask, [&](std::size_t b, std::size_t e) {
+      const double m = sweep(first + b, first + e);
+      const std::lock_guard<std::mutex> lock(joined);
+      change = std::max(change, m);
+    });
+  }
+  return change;
+}
 
 /// v.assign(n, x), growing the capacity geometrically: a contact count that creeps up one at a time
 /// (a pile settling) then reallocates a handful of times, not at every new high.

@@ -52,17 +52,21 @@ void update_gaps(const Model& model, const State& state, SolverData& d) {
   const std::size_t N = model.size();
   d.dp.resize(N);
   d.dR.resize(N);
-  for (std::size_t i = 0; i < N; ++i) {
-    d.dp[i] = state.p[i] - d.p0[i];
-    d.dR[i] = state.R[i] - d.R0[i];
-  }
-  for (std::size_t k = 0; k < d.soft.size(); ++k) {
-    SoftPoint& p = d.soft[k];
-    const Row& r = d.rows[3 * k];
-    const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * p.l_b;
-    const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * p.l_a;
-    p.s = p.gap0 + r.J_lin.dot(moved_b - moved_a);
-  }
+  for_ranges(d, N, 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+      d.dp[i] = state.p[i] - d.p0[i];
+      d.dR[i] = state.R[i] - d.R0[i];
+    }
+  });
+  for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t k = first; k < end; ++k) {
+      SoftPoint& p = d.soft[k];
+      const Row& r = d.rows[3 * k];
+      const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * p.l_b;
+      const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * p.l_a;
+      p.s = p.gap0 + r.J_lin.dot(moved_b - moved_a);
+    }
+  });
 }
 
 /// One sweep over every contact in solve order: the normal row by the soft rule (biased: the
@@ -73,29 +77,32 @@ template <bool kSpin>
 void sweep(const SolverSettings& s, SolverData& d, bool biased) {
   const double inv_h = 1.0 / d.h;
   std::vector<BodyVelocity>& qd = d.qd;
-  double change = 0.0;  // not used: the soft step runs a fixed number of sweeps
-  for (std::size_t k = 0; k < d.soft.size(); ++k) {
-    const Row* r = &d.rows[3 * k];
-    double* alpha = &d.alpha[3 * k];
-    const SoftPoint& p = d.soft[k];
-    SoftNormal normal;
-    if (p.s > 0.0) {
-      normal.bias = p.s * inv_h;
-    } else if (biased) {
-      // the spring on the whole overlap (no slop: the relax sweeps keep a resting contact still)
-      normal.bias = std::max(p.mass_scale * p.bias_rate * p.s, -s.max_push_velocity);
-      normal.mass_scale = p.mass_scale;
-      normal.impulse_scale = p.impulse_scale;
+  by_colour(d, [&](std::size_t first, std::size_t end) {
+    double change = 0.0;  // not used: the soft step runs a fixed number of sweeps
+    for (std::size_t k = first; k < end; ++k) {
+      const Row* r = &d.rows[3 * k];
+      double* alpha = &d.alpha[3 * k];
+      const SoftPoint& p = d.soft[k];
+      SoftNormal normal;
+      if (p.s > 0.0) {
+        normal.bias = p.s * inv_h;
+      } else if (biased) {
+        // the spring on the whole overlap (no slop: the relax sweeps keep a resting contact still)
+        normal.bias = std::max(p.mass_scale * p.bias_rate * p.s, -s.max_push_velocity);
+        normal.mass_scale = p.mass_scale;
+        normal.impulse_scale = p.impulse_scale;
+      }
+      BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
+      contact_rows(s, r, alpha, A, B, change, normal);
+      if constexpr (kSpin) {
+        const int j = d.spin_slot[k];
+        if (j >= 0) spin_row(d.spin_rows[j], r[0], alpha[0], d.spin_alpha[j], A, B, change);
+      }
+      if (r[0].a_moves) qd[r[0].a] = A;
+      if (r[0].b_moves) qd[r[0].b] = B;
     }
-    BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
-    contact_rows(s, r, alpha, A, B, change, normal);
-    if constexpr (kSpin) {
-      const int j = d.spin_slot[k];
-      if (j >= 0) spin_row(d.spin_rows[j], r[0], alpha[0], d.spin_alpha[j], A, B, change);
-    }
-    if (r[0].a_moves) qd[r[0].a] = A;
-    if (r[0].b_moves) qd[r[0].b] = B;
-  }
+    return change;
+  });
 }
 
 void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count) {

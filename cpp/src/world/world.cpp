@@ -10,6 +10,7 @@
 #include "collision/collision.hpp"
 #include "dynamics/rigid_body.hpp"
 #include "math/rotation.hpp"
+#include "parallel/pool.hpp"
 #include "solver/contact_solver.hpp"
 #include "solver/soft_step.hpp"
 #include "world/checks.hpp"
@@ -54,7 +55,14 @@ void World::set_settings(const WorldSettings& s) {
           "damping_ratio must be finite and >= 0, got " + std::to_string(q.damping_ratio));
   checks::require(q.soft_iterations >= 1, "soft_iterations must be >= 1, got " + std::to_string(q.soft_iterations));
   checks::require(q.relax_iterations >= 0, "relax_iterations must be >= 0, got " + std::to_string(q.relax_iterations));
+  checks::require(s.threads >= 0, "threads must be >= 1 (or 0 for the machine's cores), got " + std::to_string(s.threads));
+  const int threads = s.threads == 0 ? parallel::Pool::machine_threads() : s.threads;
+  if (!pool_ || pool_->threads() != threads) {
+    pool_ = std::make_unique<parallel::Pool>(threads);  // the only step that may throw; nothing changed yet
+    solver_->pool = pool_.get();
+  }
   settings_ = s;
+  settings_.threads = threads;
 }
 
 void World::step(double dt, int steps) {

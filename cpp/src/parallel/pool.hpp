@@ -1,0 +1,55 @@
+// The step's worker threads (issue 21, "Threads"): one task arena of oneTBB per World, so that a
+// World's threads never exceed its own `threads` setting, whatever other Worlds do. oneTBB (Debian
+// libtbb-dev) is the task scheduler: work stealing over ranges, no thread pool written here.
+//
+// Determinism: work is only ever split over items that do not touch the same data (bodies; the
+// contacts of one solve colour, which share no moving body; per-item outputs), so every thread
+// count gives the same bits. A reduction is only a max, which does not depend on the order.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <type_traits>
+
+namespace signorini::parallel {
+
+class Pool {
+ public:
+  /// threads >= 1; 1 runs everything on the calling thread (no oneTBB call at all).
+  explicit Pool(int threads);
+  ~Pool();
+  Pool(const Pool&) = delete;
+  Pool& operator=(const Pool&) = delete;
+
+  int threads() const { return threads_; }
+
+  /// f(begin, end) over [0, n) cut into ranges of at least `grain` items, on this pool's threads;
+  /// on the calling thread alone when the pool has 1 thread or n <= grain. f must only write what
+  /// its own items own.
+  template <class F>
+  void for_ranges(std::size_t n, std::size_t grain, F&& f) const {
+    if (threads_ <= 1 || n <= grain) {
+      if (n > 0) f(std::size_t(0), n);
+      return;
+    }
+    using Fn = std::remove_reference_t<F>;
+    run(n, grain, &call<Fn>, const_cast<void*>(static_cast<const void*>(&f)));
+  }
+
+  /// The number of threads the machine offers (oneTBB's default concurrency), at least 1.
+  static int machine_threads();
+
+ private:
+  using Body = void (*)(void*, std::size_t, std::size_t);
+  template <class F>
+  static void call(void* f, std::size_t begin, std::size_t end) {
+    (*static_cast<F*>(f))(begin, end);  // F may be const: f points at the caller's callable
+  }
+  void run(std::size_t n, std::size_t grain, Body body, void* f) const;
+
+  int threads_;
+  struct Arena;
+  std::unique_ptr<Arena> arena_;  // oneTBB stays inside pool.cpp
+};
+
+}  // namespace signorini::parallel
