@@ -909,7 +909,8 @@ def test_every_index_taking_core_method_is_listed():
                 "typing.Annotated[numpy.typing.ArrayLike, numpy.int64")
     taking = {name for name, first in re.findall(r"    def (\w+)\(self, \w+: ([^\n]*)", body)
               if not name.startswith("_") and first.startswith(integers)}
-    assert taking == set(CORE_INDEX_CALLS)
+    counts = {"set_threads"}  # an integer that is a count, not a body index
+    assert taking - counts == set(CORE_INDEX_CALLS)
 
 
 @pytest.mark.parametrize("method", sorted(CORE_INDEX_CALLS))

@@ -1,7 +1,9 @@
 #include "solver/rows.hpp"
 
 #include <array>
+#include <atomic>
 #include <limits>
+#include <mutex>
 
 namespace signorini::solver::rows {
 
@@ -120,36 +122,40 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
   assign_n(d.alpha, 3 * K, 0.0);
   d.u.resize(K);
   d.e.resize(K);
-  bool spinning = false;  // some contact's pair has spinning friction
-  for (std::size_t i = 0; i < K; ++i) {
-    const Contact& c = contacts[i];
-    const int a = c.body_a, b = c.body_b;
-    const Material& ma = model.material[a];
-    const Material& mb = model.material[b];
-    const double mu = std::sqrt(ma.friction * mb.friction);
-    Vec3 dir[3];
-    dir[0] = c.normal;
-    tangent_basis(c.normal, dir[1], dir[2]);
-    Row* r = &d.rows[3 * d.slot[i]];
-    const Vec3 r_a = (anchor_a ? (*anchor_a)[i] : c.point) - state.p[a];
-    const Vec3 r_b = (anchor_b ? (*anchor_b)[i] : c.point) - state.p[b];
-    make_rows(model, d.dI_inv, a, b, r_a, r_b, dir, dt, r);
-    // a speculative contact may close its gap, no more; an overlap is left to the position pass
-    r[0].bias = std::max(c.gap, 0.0) / dt;
-    for (int k = 1; k <= 2; ++k) {
-      r[k].mu = mu;
-      r[k].W_n = coupling(r[k], r[0]);
+  std::atomic<bool> spinning{false};  // some contact's pair has spinning friction
+  // each contact writes only its own rows, u_i and e_i: split over the threads
+  for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+      const Contact& c = contacts[i];
+      const int a = c.body_a, b = c.body_b;
+      const Material& ma = model.material[a];
+      const Material& mb = model.material[b];
+      const double mu = std::sqrt(ma.friction * mb.friction);
+      Vec3 dir[3];
+      dir[0] = c.normal;
+      tangent_basis(c.normal, dir[1], dir[2]);
+      Row* r = &d.rows[3 * d.slot[i]];
+      const Vec3 r_a = (anchor_a ? (*anchor_a)[i] : c.point) - state.p[a];
+      const Vec3 r_b = (anchor_b ? (*anchor_b)[i] : c.point) - state.p[b];
+      make_rows(model, d.dI_inv, a, b, r_a, r_b, dir, dt, r);
+      // a speculative contact may close its gap, no more; an overlap is left to the position pass
+      r[0].bias = std::max(c.gap, 0.0) / dt;
+      for (int k = 1; k <= 2; ++k) {
+        r[k].mu = mu;
+        r[k].W_n = coupling(r[k], r[0]);
+      }
+      r[2].W_t1 = coupling(r[2], r[1]);
+      d.u[i] = row_velocity(r[0], d.qd);
+      d.e[i] = std::max(ma.restitution, mb.restitution);
+      if (ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0) spinning.store(true, std::memory_order_relaxed);
     }
-    r[2].W_t1 = coupling(r[2], r[1]);
-    d.u[i] = row_velocity(r[0], d.qd);
-    d.e[i] = std::max(ma.restitution, mb.restitution);
-    spinning = spinning || ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0;
-  }
+  });
+  const bool any_spin = spinning.load();
   // spin rows: J_A = (-n, 0), J_B = (n, 0), delta = dt (n . I_A^-1 n + n . I_B^-1 n); none, and
   // nothing more to do, when no pair has spinning friction
   d.spin_rows.clear();
-  if (spinning) assign_n(d.spin_slot, K, -1);
-  for (std::size_t k = 0; spinning && k < K; ++k) {
+  if (any_spin) assign_n(d.spin_slot, K, -1);
+  for (std::size_t k = 0; any_spin && k < K; ++k) {
     const int i = d.order[k];
     const Contact& c = contacts[i];
     const double mu_spin =
@@ -267,80 +273,101 @@ int restitution(const SolverSettings& s, SolverData& d) {
 void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats) {
   const std::size_t K = contacts.size();
   d.cache_next.resize(K);
+  // each contact's own outputs and the certificate's maxima (max: the same whatever the order the
+  // parts are joined in), split over the threads; the bodies' sums below in contact order
+  const SolverStats start = stats;
+  std::mutex joined;
+  for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
+    SolverStats part = start;
+    for (std::size_t i = first; i < end; ++i) {
+      Contact& c = contacts[i];
+      const Row* r = &d.rows[3 * d.slot[i]];
+      const double* alpha = &d.alpha[3 * d.slot[i]];
+      // forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2 (on B; A gets the opposite)
+      c.alpha = alpha[0];
+      c.impulse = dt * alpha[0];
+      c.friction = alpha[1] * r[1].J_lin + alpha[2] * r[2].J_lin;
+      c.force = alpha[0] * c.normal + c.friction;
+      // torsional friction: spin_torque n on B, the opposite on A
+      const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[d.slot[i]];
+      c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
+      // velocities after the solve: normal and slip
+      const double vn = row_velocity(r[0], d.qd);
+      const double vt1 = row_velocity(r[1], d.qd), vt2 = row_velocity(r[2], d.qd);
+      c.normal_velocity = vn;
+      c.slip = vt1 * r[1].J_lin + vt2 * r[2].J_lin;
+
+      // the certificate: w_i against the row's own target
+      const double b = d.restitutive[i] ? d.e[i] * d.u[i] : r[0].bias;
+      const double w = vn + b;
+      const double mu = r[1].mu;
+      part.max_alpha_negative = std::max(part.max_alpha_negative, -alpha[0]);
+      part.max_penetration_velocity = std::max(part.max_penetration_velocity, -w);
+      part.max_complementarity = std::max(part.max_complementarity, std::abs(alpha[0] * w));
+      part.max_cone_violation = std::max(part.max_cone_violation, c.friction.norm() - mu * alpha[0]);
+      const double slip_speed = c.slip.norm();
+      if (slip_speed > kSlidingSpeed)
+        part.max_dissipation_violation = std::max(part.max_dissipation_violation,
+                                                   (c.friction + (mu * alpha[0] / slip_speed) * c.slip).norm());
+      part.max_overlap = std::max(part.max_overlap, -c.gap);
+      // natural residual delta |alpha - P(alpha - w / delta)| per row
+      if (r[0].delta > 0.0) {
+        part.residual = std::max(part.residual, r[0].delta * std::abs(alpha[0] - std::max(alpha[0] - w / r[0].delta, 0.0)));
+        const double bound = mu * alpha[0];
+        if (s.friction_cone == FrictionCone::Cone) {
+          const double delta_t = std::max(r[1].delta, r[2].delta);
+          double p1 = alpha[1] - vt1 / delta_t, p2 = alpha[2] - vt2 / delta_t;
+          clamp_to_disk(p1, p2, bound);
+          part.residual = std::max({part.residual, delta_t * std::abs(alpha[1] - p1), delta_t * std::abs(alpha[2] - p2)});
+        } else {
+          const double p1 = std::clamp(alpha[1] - vt1 / r[1].delta, -bound, bound);
+          const double p2 = std::clamp(alpha[2] - vt2 / r[2].delta, -bound, bound);
+          part.residual = std::max({part.residual, r[1].delta * std::abs(alpha[1] - p1), r[2].delta * std::abs(alpha[2] - p2)});
+        }
+        if (spin >= 0) {  // the spin row: P onto [-mu_spin alpha_n, mu_spin alpha_n] (rad/s)
+          const SpinRow& q = d.spin_rows[spin];
+          const double spin_bound = q.mu_spin * alpha[0];
+          const double p = std::clamp(c.spin_torque - spin_velocity(q, d.qd[c.body_a], d.qd[c.body_b]) / q.delta,
+                                      -spin_bound, spin_bound);
+          part.residual = std::max(part.residual, q.delta * std::abs(c.spin_torque - p));
+        }
+      }
+
+      // the cache for the next step's warm start: the force before restitution
+      CachedContact& e = d.cache_next[i];
+      e.body_a = c.body_a;
+      e.body_b = c.body_b;
+      e.feature_a = c.feature_a;
+      e.feature_b = c.feature_b;
+      e.alpha = d.alpha_iter[i];
+      e.friction = c.friction;
+      e.spin = c.spin_torque;
+      e.order = static_cast<int>(i);
+    }
+    const std::lock_guard<std::mutex> lock(joined);
+    stats.residual = std::max(stats.residual, part.residual);
+    stats.max_alpha_negative = std::max(stats.max_alpha_negative, part.max_alpha_negative);
+    stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, part.max_penetration_velocity);
+    stats.max_complementarity = std::max(stats.max_complementarity, part.max_complementarity);
+    stats.max_cone_violation = std::max(stats.max_cone_violation, part.max_cone_violation);
+    stats.max_dissipation_violation = std::max(stats.max_dissipation_violation, part.max_dissipation_violation);
+    stats.max_overlap = std::max(stats.max_overlap, part.max_overlap);
+  });
+  // each body's summed force and torque (N, N m), in contact order
   for (std::size_t i = 0; i < K; ++i) {
-    Contact& c = contacts[i];
+    const Contact& c = contacts[i];
     const Row* r = &d.rows[3 * d.slot[i]];
     const double* alpha = &d.alpha[3 * d.slot[i]];
-    // forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2 (on B; A gets the opposite)
-    c.alpha = alpha[0];
-    c.impulse = dt * alpha[0];
-    c.friction = alpha[1] * r[1].J_lin + alpha[2] * r[2].J_lin;
-    c.force = alpha[0] * c.normal + c.friction;
     for (int k = 0; k < 3; ++k) {
       d.body_force[r[k].a] -= alpha[k] * r[k].J_lin;
       d.body_torque[r[k].a] += alpha[k] * r[k].JA_ang;
       d.body_force[r[k].b] += alpha[k] * r[k].J_lin;
       d.body_torque[r[k].b] += alpha[k] * r[k].JB_ang;
     }
-    // torsional friction: spin_torque n on B, the opposite on A
-    const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[d.slot[i]];
-    c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
-    if (spin >= 0) {
+    if (!d.spin_rows.empty() && d.spin_slot[d.slot[i]] >= 0) {  // torsional friction
       d.body_torque[c.body_a] -= c.spin_torque * c.normal;
       d.body_torque[c.body_b] += c.spin_torque * c.normal;
     }
-    // velocities after the solve: normal and slip
-    const double vn = row_velocity(r[0], d.qd);
-    const double vt1 = row_velocity(r[1], d.qd), vt2 = row_velocity(r[2], d.qd);
-    c.normal_velocity = vn;
-    c.slip = vt1 * r[1].J_lin + vt2 * r[2].J_lin;
-
-    // the certificate: w_i against the row's own target
-    const double b = d.restitutive[i] ? d.e[i] * d.u[i] : r[0].bias;
-    const double w = vn + b;
-    const double mu = r[1].mu;
-    stats.max_alpha_negative = std::max(stats.max_alpha_negative, -alpha[0]);
-    stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, -w);
-    stats.max_complementarity = std::max(stats.max_complementarity, std::abs(alpha[0] * w));
-    stats.max_cone_violation = std::max(stats.max_cone_violation, c.friction.norm() - mu * alpha[0]);
-    const double slip_speed = c.slip.norm();
-    if (slip_speed > kSlidingSpeed)
-      stats.max_dissipation_violation = std::max(stats.max_dissipation_violation,
-                                                 (c.friction + (mu * alpha[0] / slip_speed) * c.slip).norm());
-    stats.max_overlap = std::max(stats.max_overlap, -c.gap);
-    // natural residual delta |alpha - P(alpha - w / delta)| per row
-    if (r[0].delta > 0.0) {
-      stats.residual = std::max(stats.residual, r[0].delta * std::abs(alpha[0] - std::max(alpha[0] - w / r[0].delta, 0.0)));
-      const double bound = mu * alpha[0];
-      if (s.friction_cone == FrictionCone::Cone) {
-        const double delta_t = std::max(r[1].delta, r[2].delta);
-        double p1 = alpha[1] - vt1 / delta_t, p2 = alpha[2] - vt2 / delta_t;
-        clamp_to_disk(p1, p2, bound);
-        stats.residual = std::max({stats.residual, delta_t * std::abs(alpha[1] - p1), delta_t * std::abs(alpha[2] - p2)});
-      } else {
-        const double p1 = std::clamp(alpha[1] - vt1 / r[1].delta, -bound, bound);
-        const double p2 = std::clamp(alpha[2] - vt2 / r[2].delta, -bound, bound);
-        stats.residual = std::max({stats.residual, r[1].delta * std::abs(alpha[1] - p1), r[2].delta * std::abs(alpha[2] - p2)});
-      }
-      if (spin >= 0) {  // the spin row: P onto [-mu_spin alpha_n, mu_spin alpha_n] (rad/s)
-        const SpinRow& q = d.spin_rows[spin];
-        const double spin_bound = q.mu_spin * alpha[0];
-        const double p = std::clamp(c.spin_torque - spin_velocity(q, d.qd[c.body_a], d.qd[c.body_b]) / q.delta,
-                                    -spin_bound, spin_bound);
-        stats.residual = std::max(stats.residual, q.delta * std::abs(c.spin_torque - p));
-      }
-    }
-
-    // the cache for the next step's warm start: the force before restitution
-    CachedContact& e = d.cache_next[i];
-    e.body_a = c.body_a;
-    e.body_b = c.body_b;
-    e.feature_a = c.feature_a;
-    e.feature_b = c.feature_b;
-    e.alpha = d.alpha_iter[i];
-    e.friction = c.friction;
-    e.spin = c.spin_torque;
-    e.order = static_cast<int>(i);
   }
   // sorted by key (first in contact order on equal keys), one entry per key; the narrow phase
   // lists contacts by body pair and feature ids, so this is usually sorted already

@@ -118,32 +118,36 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   d.dI_inv.resize(N);
   d.p0.resize(N);
   d.R0.resize(N);
-  for (std::size_t i = 0; i < N; ++i) {
-    d.dI_inv[i] = h * dynamics::inverse_inertia_world(model, state, i);
-    d.p0[i] = state.p[i];
-    d.R0[i] = state.R[i];
-  }
+  for_ranges(d, N, 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+      d.dI_inv[i] = h * dynamics::inverse_inertia_world(model, state, i);
+      d.p0[i] = state.p[i];
+      d.R0[i] = state.R[i];
+    }
+  });
   load(state.v, state.omega, d);
   prepare(model, state, h, contacts, nullptr, nullptr, d);
   d.restitution_sweeps = 0;
   d.alpha_iter.clear();
   const double hertz = std::min(settings.contact_hertz, kMaxHertzPerRate / h);
   d.soft.resize(K);
-  for (std::size_t i = 0; i < K; ++i) {
-    const Contact& c = contacts[i];
-    const std::size_t k = static_cast<std::size_t>(d.slot[i]);
-    const Row& r = d.rows[3 * k];
-    SoftPoint& p = d.soft[k];
-    p = SoftPoint();
-    p.l_a = state.R[c.body_a].transpose() * (c.point - state.p[c.body_a]);
-    p.l_b = state.R[c.body_b].transpose() * (c.point - state.p[c.body_b]);
-    p.gap0 = p.s = c.gap;
-    // against a body that does not move the spring is twice as stiff and half as damped (Box2D v3)
-    if (r.a_moves && r.b_moves)
-      soften(p, hertz, settings.damping_ratio, h);
-    else
-      soften(p, 2.0 * hertz, 0.5 * settings.damping_ratio, h);
-  }
+  for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+      const Contact& c = contacts[i];
+      const std::size_t k = static_cast<std::size_t>(d.slot[i]);
+      const Row& r = d.rows[3 * k];
+      SoftPoint& p = d.soft[k];
+      p = SoftPoint();
+      p.l_a = state.R[c.body_a].transpose() * (c.point - state.p[c.body_a]);
+      p.l_b = state.R[c.body_b].transpose() * (c.point - state.p[c.body_b]);
+      p.gap0 = p.s = c.gap;
+      // against a body that does not move the spring is twice as stiff and half as damped (Box2D v3)
+      if (r.a_moves && r.b_moves)
+        soften(p, hertz, settings.damping_ratio, h);
+      else
+        soften(p, 2.0 * hertz, 0.5 * settings.damping_ratio, h);
+    }
+  });
   if (settings.warm_start) recall_forces(settings, contacts, d);
 }
 
