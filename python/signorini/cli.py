@@ -173,7 +173,9 @@ def make_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default="signorini-out", type=Path, help="output folder (default signorini-out/)")
     run.add_argument("--steps", type=_positive_int, help="number of steps (default: the scene's)")
     run.add_argument("--dt", type=_positive_float, help="time step in seconds (default: the scene's)")
-    run.add_argument("--stride", type=_stride, default=1, help="keep every S-th step as a frame (default 1)")
+    run.add_argument("--stride", type=_stride, default=None,
+                     help="keep every S-th step as a frame (default: chosen so that the frames fit the 20 MB budget "
+                          "of signorini.trajectory.TRAJECTORY_BUDGET; the summary prints it)")
     run.add_argument("--no-plot", action="store_true", help="write no PNG")
     _add_outputs(run, html_default=True)
     _add_allow_path(run)
@@ -254,12 +256,13 @@ def _write_outputs(args: argparse.Namespace, record: "Record", out: Path, html_d
 def _run(args: argparse.Namespace) -> int:
     """Build, run, save, draw and summarise one scene."""
     from . import output
+    from .trajectory import TRAJECTORY_BUDGET
 
     scene = _read_scene(args.scene, args.allow_paths)
     record = output.run(scene, steps=args.steps, dt=args.dt, progress=not args.quiet, stride=args.stride)
     files = [output.save_trajectory(args.out / f"{scene.name}.npz", record)]
     files += _write_outputs(args, record, args.out, html_default=True, scene=scene)
-    print(output.format_summary(record, files))
+    print(output.format_summary(record, files, budget=None if args.stride else TRAJECTORY_BUDGET))
     return 0
 
 

@@ -225,11 +225,12 @@ def test_html_player_thins_frames_of_very_large_runs(tmp_path, boxes_record):
     import json
     import re
 
-    from signorini.player import write_html
+    from signorini.player import frame_data_bytes, write_html
 
     r = boxes_record
     full = write_html(tmp_path / "full.html", r)
-    thin = write_html(tmp_path / "thin.html", r, max_frame_bytes=r.num_bodies * 40 * 5)
+    budget = frame_data_bytes(r.select_frames([0, 3, 6, 9, 12, 14]))  # contacts included
+    thin = write_html(tmp_path / "thin.html", r, max_frame_bytes=budget)
 
     def frames(path):
         text = path.read_text(encoding="utf-8")
