@@ -27,8 +27,10 @@ trajectory file exits with code 2 naming the file.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Optional, Union
 
@@ -146,7 +148,8 @@ def _add_outputs(p: argparse.ArgumentParser, html_default: bool) -> None:
                    help="a binary glTF with one animated node per body (PATH default <out>/<scene>.glb)")
     p.add_argument("--usd", nargs="?", const="", type=str, metavar="PATH",
                    help="a USD stage with one time-sampled Xform per body (PATH default <out>/<scene>.usda)")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress bars" + (", no decomposition estimate and no SolverWarning" if html_default else ""))
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -255,11 +258,18 @@ def _write_outputs(args: argparse.Namespace, record: "Record", out: Path, html_d
 
 def _run(args: argparse.Namespace) -> int:
     """Build, run, save, draw and summarise one scene."""
-    from . import output
+    from . import decomposition, output
     from .trajectory import TRAJECTORY_BUDGET
+    from .world import SolverWarning
 
-    scene = _read_scene(args.scene, args.allow_paths)
-    record = output.run(scene, steps=args.steps, dt=args.dt, progress=not args.quiet, stride=args.stride)
+    with contextlib.ExitStack() as quiet:
+        if args.quiet:
+            # --quiet: no decomposition estimate or bar, no progress bar, no SolverWarning
+            quiet.enter_context(decomposition.quiet())
+            quiet.enter_context(warnings.catch_warnings())
+            warnings.simplefilter("ignore", SolverWarning)
+        scene = _read_scene(args.scene, args.allow_paths)
+        record = output.run(scene, steps=args.steps, dt=args.dt, progress=not args.quiet, stride=args.stride)
     files = [output.save_trajectory(args.out / f"{scene.name}.npz", record)]
     files += _write_outputs(args, record, args.out, html_default=True, scene=scene)
     print(output.format_summary(record, files, budget=None if args.stride else TRAJECTORY_BUDGET))

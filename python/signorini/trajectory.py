@@ -55,6 +55,7 @@ import os
 import tempfile
 import time as _time
 import warnings
+import weakref
 import zipfile
 from array import array
 from dataclasses import dataclass
@@ -63,7 +64,7 @@ from pathlib import Path
 import numpy as np
 
 from . import codec, filecheck, meshes
-from .world import SolverWarning
+from .world import SolverWarning, user_stacklevel
 
 __all__ = ["Record", "Recorder", "save_trajectory", "load_trajectory", "shape_params", "body_names",
            "TRAJECTORY_FORMAT", "TRAJECTORY_BUDGET", "auto_stride", "fit_budget", "record_bytes", "moving_bodies"]
@@ -288,6 +289,8 @@ class _Spool:
             return
         if self._file is None:
             self._file = tempfile.TemporaryFile(prefix="signorini-frames-")
+            # closed with the spool; a memory map made of it keeps the data until it goes too
+            weakref.finalize(self, self._file.close)
         self._file.seek(0, 2)
         self._file.write(np.ascontiguousarray(rows, dtype=self.dtype).tobytes())
         self.rows += len(rows)
@@ -519,7 +522,7 @@ class Recorder:
             more = f" [{count} of {steps} recorded steps warned; this is the first]" if count > 1 else ""
             if issubclass(category, SolverWarning) and flagged > 1:
                 more = f" [{flagged} unconverged solver substeps in {steps} recorded steps]"
-            warnings.warn(f"{message}{more}", category, stacklevel=2)
+            warnings.warn(f"{message}{more}", category, stacklevel=user_stacklevel())
         if steps:
             self.dt = float(dt)
 
