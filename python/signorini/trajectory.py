@@ -720,8 +720,8 @@ _ARRAYS = ("masses", "is_static", "gravity", "frame_step", "time", "positions", 
 MAX_TRAJECTORY_BYTES = 1 << 30
 #: the most bytes a trajectory's arrays may hold per byte of the file once they hold more than
 #: ``TRAJECTORY_RATIO_FLOOR``, checked from the headers too, so that what a file makes the loader
-#: take in memory stays within this multiple of its size. ``run pyramid`` and ``run rain`` write
-#: 2.2 and 1.8 bytes of arrays per byte of file (format 2; most compressible member 163 and 121;
+#: take in memory stays within this multiple of its size. ``run pyramid``, ``rain`` and ``shapes``
+#: write 2.2, 1.8 and 8.2 bytes of arrays per byte of file (format 2; most compressible member 163 and 121;
 #: format 1 files of the built-in scenes 1.4 to 6.1, members up to 191); a format 1 file of almost
 #: only static or resting bodies records mostly repeated poses and zero velocities, about 220 (so
 #: over the floor, 256 MiB of arrays, it needs ``load_trajectory(max_ratio=None)``); deflated zeros
