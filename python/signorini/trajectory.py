@@ -740,7 +740,11 @@ _SCALARS = ("format", "version", "scene", "dt", "stride", "wall_time", "shapes",
 
 def load_trajectory(path, *, max_bytes: int = MAX_TRAJECTORY_BYTES,
                     max_ratio: float | None = MAX_TRAJECTORY_RATIO) -> Record:
-    """Read a trajectory written by ``save_trajectory`` (or the command line).
+    """Read a trajectory written by ``save_trajectory`` (or the command line), version 1 or 2.
+
+    The record holds float64 and int64 arrays whatever the file stores: a version 2 file's float32
+    poses, velocities and contacts come back within float32 rounding of the recorded values (2^-24
+    relative), its still bodies' exactly; a version 1 file's exactly.
 
     Limits, checked before the arrays are read: the arrays hold at most ``max_bytes`` once
     decompressed (``MAX_TRAJECTORY_BYTES``, 1 GiB, by default) and, above
