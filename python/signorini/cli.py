@@ -12,7 +12,10 @@ run takes more than a second, unless ``--quiet``), and writes into ``--out``: ``
 trajectory with its scene (``signorini.trajectory``), ``<scene>.png`` (energy, contacts, solver
 effort and 3-D snapshots) and ``<scene>.html`` (the offline player, ``signorini.player``); on
 request an MP4 (``signorini.render``), a binary glTF and a USD stage (``signorini.export``), each at
-the path given or ``<out>/<scene>.<ext>``. It prints a summary naming every file written.
+the path given or ``<out>/<scene>.<ext>``. It prints a summary naming every file written with its
+size, and the frame stride: chosen so that the trajectory's frames fit 20 MB
+(``trajectory.TRAJECTORY_BUDGET``) unless ``--stride`` gives it. ``--quiet`` shows no progress bar,
+no decomposition estimate and no ``SolverWarning``.
 ``export`` writes the same files from a saved trajectory, without the simulator: those asked for,
 or the HTML player alone when none is asked for; ``view`` serves
 the interactive viewer (``signorini.viewer``) of a scene (simulated live) or a trajectory file.
