@@ -10,6 +10,40 @@
 # Python build tools and the pyproject dependencies. Test: GoogleTest and Chromium (the browser
 # tests open the HTML player in it, headless; playwright drives it, so no browser download) and
 # the pyproject 'test' extra.
+# Skipped in a second or so when nothing changed: an install records a hash of the sources it was
+# built from (the C++ core, the bindings, the package, the build files and this script's lists) and
+# the python3 it went into in build/install-stamp-<runtime|test>; when the hash and python3 match
+# and that python3 imports this checkout's signorini with its compiled core, nothing is done.
+# SIGNORINI_REINSTALL=1 installs anyway (e.g. after uninstalling a dependency by hand).
+
+# the hash of the sources an install is built from, run from the repository root
+source_hash() {
+  find CMakeLists.txt pyproject.toml cpp bindings python/signorini scripts/install.sh -type f \
+      ! -name '*.so' ! -name '*.pyc' ! -path '*/__pycache__/*' -print0 \
+    | LC_ALL=C sort -z | xargs -0 sha256sum | sha256sum | cut -d' ' -f1
+}
+# what a stamp holds: the sources' hash and the python3 installed into
+stamp_text() { echo "$(source_hash) $(command -v python3)"; }
+stamp_path() { echo "${SIGNORINI_STAMP_DIR:-build}/install-stamp-$1"; }   # $1: runtime | test
+# true when an install of kind $1 (runtime | test) was made from these sources into this python3,
+# and python3 imports this checkout's package and its compiled core
+installed_matches() {
+  local stamp
+  stamp=$(stamp_path "$1")
+  [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$(stamp_text)" ] || return 1
+  python3 -c 'import os, sys, signorini, signorini._core
+sys.exit(os.path.realpath(signorini.__file__) != os.path.realpath("python/signorini/__init__.py"))' 2>/dev/null
+}
+# records a finished install of kind $1 (a test install holds the runtime too)
+write_stamp() {
+  mkdir -p "$(dirname "$(stamp_path "$1")")"
+  stamp_text > "$(stamp_path "$1")"
+  [ "$1" = test ] && stamp_text > "$(stamp_path runtime)"
+  return 0
+}
+# sourced (tests/python/test_scripts.py): the functions only
+[[ "${BASH_SOURCE[0]}" == "$0" ]] || return 0
+
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -19,6 +53,12 @@ case "${1:-}" in
   "") ;;
   *) echo "usage: bash scripts/install.sh [--test]" >&2; exit 2 ;;
 esac
+kind=$([ "$with_tests" = 1 ] && echo test || echo runtime)
+if [ "${SIGNORINI_REINSTALL:-0}" != 1 ] && installed_matches "$kind"; then
+  echo "signorini: installed and matching this checkout ($(stamp_path "$kind")); nothing to install" \
+       "(SIGNORINI_REINSTALL=1 installs anyway)"
+  exit 0
+fi
 
 packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libqhull-dev libtbb-dev)
 [ "$with_tests" = 1 ] && packages+=(libgtest-dev chromium)
@@ -57,3 +97,4 @@ echo "signorini: building the C++ core and the bindings (cached in build/)"
 show '^\s*\[[0-9]+/[0-9]+\]|^-- (Configuring done|Build files)|^\*\*\*|[Ee]rror|Successfully installed' \
   python3 -m pip install -v --no-build-isolation -e .
 python3 -c "import signorini._core" || { echo "signorini: the build failed; run 'python3 -m pip install -v --no-build-isolation -e .' to see why" >&2; exit 1; }
+write_stamp "$kind"

@@ -12,7 +12,10 @@ run takes more than a second, unless ``--quiet``), and writes into ``--out``: ``
 trajectory with its scene (``signorini.trajectory``), ``<scene>.png`` (energy, contacts, solver
 effort and 3-D snapshots) and ``<scene>.html`` (the offline player, ``signorini.player``); on
 request an MP4 (``signorini.render``), a binary glTF and a USD stage (``signorini.export``), each at
-the path given or ``<out>/<scene>.<ext>``. It prints a summary naming every file written.
+the path given or ``<out>/<scene>.<ext>``. It prints a summary naming every file written with its
+size, and the frame stride: chosen so that the trajectory's frames fit 20 MB
+(``trajectory.TRAJECTORY_BUDGET``) unless ``--stride`` gives it. ``--quiet`` shows no progress bar,
+no decomposition estimate and no ``SolverWarning``.
 ``export`` writes the same files from a saved trajectory, without the simulator: those asked for,
 or the HTML player alone when none is asked for; ``view`` serves
 the interactive viewer (``signorini.viewer``) of a scene (simulated live) or a trajectory file.
@@ -27,8 +30,10 @@ trajectory file exits with code 2 naming the file.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Optional, Union
 
@@ -146,7 +151,8 @@ def _add_outputs(p: argparse.ArgumentParser, html_default: bool) -> None:
                    help="a binary glTF with one animated node per body (PATH default <out>/<scene>.glb)")
     p.add_argument("--usd", nargs="?", const="", type=str, metavar="PATH",
                    help="a USD stage with one time-sampled Xform per body (PATH default <out>/<scene>.usda)")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress bars" + (", no decomposition estimate and no SolverWarning" if html_default else ""))
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -173,7 +179,9 @@ def make_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default="signorini-out", type=Path, help="output folder (default signorini-out/)")
     run.add_argument("--steps", type=_positive_int, help="number of steps (default: the scene's)")
     run.add_argument("--dt", type=_positive_float, help="time step in seconds (default: the scene's)")
-    run.add_argument("--stride", type=_stride, default=1, help="keep every S-th step as a frame (default 1)")
+    run.add_argument("--stride", type=_stride, default=None,
+                     help="keep every S-th step as a frame (default: chosen so that the frames fit the 20 MB budget "
+                          "of signorini.trajectory.TRAJECTORY_BUDGET; the summary prints it)")
     run.add_argument("--no-plot", action="store_true", help="write no PNG")
     _add_outputs(run, html_default=True)
     _add_allow_path(run)
@@ -253,13 +261,21 @@ def _write_outputs(args: argparse.Namespace, record: "Record", out: Path, html_d
 
 def _run(args: argparse.Namespace) -> int:
     """Build, run, save, draw and summarise one scene."""
-    from . import output
+    from . import decomposition, output
+    from .trajectory import TRAJECTORY_BUDGET
+    from .world import SolverWarning
 
-    scene = _read_scene(args.scene, args.allow_paths)
-    record = output.run(scene, steps=args.steps, dt=args.dt, progress=not args.quiet, stride=args.stride)
+    with contextlib.ExitStack() as quiet:
+        if args.quiet:
+            # --quiet: no decomposition estimate or bar, no progress bar, no SolverWarning
+            quiet.enter_context(decomposition.quiet())
+            quiet.enter_context(warnings.catch_warnings())
+            warnings.simplefilter("ignore", SolverWarning)
+        scene = _read_scene(args.scene, args.allow_paths)
+        record = output.run(scene, steps=args.steps, dt=args.dt, progress=not args.quiet, stride=args.stride)
     files = [output.save_trajectory(args.out / f"{scene.name}.npz", record)]
     files += _write_outputs(args, record, args.out, html_default=True, scene=scene)
-    print(output.format_summary(record, files))
+    print(output.format_summary(record, files, budget=None if args.stride else TRAJECTORY_BUDGET))
     return 0
 
 

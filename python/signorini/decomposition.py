@@ -41,6 +41,8 @@ Settings, speed against quality (measured as ``TIMINGS``, one run each):
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import hashlib
 import json
 import os
@@ -55,7 +57,7 @@ import numpy as np
 from . import meshfile
 from ._core import Mesh
 
-__all__ = ["decompose", "convex_pieces", "estimate", "cache_dir", "DEFAULT_THRESHOLD",
+__all__ = ["decompose", "convex_pieces", "quiet", "estimate", "cache_dir", "DEFAULT_THRESHOLD",
            "DEFAULT_PREPROCESS_RESOLUTION", "TIMINGS"]
 
 #: CoACD's concavity threshold: smaller gives more, tighter pieces.
@@ -141,14 +143,31 @@ def _duration(seconds: float) -> str:
     return f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
 
 
+#: whether a decomposition asked for without ``progress=`` (``World.add_body``'s) prints its estimate and bar
+_PROGRESS: contextvars.ContextVar[bool] = contextvars.ContextVar("signorini_decomposition_progress", default=True)
+
+
+@contextlib.contextmanager
+def quiet():
+    """Within ``with decomposition.quiet():`` decompositions asked for without ``progress=`` (those
+    ``World.add_body`` and the scene loaders start) print neither the estimate nor the progress
+    bar (``python -m signorini run --quiet``). CoACD still runs, and Ctrl-C still stops it."""
+    token = _PROGRESS.set(False)
+    try:
+        yield
+    finally:
+        _PROGRESS.reset(token)
+
+
 def convex_pieces(mesh: Mesh, threshold: float = DEFAULT_THRESHOLD, seed: int = 0, *, max_pieces: int | None = None,
-                  preprocess_resolution: int = DEFAULT_PREPROCESS_RESOLUTION, progress: bool = True) -> list[np.ndarray]:
+                  preprocess_resolution: int = DEFAULT_PREPROCESS_RESOLUTION,
+                  progress: bool | None = None) -> list[np.ndarray]:
     """The vertex arrays (n_i, 3) of the convex pieces of a closed mesh (its own frame, m).
 
     Read from the cache when this mesh was decomposed before with the same settings (module doc);
     otherwise computed by CoACD in a worker process (deterministic for a given seed) and cached.
     progress: print the estimate and show the progress bar on stderr (nothing is printed for a
-    cached mesh). Raises ValueError for an open or inconsistently oriented mesh or a setting out of
+    cached mesh); None (the default): yes, except inside ``quiet()``. Raises ValueError for an open or inconsistently oriented mesh or a setting out of
     range, TypeError for a non-integer count, RuntimeError when CoACD fails; KeyboardInterrupt
     (Ctrl-C) stops the worker and propagates, with nothing cached.
     """
@@ -164,6 +183,8 @@ def convex_pieces(mesh: Mesh, threshold: float = DEFAULT_THRESHOLD, seed: int = 
     cached = _read_pieces(path)
     if cached is not None:
         return cached
+    if progress is None:
+        progress = _PROGRESS.get()
     if progress:
         low, high = estimate(mesh, settings["threshold"])
         print(f"signorini: decomposing a mesh of {len(faces):,} triangles into convex pieces with CoACD (threshold "
@@ -292,7 +313,7 @@ class _Progress:
 
 
 def decompose(mesh: Mesh, threshold: float = DEFAULT_THRESHOLD, seed: int = 0, *, max_pieces: int | None = None,
-              preprocess_resolution: int = DEFAULT_PREPROCESS_RESOLUTION, progress: bool = True) -> Mesh:
+              preprocess_resolution: int = DEFAULT_PREPROCESS_RESOLUTION, progress: bool | None = None) -> Mesh:
     """A copy of ``mesh`` that collides through convex pieces: the mesh itself when it is convex,
     its own hull when it is convex within ``meshfile.CONVEX_TOLERANCE``, else CoACD's pieces
     (``convex_pieces``; settings, cost, cache and Ctrl-C in the module doc). Its mass properties

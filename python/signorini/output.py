@@ -19,21 +19,22 @@ import numpy as np
 from tqdm import tqdm
 
 from . import meshes
-from .trajectory import Record, Recorder, load_trajectory, save_trajectory
+from .trajectory import TRAJECTORY_BUDGET, Record, Recorder, load_trajectory, save_trajectory
 
 __all__ = ["Record", "run", "save_trajectory", "load_trajectory", "summary", "format_summary", "energy_change_text",
-           "plot"]
+           "plot", "megabytes"]
 
 
 def run(scene, steps: int | None = None, dt: float | None = None, progress: bool | None = None,
-        stride: int = 1, contacts: bool = True) -> Record:
+        stride: int | None = None, contacts: bool = True, budget: float = TRAJECTORY_BUDGET) -> Record:
     """Step a scene's world one step at a time, recording it.
 
     Inputs: scene (``scenes.Scene``; its world is advanced in place; its optional ``names`` name
     the bodies), steps (default ``scene.steps``), dt (s, default ``scene.dt``), progress (a tqdm
     bar on stderr that appears once the run has taken a second; default: only when stderr is a
-    terminal), stride (a frame every ``stride`` steps), contacts (record each frame's contacts).
-    Output: a ``Record`` of ``steps`` steps.
+    terminal), stride (a frame every ``stride`` steps; None, the default: chosen so that the
+    frames fit ``budget`` bytes, ``trajectory.TRAJECTORY_BUDGET``), contacts (record each frame's
+    contacts). Output: a ``Record`` of ``steps`` steps.
     """
     world = scene.world
     steps = scene.steps if steps is None else int(steps)
@@ -43,8 +44,8 @@ def run(scene, steps: int | None = None, dt: float | None = None, progress: bool
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a finite number > 0, got {dt}")
 
-    recorder = Recorder(world, stride=stride, contacts=contacts, names=getattr(scene, "names", None),
-                        scene=scene.name)
+    recorder = Recorder(world, stride=stride, steps=steps, budget=budget, contacts=contacts,
+                        names=getattr(scene, "names", None), scene=scene.name)
     # a progress bar only for a person watching a terminal, and only for runs longer than a second
     if progress is None:
         progress = sys.stderr.isatty()
@@ -126,14 +127,25 @@ def energy_change_text(change: float, scale: float) -> str:
             "kinematic bodies or the integration")
 
 
-def format_summary(record: Record, files=()) -> str:
-    """The few lines the command line prints after a run; ``files`` are the paths written."""
+def megabytes(size: int) -> str:
+    """A file size as the summary prints it: '12.3 MB' (10^6 bytes), '4.1 kB' below a megabyte."""
+    return f"{size / 1e6:.3g} MB" if size >= 1e6 else f"{size / 1e3:.3g} kB"
+
+
+def format_summary(record: Record, files=(), budget: float | None = None) -> str:
+    """The few lines the command line prints after a run; ``files`` are the paths written (each
+    with its size, and their total). ``budget``: the frame budget (bytes) when the stride was
+    chosen automatically, None when it was given."""
     s = summary(record)
     speed = s["steps"] / s["wall_time"] if s["wall_time"] > 0 else float("inf")
+    chosen = (f"chosen for the {megabytes(int(budget))} frame budget; --stride sets it" if budget is not None
+              else "as given")
     lines = [
         f"scene        {record.scene}",
         f"bodies       {s['bodies']} ({s['dynamic']} dynamic)",
         f"steps        {s['steps']} x dt {record.dt:.6g} s = {s['simulated_time']:.4g} s simulated",
+        f"frames       {record.frames}, every {record.stride} step{'s' if record.stride > 1 else ''} "
+        f"(stride {record.stride}, {chosen})",
         f"wall time    {s['wall_time']:.3f} s in World.step ({speed:.0f} steps/s)",
         f"energy       initial {s['initial_energy']:.6g} J, final {s['final_energy']:.6g} J: "
         + energy_change_text(s["energy_change"], s["energy_scale"]),
@@ -146,8 +158,11 @@ def format_summary(record: Record, files=()) -> str:
         lines.append("certificate  largest over the run / the last {:g} s: ".format(s["window"]) + ", ".join(
             f"{label} {s['certificate_run'][k]:.2e} / {s['certificate_last'][k]:.2e} {unit}"
             for k, label, unit in CERTIFICATE if k in s["certificate_run"]))
-    for i, path in enumerate(files):
-        lines.append(f"{'written' if i == 0 else '':<12} {path}")
+    sizes = [Path(path).stat().st_size if Path(path).is_file() else 0 for path in files]
+    for i, (path, size) in enumerate(zip(files, sizes)):
+        lines.append(f"{'written' if i == 0 else '':<12} {path} ({megabytes(size)})")
+    if len(files) > 1:
+        lines.append(f"{'':<12} {megabytes(sum(sizes))} in all")
     return "\n".join(lines)
 
 

@@ -28,7 +28,6 @@ import base64
 import html
 import importlib.util
 import json
-import math
 from importlib import resources
 from pathlib import Path
 
@@ -37,7 +36,7 @@ import numpy as np
 from .render import body_colours, default_camera, default_force_scale
 from .trajectory import Record
 
-__all__ = ["write_html", "three_js"]
+__all__ = ["write_html", "three_js", "frame_data_bytes", "PLAYER_BUDGET"]
 
 
 def three_js() -> str:
@@ -137,22 +136,41 @@ label {{ user-select: none; }}
 """
 
 
-def write_html(path, record: Record, title: str | None = None, max_frame_bytes: float = 40e6) -> Path:
+#: the most bytes of frame data (times, poses, velocities, camera targets, contacts) a page holds
+#: before base64, which adds a third: 24 MB of it make a page of about 33 MB with three.js
+PLAYER_BUDGET = 24_000_000
+
+
+def frame_data_bytes(record: Record) -> int:
+    """Bytes of the frame data the page of this record holds before base64: per frame its time
+    (4), camera target (12) and contact offset (4), per body and frame its position, orientation
+    and velocity (40, float32), per contact its point, normal and force (36)."""
+    contacts = len(record.contacts["gap"]) if record.contacts is not None else 0
+    return record.frames * (20 + 40 * record.num_bodies) + 36 * contacts
+
+
+def write_html(path, record: Record, title: str | None = None, max_frame_bytes: float = PLAYER_BUDGET) -> Path:
     """Write the single-file player of a record to path (.html); returns the path.
 
-    Poses take 40 bytes per body and frame; when all frames would take more than
-    ``max_frame_bytes``, every k-th frame (and the last) is kept, so a thousand bodies over
-    thousands of frames still give a page a browser opens quickly.
+    When the frames would hold more than ``max_frame_bytes`` of data (``frame_data_bytes``,
+    contacts included), every k-th frame and the last are kept, k the smallest that fits, so a
+    thousand bodies over thousands of frames still give a page a browser opens quickly.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     title = title or f"signorini: {record.scene}"
-    k = math.ceil(record.frames * record.num_bodies * 40 / max_frame_bytes)
-    if k > 1:
+    # the smallest k that fits: the frames' share alone asks for at least total / budget
+    total = frame_data_bytes(record)
+    k = max(1, int(total // max_frame_bytes) - 1)
+    while total > max_frame_bytes and record.frames > 2:
+        k += 1
         keep = list(range(0, record.frames, k))
         if keep[-1] != record.frames - 1:
             keep.append(record.frames - 1)
-        record = record.select_frames(keep)
+        thinned = record.select_frames(keep)
+        if frame_data_bytes(thinned) <= max_frame_bytes or len(keep) <= 2:
+            record = thinned
+            break
     data = json.dumps(_data(record, title), separators=(",", ":")).replace("</", "<\\/")
     player = resources.files("signorini").joinpath("player.js").read_text(encoding="utf-8")
     page = PAGE.format(title=html.escape(title), three=three_js(), data=data, player=player)

@@ -323,7 +323,7 @@ class WorldSettings(_Table):
     gyroscopic: Literal["midpoint", "implicit", "explicit"] = "midpoint"
     warm_start: Bool = True
     substeps: Int = 0
-    warn_velocity: Float = 0.01
+    warn_velocity: Float = 1.0
     solver: Literal["pgs", "soft"] = "pgs"
     contact_hertz: Float = 30.0
     damping_ratio: Float = 10.0

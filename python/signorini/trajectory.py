@@ -26,12 +26,24 @@ always a frame, so F = ceil(T / stride) + 1):
   n + friction), ``gap`` (C,) m;
 - ``scene`` (str), ``dt`` (s), ``stride`` (int), ``wall_time`` (s spent in ``World.step``).
 
-Memory: the frame arrays grow by N * 16 doubles per frame, plus the frame's contacts (13 numbers
-each); the step arrays by 15 numbers (120 bytes) per step, kept in typed arrays. A stride of s
-divides the first by s.
+Size. A ``Recorder`` left to choose its stride (the default) keeps a frame every s steps so that the
+file's frame arrays hold at most ``TRAJECTORY_BUDGET`` (20 MB) before compression: s is chosen from
+the moving bodies and the steps (``auto_stride``, allowing ``CONTACTS_PER_BODY`` contacts a body)
+and the frames are thinned further at ``record()`` if the contacts passed that allowance
+(``fit_budget``). A stride given (``Recorder(stride=...)``, ``run --stride``) is kept as given.
+
+Memory. The recorder appends frames to temporary files a chunk at a time (``CHUNK_BYTES``) and
+holds at most one chunk; ``Recorder.record()`` gives the frame arrays and contacts as read-only
+memory maps of those files (float64, the run's exact values). The step arrays grow by 15 numbers
+(120 bytes) a step, kept in typed arrays.
 
 The file is one compressed ``.npz`` (no pickles): ``save_trajectory(path, record)`` (also
-``record.save(path)``) and ``load_trajectory(path)``; the command line writes it.
+``record.save(path)``) and ``load_trajectory(path)``; the command line writes it. Version 2 (this
+one) stores the poses and velocities of the bodies that move as **float32** and those of bodies
+that never move (static bodies) once; contacts as float32 and int32. ``load_trajectory`` gives
+float64 and int64 arrays back, as a recording holds them: a coordinate x comes back within
+2^-24 |x| of the recorded value (float32 rounding), a still body's exactly. Version 1 files
+(float64, every body every frame) still load.
 """
 
 from __future__ import annotations
@@ -39,8 +51,11 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
+import tempfile
 import time as _time
 import warnings
+import weakref
 import zipfile
 from array import array
 from dataclasses import dataclass
@@ -49,13 +64,13 @@ from pathlib import Path
 import numpy as np
 
 from . import codec, filecheck, meshes
-from .world import SolverWarning
+from .world import SolverWarning, user_stacklevel
 
 __all__ = ["Record", "Recorder", "save_trajectory", "load_trajectory", "shape_params", "body_names",
-           "TRAJECTORY_FORMAT"]
+           "TRAJECTORY_FORMAT", "TRAJECTORY_BUDGET", "auto_stride", "fit_budget", "record_bytes", "moving_bodies"]
 
 TRAJECTORY_FORMAT = "signorini-trajectory"
-TRAJECTORY_VERSION = 1
+TRAJECTORY_VERSION = 2  # 1: every frame of every body in float64 (still read)
 CONTACT_KEYS = ("body_a", "body_b", "point", "normal", "force", "gap")
 
 
@@ -224,42 +239,148 @@ def plane_patch(normal, offset: float, centre, half: float, cells: int = 16) -> 
 
 # recording
 
+#: the default size of a recording's frame arrays as the file holds them, before compression
+#: (bytes): the poses and velocities of the moving bodies (float32, ``BODY_FRAME_BYTES`` a body)
+#: and the frames' contacts (``CONTACT_BYTES`` each). A ``Recorder`` whose stride is left to it
+#: keeps every s-th step so that a run fits (``auto_stride``), and thins the frames further when
+#: it records more contacts than it allowed for. 20 MB keeps a run's trajectory and its player
+#: (which stores about as much again, base64) under 50 MB together.
+TRAJECTORY_BUDGET = 20_000_000
+#: file bytes of one moving body in one frame: position 3, orientation 4, velocity 3, angular
+#: velocity 3, as float32
+BODY_FRAME_BYTES = 13 * 4
+#: file bytes of one contact: point, normal, force (3 float32 each), gap (float32), body_a, body_b (int32)
+CONTACT_BYTES = 10 * 4 + 2 * 4
+#: contacts a moving body is expected to have in a frame, when the stride is chosen before the run
+#: (a box resting on a box has 4; a sphere in a pile about 3)
+CONTACTS_PER_BODY = 4
+#: the bytes of frames a ``Recorder`` holds in memory before it appends them to its spool on disk
+CHUNK_BYTES = 4 << 20
+
+_FRAME_ARRAYS = {"positions": 3, "orientations": 4, "velocities": 3, "angular_velocities": 3}
+_FRAME_SCALARS = ("frame_step", "time", "kinetic_energy", "potential_energy")
+
+
+def frame_bytes(moving_bodies: int, contacts: int = 0) -> int:
+    """File bytes of frames holding ``moving_bodies`` body poses in all and ``contacts`` contacts in all."""
+    return int(moving_bodies) * BODY_FRAME_BYTES + int(contacts) * CONTACT_BYTES
+
+
+def auto_stride(moving_bodies: int, steps: int, budget: float = TRAJECTORY_BUDGET, contacts: bool = True) -> int:
+    """The smallest stride s >= 1 whose frames (ceil(steps / s) + 1 of them, ``moving_bodies``
+    each, with ``CONTACTS_PER_BODY`` contacts a body when ``contacts``) fit in ``budget`` bytes."""
+    per_frame = frame_bytes(max(int(moving_bodies), 1), CONTACTS_PER_BODY * max(int(moving_bodies), 1) if contacts else 0)
+    frames = max(int(budget // per_frame), 2)
+    return max(1, math.ceil(int(steps) / (frames - 1)))
+
+
+class _Spool:
+    """Rows of one dtype and row shape appended to an anonymous temporary file (deleted when
+    closed or collected), read back as a read-only memory map."""
+
+    def __init__(self, dtype, row_shape: tuple):
+        self.dtype, self.row_shape = np.dtype(dtype), tuple(row_shape)
+        self.row_bytes = self.dtype.itemsize * int(np.prod(self.row_shape, dtype=np.int64))
+        self.rows = 0
+        self._file = None
+
+    def append(self, rows: np.ndarray) -> None:
+        if len(rows) == 0:
+            return
+        if self._file is None:
+            self._file = tempfile.TemporaryFile(prefix="signorini-frames-")
+            # closed with the spool; a memory map made of it keeps the data until it goes too
+            weakref.finalize(self, self._file.close)
+        self._file.seek(0, 2)
+        self._file.write(np.ascontiguousarray(rows, dtype=self.dtype).tobytes())
+        self.rows += len(rows)
+
+    def read(self, lo: int, hi: int) -> np.ndarray:
+        """Rows lo:hi as a new array."""
+        self._file.flush()
+        data = os.pread(self._file.fileno(), (hi - lo) * self.row_bytes, lo * self.row_bytes)
+        return np.frombuffer(data, dtype=self.dtype).reshape((hi - lo,) + self.row_shape).copy()
+
+    def map(self) -> np.ndarray:
+        """Every row so far, (rows, *row_shape), a read-only memory map of the file."""
+        if self.rows == 0:
+            return np.zeros((0,) + self.row_shape, dtype=self.dtype)
+        self._file.flush()
+        return np.memmap(self._file, dtype=self.dtype, mode="r", shape=(self.rows,) + self.row_shape)
+
 
 class Recorder:
     """Records a world as it steps: every step's contact count, smallest gap and solver report, every
     ``stride``-th step's state (and contacts, with ``contacts=True``), and the scene.
 
-        rec = sg.Recorder(world, stride=4)       # frame 0 is the state now
+        rec = sg.Recorder(world)                  # frame 0 is the state now
         rec.step(dt=1/240, steps=480)             # steps the world, recording
         record = rec.record()                     # a Record; record.save("run.npz")
 
     A world stepped by other code is recorded by calling ``rec.observe()`` after each single step.
-    Inputs: world (a ``signorini.World``), stride (int >= 1), contacts (bool), names (N strings or
-    None, see ``body_names``), scene (the run's name).
+    Inputs: world (a ``signorini.World``), stride (int >= 1, or None: chosen to fit ``budget``),
+    steps (the run's length, when known before ``step`` is called: for the automatic stride),
+    budget (bytes, ``TRAJECTORY_BUDGET`` by default), contacts (bool), names (N strings or None,
+    see ``body_names``), scene (the run's name), chunk_bytes (``CHUNK_BYTES``).
+
+    The stride. Given, it is kept. Left to the recorder (None), it is ``auto_stride`` of the moving
+    bodies and the steps (``steps=``, or those of the first ``step`` call; 1 when neither comes
+    before the first ``observe``), and ``record`` keeps every k-th frame (and the last) if the
+    frames then hold more than ``budget`` bytes in the file (more contacts than allowed for), so the
+    file's frame arrays hold at most ``budget`` bytes before compression. ``stride_auto`` says which.
+
+    Memory. The frames go to temporary files on disk (``_Spool``) a chunk at a time, about
+    ``chunk_bytes`` of them (``chunk_frames``); the recorder holds at most one chunk
+    (``frames_in_memory``), plus the per-step numbers (120 bytes a step) and four numbers a frame.
+    ``record()`` gives memory maps of those files (float64, exact), so a long run costs disk, not
+    memory; the files go when the last array of them goes.
     """
 
-    def __init__(self, world, *, stride: int = 1, contacts: bool = True, names=None, scene: str = "world"):
-        if isinstance(stride, bool) or not isinstance(stride, (int, np.integer)) or stride < 1:
-            raise ValueError(f"Recorder: stride must be an integer >= 1, got {stride!r}")
+    def __init__(self, world, *, stride: int | None = None, steps: int | None = None,
+                 budget: float = TRAJECTORY_BUDGET, contacts: bool = True, names=None, scene: str = "world",
+                 chunk_bytes: int = CHUNK_BYTES):
+        if stride is not None and (isinstance(stride, bool) or not isinstance(stride, (int, np.integer)) or stride < 1):
+            raise ValueError(f"Recorder: stride must be an integer >= 1 or None (chosen to fit the budget), got {stride!r}")
+        if steps is not None and (isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0):
+            raise ValueError(f"Recorder: steps must be an integer >= 0 or None, got {steps!r}")
+        if isinstance(budget, bool) or not isinstance(budget, (int, float, np.number)) or not budget > 0:
+            raise ValueError(f"Recorder: budget must be a number of bytes > 0, got {budget!r}")
+        if isinstance(chunk_bytes, bool) or not isinstance(chunk_bytes, (int, np.integer)) or chunk_bytes < 1:
+            raise ValueError(f"Recorder: chunk_bytes must be an integer >= 1, got {chunk_bytes!r}")
         self.world = world
-        self.stride = int(stride)
+        self.stride_auto = stride is None
+        self.budget = float(budget)
         self.with_contacts = bool(contacts)
         self.scene = str(scene)
         self.names = body_names(world, names)
         n = world.num_bodies
         self._shapes = [world.shape(i) for i in range(n)]
+        self._is_static = np.array(world.is_static, dtype=bool).reshape(n)
+        self.stride = int(stride) if stride is not None else 1
+        if self.stride_auto and steps is not None:
+            self.stride = self._auto(int(steps))
         self.wall_time = 0.0
         self.dt = None
         self._steps = 0
-        self._frames = {k: [] for k in ("frame_step", "time", "positions", "orientations", "velocities",
-                                        "angular_velocities", "kinetic_energy", "potential_energy")}
+        # frames: four numbers each in memory, the arrays in chunks spooled to disk
+        self._scalars = {"frame_step": array("q"), "time": array("d"), "kinetic_energy": array("d"),
+                         "potential_energy": array("d")}
+        self._spool = {k: _Spool(np.float64, (n, m)) for k, m in _FRAME_ARRAYS.items()}
+        self._chunk = {k: [] for k in _FRAME_ARRAYS}
+        self.chunk_frames = max(1, int(chunk_bytes) // max(1, n * 13 * 8))
         # per-step numbers in typed arrays: 8 bytes a number, not a Python object each
         self._step = {"step_time": array("d"), "num_contacts": array("q"), "min_gap": array("d")}
         self._solver: dict[str, array] = {}
-        self._contacts = {k: [] for k in CONTACT_KEYS}
-        self._contact_counts = [0]
+        self._contact_spool = {k: _Spool(np.int64 if k in ("body_a", "body_b") else np.float64,
+                                         (3,) if k in ("point", "normal", "force") else ())
+                               for k in CONTACT_KEYS}
+        self._contact_chunk = {k: [] for k in CONTACT_KEYS}
+        self._contact_counts = array("q", [0])
         self._pending = None  # contacts of the last step, kept until we know it is a frame
         self._frame()
+
+    def _auto(self, steps: int) -> int:
+        return auto_stride(int(np.count_nonzero(~self._is_static)), steps, self.budget, self.with_contacts)
 
     @property
     def steps(self) -> int:
@@ -269,43 +390,70 @@ class Recorder:
     @property
     def frames(self) -> int:
         """Frames recorded so far."""
-        return len(self._frames["time"])
+        return len(self._scalars["time"])
+
+    @property
+    def frames_in_memory(self) -> int:
+        """Frames held in memory, not yet appended to the spool on disk (at most ``chunk_frames``)."""
+        return len(self._chunk["positions"])
 
     def frame(self, f: int) -> dict:
         """Frame f as recorded so far, without building a Record: time (s), positions (N, 3),
         orientations (N, 4), velocities (N, 3), angular_velocities (N, 3) and contacts (a dict of
         ``CONTACT_KEYS`` arrays, or None when contacts are not recorded)."""
-        out = {k: self._frames[k][f] for k in ("time", "positions", "orientations", "velocities",
-                                               "angular_velocities")}
+        if not 0 <= f < self.frames:
+            raise IndexError(f"Recorder.frame: frame {f} of {self.frames}")
+        spooled = self._spool["positions"].rows
+        out = {"time": self._scalars["time"][f]}
+        for k in _FRAME_ARRAYS:
+            out[k] = self._spool[k].read(f, f + 1)[0] if f < spooled else self._chunk[k][f - spooled]
         out["contacts"] = None
         if self.with_contacts and f > 0:
-            out["contacts"] = {k: self._contacts[k][f - 1] for k in CONTACT_KEYS}
+            lo, hi = int(np.sum(self._contact_counts[:f])), int(np.sum(self._contact_counts[:f + 1]))
+            stored = self._contact_spool["gap"].rows
+            if hi <= stored:
+                out["contacts"] = {k: self._contact_spool[k].read(lo, hi) for k in CONTACT_KEYS}
+            else:
+                rows = {k: np.concatenate(v) if v else self._contact_spool[k].read(0, 0)
+                        for k, v in self._contact_chunk.items()}
+                out["contacts"] = {k: rows[k][lo - stored:hi - stored] for k in CONTACT_KEYS}
         return out
 
     def _frame(self) -> None:
-        """Append the world's current state as a frame."""
+        """Append the world's current state as a frame (to the chunk in memory; a full chunk goes to disk)."""
         w = self.world
-        f = self._frames
-        f["frame_step"].append(self._steps)
-        f["time"].append(float(w.time))
-        f["positions"].append(np.array(w.positions, dtype=np.float64))
-        f["orientations"].append(np.array(w.orientations, dtype=np.float64))
-        f["velocities"].append(np.array(w.velocities, dtype=np.float64))
-        f["angular_velocities"].append(np.array(w.angular_velocities, dtype=np.float64))
-        f["kinetic_energy"].append(float(w.kinetic_energy()))
-        f["potential_energy"].append(float(w.potential_energy()))
+        s = self._scalars
+        s["frame_step"].append(self._steps)
+        s["time"].append(float(w.time))
+        s["kinetic_energy"].append(float(w.kinetic_energy()))
+        s["potential_energy"].append(float(w.potential_energy()))
+        for k in _FRAME_ARRAYS:
+            self._chunk[k].append(np.array(getattr(w, k), dtype=np.float64))
         if self._steps > 0 and self.with_contacts:
             c = self._pending
             for k in CONTACT_KEYS:
-                self._contacts[k].append(c[k])
+                self._contact_chunk[k].append(c[k])
             self._contact_counts.append(len(c["gap"]))
+        if self.frames_in_memory >= self.chunk_frames:
+            self._flush()
+
+    def _flush(self) -> None:
+        """Append the chunk in memory to the spool files and empty it."""
+        for k, rows in self._chunk.items():
+            if rows:
+                self._spool[k].append(np.stack(rows))
+            rows.clear()
+        for k, parts in self._contact_chunk.items():
+            if parts:
+                self._contact_spool[k].append(np.concatenate(parts))
+            parts.clear()
 
     def observe(self) -> None:
         """Record the step the world just took (call once after every single step)."""
         w = self.world
         t = float(w.time)
         if self.dt is None:
-            self.dt = t - self._frames["time"][0]
+            self.dt = t - self._scalars["time"][0]
         self._steps += 1
 
         # the step's numbers: contacts found at its start and the solver's report
@@ -343,7 +491,8 @@ class Recorder:
 
     def step(self, dt: float, steps: int = 1, progress=None) -> None:
         """Advance the world ``steps`` single steps of dt (s), observing each; ``progress`` is an
-        optional callable called with 1 after each step (a tqdm bar's ``update``).
+        optional callable called with 1 after each step (a tqdm bar's ``update``). With an
+        automatic stride and no steps recorded yet, the stride is chosen for these ``steps``.
 
         Warnings of one category are gathered and given once, the first one's text with how many
         recorded steps raised it (a world's ``SolverWarning`` comes once, with how many recorded
@@ -353,6 +502,8 @@ class Recorder:
             raise ValueError(f"Recorder.step: steps must be an integer >= 0, got {steps!r}")
         if not (isinstance(dt, (int, float, np.number)) and math.isfinite(dt) and dt > 0):
             raise ValueError(f"Recorder.step: dt must be a finite number > 0, got {dt!r}")
+        if self.stride_auto and self._steps == 0:
+            self.stride = self._auto(int(steps))
         flagged = getattr(self.world, "unconverged_substeps", 0)  # a duck-typed world may have none
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -371,40 +522,38 @@ class Recorder:
             more = f" [{count} of {steps} recorded steps warned; this is the first]" if count > 1 else ""
             if issubclass(category, SolverWarning) and flagged > 1:
                 more = f" [{flagged} unconverged solver substeps in {steps} recorded steps]"
-            warnings.warn(f"{message}{more}", category, stacklevel=2)
+            warnings.warn(f"{message}{more}", category, stacklevel=user_stacklevel())
         if steps:
             self.dt = float(dt)
 
     def record(self) -> Record:
-        """The recording so far as a ``Record`` (the last step becomes a frame if it is not one)."""
-        if self._frames["frame_step"][-1] != self._steps:
+        """The recording so far as a ``Record`` (the last step becomes a frame if it is not one).
+        Its frame arrays are read-only memory maps of the spool; with an automatic stride, frames
+        are thinned to fit the budget (see the class docstring)."""
+        if self._scalars["frame_step"][-1] != self._steps:
             if self.with_contacts:
                 self._pending = self._read_contacts(self._pending)
             self._frame()
-        f = {k: np.array(v) for k, v in self._frames.items()}
-        f["frame_step"] = f["frame_step"].astype(np.int64)
+        self._flush()
+        f = {k: self._spool[k].map() for k in _FRAME_ARRAYS}
+        f.update({k: np.array(v, dtype=np.int64 if k == "frame_step" else np.float64) for k, v in self._scalars.items()})
         steps = self._steps
         solver = {k: np.array(v, dtype=bool if v.typecode == "b" else None) for k, v in self._solver.items()}
         contacts = None
         if self.with_contacts:
-            contacts = {"offsets": np.concatenate([[0], np.cumsum(self._contact_counts)]).astype(np.int64)}
-            for k in CONTACT_KEYS:
-                empty = np.zeros((0, 3)) if k in ("point", "normal", "force") else np.zeros(0)
-                parts = self._contacts[k]
-                contacts[k] = np.concatenate(parts) if parts else empty
-                if k in ("body_a", "body_b"):
-                    contacts[k] = contacts[k].astype(np.int64)
-        is_static = np.array(self.world.is_static, dtype=bool)
-        return Record(
+            counts = np.array(self._contact_counts, dtype=np.int64)
+            contacts = {"offsets": np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)}
+            contacts.update({k: self._contact_spool[k].map() for k in CONTACT_KEYS})
+        record = Record(
             scene=self.scene,
             dt=float(self.dt) if self.dt is not None else 0.0,
             stride=self.stride,
             wall_time=float(self.wall_time),
             names=list(self.names),
             shapes=[shape_params(s) for s in self._shapes],
-            draw_meshes=_draw_meshes(self._shapes, f["positions"], is_static),
+            draw_meshes=_draw_meshes(self._shapes, f["positions"], self._is_static),
             masses=np.array(self.world.masses, dtype=np.float64),
-            is_static=is_static,
+            is_static=self._is_static.copy(),
             gravity=np.array(getattr(self.world, "gravity", np.zeros(3)), dtype=np.float64).reshape(3),
             step_time=np.array(self._step["step_time"], dtype=np.float64).reshape(steps),
             num_contacts=np.array(self._step["num_contacts"], dtype=np.int64).reshape(steps),
@@ -413,6 +562,45 @@ class Recorder:
             contacts=contacts,
             **f,
         )
+        if self.stride_auto:
+            record = fit_budget(record, self.budget)
+        return record
+
+
+def record_bytes(record: Record) -> int:
+    """Bytes of a record's frame arrays as ``save_trajectory`` writes them, before compression:
+    the moving bodies' poses and velocities (``BODY_FRAME_BYTES``) and the contacts
+    (``CONTACT_BYTES``); bodies that never move are stored once and not counted."""
+    contacts = len(record.contacts["gap"]) if record.contacts is not None else 0
+    return frame_bytes(record.frames * int(np.count_nonzero(moving_bodies(record))), contacts)
+
+
+def fit_budget(record: Record, budget: float = TRAJECTORY_BUDGET) -> Record:
+    """The record itself when its frames fit ``budget`` bytes (``record_bytes``), else every k-th
+    frame and the last, k the smallest that fits (the stride becomes stride k; the step arrays stay)."""
+    if record_bytes(record) <= budget or record.frames <= 2:
+        return record
+    k = max(2, math.floor(record_bytes(record) / budget))
+    while True:
+        keep = list(range(0, record.frames, k))
+        if keep[-1] != record.frames - 1:
+            keep.append(record.frames - 1)
+        thin = record.select_frames(keep)
+        if record_bytes(thin) <= budget or len(keep) <= 2:
+            return dataclasses.replace(thin, stride=record.stride * k)
+        k += 1
+
+
+def moving_bodies(record: Record, chunk: int = 256) -> np.ndarray:
+    """(N,) bool: the bodies whose pose or velocity differs from frame 0's in some frame (read a
+    chunk of frames at a time). The others are stored once in a file."""
+    moving = np.zeros(record.num_bodies, dtype=bool)
+    for k in _FRAME_ARRAYS:
+        a = getattr(record, k)
+        first = np.asarray(a[0])
+        for lo in range(1, record.frames, chunk):
+            moving |= np.any(np.asarray(a[lo:lo + chunk]) != first, axis=(0, 2))
+    return moving
 
 
 def _draw_meshes(shapes, positions, is_static) -> list:
@@ -421,8 +609,12 @@ def _draw_meshes(shapes, positions, is_static) -> list:
     of more than 200 bodies (a thousand spheres stay quick to draw and to store)."""
     subdivisions = 2 if len(shapes) <= 200 else 1
     out = [meshes.render_mesh(s, sphere_subdivisions=subdivisions) for s in shapes]
-    moving = positions[:, ~is_static].reshape(-1, 3) if (~is_static).any() else positions.reshape(-1, 3)
-    lo, hi = moving.min(axis=0), moving.max(axis=0)
+    # the box of the moving bodies' path, a chunk of frames at a time (positions may be a memory map)
+    columns = ~is_static if (~is_static).any() else np.ones(len(is_static), dtype=bool)
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for start in range(0, len(positions), 256):
+        chunk = np.asarray(positions[start:start + 256])[:, columns].reshape(-1, 3)
+        lo, hi = np.minimum(lo, chunk.min(axis=0)), np.maximum(hi, chunk.max(axis=0))
     centre = 0.5 * (lo + hi)
     # the largest body's reach, so a patch is never smaller than what lies on it
     reach = max([float(np.linalg.norm(m[0], axis=1).max()) for m, st in zip(out, is_static)
@@ -440,17 +632,32 @@ def _draw_meshes(shapes, positions, is_static) -> list:
 
 
 def save_trajectory(path, record: Record) -> Path:
-    """Write a record to one compressed .npz (no pickles); returns the path.
+    """Write a record to one compressed .npz (no pickles), format version 2; returns the path.
 
-    Keys: the Record's array fields by name; ``solver_<field>`` for the solver report;
-    ``contact_<key>`` and ``contact_offsets`` when contacts were recorded; ``names`` (N,) str;
-    ``shapes`` a JSON string; the draw meshes concatenated as ``mesh_vertices`` (V, 3),
-    ``mesh_faces`` (K, 3) (indices local to each body) with ``mesh_vertex_offsets`` and
-    ``mesh_face_offsets`` (N + 1,); ``format`` and ``version``.
+    Keys: ``format``, ``version`` (2), ``scene``, ``dt``, ``stride``, ``wall_time``, ``names`` (N,)
+    str, ``shapes`` a JSON string; ``masses``, ``is_static``, ``gravity``; the frames' ``frame_step``,
+    ``time``, ``kinetic_energy``, ``potential_energy`` (float64); ``moving`` (N,) bool, the bodies
+    whose pose or velocity changes in some frame (``moving_bodies``): their poses and velocities
+    every frame as **float32** ``frame_positions`` (F, M, 3), ``frame_orientations`` (F, M, 4),
+    ``frame_velocities`` and ``frame_angular_velocities`` (F, M, 3), and the others' once, exact,
+    as float64 ``still_positions`` (S, 3), ``still_orientations`` (S, 4), ``still_velocities`` and
+    ``still_angular_velocities`` (S, 3) (static bodies always among them); the step arrays
+    ``step_time``, ``num_contacts``, ``min_gap`` and ``solver_<field>``; with contacts,
+    ``contact_offsets`` (F + 1,) int64, ``contact_body_a``, ``contact_body_b`` (C,) int32 and
+    ``contact_point``, ``contact_normal``, ``contact_force`` (C, 3), ``contact_gap`` (C,) float32;
+    the draw meshes concatenated as ``mesh_vertices`` (V, 3), ``mesh_faces`` (K, 3) (indices local
+    to each body) with ``mesh_vertex_offsets`` and ``mesh_face_offsets`` (N + 1,).
+
+    float32 keeps 24 bits: a stored coordinate x comes back within 2^-24 |x| (6e-8 relative; 0.6 um
+    at 10 m), far below what a picture or a plot shows; the exact run is the simulator's to repeat.
+    Arrays are written a chunk of frames at a time, so a memory-mapped record (``Recorder.record``)
+    is never read into memory whole.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    data = {
+    moving = moving_bodies(record)
+    still = ~moving
+    small = {
         "format": np.array(TRAJECTORY_FORMAT), "version": np.array(TRAJECTORY_VERSION),
         "scene": np.array(record.scene), "dt": np.array(record.dt), "stride": np.array(record.stride),
         "wall_time": np.array(record.wall_time), "names": np.array(record.names, dtype=str),
@@ -460,18 +667,49 @@ def save_trajectory(path, record: Record) -> Path:
         "mesh_vertex_offsets": np.cumsum([0] + [len(v) for v, _ in record.draw_meshes]).astype(np.int64),
         "mesh_face_offsets": np.cumsum([0] + [len(f) for _, f in record.draw_meshes]).astype(np.int64),
         "has_contacts": np.array(record.contacts is not None),
+        "moving": moving,
     }
-    for name in _ARRAYS:
-        data[name] = np.asarray(getattr(record, name))
+    for name in _ARRAYS_V2:
+        small[name] = np.asarray(getattr(record, name))
+    for k in _FRAME_ARRAYS:
+        small[f"still_{k}"] = np.asarray(getattr(record, k)[0])[still].astype(np.float64)
     for k, v in record.solver.items():
-        data[f"solver_{k}"] = np.asarray(v)
-    if record.contacts is not None:
-        for k, v in record.contacts.items():
-            data[f"contact_{k}"] = np.asarray(v)
-    np.savez_compressed(path, **data)
+        small[f"solver_{k}"] = np.asarray(v)
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED, allowZip64=True) as z:
+        for name, value in small.items():
+            _write_member(z, name, value, value.dtype)
+        for k, m in _FRAME_ARRAYS.items():
+            _write_member(z, f"frame_{k}", getattr(record, k), np.float32, columns=moving)
+        if record.contacts is not None:
+            c = record.contacts
+            _write_member(z, "contact_offsets", np.asarray(c["offsets"]), np.int64)
+            for k in CONTACT_KEYS:
+                _write_member(z, f"contact_{k}", c[k], np.int32 if k in ("body_a", "body_b") else np.float32)
     return path
 
 
+def _write_member(z: zipfile.ZipFile, name: str, a, dtype, columns=None, rows: int = 256) -> None:
+    """Write a (or a[:, columns]) as ``name.npy`` of ``dtype`` into the open zip, ``rows`` of its
+    first axis at a time (a may be a memory map: only a chunk is in memory at once)."""
+    shape = tuple(a.shape) if columns is None else (a.shape[0], int(np.count_nonzero(columns))) + tuple(a.shape[2:])
+    dtype = np.dtype(dtype)
+    nbytes = dtype.itemsize * int(np.prod(shape, dtype=np.int64))
+    header = {"descr": np.lib.format.dtype_to_descr(dtype), "fortran_order": False, "shape": shape}
+    with z.open(name + ".npy", "w", force_zip64=nbytes > (1 << 30)) as out:
+        np.lib.format.write_array_header_1_0(out, header)
+        if len(shape) == 0:
+            out.write(np.asarray(a, dtype=dtype).tobytes())
+            return
+        for lo in range(0, shape[0], rows):
+            chunk = np.asarray(a[lo:lo + rows])
+            if columns is not None:
+                chunk = chunk[:, columns]
+            out.write(np.ascontiguousarray(chunk, dtype=dtype).tobytes())
+
+
+# the arrays a version 2 file holds as they are (the frame arrays are split into moving and still)
+_ARRAYS_V2 = ("masses", "is_static", "gravity", "frame_step", "time", "kinetic_energy", "potential_energy",
+              "step_time", "num_contacts", "min_gap")
 _ARRAYS = ("masses", "is_static", "gravity", "frame_step", "time", "positions", "orientations", "velocities",
            "angular_velocities", "kinetic_energy", "potential_energy", "step_time", "num_contacts", "min_gap")
 
@@ -482,11 +720,12 @@ _ARRAYS = ("masses", "is_static", "gravity", "frame_step", "time", "positions", 
 MAX_TRAJECTORY_BYTES = 1 << 30
 #: the most bytes a trajectory's arrays may hold per byte of the file once they hold more than
 #: ``TRAJECTORY_RATIO_FLOOR``, checked from the headers too, so that what a file makes the loader
-#: take in memory stays within this multiple of its size. The built-in scenes' recordings hold 1.4
-#: to 6.1 bytes per byte of file (contacts included; their most compressible member, the contacts'
-#: body indices, 106 to 191); a world of almost only static or resting bodies records mostly
-#: repeated poses and zero velocities, about 220 (so over the floor, 256 MiB of arrays, it needs
-#: ``load_trajectory(max_ratio=None)``); deflated zeros reach 1,032. README "Files" has the figures
+#: take in memory stays within this multiple of its size. ``run pyramid``, ``rain`` and ``shapes``
+#: write 2.2, 1.8 and 8.2 bytes of arrays per byte of file (format 2; most compressible member 163 and 121;
+#: format 1 files of the built-in scenes 1.4 to 6.1, members up to 191); a format 1 file of almost
+#: only static or resting bodies records mostly repeated poses and zero velocities, about 220 (so
+#: over the floor, 256 MiB of arrays, it needs ``load_trajectory(max_ratio=None)``); deflated zeros
+#: reach 1,032. README "Files" has the figures
 MAX_TRAJECTORY_RATIO = 64
 #: arrays of at most this many bytes (256 MiB) load whatever their ratio (a small file's floor)
 TRAJECTORY_RATIO_FLOOR = 256 << 20
@@ -501,7 +740,11 @@ _SCALARS = ("format", "version", "scene", "dt", "stride", "wall_time", "shapes",
 
 def load_trajectory(path, *, max_bytes: int = MAX_TRAJECTORY_BYTES,
                     max_ratio: float | None = MAX_TRAJECTORY_RATIO) -> Record:
-    """Read a trajectory written by ``save_trajectory`` (or the command line).
+    """Read a trajectory written by ``save_trajectory`` (or the command line), version 1 or 2.
+
+    The record holds float64 and int64 arrays whatever the file stores: a version 2 file's float32
+    poses, velocities and contacts come back within float32 rounding of the recorded values (2^-24
+    relative), its still bodies' exactly; a version 1 file's exactly.
 
     Limits, checked before the arrays are read: the arrays hold at most ``max_bytes`` once
     decompressed (``MAX_TRAJECTORY_BYTES``, 1 GiB, by default) and, above
@@ -534,6 +777,12 @@ def load_trajectory(path, *, max_bytes: int = MAX_TRAJECTORY_BYTES,
         if "format" not in data or data["format"].shape != () or str(data["format"]) != TRAJECTORY_FORMAT:
             raise ValueError(f"{path}: not a signorini trajectory (no format marker {TRAJECTORY_FORMAT!r}; "
                              "written by an older version or another program?)")
+        version = data.get("version")
+        if version is None or version.shape != () or version.dtype.kind not in "iu" or int(version) not in (1, 2):
+            raise ValueError(f"{path}: a signorini trajectory of version {version if version is None else version.tolist()!r}"
+                             f"; this signorini reads versions 1 and 2 (written by a newer one?)")
+        if int(version) == 2:
+            data = _expand_v2(data, path, max_bytes)
         missing = [k for k in _ARRAYS + ("scene", "dt", "stride", "names", "shapes", "mesh_vertices", "mesh_faces",
                                          "mesh_vertex_offsets", "mesh_face_offsets") if k not in data]
         if missing:
@@ -567,6 +816,47 @@ def load_trajectory(path, *, max_bytes: int = MAX_TRAJECTORY_BYTES,
         raise ValueError(message if message.startswith(str(path)) else f"{path}: corrupt trajectory: {message}") \
             from None
     return record
+
+
+def _expand_v2(data: dict, path, max_bytes: int) -> dict:
+    """A version 2 file's arrays in version 1's form: ``positions``, ``orientations``,
+    ``velocities``, ``angular_velocities`` (F, N, .) float64, the moving bodies' from the float32
+    frame arrays and the still ones' repeated; contacts as float64 and int64. ValueError naming the
+    array for shapes that disagree, FileLimitError when the frames would pass ``max_bytes``."""
+    need = ["moving", "time", "names"] + [f"{p}_{k}" for p in ("frame", "still") for k in _FRAME_ARRAYS]
+    missing = [k for k in need if k not in data]
+    if missing:
+        raise ValueError(f"{path}: trajectory is missing {', '.join(missing)}")
+    moving, time, names = data["moving"], data["time"], data["names"]
+    if moving.dtype != np.bool_ or moving.ndim != 1 or names.ndim != 1 or moving.shape != names.shape:
+        raise ValueError(f"{path}: corrupt trajectory: moving must be one bool per body ({names.shape}), "
+                         f"got {moving.shape} {moving.dtype}")
+    if time.ndim != 1:
+        raise ValueError(f"{path}: corrupt trajectory: time must be (F,), got {time.shape}")
+    n, f, m = len(moving), len(time), int(np.count_nonzero(moving))
+    if f * n * sum(_FRAME_ARRAYS.values()) * 8 > max_bytes:
+        raise filecheck.FileLimitError(f"its {f} frames of {n} bodies hold more than {max_bytes:,} bytes once "
+                                       "expanded (limit)")
+    split = {f"{p}_{k}" for p in ("frame", "still") for k in _FRAME_ARRAYS}
+    out = {k: v for k, v in data.items() if k not in split}
+    for k, width in _FRAME_ARRAYS.items():
+        frames, still = data[f"frame_{k}"], data[f"still_{k}"]
+        if frames.shape != (f, m, width) or frames.dtype.kind != "f":
+            raise ValueError(f"{path}: corrupt trajectory: frame_{k} must be ({f}, {m}, {width}) floats, "
+                             f"got {frames.shape} {frames.dtype}")
+        if still.shape != (n - m, width) or still.dtype.kind != "f":
+            raise ValueError(f"{path}: corrupt trajectory: still_{k} must be ({n - m}, {width}) floats, "
+                             f"got {still.shape} {still.dtype}")
+        full = np.empty((f, n, width), dtype=np.float64)
+        full[:, moving] = frames
+        full[:, ~moving] = still
+        out[k] = full
+    for k in CONTACT_KEYS:
+        key = f"contact_{k}"
+        integer = k in ("body_a", "body_b")
+        if key in out and out[key].dtype.kind in ("iu" if integer else "f"):
+            out[key] = out[key].astype(np.int64 if integer else np.float64)
+    return out
 
 
 def _shapes(text: str, path) -> list:

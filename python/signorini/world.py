@@ -15,6 +15,8 @@ the lock without holding the GIL. README "Threads" says what is and is not safe.
 from __future__ import annotations
 
 import functools
+import os
+import sys
 import threading
 import warnings
 from dataclasses import dataclass
@@ -37,7 +39,23 @@ BodyIndexError.__doc__ = "A body index that is not in the world (both an IndexEr
 
 class SolverWarning(RuntimeWarning):
     """A step ended with the contact solver unconverged and a contact still approaching faster
-    than ``warn_velocity`` allows (see ``World.solver_stats``)."""
+    than ``warn_velocity`` allows (see ``World.solver_stats``). A world gives it once (again after
+    ``set_solver``); ``warnings.filterwarnings("ignore", category=signorini.SolverWarning)``
+    silences it, and ``World.unconverged_substeps`` still counts."""
+
+
+_PACKAGE = os.path.realpath(os.path.dirname(__file__)) + os.sep
+
+
+def user_stacklevel() -> int:
+    """The ``stacklevel`` for ``warnings.warn`` called by the caller of this function that makes the
+    warning name the first frame outside the signorini package: the user's line that called into
+    it (through the lock decorator, the Recorder or ``output.run``), as pandas'
+    ``find_stack_level`` does (Python 3.12's ``skip_file_prefixes`` is not in 3.11)."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and os.path.realpath(frame.f_code.co_filename).startswith(_PACKAGE):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 @dataclass(frozen=True)
@@ -136,7 +154,7 @@ class SavedState:
 SOLVER_DEFAULTS = {
     "erp": 0.2, "tolerance": 1e-6, "max_iterations": 30, "slop": 0.001, "max_push_velocity": 1.0,
     "restitution_threshold": 0.5, "friction_cone": "pyramid", "gyroscopic": "midpoint",
-    "warm_start": True, "substeps": 0, "warn_velocity": 0.01,
+    "warm_start": True, "substeps": 0, "warn_velocity": 1.0,
     "solver": "pgs", "contact_hertz": 30.0, "damping_ratio": 10.0, "soft_iterations": 1, "relax_iterations": 1,
 }
 
@@ -240,7 +258,10 @@ class World:
     warn_velocity : a step that ends unconverged with a contact still approaching faster than this
         (m/s) is flagged: the world's first flagged step raises a ``SolverWarning``, and
         ``unconverged_substeps`` counts every flagged substep (a loop of ``step(dt)`` warns once, not once a
-        step; ``set_solver`` re-arms the warning).
+        step; ``set_solver`` re-arms the warning). Default 1 m/s: so fast a contact sinks through the
+        1 mm slop within one default substep (1/960 s). An unconverged solve leaves slower approaches
+        in piles at impact (the built-in scenes: at most 0.2 m/s), which the position pass removes;
+        ``solver_stats`` reports them, and a smaller value flags them too.
     solver : "pgs" (the lecture's hard PGS, swept to ``tolerance`` in every substep, with a
         split-impulse position pass) or "soft" (the soft step of docs/conventions.md: per substep
         one warm start, ``soft_iterations`` sweeps on soft contacts, the poses, ``relax_iterations``
@@ -260,7 +281,7 @@ class World:
                  max_push_velocity: float = 1.0,
                  restitution_threshold: float = 0.5, friction_cone: str = "pyramid",
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
-                 warn_velocity: float = 0.01, solver: str = "pgs", contact_hertz: float = 30.0,
+                 warn_velocity: float = 1.0, solver: str = "pgs", contact_hertz: float = 30.0,
                  damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1,
                  threads: Optional[int] = None):
         g = as_vector(gravity, 3, "World", "gravity")
@@ -684,8 +705,10 @@ class World:
                 f"{report['flagged']} of {report['steps']} solver substeps ended with the contact solver unconverged "
                 f"and a contact approaching faster than warn_velocity = {self._core.solver.warn_velocity:g} m/s "
                 f"(worst {report['worst_penetration_velocity']:.3g} m/s at t = {report['worst_time']:.6g} s); "
-                "raise max_iterations or substeps, or lower dt. This world warns once (until set_solver); "
-                "World.unconverged_substeps counts every such substep", SolverWarning, stacklevel=2)
+                "to solve it: raise max_iterations or substeps (World.set_solver), or lower dt. This world warns once "
+                "(until set_solver); World.unconverged_substeps counts every such substep; "
+                "warnings.filterwarnings('ignore', category=signorini.SolverWarning) silences it",
+                SolverWarning, stacklevel=user_stacklevel())
 
     # state: read-only views of the core's arrays, (N, 3) / (N, 4) / (N, 3, 3) ------------------
     # They share memory with the world (np.shares_memory holds across reads), show every later

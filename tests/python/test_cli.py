@@ -37,17 +37,22 @@ def test_run_boxes_writes_record_and_picture(tmp_path):
     with np.load(npz, allow_pickle=False) as data:
         assert str(data["scene"]) == "boxes"
         assert data["time"].shape == (51,)
-        assert data["positions"].shape == (51, n, 3)
-        assert data["orientations"].shape == (51, n, 4)
-        assert data["velocities"].shape == (51, n, 3)
-        assert data["angular_velocities"].shape == (51, n, 3)
+        moving = int(np.count_nonzero(data["moving"]))
+        assert 0 < moving < n and data["frame_positions"].shape == (51, moving, 3)
+        assert data["frame_positions"].dtype == np.float32
         assert data["kinetic_energy"].shape == data["potential_energy"].shape == (51,)
         for name in ("num_contacts", "min_gap", "solver_iterations", "solver_residual", "solver_converged"):
             assert data[name].shape == (50,), name
         assert data["masses"].shape == data["is_static"].shape == (n,)
         np.testing.assert_allclose(data["time"], np.arange(51) * float(data["dt"]), rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(np.linalg.norm(data["orientations"], axis=2), 1.0, rtol=1e-9)
-        assert np.all(np.isfinite(data["positions"]))
+    r = signorini.load_trajectory(npz)
+    assert r.positions.shape == r.velocities.shape == r.angular_velocities.shape == (51, n, 3)
+    assert r.orientations.shape == (51, n, 4)
+    # unit quaternions stored as float32: each component within 2^-24 of its value, the norm within 2^-23
+    np.testing.assert_allclose(np.linalg.norm(r.orientations, axis=2), 1.0, rtol=float(np.finfo(np.float32).eps))
+    assert np.all(np.isfinite(r.positions))
+    # 50 steps of 8 bodies fit the budget frame by frame: the stride chosen is 1, and said so
+    assert "frames       51, every 1 step (stride 1, chosen for the 20 MB frame budget" in result.stdout
 
     # the summary names the scene and the files, the HTML player among them
     html = out / "boxes.html"

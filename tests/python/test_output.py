@@ -139,11 +139,13 @@ def test_save_and_load_round_trip(tmp_path):
     record = output.run(make_scene(steps=12), progress=False)
     path = output.save_trajectory(tmp_path / "sub" / "run.npz", record)
     with np.load(path, allow_pickle=False) as data:
-        assert data["positions"].shape == (13, 4, 3)
+        assert data["frame_positions"].shape == (13, int(np.count_nonzero(data["moving"])), 3)
         assert str(data["scene"]) == "ballistic"
     back = output.load_trajectory(path)
-    assert back.scene == "ballistic" and back.dt == record.dt
-    np.testing.assert_array_equal(back.orientations, record.orientations)
+    assert back.scene == "ballistic" and back.dt == record.dt and back.positions.shape == (13, 4, 3)
+    # float32 in the file: within 2^-24 of each value
+    u = float(np.finfo(np.float32).eps) / 2
+    assert np.all(np.abs(back.orientations - record.orientations) <= u * np.abs(record.orientations))
     np.testing.assert_array_equal(back.min_gap, record.min_gap)
     np.testing.assert_array_equal(back.masses, record.masses)
 

@@ -1,8 +1,13 @@
 """The install script: the main job (scripts/run.sh) installs the runtime only, the tests
 (scripts/test.sh) add the test tools, and both lists are the pyproject's (no drift)."""
+import os
 import re
+import shutil
+import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -34,3 +39,45 @@ def test_run_installs_the_runtime_and_test_adds_the_test_tools():
     assert re.search(r"^bash scripts/install.sh --test$", (ROOT / "scripts" / "test.sh").read_text(), flags=re.M)
     # no silent pip: the build shows its progress
     assert "pip install -q" not in script and "-v --no-build-isolation -e ." in script
+
+
+def installed_check(tree, *calls, env=None):
+    """Run install.sh's functions (sourced, so nothing is installed) in ``tree``; returns the exit
+    status of each call in order."""
+    script = "source scripts/install.sh\n" + "\n".join(f"{c}; echo status=$?" for c in calls)
+    result = subprocess.run(["bash", "-c", script], cwd=tree, capture_output=True, text=True, env=env, timeout=120)
+    assert result.returncode == 0, result.stderr
+    return [int(x) for x in re.findall(r"^status=(\d+)$", result.stdout, flags=re.M)]
+
+
+@pytest.mark.slow
+def test_install_is_skipped_only_when_the_installed_package_matches_the_checkout(tmp_path):
+    """install.sh's check (not a pip install): a copy of the checkout whose package python3 imports
+    (PYTHONPATH) matches once its install is stamped, for that kind of install, until a source
+    changes or python3 imports another checkout's package."""
+    import signorini
+
+    tree = tmp_path / "checkout"
+    skip = shutil.ignore_patterns("__pycache__", "build", ".git", "signorini-out", ".pytest_cache")
+    tree.mkdir()
+    for part in ("CMakeLists.txt", "pyproject.toml"):
+        shutil.copy(ROOT / part, tree / part)
+    for part in ("cpp", "bindings", "scripts"):
+        shutil.copytree(ROOT / part, tree / part, ignore=skip)
+    # the package with the compiled core this test imports (a checkout built in place has it there)
+    shutil.copytree(Path(signorini.__file__).parent, tree / "python" / "signorini", ignore=skip)
+    env = {**os.environ, "PYTHONPATH": str(tree / "python"), "SIGNORINI_STAMP_DIR": str(tmp_path / "stamps")}
+
+    assert installed_check(tree, "installed_matches runtime", env=env) == [1]          # never installed
+    assert installed_check(tree, "write_stamp runtime", "installed_matches runtime", "installed_matches test",
+                           env=env) == [0, 0, 1]                                     # a runtime install only
+    assert installed_check(tree, "write_stamp test", "installed_matches test", "installed_matches runtime",
+                           env=env) == [0, 0, 0]                                     # a test install holds both
+    # a changed source (C++ here) installs again
+    source = tree / "cpp" / "src" / "world" / "world.cpp"
+    source.write_text(source.read_text() + "\n// changed\n")
+    assert installed_check(tree, "installed_matches runtime", env=env) == [1]
+    assert installed_check(tree, "write_stamp runtime", "installed_matches runtime", env=env) == [0, 0]
+    # python3 importing another checkout's package (the one this test runs) installs again
+    other = {**env, "PYTHONPATH": str(Path(signorini.__file__).parent.parent)}
+    assert installed_check(tree, "installed_matches runtime", env=other) == [1]

@@ -55,7 +55,7 @@ DEFAULT_SETTINGS = {
     "gyroscopic": GYROSCOPIC_DEFAULT,
     "warm_start": True,
     "substeps": 0,                  # 0: automatic, the fewest substeps of at most AUTO_SUBSTEP
-    "warn_velocity": 0.01,          # m/s
+    "warn_velocity": 1.0,           # m/s
     # which solver a step runs: "pgs" (this module) or "soft" (the soft step, ``soft``), and the
     # soft step's settings
     "solver": "pgs",
