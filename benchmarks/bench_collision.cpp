@@ -105,7 +105,7 @@ PairResult time_pair(const PairCase& c, std::uint64_t seed) {
   collision::Services services = c.services;
   services.scratch = &scratch;
   collision::PairContext pair;
-  if (c.cached) pair.body_a = 0, pair.body_b = 1, pair.separating = &cache;
+  if (c.cached) pair.body_a = 0, pair.body_b = 1, pair.separating_last = &cache.last, pair.separating_next = &cache.next;
   // warm-up (the scratch's buffers grow, caches), and the contact counts of every pose
   for (int k = 0; k < kPoses; ++k) {
     out.clear();

@@ -69,3 +69,17 @@ def test_a_pickle_keeps_the_thread_count_as_given():
     assert pickle.loads(pickle.dumps(w)).threads == 3
     default = grid(None, "pgs", n=2)
     assert pickle.loads(pickle.dumps(default)).threads == default.threads
+
+
+@pytest.mark.parametrize("name, steps", [("pile", 120), ("rain", 60), ("shapes", 120)])
+def test_built_in_scenes_give_the_bits_of_one_thread(name, steps):
+    """Every shape family, mesh floors and hundreds of pairs (the narrow phase is split into chunks
+    of 64 pairs): one thread and two give the same bits."""
+    from signorini import scenes
+    runs = []
+    for threads in (1, 2):
+        scene = scenes.build(name)
+        scene.world.set_threads(threads)
+        scene.world.step(scene.dt, steps)
+        runs.append(state_bytes(scene.world))
+    assert runs[0] == runs[1]

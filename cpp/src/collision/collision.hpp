@@ -17,6 +17,7 @@
 #include "signorini/state.hpp"
 
 namespace signorini::serial { struct Writer; struct Reader; }
+namespace signorini::parallel { class Pool; }
 
 namespace signorini::collision {
 
@@ -178,7 +179,10 @@ struct PairContext {
   /// choosing the manifold. Null: all kept.
   const PairMotion* motion = nullptr;
   TrianglePast* past = nullptr;          ///< for a TriangleMesh A: B's past, and the crossing found
-  SeparatingCache* separating = nullptr; ///< used when both bodies are known
+  /// the separating-face cache, used when both bodies are known: the last detection's entries
+  /// (read) and where this pair's are appended
+  const std::vector<SeparatingFace>* separating_last = nullptr;
+  std::vector<SeparatingFace>* separating_next = nullptr;
   /// The same pair seen from B (ids exchanged; the caller swaps the motion).
   PairContext swapped() const;
 };
@@ -200,6 +204,16 @@ struct Scratch {
   std::vector<std::pair<Vec3, std::pair<FeatureId, FeatureId>>> clip, clip_next;  ///< and its clip
   std::unique_ptr<PolytopeScratch, ScratchDeleter> polytope;
   std::unique_ptr<EpaScratch, ScratchDeleter> epa;
+  /// generate_contacts on several threads: the pairs cut into chunks of kPairsPerChunk, each
+  /// chunk's contacts, separating faces and crossings written apart and joined in pair order; the
+  /// threads' own buffers (by oneTBB thread index)
+  struct PairChunk {
+    std::vector<Contact> contacts;
+    std::vector<SeparatingFace> separating;
+    std::vector<std::pair<BodyIndex, Crossing>> crossings;
+  };
+  std::vector<PairChunk> chunks;
+  std::vector<std::unique_ptr<Scratch>> workers;
 };
 
 /// What a narrow-phase query may use besides the two shapes: the triangle queries of static
@@ -414,6 +428,7 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
 /// masses). memory: read (previous centres, crossings; empty: nothing remembered) and written
 /// (the separating-face cache; this detection's crossings to memory.crossing_next).
 void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
-                       BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& out);
+                       BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& out,
+                       const parallel::Pool* pool = nullptr);
 
 }  // namespace signorini::collision

@@ -10,6 +10,7 @@
 
 #include "collision/collision.hpp"
 #include "math/rotation.hpp"
+#include "parallel/pool.hpp"
 #include "signorini/collide.hpp"
 
 namespace signorini::collision {
@@ -62,13 +63,13 @@ void contact_item_sphere(const Item& a, const Item& b, double, const PairContext
 /// a pair that a face proved apart last time is first tried along that face alone.
 void contact_polytope_polytope(const Item& a, const Item& b, double threshold, const PairContext& pair,
                                Scratch& scratch, std::vector<Contact>& out) {
-  SeparatingCache* cache = pair.body_a >= 0 ? pair.separating : nullptr;
-  const bool cached = cache != nullptr;
+  const bool cached = pair.body_a >= 0 && pair.separating_last != nullptr && pair.separating_next != nullptr;
   SeparatingFace key;
   if (cached) {
     key.body_a = pair.body_a, key.body_b = pair.body_b, key.part_a = a.part, key.part_b = b.part;
-    const auto it = std::lower_bound(cache->last.begin(), cache->last.end(), key);
-    if (it != cache->last.end() && !(key < *it)) {
+    const std::vector<SeparatingFace>& last = *pair.separating_last;
+    const auto it = std::lower_bound(last.begin(), last.end(), key);
+    if (it != last.end() && !(key < *it)) {
       const Polytope& P = it->of_b ? *b.polytope : *a.polytope;
       if (it->face >= 0 && static_cast<std::size_t>(it->face) < P.normals.size()) {
         const double s = it->of_b ? face_separation(*b.polytope, b.pose, it->face, *a.polytope, a.pose)
@@ -76,7 +77,7 @@ void contact_polytope_polytope(const Item& a, const Item& b, double threshold, c
         // rounding between this and the full test's value of the same face stays far below slack
         const double slack = 1e-9 * (a.ball_radius + b.ball_radius) + 1e-12 * (a.pose.p.norm() + b.pose.p.norm());
         if (s >= threshold + slack) {
-          cache->next.push_back(*it);
+          pair.separating_next->push_back(*it);
           return;
         }
       }
@@ -84,7 +85,7 @@ void contact_polytope_polytope(const Item& a, const Item& b, double threshold, c
   }
   polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, *scratch.polytope, out,
                     a.box && b.box, cached ? &key : nullptr);
-  if (cached && key.face >= 0) cache->next.push_back(key);
+  if (cached && key.face >= 0) pair.separating_next->push_back(key);
 }
 
 void contact_capsule_capsule(const Item& a, const Item& b, double threshold, const PairContext&, Scratch&,
@@ -426,6 +427,9 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
   }
 }
 
+/// Pairs per chunk of a detection split over threads (about the cost of a task's scheduling).
+constexpr std::size_t kPairsPerChunk = 64;
+
 PairContext PairContext::swapped() const {
   PairContext c = *this;
   std::swap(c.body_a, c.body_b);
@@ -433,7 +437,8 @@ PairContext PairContext::swapped() const {
 }
 
 void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
-                       BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& contacts) {
+                       BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& contacts,
+                       const parallel::Pool* pool) {
   memory.crossing_next.assign(model.size(), Crossing());
   const bool remembers = memory.previous_p.size() == model.size();
   std::vector<double>& reach = scratch.reach;
@@ -454,14 +459,17 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
 
   contacts.clear();
   memory.separating.next.clear();
-  for (const auto& [i, j] : pairs) {
+  // one pair: its contacts appended to out, its separating faces to separating, its crossing
+  // (a body pushed back through a mesh triangle) to crossings
+  const auto collide_pair = [&](BodyIndex i, BodyIndex j, Scratch& buffers, std::vector<Contact>& out,
+                                std::vector<SeparatingFace>& separating, auto&& crossed) {
     // a static-only shape (plane, triangle mesh) is always A
     const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
     const BodyIndex a = swap ? j : i, b = swap ? i : j;
     double threshold = margin + reach[i] + reach[j];
     if (const auto* plane = std::get_if<Plane>(&model.shape[a]))
       threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
-    const std::size_t first = contacts.size();
+    const std::size_t first = out.size();
     // a triangle mesh remembers which side of it the body belongs on (trimesh_item)
     TrianglePast past;
     if (std::holds_alternative<TriangleMesh>(model.shape[a])) {
@@ -473,13 +481,46 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
       past.body_radius = model.rho[b];
     }
     const PairMotion motion(model, state, a, b, dt, gravity, margin);
+    PairContext context{a, b, &motion, &past};
+    context.separating_last = &memory.separating.last;
+    context.separating_next = &separating;
     collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
-            {broad_phase.triangles(a), broad_phase.triangles(b), &scratch}, contacts,
-            {a, b, &motion, &past, &memory.separating});
-    if (past.found >= 0) memory.crossing_next[b] = {a, past.found};
-    for (std::size_t k = first; k < contacts.size(); ++k) {
-      contacts[k].body_a = a;
-      contacts[k].body_b = b;
+            {broad_phase.triangles(a), broad_phase.triangles(b), &buffers}, out, context);
+    if (past.found >= 0) crossed(b, Crossing{a, past.found});
+    for (std::size_t k = first; k < out.size(); ++k) {
+      out[k].body_a = a;
+      out[k].body_b = b;
+    }
+  };
+  const std::size_t P = pairs.size();
+  if (pool == nullptr || pool->threads() <= 1 || P <= kPairsPerChunk) {
+    for (const auto& [i, j] : pairs)
+      collide_pair(i, j, scratch, contacts, memory.separating.next,
+                   [&](BodyIndex b, const Crossing& c) { memory.crossing_next[b] = c; });
+  } else {
+    // chunks of pairs on the pool's threads, each written apart, then joined in pair order: the
+    // same contacts, separating faces and crossings, in the same order, as on one thread
+    const std::size_t chunks = (P + kPairsPerChunk - 1) / kPairsPerChunk;
+    if (scratch.chunks.size() < chunks) scratch.chunks.resize(std::max(chunks, 2 * scratch.chunks.size()));
+    const std::size_t workers = static_cast<std::size_t>(pool->threads());
+    while (scratch.workers.size() < workers) scratch.workers.push_back(std::make_unique<Scratch>());
+    pool->for_ranges(chunks, 1, [&](std::size_t first, std::size_t end) {
+      Scratch& buffers = *scratch.workers[static_cast<std::size_t>(parallel::Pool::thread_index()) % workers];
+      for (std::size_t c = first; c < end; ++c) {
+        Scratch::PairChunk& chunk = scratch.chunks[c];
+        chunk.contacts.clear();
+        chunk.separating.clear();
+        chunk.crossings.clear();
+        for (std::size_t k = c * kPairsPerChunk; k < std::min(P, (c + 1) * kPairsPerChunk); ++k)
+          collide_pair(pairs[k].first, pairs[k].second, buffers, chunk.contacts, chunk.separating,
+                       [&](BodyIndex b, const Crossing& x) { chunk.crossings.emplace_back(b, x); });
+      }
+    });
+    for (std::size_t c = 0; c < chunks; ++c) {
+      const Scratch::PairChunk& chunk = scratch.chunks[c];
+      contacts.insert(contacts.end(), chunk.contacts.begin(), chunk.contacts.end());
+      memory.separating.next.insert(memory.separating.next.end(), chunk.separating.begin(), chunk.separating.end());
+      for (const auto& [b, x] : chunk.crossings) memory.crossing_next[b] = x;
     }
   }
   // keys were written in pair order, parts in order within a pair: sorted (a static-only shape

@@ -27,6 +27,11 @@ int Pool::machine_threads() {
   return n >= 1 ? n : 1;
 }
 
+int Pool::thread_index() {
+  const int k = tbb::this_task_arena::current_thread_index();
+  return k >= 0 ? k : 0;
+}
+
 void Pool::run(std::size_t n, std::size_t grain, Body body, void* f) const {
   arena_->arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain),

@@ -39,6 +39,10 @@ class Pool {
   /// The number of threads the machine offers (oneTBB's default concurrency), at least 1.
   static int machine_threads();
 
+  /// The calling thread's slot in the arena running it, 0 .. threads() - 1 (0 outside any
+  /// arena): for per-thread buffers, which must never change a result.
+  static int thread_index();
+
  private:
   using Body = void (*)(void*, std::size_t, std::size_t);
   template <class F>

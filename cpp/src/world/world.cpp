@@ -195,7 +195,7 @@ void World::detect_contacts(double dt, std::vector<Contact>& out) const {
   if (!(std::isfinite(dt) && dt > 0.0))
     throw std::invalid_argument("detect_contacts: dt must be positive and finite, got " + std::to_string(dt));
   collision::generate_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
-                               *scratch_, out);
+                               *scratch_, out, pool_.get());
 }
 
 std::size_t World::num_bodies() const {
