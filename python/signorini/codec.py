@@ -196,12 +196,14 @@ class BodyArgs(NamedTuple):
 
 
 def body_models(world) -> list[dict]:
-    """Per body, what the world holds of its model: static, kinematic, enabled (bool), mass (kg),
-    inertia (3, 3), friction, restitution, spinning_friction, name, group, mask. Linear in N."""
+    """Per body, what the world holds of its model: static, kinematic, enabled, can_sleep (bool),
+    mass (kg), inertia (3, 3), friction, restitution, spinning_friction, name, group, mask. Linear in N."""
     masses, inertias, statics, kinematic = world.masses, world.inertias, world.is_static, world.is_kinematic
+    can_sleep = world.can_sleep
     enabled, (groups, masks), names = world.enabled, world.collision_filters, world.names
     frictions, restitutions, spinning = world.frictions, world.restitutions, world.spinning_frictions
     return [{"static": bool(statics[i]), "kinematic": bool(kinematic[i]), "enabled": bool(enabled[i]),
+             "can_sleep": bool(can_sleep[i]),
              "mass": float(masses[i]), "inertia": np.array(inertias[i]), "friction": float(frictions[i]),
              "restitution": float(restitutions[i]), "spinning_friction": float(spinning[i]), "name": names[i],
              "group": int(groups[i]), "mask": int(masks[i])} for i in range(world.num_bodies)]
