@@ -291,6 +291,8 @@ def scene_bodies(world, mesh_file: Callable, names=None) -> list[dict]:
             table["mask"] = model["mask"]
         if not model["enabled"]:
             table["enabled"] = False
+        if not model["can_sleep"]:
+            table["can_sleep"] = False
         bodies.append(table)
     return bodies
 
@@ -321,7 +323,7 @@ def add_scene_body(world, table: dict, shape, material: dict) -> int:
         return world.add_static(shape, **common)
     i = world.add_body(shape, density=table.get("density"), mass=table.get("mass"), inertia=table.get("inertia"),
                        velocity=table["velocity"], angular_velocity=table["angular_velocity"],
-                       kinematic=table["kinematic"], **common)
+                       kinematic=table["kinematic"], can_sleep=table.get("can_sleep", True), **common)
     if any(force) or any(torque):
         try:
             world.set_external_wrench(i, force, torque)
@@ -363,7 +365,8 @@ class MeshFiles:
 def scene_document(world, path, info: Optional[dict] = None, names=None) -> dict:
     """A world as a scene file's document (format, [scene] info when given, [world], bodies,
     disabled pairs); writes the mesh files next to ``path``."""
-    settings = {"gravity": floats(world.gravity), "contact_margin": float(world.contact_margin), **world.solver}
+    settings = {"gravity": floats(world.gravity), "contact_margin": float(world.contact_margin), **world.solver,
+                **world.sleep}
     document: dict[str, Any] = {"format": SCENE_FORMAT}
     if info:
         document["scene"] = info

@@ -260,3 +260,14 @@ def test_sleep_settings_of_the_wrong_type_raise_naming_them():
         sg.World().set_sleep(sleep_time=1.0)
     with pytest.raises(TypeError, match="can_sleep"):
         sg.World().add_body(sg.Sphere(0.1), mass=1.0, can_sleep=1)
+
+
+def test_a_scene_file_keeps_the_sleep_settings_and_can_sleep(tmp_path):
+    w = cube_stacks(time_to_sleep=0.25, sleep_linear_velocity=0.02)
+    w.set_can_sleep(2, False)
+    path = w.save_scene(tmp_path / "stack.toml")
+    loaded = sg.load_scene(path)
+    loaded = loaded.world if hasattr(loaded, "world") else loaded
+    assert loaded.sleep == w.sleep == {"sleeping": True, "sleep_linear_velocity": 0.02,
+                                       "sleep_angular_velocity": 0.05, "time_to_sleep": 0.25}
+    assert loaded.can_sleep.tolist() == [True, True, False]
