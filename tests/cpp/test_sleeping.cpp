@@ -77,13 +77,29 @@ TEST_P(Sleeping, ABoxAtRestSleepsAtTheClosedFormStepAndKeepsItsPoseBitForBit) {
   const Mat3 R = w.state().R[1];
   const Quat4 q = w.state().q[1];
   const double V = w.potential_energy();
+  const std::vector<Contact> asleep = w.contacts();
+  const Vec3 force = w.contact_forces()[1], support = w.contact_forces()[0];
+  ASSERT_EQ(asleep.size(), 4u);
+  const double weight = 1000.0 * 0.008 * 9.81;  // a 0.2 m cube of 1000 kg/m^3
+  EXPECT_NEAR(force.z(), weight, 1e-3 * weight);
   for (int k = 0; k < 2000; ++k) w.step(kDt);
+  EXPECT_EQ(w.detect_contacts(kDt).size(), 0u) << "a sleeping pair is not detected";
+  // the contacts and forces reported are those it fell asleep with, bit for bit
+  const std::vector<Contact> now = w.contacts();
+  ASSERT_EQ(now.size(), asleep.size());
+  for (std::size_t k = 0; k < now.size(); ++k) {
+    EXPECT_EQ(now[k].alpha, asleep[k].alpha);
+    EXPECT_TRUE(same_bytes(now[k].force, asleep[k].force));
+    EXPECT_TRUE(same_bytes(now[k].point, asleep[k].point));
+  }
+  EXPECT_TRUE(same_bytes(w.contact_forces()[1], force));
+  EXPECT_LT((w.contact_forces()[0] + force).norm(), 1e-12 * weight) << "the ground's reaction";
+  EXPECT_LT((support - w.contact_forces()[0]).norm(), 1e-12 * weight);
   EXPECT_TRUE(same_bytes(p, w.state().p[1]));
   EXPECT_TRUE(same_bytes(R, w.state().R[1]));
   EXPECT_EQ(std::memcmp(q.data(), w.state().q[1].data(), sizeof(Quat4)), 0);
   EXPECT_EQ(w.kinetic_energy(), 0.0);
   EXPECT_EQ(w.potential_energy(), V);
-  EXPECT_TRUE(w.contacts().empty()) << "a sleeping pair is not detected";
 }
 
 TEST_P(Sleeping, AnIslandWakesWhenAMovingBodyTouchesItAndNotAnother) {

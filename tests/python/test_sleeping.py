@@ -52,10 +52,17 @@ def test_a_box_at_rest_sleeps_at_the_closed_form_step_and_keeps_its_pose_bit_for
     assert not w.awake[1]
     assert not w.velocities[1].any() and not w.angular_velocities[1].any()
     before, energy = pose_bytes(w, 1), (w.kinetic_energy(), w.potential_energy())
+    contacts, forces = w.contacts.as_dict(), w.contact_forces
+    weight = 1000.0 * 0.2**3 * 9.81
+    assert len(w.contacts) == 4 and abs(forces[1][2] - weight) < 1e-3 * weight
     w.step(dt, 1000)
     assert pose_bytes(w, 1) == before
     assert (w.kinetic_energy(), w.potential_energy()) == (0.0, energy[1])
-    assert len(w.contacts) == 0  # a sleeping pair is not even detected
+    assert len(w.detect_contacts(dt)) == 0  # a sleeping pair is not even detected
+    # its contacts and forces are reported as they were when it fell asleep, bit for bit
+    assert all(np.array_equal(v, contacts[k]) for k, v in w.contacts.as_dict().items())
+    assert np.array_equal(w.contact_forces[1], forces[1])
+    assert np.allclose(w.contact_forces[0], -forces[1], rtol=0, atol=1e-12 * weight)  # the ground's reaction
 
 
 def test_the_awake_view_is_read_only_shared_and_false_for_static_bodies():

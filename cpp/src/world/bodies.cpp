@@ -184,6 +184,7 @@ BodyIndex World::add_body(const BodyDesc& desc) {
     push_keeping(x, T(T::Zero()));
   });
   Islands::add_body(model_, state_, index, [this](auto& v, const auto& x) { push_keeping(v, x); });
+  islands_->add_body();
   state_.p[index] = position;
   state_.R[index] = R;
   state_.q[index] = math::matrix_to_quat(R);

@@ -231,7 +231,8 @@ void World::set_awake(BodyIndex i, bool awake) {
     throw std::invalid_argument(who + ": sleeping is switched off in this world (sleeping=False)");
   if (model_.is_kinematic[i]) throw std::invalid_argument(who + ": a kinematic body never sleeps");
   if (!model_.enabled[i]) throw std::invalid_argument(who + ": a disabled body never sleeps");
-  const BodyIndex blocker = islands_->sleep_island_of(model_, state_, i, *contacts_, solver_->cache);
+  const BodyIndex blocker =
+      islands_->sleep_island_of(model_, state_, i, *contacts_, solver_->cache, solver_->body_force, solver_->body_torque);
   if (blocker >= 0)
     throw std::invalid_argument(who + ": its island cannot sleep: " + label(blocker) + " has can_sleep false");
 }

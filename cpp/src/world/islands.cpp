@@ -19,6 +19,12 @@ bool key_less(const CachedContact& x, const CachedContact& y) {
   return x.feature_b < y.feature_b;
 }
 
+/// Contact order between pairs: by (smaller index, larger index) (docs/conventions.md, "Order").
+bool pair_before(const Contact& x, const Contact& y) {
+  const auto kx = std::minmax(x.body_a, x.body_b), ky = std::minmax(y.body_a, y.body_b);
+  return kx < ky;
+}
+
 /// A kinematic body that moves this step (it wakes what it touches and keeps it awake).
 bool moving_kinematic(const Model& model, const State& state, std::size_t i) {
   return model.is_kinematic[i] && model.enabled[i] &&
@@ -74,17 +80,54 @@ bool Islands::wake_marked(const Model& model, State& state, std::vector<CachedCo
     woke = true;
   }
   std::fill(marked_.begin(), marked_.end(), std::uint8_t(0));
-  if (purge_now) purge(state);
+  to_purge_ = to_purge_ || woke;
+  if (purge_now) purge(model, state);
   return woke;
 }
 
-void Islands::purge(const State& state) {
+void Islands::purge(const Model& model, const State& state) {
+  if (!to_purge_) return;
+  to_purge_ = false;
   // an entry stays while a body of it sleeps (its other body is static, kinematic or asleep too)
-  stash_.erase(std::remove_if(stash_.begin(), stash_.end(),
-                              [&](const CachedContact& c) {
-                                return state.island[c.body_a] < 0 && state.island[c.body_b] < 0;
-                              }),
-               stash_.end());
+  const auto awake_pair = [&](const auto& c) { return state.island[c.body_a] < 0 && state.island[c.body_b] < 0; };
+  stash_.erase(std::remove_if(stash_.begin(), stash_.end(), awake_pair), stash_.end());
+  contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), awake_pair), contacts_.end());
+  for (std::size_t i = 0; i < force_.size(); ++i)
+    if (state.island[i] < 0) force_[i].setZero(), torque_[i].setZero();
+  sum_outside(model, state);
+}
+
+void Islands::sum_outside(const Model& model, const State& state) {
+  // the force on B is c.force, A gets the opposite, each with its torque about its own centre; the
+  // bodies in the island keep the sums the solver made when it fell asleep
+  (void)model;
+  for (const Contact& c : contacts_) {
+    const Vec3 spin = c.spin_torque * c.normal;
+    if (state.island[c.body_a] < 0) {
+      force_[c.body_a] -= c.force;
+      torque_[c.body_a] -= (c.point - state.p[c.body_a]).cross(c.force) + spin;
+    }
+    if (state.island[c.body_b] < 0) {
+      force_[c.body_b] += c.force;
+      torque_[c.body_b] += (c.point - state.p[c.body_b]).cross(c.force) + spin;
+    }
+  }
+}
+
+void Islands::merge_contacts(const std::vector<Contact>& solved, std::vector<Contact>& out) const {
+  // grown geometrically (a plain copy or resize allocates the exact size)
+  const std::size_t K = solved.size() + contacts_.size();
+  if (out.capacity() < K) out.reserve(2 * K);
+  out.resize(K);
+  std::merge(solved.begin(), solved.end(), contacts_.begin(), contacts_.end(), out.begin(), pair_before);
+}
+
+void Islands::add_forces(std::vector<Vec3>& body_force, std::vector<Vec3>& body_torque) const {
+  if (contacts_.empty()) return;
+  for (std::size_t i = 0; i < force_.size(); ++i) {
+    body_force[i] += force_[i];
+    body_torque[i] += torque_[i];
+  }
 }
 
 int Islands::find(int i) {
@@ -108,7 +151,8 @@ void Islands::link(const Model& model, const State& state, const std::vector<Con
 }
 
 void Islands::end_step(const Model& model, State& state, const SleepSettings& settings, double dt,
-                       const std::vector<Contact>& contacts, std::vector<CachedContact>& cache) {
+                       const std::vector<Contact>& contacts, std::vector<CachedContact>& cache,
+                       const std::vector<Vec3>& body_force, const std::vector<Vec3>& body_torque) {
   if (!settings.enabled) return;
   const std::size_t n = model.size();
   // sleep timers: time below both thresholds, reset by any faster motion
@@ -133,11 +177,14 @@ void Islands::end_step(const Model& model, State& state, const SleepSettings& se
     const bool ready = model.can_sleep[i] && state.sleep_time[i] > 0.0 && state.sleep_time[i] >= settings.time_to_sleep;
     if (!ready) ready_[find(static_cast<int>(i))] = 0;
   }
-  sleep_ready(model, state, cache);
+  sleep_ready(model, state, cache, contacts, body_force, body_torque);
 }
 
-void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedContact>& cache) {
+void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedContact>& cache,
+                          const std::vector<Contact>& contacts, const std::vector<Vec3>& body_force,
+                          const std::vector<Vec3>& body_torque) {
   bool any = false;
+  fresh_.assign(model.size(), 0);
   for (std::size_t i = 0; i < model.size(); ++i) {
     if (!awake_dynamic(model, state, i)) continue;
     const int root = find(static_cast<int>(i));
@@ -146,6 +193,9 @@ void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedCo
     state.island[i] = root;
     state.v[i].setZero();
     state.omega[i].setZero();
+    force_[i] = body_force[i];
+    torque_[i] = body_torque[i];
+    fresh_[i] = 1;
     any = true;
   }
   if (!any) return;
@@ -158,10 +208,25 @@ void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedCo
     if (asleep(c)) stash_.push_back(c);
   cache.erase(std::remove_if(cache.begin(), cache.end(), asleep), cache.end());
   if (stash_.size() > before) std::sort(stash_.begin(), stash_.end(), key_less);
+  // and their contacts join the sleeping ones, in contact order (a new sleeper's contacts are all
+  // with its own island or with static and kinematic bodies, never with an older sleeper)
+  merged_.clear();
+  std::size_t k = 0;
+  for (const Contact& c : contacts) {
+    if (!fresh_[c.body_a] && !fresh_[c.body_b]) continue;
+    while (k < contacts_.size() && pair_before(contacts_[k], c)) merged_.push_back(contacts_[k++]);
+    merged_.push_back(c);
+  }
+  merged_.insert(merged_.end(), contacts_.begin() + static_cast<std::ptrdiff_t>(k), contacts_.end());
+  contacts_.swap(merged_);
+  for (std::size_t i = 0; i < force_.size(); ++i)
+    if (state.island[i] < 0) force_[i].setZero(), torque_[i].setZero();
+  sum_outside(model, state);
 }
 
 BodyIndex Islands::sleep_island_of(const Model& model, State& state, BodyIndex i, const std::vector<Contact>& contacts,
-                                   std::vector<CachedContact>& cache) {
+                                   std::vector<CachedContact>& cache, const std::vector<Vec3>& body_force,
+                                   const std::vector<Vec3>& body_torque) {
   link(model, state, contacts);
   const std::size_t n = model.size();
   const int root = find(i);
@@ -170,7 +235,7 @@ BodyIndex Islands::sleep_island_of(const Model& model, State& state, BodyIndex i
       return static_cast<BodyIndex>(k);
   ready_.assign(n, 0);
   ready_[root] = 1;
-  sleep_ready(model, state, cache);
+  sleep_ready(model, state, cache, contacts, body_force, body_torque);
   return -1;
 }
 
@@ -181,6 +246,15 @@ void Islands::renumber(State& state, const std::vector<BodyIndex>& to) {
                               [&](const CachedContact& c) { return to[c.body_a] < 0 || to[c.body_b] < 0; }),
                stash_.end());
   for (CachedContact& c : stash_) c.body_a = to[c.body_a], c.body_b = to[c.body_b];
+  contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(),
+                                 [&](const Contact& c) { return to[c.body_a] < 0 || to[c.body_b] < 0; }),
+                  contacts_.end());
+  for (Contact& c : contacts_) c.body_a = to[c.body_a], c.body_b = to[c.body_b];
+  std::size_t kept = 0;
+  for (std::size_t j = 0; j < to.size(); ++j)
+    if (to[j] >= 0) force_[kept] = force_[j], torque_[kept] = torque_[j], ++kept;
+  force_.resize(kept);
+  torque_.resize(kept);
   marked_.assign(state.island.size(), 0);
 }
 
@@ -201,10 +275,13 @@ void Islands::save(serial::Writer& w, const State& state) const {
     w.pod(c.spin);
     w.pod(c.order);
   }
+  w.mats(force_);
+  w.mats(torque_);
 }
 
 void Islands::load(serial::Reader& r, std::size_t n, std::vector<std::uint8_t>& awake, std::vector<double>& sleep_time,
-                   std::vector<std::int32_t>& island, std::vector<CachedContact>& stash) {
+                   std::vector<std::int32_t>& island, std::vector<CachedContact>& stash, std::vector<Vec3>& force,
+                   std::vector<Vec3>& torque) {
   awake.resize(n);
   sleep_time.resize(n);
   island.resize(n);
@@ -224,6 +301,8 @@ void Islands::load(serial::Reader& r, std::size_t n, std::vector<std::uint8_t>& 
     c.spin = r.pod<double>();
     c.order = r.pod<int>();
   }
+  r.mats(force, n);
+  r.mats(torque, n);
 }
 
 }  // namespace signorini

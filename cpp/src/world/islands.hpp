@@ -13,7 +13,10 @@
 // smallest body index in it) and the island's warm-start forces wait here, in stash_, until it
 // wakes. Nothing of a sleeping island is detected, solved or integrated, so its contacts cannot
 // tell who belongs together any more; the label does. Waking an island puts its forces back into
-// the solver's cache, so that a woken pile starts from the forces that held it.
+// the solver's cache, so that a woken pile starts from the forces that held it. The island's
+// contacts as they were solved in the step it fell asleep are kept too (contacts_, in contact
+// order), with the contact force and torque they put on each body (force_, torque_), and reported
+// beside each step's own (merge_contacts, add_forces): a sleeping pile still shows what holds it.
 //
 // Inputs and outputs of each member are in its comment; none allocates once its buffers have grown
 // except the stash, which grows with the number of sleeping contacts.
@@ -60,16 +63,28 @@ class Islands {
   /// step's), and the islands whose bodies have all been at rest for time_to_sleep go to sleep:
   /// velocities zeroed, label set, their entries of `cache` (the next step's warm start) moved to
   /// the stash. Nothing happens when sleeping is off.
+  /// body_force, body_torque (N): the step's contact forces and torques, the sleepers' kept.
   void end_step(const Model& model, State& state, const SleepSettings& settings, double dt,
-                const std::vector<Contact>& contacts, std::vector<CachedContact>& cache);
+                const std::vector<Contact>& contacts, std::vector<CachedContact>& cache,
+                const std::vector<Vec3>& body_force, const std::vector<Vec3>& body_torque);
 
-  /// Drops the stashed entries of bodies that are awake again (after a kept step).
-  void purge(const State& state);
+  /// The step's solved contacts and the sleeping islands' in contact order (pairs by their indices),
+  /// written into out (its capacity reused).
+  void merge_contacts(const std::vector<Contact>& solved, std::vector<Contact>& out) const;
+  /// Adds the sleeping contacts' forces and torques to the step's per-body sums (N).
+  void add_forces(std::vector<Vec3>& body_force, std::vector<Vec3>& body_torque) const;
+  /// The sleeping islands' contacts, in contact order.
+  const std::vector<Contact>& contacts() const { return contacts_; }
+
+  /// Drops the stashed entries and contacts of bodies that are awake again (after a kept step, or
+  /// at once for a user call); nothing to do when nothing woke.
+  void purge(const Model& model, const State& state);
 
   /// set_awake(i, false): the island of body i by `contacts` (the last step's) goes to sleep now.
   /// Returns -1, or the first body of that island that cannot sleep (nothing changed then).
   BodyIndex sleep_island_of(const Model& model, State& state, BodyIndex i, const std::vector<Contact>& contacts,
-                            std::vector<CachedContact>& cache);
+                            std::vector<CachedContact>& cache, const std::vector<Vec3>& body_force,
+                            const std::vector<Vec3>& body_torque);
 
   /// Before bodies are removed (`gone(k)` true for them): marks the islands of removed sleeping
   /// bodies and of sleeping bodies whose stashed contacts touch a removed body (a support taken away).
@@ -85,12 +100,20 @@ class Islands {
   /// After removal: labels and stashed entries renumbered by `to` (new index, -1 removed).
   void renumber(State& state, const std::vector<BodyIndex>& to);
 
-  /// The sleeping part of a saved state: per body awake, timer and label, then the stash.
+  /// The sleeping part of a saved state: per body awake, timer and label, then the stash, then the
+  /// sleeping contacts' per-body force and torque (the contacts themselves are the World's to write).
   void save(serial::Writer& w, const State& state) const;
-  /// Reads save()'s bytes for n bodies into awake, sleep_time, island and stash (checked).
+  /// Reads save()'s bytes for n bodies into awake, sleep_time, island, stash, force and torque.
   static void load(serial::Reader& r, std::size_t n, std::vector<std::uint8_t>& awake, std::vector<double>& sleep_time,
-                   std::vector<std::int32_t>& island, std::vector<CachedContact>& stash);
-  std::vector<CachedContact>& stash() { return stash_; }
+                   std::vector<std::int32_t>& island, std::vector<CachedContact>& stash, std::vector<Vec3>& force,
+                   std::vector<Vec3>& torque);
+  /// Replaces what is kept of sleeping islands (restore_state).
+  void assign(std::vector<CachedContact> stash, std::vector<Contact> contacts, std::vector<Vec3> force,
+              std::vector<Vec3> torque) {
+    stash_ = std::move(stash), contacts_ = std::move(contacts), force_ = std::move(force), torque_ = std::move(torque);
+  }
+  /// A new body (no sleeping contacts).
+  void add_body() { force_.emplace_back(Vec3::Zero()), torque_.emplace_back(Vec3::Zero()); }
   const std::vector<CachedContact>& stash() const { return stash_; }
 
  private:
@@ -99,13 +122,22 @@ class Islands {
   /// Union-find over the contacts between two awake, enabled dynamic bodies (parent_, sized N).
   void link(const Model& model, const State& state, const std::vector<Contact>& contacts);
   /// Bodies whose root r has ready_[r] fall asleep with label r; their cache entries move to the stash.
-  void sleep_ready(const Model& model, State& state, std::vector<CachedContact>& cache);
+  void sleep_ready(const Model& model, State& state, std::vector<CachedContact>& cache,
+                   const std::vector<Contact>& contacts, const std::vector<Vec3>& body_force,
+                   const std::vector<Vec3>& body_torque);
+  /// force_, torque_ of the bodies outside sleeping islands (static, kinematic) summed again over contacts_.
+  void sum_outside(const Model& model, const State& state);
 
   std::vector<CachedContact> stash_;  ///< sleeping islands' warm-start forces, sorted by key
+  std::vector<Contact> contacts_;     ///< sleeping islands' contacts, in contact order
+  std::vector<Contact> merged_;       ///< scratch of sleep_ready
+  std::vector<Vec3> force_, torque_;  ///< per body: the force and torque of its sleeping contacts (N)
+  std::vector<std::uint8_t> fresh_;   ///< per body: fell asleep in this call of sleep_ready (N)
   std::vector<int> parent_;           ///< union-find (N)
   std::vector<std::uint8_t> ready_;   ///< per root: every body of its island may sleep now (N)
   std::vector<std::uint8_t> marked_;  ///< per label: the sleeping island is to be woken (N)
   bool any_marked_ = false;
+  bool to_purge_ = false;  ///< something woke since the last purge
 };
 
 /// true when body i is dynamic (not static, not kinematic), enabled and awake.

@@ -114,6 +114,8 @@ std::string World::save_state() const {
   save(w, stats_);
   memory_->save(w);
   islands_->save(w, state_);
+  w.pod(static_cast<std::uint64_t>(islands_->contacts().size()));
+  for (const Contact& c : islands_->contacts()) save(w, c);
   return std::move(w.out);
 }
 
@@ -174,8 +176,12 @@ void World::restore_state(const std::string& saved) {
   std::vector<double> sleep_time(n, 0.0);
   std::vector<std::int32_t> island(n, -1);
   std::vector<CachedContact> stash;
+  std::vector<Contact> sleeping_contacts;
+  std::vector<Vec3> sleeping_force(n, Vec3::Zero()), sleeping_torque(n, Vec3::Zero());
   if (version >= '4') {
-    Islands::load(r, n, awake, sleep_time, island, stash);
+    Islands::load(r, n, awake, sleep_time, island, stash, sleeping_force, sleeping_torque);
+    sleeping_contacts.resize(r.count(sizeof(double)));
+    for (Contact& c : sleeping_contacts) c = load_contact(r, version);
   } else {
     for (std::size_t i = 0; i < n; ++i) awake[i] = model_.is_static[i] ? 0 : 1;
   }
@@ -186,6 +192,8 @@ void World::restore_state(const std::string& saved) {
   for (const Contact& c : *contacts)
     if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
   for (const CachedContact& c : stash)
+    if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
+  for (const Contact& c : sleeping_contacts)
     if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
   for (std::size_t i = 0; i < n; ++i) {
     // asleep with a label in range, or awake without one; static bodies never awake; kinematic and
@@ -220,7 +228,7 @@ void World::restore_state(const std::string& saved) {
   checks::copy_into(state_.awake, awake);
   checks::copy_into(state_.sleep_time, sleep_time);
   checks::copy_into(state_.island, island);
-  islands_->stash() = std::move(stash);
+  islands_->assign(std::move(stash), std::move(sleeping_contacts), std::move(sleeping_force), std::move(sleeping_torque));
   checks::copy_into(solver_->body_force, solved.body_force);
   checks::copy_into(solver_->body_torque, solved.body_torque);
   solver_->cache = std::move(solved.cache);

@@ -97,8 +97,9 @@ void World::wake_touched(double dt) {
 }
 
 void World::end_islands(double dt) {
-  islands_->end_step(model_, state_, settings_.sleep, dt, *contacts_, solver_->cache);
-  islands_->purge(state_);
+  islands_->purge(model_, state_);  // what the step woke leaves the sleeping lists
+  islands_->end_step(model_, state_, settings_.sleep, dt, *contacts_, solver_->cache, solver_->body_force,
+                     solver_->body_torque);
 }
 
 int SolverSettings::substep_count(double dt) const {
@@ -205,7 +206,15 @@ void World::end_substep_flags(const SolverStats& stats, double time) {
 
 void World::commit_step(const SolverStats& stats) {
   memory_->commit(guard_->start().p);
-  own_contacts().swap(contacts_next_);
+  // the reported contacts and forces: the step's, and the sleeping islands' as they fell asleep
+  std::vector<Contact>& contacts = own_contacts();
+  if (islands_->contacts().empty()) {
+    contacts.swap(contacts_next_);
+  } else {
+    islands_->purge(model_, state_);  // islands woken in this step are solved in it
+    islands_->merge_contacts(contacts_next_, contacts);
+    islands_->add_forces(solver_->body_force, solver_->body_torque);
+  }
   stats_ = stats;
   for (std::size_t i = 0; i < model_.size(); ++i) {
     if (!model_.is_static[i] && model_.enabled[i] && !state_.asleep(i)) state_.q[i] = math::matrix_to_quat(state_.R[i]);
