@@ -148,6 +148,8 @@ TEST_P(Sleeping, EveryWakingCallWakesTheIsland) {
       [](World& w) { w.set_awake(2, true); },
       [](World& w) { w.set_can_sleep(2, false); },
       [](World& w) { w.remove_body(0); },  // the ground goes: the stack falls
+      [](World& w) { w.set_material(0, Material{0.1, 0.0, 0.0}); },  // the ground changes
+      [](World& w) { w.set_position(0, Vec3(0.0, 0.0, -0.1)); },     // the ground moves
       [](World& w) {
         WorldSettings s = w.settings();
         s.gravity = Vec3(0.0, 0.0, -9.8);

@@ -118,6 +118,8 @@ WAKING_CALLS = {
     "set_can_sleep": lambda w: w.set_can_sleep(2, False),
     "set_sleep(sleeping=False)": lambda w: w.set_sleep(sleeping=False),
     "remove_body(the ground)": lambda w: w.remove_body(0),
+    "set_position(the ground)": lambda w: w.set_position(0, (0.0, 0.0, -0.1)),
+    "set_material(the ground)": lambda w: w.set_material(0, friction=0.1),
 }
 
 
@@ -145,6 +147,15 @@ def test_a_moving_kinematic_body_wakes_what_it_touches_and_a_still_one_does_not(
     assert w.awake[1]
     w.step(DT, 60)
     assert w.positions[1][0] < -0.01  # pushed
+    # a cube asleep on a still kinematic platform wakes when the platform is set moving
+    lift = w.add_body(sg.Box((0.3, 0.3, 0.05)), kinematic=True, position=(3.0, 0.0, 0.05))
+    rider = w.add_body(sg.Box((0.1, 0.1, 0.1)), density=1000.0, position=(3.0, 0.0, 0.2))
+    w.step(DT, 240)
+    assert not w.awake[rider]
+    w.set_velocity(lift, (0.0, 0.0, 0.1))
+    assert w.awake[rider]
+    w.step(DT, 60)
+    assert w.positions[rider][2] > 0.2 + 0.02  # carried up
 
 
 @pytest.mark.parametrize("solver", SOLVERS)

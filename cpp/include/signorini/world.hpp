@@ -35,8 +35,8 @@ class Islands;
 /// ready. A sleeping body keeps its pose bit for bit and costs no solver or broad-phase work.
 struct SleepSettings {
   /// false: nothing sleeps (every body is woken when it is switched off). Off by default for now:
-  /// sleeping changes what resting bodies report (no contacts, zero contact forces while asleep)
-  /// and stops motion slower than the thresholds, which many closed-form tests measure.
+  /// sleeping stops motion slower than the thresholds (a soft contact's slow creep to rest), which
+  /// closed-form tests measure (docs/conventions.md, "Sleeping", Default).
   bool enabled = false;
   double linear_velocity = 0.05;  ///< m/s, >= 0: |v| at most this counts as at rest
   double angular_velocity = 0.05; ///< rad/s, >= 0: |omega| at most this counts as at rest
@@ -225,7 +225,7 @@ class World {
 
  private:
   void check_index(BodyIndex i) const;
-  /// Wakes the island body i sleeps in (nothing for an awake, static or kinematic body).
+  /// Wakes the island body i sleeps in; for a static or kinematic body, the islands resting on it.
   void wake(BodyIndex i);
   /// Wakes every sleeping body.
   void wake_all();

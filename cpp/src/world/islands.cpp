@@ -45,6 +45,13 @@ void Islands::mark(const State& state, BodyIndex i) {
   any_marked_ = true;
 }
 
+void Islands::mark_touching(const State& state, BodyIndex i) {
+  for (const Contact& c : contacts_) {
+    if (c.body_a == i) mark(state, c.body_b);
+    if (c.body_b == i) mark(state, c.body_a);
+  }
+}
+
 void Islands::mark_all(const Model& model, const State& state) {
   for (std::size_t i = 0; i < model.size(); ++i) mark(state, static_cast<BodyIndex>(i));
 }

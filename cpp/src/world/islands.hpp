@@ -52,6 +52,9 @@ class Islands {
   bool wake_marked(const Model& model, State& state, std::vector<CachedContact>& cache, bool purge);
   /// Marks the island body i sleeps in to be woken (nothing for a static or awake body).
   void mark(const State& state, BodyIndex i);
+  /// Marks the sleeping islands whose kept contacts touch body i (a static or kinematic body that
+  /// moves or changes: the islands resting on it wake).
+  void mark_touching(const State& state, BodyIndex i);
   /// Marks every sleeping island.
   void mark_all(const Model& model, const State& state);
 

@@ -80,6 +80,8 @@ void World::step(double dt, int steps) {
 
 void World::wake(BodyIndex i) {
   islands_->mark(state_, i);
+  // a static or kinematic body changed by a call: the islands resting on it wake
+  if (model_.is_static[i] || model_.is_kinematic[i]) islands_->mark_touching(state_, i);
   islands_->wake_marked(model_, state_, solver_->cache, true);
 }
 
