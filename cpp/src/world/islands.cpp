@@ -101,13 +101,12 @@ void Islands::purge(const Model& model, const State& state) {
   contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), awake_pair), contacts_.end());
   for (std::size_t i = 0; i < force_.size(); ++i)
     if (state.island[i] < 0) force_[i].setZero(), torque_[i].setZero();
-  sum_outside(model, state);
+  sum_outside(state);
 }
 
-void Islands::sum_outside(const Model& model, const State& state) {
+void Islands::sum_outside(const State& state) {
   // the force on B is c.force, A gets the opposite, each with its torque about its own centre; the
   // bodies in the island keep the sums the solver made when it fell asleep
-  (void)model;
   for (const Contact& c : contacts_) {
     const Vec3 spin = c.spin_torque * c.normal;
     if (state.island[c.body_a] < 0) {
@@ -228,7 +227,7 @@ void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedCo
   contacts_.swap(merged_);
   for (std::size_t i = 0; i < force_.size(); ++i)
     if (state.island[i] < 0) force_[i].setZero(), torque_[i].setZero();
-  sum_outside(model, state);
+  sum_outside(state);
 }
 
 BodyIndex Islands::sleep_island_of(const Model& model, State& state, BodyIndex i, const std::vector<Contact>& contacts,

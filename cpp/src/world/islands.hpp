@@ -129,7 +129,7 @@ class Islands {
                    const std::vector<Contact>& contacts, const std::vector<Vec3>& body_force,
                    const std::vector<Vec3>& body_torque);
   /// force_, torque_ of the bodies outside sleeping islands (static, kinematic) summed again over contacts_.
-  void sum_outside(const Model& model, const State& state);
+  void sum_outside(const State& state);
 
   std::vector<CachedContact> stash_;  ///< sleeping islands' warm-start forces, sorted by key
   std::vector<Contact> contacts_;     ///< sleeping islands' contacts, in contact order
