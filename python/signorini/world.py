@@ -43,8 +43,9 @@ class SolverWarning(RuntimeWarning):
 @dataclass(frozen=True)
 class Contacts:
     """Contacts of the last step, one row per contact (K rows). From ``World.contacts`` the arrays
-    are read-only views of the core's list for that step; from ``detect_contacts`` and ``collide``
-    they are copies.
+    are read-only views of the core's list for that step (with sleeping on, the sleeping islands'
+    contacts are among them as they were solved when the island fell asleep); from
+    ``detect_contacts`` and ``collide`` they are copies.
 
     body_a, body_b: (K,) integer body indices (int32 views, int64 copies); the normal points from A
     to B (a plane is always A).
@@ -122,8 +123,9 @@ class SolverStats:
 class SavedState:
     """A world's dynamic state from ``World.save_state()``, for ``World.restore_state()``: time,
     poses, velocities, persistent and one-step forces, pending impulses, kinematic and enabled
-    flags, the warm-start cache, the last step's contacts and the triangle meshes' memory of
-    which side a body belongs on (opaque bytes written and checked by the core). Picklable. ``num_bodies`` and ``time`` are for reading only."""
+    flags, the warm-start cache, the last step's contacts, the triangle meshes' memory of
+    which side a body belongs on, and the islands (awake flags, sleep timers, the sleeping islands'
+    contacts and warm-start forces) (opaque bytes written and checked by the core). Picklable. ``num_bodies`` and ``time`` are for reading only."""
 
     data: bytes
     num_bodies: int
