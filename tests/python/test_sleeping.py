@@ -289,3 +289,53 @@ def test_a_scene_file_keeps_the_sleep_settings_and_can_sleep(tmp_path):
     assert loaded.sleep == w.sleep == {"sleeping": True, "sleep_linear_velocity": 0.02,
                                        "sleep_angular_velocity": 0.05, "time_to_sleep": 0.25}
     assert loaded.can_sleep.tolist() == [True, True, False]
+
+
+def busy_sleeping_pile(solver):
+    """20 boxes and spheres dropped in two waves onto a plane and a static box, sleeping on: islands
+    fall asleep, are woken by the second wave, merge, and sleep again."""
+    w = sg.World(sleeping=True, solver=solver, time_to_sleep=0.2)
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    w.add_static(sg.Box((0.3, 0.3, 0.1)), position=(0.6, 0.0, 0.1))
+    rng = np.random.default_rng(21)
+    for k in range(20):
+        shape = sg.Box((0.06, 0.05, 0.04)) if k % 2 else sg.Sphere(0.05)
+        x, y = rng.uniform(-0.4, 0.9), rng.uniform(-0.3, 0.3)
+        z = 0.3 + 0.15 * (k % 10) + (4.0 if k >= 10 else 0.0)
+        w.add_body(shape, density=800.0, position=(x, y, z), orientation=(1.0, *rng.uniform(-0.3, 0.3, size=3)),
+                   friction=0.8)
+    return w
+
+
+def trace_of(w, steps, kick_at=()):
+    """Per step, the bytes of everything a user reads (poses, velocities, awake flags, contacts and
+    contact forces), and the awake flags (steps x N); body 5 is kicked at the steps kick_at."""
+    out, flags = [], []
+    for k in range(steps):
+        if k in kick_at:
+            w.apply_impulse(5, (0.0, 0.02, 0.05))
+        w.step(DT)
+        c = w.contacts
+        out.append(w.positions.tobytes() + w.velocities.tobytes() + w.awake.tobytes() + c.alpha.tobytes()
+                   + c.body_a.tobytes() + c.body_b.tobytes() + w.contact_forces.tobytes())
+        flags.append(w.awake.copy())
+    return out, np.array(flags)
+
+
+@pytest.mark.filterwarnings("ignore::signorini.SolverWarning")
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_a_busy_pile_that_sleeps_wakes_and_sleeps_again_continues_bit_for_bit_from_a_save(solver):
+    w = busy_sleeping_pile(solver)
+    first, _ = trace_of(w, 200)
+    saved, pickled = w.save_state(), pickle.dumps(w)
+    rest, flags = trace_of(w, 1000, kick_at=(350,))
+    # after the save, bodies fall asleep and islands are woken (by the second wave and the kick)
+    dynamic = flags[:, 2:]
+    wake_steps = (~dynamic[:-1] & dynamic[1:]).any(axis=1).sum()
+    sleep_steps = (dynamic[:-1] & ~dynamic[1:]).any(axis=1).sum()
+    assert wake_steps >= 3 and sleep_steps >= 3, (wake_steps, sleep_steps)
+    restored = busy_sleeping_pile(solver)
+    restored.restore_state(saved)
+    assert trace_of(restored, 1000, kick_at=(350,))[0] == rest
+    assert trace_of(pickle.loads(pickled), 1000, kick_at=(350,))[0] == rest
+    assert trace_of(busy_sleeping_pile(solver), 200)[0] == first  # and the same scene runs the same
