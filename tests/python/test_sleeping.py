@@ -339,3 +339,19 @@ def test_a_busy_pile_that_sleeps_wakes_and_sleeps_again_continues_bit_for_bit_fr
     assert trace_of(restored, 1000, kick_at=(350,))[0] == rest
     assert trace_of(pickle.loads(pickled), 1000, kick_at=(350,))[0] == rest
     assert trace_of(busy_sleeping_pile(solver), 200)[0] == first  # and the same scene runs the same
+
+
+def test_a_refused_step_that_woke_an_island_leaves_it_asleep_as_before():
+    w = cube_stacks()
+    w.step(DT, 240)
+    ball = w.add_body(sg.Sphere(0.05), density=1000.0, position=(0.0, 0.0, 0.451))  # just above the top cube
+    before = w.save_state()
+    w.set_external_wrench(ball, force=(1e308, 0.0, 0.0))
+    with pytest.raises(RuntimeError, match=r"state became non-finite.*undone"):
+        w.step(1e10)  # detects the ball on the stack (which wakes it), then overflows
+    assert not w.awake[1:3].any()
+    w.set_external_wrench(ball, force=(0.0, 0.0, 0.0))
+    assert w.save_state().data == before.data
+    # and it then goes on as if the refused step had never been tried
+    w.step(DT)
+    assert w.awake[1:3].all()
