@@ -355,3 +355,14 @@ def test_a_refused_step_that_woke_an_island_leaves_it_asleep_as_before():
     # and it then goes on as if the refused step had never been tried
     w.step(DT)
     assert w.awake[1:3].all()
+
+
+def test_a_sleeping_state_restored_into_a_world_with_sleeping_off_wakes():
+    w = cube_stacks()
+    w.step(DT, 240)
+    saved = w.save_state()
+    off = cube_stacks()
+    off.set_sleep(sleeping=False)
+    off.restore_state(saved)
+    assert off.awake[1:].all()
+    assert len(off.warm_start_cache["alpha"]) == len(w.contacts)  # the kept forces are back in the cache

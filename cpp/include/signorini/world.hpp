@@ -178,7 +178,7 @@ class World {
   /// body's shape kind, static flag and mass, to recognise the world it belongs to).
   std::string save_state() const;
   /// Restores a save_state() of this world (or of one built the same way): stepping on is then
-  /// bit-identical. A state of another world (body count, shape kinds, static flags or masses
+  /// bit-identical (a world with sleeping off wakes the bodies the state has asleep). A state of another world (body count, shape kinds, static flags or masses
   /// differ) or damaged bytes throw std::invalid_argument and change nothing.
   void restore_state(const std::string& saved);
 

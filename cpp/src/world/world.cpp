@@ -92,7 +92,9 @@ void World::wake_all() {
 
 void World::wake_touched(double dt) {
   // a sleeping island touched by a moving body wakes before this step's solve, and the contacts are
-  // detected again with it awake (its own contacts were not detected while it slept)
+  // detected again with it awake (its own contacts were not detected while it slept); with
+  // sleeping off nothing sleeps (switching it off, or restoring into such a world, wakes all)
+  if (!settings_.sleep.enabled) return;
   while (islands_->mark_touched(model_, state_, contacts_base_) &&
          islands_->wake_marked(model_, state_, solver_->cache, false))
     detect_contacts(dt, contacts_base_);
