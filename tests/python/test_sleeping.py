@@ -366,3 +366,35 @@ def test_a_sleeping_state_restored_into_a_world_with_sleeping_off_wakes():
     off.restore_state(saved)
     assert off.awake[1:].all()
     assert len(off.warm_start_cache["alpha"]) == len(w.contacts)  # the kept forces are back in the cache
+
+
+def test_removing_a_body_wakes_its_island_and_the_other_islands_keep_sleeping_renumbered():
+    w = cube_stacks(xs=(0.0, 1.0, 2.0))  # stacks 1-2, 3-4, 5-6
+    w.step(DT, 240)
+    assert not w.awake[1:].any()
+    w.remove_bodies([1, 4])  # the bottom of the first stack, the top of the second
+    # now: 1 (the first stack's top, woken), 2 (the second's bottom, woken), 3-4 (asleep)
+    assert w.awake[[1, 2]].all() and not w.awake[[3, 4]].any()
+    far = pose_bytes(w, 3) + pose_bytes(w, 4)
+    w.step(DT, 60)
+    assert w.positions[1][2] < 0.2  # it fell onto the ground
+    assert pose_bytes(w, 3) + pose_bytes(w, 4) == far
+    # the third stack's label was renumbered: a touch still wakes it whole, and only it
+    ball = w.add_body(sg.Sphere(0.05), density=1000.0, position=(2.0, 0.0, 0.5))
+    for _ in range(120):
+        w.step(DT)
+        if w.awake[3]:
+            break
+    assert w.awake[[3, 4, ball]].all()
+    # and a world rebuilt from its saved state steps on the same
+    saved, trace = w.save_state(), []
+    for _ in range(200):
+        w.step(DT)
+        trace.append(w.positions.tobytes() + w.awake.tobytes())
+    other = pickle.loads(pickle.dumps(w))
+    other.restore_state(saved)
+    again = []
+    for _ in range(200):
+        other.step(DT)
+        again.append(other.positions.tobytes() + other.awake.tobytes())
+    assert again == trace
