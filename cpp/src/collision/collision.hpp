@@ -414,8 +414,9 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
 /// written into out (cleared first), using and growing the scratch buffers. Only pairs that
 /// model.can_collide allows (enabled bodies, matching filter bits, not excluded, not two infinite
 /// masses), and none where nothing moves: a sleeping body (state.asleep) against a sleeping, static
-/// or still kinematic one (a sleeping body's speculative reach is 0). memory: read (previous centres, crossings; empty: nothing remembered) and written
-/// (the separating-face cache; this detection's crossings to memory.crossing_next).
+/// or still kinematic one (a sleeping body's speculative reach is 0). memory: read (previous
+/// centres, crossings; empty: nothing remembered) and written (the separating-face cache; this
+/// detection's crossings to memory.crossing_next).
 void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
                        BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& out);
 
