@@ -119,26 +119,52 @@ void register_world(py::module_& m) {
           }));
   bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<SolverSettings>>(m.attr("SolverSettings")));
 
+  // sleep settings: plain fields, validated by World (docs/conventions.md, "Sleeping")
+  py::class_<SleepSettings>(m, "SleepSettings")
+      .def(py::init<>())
+      .def_readwrite("enabled", &SleepSettings::enabled)
+      .def_readwrite("linear_velocity", &SleepSettings::linear_velocity)
+      .def_readwrite("angular_velocity", &SleepSettings::angular_velocity)
+      .def_readwrite("time_to_sleep", &SleepSettings::time_to_sleep)
+      .def(py::pickle(
+          [](const SleepSettings& s) {
+            return py::make_tuple(s.enabled, s.linear_velocity, s.angular_velocity, s.time_to_sleep);
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 4) throw py::value_error("SleepSettings: a pickled state has 4 items");
+            SleepSettings s;
+            s.enabled = t[0].cast<bool>();
+            s.linear_velocity = t[1].cast<double>();
+            s.angular_velocity = t[2].cast<double>();
+            s.time_to_sleep = t[3].cast<double>();
+            return s;
+          }));
+  bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<SleepSettings>>(m.attr("SleepSettings")));
+
   // an index that is not in the world: both an IndexError and a ValueError
   py::register_exception<BodyIndexError>(m, "BodyIndexError",
                                          py::make_tuple(py::handle(PyExc_IndexError), py::handle(PyExc_ValueError)));
 
   py::class_<World>(m, "World")
-      .def(py::init([](const Vec3& gravity, double margin, const SolverSettings& solver, int threads) {
+      .def(py::init([](const Vec3& gravity, double margin, const SolverSettings& solver,
+                       const std::optional<SleepSettings>& sleep, int threads) {
              WorldSettings s;
              s.gravity = gravity;
              s.contact_margin = margin;
              s.solver = solver;
+             if (sleep) s.sleep = *sleep;
              s.threads = threads;
              return std::make_unique<World>(s);
            }),
-           py::arg("gravity"), py::arg("contact_margin"), py::arg("solver"), py::arg("threads") = 0)
+           py::arg("gravity"), py::arg("contact_margin"), py::arg("solver"), py::arg("sleep") = py::none(),
+           py::arg("threads") = 0)
       .def(
           "add_body",
           [](World& w, const py::object& shape, bool is_static, bool is_kinematic, std::optional<double> density,
              std::optional<double> mass, std::optional<Mat3> inertia, const Vec3& position, const Quat4& orientation,
              const Vec3& velocity, const Vec3& angular_velocity, double friction, double restitution,
-             double spinning_friction, const std::string& name, std::uint32_t group, std::uint32_t mask, bool enabled) {
+             double spinning_friction, const std::string& name, std::uint32_t group, std::uint32_t mask, bool enabled,
+             bool can_sleep) {
             BodyDesc d;
             d.shape = bindings::to_shape(shape, "body " + std::to_string(w.num_bodies()));
             d.is_static = is_static;
@@ -156,13 +182,14 @@ void register_world(py::module_& m) {
             d.name = name;
             d.filter = CollisionFilter{group, mask};
             d.enabled = enabled;
+            d.can_sleep = can_sleep;
             return w.add_body(d);
           },
           py::arg("shape"), py::arg("is_static"), py::arg("is_kinematic"), py::arg("density"), py::arg("mass"),
           py::arg("inertia"), py::arg("position"), py::arg("orientation"), py::arg("velocity"),
           py::arg("angular_velocity"), py::arg("friction"), py::arg("restitution"), py::arg("spinning_friction"),
           py::arg("name"),
-          py::arg("group"), py::arg("mask"), py::arg("enabled"))
+          py::arg("group"), py::arg("mask"), py::arg("enabled"), py::arg("can_sleep") = true)
       .def("remove_body", &World::remove_body, py::arg("i"))
       .def("remove_bodies", &World::remove_bodies, py::arg("indices"))
       .def("step", &World::step, py::arg("dt"), py::arg("steps") = 1, py::call_guard<py::gil_scoped_release>())
@@ -188,6 +215,14 @@ void register_world(py::module_& m) {
         w.set_collision_filter(i, CollisionFilter{group, mask});
       })
       .def("set_pair_collision", &World::set_pair_collision)
+      .def("set_awake", &World::set_awake)
+      .def("set_can_sleep", &World::set_can_sleep)
+      .def("set_sleep", [](World& w, const SleepSettings& sleep) {
+        const auto held = w.lock();  // read, change, write as one call
+        WorldSettings s = w.settings();
+        s.sleep = sleep;
+        w.set_settings(s);
+      })
       .def("find", &World::find)
       .def("label", &World::label)
       .def("save_state", [](const World& w) { return py::bytes(w.save_state()); })
@@ -224,6 +259,16 @@ void register_world(py::module_& m) {
       .def_property_readonly("step_torques", [](const py::object& self) { return state_view(self, &State::tau_step, bindings::vec3_view); })
       .def_property_readonly("impulses", [](const py::object& self) { return state_view(self, &State::impulse, bindings::vec3_view); })
       .def_property_readonly("angular_impulses", [](const py::object& self) { return state_view(self, &State::angular_impulse, bindings::vec3_view); })
+      // (N,) bool: awake (False asleep, or static); the sleep timers (N,) s, a copy
+      .def_property_readonly("awake", [](const py::object& self) {
+        return state_view(self, &State::awake, [](const py::handle& owner, const std::uint8_t* data, std::size_t n) {
+          return bindings::readonly_view(owner, reinterpret_cast<const bool*>(data), {static_cast<py::ssize_t>(n)},
+                                         {static_cast<py::ssize_t>(sizeof(bool))});
+        });
+      })
+      .def_property_readonly("sleep_times", [](const World& w) {
+        return py::array_t<double>(py::cast(locked_copy(w, [](const World& w) { return w.state().sleep_time; })));
+      })
       // model
       .def_property_readonly("masses", [](const World& w) {
         return py::array_t<double>(py::cast(locked_copy(w, [](const World& w) { return w.model().mass; })));
@@ -255,6 +300,9 @@ void register_world(py::module_& m) {
       .def_property_readonly("enabled", [](const World& w) {
         return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.enabled[i]; });
       })
+      .def_property_readonly("can_sleep", [](const World& w) {
+        return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.can_sleep[i]; });
+      })
       .def_property_readonly("groups", [](const World& w) {
         return per_body<std::uint32_t>(w, [](const Model& m, std::size_t i) { return m.filter[i].group; });
       })
@@ -271,6 +319,7 @@ void register_world(py::module_& m) {
       .def_property_readonly("gravity", [](const World& w) { return w.settings().gravity; })
       .def_property_readonly("contact_margin", [](const World& w) { return w.settings().contact_margin; })
       .def_property_readonly("solver", [](const World& w) { return w.settings().solver; })
+      .def_property_readonly("sleep", [](const World& w) { return w.settings().sleep; })
       .def_property_readonly("threads", [](const World& w) { return w.settings().threads; })
       .def("set_threads", [](World& w, int threads) {
         const auto held = w.lock();  // read, change, write as one call

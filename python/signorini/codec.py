@@ -196,12 +196,14 @@ class BodyArgs(NamedTuple):
 
 
 def body_models(world) -> list[dict]:
-    """Per body, what the world holds of its model: static, kinematic, enabled (bool), mass (kg),
-    inertia (3, 3), friction, restitution, spinning_friction, name, group, mask. Linear in N."""
+    """Per body, what the world holds of its model: static, kinematic, enabled, can_sleep (bool),
+    mass (kg), inertia (3, 3), friction, restitution, spinning_friction, name, group, mask. Linear in N."""
     masses, inertias, statics, kinematic = world.masses, world.inertias, world.is_static, world.is_kinematic
+    can_sleep = world.can_sleep
     enabled, (groups, masks), names = world.enabled, world.collision_filters, world.names
     frictions, restitutions, spinning = world.frictions, world.restitutions, world.spinning_frictions
     return [{"static": bool(statics[i]), "kinematic": bool(kinematic[i]), "enabled": bool(enabled[i]),
+             "can_sleep": bool(can_sleep[i]),
              "mass": float(masses[i]), "inertia": np.array(inertias[i]), "friction": float(frictions[i]),
              "restitution": float(restitutions[i]), "spinning_friction": float(spinning[i]), "name": names[i],
              "group": int(groups[i]), "mask": int(masks[i])} for i in range(world.num_bodies)]
@@ -289,6 +291,8 @@ def scene_bodies(world, mesh_file: Callable, names=None) -> list[dict]:
             table["mask"] = model["mask"]
         if not model["enabled"]:
             table["enabled"] = False
+        if not model["can_sleep"]:
+            table["can_sleep"] = False
         bodies.append(table)
     return bodies
 
@@ -319,7 +323,7 @@ def add_scene_body(world, table: dict, shape, material: dict) -> int:
         return world.add_static(shape, **common)
     i = world.add_body(shape, density=table.get("density"), mass=table.get("mass"), inertia=table.get("inertia"),
                        velocity=table["velocity"], angular_velocity=table["angular_velocity"],
-                       kinematic=table["kinematic"], **common)
+                       kinematic=table["kinematic"], can_sleep=table.get("can_sleep", True), **common)
     if any(force) or any(torque):
         try:
             world.set_external_wrench(i, force, torque)
@@ -361,7 +365,8 @@ class MeshFiles:
 def scene_document(world, path, info: Optional[dict] = None, names=None) -> dict:
     """A world as a scene file's document (format, [scene] info when given, [world], bodies,
     disabled pairs); writes the mesh files next to ``path``."""
-    settings = {"gravity": floats(world.gravity), "contact_margin": float(world.contact_margin), **world.solver}
+    settings = {"gravity": floats(world.gravity), "contact_margin": float(world.contact_margin), **world.solver,
+                **world.sleep}
     document: dict[str, Any] = {"format": SCENE_FORMAT}
     if info:
         document["scene"] = info

@@ -195,7 +195,7 @@ SOLVER = {"tolerance": 0.0}
 
 def tumbling_box() -> tuple[World, float, int]:
     """A box thrown spinning onto the ground: tumbles, bounces on corners and edges, settles."""
-    w = World(gravity=(0, 0, -9.81), **SOLVER)
+    w = World(gravity=(0, 0, -9.81), sleeping=False, **SOLVER)  # the oracle does not sleep
     w.add_static(Plane(normal=(0, 0, 1), offset=0.0))
     w.add_body(Box(half_extents=(0.3, 0.2, 0.1)), density=500.0, position=(0, 0, 0.6),
                orientation=(0.9, 0.3, 0.2, 0.1), velocity=(0.5, 0, 0), angular_velocity=(2.0, -3.0, 1.0))
@@ -205,7 +205,7 @@ def tumbling_box() -> tuple[World, float, int]:
 def mesh_drop() -> tuple[World, float, int]:
     """A coarse torus mesh dropped tilted and spinning onto the ground (non-convex: its vertices
     against the plane, several at once)."""
-    w = World(gravity=(0, 0, -9.81), **SOLVER)
+    w = World(gravity=(0, 0, -9.81), sleeping=False, **SOLVER)  # the oracle does not sleep
     w.add_static(Plane(normal=(0, 0, 1), offset=0.0))
     v, f = torus(0.3, 0.1, 16, 8)
     w.add_body(Mesh(v, f), density=800.0, position=(0, 0, 0.6), orientation=(0.95, 0.25, 0.1, 0.0),
@@ -215,7 +215,7 @@ def mesh_drop() -> tuple[World, float, int]:
 
 def spheres() -> tuple[World, float, int]:
     """Spheres on the ground: two meet head on, a third drops onto one of them."""
-    w = World(gravity=(0, 0, -9.81), **SOLVER)
+    w = World(gravity=(0, 0, -9.81), sleeping=False, **SOLVER)  # the oracle does not sleep
     w.add_static(Plane(normal=(0, 0, 1), offset=0.0))
     w.add_body(Sphere(0.2), mass=1.0, position=(-1.0, 0, 0.2), velocity=(2.0, 0, 0))
     w.add_body(Sphere(0.3), mass=2.0, position=(1.0, 0.05, 0.3), velocity=(-1.0, 0, 0))
@@ -227,7 +227,7 @@ def stack() -> tuple[World, float, int]:
     """Box-box manifolds and capsules: three boxes dropped into a stack on a static box, each turned
     about the vertical, a capsule lying on the ground with a sphere landing on it, a cylinder
     standing on the ground."""
-    w = World(gravity=(0, 0, -9.81), **SOLVER)
+    w = World(gravity=(0, 0, -9.81), sleeping=False, **SOLVER)  # the oracle does not sleep
     w.add_static(Plane(normal=(0, 0, 1), offset=0.0))
     w.add_static(Box(half_extents=(0.6, 0.6, 0.1)), position=(0, 0, 0.1))
     for k, angle in enumerate((0.0, 0.4, 0.8)):
@@ -244,7 +244,7 @@ def spinners() -> tuple[World, float, int]:
     (one sliding too, one spinning about a tilted axis), a ball dropped spinning onto a resting one
     (a sphere-sphere point), a capsule spinning upright on its end; the ground's spinning friction
     and the bodies' differ (a pair takes the larger), one ball has none against a ground with some."""
-    w = World(gravity=(0, 0, -9.81), **SOLVER)
+    w = World(gravity=(0, 0, -9.81), sleeping=False, **SOLVER)  # the oracle does not sleep
     w.add_static(Plane(normal=(0, 0, 1), offset=0.0), spinning_friction=0.0005)
     w.add_body(Sphere(0.1), mass=1.0, position=(0, 0, 0.1), angular_velocity=(0, 0, 8.0), spinning_friction=0.002)
     w.add_body(Sphere(0.15), mass=2.0, position=(1.0, 0, 0.15), velocity=(0.5, 0.2, 0),

@@ -13,7 +13,7 @@ written. A file reads like this (every table and key optional unless marked)::
     steps = 480
     snapshot_times = [0.0, 0.5, 1.0]
 
-    [world]                      # World(...) keywords: gravity, contact_margin and the solver's
+    [world]                      # World(...) keywords: gravity, contact_margin, the solver's and sleep's
     gravity = [0.0, 0.0, -9.81]
     erp = 0.2
 
@@ -307,6 +307,7 @@ class Body(_Table):
     group: Bits = Field(1, description="collision filter: the categories the body belongs to (32 bits)")
     mask: Bits = Field(0xFFFFFFFF, description="collision filter: the categories it collides with (32 bits)")
     enabled: Bool = Field(True, description="false: the body neither moves nor collides")
+    can_sleep: Bool = Field(True, description="false: the body never sleeps, nor does any island it is in")
 
 
 class WorldSettings(_Table):
@@ -329,6 +330,10 @@ class WorldSettings(_Table):
     damping_ratio: Float = 10.0
     soft_iterations: Int = 1
     relax_iterations: Int = 1
+    sleeping: Bool = False
+    sleep_linear_velocity: Float = 0.05
+    sleep_angular_velocity: Float = 0.05
+    time_to_sleep: Float = 0.5
 
 
 class SceneInfo(_Table):

@@ -61,8 +61,9 @@ def user_stacklevel() -> int:
 @dataclass(frozen=True)
 class Contacts:
     """Contacts of the last step, one row per contact (K rows). From ``World.contacts`` the arrays
-    are read-only views of the core's list for that step; from ``detect_contacts`` and ``collide``
-    they are copies.
+    are read-only views of the core's list for that step (with sleeping on, the sleeping islands'
+    contacts are among them as they were solved when the island fell asleep); from
+    ``detect_contacts`` and ``collide`` they are copies.
 
     body_a, body_b: (K,) integer body indices (int32 views, int64 copies); the normal points from A
     to B (a plane is always A).
@@ -140,8 +141,9 @@ class SolverStats:
 class SavedState:
     """A world's dynamic state from ``World.save_state()``, for ``World.restore_state()``: time,
     poses, velocities, persistent and one-step forces, pending impulses, kinematic and enabled
-    flags, the warm-start cache, the last step's contacts and the triangle meshes' memory of
-    which side a body belongs on (opaque bytes written and checked by the core). Picklable. ``num_bodies`` and ``time`` are for reading only."""
+    flags, the warm-start cache, the last step's contacts, the triangle meshes' memory of
+    which side a body belongs on, and the islands (awake flags, sleep timers, the sleeping islands'
+    contacts and warm-start forces) (opaque bytes written and checked by the core). Picklable. ``num_bodies`` and ``time`` are for reading only."""
 
     data: bytes
     num_bodies: int
@@ -157,6 +159,26 @@ SOLVER_DEFAULTS = {
     "warm_start": True, "substeps": 0, "warn_velocity": 1.0,
     "solver": "pgs", "contact_hertz": 30.0, "damping_ratio": 10.0, "soft_iterations": 1, "relax_iterations": 1,
 }
+
+
+SLEEP_DEFAULTS = {"sleeping": False, "sleep_linear_velocity": 0.05, "sleep_angular_velocity": 0.05,
+                  "time_to_sleep": 0.5}
+# the keywords' names in _core.SleepSettings
+_SLEEP_FIELDS = {"sleeping": "enabled", "sleep_linear_velocity": "linear_velocity",
+                 "sleep_angular_velocity": "angular_velocity", "time_to_sleep": "time_to_sleep"}
+
+
+def _sleep_settings(who: str, current=None, **given):
+    """A _core.SleepSettings from keyword values (None = keep current or the default), checked for
+    type here and for range by the core."""
+    s = _core.SleepSettings()
+    for key, default in SLEEP_DEFAULTS.items():
+        value = given.get(key)
+        if value is None:
+            value = getattr(current, _SLEEP_FIELDS[key]) if current is not None else default
+        value = as_flag(value, who, key) if key == "sleeping" else as_scalar(value, who, key)
+        setattr(s, _SLEEP_FIELDS[key], value)
+    return s
 
 
 def _setting(s, key: str):
@@ -273,7 +295,14 @@ class World:
     soft_iterations, relax_iterations : soft step: sweeps per substep with the soft bias (>= 1) and
         rigid sweeps after the poses move (>= 0).
 
-    The defaults (``SOLVER_DEFAULTS``) stand a 10-box stack and a 210-box pyramid.
+    sleeping : bodies at rest fall asleep with their island (docs/conventions.md, "Sleeping"): a
+        sleeping body keeps its pose bit for bit and costs no solver or broad-phase work until a
+        moving body touches it or a call wakes it. Off by default for now (``World.awake``).
+    sleep_linear_velocity : m/s (>= 0): a body slower than this counts as at rest.
+    sleep_angular_velocity : rad/s (>= 0): a body turning slower than this counts as at rest.
+    time_to_sleep : s (>= 0): an island whose bodies have all been at rest this long falls asleep.
+
+    The defaults (``SOLVER_DEFAULTS``, ``SLEEP_DEFAULTS``) stand a 10-box stack and a 210-box pyramid.
     """
 
     def __init__(self, gravity=(0.0, 0.0, -9.81), contact_margin: float = 0.005, erp: float = 0.2,
@@ -283,7 +312,8 @@ class World:
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
                  warn_velocity: float = 1.0, solver: str = "pgs", contact_hertz: float = 30.0,
                  damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1,
-                 threads: Optional[int] = None):
+                 sleeping: bool = False, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
+                 time_to_sleep: float = 0.5, threads: Optional[int] = None):
         g = as_vector(gravity, 3, "World", "gravity")
         given_threads = _threads("World", threads)
         settings = _solver_settings(
@@ -292,7 +322,10 @@ class World:
             friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
             warn_velocity=warn_velocity, solver=solver, contact_hertz=contact_hertz, damping_ratio=damping_ratio,
             soft_iterations=soft_iterations, relax_iterations=relax_iterations)
-        self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), settings, given_threads or 0)
+        sleep = _sleep_settings("World", sleeping=sleeping, sleep_linear_velocity=sleep_linear_velocity,
+                                sleep_angular_velocity=sleep_angular_velocity, time_to_sleep=time_to_sleep)
+        self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), settings, sleep,
+                                 given_threads or 0)
         self._threads = given_threads  # as given (None: the machine's cores), for pickles
         # held by every method and property (see World.lock); kept by __setstate__
         self._lock = self.__dict__.get("_lock") or threading.RLock()
@@ -332,6 +365,57 @@ class World:
         self._core.set_solver(_solver_settings("set_solver", self._core.solver, **settings))
         self._warned = False  # new settings: their first unconverged step warns again
 
+    @_locked
+    def set_sleep(self, **settings) -> None:
+        """Changes sleep settings by keyword (``sleeping``, ``sleep_linear_velocity``,
+        ``sleep_angular_velocity``, ``time_to_sleep``); the others stay. ``sleeping=False`` wakes
+        every body. A bad value raises naming the setting, and nothing changes."""
+        unknown = set(settings) - set(SLEEP_DEFAULTS)
+        if unknown:
+            raise TypeError(f"set_sleep: unknown setting(s) {sorted(unknown)}; known: {sorted(SLEEP_DEFAULTS)}")
+        self._core.set_sleep(_sleep_settings("set_sleep", self._core.sleep, **settings))
+
+    @property
+    @_locked
+    def sleep(self) -> dict:
+        """The sleep settings as a dict (the constructor's keywords)."""
+        s = self._core.sleep
+        return {k: getattr(s, f) for k, f in _SLEEP_FIELDS.items()}
+
+    @property
+    @_locked
+    def awake(self) -> np.ndarray:
+        """(N,) bool, a read-only view: False for a sleeping body (its pose frozen bit for bit, its
+        velocities zero) and for a static one (which never moves); True for the others."""
+        return self._core.awake
+
+    @property
+    @_locked
+    def sleep_times(self) -> np.ndarray:
+        """(N,) s: how long each awake dynamic body has stayed below the sleep thresholds (a copy)."""
+        return readonly(self._core.sleep_times)
+
+    @property
+    @_locked
+    def can_sleep(self) -> np.ndarray:
+        """(N,) bool: False for bodies that never sleep (``set_can_sleep``)."""
+        return readonly(self._core.can_sleep)
+
+    @_locked
+    def set_awake(self, i: int, awake: bool = True) -> None:
+        """Wakes body i's island (``awake=True``), or puts the island body i is in (by the last
+        step's contacts) to sleep now with its velocities zeroed (``awake=False``). ValueError naming
+        the body for a static body, a kinematic or disabled one put to sleep, an island with a body
+        that cannot sleep, or a world with sleeping off; nothing changes then."""
+        i = self._index(i)
+        self._core.set_awake(i, as_flag(awake, self.label(i), "awake"))
+
+    @_locked
+    def set_can_sleep(self, i: int, can_sleep: bool) -> None:
+        """Whether body i may sleep; False wakes its island and keeps any island it is in awake."""
+        i = self._index(i)
+        self._core.set_can_sleep(i, as_flag(can_sleep, self.label(i), "can_sleep"))
+
     @property
     @_locked
     def unconverged_substeps(self) -> int:
@@ -351,7 +435,7 @@ class World:
                  orientation=(1.0, 0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0),
                  angular_velocity=(0.0, 0.0, 0.0), friction: float = 0.5, restitution: float = 0.0,
                  spinning_friction: float = 0.0, kinematic: bool = False, name: str | None = None,
-                 group: int = 1, mask: int = ALL_BITS, enabled: bool = True) -> int:
+                 group: int = 1, mask: int = ALL_BITS, enabled: bool = True, can_sleep: bool = True) -> int:
         """Adds a dynamic (or kinematic) body and returns its index.
 
         Exactly one of ``density`` (kg/m^3) or ``mass`` (kg). ``position`` (3,) is where the
@@ -370,7 +454,8 @@ class World:
         no gravity or forces, and pushes dynamic bodies as an infinite mass would; a mass is
         optional (needed only to make it dynamic later). ``name``: unique in the world
         (``find``). ``group`` / ``mask``: collision filter bits (see ``set_collision_filter``).
-        ``enabled=False`` adds it disabled (``set_enabled``).
+        ``enabled=False`` adds it disabled (``set_enabled``). ``can_sleep=False``: it never sleeps,
+        nor does any island it is in (``set_can_sleep``).
 
         A non-convex ``Mesh`` without convex pieces is decomposed first (``sg.decompose`` with
         its defaults: cached, but the first time it can take minutes, with an estimate and a
@@ -380,7 +465,8 @@ class World:
         CoACD fails), and the world is unchanged.
         """
         return self._add(shape, False, kinematic, density, mass, inertia, position, orientation, velocity,
-                         angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled)
+                         angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled,
+                         can_sleep)
 
     def add_static(self, shape, *, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0),
                    friction: float = 0.5, restitution: float = 0.0, spinning_friction: float = 0.0,
@@ -392,7 +478,8 @@ class World:
                          (0.0, 0.0, 0.0), friction, restitution, spinning_friction, name, group, mask, enabled)
 
     def _add(self, shape, is_static, kinematic, density, mass, inertia, position, orientation, velocity,
-             angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled) -> int:
+             angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled,
+             can_sleep=True) -> int:
         who = f"body {self.num_bodies} ({type(shape).__name__})"
         if not isinstance(shape, Shape):
             raise TypeError(f"{who}: shape must be a Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, "
@@ -410,7 +497,8 @@ class World:
                 as_vector(velocity, 3, who, "velocity"), as_vector(angular_velocity, 3, who, "angular_velocity"),
                 as_number(friction, who, "friction"), as_number(restitution, who, "restitution"),
                 as_number(spinning_friction, who, "spinning_friction"), as_name(name, who),
-                as_bits(group, who, "group"), as_bits(mask, who, "mask"), as_flag(enabled, who, "enabled"))
+                as_bits(group, who, "group"), as_bits(mask, who, "mask"), as_flag(enabled, who, "enabled"),
+                as_flag(can_sleep, who, "can_sleep"))
         if (not is_static and isinstance(shape, Mesh) and not shape.pieces and not shape.is_convex()
                 and _solid(shape)):
             # a dynamic non-convex mesh collides with other bodies through convex pieces
@@ -652,7 +740,7 @@ class World:
         c = self._core
         bodies = [{"shape": c.shape(i), **model} for i, model in enumerate(codec.body_models(self))]
         return {"version": 1, "gravity": np.array(c.gravity), "contact_margin": c.contact_margin,
-                "solver": self.solver, "bodies": bodies, "excluded_pairs": list(c.excluded_pairs),
+                "solver": self.solver, "sleep": self.sleep, "bodies": bodies, "excluded_pairs": list(c.excluded_pairs),
                 "state": self.save_state(), "given": [None if g is None else tuple(g) for g in self._args],
                 "threads": self._threads}
 
@@ -661,7 +749,8 @@ class World:
         world's: a thread using this World sees the old world or the new one, never half of each."""
         if d.get("version") != 1:
             raise ValueError(f"World: cannot unpickle version {d.get('version')!r} (this is version 1)")
-        new = World(gravity=d["gravity"], contact_margin=d["contact_margin"], threads=d.get("threads"), **d["solver"])
+        new = World(gravity=d["gravity"], contact_margin=d["contact_margin"], threads=d.get("threads"), **d["solver"],
+                    **d.get("sleep", {}))
         new._fill(d)
         lock = self.__dict__.setdefault("_lock", threading.RLock())
         with lock:
@@ -677,7 +766,8 @@ class World:
             has_mass = not b["static"] and bool(np.isfinite(b["mass"]))
             c.add_body(b["shape"], b["static"], b["kinematic"], None, b["mass"] if has_mass else None,
                        b["inertia"] if has_mass else None, zero, unit, zero, zero, b["friction"],
-                       b["restitution"], b.get("spinning_friction", 0.0), b["name"], b["group"], b["mask"], True)
+                       b["restitution"], b.get("spinning_friction", 0.0), b["name"], b["group"], b["mask"], True,
+                       b.get("can_sleep", True))
         for i, j in d["excluded_pairs"]:
             c.set_pair_collision(i, j, False)
         self.restore_state(d["state"])

@@ -168,6 +168,29 @@ TEST(Allocation, StepsOfABusyPileWithSpinRowsAllocateNothingAfterWarmUp) {
   EXPECT_GT(spinning, 0u);
 }
 
+TEST(Allocation, StepsOfASleepingPileAllocateNothing) {
+  // 27 cubes in 3 x 3 columns of 3 on a plane, sleeping on: once the pile sleeps, a step touches
+  // none of its buffers (sleep and wake themselves may allocate: FCL's trees register a body that
+  // falls asleep or wakes, and the sleeping islands' warm-start forces grow their list)
+  WorldSettings settings;
+  settings.sleep.enabled = true;
+  World w(settings);
+  BodyDesc ground;
+  ground.is_static = true;
+  ground.shape = Plane(Vec3(0, 0, 1), 0.0);
+  w.add_body(ground);
+  for (int k = 0; k < 27; ++k) {
+    BodyDesc d;
+    d.shape = Box(Vec3(0.1, 0.1, 0.1));
+    d.density = 500.0;
+    d.position = Vec3(0.25 * (k % 3), 0.25 * ((k / 3) % 3), 0.1 + 0.201 * (k / 9));
+    w.add_body(d);
+  }
+  const std::array<long, 3> n = allocations_after_warm_up(w, 1.0 / 240.0);
+  for (std::size_t i = 1; i < w.num_bodies(); ++i) ASSERT_EQ(w.state().awake[i], 0) << "body " << i << " awake";
+  EXPECT_EQ(n, (std::array<long, 3>{0, 0, 0}));
+}
+
 TEST(Allocation, TheCounterSeesAnAllocation) {
   // the counter itself works: a fresh vector of a runtime size allocates once
   volatile std::size_t size = 16;

@@ -161,6 +161,41 @@ TEST(BroadPhase, FindsEveryPairThatBruteForceFindsOnRandomScenes) {
               brute_total, static_cast<double>(broad_total) / static_cast<double>(brute_total));
 }
 
+TEST(BroadPhase, SleepingBodiesArePairedWithAwakeOnesOnlyAsTheyFallAsleepAndWake) {
+  // the same random scenes with a share of the dynamic bodies asleep (state.awake 0, at rest):
+  // no pair of two sleeping bodies or of a sleeping and a static one; every brute-force pair with
+  // an awake side found; then the sleepers wake and others fall asleep (the bodies change trees)
+  const double dt = 1.0 / 60.0, margin = 0.005;
+  const Vec3 gravity(0, 0, -9.81);
+  for (std::uint64_t seed : {7u, 8u, 9u}) {
+    scenes::Scene scene = scenes::random_scene(seed, 200, scenes::Mix::AllConvex, 4.5, 0.05, 0.4, 5.0, 8.0, 0.2);
+    collision::BroadPhase broad_phase;
+    scenes::register_bodies(scene, broad_phase);
+    const std::size_t n = scene.size();
+    for (int round = 0; round < 3; ++round) {
+      scene.state.awake.assign(n, 1);
+      for (std::size_t i = 0; i < n; ++i) {
+        const bool sleeps = scene.model.is_static[i] || (i + round) % 3 == 0;
+        scene.state.awake[i] = sleeps ? 0 : 1;
+        if (sleeps) scene.state.v[i].setZero(), scene.state.omega[i].setZero();
+      }
+      const std::vector<double> reach = reach_of(scene, dt, gravity);
+      const std::vector<Pair> broad = pairs_of(broad_phase, scene, reach, margin);
+      const std::set<Pair> found(broad.begin(), broad.end());
+      std::size_t with_sleeper = 0;
+      for (const auto& [i, j] : broad) {
+        EXPECT_TRUE(scene.state.awake[i] || scene.state.awake[j]) << "seed " << seed << ": pair " << i << ", " << j;
+        with_sleeper += !(scene.state.awake[i] && scene.state.awake[j]);
+      }
+      EXPECT_GT(with_sleeper, 0u) << "seed " << seed << ": no awake-sleeping pair to test";
+      for (const Pair& p : brute_force_pairs(scene, reach, margin))
+        if (scene.state.awake[p.first] || scene.state.awake[p.second])
+          EXPECT_TRUE(found.count(p)) << "seed " << seed << ", round " << round << ": misses (" << p.first << ", "
+                                      << p.second << ")";
+    }
+  }
+}
+
 TEST(BroadPhase, KeepsFindingThemWhileBodiesMove) {
   // the incremental refit: the same check after 30 steps of drift, every 10th step
   const double dt = 1.0 / 60.0, margin = 0.005, side = 4.5;

@@ -13,7 +13,9 @@ rounding's choice; the harness tries both sides for such a contact (``compare._c
 with the band ``oracle.soft.gap_rounding``: 16 ulps of the lengths the gap is summed from) and
 the core must match one of them to 1e-10.
 
-The closed forms are derived in their tests; eps = 2.2e-16 is the unit roundoff.
+The closed forms are derived in their tests; eps = 2.2e-16 is the unit roundoff. The worlds are
+built with sleeping off whatever the default: the oracle does not sleep, and the closed forms of
+resting follow a slow creep that sleeping would stop.
 """
 import numpy as np
 import pytest
@@ -31,7 +33,7 @@ CONTACT_KEYS = ("body_a", "body_b", "point", "normal", "gap", "feature_a", "feat
 
 def sphere_resting(**settings):
     """A 2 kg ball of radius 0.5 m resting on the ground."""
-    w = sg.World(gravity=(0, 0, -G), **settings)
+    w = sg.World(gravity=(0, 0, -G), sleeping=False, **settings)
     w.add_static(sg.Plane((0, 0, 1), 0.0))
     w.add_body(sg.Sphere(0.5), mass=2.0, position=(0, 0, 0.5))
     return w
@@ -41,7 +43,7 @@ def incline(**settings):
     """A box on a 30-degree slope, friction 0.3 < tan 30: it slides, its face on the slope."""
     t = np.radians(30.0)
     n = np.array([0.0, -np.sin(t), np.cos(t)])
-    w = sg.World(gravity=(0, 0, -G), **settings)
+    w = sg.World(gravity=(0, 0, -G), sleeping=False, **settings)
     w.add_static(sg.Plane(tuple(n), 0.0), friction=0.3)
     w.add_body(sg.Box((0.2, 0.15, 0.1)), density=500.0, position=tuple(0.1 * n),
                orientation=(np.cos(t / 2), np.sin(t / 2), 0, 0), friction=0.3)
@@ -50,7 +52,7 @@ def incline(**settings):
 
 def stack(**settings):
     """Three boxes dropped onto each other, each a little off the one below."""
-    w = sg.World(gravity=(0, 0, -G), **settings)
+    w = sg.World(gravity=(0, 0, -G), sleeping=False, **settings)
     w.add_static(sg.Plane((0, 0, 1), 0.0))
     for k in range(3):
         w.add_body(sg.Box((0.2, 0.2, 0.1)), density=500.0, position=(0.01 * k, 0, 0.1 + 0.201 * k))
@@ -61,7 +63,7 @@ def spinning_pile(**settings):
     """Six balls spinning about the vertical dropped into a pile (ball-ball and ball-ground points,
     each its pair's only one: spin rows), and a capsule spinning upright on its end; the ground's
     spinning friction and the bodies' differ."""
-    w = sg.World(gravity=(0, 0, -G), **settings)
+    w = sg.World(gravity=(0, 0, -G), sleeping=False, **settings)
     w.add_static(sg.Plane((0, 0, 1), 0.0), spinning_friction=0.001)
     rng = np.random.default_rng(3)
     for k in range(6):
@@ -76,7 +78,7 @@ def spinning_pile(**settings):
 
 def bounce(**settings):
     """A ball of restitution 0.8 dropped from 0.5 m onto a ground of 0.8, frictionless."""
-    w = sg.World(gravity=(0, 0, -G), **settings)
+    w = sg.World(gravity=(0, 0, -G), sleeping=False, **settings)
     w.add_static(sg.Plane((0, 0, 1), 0.0), restitution=0.8, friction=0.0)
     w.add_body(sg.Sphere(0.1), mass=0.5, position=(0, 0, 0.6), restitution=0.8, friction=0.0)
     return w
@@ -84,7 +86,7 @@ def bounce(**settings):
 
 def kinematic_paddle(**settings):
     """A kinematic paddle, moving and turning, pushes a box across the ground; a ball rests nearby."""
-    w = sg.World(gravity=(0, 0, -G), **settings)
+    w = sg.World(gravity=(0, 0, -G), sleeping=False, **settings)
     w.add_static(sg.Plane((0, 0, 1), 0.0))
     w.add_body(sg.Box((0.2, 0.2, 0.2)), density=500.0, position=(0.0, 0, 0.2), friction=0.3)
     w.add_body(sg.Box((0.05, 0.5, 0.3)), kinematic=True, position=(-0.3, 0, 0.31), velocity=(0.8, 0, 0),
@@ -284,7 +286,7 @@ def test_a_ball_on_a_ball_sinks_by_the_effective_mass_deflections():
     # Rounding stops the approach as for one ball (previous test), with 1 - lambda of the slowest
     # mode, measured here from the run itself (steps 200 to 400, far above the rounding floor).
     m1, m2, r1, r2, dt = 2.0, 0.5, 0.3, 0.2, 1 / 240
-    w = sg.World(gravity=(0, 0, -G), solver="soft")
+    w = sg.World(gravity=(0, 0, -G), solver="soft", sleeping=False)
     w.add_static(sg.Plane((0, 0, 1), 0.0))
     w.add_body(sg.Sphere(r1), mass=m1, position=(0, 0, r1))
     w.add_body(sg.Sphere(r2), mass=m2, position=(0, 0, 2 * r1 + r2))

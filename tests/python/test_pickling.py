@@ -14,7 +14,7 @@ import signorini as sg
 from signorini import _core
 
 PICKLED = ("Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh", "Compound",
-           "SolverSettings", "FrictionCone", "Gyroscopic", "SolverMethod")
+           "SolverSettings", "SleepSettings", "FrictionCone", "Gyroscopic", "SolverMethod")
 REFUSED = ("World",)  # the facade signorini.World pickles; its core object does not
 
 SAMPLES = """
@@ -24,6 +24,8 @@ v, f = meshes.torus(0.3, 0.1)
 settings = _core.SolverSettings()
 settings.max_iterations, settings.substeps, settings.friction_cone = 7, 3, _core.FrictionCone.cone
 settings.method, settings.contact_hertz, settings.relax_iterations = _core.SolverMethod.soft, 45.0, 2
+sleep = _core.SleepSettings()
+sleep.enabled, sleep.linear_velocity, sleep.time_to_sleep = True, 0.02, 1.5
 samples = {
     "Sphere": sg.Sphere(0.5), "Box": sg.Box((1.0, 2.0, 3.0)), "Plane": sg.Plane((0.0, 0.6, 0.8), 0.5),
     "Mesh": sg.Mesh(*meshes.box_mesh((1.0, 1.0, 1.0))), "Capsule": sg.Capsule(0.1, 0.2),
@@ -32,7 +34,7 @@ samples = {
     "TriangleMesh": sg.TriangleMesh(v, f),
     "Compound": sg.Compound([(sg.Sphere(0.1), ((0.0, 0.0, 0.1), (1.0, 0.0, 0.0, 0.0))), (sg.Box((0.1, 0.2, 0.3)), ((0.0, 0.0, -0.1), (0.0, 1.0, 0.0, 0.0)))]),
     "SolverSettings": settings, "FrictionCone": _core.FrictionCone.cone, "Gyroscopic": _core.Gyroscopic.implicit,
-    "SolverMethod": _core.SolverMethod.soft,
+    "SolverMethod": _core.SolverMethod.soft, "SleepSettings": sleep,
     "World": _core.World((0.0, 0.0, -9.81), 0.005, _core.SolverSettings()),
 }
 """

@@ -49,6 +49,8 @@ struct Model {
   /// infinity and zero when it was added without a mass)
   std::vector<bool> is_kinematic;
   std::vector<bool> enabled;     ///< a disabled body neither moves nor collides
+  /// false: the body never falls asleep, nor does any island it is in (docs/conventions.md, "Sleeping")
+  std::vector<bool> can_sleep;
   std::vector<CollisionFilter> filter;
   std::vector<std::string> name; ///< "" when unnamed; otherwise unique in the world
   /// pairs (i, j), i < j, that never collide whatever their filters say; sorted
@@ -61,7 +63,7 @@ struct Model {
   template <class F>
   void for_each_array(F&& f) {
     f(shape), f(is_static), f(mass), f(inv_mass), f(I_body), f(I_body_inv), f(rho), f(material), f(is_kinematic),
-        f(enabled), f(filter), f(name);
+        f(enabled), f(can_sleep), f(filter), f(name);
   }
 
   /// true when bodies i and j may get contacts: both enabled, at least one of them moved by
@@ -76,10 +78,11 @@ struct Model {
   }
 
   /// Appends the defaults of the fields after `material` for one body (for models built by hand:
-  /// dynamic or static as is_static says, enabled, colliding with everything, unnamed).
+  /// dynamic or static as is_static says, enabled, able to sleep, colliding with everything, unnamed).
   void push_defaults() {
     is_kinematic.push_back(false);
     enabled.push_back(true);
+    can_sleep.push_back(true);
     filter.push_back(CollisionFilter());
     name.emplace_back();
   }

@@ -28,11 +28,27 @@ namespace collision { class BroadPhase; struct Scratch; struct ContactMemory; }
 namespace solver { struct SolverData; }
 namespace parallel { class Pool; }
 class StepGuard;
+class Islands;
+
+/// When bodies fall asleep (docs/conventions.md, "Sleeping"). A dynamic body whose speed stays at
+/// most linear_velocity and whose angular speed stays at most angular_velocity for time_to_sleep
+/// seconds is ready to sleep; an island (bodies linked by contacts) sleeps when all its bodies are
+/// ready. A sleeping body keeps its pose bit for bit and costs no solver or broad-phase work.
+struct SleepSettings {
+  /// false: nothing sleeps (every body is woken when it is switched off). Off by default for now:
+  /// sleeping stops motion slower than the thresholds (a soft contact's slow creep to rest), which
+  /// closed-form tests measure (docs/conventions.md, "Sleeping", Default).
+  bool enabled = false;
+  double linear_velocity = 0.05;  ///< m/s, >= 0: |v| at most this counts as at rest
+  double angular_velocity = 0.05; ///< rad/s, >= 0: |omega| at most this counts as at rest
+  double time_to_sleep = 0.5;     ///< s, >= 0: how long an island stays at rest before it sleeps
+};
 
 struct WorldSettings {
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  ///< m/s^2
   double contact_margin = 0.005;         ///< m: pairs closer than this get (speculative) contacts
   SolverSettings solver;
+  SleepSettings sleep;
   /// worker threads of the step (>= 1; 0: the machine's cores). Results are bit-identical for every
   /// count (docs/conventions.md, "Threads").
   int threads = 0;
@@ -66,6 +82,7 @@ struct BodyDesc {
   Vec3 velocity = Vec3::Zero();          ///< m/s
   Vec3 angular_velocity = Vec3::Zero();  ///< rad/s, world frame
   Material material;                     ///< friction >= 0, restitution in [0, 1], spinning_friction >= 0 (m)
+  bool can_sleep = true;                 ///< false: never sleeps, and keeps every island it is in awake
 };
 
 /// What the last call of World::step did over its steps (and substeps).
@@ -146,6 +163,14 @@ class World {
   void set_collision_filter(BodyIndex i, const CollisionFilter& filter);
   /// Bodies i and j (i != j) never collide (disable), or collide again as their filters say (enable).
   void set_pair_collision(BodyIndex i, BodyIndex j, bool collide);
+  /// Sleeping (docs/conventions.md, "Sleeping"). set_awake(i, true) wakes body i's island (a no-op
+  /// for an awake dynamic or kinematic body); set_awake(i, false) puts the island body i is in by
+  /// the last step's contacts to sleep now (velocities zeroed). Errors (std::invalid_argument, the
+  /// body named, nothing changed): a static body (never awake), a kinematic or disabled body put to
+  /// sleep, an island with a body that cannot sleep, or sleeping switched off.
+  void set_awake(BodyIndex i, bool awake);
+  /// Whether body i may sleep; false wakes its island (and keeps it awake while it touches i).
+  void set_can_sleep(BodyIndex i, bool can_sleep);
   /// Index of the body named `name`, or -1.
   BodyIndex find(const std::string& name) const;
   /// "body 3 'ball' (Sphere)", or "body 3 (Sphere)" for an unnamed body: how errors name body i.
@@ -157,7 +182,7 @@ class World {
   /// body's shape kind, static flag and mass, to recognise the world it belongs to).
   std::string save_state() const;
   /// Restores a save_state() of this world (or of one built the same way): stepping on is then
-  /// bit-identical. A state of another world (body count, shape kinds, static flags or masses
+  /// bit-identical (a world with sleeping off wakes the bodies the state has asleep). A state of another world (body count, shape kinds, static flags or masses
   /// differ) or damaged bytes throw std::invalid_argument and change nothing.
   void restore_state(const std::string& saved);
 
@@ -204,6 +229,10 @@ class World {
 
  private:
   void check_index(BodyIndex i) const;
+  /// Wakes the island body i sleeps in; for a static or kinematic body, the islands resting on it.
+  void wake(BodyIndex i);
+  /// Wakes every sleeping body.
+  void wake_all();
   /// The indices of a batch setter as BodyIndex, checked: as many as `rows`, each in range.
   void check_batch(const char* who, const Indices& bodies, Eigen::Index rows) const;
   /// contacts_ ready to be written: a new list when someone holds the current one.
@@ -235,6 +264,10 @@ class World {
   /// Counts a solve that ended unconverged with a contact approaching faster than warn_velocity in
   /// the report (the worst at `time`).
   void end_substep_flags(const SolverStats& stats, double time);
+  /// After contact detection: wakes the sleeping islands a moving body touches, then detects again.
+  void wake_touched(double dt);
+  /// The islands stage, after a kept step of dt: timers, islands, sleep (Islands::end_step).
+  void end_islands(double dt);
   /// Keeps a step the guard let through: its last contacts and figures, what the meshes remember,
   /// the new rotations' quaternions; the one-step forces are spent.
   void commit_step(const SolverStats& stats);
@@ -258,6 +291,7 @@ class World {
   std::unique_ptr<solver::SolverData> solver_;  ///< rows, forces and the warm-start cache
   std::unique_ptr<parallel::Pool> pool_;        ///< the step's worker threads (settings_.threads of them)
   std::unique_ptr<StepGuard> guard_;            ///< the step's checkpoints and what an undo restores
+  std::unique_ptr<Islands> islands_;            ///< sleeping islands' warm-start forces, the union-find
   // step scratch, kept between steps so that a step reuses its buffers instead of allocating
   std::vector<Contact> contacts_base_;   ///< the step's contacts as detected
   std::vector<Contact> contacts_next_;   ///< a substep's contacts (carried), kept when the step succeeds

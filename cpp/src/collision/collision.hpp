@@ -358,8 +358,10 @@ class BroadPhase {
   /// Moves static body i (rare; rebuilds its tree entry).
   void move_static(BodyIndex i, const Vec3& p, const Mat3& R);
   /// Pairs (i, j), i < j, whose AABBs, grown by reach[i] + margin/2 and reach[j] + margin/2,
-  /// overlap; at least one of them dynamic; planes excluded. Sorted lexicographically, written into
-  /// out (cleared first; its capacity is reused).
+  /// overlap; at least one of them dynamic and awake (state.asleep: sleeping bodies sit in a tree
+  /// of their own, neither refitted nor collided with each other or with static bodies; a body
+  /// moves between the trees as it falls asleep or wakes); planes excluded. Sorted
+  /// lexicographically, written into out (cleared first; its capacity is reused).
   void pairs(const Model& model, const State& state, const std::vector<double>& reach, double margin,
              std::vector<std::pair<BodyIndex, BodyIndex>>& out);
   /// The triangle query of body i if it is a TriangleMesh, else null.
@@ -371,7 +373,7 @@ class BroadPhase {
 };
 
 /// Speculative reach of every body for a step of dt: s_b = dt (|v| + dt |g| + |omega| rho) for a
-/// dynamic body, 0 for a static one (m); written into reach (resized to N).
+/// dynamic body, 0 for a static or sleeping one (m); written into reach (resized to N).
 void speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity,
                        std::vector<double>& reach);
 
@@ -425,8 +427,10 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
 /// Contact generation: all contacts for the current state, in the order of docs/conventions.md,
 /// written into out (cleared first), using and growing the scratch buffers. Only pairs that
 /// model.can_collide allows (enabled bodies, matching filter bits, not excluded, not two infinite
-/// masses). memory: read (previous centres, crossings; empty: nothing remembered) and written
-/// (the separating-face cache; this detection's crossings to memory.crossing_next).
+/// masses), and none where nothing moves: a sleeping body (state.asleep) against a sleeping, static
+/// or still kinematic one (a sleeping body's speculative reach is 0). memory: read (previous
+/// centres, crossings; empty: nothing remembered) and written (the separating-face cache; this
+/// detection's crossings to memory.crossing_next).
 void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
                        BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& out,
                        const parallel::Pool* pool = nullptr);

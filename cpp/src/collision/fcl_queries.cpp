@@ -188,8 +188,13 @@ struct BroadPhase::Impl {
   std::vector<BodyIndex> dynamic_bodies;
   fcl::DynamicAABBTreeCollisionManagerd dynamic_tree;
   fcl::DynamicAABBTreeCollisionManagerd static_tree;
+  /// sleeping bodies: out of dynamic_tree while they sleep, their AABBs grown by margin/2 only
+  fcl::DynamicAABBTreeCollisionManagerd sleep_tree;
+  std::vector<char> in_sleep_tree;  ///< by body index
   bool static_dirty = false;
   double static_margin = -1.0;  ///< margin the static AABBs were last grown by
+  double sleep_margin = -1.0;   ///< margin the sleeping AABBs were last grown by
+  std::size_t sleeping = 0;     ///< bodies in sleep_tree
 };
 
 BroadPhase::BroadPhase() : impl_(std::make_unique<Impl>()) {}
@@ -199,6 +204,7 @@ void BroadPhase::add_body(BodyIndex i, const Shape& shape, bool is_static, const
   if (static_cast<std::size_t>(i) != impl_->proxy.size())
     throw std::logic_error("BroadPhase::add_body: bodies must be added in index order");
   impl_->triangles.emplace_back(nullptr);
+  impl_->in_sleep_tree.push_back(0);
   if (const auto* mesh = std::get_if<TriangleMesh>(&shape)) impl_->triangles.back() = std::make_unique<TriangleQuery>(*mesh);
   if (std::holds_alternative<Plane>(shape)) {
     impl_->proxy.emplace_back(nullptr);
@@ -237,8 +243,34 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
     m.static_dirty = false;
     m.static_margin = margin;
   }
-  // dynamic bodies: new pose, AABB grown by their reach, incremental tree refit
+  // sleeping bodies: moved to their own tree as they fall asleep, back as they wake (their poses
+  // are frozen, so their boxes are set once)
+  const bool sleep_refit = m.sleeping > 0 && m.sleep_margin != margin;
   for (BodyIndex i : m.dynamic_bodies) {
+    const bool asleep = state.asleep(i);
+    if (asleep == static_cast<bool>(m.in_sleep_tree[i]) && !(asleep && sleep_refit)) continue;
+    Proxy* proxy = m.proxy[i].get();
+    if (asleep && m.in_sleep_tree[i]) {  // the margin changed
+      proxy->set_pose(model.shape[i], state.p[i], state.R[i]);
+      proxy->grow_aabb(0.5 * margin);
+      continue;
+    }
+    (asleep ? m.dynamic_tree : m.sleep_tree).unregisterObject(proxy);
+    if (asleep) {
+      proxy->set_pose(model.shape[i], state.p[i], state.R[i]);
+      proxy->grow_aabb(0.5 * margin);
+      m.sleep_tree.registerObject(proxy);
+    } else {
+      m.dynamic_tree.registerObject(proxy);
+    }
+    m.in_sleep_tree[i] = asleep;
+    m.sleeping += asleep ? 1 : std::size_t(-1);
+  }
+  if (sleep_refit) m.sleep_tree.update();
+  m.sleep_margin = margin;
+  // awake dynamic bodies: new pose, AABB grown by their reach, incremental tree refit
+  for (BodyIndex i : m.dynamic_bodies) {
+    if (m.in_sleep_tree[i]) continue;
     m.proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
     m.proxy[i]->grow_aabb(reach[i] + 0.5 * margin);
   }
@@ -246,6 +278,7 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
   out.clear();
   m.dynamic_tree.collide(&out, collect_pair);
   m.dynamic_tree.collide(&m.static_tree, &out, collect_pair);
+  if (m.sleeping > 0) m.dynamic_tree.collide(&m.sleep_tree, &out, collect_pair);
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
 }

@@ -358,7 +358,7 @@ void speculative_reach(const Model& model, const State& state, double dt, const 
                        std::vector<double>& reach) {
   reach.assign(model.size(), 0.0);
   for (std::size_t i = 0; i < model.size(); ++i) {
-    if (model.is_static[i]) continue;
+    if (model.is_static[i] || state.asleep(i)) continue;  // a sleeping body does not move
     reach[i] = dt * (state.v[i].norm() + dt * gravity.norm() + state.omega[i].norm() * model.rho[i]);
   }
 }
@@ -450,11 +450,17 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   for (BodyIndex k = 0; k < n; ++k) {
     if (!is_plane(model.shape[k])) continue;
     for (BodyIndex b = 0; b < n; ++b)
-      if (!model.is_static[b]) pairs.emplace_back(std::min(k, b), std::max(k, b));
+      if (!model.is_static[b] && !state.asleep(b)) pairs.emplace_back(std::min(k, b), std::max(k, b));
   }
   std::sort(pairs.begin(), pairs.end());
   // collision filtering: disabled bodies, filter bits, excluded pairs, two infinite masses
-  pairs.erase(std::remove_if(pairs.begin(), pairs.end(), [&](const auto& p) { return !model.can_collide(p.first, p.second); }),
+  // and pairs where nothing moves: a sleeping body against a sleeping, static or still kinematic one
+  const auto still = [&](BodyIndex k) {
+    return state.asleep(k) || (model.is_kinematic[k] && state.v[k].squaredNorm() == 0.0 && state.omega[k].squaredNorm() == 0.0);
+  };
+  const auto resting = [&](BodyIndex i, BodyIndex j) { return (state.asleep(i) && still(j)) || (state.asleep(j) && still(i)); };
+  pairs.erase(std::remove_if(pairs.begin(), pairs.end(),
+                             [&](const auto& p) { return !model.can_collide(p.first, p.second) || resting(p.first, p.second); }),
               pairs.end());
 
   contacts.clear();

@@ -60,8 +60,8 @@ void unconstrained_velocity(const Model& model, const State& state, const Vec3& 
       omega_star[i].setZero();
       continue;
     }
-    if (model.is_kinematic[i] || !model.enabled[i]) {
-      // moved by its own velocity only (kinematic), or frozen (disabled): no gravity, no forces
+    if (model.is_kinematic[i] || !model.enabled[i] || state.asleep(i)) {
+      // moved by its own velocity only (kinematic), or frozen (disabled, asleep): no gravity, no forces
       v_star[i] = state.v[i];
       omega_star[i] = state.omega[i];
       continue;
@@ -89,7 +89,7 @@ void unconstrained_velocity(const Model& model, const State& state, const Vec3& 
 void integrate(const Model& model, State& state, const std::vector<Vec3>& v, const std::vector<Vec3>& omega,
                double dt) {
   for (std::size_t i = 0; i < model.size(); ++i) {
-    if (model.is_static[i] || !model.enabled[i]) continue;
+    if (model.is_static[i] || !model.enabled[i] || state.asleep(i)) continue;  // asleep: bit for bit
     state.R[i] = math::orthonormalize(math::rodrigues(omega[i], dt) * state.R[i]);
     state.p[i] += dt * v[i];
   }

@@ -19,8 +19,8 @@ Mat36 jacobian(const Vec3& p, const Vec3& y);
 /// World inverse inertia R I_body^-1 R^T (zero for a static body).
 Mat3 inverse_inertia_world(const Model& model, const State& state, std::size_t i);
 
-/// Unconstrained velocity q_dot* for every body (static ones keep zero velocity; kinematic and
-/// disabled ones keep v and omega: no gravity, no forces), world frame, with f = f_ext + f_step and
+/// Unconstrained velocity q_dot* for every body (static ones keep zero velocity; kinematic,
+/// disabled and sleeping ones keep v and omega: no gravity, no forces), world frame, with f = f_ext + f_step and
 /// tau = tau_ext + tau_step:
 ///   v* = v + dt (g + f / m)
 /// and the angular part from the body-frame Euler equation I w_dot + w x (I w) = tau_b
@@ -41,7 +41,8 @@ void unconstrained_velocity(const Model& model, const State& state, const Vec3& 
 Vec3 free_rotation(const Mat3& I, const Mat3& I_inv, const Vec3& w, double dt, Gyroscopic gyroscopic);
 
 /// Moves every dynamic and kinematic body's pose with the velocities v, omega (N, world):
-/// R <- orthonormalize(exp([omega] dt) R), p <- p + dt v. Static and disabled bodies do not move.
+/// R <- orthonormalize(exp([omega] dt) R), p <- p + dt v. Static, disabled and sleeping bodies
+/// (state.asleep) do not move: their poses stay bit for bit.
 void integrate(const Model& model, State& state, const std::vector<Vec3>& v, const std::vector<Vec3>& omega,
                double dt);
 

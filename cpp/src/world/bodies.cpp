@@ -13,6 +13,7 @@
 #include "signorini/world.hpp"
 #include "solver/contact_solver.hpp"
 #include "world/checks.hpp"
+#include "world/islands.hpp"
 
 namespace signorini {
 
@@ -170,6 +171,7 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   model_.material.push_back(desc.material);
   model_.is_kinematic.push_back(false);
   model_.enabled.push_back(desc.enabled);
+  model_.can_sleep.push_back(desc.can_sleep);
   model_.filter.push_back(desc.filter);
   model_.name.push_back(desc.name);
   if (desc.is_kinematic) set_kinematic_flag(index, true);
@@ -181,6 +183,8 @@ BodyIndex World::add_body(const BodyDesc& desc) {
     using T = typename std::decay_t<decltype(x)>::value_type;
     push_keeping(x, T(T::Zero()));
   });
+  Islands::add_body(model_, state_, index, [this](auto& v, const auto& x) { push_keeping(v, x); });
+  islands_->add_body();
   state_.p[index] = position;
   state_.R[index] = R;
   state_.q[index] = math::matrix_to_quat(R);
@@ -217,6 +221,9 @@ void World::remove_bodies(const std::vector<BodyIndex>& indices) {
   auto broad_phase = std::make_unique<collision::BroadPhase>();
   for (BodyIndex j = 0; j < n; ++j)
     if (!gone(j)) broad_phase->add_body(to[j], model_.shape[j], model_.is_static[j], state_.p[j], state_.R[j]);
+  // sleeping islands that lose a body, or a body they rest on, wake (before the renumbering)
+  islands_->mark_removed(state_, gone);
+  islands_->wake_marked(model_, state_, solver_->cache, true);
   // model, state and per-body solver output compacted in one pass each (storage stays in place)
   const auto compact = [&](auto& v) {
     for (BodyIndex j = 0; j < n; ++j)
@@ -225,6 +232,8 @@ void World::remove_bodies(const std::vector<BodyIndex>& indices) {
   };
   model_.for_each_array(compact);
   state_.for_each_array(compact);
+  state_.for_each_sleep_array(compact);
+  islands_->renumber(state_, to);
   compact(solver_->body_force);
   compact(solver_->body_torque);
   // the meshes' memory of crossings: the removed bodies' dropped, crossings of removed meshes

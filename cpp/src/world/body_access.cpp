@@ -7,7 +7,9 @@
 #include "collision/collision.hpp"
 #include "math/rotation.hpp"
 #include "signorini/world.hpp"
+#include "solver/contact_solver.hpp"
 #include "world/checks.hpp"
+#include "world/islands.hpp"
 
 namespace signorini {
 
@@ -16,6 +18,7 @@ void World::set_material(BodyIndex i, const Material& material) {
   check_index(i);
   checks::check_material(label(i), material);
   model_.material[i] = material;
+  wake(i);  // a new friction may let it slide
 }
 
 std::string World::label(BodyIndex i) const {
@@ -37,6 +40,7 @@ void World::set_position(BodyIndex i, const Vec3& p) {
   state_.p[i] = p;
   memory_->placed(i, p);  // moved, not travelled: no crossing
   if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+  wake(i);
 }
 
 void World::set_orientation(BodyIndex i, const Quat4& q) {
@@ -45,6 +49,7 @@ void World::set_orientation(BodyIndex i, const Quat4& q) {
   state_.R[i] = math::quat_to_matrix(checks::unit_quaternion(label(i), q));
   state_.q[i] = math::matrix_to_quat(state_.R[i]);
   if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+  wake(i);
 }
 
 void World::check_velocity(BodyIndex i, const char* what, const Vec3& x) const {
@@ -59,12 +64,14 @@ void World::set_velocity(BodyIndex i, const Vec3& v) {
   const Lock lock(mutex_);
   check_velocity(i, "velocity", v);
   state_.v[i] = v;
+  wake(i);
 }
 
 void World::set_angular_velocity(BodyIndex i, const Vec3& omega) {
   const Lock lock(mutex_);
   check_velocity(i, "angular_velocity", omega);
   state_.omega[i] = omega;
+  wake(i);
 }
 
 void World::check_batch(const char* who, const Indices& bodies, Eigen::Index rows) const {
@@ -87,6 +94,7 @@ void World::set_positions(const Indices& bodies, const Points& values) {
     state_.p[i] = values.row(k).transpose();
     memory_->placed(i, state_.p[i]);  // moved, not travelled: no crossing
     if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+    wake(i);
   }
 }
 
@@ -101,6 +109,7 @@ void World::set_orientations(const Indices& bodies, const Quats& values) {
     state_.R[i] = R[k];
     state_.q[i] = math::matrix_to_quat(R[k]);
     if (model_.is_static[i]) broad_phase_->move_static(i, state_.p[i], state_.R[i]);
+    wake(i);
   }
 }
 
@@ -109,7 +118,10 @@ void World::set_velocities(const Indices& bodies, const Points& values) {
   check_batch("set_velocities", bodies, values.rows());
   for (Eigen::Index k = 0; k < bodies.size(); ++k)
     check_velocity(static_cast<BodyIndex>(bodies[k]), "velocity", values.row(k).transpose());
-  for (Eigen::Index k = 0; k < bodies.size(); ++k) state_.v[bodies[k]] = values.row(k).transpose();
+  for (Eigen::Index k = 0; k < bodies.size(); ++k) {
+    state_.v[bodies[k]] = values.row(k).transpose();
+    wake(static_cast<BodyIndex>(bodies[k]));
+  }
 }
 
 void World::set_angular_velocities(const Indices& bodies, const Points& values) {
@@ -117,7 +129,10 @@ void World::set_angular_velocities(const Indices& bodies, const Points& values) 
   check_batch("set_angular_velocities", bodies, values.rows());
   for (Eigen::Index k = 0; k < bodies.size(); ++k)
     check_velocity(static_cast<BodyIndex>(bodies[k]), "angular_velocity", values.row(k).transpose());
-  for (Eigen::Index k = 0; k < bodies.size(); ++k) state_.omega[bodies[k]] = values.row(k).transpose();
+  for (Eigen::Index k = 0; k < bodies.size(); ++k) {
+    state_.omega[bodies[k]] = values.row(k).transpose();
+    wake(static_cast<BodyIndex>(bodies[k]));
+  }
 }
 
 void World::set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torque) {
@@ -128,6 +143,7 @@ void World::set_external_wrench(BodyIndex i, const Vec3& force, const Vec3& torq
   checks::require_finite(who, "torque", torque);
   state_.f_ext[i] = force;
   state_.tau_ext[i] = torque;
+  wake(i);
 }
 
 Vec3 World::check_push(BodyIndex i, const char* what, const Vec3& push, const std::optional<Vec3>& point) const {
@@ -146,6 +162,7 @@ void World::apply_impulse(BodyIndex i, const Vec3& impulse, const std::optional<
   const Vec3 x = check_push(i, "impulse", impulse, point);
   state_.impulse[i] += impulse;
   state_.angular_impulse[i] += (x - state_.p[i]).cross(impulse);
+  wake(i);
 }
 
 void World::apply_force(BodyIndex i, const Vec3& force, const std::optional<Vec3>& point) {
@@ -153,6 +170,7 @@ void World::apply_force(BodyIndex i, const Vec3& force, const std::optional<Vec3
   const Vec3 x = check_push(i, "force", force, point);
   state_.f_step[i] += force;
   state_.tau_step[i] += (x - state_.p[i]).cross(force);
+  wake(i);
 }
 
 void World::set_kinematic(BodyIndex i, bool kinematic) {
@@ -163,6 +181,7 @@ void World::set_kinematic(BodyIndex i, bool kinematic) {
   if (!kinematic && !std::isfinite(model_.mass[i]))
     throw std::invalid_argument(who + ": it was added without a mass, so it can only be kinematic");
   if (model_.is_kinematic[i] == kinematic) return;
+  wake(i);  // a kinematic body never sleeps
   set_kinematic_flag(i, kinematic);
   if (kinematic) {
     state_.f_step[i].setZero();
@@ -175,12 +194,14 @@ void World::set_kinematic(BodyIndex i, bool kinematic) {
 void World::set_enabled(BodyIndex i, bool enabled) {
   const Lock lock(mutex_);
   check_index(i);
+  wake(i);  // a disabled body never sleeps, and its island loses it
   model_.enabled[i] = enabled;
 }
 
 void World::set_collision_filter(BodyIndex i, const CollisionFilter& filter) {
   const Lock lock(mutex_);
   check_index(i);
+  wake(i);
   model_.filter[i] = filter;
 }
 
@@ -195,6 +216,32 @@ void World::set_pair_collision(BodyIndex i, BodyIndex j, bool collide) {
   const bool listed = it != pairs.end() && *it == key;
   if (!collide && !listed) pairs.insert(it, key);
   if (collide && listed) pairs.erase(it);
+  wake(i);
+  wake(j);
+}
+
+void World::set_awake(BodyIndex i, bool awake) {
+  const Lock lock(mutex_);
+  check_index(i);
+  const std::string who = label(i);
+  if (model_.is_static[i]) throw std::invalid_argument(who + ": a static body never moves, so it is never awake or asleep");
+  if (awake) return wake(i);
+  if (state_.asleep(i)) return;
+  if (!settings_.sleep.enabled)
+    throw std::invalid_argument(who + ": sleeping is switched off in this world (sleeping=False)");
+  if (model_.is_kinematic[i]) throw std::invalid_argument(who + ": a kinematic body never sleeps");
+  if (!model_.enabled[i]) throw std::invalid_argument(who + ": a disabled body never sleeps");
+  const BodyIndex blocker =
+      islands_->sleep_island_of(model_, state_, i, *contacts_, solver_->cache, solver_->body_force, solver_->body_torque);
+  if (blocker >= 0)
+    throw std::invalid_argument(who + ": its island cannot sleep: " + label(blocker) + " has can_sleep false");
+}
+
+void World::set_can_sleep(BodyIndex i, bool can_sleep) {
+  const Lock lock(mutex_);
+  check_index(i);
+  if (!can_sleep) wake(i);
+  model_.can_sleep[i] = can_sleep;
 }
 
 BodyIndex World::find(const std::string& name) const {

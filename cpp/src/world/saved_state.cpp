@@ -3,7 +3,9 @@
 // kind, static flag and mass, to recognise the world) and flags (kinematic, enabled); the State
 // (time, then its arrays in State::for_each_array order); the solver (contact forces and torques,
 // the warm-start cache); the World's last contacts and solver figures; the contact memory
-// (format 3). Formats 1 (no spin torques) and 2 (no contact memory) still read.
+// (format 3); the islands (format 4: per body awake, sleep timer and island label, then the
+// sleeping islands' warm-start forces). Formats 1 (no spin torques), 2 (no contact memory) and 3
+// (no islands: every body awake, timers zero) still read.
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -14,11 +16,12 @@
 #include "signorini/world.hpp"
 #include "solver/contact_solver.hpp"
 #include "world/checks.hpp"
+#include "world/islands.hpp"
 
 namespace signorini {
 namespace {
 
-constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '3'};
+constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '4'};
 constexpr std::size_t kStateVersionAt = 7;  ///< the format digit's position in the magic
 
 void save(serial::Writer& w, const State& s) {
@@ -110,6 +113,9 @@ std::string World::save_state() const {
   for (const Contact& c : *contacts_) save(w, c);
   save(w, stats_);
   memory_->save(w);
+  islands_->save(w, state_);
+  w.pod(static_cast<std::uint64_t>(islands_->contacts().size()));
+  for (const Contact& c : islands_->contacts()) save(w, c);
   return std::move(w.out);
 }
 
@@ -121,9 +127,9 @@ void World::restore_state(const std::string& saved) {
   if (saved.size() < sizeof kStateMagic || std::memcmp(saved.data(), kStateMagic, kStateVersionAt) != 0)
     throw std::invalid_argument("restore_state: not a saved state (no header)");
   const char version = saved[kStateVersionAt];
-  if (version < '1' || version > '3')
+  if (version < '1' || version > '4')
     throw std::invalid_argument(std::string("restore_state: a saved state of format '") + version +
-                                "', which this signorini does not read (it reads formats 1 to 3)");
+                                "', which this signorini does not read (it reads formats 1 to 4)");
   r.at = sizeof kStateMagic;
   const std::size_t n = r.pod<std::uint64_t>();
   if (n != model_.size())
@@ -165,12 +171,41 @@ void World::restore_state(const std::string& saved) {
   } else {
     for (const Vec3& p : s.p) memory.add_body(p);
   }
+  // format 3 and before: every dynamic body awake, no timers, nothing stashed
+  std::vector<std::uint8_t> awake(n);
+  std::vector<double> sleep_time(n, 0.0);
+  std::vector<std::int32_t> island(n, -1);
+  std::vector<CachedContact> stash;
+  std::vector<Contact> sleeping_contacts;
+  std::vector<Vec3> sleeping_force(n, Vec3::Zero()), sleeping_torque(n, Vec3::Zero());
+  if (version >= '4') {
+    Islands::load(r, n, awake, sleep_time, island, stash, sleeping_force, sleeping_torque);
+    sleeping_contacts.resize(r.count(sizeof(double)));
+    for (Contact& c : sleeping_contacts) c = load_contact(r, version);
+  } else {
+    for (std::size_t i = 0; i < n; ++i) awake[i] = model_.is_static[i] ? 0 : 1;
+  }
   if (r.at != saved.size()) throw std::invalid_argument("restore_state: the saved state has trailing bytes");
   const auto in_range = [n](BodyIndex k) { return k >= 0 && static_cast<std::size_t>(k) < n; };
   for (const CachedContact& c : solved.cache)
     if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
   for (const Contact& c : *contacts)
     if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
+  for (const CachedContact& c : stash)
+    if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
+  for (const Contact& c : sleeping_contacts)
+    if (!in_range(c.body_a) || !in_range(c.body_b)) throw std::invalid_argument("restore_state: the saved state is damaged");
+  for (std::size_t i = 0; i < n; ++i) {
+    // asleep with a label in range, or awake without one; static bodies never awake; kinematic and
+    // disabled bodies never asleep
+    const bool asleep = awake[i] == 0;
+    const bool labelled = island[i] >= 0 && static_cast<std::size_t>(island[i]) < n;
+    const bool ok = model_.is_static[i] ? asleep && island[i] == -1
+                                        : (asleep ? labelled && !kinematic[i] && enabled[i] : island[i] == -1) &&
+                                              awake[i] <= 1 && std::isfinite(sleep_time[i]) && sleep_time[i] >= 0.0;
+    if (!ok) throw std::invalid_argument("restore_state: the saved state is damaged (sleeping flags of " +
+                                         label(static_cast<BodyIndex>(i)) + ")");
+  }
   if (!std::isfinite(s.time)) throw std::invalid_argument("restore_state: the saved state is damaged (time)");
   for (std::size_t i = 0; i < n; ++i)
     if (!(s.p[i].allFinite() && s.R[i].allFinite() && s.q[i].allFinite() && s.v[i].allFinite() &&
@@ -190,6 +225,10 @@ void World::restore_state(const std::string& saved) {
   }
   state_.for_each_array_with(s, [](auto& mine, const auto& saved_array) { checks::copy_into(mine, saved_array); });
   state_.time = s.time;
+  checks::copy_into(state_.awake, awake);
+  checks::copy_into(state_.sleep_time, sleep_time);
+  checks::copy_into(state_.island, island);
+  islands_->assign(std::move(stash), std::move(sleeping_contacts), std::move(sleeping_force), std::move(sleeping_torque));
   checks::copy_into(solver_->body_force, solved.body_force);
   checks::copy_into(solver_->body_torque, solved.body_torque);
   solver_->cache = std::move(solved.cache);
@@ -197,6 +236,7 @@ void World::restore_state(const std::string& saved) {
   stats_ = stats;
   checks::copy_into(memory_->previous_p, memory.previous_p);
   checks::copy_into(memory_->crossing, memory.crossing);
+  if (!settings_.sleep.enabled) wake_all();  // a world with sleeping off keeps nothing asleep
 }
 
 }  // namespace signorini

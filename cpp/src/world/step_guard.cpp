@@ -35,6 +35,10 @@ void StepGuard::measure_start(const Model& model, const State& state) {
 void StepGuard::undo(State& state, solver::SolverData& solver) {
   state.for_each_array_with(before_, [](auto& mine, const auto& saved) { checks::copy_into(mine, saved); });
   state.time = before_.time;
+  // islands woken by the step sleep again (their stashed forces are still stashed)
+  checks::copy_into(state.awake, before_.awake);
+  checks::copy_into(state.sleep_time, before_.sleep_time);
+  checks::copy_into(state.island, before_.island);
   solver.cache.swap(cache_before_);
   solver.body_force.swap(force_before_);
   solver.body_torque.swap(torque_before_);

@@ -36,7 +36,8 @@ class StepGuard {
   const State& start() const { return before_; }
 
  private:
-  /// Puts back what the step changed: state (in place), warm-start cache, contact forces.
+  /// Puts back what the step changed: state (in place, sleeping flags included), warm-start cache,
+  /// contact forces.
   void undo(State& state, solver::SolverData& solver);
 
   State before_;

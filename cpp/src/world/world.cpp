@@ -14,6 +14,7 @@
 #include "solver/contact_solver.hpp"
 #include "solver/soft_step.hpp"
 #include "world/checks.hpp"
+#include "world/islands.hpp"
 #include "world/step_guard.hpp"
 
 namespace signorini {
@@ -24,7 +25,8 @@ World::World(const WorldSettings& settings)
       memory_(std::make_unique<collision::ContactMemory>()),
       scratch_(std::make_unique<collision::Scratch>()),
       solver_(std::make_unique<solver::SolverData>()),
-      guard_(std::make_unique<StepGuard>()) {
+      guard_(std::make_unique<StepGuard>()),
+      islands_(std::make_unique<Islands>()) {
   set_settings(settings);
 }
 
@@ -56,6 +58,15 @@ void World::set_settings(const WorldSettings& s) {
   checks::require(q.soft_iterations >= 1, "soft_iterations must be >= 1, got " + std::to_string(q.soft_iterations));
   checks::require(q.relax_iterations >= 0, "relax_iterations must be >= 0, got " + std::to_string(q.relax_iterations));
   checks::require(s.threads >= 0, "threads must be >= 1 (or 0 for the machine's cores), got " + std::to_string(s.threads));
+  const SleepSettings& z = s.sleep;
+  checks::require(std::isfinite(z.linear_velocity) && z.linear_velocity >= 0.0,
+                  "sleep_linear_velocity must be finite and >= 0, got " + std::to_string(z.linear_velocity));
+  checks::require(std::isfinite(z.angular_velocity) && z.angular_velocity >= 0.0,
+                  "sleep_angular_velocity must be finite and >= 0, got " + std::to_string(z.angular_velocity));
+  checks::require(std::isfinite(z.time_to_sleep) && z.time_to_sleep >= 0.0,
+                  "time_to_sleep must be finite and >= 0, got " + std::to_string(z.time_to_sleep));
+  // a new gravity, or sleeping switched off, wakes everything
+  const bool wake_everything = s.gravity != settings_.gravity || !z.enabled;
   const int threads = s.threads == 0 ? parallel::Pool::machine_threads() : s.threads;
   if (!pool_ || pool_->threads() != threads) {
     pool_ = std::make_unique<parallel::Pool>(threads);  // the only step that may throw; nothing changed yet
@@ -63,6 +74,7 @@ void World::set_settings(const WorldSettings& s) {
   }
   settings_ = s;
   settings_.threads = threads;
+  if (wake_everything) wake_all();
 }
 
 void World::step(double dt, int steps) {
@@ -72,6 +84,34 @@ void World::step(double dt, int steps) {
   if (steps < 0) throw std::invalid_argument("step: steps must be >= 0, got " + std::to_string(steps));
   report_ = StepReport();
   for (int s = 0; s < steps; ++s) step_once(dt);
+}
+
+void World::wake(BodyIndex i) {
+  islands_->mark(state_, i);
+  // a static or kinematic body changed by a call: the islands resting on it wake
+  if (model_.is_static[i] || model_.is_kinematic[i]) islands_->mark_touching(state_, i);
+  islands_->wake_marked(model_, state_, solver_->cache, true);
+}
+
+void World::wake_all() {
+  islands_->mark_all(model_, state_);
+  islands_->wake_marked(model_, state_, solver_->cache, true);
+}
+
+void World::wake_touched(double dt) {
+  // a sleeping island touched by a moving body wakes before this step's solve, and the contacts are
+  // detected again with it awake (its own contacts were not detected while it slept); with
+  // sleeping off nothing sleeps (switching it off, or restoring into such a world, wakes all)
+  if (!settings_.sleep.enabled) return;
+  while (islands_->mark_touched(model_, state_, contacts_base_) &&
+         islands_->wake_marked(model_, state_, solver_->cache, false))
+    detect_contacts(dt, contacts_base_);
+}
+
+void World::end_islands(double dt) {
+  islands_->purge(model_, state_);  // what the step woke leaves the sleeping lists
+  islands_->end_step(model_, state_, settings_.sleep, dt, *contacts_, solver_->cache, solver_->body_force,
+                     solver_->body_torque);
 }
 
 int SolverSettings::substep_count(double dt) const {
@@ -94,6 +134,7 @@ void World::step_once(double dt) {
   dynamics::apply_impulses(model_, state_);            // pending impulses change v and omega
   guard_->measure_start(model_, state_);               // the kinetic energy the step answers to
   detect_contacts(dt, contacts_base_);                 // once, as far as the whole step reaches
+  wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
   SolverStats stats;
   for (int k = 0; k < n; ++k) {
     carry_contacts(k);                                 // the step's contacts moved to this substep
@@ -107,6 +148,7 @@ void World::step_once(double dt) {
   }
   guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_);  // checkpoint: no explosion
   commit_step(stats);
+  end_islands(dt);                                     // sleep timers; islands at rest fall asleep
 }
 
 void World::soft_step_once(double dt) {
@@ -117,6 +159,7 @@ void World::soft_step_once(double dt) {
   dynamics::apply_impulses(model_, state_);            // pending impulses change v and omega
   guard_->measure_start(model_, state_);               // the kinetic energy the step answers to
   detect_contacts(dt, contacts_base_);                 // once, as far as the whole step reaches
+  wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
   carry_contacts(0);                                   // the step's contacts, to be written by the solver
   solver::soft_begin(model_, state_, h, q, contacts_next_, *solver_);
   for (int k = 0; k < n; ++k) {
@@ -132,6 +175,7 @@ void World::soft_step_once(double dt) {
   solver_->cache.swap(solver_->cache_next);
   guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_);  // checkpoint: no explosion
   commit_step(stats);
+  end_islands(dt);                                     // sleep timers; islands at rest fall asleep
 }
 
 void World::carry_contacts(int k) {
@@ -174,10 +218,18 @@ void World::end_substep_flags(const SolverStats& stats, double time) {
 
 void World::commit_step(const SolverStats& stats) {
   memory_->commit(guard_->start().p);
-  own_contacts().swap(contacts_next_);
+  // the reported contacts and forces: the step's, and the sleeping islands' as they fell asleep
+  std::vector<Contact>& contacts = own_contacts();
+  if (islands_->contacts().empty()) {
+    contacts.swap(contacts_next_);
+  } else {
+    islands_->purge(model_, state_);  // islands woken in this step are solved in it
+    islands_->merge_contacts(contacts_next_, contacts);
+    islands_->add_forces(solver_->body_force, solver_->body_torque);
+  }
   stats_ = stats;
   for (std::size_t i = 0; i < model_.size(); ++i) {
-    if (!model_.is_static[i] && model_.enabled[i]) state_.q[i] = math::matrix_to_quat(state_.R[i]);
+    if (!model_.is_static[i] && model_.enabled[i] && !state_.asleep(i)) state_.q[i] = math::matrix_to_quat(state_.R[i]);
     state_.f_step[i].setZero();
     state_.tau_step[i].setZero();
   }
