@@ -7,6 +7,8 @@
 #include "signorini/solver.hpp"
 #include "signorini/state.hpp"
 
+namespace signorini::parallel { class Pool; }
+
 namespace signorini::dynamics {
 
 using Mat36 = Eigen::Matrix<double, 3, 6>;
@@ -32,9 +34,11 @@ Mat3 inverse_inertia_world(const Model& model, const State& state, std::size_t i
 ///   Explicit: the lecture's omega* = omega + dt I_w^-1 (tau - omega x (I_w omega)), I_w = R I_body R^T.
 /// then w* = w' + dt I^-1 tau_b and omega* = R w*. The gyroscopic term has the physical sign
 /// (d(I_w omega)/dt = tau); the course README flips it.
-/// Outputs v_star, omega_star (one per body, world).
+/// Outputs v_star, omega_star (one per body, world). Bodies split over pool's threads (null: the
+/// calling thread); each body's value does not depend on it.
 void unconstrained_velocity(const Model& model, const State& state, const Vec3& gravity, double dt,
-                            Gyroscopic gyroscopic, std::vector<Vec3>& v_star, std::vector<Vec3>& omega_star);
+                            Gyroscopic gyroscopic, std::vector<Vec3>& v_star, std::vector<Vec3>& omega_star,
+                            const parallel::Pool* pool = nullptr);
 
 /// Free rotation of one body over dt in body coordinates: w (rad/s) -> w' by the chosen rule
 /// (no torque). I is the body inertia (kg m^2).
@@ -43,8 +47,9 @@ Vec3 free_rotation(const Mat3& I, const Mat3& I_inv, const Vec3& w, double dt, G
 /// Moves every dynamic and kinematic body's pose with the velocities v, omega (N, world):
 /// R <- orthonormalize(exp([omega] dt) R), p <- p + dt v. Static, disabled and sleeping bodies
 /// (state.asleep) do not move: their poses stay bit for bit.
+/// Bodies split over pool's threads (null: the calling thread).
 void integrate(const Model& model, State& state, const std::vector<Vec3>& v, const std::vector<Vec3>& omega,
-               double dt);
+               double dt, const parallel::Pool* pool = nullptr);
 
 /// The pending impulses (state.impulse J, state.angular_impulse L; N s and N m s, world) change
 /// the velocities of enabled dynamic bodies, v += J / m and omega += I_w^-1 L, and are spent
@@ -55,6 +60,6 @@ void apply_impulses(const Model& model, State& state);
 /// velocities become v, omega (copied into the state's storage, which NumPy views see) and the
 /// time advances by h. All arrays (N, world).
 void advance(const Model& model, State& state, const std::vector<Vec3>& v_move, const std::vector<Vec3>& omega_move,
-             const std::vector<Vec3>& v, const std::vector<Vec3>& omega, double h);
+             const std::vector<Vec3>& v, const std::vector<Vec3>& omega, double h, const parallel::Pool* pool = nullptr);
 
 }  // namespace signorini::dynamics

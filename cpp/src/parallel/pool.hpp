@@ -56,4 +56,13 @@ class Pool {
   std::unique_ptr<Arena> arena_;  // oneTBB stays inside pool.cpp
 };
 
+/// f(begin, end) over [0, n) on pool's threads, or on the calling thread when pool is null.
+template <class F>
+void for_ranges(const Pool* pool, std::size_t n, std::size_t grain, F&& f) {
+  if (pool != nullptr)
+    pool->for_ranges(n, grain, f);
+  else if (n > 0)
+    f(std::size_t(0), n);
+}
+
 }  // namespace signorini::parallel

@@ -25,10 +25,7 @@ constexpr std::size_t kContactsPerTask = 256;
 /// work whose items write only their own outputs.
 template <class F>
 void for_ranges(const SolverData& d, std::size_t n, std::size_t grain, F&& f) {
-  if (d.pool != nullptr)
-    d.pool->for_ranges(n, grain, f);
-  else if (n > 0)
-    f(std::size_t(0), n);
+  parallel::for_ranges(d.pool, n, grain, f);
 }
 
 /// sweep(begin, end) over the solve positions [0, K), K = d.rows.size() / 3, in solve order colour by

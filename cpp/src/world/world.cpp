@@ -138,11 +138,12 @@ void World::step_once(double dt) {
   SolverStats stats;
   for (int k = 0; k < n; ++k) {
     carry_contacts(k);                                 // the step's contacts moved to this substep
-    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, settings_.solver.gyroscopic, v_, omega_);
+    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, settings_.solver.gyroscopic, v_, omega_,
+                                     pool_.get());
     stats = solver::solve_contacts(model_, state_, h, settings_.solver, contacts_next_, v_, omega_, *solver_,
                                    k == 0 ? nullptr : &anchor_a_, k == 0 ? nullptr : &anchor_b_);
     sum_impulses(k);                                   // Contacts.impulse: the whole step's
-    dynamics::advance(model_, state_, solver_->v_move, solver_->omega_move, v_, omega_, h);
+    dynamics::advance(model_, state_, solver_->v_move, solver_->omega_move, v_, omega_, h, pool_.get());
     guard_->check_finite(model_, state_, *solver_);    // checkpoint: nothing non-finite is kept
     end_substep(stats, h);
   }
@@ -163,9 +164,9 @@ void World::soft_step_once(double dt) {
   carry_contacts(0);                                   // the step's contacts, to be written by the solver
   solver::soft_begin(model_, state_, h, q, contacts_next_, *solver_);
   for (int k = 0; k < n; ++k) {
-    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, q.gyroscopic, v_, omega_);
+    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, q.gyroscopic, v_, omega_, pool_.get());
     solver::soft_solve(model_, state_, q, v_, omega_, *solver_);
-    dynamics::advance(model_, state_, v_, omega_, v_, omega_, h);  // the poses move with the solved velocities
+    dynamics::advance(model_, state_, v_, omega_, v_, omega_, h, pool_.get());  // the poses move with the solved velocities
     solver::soft_relax(model_, state_, q, state_.v, state_.omega, *solver_);
     guard_->check_finite(model_, state_, *solver_);    // checkpoint: nothing non-finite is kept
     ++report_.steps;
