@@ -53,10 +53,15 @@ def installed_check(tree, *calls, env=None):
 @pytest.mark.slow
 def test_install_is_skipped_only_when_the_installed_package_matches_the_checkout(tmp_path):
     """install.sh's check (not a pip install): a copy of the checkout whose package python3 imports
-    (PYTHONPATH) matches once its install is stamped, for that kind of install, until a source
-    changes or python3 imports another checkout's package."""
+    matches once its install is stamped, for that kind of install, until a source changes or python3
+    imports another checkout's package.
+
+    The copy's python/signorini is a link to the package this test imports: with PYTHONPATH it is
+    the one python3 imports from the copy, and under an editable install (CI's: its import hook
+    wins over PYTHONPATH) it is the installed checkout's, so the copy matches either way."""
     import signorini
 
+    package = Path(signorini.__file__).parent
     tree = tmp_path / "checkout"
     skip = shutil.ignore_patterns("__pycache__", "build", ".git", "signorini-out", ".pytest_cache")
     tree.mkdir()
@@ -64,8 +69,8 @@ def test_install_is_skipped_only_when_the_installed_package_matches_the_checkout
         shutil.copy(ROOT / part, tree / part)
     for part in ("cpp", "bindings", "scripts"):
         shutil.copytree(ROOT / part, tree / part, ignore=skip)
-    # the package with the compiled core this test imports (a checkout built in place has it there)
-    shutil.copytree(Path(signorini.__file__).parent, tree / "python" / "signorini", ignore=skip)
+    (tree / "python").mkdir()
+    (tree / "python" / "signorini").symlink_to(package, target_is_directory=True)
     env = {**os.environ, "PYTHONPATH": str(tree / "python"), "SIGNORINI_STAMP_DIR": str(tmp_path / "stamps")}
 
     assert installed_check(tree, "installed_matches runtime", env=env) == [1]          # never installed
@@ -78,6 +83,9 @@ def test_install_is_skipped_only_when_the_installed_package_matches_the_checkout
     source.write_text(source.read_text() + "\n// changed\n")
     assert installed_check(tree, "installed_matches runtime", env=env) == [1]
     assert installed_check(tree, "write_stamp runtime", "installed_matches runtime", env=env) == [0, 0]
-    # python3 importing another checkout's package (the one this test runs) installs again
-    other = {**env, "PYTHONPATH": str(Path(signorini.__file__).parent.parent)}
+    # python3 importing another checkout's package installs again: the copy's package is now a
+    # checkout of its own, and python3 imports another (PYTHONPATH's, or the editable install's)
+    (tree / "python" / "signorini").unlink()
+    shutil.copytree(package, tree / "python" / "signorini", ignore=skip)
+    other = {**env, "PYTHONPATH": str(package.parent)}
     assert installed_check(tree, "installed_matches runtime", env=other) == [1]
