@@ -33,12 +33,7 @@ int sweeps(const SolverSettings& s, SolverData& d, bool& converged) {
         // velocities need not go through memory between rows) and stored back after
         BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
         contact_rows(s, r, alpha, A, B, change, HardNormal{});
-        if constexpr (kSpin) {
-          const int j = d.spin_slot[k];
-          if (j >= 0) spin_row(d.spin_rows[j], r[0], alpha[0], d.spin_alpha[j], A, B, change);
-        }
-        if (r[0].a_moves) qd[r[0].a] = A;
-        if (r[0].b_moves) qd[r[0].b] = B;
+        finish_contact<kSpin>(d, k, r, alpha, A, B, change);
       }
       return change;
     });

@@ -157,4 +157,12 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
 void save(serial::Writer& w, const SolverData& data);
 void load(serial::Reader& r, char version, std::size_t n, SolverData& out);
 
+/// A list of warm-start entries in a saved state (its count, then each entry); load_cache reads
+/// one written by a save of format `version` ('1': no spin torque).
+void save_cache(serial::Writer& w, const std::vector<CachedContact>& cache);
+void load_cache(serial::Reader& r, char version, std::vector<CachedContact>& cache);
+
+/// The warm-start cache's order: by body pair, then feature ids.
+bool key_less(const CachedContact& x, const CachedContact& y);
+
 }  // namespace signorini::solver

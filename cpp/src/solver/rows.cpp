@@ -5,6 +5,17 @@
 #include <limits>
 #include <mutex>
 
+namespace signorini::solver {
+
+bool key_less(const CachedContact& x, const CachedContact& y) {
+  if (x.body_a != y.body_a) return x.body_a < y.body_a;
+  if (x.body_b != y.body_b) return x.body_b < y.body_b;
+  if (x.feature_a != y.feature_a) return x.feature_a < y.feature_a;
+  return x.feature_b < y.feature_b;
+}
+
+}  // namespace signorini::solver
+
 namespace signorini::solver::rows {
 
 /// tangent_basis treats components of a unit normal that differ by less than this as tied.
@@ -14,13 +25,6 @@ namespace {
 
 /// Below this slip speed (m/s) a contact counts as sticking for the maximum-dissipation check.
 constexpr double kSlidingSpeed = 1e-3;
-
-bool key_less(const CachedContact& x, const CachedContact& y) {
-  if (x.body_a != y.body_a) return x.body_a < y.body_a;
-  if (x.body_b != y.body_b) return x.body_b < y.body_b;
-  if (x.feature_a != y.feature_a) return x.feature_a < y.feature_a;
-  return x.feature_b < y.feature_b;
-}
 
 bool same_key(const CachedContact& x, const CachedContact& y) { return !key_less(x, y) && !key_less(y, x); }
 

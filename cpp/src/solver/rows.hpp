@@ -211,6 +211,18 @@ template <class Normal>
   change = std::max(change, q.delta * std::abs(d_tau));
 }
 
+/// The end of contact k's turn in a sweep: its spin row (kSpin: some contacts have one), then A
+/// and B stored back for the bodies that move.
+template <bool kSpin>
+[[gnu::always_inline]] inline void finish_contact(SolverData& d, std::size_t k, const Row* r, const double* alpha,
+                                                  BodyVelocity& A, BodyVelocity& B, double& change) {
+  if constexpr (kSpin) {
+    const int j = d.spin_slot[k];
+    if (j >= 0) spin_row(d.spin_rows[j], r[0], alpha[0], d.spin_alpha[j], A, B, change);
+  }
+  if (r[0].a_moves) d.qd[r[0].a] = A;
+  if (r[0].b_moves) d.qd[r[0].b] = B;
+}
 
 /// The lecture's normal row: alpha <- max(alpha - (J q_dot + b) / delta, 0) with b the row's own
 /// bias (alpha - (J q_dot + b) / delta is -gamma / delta of the lecture, with

@@ -94,12 +94,7 @@ void sweep(const SolverSettings& s, SolverData& d, bool biased) {
       }
       BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
       contact_rows(s, r, alpha, A, B, change, normal);
-      if constexpr (kSpin) {
-        const int j = d.spin_slot[k];
-        if (j >= 0) spin_row(d.spin_rows[j], r[0], alpha[0], d.spin_alpha[j], A, B, change);
-      }
-      if (r[0].a_moves) qd[r[0].a] = A;
-      if (r[0].b_moves) qd[r[0].b] = B;
+      finish_contact<kSpin>(d, k, r, alpha, A, B, change);
     }
     return change;
   });

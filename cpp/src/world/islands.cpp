@@ -7,17 +7,12 @@
 #include <stdexcept>
 
 #include "serial/byte_stream.hpp"
+#include "solver/contact_solver.hpp"
 
 namespace signorini {
 namespace {
 
-/// The warm-start cache's order (by body pair, then feature ids; keys are unique in it).
-bool key_less(const CachedContact& x, const CachedContact& y) {
-  if (x.body_a != y.body_a) return x.body_a < y.body_a;
-  if (x.body_b != y.body_b) return x.body_b < y.body_b;
-  if (x.feature_a != y.feature_a) return x.feature_a < y.feature_a;
-  return x.feature_b < y.feature_b;
-}
+using solver::key_less;  // the warm-start cache's order (keys are unique in it)
 
 /// Contact order between pairs: by (smaller index, larger index) (docs/conventions.md, "Order").
 bool pair_before(const Contact& x, const Contact& y) {
@@ -92,7 +87,7 @@ bool Islands::wake_marked(const Model& model, State& state, std::vector<CachedCo
   return woke;
 }
 
-void Islands::purge(const Model& model, const State& state) {
+void Islands::purge(const Model& /*model*/, const State& state) {
   if (!to_purge_) return;
   to_purge_ = false;
   // an entry stays while a body of it sleeps (its other body is static, kinematic or asleep too)
@@ -270,17 +265,7 @@ void Islands::save(serial::Writer& w, const State& state) const {
     w.pod(state.sleep_time[i]);
     w.pod(state.island[i]);
   }
-  w.pod(static_cast<std::uint64_t>(stash_.size()));
-  for (const CachedContact& c : stash_) {
-    w.pod(c.body_a);
-    w.pod(c.body_b);
-    w.pod(c.feature_a);
-    w.pod(c.feature_b);
-    w.pod(c.alpha);
-    w.mat(c.friction);
-    w.pod(c.spin);
-    w.pod(c.order);
-  }
+  solver::save_cache(w, stash_);
   w.mats(force_);
   w.mats(torque_);
 }
@@ -296,17 +281,7 @@ void Islands::load(serial::Reader& r, std::size_t n, std::vector<std::uint8_t>& 
     sleep_time[i] = r.pod<double>();
     island[i] = r.pod<std::int32_t>();
   }
-  stash.resize(r.count(sizeof(CachedContact::alpha)));
-  for (CachedContact& c : stash) {
-    c.body_a = r.pod<BodyIndex>();
-    c.body_b = r.pod<BodyIndex>();
-    c.feature_a = r.pod<FeatureId>();
-    c.feature_b = r.pod<FeatureId>();
-    c.alpha = r.pod<double>();
-    r.mat(c.friction);
-    c.spin = r.pod<double>();
-    c.order = r.pod<int>();
-  }
+  solver::load_cache(r, '4', stash);  // format 4: with spin torques
   r.mats(force, n);
   r.mats(torque, n);
 }
