@@ -37,6 +37,14 @@ def pose_bytes(w, i):
     return w.positions[i].tobytes() + w.rotations[i].tobytes() + w.orientations[i].tobytes()
 
 
+def step_until_awake(w, i, steps=120):
+    """Steps w until body i is awake, at most `steps` steps (the caller asserts what woke)."""
+    for _ in range(steps):
+        w.step(DT)
+        if w.awake[i]:
+            return
+
+
 @pytest.mark.parametrize("solver", SOLVERS)
 @pytest.mark.parametrize("dt, time_to_sleep", [(DT, 0.5), (1 / 60, 0.25)])
 def test_a_box_at_rest_sleeps_at_the_closed_form_step_and_keeps_its_pose_bit_for_bit(solver, dt, time_to_sleep):
@@ -84,10 +92,7 @@ def test_a_ball_dropped_on_one_stack_wakes_that_island_only(solver):
     assert not w.awake[1:].any()
     far = pose_bytes(w, 3) + pose_bytes(w, 4)
     ball = w.add_body(sg.Sphere(0.05), density=1000.0, position=(0.0, 0.0, 0.6))
-    for _ in range(120):
-        w.step(DT)
-        if w.awake[1]:
-            break
+    step_until_awake(w, 1)
     assert w.awake[[1, 2, ball]].all()
     assert not w.awake[[3, 4]].any()
     assert pose_bytes(w, 3) + pose_bytes(w, 4) == far
@@ -140,10 +145,7 @@ def test_a_moving_kinematic_body_wakes_what_it_touches_and_a_still_one_does_not(
     w.step(DT, 200)
     assert not w.awake[1] and w.awake[paddle]
     w.set_velocity(paddle, (-0.5, 0.0, 0.0))  # reaches the cube after about 0.1 s
-    for _ in range(120):
-        w.step(DT)
-        if w.awake[1]:
-            break
+    step_until_awake(w, 1)
     assert w.awake[1]
     w.step(DT, 60)
     assert w.positions[1][0] < -0.01  # pushed
@@ -381,10 +383,7 @@ def test_removing_a_body_wakes_its_island_and_the_other_islands_keep_sleeping_re
     assert pose_bytes(w, 3) + pose_bytes(w, 4) == far
     # the third stack's label was renumbered: a touch still wakes it whole, and only it
     ball = w.add_body(sg.Sphere(0.05), density=1000.0, position=(2.0, 0.0, 0.5))
-    for _ in range(120):
-        w.step(DT)
-        if w.awake[3]:
-            break
+    step_until_awake(w, 3)
     assert w.awake[[3, 4, ball]].all()
     # and a world rebuilt from its saved state steps on the same
     saved, trace = w.save_state(), []
