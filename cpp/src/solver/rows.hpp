@@ -29,8 +29,9 @@ void for_ranges(const SolverData& d, std::size_t n, std::size_t grain, F&& f) {
 }
 
 /// sweep(begin, end) over the solve positions [0, K), K = d.rows.size() / 3, in solve order colour by
-/// colour; each colour but the shared last one (whose contacts share no moving body) spread over
-/// d.pool's threads, so that every thread count gives the bits of one thread. sweep returns the
+/// colour; each colour (whose contacts share no moving body) spread over d.pool's threads, but the
+/// shared last one (whose contacts may) on the calling thread, so that every thread count gives the
+/// bits of one thread. sweep returns the
 /// largest change of its positions; returns the largest over all.
 template <class Sweep>
 double by_colour(const SolverData& d, Sweep&& sweep) {
