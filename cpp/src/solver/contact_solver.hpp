@@ -119,6 +119,10 @@ struct SolverData {
   // warm-start cache of the previous step, sorted by key, and the one being written
   std::vector<CachedContact> cache, cache_next;
   std::vector<char> cache_used;     ///< per cache entry: already given to a contact this step
+  std::vector<int> recalled;        ///< per contact: its cache entry this step (-1: none)
+  /// each body's contacts, in contact order: body x's are body_contacts[body_start[x] ..
+  /// body_start[x + 1]) (body_fill: scratch while listing them)
+  std::vector<int> body_start, body_contacts, body_fill;
   std::vector<double> alpha_iter;   ///< per contact: alpha_n after the iterate stage (N)
   // the soft step: per contact in solve order; per body the pose at the step's start and how far
   // it has moved since (dp = p - p0, dR = R - R0)

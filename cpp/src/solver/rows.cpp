@@ -185,52 +185,69 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
 /// row's torque to [-mu_spin alpha_n, mu_spin alpha_n]).
 bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts, SolverData& d) {
   if (d.cache.empty()) return false;
+  const std::size_t K = contacts.size();
+  assign_n(d.recalled, K, -1);
+  // each contact's cache entry with its key (-1: none), over the threads: a range starts with a
+  // binary search, then walks on, since the narrow phase lists contacts in key order (everything
+  // before the cursor is below the key); a key that goes back is searched for from the start
+  for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
+    CachedContact key, previous;
+    auto cursor = d.cache.begin();  // the first entry not below the previous contact's key
+    for (std::size_t i = first; i < end; ++i) {
+      const Contact& c = contacts[i];
+      key.body_a = c.body_a;
+      key.body_b = c.body_b;
+      key.feature_a = c.feature_a;
+      key.feature_b = c.feature_b;
+      auto it = cursor;
+      if (i > first && !key_less(key, previous))
+        while (it != d.cache.end() && key_less(*it, key)) ++it;
+      else
+        it = std::lower_bound(d.cache.begin(), d.cache.end(), key, key_less);
+      cursor = it;
+      previous = key;
+      d.recalled[i] = it != d.cache.end() && same_key(*it, key) ? static_cast<int>(it - d.cache.begin()) : -1;
+    }
+  });
+  // an entry goes to the first contact in contact order with its key (one pass, in order)
   bool found = false;
   assign_n(d.cache_used, d.cache.size(), char(0));
-  CachedContact key, previous;
-  auto cursor = d.cache.begin();  // the first entry not below the previous contact's key
-  for (std::size_t i = 0; i < contacts.size(); ++i) {
-    const Contact& c = contacts[i];
-    key.body_a = c.body_a;
-    key.body_b = c.body_b;
-    key.feature_a = c.feature_a;
-    key.feature_b = c.feature_b;
-    // the first entry not below the key: the narrow phase lists contacts in key order, so it is
-    // found by walking on from the previous one (everything before the cursor is below the key);
-    // a key that goes back is searched for from the start
-    auto it = cursor;
-    if (i > 0 && !key_less(key, previous)) {
-      while (it != d.cache.end() && key_less(*it, key)) ++it;
+  for (std::size_t i = 0; i < K; ++i) {
+    const int j = d.recalled[i];
+    if (j < 0) continue;
+    if (d.cache_used[j]) {
+      d.recalled[i] = -1;
     } else {
-      it = std::lower_bound(d.cache.begin(), d.cache.end(), key, key_less);
-    }
-    cursor = it;
-    previous = key;
-    if (it == d.cache.end() || !same_key(*it, key)) continue;
-    const std::size_t j = static_cast<std::size_t>(it - d.cache.begin());
-    if (d.cache_used[j]) continue;  // an equal key earlier in contact order took it
-    d.cache_used[j] = 1;
-    found = true;
-    const std::size_t k = 3 * static_cast<std::size_t>(d.slot[i]);
-    const Row* r = &d.rows[k];
-    const double alpha_n = it->alpha;
-    double a1 = it->friction.dot(r[1].J_lin), a2 = it->friction.dot(r[2].J_lin);
-    const double bound = r[1].mu * alpha_n;
-    if (s.friction_cone == FrictionCone::Cone) {
-      clamp_to_disk(a1, a2, bound);
-    } else {
-      a1 = std::clamp(a1, -bound, bound);
-      a2 = std::clamp(a2, -bound, bound);
-    }
-    d.alpha[k] = alpha_n;
-    d.alpha[k + 1] = a1;
-    d.alpha[k + 2] = a2;
-    if (!d.spin_rows.empty() && d.spin_slot[d.slot[i]] >= 0) {
-      const std::size_t j = static_cast<std::size_t>(d.spin_slot[d.slot[i]]);
-      const double spin_bound = d.spin_rows[j].mu_spin * alpha_n;
-      d.spin_alpha[j] = std::clamp(it->spin, -spin_bound, spin_bound);
+      d.cache_used[j] = 1;
+      found = true;
     }
   }
+  // the forces, clamped to the friction set, over the threads (each contact writes its own rows)
+  for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+      if (d.recalled[i] < 0) continue;
+      const CachedContact& entry = d.cache[static_cast<std::size_t>(d.recalled[i])];
+      const std::size_t k = 3 * static_cast<std::size_t>(d.slot[i]);
+      const Row* r = &d.rows[k];
+      const double alpha_n = entry.alpha;
+      double a1 = entry.friction.dot(r[1].J_lin), a2 = entry.friction.dot(r[2].J_lin);
+      const double bound = r[1].mu * alpha_n;
+      if (s.friction_cone == FrictionCone::Cone) {
+        clamp_to_disk(a1, a2, bound);
+      } else {
+        a1 = std::clamp(a1, -bound, bound);
+        a2 = std::clamp(a2, -bound, bound);
+      }
+      d.alpha[k] = alpha_n;
+      d.alpha[k + 1] = a1;
+      d.alpha[k + 2] = a2;
+      if (!d.spin_rows.empty() && d.spin_slot[d.slot[i]] >= 0) {
+        const std::size_t j = static_cast<std::size_t>(d.spin_slot[d.slot[i]]);
+        const double spin_bound = d.spin_rows[j].mu_spin * alpha_n;
+        d.spin_alpha[j] = std::clamp(entry.spin, -spin_bound, spin_bound);
+      }
+    }
+  });
   return found;
 }
 
@@ -357,22 +374,46 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
     stats.max_dissipation_violation = std::max(stats.max_dissipation_violation, part.max_dissipation_violation);
     stats.max_overlap = std::max(stats.max_overlap, part.max_overlap);
   });
-  // each body's summed force and torque (N, N m), in contact order
-  for (std::size_t i = 0; i < K; ++i) {
-    const Contact& c = contacts[i];
-    const Row* r = &d.rows[3 * d.slot[i]];
-    const double* alpha = &d.alpha[3 * d.slot[i]];
-    for (int k = 0; k < 3; ++k) {
-      d.body_force[r[k].a] -= alpha[k] * r[k].J_lin;
-      d.body_torque[r[k].a] += alpha[k] * r[k].JA_ang;
-      d.body_force[r[k].b] += alpha[k] * r[k].J_lin;
-      d.body_torque[r[k].b] += alpha[k] * r[k].JB_ang;
-    }
-    if (!d.spin_rows.empty() && d.spin_slot[d.slot[i]] >= 0) {  // torsional friction
-      d.body_torque[c.body_a] -= c.spin_torque * c.normal;
-      d.body_torque[c.body_b] += c.spin_torque * c.normal;
-    }
+  // each body's summed force and torque (N, N m), in contact order, body by body over the threads:
+  // the contacts of each body listed first (in contact order), so every thread count adds the
+  // same terms in the same order
+  const std::size_t N = d.body_force.size();
+  assign_n(d.body_start, N + 1, 0);
+  for (const Contact& c : contacts) {
+    ++d.body_start[c.body_a + 1];
+    ++d.body_start[c.body_b + 1];
   }
+  for (std::size_t i = 0; i < N; ++i) d.body_start[i + 1] += d.body_start[i];
+  assign_n(d.body_contacts, 2 * K, 0);
+  assign_n(d.body_fill, N, 0);
+  for (std::size_t i = 0; i < K; ++i) {
+    for (const BodyIndex x : {contacts[i].body_a, contacts[i].body_b})
+      d.body_contacts[d.body_start[x] + d.body_fill[x]++] = static_cast<int>(i);
+  }
+  const bool spin = !d.spin_rows.empty();
+  for_ranges(d, N, 256, [&](std::size_t first, std::size_t end) {
+    for (std::size_t x = first; x < end; ++x) {
+      Vec3& force = d.body_force[x];
+      Vec3& torque = d.body_torque[x];
+      for (int e = d.body_start[x]; e < d.body_start[x + 1]; ++e) {
+        const Contact& c = contacts[static_cast<std::size_t>(d.body_contacts[e])];
+        const std::size_t k0 = 3 * static_cast<std::size_t>(d.slot[d.body_contacts[e]]);
+        const bool is_a = static_cast<std::size_t>(c.body_a) == x;
+        for (std::size_t k = k0; k < k0 + 3; ++k) {
+          const Row& r = d.rows[k];
+          if (is_a) {
+            force -= d.alpha[k] * r.J_lin;
+            torque += d.alpha[k] * r.JA_ang;
+          } else {
+            force += d.alpha[k] * r.J_lin;
+            torque += d.alpha[k] * r.JB_ang;
+          }
+        }
+        if (spin && d.spin_slot[k0 / 3] >= 0)  // torsional friction: -t n on A, t n on B
+          torque += (is_a ? -c.spin_torque : c.spin_torque) * c.normal;
+      }
+    }
+  });
   // sorted by key (first in contact order on equal keys), one entry per key; the narrow phase
   // lists contacts by body pair and feature ids, so this is usually sorted already
   const auto before = [](const CachedContact& x, const CachedContact& y) {

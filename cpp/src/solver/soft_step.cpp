@@ -31,18 +31,22 @@ void soften(SoftPoint& p, double hertz, double zeta, double h) {
 /// d.qd <- (v, omega).
 void load(const std::vector<Vec3>& v, const std::vector<Vec3>& omega, SolverData& d) {
   d.qd.resize(v.size());
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    d.qd[i].omega = omega[i];
-    d.qd[i].v = v[i];
-  }
+  for_ranges(d, v.size(), 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+      d.qd[i].omega = omega[i];
+      d.qd[i].v = v[i];
+    }
+  });
 }
 
 /// (v, omega) <- d.qd.
 void unload(const SolverData& d, std::vector<Vec3>& v, std::vector<Vec3>& omega) {
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    v[i] = d.qd[i].v;
-    omega[i] = d.qd[i].omega;
-  }
+  for_ranges(d, v.size(), 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+      v[i] = d.qd[i].v;
+      omega[i] = d.qd[i].omega;
+    }
+  });
 }
 
 /// Every contact's gap now, s = gap0 + n . ((dp_B + D_B l_B) - (dp_A + D_A l_A)): its point carried
@@ -153,8 +157,10 @@ void soft_solve(const Model& /*model*/, const State& /*state*/, const SolverSett
   // the gaps are those soft_relax left (or soft_begin's in the first substep): the poses have not
   // moved since
   // the approach of each contact that has not pushed yet, for restitution if it pushes now
-  for (std::size_t k = 0; k < d.soft.size(); ++k)
-    if (d.soft[k].alpha_max == 0.0) d.soft[k].u_before = row_velocity(d.rows[3 * k], d.qd);
+  for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t k = first; k < end; ++k)
+      if (d.soft[k].alpha_max == 0.0) d.soft[k].u_before = row_velocity(d.rows[3 * k], d.qd);
+  });
   sweeps(settings, d, true, settings.soft_iterations);
   unload(d, v, omega);
 }
@@ -169,25 +175,26 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
   // (so that the rebound starts within h of the impact, not at the step's end); the warm-start
   // cache keeps the forces before it
   d.alpha_iter.resize(K);
-  d.restitutive.assign(K, char(0));
-  bool any = false;
-  for (std::size_t i = 0; i < K; ++i) {
-    const std::size_t k = static_cast<std::size_t>(d.slot[i]);
-    const SoftPoint& p = d.soft[k];
-    d.alpha_iter[i] = d.alpha[3 * k];
-    if (p.alpha_max == 0.0 && d.alpha[3 * k] > 0.0 && d.e[i] > 0.0 && p.u_before < -settings.restitution_threshold) {
-      d.u[i] = p.u_before;
-      d.restitutive[i] = 1;
-      any = true;
+  d.restitutive.resize(K);
+  for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+      const std::size_t k = static_cast<std::size_t>(d.slot[i]);
+      const SoftPoint& p = d.soft[k];
+      d.alpha_iter[i] = d.alpha[3 * k];
+      d.restitutive[i] = p.alpha_max == 0.0 && d.alpha[3 * k] > 0.0 && d.e[i] > 0.0 &&
+                         p.u_before < -settings.restitution_threshold;
+      if (d.restitutive[i]) d.u[i] = p.u_before;
     }
-  }
-  if (any) d.restitution_sweeps += restitution(settings, d);
+  });
+  d.restitution_sweeps += restitution(settings, d);  // 0 sweeps when no contact is restitutive
   unload(d, v, omega);
-  for (std::size_t k = 0; k < K; ++k) {
-    SoftPoint& p = d.soft[k];
-    p.impulse += d.h * d.alpha[3 * k];
-    p.alpha_max = std::max(p.alpha_max, d.alpha[3 * k]);
-  }
+  for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t k = first; k < end; ++k) {
+      SoftPoint& p = d.soft[k];
+      p.impulse += d.h * d.alpha[3 * k];
+      p.alpha_max = std::max(p.alpha_max, d.alpha[3 * k]);
+    }
+  });
 }
 
 SolverStats soft_end(const Model& model, const State& /*state*/, const SolverSettings& settings,
