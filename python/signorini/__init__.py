@@ -25,10 +25,12 @@ from .decomposition import decompose
 if TYPE_CHECKING:
     from .mjcf import MJCFError, load_mjcf, read_mjcf
     from .scenefile import SceneFileError, load_scene, read_scene, save_scene
+    from .sweeps import SweepError, state_hash, sweep
 
 # imported when first used: pydantic takes a tenth of a second to import
 _LAZY = {"load_scene": "scenefile", "read_scene": "scenefile", "save_scene": "scenefile",
-         "SceneFileError": "scenefile", "load_mjcf": "mjcf", "read_mjcf": "mjcf", "MJCFError": "mjcf"}
+         "SceneFileError": "scenefile", "load_mjcf": "mjcf", "read_mjcf": "mjcf", "MJCFError": "mjcf",
+         "sweep": "sweeps", "SweepError": "sweeps", "state_hash": "sweeps"}
 
 
 def __getattr__(name: str):
@@ -51,5 +53,5 @@ __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "Co
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "save_mesh", "decompose",
            "MeshRepairWarning", "load_scene", "read_scene",
-           "save_scene", "SceneFileError", "load_mjcf", "read_mjcf", "MJCFError", "meshes", "meshfile"]
+           "save_scene", "SceneFileError", "load_mjcf", "read_mjcf", "MJCFError", "sweep", "SweepError", "state_hash", "meshes", "meshfile"]
 __version__ = "0.1.0"

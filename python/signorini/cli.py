@@ -156,7 +156,7 @@ def _add_outputs(p: argparse.ArgumentParser, html_default: bool) -> None:
 
 
 def make_parser() -> argparse.ArgumentParser:
-    """The argument parser, with the ``run``, ``export``, ``view`` and ``list`` sub-commands."""
+    """The argument parser, with the ``run``, ``export``, ``view``, ``sweep`` and ``list`` sub-commands."""
     parser = argparse.ArgumentParser(
         prog="python -m signorini", description="signorini: rigid bodies with contact.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -215,6 +215,34 @@ def make_parser() -> argparse.ArgumentParser:
                            "network interface: anyone on the network can view and control the simulation)")
     view.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
     _add_allow_path(view)
+
+    sweep = commands.add_parser(
+        "sweep", help="run a scene file over a grid of parameter values and seeds, on Ray, into one table",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n"
+               "  python -m signorini sweep boxes --set 'bodies.box_0.friction=0.1:0.9:9' --seeds 20 --steps 240 \\\n"
+               "      --out results.parquet\n"
+               "  python -m signorini sweep scene.toml --set world.gravity.2=-9.81,-1.62 --set scene.dt=0.002 \\\n"
+               "      --out r.parquet --address 10.0.0.1:6379      # a Ray cluster ('ray start --head')\n\n"
+               "PATH is a dotted path into the scene file: bodies.<name or index>.<key>, world.<key>,\n"
+               "materials.<name>.<key>, scene.<key>, with list indices (world.gravity.2). SPEC is\n"
+               "'a:b:n' (n numbers from a to b), 'v1,v2,...' or one value. Seed 0 runs the file as it is;\n"
+               "seed s >= 1 moves every dynamic body's start by a uniform offset within +-jitter per axis.\n"
+               "Without --address a local Ray starts on this machine (without Ray installed: local\n"
+               "processes). Started again with the same --out, a sweep runs only what is missing.")
+    sweep.add_argument("scene", type=_scene_name, help="a built-in scene name or a scene file .toml")
+    sweep.add_argument("--set", dest="settings", action="append", default=[], metavar="PATH=SPEC",
+                       help="a parameter and its values (repeat for a grid of every combination)")
+    sweep.add_argument("--seeds", type=_positive_int, default=1, help="seeds 0 .. N-1 per combination (default 1)")
+    sweep.add_argument("--steps", type=_positive_int, help="steps per run (default: the scene's)")
+    sweep.add_argument("--dt", type=_positive_float, help="time step in seconds (default: the scene's)")
+    sweep.add_argument("--jitter", type=float, default=1e-3, help="seeds >= 1: start offsets within +-this (m, default 0.001)")
+    sweep.add_argument("--out", type=Path, required=True, help="the results table (.parquet)")
+    sweep.add_argument("--address", help="HOST:PORT of a Ray cluster's head (default: a local Ray)")
+    sweep.add_argument("--timeout", type=_positive_float, help="seconds per run before it is stopped (default: none)")
+    sweep.add_argument("--trajectories", type=Path, metavar="DIR", help="also each run's trajectory .npz, in DIR")
+    sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_allow_path(sweep)
 
     commands.add_parser("list", help="list the built-in scenes", formatter_class=argparse.RawDescriptionHelpFormatter,
                         epilog="example:\n  python -m signorini list | head -2")
@@ -279,6 +307,35 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _sweep(args: argparse.Namespace) -> int:
+    """A sweep of a scene file (signorini.sweep): the table written to --out, a line per status."""
+    from . import sweeps as sweep
+    from .scenefile import SceneFileError, read_scene
+
+    path = scenes.SCENES.get(args.scene, Path(args.scene))
+    try:
+        grid = {}
+        for item in args.settings:
+            name, sep, spec = item.partition("=")
+            if not sep or not name or not spec:
+                raise sweep.SweepError(f"--set {item!r}: give PATH=SPEC, e.g. bodies.box.friction=0.1:0.9:9")
+            if name in grid:
+                raise sweep.SweepError(f"--set {name}: given twice")
+            grid[name] = sweep.parse_values(spec, f"--set {name}")
+        scene = read_scene(path, allow_paths=args.allow_paths)
+        runs = sweep.SceneRuns(path, grid, jitter=args.jitter, allow_paths=args.allow_paths)
+        table = sweep.sweep(runs, grid, steps=args.steps or scene.steps, dt=args.dt or scene.dt, seeds=args.seeds,
+                            address=args.address, out=args.out, timeout=args.timeout,
+                            trajectories=args.trajectories, progress=False if args.quiet else None)
+    except (sweep.SweepError, SceneFileError, FileNotFoundError) as e:
+        print(f"python -m signorini: error: {e}", file=sys.stderr)
+        return 2
+    counts = table["status"].value_counts()
+    print(f"sweep of {scene.name}: {len(table)} runs ({', '.join(f'{n} {s}' for s, n in counts.items())}) "
+          f"-> {args.out}")
+    return 0 if counts.get("ok", 0) == len(table) else 1
+
+
 def _load(path: Union[str, Path]) -> "Record":
     """A trajectory file, or exit 2 with a message naming the file."""
     from .trajectory import load_trajectory
@@ -341,7 +398,7 @@ def _list() -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (argparse exits with 2 on bad arguments). Output cut
     short by a closed pipe (``... list | head -1``) ends quietly."""
-    commands = {"run": _run, "export": _export, "view": _view}
+    commands = {"run": _run, "export": _export, "view": _view, "sweep": _sweep}
     try:
         args = make_parser().parse_args(argv)
         if args.command in commands:

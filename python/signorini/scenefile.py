@@ -380,9 +380,10 @@ def _key(loc) -> str:
     return out or "(top level)"
 
 
-def _parse(path: Path) -> tuple[SceneFile, dict]:
-    """The validated model and the raw TOML dict of a file; SceneFileError naming file and key.
-    Size and depth are checked before the TOML parser runs (module doc, limits)."""
+def _parse(path: Path, overrides: Optional[dict] = None) -> tuple[SceneFile, dict]:
+    """The validated model and the raw TOML dict of a file, with ``overrides`` (dotted paths,
+    ``apply_overrides``) applied before validation; SceneFileError naming file and key. Size and
+    depth are checked before the TOML parser runs (module doc, limits)."""
     if not path.is_file():
         raise FileNotFoundError(f"scene file {str(path)!r} does not exist" if not path.exists()
                                 else f"scene file {str(path)!r} is not a file")
@@ -400,6 +401,8 @@ def _parse(path: Path) -> tuple[SceneFile, dict]:
     except (RecursionError, MemoryError) as e:
         raise SceneFileError(f"scene file {str(path)!r}: out of memory or stack parsing it ({type(e).__name__})") \
             from None
+    for dotted, value in (overrides or {}).items():
+        apply_override(raw, dotted, value, f"scene file {str(path)!r}")
     try:
         model = SceneFile.model_validate(raw)
     except (RecursionError, MemoryError) as e:
@@ -414,6 +417,47 @@ def _parse(path: Path) -> tuple[SceneFile, dict]:
         more = f" (and {len(problems) - 1} more: {'; '.join(problems[1:4])})" if len(problems) > 1 else ""
         raise SceneFileError(f"scene file {str(path)!r}: {problems[0]}{more}") from None
     return model, raw
+
+
+def apply_override(raw: dict, dotted: str, value, where: str) -> None:
+    """Sets ``dotted`` (e.g. 'bodies.box.friction', 'world.gravity.2', 'materials.wood.friction',
+    'scene.dt') in a scene file's raw TOML dict to value. In ``bodies`` a body is named by its
+    ``name`` or its index; in other lists an index. The last key may be new (a body's friction the
+    file left to its material); validation then checks it. SceneFileError naming the path and what
+    is not there."""
+    keys = dotted.split(".") if isinstance(dotted, str) else []
+    if not keys or any(not k for k in keys):
+        raise SceneFileError(f"{where}: parameter {dotted!r}: give a dotted path such as 'bodies.box.friction'")
+    node = raw
+    for depth, key in enumerate(keys):
+        last = depth == len(keys) - 1
+        here = ".".join(keys[:depth + 1])
+        if isinstance(node, list):
+            index = None
+            if keys[depth - 1] == "bodies" and depth == 1:
+                named = [i for i, b in enumerate(node) if isinstance(b, dict) and b.get("name") == key]
+                if named:
+                    index = named[0]
+            if index is None and key.lstrip("-").isdigit():
+                index = int(key)
+            if index is None or not -len(node) <= index < len(node):
+                known = ", ".join(repr(b.get("name")) for b in node if isinstance(b, dict) and b.get("name")) \
+                    if depth == 1 and keys[0] == "bodies" else f"indices 0 to {len(node) - 1}"
+                raise SceneFileError(f"{where}: parameter {dotted!r}: {here!r} is not there (known: {known or 'none'})")
+            if last:
+                node[index] = value
+            else:
+                node = node[index]
+        elif isinstance(node, dict):
+            if last:
+                node[key] = value
+            elif key not in node:
+                known = ", ".join(sorted(map(str, node))) or "none"
+                raise SceneFileError(f"{where}: parameter {dotted!r}: {here!r} is not there (known: {known})")
+            else:
+                node = node[key]
+        else:
+            raise SceneFileError(f"{where}: parameter {dotted!r}: {'.'.join(keys[:depth])!r} is a value, not a table")
 
 
 def _body_name(raw: dict, loc) -> str:
@@ -444,23 +488,24 @@ def _mesh_reader(base: Path, allow_paths=()):
     return read
 
 
-def read_scene(path, *, allow_paths=()):
+def read_scene(path, *, allow_paths=(), overrides: Optional[dict] = None):
     """The ``Scene`` of a scene file: its World (in the file's initial state), name (the
     [scene] name or the file's stem), dt, steps, description, snapshot times and body names
     (None when no body has one). Mesh files are read from inside the scene file's folder and the
     folders in ``allow_paths`` (paths) only. Limits in the module doc (file size, nesting depth,
-    dt and steps bounds). Raises FileNotFoundError or SceneFileError naming the file, the key and
-    the problem; nothing is half built."""
+    dt and steps bounds). ``overrides`` ({dotted path: value}, ``apply_override``) change the
+    file's values before it is checked (what a sweep varies). Raises FileNotFoundError or
+    SceneFileError naming the file, the key and the problem; nothing is half built."""
     path = Path(path)
     where_file = f"scene file {str(path)!r}"
     try:
-        return _read_scene(path, [Path(a) for a in allow_paths], where_file)
+        return _read_scene(path, [Path(a) for a in allow_paths], where_file, overrides)
     except (RecursionError, MemoryError) as e:
         raise SceneFileError(f"{where_file}: out of memory or stack building it ({type(e).__name__})") from None
 
 
-def _read_scene(path: Path, allow_paths: list, where_file: str):
-    model, _ = _parse(path)
+def _read_scene(path: Path, allow_paths: list, where_file: str, overrides: Optional[dict] = None):
+    model, _ = _parse(path, overrides)
     base = path.parent
     try:
         world = World(**model.world.model_dump())
