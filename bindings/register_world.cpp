@@ -11,6 +11,7 @@
 #include <string>
 
 #include "arrays.hpp"
+#include "signorini/batch.hpp"
 #include "signorini/world.hpp"
 
 using namespace signorini;
@@ -230,6 +231,8 @@ void register_world(py::module_& m) {
       .def("set_material", [](World& w, BodyIndex i, double friction, double restitution, double spinning_friction) {
         w.set_material(i, Material{friction, restitution, spinning_friction});
       })
+      .def("set_mass", &World::set_mass)
+      .def("set_gravity", &World::set_gravity)
       .def("set_solver", [](World& w, const SolverSettings& solver) {
         const auto held = w.lock();  // read, change, write as one call
         WorldSettings s = w.settings();
@@ -375,4 +378,48 @@ void register_world(py::module_& m) {
       .def("potential_energy", &World::potential_energy);
   bindings::refuse_pickling(py::reinterpret_borrow<py::class_<World>>(m.attr("World")),
                             "pickle the signorini.World that holds it");
+
+  // many worlds on one pool of threads (signorini.Batch holds the worlds and the output arrays)
+  using Rows = py::array_t<double, py::array::c_style>;
+  const auto out = [](Rows& a, const char* what) {
+    if (!a.writeable()) throw std::invalid_argument(std::string("batch: ") + what + " must be writeable");
+    return a.mutable_data();
+  };
+  py::class_<BatchStepper>(m, "BatchStepper")
+      .def(py::init<int>(), py::arg("threads"))
+      .def_property_readonly("threads", &BatchStepper::threads)
+      .def(
+          "step",
+          [out](const BatchStepper& b, const std::vector<World*>& worlds, double dt, int steps,
+                py::array_t<std::uint8_t, py::array::c_style> frozen, Rows p, Rows q, Rows v, Rows omega) {
+            const std::size_t n = worlds.size(), N = n ? worlds[0]->num_bodies() : 0;
+            const auto sized = [&](const py::array& a, std::size_t width, const char* what) {
+              if (a.size() != static_cast<py::ssize_t>(n * N * width))
+                throw std::invalid_argument(std::string("batch: ") + what + " has the wrong size");
+            };
+            sized(p, 3, "positions"), sized(q, 4, "orientations"), sized(v, 3, "velocities"), sized(omega, 3, "angular velocities");
+            if (frozen.size() != static_cast<py::ssize_t>(n)) throw std::invalid_argument("batch: one flag per world");
+            std::vector<std::uint8_t> flags(frozen.data(), frozen.data() + n);
+            std::vector<std::string> errors(n);
+            double *pp = out(p, "positions"), *qq = out(q, "orientations"), *vv = out(v, "velocities"),
+                   *ww = out(omega, "angular velocities");
+            {
+              py::gil_scoped_release released;
+              b.step(worlds, dt, steps, flags, errors, pp, qq, vv, ww);
+            }
+            std::copy(flags.begin(), flags.end(), frozen.mutable_data());
+            return errors;
+          },
+          py::arg("worlds"), py::arg("dt"), py::arg("steps"), py::arg("frozen"), py::arg("positions"),
+          py::arg("orientations"), py::arg("velocities"), py::arg("angular_velocities"))
+      .def_static(
+          "copy_state",
+          [out](const World& w, std::size_t i, Rows p, Rows q, Rows v, Rows omega) {
+            const std::size_t N = static_cast<std::size_t>(p.shape(1));
+            if (static_cast<std::size_t>(p.shape(0)) <= i) throw std::invalid_argument("batch: world index out of range");
+            BatchStepper::copy_state(w, N, i, out(p, "positions"), out(q, "orientations"), out(v, "velocities"),
+                                     out(omega, "angular velocities"));
+          },
+          py::arg("world"), py::arg("i"), py::arg("positions"), py::arg("orientations"), py::arg("velocities"),
+          py::arg("angular_velocities"));
 }

@@ -21,6 +21,7 @@ from .trajectory import Record, Recorder, load_trajectory, save_trajectory
 from . import meshes, meshfile
 from .meshfile import MeshRepairWarning, load_mesh, save_mesh
 from .decomposition import decompose
+from .batch import Batch
 
 if TYPE_CHECKING:
     from .mjcf import MJCFError, load_mjcf, read_mjcf
@@ -49,7 +50,7 @@ def __dir__() -> list[str]:
 # the public API: every name the README and docs use as ``sg.<name>`` (tests/python/test_api.py
 # checks it), the submodules meshes and meshfile included
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
-           "Compound", "mass_properties", "Contacts", "SolverStats", "SavedState",
+           "Compound", "mass_properties", "Batch", "Contacts", "SolverStats", "SavedState",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "save_mesh", "decompose",
            "MeshRepairWarning", "load_scene", "read_scene",

@@ -716,6 +716,18 @@ class World:
                                 float(self._core.restitutions[i]) if e is None else e,
                                 float(self._core.spinning_frictions[i]) if mu_spin is None else mu_spin)
 
+    @_locked
+    def set_mass(self, i: int, mass: float) -> None:
+        """Sets dynamic (or kinematic) body i's mass (kg, finite, > 0); its inertia scales by
+        mass / old mass (the same shape, uniformly denser or lighter)."""
+        i = self._index(i)
+        self._core.set_mass(i, as_number(mass, self.label(i), "mass"))
+
+    @_locked
+    def set_gravity(self, gravity) -> None:
+        """Sets gravity (3,) m/s^2, world frame, finite; every sleeping body wakes."""
+        self._core.set_gravity(as_vector(gravity, 3, "set_gravity", "gravity"))
+
     # saved states and pickling ----------------------------------------------------------------------
     @_locked
     def save_state(self) -> SavedState:

@@ -148,6 +148,11 @@ class World {
   /// Friction mu >= 0, restitution e in [0, 1] and spinning friction mu_spin >= 0 (m), all finite;
   /// static bodies too.
   void set_material(BodyIndex i, const Material& material);
+  /// A dynamic or kinematic body's mass m > 0 (kg, finite); its inertia scales by m / m_old (the same
+  /// shape, uniformly denser or lighter). Static bodies and bodies added without a mass are refused.
+  void set_mass(BodyIndex i, double mass);
+  /// Gravity (m/s^2, world, finite); the world is woken (everything may fall another way).
+  void set_gravity(const Vec3& gravity);
   /// For the next step only (then zeroed; the first step of the next step() call): an impulse J
   /// (N s, world) at world point x (m) adds J / m to v and I_w^-1 ((x - p) x J) to omega at the start
   /// of the step; a force F (N) at x acts through the whole step with torque (x - p) x F. Several

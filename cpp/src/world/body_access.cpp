@@ -191,6 +191,29 @@ void World::set_kinematic(BodyIndex i, bool kinematic) {
   }
 }
 
+void World::set_mass(BodyIndex i, double mass) {
+  const Lock lock(mutex_);
+  check_index(i);
+  const std::string who = label(i);
+  if (model_.is_static[i]) throw std::invalid_argument(who + ": a static body has no mass to set");
+  if (!std::isfinite(model_.mass[i]))
+    throw std::invalid_argument(who + ": it was added without a mass (a kinematic body): give it one when adding it");
+  if (!std::isfinite(mass) || mass <= 0.0)
+    throw std::invalid_argument(who + ": mass must be finite and > 0, got " + std::to_string(mass));
+  const double scale = mass / model_.mass[i];
+  model_.mass[i] = mass;
+  model_.I_body[i] *= scale;
+  set_kinematic_flag(i, model_.is_kinematic[i]);  // inv_mass and I_body_inv from the new values
+  wake(i);
+}
+
+void World::set_gravity(const Vec3& gravity) {
+  const Lock lock(mutex_);
+  if (!gravity.allFinite()) throw std::invalid_argument("gravity must be finite");
+  settings_.gravity = gravity;
+  wake_all();
+}
+
 void World::set_enabled(BodyIndex i, bool enabled) {
   const Lock lock(mutex_);
   check_index(i);
