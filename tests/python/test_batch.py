@@ -200,6 +200,10 @@ def test_world_set_mass_and_set_gravity_refuse_bad_values_and_change_nothing():
         w.set_mass(1, -1.0)
     with pytest.raises(ValueError, match="gravity"):
         w.set_gravity((0, 0, float("nan")))
-    assert w.masses[1] == 8.0 and w.gravity.tolist() == [0, 0, -G]
+    assert w.masses[1] == pytest.approx(8.0, rel=1e-15) and w.gravity.tolist() == [0, 0, -G]
+    masses = w.masses.copy()
+    with pytest.raises(ValueError):
+        w.set_mass(1, float("inf"))
+    assert np.array_equal(w.masses, masses)
     w.set_gravity((0, 0, -1.0))
     assert w.gravity.tolist() == [0, 0, -1.0]
