@@ -1,0 +1,251 @@
+"""Many runs (issue 22): throughput of R runs of a 1 s scene done serially, with sg.Batch on the
+core's threads, as a Ray sweep on this machine, with pybullet DIRECT in a multiprocessing pool and
+with MuJoCo's rollout (its thread pool over a list of models); printed, never asserted.
+
+    python benchmarks/bench_many.py [--runs 1000] [--threads 2] [--repeats 3] [--no-ray] [--no-peers]
+
+The scene: a 0.2 m box (density 1000) dropped from 5 cm onto a 25 degree slope, run i with its own
+friction mu in [0.1, 0.9] (the contact's: signorini sqrt(mu_box mu_slope) with the slope's 1 and the
+box's mu^2; pybullet mu_box mu_slope with the slope's 1; MuJoCo the larger of the two with the
+slope's 0) and yaw, both from numpy.random.default_rng(i); dt 1/240, 240 steps (1 s). Every method
+builds its worlds inside its timing. Figures: runs per second (median of --repeats), the speed-up
+over signorini serial, and Ray's per-task overhead (no-op tasks). Targets (issue 22): Batch at
+least 1.8x serial on 2 cores, Ray at least 1.6x including its start-up, Batch at least MuJoCo
+rollout's runs per second per core.
+
+Ray servers listen on 127.0.0.1 only: run as root, the script re-runs itself inside a network
+namespace of its own with only loopback up (unshare -n), as the tests do.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+import signorini as sg
+
+ANGLE = math.radians(25.0)
+DT, STEPS = 1.0 / 240.0, 240
+HALF = 0.1
+
+
+def draw(i: int) -> tuple[float, float]:
+    """(mu, yaw) of run i."""
+    rng = np.random.default_rng(i)
+    return float(rng.uniform(0.1, 0.9)), float(rng.uniform(0.0, 2.0 * math.pi))
+
+
+def slope_frame() -> tuple[np.ndarray, np.ndarray]:
+    """The slope's normal and the quaternion (w, x, y, z) turning z onto it."""
+    n = np.array([-math.sin(ANGLE), 0.0, math.cos(ANGLE)])
+    return n, np.array([math.cos(-ANGLE / 2), 0.0, math.sin(-ANGLE / 2), 0.0])
+
+
+def box_start(yaw: float) -> tuple[np.ndarray, np.ndarray]:
+    """Centre 5 cm above the slope's contact height and orientation: yawed about the normal."""
+    n, q_slope = slope_frame()
+    qz = np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
+    w1, v1 = q_slope[0], q_slope[1:]
+    w2, v2 = qz[0], qz[1:]
+    q = np.concatenate([[w1 * w2 - v1 @ v2], w1 * v2 + w2 * v1 + np.cross(v1, v2)])
+    return (HALF + 0.05) * n, q
+
+
+def make(i: int) -> sg.World:
+    mu, yaw = draw(i)
+    n, _ = slope_frame()
+    w = sg.World(gravity=(0, 0, -9.81), threads=1)
+    w.add_static(sg.Plane(normal=tuple(n), offset=0.0), friction=1.0)
+    p, q = box_start(yaw)
+    w.add_body(sg.Box((HALF, HALF, HALF)), density=1000.0, position=tuple(p), orientation=tuple(q), friction=mu * mu)
+    return w
+
+
+def serial(runs: int) -> float:
+    t = time.perf_counter()
+    for i in range(runs):
+        make(i).step(DT, STEPS)
+    return time.perf_counter() - t
+
+
+def batch(runs: int, threads: int) -> float:
+    t = time.perf_counter()
+    b = sg.Batch(make, runs, threads=threads)
+    b.step(DT, STEPS)
+    return time.perf_counter() - t
+
+
+def sweep_ray(runs: int) -> float:
+    t = time.perf_counter()
+    table = sg.sweep(lambda seed, run: make(run), {"run": list(range(runs))}, steps=STEPS, dt=DT, progress=False)
+    assert (table["status"] == "ok").all()
+    return time.perf_counter() - t
+
+
+def ray_task_overhead(tasks: int = 400) -> float:
+    """Seconds per no-op Ray task, submitted all at once and gathered (a local Ray)."""
+    import ray
+
+    ray.init(include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1")
+    try:
+        noop = ray.remote(lambda: None)
+        ray.get([noop.remote() for _ in range(20)])
+        t = time.perf_counter()
+        ray.get([noop.remote() for _ in range(tasks)])
+        return (time.perf_counter() - t) / tasks
+    finally:
+        ray.shutdown()
+
+
+_PB = None
+
+
+def _pb_worker_init():
+    global _PB
+    import pybullet
+
+    _PB = pybullet.connect(pybullet.DIRECT)
+
+
+def _pb_run(i: int) -> list:
+    import pybullet as p
+
+    mu, yaw = draw(i)
+    p.resetSimulation(physicsClientId=_PB)
+    p.setGravity(0, 0, -9.81, physicsClientId=_PB)
+    p.setPhysicsEngineParameter(fixedTimeStep=DT, numSolverIterations=10, physicsClientId=_PB)
+    n, q_slope = slope_frame()
+    plane = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=_PB)
+    ground = p.createMultiBody(0, plane, baseOrientation=[*q_slope[1:], q_slope[0]], physicsClientId=_PB)
+    p.changeDynamics(ground, -1, lateralFriction=1.0, physicsClientId=_PB)
+    box = p.createCollisionShape(p.GEOM_BOX, halfExtents=[HALF] * 3, physicsClientId=_PB)
+    pos, q = box_start(yaw)
+    body = p.createMultiBody(8.0, box, basePosition=list(pos), baseOrientation=[*q[1:], q[0]], physicsClientId=_PB)
+    p.changeDynamics(body, -1, lateralFriction=mu, physicsClientId=_PB)
+    for _ in range(STEPS):
+        p.stepSimulation(physicsClientId=_PB)
+    return list(p.getBasePositionAndOrientation(body, physicsClientId=_PB)[0])
+
+
+def pybullet_pool(runs: int, processes: int) -> float | None:
+    try:
+        import pybullet  # noqa: F401
+    except ImportError:
+        return None
+    import multiprocessing
+
+    t = time.perf_counter()
+    with multiprocessing.get_context("fork").Pool(processes, initializer=_pb_worker_init) as pool:
+        pool.map(_pb_run, range(runs), chunksize=max(1, runs // (8 * processes)))
+    return time.perf_counter() - t
+
+
+MJCF = """<mujoco><option timestep="{dt}"/>
+<worldbody><geom name="slope" type="plane" size="5 5 0.1" euler="0 {deg} 0" friction="0 0.005 0.0001"/>
+<body name="box"><freejoint/><geom name="box" type="box" size="{h} {h} {h}" density="1000" friction="0.5 0.005 0.0001"/></body>
+</worldbody></mujoco>"""
+
+
+def mujoco_rollout(runs: int, threads: int) -> float | None:
+    try:
+        import mujoco
+        from mujoco import rollout
+    except ImportError:
+        return None
+    t = time.perf_counter()
+    base = mujoco.MjModel.from_xml_string(MJCF.format(dt=DT, deg=-math.degrees(ANGLE), h=HALF))
+    models, states = [], []
+    data = mujoco.MjData(base)
+    size = mujoco.mj_stateSize(base, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    for i in range(runs):
+        mu, yaw = draw(i)
+        m = mujoco.MjModel.from_xml_string(MJCF.format(dt=DT, deg=-math.degrees(ANGLE), h=HALF)) if i == 0 else None
+        m = m or _copy_model(base)
+        m.geom_friction[1, 0] = mu
+        models.append(m)
+        pos, q = box_start(yaw)
+        mujoco.mj_resetData(base, data)
+        data.qpos[:3], data.qpos[3:7] = pos, q
+        state = np.empty(size)
+        mujoco.mj_getState(base, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        states.append(state)
+    datas = [mujoco.MjData(base) for _ in range(threads)]
+    rollout.rollout(models, datas, np.array(states), nstep=STEPS)
+    return time.perf_counter() - t
+
+
+def _copy_model(m):
+    import copy
+
+    return copy.copy(m)
+
+
+def in_loopback_namespace() -> bool:
+    """True when this network namespace has no interface but loopback (one of our own; asked of
+    the kernel through the namespace itself: /sys/class/net shows the namespace sysfs was mounted in)."""
+    import socket
+
+    return all(name == "lo" for _, name in socket.if_nameindex())
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=int, default=1000)
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--no-ray", action="store_true", help="leave out the Ray sweep")
+    parser.add_argument("--no-peers", action="store_true", help="leave out pybullet and MuJoCo")
+    args = parser.parse_args(argv)
+    try:
+        import ray  # noqa: F401
+        have_ray = not args.no_ray
+    except ImportError:
+        have_ray = False
+    if have_ray and not in_loopback_namespace():
+        if os.geteuid() == 0 and shutil.which("unshare"):
+            command = ["unshare", "-n", "sh", "-c", 'ip link set lo up && exec "$@"', "sh", sys.executable,
+                       os.path.abspath(__file__), *(argv if argv is not None else sys.argv[1:])]
+            return subprocess.call(command, env=dict(os.environ, RAY_USAGE_STATS_ENABLED="0"))
+        print("the Ray sweep is left out: it needs a loopback-only network namespace (root and unshare)")
+        have_ray = False
+
+    methods = {"signorini serial": lambda: serial(args.runs),
+               f"signorini Batch, {args.threads} threads": lambda: batch(args.runs, args.threads)}
+    if have_ray:
+        methods[f"signorini sweep on a local Ray ({os.cpu_count()} CPUs, start-up included)"] = lambda: sweep_ray(args.runs)
+    if not args.no_peers:
+        methods[f"pybullet DIRECT, multiprocessing pool of {args.threads}"] = lambda: pybullet_pool(args.runs, args.threads)
+        methods[f"MuJoCo rollout, {args.threads} threads"] = lambda: mujoco_rollout(args.runs, args.threads)
+    times: dict[str, list] = {name: [] for name in methods}
+    for _ in range(args.repeats):   # interleaved: each repeat runs every method once
+        for name, run in methods.items():
+            times[name].append(run())
+    print(f"{args.runs} runs of a box dropped on a 25 degree slope, 1 s at dt 1/240, median of {args.repeats}:")
+    base = statistics.median(times["signorini serial"])
+    print(f"  {'method':<62} {'runs/s':>9} {'vs serial':>10}")
+    for name, got in times.items():
+        if got[0] is None:
+            print(f"  {name:<62} {'not installed':>20}")
+            continue
+        t = statistics.median(got)
+        print(f"  {name:<62} {args.runs / t:9.0f} {base / t:9.2f}x")
+    if have_ray:
+        print(f"  Ray per-task overhead (no-op tasks, local): {ray_task_overhead() * 1e3:.2f} ms")
+    cores = os.cpu_count() or 1
+    mj = times.get(f"MuJoCo rollout, {args.threads} threads")
+    if mj and mj[0] is not None:
+        b = statistics.median(times[f"signorini Batch, {args.threads} threads"])
+        print(f"  per core: Batch {args.runs / b / args.threads:.0f} runs/s, MuJoCo rollout "
+              f"{args.runs / statistics.median(mj) / args.threads:.0f} runs/s ({cores} cores here)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
