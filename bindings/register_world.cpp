@@ -422,4 +422,6 @@ void register_world(py::module_& m) {
           },
           py::arg("world"), py::arg("i"), py::arg("positions"), py::arg("orientations"), py::arg("velocities"),
           py::arg("angular_velocities"));
+  bindings::refuse_pickling(py::reinterpret_borrow<py::class_<BatchStepper>>(m.attr("BatchStepper")),
+                            "pickle the worlds of the signorini.Batch that holds it (Batch.world(i))");
 }

@@ -404,3 +404,24 @@ def head_on_velocities(e, **world_kwargs):
                    restitution=e)
     w.step(1 / 240, 240)
     return w.velocities[a][0], w.velocities[b][0]
+
+
+# ---- many runs (test_sweep.py, test_batch.py) -----------------------------------------------------
+SLOPE_ANGLE = math.radians(25.0)
+SLOPE_DOWN = np.array([-math.cos(SLOPE_ANGLE), 0.0, -math.sin(SLOPE_ANGLE)])   # down the slope
+
+
+def slope_box(seed: int = 0, friction: float = 0.3) -> sg.World:
+    """A 0.2 m box (density 1000: 8 kg) at rest on a 25 degree slope of friction 1, the box's
+    `friction` (a contact uses sqrt(mu_A mu_B)); seed s starts it s mm further down the slope."""
+    w = sg.World(gravity=(0, 0, -9.81))
+    n = np.array([-math.sin(SLOPE_ANGLE), 0.0, math.cos(SLOPE_ANGLE)])
+    w.add_static(sg.Plane(normal=n, offset=0.0), friction=1.0)
+    w.add_body(sg.Box(half_extents=(0.1, 0.1, 0.1)), density=1000.0, position=tuple(0.1 * n + 1e-3 * seed * SLOPE_DOWN),
+               orientation=(math.cos(-SLOPE_ANGLE / 2), 0.0, math.sin(-SLOPE_ANGLE / 2), 0.0), friction=friction)
+    return w
+
+
+def down_slope_speed(w: sg.World) -> dict:
+    """The box's velocity along the slope, downwards (m/s), as a sweep metric."""
+    return {"speed": float(w.velocities[1] @ SLOPE_DOWN)}

@@ -8,20 +8,15 @@ import numpy as np
 import pytest
 
 import signorini as sg
+from helpers import SLOPE_ANGLE, SLOPE_DOWN, slope_box
 
 G = 9.81
-ANGLE = math.radians(25.0)
-DOWN = np.array([-math.cos(ANGLE), 0.0, -math.sin(ANGLE)])   # down the slope
+ANGLE = SLOPE_ANGLE
+DOWN = SLOPE_DOWN
 
 
 def slope(friction: float = 0.3) -> sg.World:
-    """A 0.2 m box at rest on a 25 degree slope of friction 1 (a contact uses sqrt(mu_A mu_B))."""
-    w = sg.World(gravity=(0, 0, -G))
-    n = np.array([-math.sin(ANGLE), 0.0, math.cos(ANGLE)])
-    w.add_static(sg.Plane(normal=n, offset=0.0), friction=1.0)
-    w.add_body(sg.Box(half_extents=(0.1, 0.1, 0.1)), density=1000.0, position=tuple(0.1 * n),
-               orientation=(math.cos(-ANGLE / 2), 0.0, math.sin(-ANGLE / 2), 0.0), friction=friction)
-    return w
+    return slope_box(0, friction)
 
 
 def pile(i: int = 0) -> sg.World:

@@ -15,7 +15,7 @@ from signorini import _core
 
 PICKLED = ("Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh", "Compound",
            "SolverSettings", "SleepSettings", "FrictionCone", "Gyroscopic", "SolverMethod")
-REFUSED = ("World",)  # the facade signorini.World pickles; its core object does not
+REFUSED = ("World", "BatchStepper")  # the facade signorini.World pickles; its core object does not
 
 SAMPLES = """
 import pickle, numpy as np, signorini as sg
@@ -36,6 +36,7 @@ samples = {
     "SolverSettings": settings, "FrictionCone": _core.FrictionCone.cone, "Gyroscopic": _core.Gyroscopic.implicit,
     "SolverMethod": _core.SolverMethod.soft, "SleepSettings": sleep,
     "World": _core.World((0.0, 0.0, -9.81), 0.005, _core.SolverSettings()),
+    "BatchStepper": _core.BatchStepper(1),
 }
 """
 
@@ -91,7 +92,8 @@ def test_core_class_without_pickling_refuses_at_every_protocol(name):
         except TypeError:
             print(message)
     """)
-    assert "cannot pickle a signorini._core.World" in out and "signorini.World" in out
+    assert f"cannot pickle a signorini._core.{name}" in out
+    assert ("signorini.World" if name == "World" else "signorini.Batch") in out
 
 
 def test_world_and_saved_state_round_trip_at_every_protocol_and_step_on_bit_for_bit():

@@ -15,23 +15,13 @@ import pandas as pd
 import pytest
 
 import signorini as sg
+from helpers import SLOPE_ANGLE, down_slope_speed, slope_box
 from signorini import sweeps as sw
 
 G = 9.81
-ANGLE = math.radians(25.0)
+ANGLE = SLOPE_ANGLE
 REPO = Path(__file__).resolve().parents[2]
-
-
-def slope(seed: int, friction: float, steps_hint: int = 0) -> sg.World:
-    """A 0.2 m box resting on a 25 degree slope (plane friction 1, the box's `friction`; a contact
-    uses sqrt(mu_A mu_B)); seed s >= 1 starts it s mm further down the slope."""
-    w = sg.World(gravity=(0, 0, -G))
-    n = np.array([-math.sin(ANGLE), 0.0, math.cos(ANGLE)])
-    down = np.array([math.cos(ANGLE), 0.0, math.sin(ANGLE)]) * -1.0
-    w.add_static(sg.Plane(normal=n, offset=0.0), friction=1.0)
-    w.add_body(sg.Box(half_extents=(0.1, 0.1, 0.1)), density=1000.0, position=tuple(0.1 * n + 1e-3 * seed * down),
-               orientation=(math.cos(-ANGLE / 2), 0.0, math.sin(-ANGLE / 2), 0.0), friction=friction)
-    return w
+slope, along_slope = slope_box, down_slope_speed
 
 
 def failing(seed: int, friction: float):
@@ -213,10 +203,10 @@ import numpy as np
 sys.path.insert(0, {tests!r})
 import signorini as sg
 from signorini import sweeps as sw
-from test_sweep import slope, along_slope
+from helpers import slope_box as slope, down_slope_speed as along_slope
 
 port = {port}
-# the workers the head starts import this test module (slope, along_slope are pickled by name)
+# the workers the head starts import tests/python/helpers.py (slope, along_slope are pickled by name)
 env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0", RAY_AUTH_MODE="disabled",
            PYTHONPATH=os.pathsep.join([{tests!r}, os.environ["PYTHONPATH"]]))
 subprocess.run(["ip", "link", "set", "lo", "up"], check=True)
