@@ -111,6 +111,24 @@ class Batch:
     def __repr__(self) -> str:
         return f"Batch({self.n} worlds of {self.num_bodies} bodies, {self.threads} threads, {int(self._frozen.sum())} frozen)"
 
+    # ---- pickling: the worlds (each a pickled World, in its current state), their start states,
+    # flags and messages, and the thread count; a batch sent to another process or machine
+    # continues bit for bit
+    def __getstate__(self) -> dict:
+        return {"version": 1, "worlds": [pickle.dumps(w) for w in self._worlds], "initial": self._initial,
+                "frozen": self._frozen.copy(), "errors": list(self._errors), "threads": self.threads}
+
+    def __setstate__(self, d: dict) -> None:
+        if d.get("version") != 1:
+            raise ValueError(f"Batch: cannot read a pickled batch of version {d.get('version')!r}")
+        worlds = [pickle.loads(b) for b in d["worlds"]]
+        self.__init__(lambda i: worlds[i], len(worlds), threads=d["threads"])
+        self._initial = list(d["initial"])
+        self._frozen[:] = d["frozen"]
+        self._errors = list(d["errors"])
+        for i in range(self.n):
+            self._copy(i)
+
     # ---- stepping -----------------------------------------------------------------------------
     def step(self, dt: float, steps: int = 1) -> None:
         """Advances every world that is not frozen by ``steps`` steps of ``dt`` s (module doc)."""

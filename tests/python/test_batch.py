@@ -202,3 +202,15 @@ def test_world_set_mass_and_set_gravity_refuse_bad_values_and_change_nothing():
     assert np.array_equal(w.masses, masses)
     w.set_gravity((0, 0, -1.0))
     assert w.gravity.tolist() == [0, 0, -1.0]
+
+
+def test_a_pickled_batch_continues_bit_for_bit():
+    b = sg.Batch(pile, 3, threads=2)
+    b.step(1 / 240, 30)
+    copy = pickle.loads(pickle.dumps(b))
+    assert copy.threads == 2 and np.array_equal(copy.positions, b.positions)
+    b.step(1 / 240, 30)
+    copy.step(1 / 240, 30)
+    assert np.array_equal(copy.positions, b.positions) and np.array_equal(copy.velocities, b.velocities)
+    copy.reset()
+    assert np.array_equal(copy.positions, sg.Batch(pile, 3).positions)
