@@ -12,13 +12,10 @@ from the record alone.
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
-
-from . import meshes
+from . import meshes, progress as progress_bars
 from .trajectory import TRAJECTORY_BUDGET, Record, Recorder, load_trajectory, save_trajectory
 
 __all__ = ["Record", "run", "save_trajectory", "load_trajectory", "summary", "format_summary", "energy_change_text",
@@ -30,9 +27,9 @@ def run(scene, steps: int | None = None, dt: float | None = None, progress: bool
     """Step a scene's world one step at a time, recording it.
 
     Inputs: scene (``scenes.Scene``; its world is advanced in place; its optional ``names`` name
-    the bodies), steps (default ``scene.steps``), dt (s, default ``scene.dt``), progress (a tqdm
-    bar on stderr that appears once the run has taken a second; default: only when stderr is a
-    terminal), stride (a frame every ``stride`` steps; None, the default: chosen so that the
+    the bodies), steps (default ``scene.steps``), dt (s, default ``scene.dt``), progress (on
+    stderr once the run has taken a second: a tqdm bar on a terminal, a few plain lines anywhere
+    else, ``signorini.progress``; None, the default: yes), stride (a frame every ``stride`` steps; None, the default: chosen so that the
     frames fit ``budget`` bytes, ``trajectory.TRAJECTORY_BUDGET``), contacts (record each frame's
     contacts). Output: a ``Record`` of ``steps`` steps.
     """
@@ -46,11 +43,9 @@ def run(scene, steps: int | None = None, dt: float | None = None, progress: bool
 
     recorder = Recorder(world, stride=stride, steps=steps, budget=budget, contacts=contacts,
                         names=getattr(scene, "names", None), scene=scene.name)
-    # a progress bar only for a person watching a terminal, and only for runs longer than a second
-    if progress is None:
-        progress = sys.stderr.isatty()
-    if progress:
-        with tqdm(total=steps, unit="step", desc=scene.name, leave=False, delay=1.0) as bar:
+    # only for runs longer than a second; a bar on a terminal, a few lines in a log
+    if progress is None or progress:
+        with progress_bars.bar(steps, scene.name, "step", delay=1.0, leave=False) as bar:
             recorder.step(dt, steps, progress=bar.update)
     else:
         recorder.step(dt, steps)
