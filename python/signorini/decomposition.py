@@ -14,7 +14,7 @@ machine shared with other jobs (``TIMINGS``; on a quieter one the bunny took 20 
   is its own single piece, without CoACD; a file of convex objects (V-HACD's) is read as its
   pieces (``meshfile``);
 - before CoACD starts, one line on stderr gives the settings, an estimate (``estimate``), that
-  Ctrl-C stops it and where the result is cached; while it runs, a tqdm bar counts the pieces
+  Ctrl-C stops it and where the result is cached; while it runs, a progress bar counts the pieces
   CoACD has finished and those it is still cutting (it cuts every piece whose concavity exceeds
   the threshold in two, round after round, then merges);
 - CoACD runs in a worker process (``_coacd_worker.py``): Ctrl-C (KeyboardInterrupt) in the caller
@@ -54,7 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import meshfile
+from . import meshfile, progress as progress_bars
 from ._core import Mesh
 
 __all__ = ["decompose", "convex_pieces", "quiet", "estimate", "cache_dir", "DEFAULT_THRESHOLD",
@@ -255,7 +255,8 @@ def _stop(worker: subprocess.Popen) -> None:
 
 
 class _Progress:
-    """A tqdm bar of CoACD's pieces from its log lines: CoACD starts each round with 'iter k ----
+    """A progress bar of CoACD's pieces from its log lines (``signorini.progress.bar``: tqdm's on a terminal,
+    a plain line per round in a log): CoACD starts each round with 'iter k ----
     waiting pool: N' (N pieces to cut or accept this round) and ends with ' - Merge Convex Hulls'.
     The pieces of round k that did not come back to round k + 1 as two halves are final, so after
     round k the bar shows final / (final + still being cut)."""
@@ -289,10 +290,9 @@ class _Progress:
         if not self.enabled:
             return
         if self.bar is None:
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=1, desc="CoACD", file=sys.stderr, leave=True,
-                            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n}/{total} pieces final [{elapsed}{postfix}]")
+            self.bar = progress_bars.bar(1, "CoACD", "pieces final", file=sys.stderr,
+                                    bar_format="{desc}: {percentage:3.0f}%|{bar}| {n}/{total} pieces final "
+                                               "[{elapsed}{postfix}]")
         self.bar.total = self.final + self.pool
         self.bar.n = self.final
         self.bar.set_postfix_str(what, refresh=False)

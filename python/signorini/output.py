@@ -12,13 +12,10 @@ from the record alone.
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
-
-from . import meshes
+from . import meshes, progress as progress_bars
 from .trajectory import TRAJECTORY_BUDGET, Record, Recorder, load_trajectory, save_trajectory
 
 __all__ = ["Record", "run", "save_trajectory", "load_trajectory", "summary", "format_summary", "energy_change_text",
@@ -30,9 +27,9 @@ def run(scene, steps: int | None = None, dt: float | None = None, progress: bool
     """Step a scene's world one step at a time, recording it.
 
     Inputs: scene (``scenes.Scene``; its world is advanced in place; its optional ``names`` name
-    the bodies), steps (default ``scene.steps``), dt (s, default ``scene.dt``), progress (a tqdm
-    bar on stderr that appears once the run has taken a second; default: only when stderr is a
-    terminal), stride (a frame every ``stride`` steps; None, the default: chosen so that the
+    the bodies), steps (default ``scene.steps``), dt (s, default ``scene.dt``), progress (on
+    stderr once the run has taken a second: a tqdm bar on a terminal, a few plain lines anywhere
+    else, ``signorini.progress``; None, the default: yes), stride (a frame every ``stride`` steps; None, the default: chosen so that the
     frames fit ``budget`` bytes, ``trajectory.TRAJECTORY_BUDGET``), contacts (record each frame's
     contacts). Output: a ``Record`` of ``steps`` steps.
     """
@@ -46,11 +43,9 @@ def run(scene, steps: int | None = None, dt: float | None = None, progress: bool
 
     recorder = Recorder(world, stride=stride, steps=steps, budget=budget, contacts=contacts,
                         names=getattr(scene, "names", None), scene=scene.name)
-    # a progress bar only for a person watching a terminal, and only for runs longer than a second
-    if progress is None:
-        progress = sys.stderr.isatty()
-    if progress:
-        with tqdm(total=steps, unit="step", desc=scene.name, leave=False, delay=1.0) as bar:
+    # only for runs longer than a second; a bar on a terminal, a few lines in a log
+    if progress is None or progress:
+        with progress_bars.bar(steps, scene.name, "step", delay=1.0, leave=False) as bar:
             recorder.step(dt, steps, progress=bar.update)
     else:
         recorder.step(dt, steps)
@@ -61,10 +56,14 @@ def summary(record: Record, window: float = 1.0) -> dict:
     """Headline numbers of a run.
 
     Inputs: record; window (s), the final stretch over which the penetration is reported.
-    Output dict: bodies, dynamic, steps, simulated_time (s), wall_time (s), initial_energy,
-    final_energy, energy_change (final - initial, J: negative when contacts and friction
-    dissipated energy, positive when the world gained some), energy_scale (J, max(|E0|, max kinetic
-    energy), what the change is compared with), max_penetration_last (m, over the last ``window``
+    Output dict: bodies, dynamic, steps, simulated_time (s), wall_time (s), kinetic_initial,
+    kinetic_final, potential_initial, potential_final (J; the potential's zero is arbitrary, so only
+    its change means something), initial_energy, final_energy (kinetic + potential, J),
+    energy_change (final - initial, J: negative when contacts and friction dissipated energy,
+    positive when the world gained some), energy_available (J: the initial kinetic energy plus the
+    potential energy released between the first and the last frame, what the run had to spend;
+    a loss is a share of it), energy_scale (J, the largest of the peak kinetic energy and the
+    potential energies' sizes: below 1e-9 of it a change is rounding), max_penetration_last (m, over the last ``window``
     seconds; 0 if no overlap), contact_steps (steps with contacts), iterations_median and
     iterations_max (over steps with contacts; 0 when there were none), max_residual (m/s),
     not_converged (steps whose PGS stopped at max_iterations), certificate_run and
@@ -72,7 +71,8 @@ def summary(record: Record, window: float = 1.0) -> dict:
     run and over the last ``window`` seconds (those the record holds).
     """
     energy = record.total_energy
-    scale = max(abs(float(energy[0])), float(np.max(record.kinetic_energy)))
+    kinetic, potential = record.kinetic_energy, record.potential_energy
+    scale = max(float(np.max(kinetic)), abs(float(potential[0])), abs(float(potential[-1])))
     late = record.step_time > record.time[-1] - window - 1e-12
     with_contacts = record.num_contacts > 0
     iterations = record.iterations[with_contacts]
@@ -82,9 +82,14 @@ def summary(record: Record, window: float = 1.0) -> dict:
         "steps": record.steps,
         "simulated_time": float(record.time[-1] - record.time[0]),
         "wall_time": record.wall_time,
+        "kinetic_initial": float(kinetic[0]),
+        "kinetic_final": float(kinetic[-1]),
+        "potential_initial": float(potential[0]),
+        "potential_final": float(potential[-1]),
         "initial_energy": float(energy[0]),
         "final_energy": float(energy[-1]),
         "energy_change": float(energy[-1] - energy[0]),
+        "energy_available": float(kinetic[0] + potential[0] - potential[-1]),
         "energy_scale": scale,
         "max_penetration_last": float(record.penetration[late].max()) if late.any() else 0.0,
         "window": window,
@@ -110,21 +115,39 @@ CERTIFICATE = (
 )
 
 
-def energy_change_text(change: float, scale: float) -> str:
-    """The energy line's verdict: what a change of total energy (final - initial, J) is.
+def energy_change_text(kinetic: tuple[float, float], potential: tuple[float, float], scale: float) -> str:
+    """The energy line of a summary: what happened to the mechanical energy of a run, named as
+    what it is.
 
-    A loss is what contacts and friction take (dissipated), a gain is named a gain with where it
-    can come from (contacts and friction never add energy), and a change within rounding of
-    ``scale`` (J, ``summary``'s energy_scale) is kept. The percentage is of ``scale``.
+    Inputs: kinetic (initial, final) and potential (initial, final), J; scale (J, ``summary``'s
+    energy_scale): a change of the total within 1e-9 of it is rounding. The potential energy's zero
+    is arbitrary (``World.potential_energy`` measures heights from the origin), so the line gives its
+    change, never its level. A loss is energy dissipated by contacts and friction (inelastic impacts,
+    sliding, the solver's position pass adds none), given in joules and as a share of what the run
+    had to spend: the initial kinetic energy plus the potential energy released (lost height), which
+    the dissipated energy and the final kinetic energy add up to, so the share is at most 100 %. A
+    gain is named a gain, with where it can come from (contacts and friction never add energy).
     """
-    pct = f" ({100.0 * abs(change) / scale:.3g} % of {scale:.3g} J, the larger of the initial energy's size and the " \
-        "peak kinetic energy)" if scale > 0 else ""
-    if abs(change) <= 1e-9 * scale or change == 0.0:
-        return f"kept (changed by {change:+.2g} J, rounding)"
+    k0, k1 = (float(x) for x in kinetic)
+    p0, p1 = (float(x) for x in potential)
+    change = (k1 + p1) - (k0 + p0)
+    fall = p0 - p1
+
+    def joules(x: float) -> str:  # rounding-sized values as 0
+        return f"{0.0 if abs(x) <= 1e-12 * scale else x:.3g} J"
+
+    if change == 0.0 or abs(change) <= 1e-9 * scale:
+        return (f"kept: kinetic {joules(k0)} -> {joules(k1)}, potential released {joules(fall)} "
+                f"(total changed by {change:+.2g} J, rounding)")
     if change < 0:
-        return f"dissipated {-change:.3g} J by contacts and friction{pct}"
-    return (f"gained {change:.3g} J{pct}: contacts and friction only dissipate, so it came from external forces, "
-            "kinematic bodies or the integration")
+        available = k0 + fall  # = dissipated + k1 >= dissipated
+        source = f"+ {joules(fall)} of potential energy released" if fall >= 0 else \
+            f"- {joules(-fall)} gone into potential energy"
+        return (f"dissipated {joules(-change)} by contacts and friction: {100.0 * -change / available:.3g} % of the "
+                f"{joules(available)} available (kinetic {joules(k0)} at the start {source}), "
+                f"{joules(k1)} still kinetic at the end")
+    return (f"gained {joules(change)}: kinetic {joules(k0)} -> {joules(k1)}, potential released {joules(fall)}; "
+            "contacts and friction only dissipate, so it came from external forces, kinematic bodies or the integration")
 
 
 def megabytes(size: int) -> str:
@@ -147,8 +170,8 @@ def format_summary(record: Record, files=(), budget: float | None = None) -> str
         f"frames       {record.frames}, every {record.stride} step{'s' if record.stride > 1 else ''} "
         f"(stride {record.stride}, {chosen})",
         f"wall time    {s['wall_time']:.3f} s in World.step ({speed:.0f} steps/s)",
-        f"energy       initial {s['initial_energy']:.6g} J, final {s['final_energy']:.6g} J: "
-        + energy_change_text(s["energy_change"], s["energy_scale"]),
+        "energy       " + energy_change_text((s["kinetic_initial"], s["kinetic_final"]),
+                                         (s["potential_initial"], s["potential_final"]), s["energy_scale"]),
         f"penetration  largest in the last {s['window']:g} s: {1e3 * s['max_penetration_last']:.3g} mm",
         f"solver       iterations median {s['iterations_median']:g}, max {s['iterations_max']} "
         f"over {s['contact_steps']} steps with contacts; max residual {s['max_residual']:.2e} m/s, "
@@ -289,7 +312,7 @@ def plot(path_png, record: Record, scene=None) -> Path:
     ax.plot(record.time, record.total_energy, "k", lw=1.5, label="total")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("energy (J)")
-    ax.set_title("energy")
+    ax.set_title("energy (the total falls by what contacts and friction dissipate)", fontsize=9)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
 

@@ -11,16 +11,18 @@ Everything works from a ``trajectory.Record`` alone (no simulator, no display, n
   light at the camera, contact points and force arrows on top; drawn with Pillow at twice the size
   and downsampled for smooth edges;
 - ``write_video(path, record, fps, size)``: an H.264 MP4 through imageio-ffmpeg (the ffmpeg binary
-  ships in its wheel), one picture every 1/fps s of simulated time, with a tqdm bar.
+  ships in its wheel), one picture every 1/fps s of simulated time, with a progress bar.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 from pathlib import Path
 
 import numpy as np
 
+from . import progress as progress_bars
 from .codec import quat_to_matrix
 from .trajectory import Record
 
@@ -236,10 +238,10 @@ def write_video(path, record: Record, fps: float = 30.0, size=(640, 480), progre
     """Write an H.264 MP4 of the run (one picture per 1/fps s of simulated time, at real speed).
 
     Inputs: path (.mp4), record, fps (> 0), size (width, height) pixels, both even (yuv420p),
-    progress (a tqdm bar that appears when rendering takes more than a second). Output: the path.
+    progress (once rendering has taken a second: a tqdm bar on a terminal, a few plain lines
+    anywhere else, ``signorini.progress``). Output: the path.
     """
     import imageio.v2 as imageio
-    from tqdm import tqdm
 
     width, height = int(size[0]), int(size[1])
     if width < 16 or height < 16 or width % 2 or height % 2:
@@ -254,9 +256,13 @@ def write_video(path, record: Record, fps: float = 30.0, size=(640, 480), progre
     writer = imageio.get_writer(path, fps=fps, codec="libx264", quality=7, macro_block_size=2,
                                 ffmpeg_log_level="error")
     try:
-        for f in tqdm(frames, unit="frame", desc=f"video {path.name}", leave=False, delay=1.0,
-                      disable=not progress):
-            writer.append_data(render_frame(record, int(f), camera, (width, height), force_scale=scale))
+        with contextlib.ExitStack() as stack:
+            bar = stack.enter_context(progress_bars.bar(len(frames), f"video {path.name}", "frame", delay=1.0,
+                                                        leave=False)) if progress else None
+            for f in frames:
+                writer.append_data(render_frame(record, int(f), camera, (width, height), force_scale=scale))
+                if bar is not None:
+                    bar.update(1)
     finally:
         writer.close()
     return path

@@ -71,6 +71,8 @@ def test_the_first_run_prints_an_estimate_then_shows_progress(first_run):
     # the bar: CoACD's rounds, its final pieces, and the count after merging
     assert "CoACD:" in bar and "round 1, cutting 1" in bar and "pieces final" in bar
     assert f"{len(result.pieces)} after merging" in bar
+    # stderr here is not a terminal (as in a CI log): plain lines, a round each, no carriage returns
+    assert "\r" not in printed and all(line.startswith("CoACD: ") for line in bar.splitlines())
 
 
 def test_a_cached_mesh_prints_nothing_and_starts_no_worker(first_run, cache, monkeypatch, capsys):

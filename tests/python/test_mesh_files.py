@@ -45,6 +45,14 @@ def test_the_cube_is_a_unit_cube_and_rests_on_the_ground():
     assert w.positions[b][2] == pytest.approx(0.05, abs=1e-3)
 
 
+def test_the_bunny_loads_closed_as_one_non_convex_mesh_without_coacd(no_coacd):
+    # CoACD cuts it when it is added to a world or decomposed (README's table), not when it is read
+    mesh = sg.load_mesh(DATA / "bunny.obj")
+    assert (len(mesh.vertices), len(mesh.faces)) == (453, 902)
+    assert mesh.closedness_problem() == "" and volume(mesh) > 0.0
+    assert not mesh.pieces and not mesh.is_convex()
+
+
 @pytest.mark.parametrize("name", ["sphere_smooth.obj", "soccerball.obj"])
 def test_nearly_convex_balls_are_their_own_hull_without_coacd(name, no_coacd):
     # their faces bend by rounding (not convex to the core's 1e-9), well within CONVEX_TOLERANCE

@@ -1,0 +1,45 @@
+"""Smoke test of benchmarks/bench_decomposition.py: what load_mesh gives for pybullet_data's files
+(no CoACD), and one real CoACD run on a small non-convex OBJ; times are printed, never asserted."""
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_decomposition.py"
+
+
+def load_bench():
+    spec = importlib.util.spec_from_file_location("bench_decomposition", BENCH)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_what_load_mesh_gives_for_pybullet_data(capsys):
+    pytest.importorskip("pybullet_data")
+    rows = load_bench().main(["--meshes", "cube.obj,sphere_smooth.obj,bunny.obj,duck_vhacd.obj", "--coacd", "none"])
+    assert [(r["mesh"], r["triangles"], r["gives"], r["coacd_s"]) for r in rows] == [
+        ("cube.obj", 12, "convex", None),
+        ("sphere_smooth.obj", 1792, "its own hull (convex within tolerance)", None),
+        ("bunny.obj", 902, "non-convex: CoACD cuts it", None),
+        ("duck_vhacd.obj", 396, "5 convex pieces from the file", None)]
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("mesh") and len(out) == 5 and out[4].startswith("duck_vhacd.obj")
+
+
+@pytest.mark.slow
+def test_coacd_cuts_a_non_convex_mesh_into_pieces(tmp_path, capsys):
+    pytest.importorskip("coacd")
+    # an L-shaped prism (the decomposition tests' mesh): CoACD cuts it in about a second
+    outline = np.array([(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)], dtype=float) * 0.1
+    n = len(outline)
+    v = np.vstack([np.c_[outline, np.zeros(n)], np.c_[outline, np.full(n, 0.1)]])
+    caps = [(0, 2, 1), (0, 3, 2), (0, 4, 3), (0, 5, 4)]
+    f = caps + [(a + n, c + n, b + n) for a, b, c in caps]
+    f += [t for i in range(n) for t in ((i, (i + 1) % n, (i + 1) % n + n), (i, (i + 1) % n + n, i + n))]
+    trimesh.Trimesh(v, np.array(f), process=False).export(tmp_path / "ell.obj")
+    rows = load_bench().main(["--meshes", "ell.obj", "--coacd", "all", "--data", str(tmp_path)])
+    assert rows[0]["gives"] == "non-convex: CoACD cuts it" and rows[0]["pieces"] >= 2 and rows[0]["coacd_s"] > 0
+    assert f"{rows[0]['pieces']} pieces" in capsys.readouterr().out
