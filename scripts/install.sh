@@ -7,7 +7,7 @@
 #   bash scripts/install.sh           # runtime: what 'python3 -m signorini run' needs (README command 1)
 #   bash scripts/install.sh --test    # and the test tools: GoogleTest, Chromium, pytest, pytest-xdist,
 #                                     # scipy, playwright, mujoco, pybind11-stubgen, import-linter, pybullet
-#                                     # (its pybullet_data meshes) (README command 2)
+#                                     # (its pybullet_data meshes), Ray (the sweep tests start a local head) (README command 2)
 #   bash scripts/install.sh [--test] --editable   # for developers: an editable install instead (edits
 #                                     # to python/signorini show without reinstalling); this checkout
 #                                     # keeps it (run.sh and test.sh too) until --wheel switches back
@@ -146,9 +146,9 @@ export PIP_BREAK_SYSTEM_PACKAGES=1 PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_ROOT_USER
 # pybind11 and pybind11-stubgen pinned: the committed stubs are what these two versions write
 runtime=("scikit-build-core>=0.10" "pybind11==3.1.0" "numpy>=1.22" "matplotlib>=3.6" "tqdm>=4.60" "coacd>=1.0"
          "pythreejs>=2.4" "pillow>=9" "imageio>=2.20" "imageio-ffmpeg>=0.4.8" "pygltflib>=1.15" "usd-core>=23.0"
-         "viser>=1.0" "trimesh>=4" "networkx>=2.6" "pydantic>=2" "tomli-w>=1")
+         "viser>=1.0" "trimesh>=4" "networkx>=2.6" "pydantic>=2" "tomli-w>=1" "pandas>=1.5" "pyarrow>=12")
 tests=("pytest>=7" "pytest-xdist>=3" "scipy>=1.8" "playwright>=1.40" "mujoco>=3" "pybind11-stubgen==3.0.0"
-       "import-linter>=2.17" "pybullet>=3.2.6")
+       "import-linter>=2.17" "pybullet>=3.2.6" "ray>=2.9")
 
 [ "$with_tests" = 1 ] || tests=()
 echo "signorini: Python dependencies (runtime$([ "$with_tests" = 1 ] && echo ' and test'))"
