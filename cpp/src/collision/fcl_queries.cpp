@@ -186,6 +186,7 @@ struct BroadPhase::Impl {
   std::vector<std::unique_ptr<Proxy>> proxy;  ///< by body index; null for planes
   std::vector<std::unique_ptr<TriangleQuery>> triangles;  ///< by body index; set for triangle meshes
   std::vector<BodyIndex> dynamic_bodies;
+  std::vector<BodyIndex> planes;  ///< bodies whose shape is a Plane, ascending
   fcl::DynamicAABBTreeCollisionManagerd dynamic_tree;
   fcl::DynamicAABBTreeCollisionManagerd static_tree;
   /// sleeping bodies: out of dynamic_tree while they sleep, their AABBs grown by margin/2 only
@@ -208,6 +209,7 @@ void BroadPhase::add_body(BodyIndex i, const Shape& shape, bool is_static, const
   if (const auto* mesh = std::get_if<TriangleMesh>(&shape)) impl_->triangles.back() = std::make_unique<TriangleQuery>(*mesh);
   if (std::holds_alternative<Plane>(shape)) {
     impl_->proxy.emplace_back(nullptr);
+    impl_->planes.push_back(i);
     return;
   }
   auto proxy = std::make_unique<Proxy>(make_geometry(shape), i);
@@ -284,5 +286,7 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
 }
 
 const TriangleQuery* BroadPhase::triangles(BodyIndex i) const { return impl_->triangles.at(i).get(); }
+
+const std::vector<BodyIndex>& BroadPhase::planes() const { return impl_->planes; }
 
 }  // namespace signorini::collision

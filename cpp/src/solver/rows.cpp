@@ -87,7 +87,9 @@ double coupling(const Row& j, const Row& k) {
 static void solve_order(const Model& model, const std::vector<Contact>& contacts, SolverData& d) {
   const std::size_t K = contacts.size();
   constexpr int kColours = 65;
-  assign_n(d.colours_used, model.size(), std::uint64_t(0));
+  // the colours of the listed bodies (the others, static, never take one) start empty
+  parallel::fit(d.colours_used, model.size(), std::uint64_t(0));
+  parallel::each_body(d.bodies, model.size(), [&](std::size_t i) { d.colours_used[i] = 0; });
   d.slot.resize(K);  // the colour of each contact first
   std::array<int, kColours + 1> start{};
   for (std::size_t i = 0; i < K; ++i) {
@@ -372,6 +374,8 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       d.body_torque[c.body_a] -= c.spin_torque * c.normal;
       d.body_torque[c.body_b] += c.spin_torque * c.normal;
     }
+    mark_forced(d, c.body_a);
+    mark_forced(d, c.body_b);
   }
   // sorted by key (first in contact order on equal keys), one entry per key; the narrow phase
   // lists contacts by body pair and feature ids, so this is usually sorted already

@@ -191,6 +191,8 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   state_.v[index] = desc.velocity;
   state_.omega[index] = desc.angular_velocity;
   memory_->add_body(position);
+  if (!desc.is_static) moving_.push_back(index);
+  bodies_changed(false);
   return index;
 }
 
@@ -257,6 +259,7 @@ void World::remove_bodies(const std::vector<BodyIndex>& indices) {
   renumber(solver_->cache);
   if (contacts_.use_count() > 1) contacts_ = std::make_shared<std::vector<Contact>>(*contacts_);
   renumber(*contacts_);
+  bodies_changed(true);
 }
 
 }  // namespace signorini

@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "parallel/pool.hpp"
 #include "serial/byte_stream.hpp"
 #include "solver/contact_solver.hpp"
 
@@ -97,6 +98,7 @@ void Islands::purge(const Model& /*model*/, const State& state) {
   for (std::size_t i = 0; i < force_.size(); ++i)
     if (state.island[i] < 0) force_[i].setZero(), torque_[i].setZero();
   sum_outside(state);
+  list_forced();
 }
 
 void Islands::sum_outside(const State& state) {
@@ -123,11 +125,19 @@ void Islands::merge_contacts(const std::vector<Contact>& solved, std::vector<Con
   std::merge(solved.begin(), solved.end(), contacts_.begin(), contacts_.end(), out.begin(), pair_before);
 }
 
-void Islands::add_forces(std::vector<Vec3>& body_force, std::vector<Vec3>& body_torque) const {
+void Islands::list_forced() {
+  forced_.clear();
+  for (std::size_t i = 0; i < force_.size(); ++i)
+    if (!force_[i].isZero(0.0) || !torque_[i].isZero(0.0)) forced_.push_back(static_cast<BodyIndex>(i));
+}
+
+void Islands::add_forces(solver::SolverData& solver) const {
   if (contacts_.empty()) return;
-  for (std::size_t i = 0; i < force_.size(); ++i) {
-    body_force[i] += force_[i];
-    body_torque[i] += torque_[i];
+  // the bodies with a non-zero sum (adding the others' zeros would change nothing)
+  for (const BodyIndex i : forced_) {
+    solver.body_force[i] += force_[i];
+    solver.body_torque[i] += torque_[i];
+    solver::mark_forced(solver, i);
   }
 }
 
@@ -139,10 +149,12 @@ int Islands::find(int i) {
   return i;
 }
 
-void Islands::link(const Model& model, const State& state, const std::vector<Contact>& contacts) {
+void Islands::link(const Model& model, const State& state, const std::vector<Contact>& contacts,
+                   const std::vector<BodyIndex>* bodies) {
   const std::size_t n = model.size();
+  // only awake dynamic bodies are linked and looked up: the listed entries are enough
   parent_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) parent_[i] = static_cast<int>(i);
+  parallel::each_body(bodies, n, [&](std::size_t i) { parent_[i] = static_cast<int>(i); });
   for (const Contact& c : contacts) {
     if (!awake_dynamic(model, state, c.body_a) || !awake_dynamic(model, state, c.body_b)) continue;
     const int ra = find(c.body_a), rb = find(c.body_b);
@@ -153,43 +165,47 @@ void Islands::link(const Model& model, const State& state, const std::vector<Con
 
 void Islands::end_step(const Model& model, State& state, const SleepSettings& settings, double dt,
                        const std::vector<Contact>& contacts, std::vector<CachedContact>& cache,
-                       const std::vector<Vec3>& body_force, const std::vector<Vec3>& body_torque) {
+                       const std::vector<Vec3>& body_force, const std::vector<Vec3>& body_torque,
+                       const std::vector<BodyIndex>* bodies) {
   if (!settings.enabled) return;
   const std::size_t n = model.size();
   // sleep timers: time below both thresholds, reset by any faster motion
   const double v2 = settings.linear_velocity * settings.linear_velocity;
   const double w2 = settings.angular_velocity * settings.angular_velocity;
-  ready_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!awake_dynamic(model, state, i)) continue;
+  parallel::fit(ready_, n, std::uint8_t(1));
+  parallel::each_body(bodies, n, [&](std::size_t i) {
+    if (!awake_dynamic(model, state, i)) return;
     const bool rest = state.v[i].squaredNorm() <= v2 && state.omega[i].squaredNorm() <= w2;
     state.sleep_time[i] = rest ? state.sleep_time[i] + dt : 0.0;
-  }
+  });
   // a body touching a moving kinematic body stays awake (the kinematic body is in no island)
   for (const Contact& c : contacts) {
     if (moving_kinematic(model, state, c.body_a) && awake_dynamic(model, state, c.body_b)) state.sleep_time[c.body_b] = 0.0;
     if (moving_kinematic(model, state, c.body_b) && awake_dynamic(model, state, c.body_a)) state.sleep_time[c.body_a] = 0.0;
   }
-  // islands of this step's contacts; one that is not ready keeps all its bodies awake
-  link(model, state, contacts);
-  for (std::size_t i = 0; i < n; ++i) ready_[i] = 1;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!awake_dynamic(model, state, i)) continue;
+  // islands of this step's contacts; one that is not ready keeps all its bodies awake (roots are
+  // awake dynamic bodies, so only the listed entries of ready_ are read)
+  link(model, state, contacts, bodies);
+  parallel::each_body(bodies, n, [&](std::size_t i) { ready_[i] = 1; });
+  parallel::each_body(bodies, n, [&](std::size_t i) {
+    if (!awake_dynamic(model, state, i)) return;
     const bool ready = model.can_sleep[i] && state.sleep_time[i] > 0.0 && state.sleep_time[i] >= settings.time_to_sleep;
     if (!ready) ready_[find(static_cast<int>(i))] = 0;
-  }
-  sleep_ready(model, state, cache, contacts, body_force, body_torque);
+  });
+  sleep_ready(model, state, cache, contacts, body_force, body_torque, bodies);
 }
 
 void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedContact>& cache,
                           const std::vector<Contact>& contacts, const std::vector<Vec3>& body_force,
-                          const std::vector<Vec3>& body_torque) {
+                          const std::vector<Vec3>& body_torque, const std::vector<BodyIndex>* bodies) {
   bool any = false;
-  fresh_.assign(model.size(), 0);
-  for (std::size_t i = 0; i < model.size(); ++i) {
-    if (!awake_dynamic(model, state, i)) continue;
+  // fresh_ is set for awake dynamic bodies only: the listed entries start at 0 (the others stay 0)
+  parallel::fit(fresh_, model.size(), std::uint8_t(0));
+  parallel::each_body(bodies, model.size(), [&](std::size_t i) { fresh_[i] = 0; });
+  parallel::each_body(bodies, model.size(), [&](std::size_t i) {
+    if (!awake_dynamic(model, state, i)) return;
     const int root = find(static_cast<int>(i));
-    if (!ready_[root]) continue;
+    if (!ready_[root]) return;
     state.awake[i] = 0;
     state.island[i] = root;
     state.v[i].setZero();
@@ -198,7 +214,7 @@ void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedCo
     torque_[i] = body_torque[i];
     fresh_[i] = 1;
     any = true;
-  }
+  });
   if (!any) return;
   // the new sleepers' warm-start forces wait in the stash (both lists stay sorted by key)
   const auto asleep = [&](const CachedContact& c) {
@@ -223,12 +239,13 @@ void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedCo
   for (std::size_t i = 0; i < force_.size(); ++i)
     if (state.island[i] < 0) force_[i].setZero(), torque_[i].setZero();
   sum_outside(state);
+  list_forced();
 }
 
 BodyIndex Islands::sleep_island_of(const Model& model, State& state, BodyIndex i, const std::vector<Contact>& contacts,
                                    std::vector<CachedContact>& cache, const std::vector<Vec3>& body_force,
                                    const std::vector<Vec3>& body_torque) {
-  link(model, state, contacts);
+  link(model, state, contacts, nullptr);
   const std::size_t n = model.size();
   const int root = find(i);
   for (std::size_t k = 0; k < n; ++k)
@@ -236,7 +253,7 @@ BodyIndex Islands::sleep_island_of(const Model& model, State& state, BodyIndex i
       return static_cast<BodyIndex>(k);
   ready_.assign(n, 0);
   ready_[root] = 1;
-  sleep_ready(model, state, cache, contacts, body_force, body_torque);
+  sleep_ready(model, state, cache, contacts, body_force, body_torque, nullptr);
   return -1;
 }
 
@@ -256,7 +273,9 @@ void Islands::renumber(State& state, const std::vector<BodyIndex>& to) {
     if (to[j] >= 0) force_[kept] = force_[j], torque_[kept] = torque_[j], ++kept;
   force_.resize(kept);
   torque_.resize(kept);
+  list_forced();
   marked_.assign(state.island.size(), 0);
+  fresh_.clear();  // sized and zeroed again by the next sleep_ready
 }
 
 void Islands::save(serial::Writer& w, const State& state) const {
