@@ -348,8 +348,10 @@ void convex_by_support(const Item& a, const Item& b, const Distance& dist, doubl
 void trimesh_item(const TriangleMesh& a, const Pose& pa, const TriangleQuery& query, const Item& b,
                   double threshold, TrianglePast& past, Scratch& scratch, std::vector<Contact>& out);
 
-/// Candidate pairs from bounding volumes. Holds one FCL object per non-plane body: dynamic ones in
-/// a DynamicAABBTree updated incrementally each step, static ones in a second tree built once.
+/// Candidate pairs from bounding volumes. Holds FCL objects for the non-plane bodies: static ones in
+/// a DynamicAABBTree built once, awake dynamic ones in a second one refitted each step, sleeping ones
+/// in a third one (their frozen boxes, refitted only when the margin changes). A step's work grows
+/// with the awake bodies and their pairs, not with the static or sleeping ones.
 class BroadPhase {
  public:
   BroadPhase();
@@ -362,7 +364,8 @@ class BroadPhase {
   /// Pairs (i, j), i < j, whose AABBs, grown by reach[i] + margin/2 and reach[j] + margin/2,
   /// overlap; at least one of them dynamic and awake (state.asleep: sleeping bodies sit in a tree
   /// of their own, neither refitted nor collided with each other or with static bodies; a body
-  /// moves between the trees as it falls asleep or wakes); planes excluded. Sorted
+  /// moves between the trees as it falls asleep or wakes, allocating nothing: it is registered in
+  /// both once, parked far away in the one it is not in); planes excluded. Sorted
   /// lexicographically, written into out (cleared first; its capacity is reused).
   void pairs(const Model& model, const State& state, const std::vector<double>& reach, double margin,
              std::vector<std::pair<BodyIndex, BodyIndex>>& out);

@@ -37,7 +37,8 @@ bool sleeping(const Model& model, const State& state, std::size_t i) {
 void Islands::mark(const State& state, BodyIndex i) {
   if (state.island.empty() || state.island[i] < 0) return;
   if (marked_.size() < state.island.size()) marked_.resize(state.island.size(), 0);
-  marked_[state.island[i]] = 1;
+  const std::int32_t label = state.island[i];
+  if (!marked_[label]) marked_[label] = 1, marked_labels_.push_back(label);
   any_marked_ = true;
 }
 
@@ -62,7 +63,8 @@ bool Islands::mark_touched(const Model& model, const State& state, const std::ve
   return any;
 }
 
-bool Islands::wake_marked(const Model& model, State& state, std::vector<CachedContact>& cache, bool purge_now) {
+bool Islands::wake_marked(const Model& model, State& state, std::vector<CachedContact>& cache, bool purge_now,
+                          const std::vector<BodyIndex>* bodies) {
   if (!any_marked_) return false;
   any_marked_ = false;
   // the woken islands' forces back into the warm-start cache (keys are unique: a stashed pair is
@@ -74,15 +76,16 @@ bool Islands::wake_marked(const Model& model, State& state, std::vector<CachedCo
   }
   if (added) std::sort(cache.begin(), cache.end(), key_less);
   bool woke = false;
-  for (std::size_t i = 0; i < model.size(); ++i) {
+  parallel::each_body(bodies, model.size(), [&](std::size_t i) {
     const std::int32_t label = state.island[i];
-    if (label < 0 || !marked_[label]) continue;
+    if (label < 0 || !marked_[label]) return;
     state.awake[i] = 1;
     state.sleep_time[i] = 0.0;
     state.island[i] = -1;
     woke = true;
-  }
-  std::fill(marked_.begin(), marked_.end(), std::uint8_t(0));
+  });
+  for (const std::int32_t label : marked_labels_) marked_[label] = 0;
+  marked_labels_.clear();
   to_purge_ = to_purge_ || woke;
   if (purge_now) purge(model, state);
   return woke;
@@ -95,10 +98,11 @@ void Islands::purge(const Model& /*model*/, const State& state) {
   const auto awake_pair = [&](const auto& c) { return state.island[c.body_a] < 0 && state.island[c.body_b] < 0; };
   stash_.erase(std::remove_if(stash_.begin(), stash_.end(), awake_pair), stash_.end());
   contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), awake_pair), contacts_.end());
-  for (std::size_t i = 0; i < force_.size(); ++i)
+  // (every non-zero entry is listed in forced_)
+  for (const BodyIndex i : forced_)
     if (state.island[i] < 0) force_[i].setZero(), torque_[i].setZero();
   sum_outside(state);
-  list_forced();
+  list_forced(false);
 }
 
 void Islands::sum_outside(const State& state) {
@@ -125,10 +129,21 @@ void Islands::merge_contacts(const std::vector<Contact>& solved, std::vector<Con
   std::merge(solved.begin(), solved.end(), contacts_.begin(), contacts_.end(), out.begin(), pair_before);
 }
 
-void Islands::list_forced() {
+void Islands::list_forced(bool scan_all) {
+  // the candidates: every body (scan_all), or those listed before and those of the sleeping
+  // contacts (a sum changes only at the bodies of contacts that join or leave)
+  listing_.clear();
+  if (scan_all) {
+    for (std::size_t i = 0; i < force_.size(); ++i) listing_.push_back(static_cast<BodyIndex>(i));
+  } else {
+    listing_.insert(listing_.end(), forced_.begin(), forced_.end());
+    for (const Contact& c : contacts_) listing_.push_back(c.body_a), listing_.push_back(c.body_b);
+    std::sort(listing_.begin(), listing_.end());
+    listing_.erase(std::unique(listing_.begin(), listing_.end()), listing_.end());
+  }
   forced_.clear();
-  for (std::size_t i = 0; i < force_.size(); ++i)
-    if (!force_[i].isZero(0.0) || !torque_[i].isZero(0.0)) forced_.push_back(static_cast<BodyIndex>(i));
+  for (const BodyIndex i : listing_)
+    if (!force_[i].isZero(0.0) || !torque_[i].isZero(0.0)) forced_.push_back(i);
 }
 
 void Islands::add_forces(solver::SolverData& solver) const {
@@ -236,10 +251,11 @@ void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedCo
   }
   merged_.insert(merged_.end(), contacts_.begin() + static_cast<std::ptrdiff_t>(k), contacts_.end());
   contacts_.swap(merged_);
-  for (std::size_t i = 0; i < force_.size(); ++i)
+  // (every non-zero entry is listed in forced_)
+  for (const BodyIndex i : forced_)
     if (state.island[i] < 0) force_[i].setZero(), torque_[i].setZero();
   sum_outside(state);
-  list_forced();
+  list_forced(false);
 }
 
 BodyIndex Islands::sleep_island_of(const Model& model, State& state, BodyIndex i, const std::vector<Contact>& contacts,
@@ -273,8 +289,9 @@ void Islands::renumber(State& state, const std::vector<BodyIndex>& to) {
     if (to[j] >= 0) force_[kept] = force_[j], torque_[kept] = torque_[j], ++kept;
   force_.resize(kept);
   torque_.resize(kept);
-  list_forced();
+  list_forced(true);
   marked_.assign(state.island.size(), 0);
+  marked_labels_.clear();
   fresh_.clear();  // sized and zeroed again by the next sleep_ready
 }
 

@@ -50,7 +50,9 @@ class Islands {
   /// their stashed forces copied into `cache` (then sorted by key). `purge`: drop them from the
   /// stash now (a user call); else at the end of the step (purge()), so that a step the guard
   /// undoes finds them still stashed. Returns whether any body woke.
-  bool wake_marked(const Model& model, State& state, std::vector<CachedContact>& cache, bool purge);
+  /// bodies: those that may sleep (the World's non-static ones, ascending; null: all), the only ones visited.
+  bool wake_marked(const Model& model, State& state, std::vector<CachedContact>& cache, bool purge,
+                   const std::vector<BodyIndex>* bodies = nullptr);
   /// Marks the island body i sleeps in to be woken (nothing for a static or awake body).
   void mark(const State& state, BodyIndex i);
   /// Marks the sleeping islands whose kept contacts touch body i (a static or kinematic body that
@@ -119,7 +121,7 @@ class Islands {
   void assign(std::vector<CachedContact> stash, std::vector<Contact> contacts, std::vector<Vec3> force,
               std::vector<Vec3> torque) {
     stash_ = std::move(stash), contacts_ = std::move(contacts), force_ = std::move(force), torque_ = std::move(torque);
-    list_forced();
+    list_forced(true);
   }
   /// A new body (no sleeping contacts).
   void add_body() { force_.emplace_back(Vec3::Zero()), torque_.emplace_back(Vec3::Zero()), fresh_.clear(); }
@@ -137,8 +139,9 @@ class Islands {
   void sleep_ready(const Model& model, State& state, std::vector<CachedContact>& cache,
                    const std::vector<Contact>& contacts, const std::vector<Vec3>& body_force,
                    const std::vector<Vec3>& body_torque, const std::vector<BodyIndex>* bodies);
-  /// forced_ <- the bodies whose force_ or torque_ is not zero (after they change).
-  void list_forced();
+  /// forced_ <- the bodies whose force_ or torque_ is not zero (after they change), found among
+  /// every body (scan_all) or among forced_ and the bodies of contacts_.
+  void list_forced(bool scan_all);
   /// force_, torque_ of the bodies outside sleeping islands (static, kinematic) summed again over contacts_.
   void sum_outside(const State& state);
 
@@ -147,6 +150,8 @@ class Islands {
   std::vector<Contact> merged_;       ///< scratch of sleep_ready
   std::vector<Vec3> force_, torque_;  ///< per body: the force and torque of its sleeping contacts (N)
   std::vector<BodyIndex> forced_;     ///< the bodies whose force_ or torque_ is not zero, ascending
+  std::vector<BodyIndex> listing_;    ///< scratch of list_forced
+  std::vector<std::int32_t> marked_labels_;  ///< the labels set in marked_
   std::vector<std::uint8_t> fresh_;   ///< per body: fell asleep in this call of sleep_ready (N)
   std::vector<int> parent_;           ///< union-find (N)
   std::vector<std::uint8_t> ready_;   ///< per root: every body of its island may sleep now (N)

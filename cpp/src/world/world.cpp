@@ -94,12 +94,12 @@ void World::wake(BodyIndex i) {
   islands_->mark(state_, i);
   // a static or kinematic body changed by a call: the islands resting on it wake
   if (model_.is_static[i] || model_.is_kinematic[i]) islands_->mark_touching(state_, i);
-  islands_->wake_marked(model_, state_, solver_->cache, true);
+  islands_->wake_marked(model_, state_, solver_->cache, true, &moving_);
 }
 
 void World::wake_all() {
   islands_->mark_all(model_, state_);
-  islands_->wake_marked(model_, state_, solver_->cache, true);
+  islands_->wake_marked(model_, state_, solver_->cache, true, &moving_);
 }
 
 void World::wake_touched(double dt) {
@@ -108,7 +108,7 @@ void World::wake_touched(double dt) {
   // sleeping off nothing sleeps (switching it off, or restoring into such a world, wakes all)
   if (!settings_.sleep.enabled) return;
   while (islands_->mark_touched(model_, state_, contacts_base_) &&
-         islands_->wake_marked(model_, state_, solver_->cache, false))
+         islands_->wake_marked(model_, state_, solver_->cache, false, &moving_))
     detect_contacts(dt, contacts_base_);
 }
 
