@@ -20,8 +20,9 @@ signorini runs on 1 thread, with its defaults ("pgs") and with ``set_solver(solv
    round(sqrt(N / 5)) columns on a static floor, sleeping off, dt 1/60: every size is the same pile
    made wider, so a cost that grows only with the bodies and their contacts gives a slope of 1.
    ``--warmup`` untimed steps, then ``--chunks`` chunks of ``--steps`` steps. Printed: ms/step per
-   size, ms per 1,000 boxes, and the least-squares slope of log(ms/step) against log(N) (the
-   issue's target: at most 1.05 from 1,000 to 50,000 boxes).
+   size, ms per 1,000 boxes and per 1,000 contacts, and the least-squares slope of log(ms/step)
+   against log(N) (the issue's target: at most 1.05 from 1,000 to 50,000 boxes), and against the
+   contact count (a wider pile has a few more contacts per box: fewer boxes on its rim).
 ``--tiny`` shrinks both to a smoke test (a few hundred bodies, a few steps).
 """
 from __future__ import annotations
@@ -152,17 +153,20 @@ def format_statics(rows) -> str:
 
 
 def format_bodies(rows) -> str:
-    lines = [f"{'solver':<6}  {'boxes':>7}  {'contacts':>8}  {'ms/step':>9}  {'25-75 %':>17}  {'ms per 1k boxes':>15}"]
+    lines = [f"{'solver':<6}  {'boxes':>7}  {'contacts':>8}  {'ms/step':>9}  {'25-75 %':>17}  {'ms per 1k boxes':>15}  "
+             f"{'ms per 1k contacts':>18}"]
     for r in rows:
         lines.append(f"{r['solver']:<6}  {r['bodies']:>7d}  {r['contacts']:>8d}  {r['ms']:>9.3f}  "
-                     f"{r['q1']:>8.3f}-{r['q3']:<8.3f}  {1e3 * r['ms'] / r['bodies']:>15.3f}")
+                     f"{r['q1']:>8.3f}-{r['q3']:<8.3f}  {1e3 * r['ms'] / r['bodies']:>15.3f}  "
+                     f"{1e3 * r['ms'] / max(r['contacts'], 1):>18.3f}")
     for solver in dict.fromkeys(r["solver"] for r in rows):
         mine = sorted((r for r in rows if r["solver"] == solver), key=lambda r: r["bodies"])
         if len(mine) < 2:
             continue
         s = slope([r["bodies"] for r in mine], [r["ms"] for r in mine])
+        c = slope([r["contacts"] for r in mine], [r["ms"] for r in mine])
         lines.append(f"box pile, {solver}: log-log slope of ms/step against boxes from {mine[0]['bodies']} to "
-                     f"{mine[-1]['bodies']}: {s:.3f} (target: at most 1.05)")
+                     f"{mine[-1]['bodies']}: {s:.3f} (target: at most 1.05); against contacts: {c:.3f}")
     return "\n".join(lines)
 
 

@@ -537,7 +537,8 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   }
   // keys were written in pair order, parts in order within a pair: sorted (a static-only shape
   // taken as A can reorder two pairs' keys, so sort to be sure; it is nearly sorted)
-  std::sort(memory.separating.next.begin(), memory.separating.next.end());
+  if (!std::is_sorted(memory.separating.next.begin(), memory.separating.next.end()))
+    std::sort(memory.separating.next.begin(), memory.separating.next.end());
   std::swap(memory.separating.last, memory.separating.next);
 }
 
