@@ -279,12 +279,14 @@ def large_world(tiny: bool = False, scale: float = 0.05, **world_kwargs) -> Benc
                       releases=releases, box3d="large_world")
 
 
-def sleep_pile(tiny: bool = False, **world_kwargs) -> BenchScene:
+def sleep_pile(tiny: bool = False, across: int | None = None, layers: int | None = None, **world_kwargs) -> BenchScene:
     """2,000 boxes of 0.5 m (tiny: 3 x 3 x 2), 20 x 20 columns of 5, settled 150 steps (2.5 s: Bullet
-    and Rapier put a body to sleep after 2 s at rest, Box3D after 0.5 s), then 120 timed."""
-    across, layers = (3, 2) if tiny else (20, 5)
+    and Rapier put a body to sleep after 2 s at rest, Box3D after 0.5 s), then 120 timed.
+    across, layers: another number of columns a side and of boxes a column (bench_slope.py's piles)."""
+    across, layers = (across or (3 if tiny else 20)), (layers or (2 if tiny else 5))
     world = sg.World(gravity=GRAVITY, **world_kwargs)
-    _ground(world, 50.0, 50.0)
+    half = max(50.0, 0.52 * across)
+    _ground(world, half, half)
     rng = np.random.default_rng(2000)
     h, pitch = 0.25, 0.52
     for layer in range(layers):

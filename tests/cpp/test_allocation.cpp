@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <new>
 #include <random>
+#include <vector>
 
 #include "random_scene.hpp"
 #include "signorini/world.hpp"
@@ -170,8 +171,7 @@ TEST(Allocation, StepsOfABusyPileWithSpinRowsAllocateNothingAfterWarmUp) {
 
 TEST(Allocation, StepsOfASleepingPileAllocateNothing) {
   // 27 cubes in 3 x 3 columns of 3 on a plane, sleeping on: once the pile sleeps, a step touches
-  // none of its buffers (sleep and wake themselves may allocate: FCL's trees register a body that
-  // falls asleep or wakes, and the sleeping islands' warm-start forces grow their list)
+  // none of its buffers (steps in which islands fall asleep and wake: the next test)
   WorldSettings settings;
   settings.sleep.enabled = true;
   World w(settings);
@@ -189,6 +189,76 @@ TEST(Allocation, StepsOfASleepingPileAllocateNothing) {
   const std::array<long, 3> n = allocations_after_warm_up(w, 1.0 / 240.0);
   for (std::size_t i = 1; i < w.num_bodies(); ++i) ASSERT_EQ(w.state().awake[i], 0) << "body " << i << " awake";
   EXPECT_EQ(n, (std::array<long, 3>{0, 0, 0}));
+}
+
+/// Steps in which islands fall asleep and are woken by a body landing on them: 4 cubes on a plane,
+/// each with a ball that is lifted 2 m above it every 3 s (a setter, between steps, not counted).
+/// The cube falls asleep alone while the ball falls (0.63 s > time_to_sleep 0.5 s), the ball lands
+/// on it and wakes it inside a step, and ball and cube fall asleep together once at rest. Returns
+/// the heap allocations of the steps alone in each of 3 windows of `cycles` cycles after `warm_up`
+/// cycles, and the sleep and wake events the steps saw in them.
+struct SleepWakeCount {
+  std::array<long, 3> allocations{};
+  long fell_asleep = 0, woke = 0;
+};
+SleepWakeCount sleep_wake_allocations(int warm_up, int cycles) {
+  WorldSettings settings;
+  settings.sleep.enabled = true;
+  World w(settings);
+  BodyDesc ground;
+  ground.is_static = true;
+  ground.shape = Plane(Vec3(0, 0, 1), 0.0);
+  w.add_body(ground);
+  std::vector<BodyIndex> balls;
+  for (int k = 0; k < 4; ++k) {
+    BodyDesc cube;
+    cube.shape = Box(Vec3(0.1, 0.1, 0.1));
+    cube.density = 500.0;
+    cube.position = Vec3(0.5 * k, 0.0, 0.1);
+    w.add_body(cube);
+    BodyDesc ball;
+    ball.shape = Sphere(0.05);
+    ball.density = 500.0;
+    ball.position = Vec3(0.5 * k, 0.0, 0.3);
+    balls.push_back(w.add_body(ball));
+  }
+  const double dt = 1.0 / 60.0;
+  SleepWakeCount out;
+  std::vector<std::uint8_t> awake = w.state().awake;
+  const auto cycle = [&](long* allocations) {
+    for (std::size_t k = 0; k < balls.size(); ++k) {
+      const BodyIndex b = balls[k];
+      w.set_position(b, Vec3(0.5 * static_cast<double>(k), 0.0, 2.2));
+      w.set_velocity(b, Vec3::Zero());
+      w.set_angular_velocity(b, Vec3::Zero());
+    }
+    awake = w.state().awake;
+    for (int s = 0; s < 180; ++s) {
+      const long n = allocations_during([&] { w.step(dt); });
+      if (allocations) *allocations += n;
+      for (std::size_t i = 0; i < awake.size(); ++i) {
+        if (awake[i] && !w.state().awake[i]) ++out.fell_asleep;
+        if (!awake[i] && w.state().awake[i]) ++out.woke;
+        awake[i] = w.state().awake[i];
+      }
+    }
+  };
+  for (int c = 0; c < warm_up; ++c) cycle(nullptr);
+  out.fell_asleep = out.woke = 0;
+  for (long& n : out.allocations)
+    for (int c = 0; c < cycles; ++c) cycle(&n);
+  std::printf("sleep/wake: heap allocations of the steps in 3 windows of %d cycles after warm-up: %ld %ld %ld "
+              "(%ld bodies fell asleep, %ld woke inside steps)\n",
+              cycles, out.allocations[0], out.allocations[1], out.allocations[2], out.fell_asleep, out.woke);
+  return out;
+}
+
+TEST(Allocation, StepsWhereIslandsSleepAndWakeAllocateNothingAfterWarmUp) {
+  const SleepWakeCount n = sleep_wake_allocations(4, 4);
+  // the scene does what it is for: cubes fall asleep alone and are woken by their balls in steps
+  EXPECT_GE(n.fell_asleep, 3 * 4 * 4);
+  EXPECT_GE(n.woke, 3 * 4 * 4);
+  EXPECT_EQ(n.allocations, (std::array<long, 3>{0, 0, 0}));
 }
 
 TEST(Allocation, TheCounterSeesAnAllocation) {

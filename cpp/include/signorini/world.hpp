@@ -273,6 +273,9 @@ class World {
   void wake_touched(double dt);
   /// The islands stage, after a kept step of dt: timers, islands, sleep (Islands::end_step).
   void end_islands(double dt);
+  /// After bodies are added or removed, or a state restored: moving_ listed again (relist), and the
+  /// stages' per-body scratch (and the guard's checkpoint) taken whole again at the next step.
+  void bodies_changed(bool relist);
   /// Keeps a step the guard let through: its last contacts and figures, what the meshes remember,
   /// the new rotations' quaternions; the one-step forces are spent.
   void commit_step(const SolverStats& stats);
@@ -303,6 +306,9 @@ class World {
   std::vector<Vec3> anchor_a_, anchor_b_;///< a carried contact's point moved with A and with B
   std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
   std::vector<double> impulse_sum_;      ///< per contact: its normal impulse over the substeps so far (N s)
+  /// the non-static bodies, ascending: the only ones a step moves, so the only ones its per-body
+  /// stages visit (a step's cost grows with them and the contacts, not with static bodies)
+  std::vector<BodyIndex> moving_;
 };
 
 }  // namespace signorini

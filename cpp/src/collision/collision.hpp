@@ -161,7 +161,9 @@ struct ContactMemory {
   /// Body i was placed at p, not moved there: no travel, no crossing.
   void placed(BodyIndex i, const Vec3& p);
   /// A successful step that started with centres p_start (N): its crossings become the memory.
-  void commit(const std::vector<Vec3>& p_start);
+  /// bodies: those whose centres are copied (the non-static ones, ascending; null: all); a static
+  /// body's centre changes only by placed().
+  void commit(const std::vector<Vec3>& p_start, const std::vector<BodyIndex>* bodies = nullptr);
   /// Drops the bodies with to[i] < 0 and renumbers the rest to to[i] (crossings of dropped meshes
   /// are forgotten); storage stays in place.
   void remove(const std::vector<BodyIndex>& to);
@@ -346,8 +348,10 @@ void convex_by_support(const Item& a, const Item& b, const Distance& dist, doubl
 void trimesh_item(const TriangleMesh& a, const Pose& pa, const TriangleQuery& query, const Item& b,
                   double threshold, TrianglePast& past, Scratch& scratch, std::vector<Contact>& out);
 
-/// Candidate pairs from bounding volumes. Holds one FCL object per non-plane body: dynamic ones in
-/// a DynamicAABBTree updated incrementally each step, static ones in a second tree built once.
+/// Candidate pairs from bounding volumes. Holds FCL objects for the non-plane bodies: static ones in
+/// a DynamicAABBTree built once, awake dynamic ones in a second one refitted each step, sleeping ones
+/// in a third one (their frozen boxes, refitted only when the margin changes). A step's work grows
+/// with the awake bodies and their pairs, not with the static or sleeping ones.
 class BroadPhase {
  public:
   BroadPhase();
@@ -360,12 +364,15 @@ class BroadPhase {
   /// Pairs (i, j), i < j, whose AABBs, grown by reach[i] + margin/2 and reach[j] + margin/2,
   /// overlap; at least one of them dynamic and awake (state.asleep: sleeping bodies sit in a tree
   /// of their own, neither refitted nor collided with each other or with static bodies; a body
-  /// moves between the trees as it falls asleep or wakes); planes excluded. Sorted
+  /// moves between the trees as it falls asleep or wakes, allocating nothing: it is registered in
+  /// both once, parked far away in the one it is not in); planes excluded. Sorted
   /// lexicographically, written into out (cleared first; its capacity is reused).
   void pairs(const Model& model, const State& state, const std::vector<double>& reach, double margin,
              std::vector<std::pair<BodyIndex, BodyIndex>>& out);
   /// The triangle query of body i if it is a TriangleMesh, else null.
   const TriangleQuery* triangles(BodyIndex i) const;
+  /// The bodies whose shape is a Plane (not in either tree), ascending.
+  const std::vector<BodyIndex>& planes() const;
 
  private:
   struct Impl;
@@ -373,9 +380,11 @@ class BroadPhase {
 };
 
 /// Speculative reach of every body for a step of dt: s_b = dt (|v| + dt |g| + |omega| rho) for a
-/// dynamic body, 0 for a static or sleeping one (m); written into reach (resized to N).
+/// dynamic body, 0 for a static or sleeping one (m); written into reach (sized N). bodies: the
+/// bodies to write (the World's non-static ones, ascending); null: all. The others' entries stay
+/// as they are: 0 (set so when reach is sized to N).
 void speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity,
-                       std::vector<double>& reach);
+                       std::vector<double>& reach, const std::vector<BodyIndex>* bodies = nullptr);
 
 /// Which points one body pair can close in this step: those with gap < margin, and the speculative
 /// ones with gap < margin + dt (u + dt (g_n + (|omega_A|^2 rho_A + |omega_B|^2 rho_B) / 2)),
@@ -430,9 +439,11 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
 /// masses), and none where nothing moves: a sleeping body (state.asleep) against a sleeping, static
 /// or still kinematic one (a sleeping body's speculative reach is 0). memory: read (previous
 /// centres, crossings; empty: nothing remembered) and written (the separating-face cache; this
-/// detection's crossings to memory.crossing_next).
+/// detection's crossings to memory.crossing_next). bodies: the bodies that can move (the World's
+/// non-static ones, ascending; null: all), the only ones whose per-body entries (reach, crossings)
+/// are written, so that a detection's cost grows with them and the pairs, not with static bodies.
 void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
                        BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& out,
-                       const parallel::Pool* pool = nullptr);
+                       const parallel::Pool* pool = nullptr, const std::vector<BodyIndex>* bodies = nullptr);
 
 }  // namespace signorini::collision

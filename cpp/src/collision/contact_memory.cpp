@@ -10,6 +10,7 @@ namespace signorini::collision {
 void ContactMemory::add_body(const Vec3& p) {
   previous_p.push_back(p);
   crossing.emplace_back();
+  crossing_next.clear();  // sized (empty) again by the next detection
 }
 
 void ContactMemory::placed(BodyIndex i, const Vec3& p) {
@@ -17,8 +18,12 @@ void ContactMemory::placed(BodyIndex i, const Vec3& p) {
   crossing[i] = Crossing();
 }
 
-void ContactMemory::commit(const std::vector<Vec3>& p_start) {
-  std::copy(p_start.begin(), p_start.end(), previous_p.begin());
+void ContactMemory::commit(const std::vector<Vec3>& p_start, const std::vector<BodyIndex>* bodies) {
+  if (bodies) {
+    for (const BodyIndex i : *bodies) previous_p[i] = p_start[i];
+  } else {
+    std::copy(p_start.begin(), p_start.end(), previous_p.begin());
+  }
   crossing.swap(crossing_next);
 }
 
@@ -33,6 +38,7 @@ void ContactMemory::remove(const std::vector<BodyIndex>& to) {
   }
   previous_p.erase(previous_p.begin() + kept, previous_p.end());
   crossing.erase(crossing.begin() + kept, crossing.end());
+  crossing_next.clear();  // sized (empty) again by the next detection
   for (Crossing& c : crossing) {
     if (c.mesh >= 0 && to[c.mesh] < 0) c = Crossing();
     else if (c.mesh >= 0) c.mesh = to[c.mesh];

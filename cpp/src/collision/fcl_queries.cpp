@@ -91,6 +91,14 @@ class Proxy : public fcl::CollisionObjectd {
     aabb.min_ -= Vec3::Constant(by);
     aabb.max_ += Vec3::Constant(by);
   }
+  /// Out of the way: a 1 m box of its own, far from anything a world holds, at z = side * 1e9 m
+  /// (side +1 in the awake tree, -1 in the sleeping one, so parked boxes of the two never meet).
+  void park(double side) {
+    const Vec3 c(4.0 * index_, 0.0, side * kParkedAt);
+    aabb.min_ = c - Vec3::Constant(0.5);
+    aabb.max_ = c + Vec3::Constant(0.5);
+  }
+  static constexpr double kParkedAt = 1e9;
   BodyIndex index() const { return index_; }
 
  private:
@@ -186,11 +194,19 @@ struct BroadPhase::Impl {
   std::vector<std::unique_ptr<Proxy>> proxy;  ///< by body index; null for planes
   std::vector<std::unique_ptr<TriangleQuery>> triangles;  ///< by body index; set for triangle meshes
   std::vector<BodyIndex> dynamic_bodies;
+  std::vector<BodyIndex> planes;  ///< bodies whose shape is a Plane, ascending
   fcl::DynamicAABBTreeCollisionManagerd dynamic_tree;
   fcl::DynamicAABBTreeCollisionManagerd static_tree;
-  /// sleeping bodies: out of dynamic_tree while they sleep, their AABBs grown by margin/2 only
+  /// sleeping bodies, their AABBs grown by margin/2 only. Every non-static body is registered in
+  /// both dynamic_tree and sleep_tree once, as it is added, with a proxy in each; the tree it is not
+  /// in at the moment holds its proxy parked (Proxy::park), so falling asleep or waking moves two
+  /// leaves (FCL re-inserts a leaf in place, allocating nothing) instead of registering anew
+  /// (which allocates FCL's table entry and tree nodes)
   fcl::DynamicAABBTreeCollisionManagerd sleep_tree;
-  std::vector<char> in_sleep_tree;  ///< by body index
+  std::vector<std::unique_ptr<Proxy>> sleep_proxy;  ///< by body index; null for static bodies and planes
+  std::vector<char> in_sleep_tree;  ///< by body index: its sleep_proxy holds its box (else parked)
+  /// the proxies that moved in or out of parking in this call (scratch, reserved to the body count)
+  std::vector<fcl::CollisionObjectd*> moved_awake, moved_asleep;
   bool static_dirty = false;
   double static_margin = -1.0;  ///< margin the static AABBs were last grown by
   double sleep_margin = -1.0;   ///< margin the sleeping AABBs were last grown by
@@ -205,12 +221,15 @@ void BroadPhase::add_body(BodyIndex i, const Shape& shape, bool is_static, const
     throw std::logic_error("BroadPhase::add_body: bodies must be added in index order");
   impl_->triangles.emplace_back(nullptr);
   impl_->in_sleep_tree.push_back(0);
+  impl_->sleep_proxy.emplace_back(nullptr);
   if (const auto* mesh = std::get_if<TriangleMesh>(&shape)) impl_->triangles.back() = std::make_unique<TriangleQuery>(*mesh);
   if (std::holds_alternative<Plane>(shape)) {
     impl_->proxy.emplace_back(nullptr);
+    impl_->planes.push_back(i);
     return;
   }
-  auto proxy = std::make_unique<Proxy>(make_geometry(shape), i);
+  const std::shared_ptr<fcl::CollisionGeometryd> geometry = make_geometry(shape);
+  auto proxy = std::make_unique<Proxy>(geometry, i);
   proxy->set_pose(shape, p, R);
   if (is_static) {
     impl_->static_tree.registerObject(proxy.get());
@@ -218,6 +237,13 @@ void BroadPhase::add_body(BodyIndex i, const Shape& shape, bool is_static, const
   } else {
     impl_->dynamic_tree.registerObject(proxy.get());
     impl_->dynamic_bodies.push_back(i);
+    auto parked = std::make_unique<Proxy>(geometry, i);
+    parked->setTransform(R, p);
+    parked->park(-1.0);
+    impl_->sleep_tree.registerObject(parked.get());
+    impl_->sleep_proxy.back() = std::move(parked);
+    impl_->moved_awake.reserve(impl_->dynamic_bodies.size());
+    impl_->moved_asleep.reserve(impl_->dynamic_bodies.size());
   }
   impl_->proxy.push_back(std::move(proxy));
 }
@@ -244,27 +270,39 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
     m.static_margin = margin;
   }
   // sleeping bodies: moved to their own tree as they fall asleep, back as they wake (their poses
-  // are frozen, so their boxes are set once)
+  // are frozen, so their boxes are set once); the other tree's proxy is parked
   const bool sleep_refit = m.sleeping > 0 && m.sleep_margin != margin;
+  m.moved_awake.clear();
+  m.moved_asleep.clear();
   for (BodyIndex i : m.dynamic_bodies) {
     const bool asleep = state.asleep(i);
     if (asleep == static_cast<bool>(m.in_sleep_tree[i]) && !(asleep && sleep_refit)) continue;
-    Proxy* proxy = m.proxy[i].get();
+    Proxy* awake_proxy = m.proxy[i].get();
+    Proxy* sleeping_proxy = m.sleep_proxy[i].get();
     if (asleep && m.in_sleep_tree[i]) {  // the margin changed
-      proxy->set_pose(model.shape[i], state.p[i], state.R[i]);
-      proxy->grow_aabb(0.5 * margin);
+      sleeping_proxy->set_pose(model.shape[i], state.p[i], state.R[i]);
+      sleeping_proxy->grow_aabb(0.5 * margin);
       continue;
     }
-    (asleep ? m.dynamic_tree : m.sleep_tree).unregisterObject(proxy);
     if (asleep) {
-      proxy->set_pose(model.shape[i], state.p[i], state.R[i]);
-      proxy->grow_aabb(0.5 * margin);
-      m.sleep_tree.registerObject(proxy);
+      awake_proxy->park(1.0);
+      sleeping_proxy->set_pose(model.shape[i], state.p[i], state.R[i]);
+      sleeping_proxy->grow_aabb(0.5 * margin);
     } else {
-      m.dynamic_tree.registerObject(proxy);
+      sleeping_proxy->park(-1.0);
+      awake_proxy->set_pose(model.shape[i], state.p[i], state.R[i]);
+      awake_proxy->grow_aabb(reach[i] + 0.5 * margin);
     }
+    m.moved_awake.push_back(awake_proxy);
+    m.moved_asleep.push_back(sleeping_proxy);
     m.in_sleep_tree[i] = asleep;
     m.sleeping += asleep ? 1 : std::size_t(-1);
+  }
+  // the moved leaves re-inserted where their new boxes are (a refit alone would stretch their old
+  // neighbours' boxes out to the parking place)
+  if (!m.moved_awake.empty()) {
+    m.dynamic_tree.update(m.moved_awake);
+    m.sleep_tree.update(m.moved_asleep);
   }
   if (sleep_refit) m.sleep_tree.update();
   m.sleep_margin = margin;
@@ -284,5 +322,7 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
 }
 
 const TriangleQuery* BroadPhase::triangles(BodyIndex i) const { return impl_->triangles.at(i).get(); }
+
+const std::vector<BodyIndex>& BroadPhase::planes() const { return impl_->planes; }
 
 }  // namespace signorini::collision

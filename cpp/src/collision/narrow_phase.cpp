@@ -355,12 +355,15 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
 }
 
 void speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity,
-                       std::vector<double>& reach) {
-  reach.assign(model.size(), 0.0);
-  for (std::size_t i = 0; i < model.size(); ++i) {
-    if (model.is_static[i] || state.asleep(i)) continue;  // a sleeping body does not move
-    reach[i] = dt * (state.v[i].norm() + dt * gravity.norm() + state.omega[i].norm() * model.rho[i]);
-  }
+                       std::vector<double>& reach, const std::vector<BodyIndex>* bodies) {
+  if (bodies == nullptr) reach.assign(model.size(), 0.0);
+  parallel::fit(reach, model.size(), 0.0);
+  parallel::each_body(bodies, model.size(), [&](std::size_t i) {
+    // a static or sleeping body does not move
+    reach[i] = model.is_static[i] || state.asleep(i)
+                   ? 0.0
+                   : dt * (state.v[i].norm() + dt * gravity.norm() + state.omega[i].norm() * model.rho[i]);
+  });
 }
 
 PairMotion::PairMotion(const Model& model, const State& state, BodyIndex a, BodyIndex b, double dt_,
@@ -438,19 +441,22 @@ PairContext PairContext::swapped() const {
 
 void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
                        BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& contacts,
-                       const parallel::Pool* pool) {
-  memory.crossing_next.assign(model.size(), Crossing());
+                       const parallel::Pool* pool, const std::vector<BodyIndex>* bodies) {
+  // crossings are found for bodies that move only: the others' entries stay empty
+  if (bodies == nullptr) memory.crossing_next.assign(model.size(), Crossing());
+  parallel::fit(memory.crossing_next, model.size(), Crossing());
+  parallel::each_body(bodies, model.size(), [&](std::size_t i) { memory.crossing_next[i] = Crossing(); });
   const bool remembers = memory.previous_p.size() == model.size();
   std::vector<double>& reach = scratch.reach;
-  speculative_reach(model, state, dt, gravity, reach);
+  speculative_reach(model, state, dt, gravity, reach, bodies);
   // candidate pairs: the broad phase's, plus every plane against every dynamic body
   std::vector<std::pair<BodyIndex, BodyIndex>>& pairs = scratch.pairs;
   broad_phase.pairs(model, state, reach, margin, pairs);
-  const BodyIndex n = static_cast<BodyIndex>(model.size());
-  for (BodyIndex k = 0; k < n; ++k) {
-    if (!is_plane(model.shape[k])) continue;
-    for (BodyIndex b = 0; b < n; ++b)
+  for (const BodyIndex k : broad_phase.planes()) {
+    parallel::each_body(bodies, model.size(), [&](std::size_t i) {
+      const auto b = static_cast<BodyIndex>(i);
       if (!model.is_static[b] && !state.asleep(b)) pairs.emplace_back(std::min(k, b), std::max(k, b));
+    });
   }
   std::sort(pairs.begin(), pairs.end());
   // collision filtering: disabled bodies, filter bits, excluded pairs, two infinite masses
@@ -531,7 +537,8 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   }
   // keys were written in pair order, parts in order within a pair: sorted (a static-only shape
   // taken as A can reorder two pairs' keys, so sort to be sure; it is nearly sorted)
-  std::sort(memory.separating.next.begin(), memory.separating.next.end());
+  if (!std::is_sorted(memory.separating.next.begin(), memory.separating.next.end()))
+    std::sort(memory.separating.next.begin(), memory.separating.next.end());
   std::swap(memory.separating.last, memory.separating.next);
 }
 

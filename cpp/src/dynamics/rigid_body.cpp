@@ -55,76 +55,81 @@ Vec3 free_rotation(const Mat3& I, const Mat3& I_inv, const Vec3& w, double dt, G
 
 void unconstrained_velocity(const Model& model, const State& state, const Vec3& gravity, double dt,
                             Gyroscopic gyroscopic, std::vector<Vec3>& v_star, std::vector<Vec3>& omega_star,
-                            const parallel::Pool* pool) {
+                            const parallel::Pool* pool, const std::vector<BodyIndex>* bodies) {
   const std::size_t n = model.size();
-  v_star.resize(n);
-  omega_star.resize(n);
-  parallel::for_ranges(pool, n, kBodiesPerTask, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) {
-      if (model.is_static[i]) {
-        v_star[i].setZero();
-        omega_star[i].setZero();
-        continue;
-      }
-      if (model.is_kinematic[i] || !model.enabled[i] || state.asleep(i)) {
-        // moved by its own velocity only (kinematic), or frozen (disabled, asleep): no gravity, no forces
-        v_star[i] = state.v[i];
-        omega_star[i] = state.omega[i];
-        continue;
-      }
-      const Mat3& R = state.R[i];
-      const Vec3 f = state.f_ext[i] + state.f_step[i];
-      const Vec3 tau = state.tau_ext[i] + state.tau_step[i];
-      // linear: m p_dot* = m p_dot + dt (m g + f_ext)
-      v_star[i] = state.v[i] + dt * (gravity + model.inv_mass[i] * f);
-      if (gyroscopic == Gyroscopic::Explicit) {
-        // angular: I_w omega* = I_w omega + dt (tau_ext - omega x (I_w omega))
-        const Vec3& w = state.omega[i];
-        const Vec3 L = R * (model.I_body[i] * (R.transpose() * w));
-        const Vec3 torque = tau - w.cross(L);
-        omega_star[i] = w + dt * (R * (model.I_body_inv[i] * (R.transpose() * torque)));
-        continue;
-      }
-      // angular, body frame: the free rotation, then the external torque's impulse
-      const Vec3 w_body = R.transpose() * state.omega[i];
-      const Vec3 w1 = free_rotation(model.I_body[i], model.I_body_inv[i], w_body, dt, gyroscopic);
-      omega_star[i] = R * (w1 + dt * (model.I_body_inv[i] * (R.transpose() * tau)));
+  parallel::fit(v_star, n, Vec3(Vec3::Zero()));
+  parallel::fit(omega_star, n, Vec3(Vec3::Zero()));
+  parallel::for_bodies(pool, bodies, n, kBodiesPerTask, [&](std::size_t i) {
+    if (model.is_static[i]) {
+      v_star[i].setZero();
+      omega_star[i].setZero();
+      return;
     }
+    if (model.is_kinematic[i] || !model.enabled[i] || state.asleep(i)) {
+      // moved by its own velocity only (kinematic), or frozen (disabled, asleep): no gravity, no forces
+      v_star[i] = state.v[i];
+      omega_star[i] = state.omega[i];
+      return;
+    }
+    const Mat3& R = state.R[i];
+    const Vec3 f = state.f_ext[i] + state.f_step[i];
+    const Vec3 tau = state.tau_ext[i] + state.tau_step[i];
+    // linear: m p_dot* = m p_dot + dt (m g + f_ext)
+    v_star[i] = state.v[i] + dt * (gravity + model.inv_mass[i] * f);
+    if (gyroscopic == Gyroscopic::Explicit) {
+      // angular: I_w omega* = I_w omega + dt (tau_ext - omega x (I_w omega))
+      const Vec3& w = state.omega[i];
+      const Vec3 L = R * (model.I_body[i] * (R.transpose() * w));
+      const Vec3 torque = tau - w.cross(L);
+      omega_star[i] = w + dt * (R * (model.I_body_inv[i] * (R.transpose() * torque)));
+      return;
+    }
+    // angular, body frame: the free rotation, then the external torque's impulse
+    const Vec3 w_body = R.transpose() * state.omega[i];
+    const Vec3 w1 = free_rotation(model.I_body[i], model.I_body_inv[i], w_body, dt, gyroscopic);
+    omega_star[i] = R * (w1 + dt * (model.I_body_inv[i] * (R.transpose() * tau)));
   });
 }
 
 void integrate(const Model& model, State& state, const std::vector<Vec3>& v, const std::vector<Vec3>& omega,
-               double dt, const parallel::Pool* pool) {
-  parallel::for_ranges(pool, model.size(), kBodiesPerTask, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) {
-      if (model.is_static[i] || !model.enabled[i] || state.asleep(i)) continue;  // asleep: bit for bit
-      state.R[i] = math::orthonormalize(math::rodrigues(omega[i], dt) * state.R[i]);
-      state.p[i] += dt * v[i];
-    }
+               double dt, const parallel::Pool* pool, const std::vector<BodyIndex>* bodies) {
+  parallel::for_bodies(pool, bodies, model.size(), kBodiesPerTask, [&](std::size_t i) {
+    if (model.is_static[i] || !model.enabled[i] || state.asleep(i)) return;  // asleep: bit for bit
+    state.R[i] = math::orthonormalize(math::rodrigues(omega[i], dt) * state.R[i]);
+    state.p[i] += dt * v[i];
   });
 }
 
-void apply_impulses(const Model& model, State& state) {
-  for (std::size_t i = 0; i < model.size(); ++i) {
+void apply_impulses(const Model& model, State& state, const std::vector<BodyIndex>* bodies) {
+  parallel::each_body(bodies, model.size(), [&](std::size_t i) {
     Vec3& J = state.impulse[i];
     Vec3& L = state.angular_impulse[i];
-    if (J.squaredNorm() == 0.0 && L.squaredNorm() == 0.0) continue;
+    if (J.squaredNorm() == 0.0 && L.squaredNorm() == 0.0) return;
     if (model.enabled[i] && !model.is_static[i] && !model.is_kinematic[i]) {
       state.v[i] += model.inv_mass[i] * J;
       state.omega[i] += inverse_inertia_world(model, state, i) * L;
     }
     J.setZero();
     L.setZero();
-  }
+  });
 }
 
 void advance(const Model& model, State& state, const std::vector<Vec3>& v_move, const std::vector<Vec3>& omega_move,
-             const std::vector<Vec3>& v, const std::vector<Vec3>& omega, double h, const parallel::Pool* pool) {
-  integrate(model, state, v_move, omega_move, h, pool);
+             const std::vector<Vec3>& v, const std::vector<Vec3>& omega, double h, const parallel::Pool* pool,
+             const std::vector<BodyIndex>* bodies) {
+  integrate(model, state, v_move, omega_move, h, pool, bodies);
   if (v.size() != state.v.size() || omega.size() != state.omega.size())
     throw std::logic_error("advance: velocity arrays do not match the state");
-  std::copy(v.begin(), v.end(), state.v.begin());  // copied, not swapped: the storage stays in place
-  std::copy(omega.begin(), omega.end(), state.omega.begin());
+  // copied, not swapped: the storage stays in place (static bodies' entries are zero in both)
+  if (bodies) {
+    for (const BodyIndex i : *bodies) {
+      state.v[i] = v[i];
+      state.omega[i] = omega[i];
+    }
+  } else {
+    std::copy(v.begin(), v.end(), state.v.begin());
+    std::copy(omega.begin(), omega.end(), state.omega.begin());
+  }
   state.time += h;
 }
 

@@ -36,9 +36,12 @@ Mat3 inverse_inertia_world(const Model& model, const State& state, std::size_t i
 /// (d(I_w omega)/dt = tau); the course README flips it.
 /// Outputs v_star, omega_star (one per body, world). Bodies split over pool's threads (null: the
 /// calling thread); each body's value does not depend on it.
+/// bodies: the bodies to write (ascending; the World passes its non-static ones); null: all. The
+/// entries of the others are left as they are: zero (set so when the arrays are sized to N), as
+/// every static body's velocity is.
 void unconstrained_velocity(const Model& model, const State& state, const Vec3& gravity, double dt,
                             Gyroscopic gyroscopic, std::vector<Vec3>& v_star, std::vector<Vec3>& omega_star,
-                            const parallel::Pool* pool = nullptr);
+                            const parallel::Pool* pool = nullptr, const std::vector<BodyIndex>* bodies = nullptr);
 
 /// Free rotation of one body over dt in body coordinates: w (rad/s) -> w' by the chosen rule
 /// (no torque). I is the body inertia (kg m^2).
@@ -47,19 +50,22 @@ Vec3 free_rotation(const Mat3& I, const Mat3& I_inv, const Vec3& w, double dt, G
 /// Moves every dynamic and kinematic body's pose with the velocities v, omega (N, world):
 /// R <- orthonormalize(exp([omega] dt) R), p <- p + dt v. Static, disabled and sleeping bodies
 /// (state.asleep) do not move: their poses stay bit for bit.
-/// Bodies split over pool's threads (null: the calling thread).
+/// Bodies split over pool's threads (null: the calling thread); bodies: those to visit (null: all;
+/// the World passes its non-static ones, the only ones that can move).
 void integrate(const Model& model, State& state, const std::vector<Vec3>& v, const std::vector<Vec3>& omega,
-               double dt, const parallel::Pool* pool = nullptr);
+               double dt, const parallel::Pool* pool = nullptr, const std::vector<BodyIndex>* bodies = nullptr);
 
 /// The pending impulses (state.impulse J, state.angular_impulse L; N s and N m s, world) change
 /// the velocities of enabled dynamic bodies, v += J / m and omega += I_w^-1 L, and are spent
-/// (zeroed) for every body.
-void apply_impulses(const Model& model, State& state);
+/// (zeroed) for every body of `bodies` (null: all; a static body never has one).
+void apply_impulses(const Model& model, State& state, const std::vector<BodyIndex>* bodies = nullptr);
 
 /// The end of a substep of h: the poses move with v_move, omega_move (integrate), then the
 /// velocities become v, omega (copied into the state's storage, which NumPy views see) and the
-/// time advances by h. All arrays (N, world).
+/// time advances by h. All arrays (N, world); bodies as for integrate (the velocities of the others,
+/// static bodies', are zero in both).
 void advance(const Model& model, State& state, const std::vector<Vec3>& v_move, const std::vector<Vec3>& omega_move,
-             const std::vector<Vec3>& v, const std::vector<Vec3>& omega, double h, const parallel::Pool* pool = nullptr);
+             const std::vector<Vec3>& v, const std::vector<Vec3>& omega, double h, const parallel::Pool* pool = nullptr,
+             const std::vector<BodyIndex>* bodies = nullptr);
 
 }  // namespace signorini::dynamics

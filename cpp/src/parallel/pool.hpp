@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <memory>
 #include <type_traits>
+#include <vector>
 
 namespace signorini::parallel {
 
@@ -63,6 +64,33 @@ void for_ranges(const Pool* pool, std::size_t n, std::size_t grain, F&& f) {
     pool->for_ranges(n, grain, f);
   else if (n > 0)
     f(std::size_t(0), n);
+}
+
+/// f(i) for every body i of `bodies` (null: every i in [0, n)), the list split over pool's threads
+/// in ranges of at least `grain` entries (on the calling thread when pool is null). The World
+/// passes its non-static bodies, so that a stage over bodies costs nothing per static body.
+template <class F>
+void for_bodies(const Pool* pool, const std::vector<int>* bodies, std::size_t n, std::size_t grain, F&& f) {
+  for_ranges(pool, bodies ? bodies->size() : n, grain, [&](std::size_t first, std::size_t end) {
+    for (std::size_t k = first; k < end; ++k) f(bodies ? static_cast<std::size_t>((*bodies)[k]) : k);
+  });
+}
+
+/// f(i) for every body i of `bodies` (null: every i in [0, n)), in order, on the calling thread.
+template <class F>
+void each_body(const std::vector<int>* bodies, std::size_t n, F&& f) {
+  if (bodies) {
+    for (const int i : *bodies) f(static_cast<std::size_t>(i));
+  } else {
+    for (std::size_t i = 0; i < n; ++i) f(i);
+  }
+}
+
+/// v sized n: when it is not, every entry becomes `zero` (entries a list-driven stage never
+/// writes, those of static bodies, keep that value).
+template <class T>
+void fit(std::vector<T>& v, std::size_t n, const T& zero) {
+  if (v.size() != n) v.assign(n, zero);
 }
 
 }  // namespace signorini::parallel

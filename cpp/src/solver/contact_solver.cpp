@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "dynamics/rigid_body.hpp"
+#include "parallel/pool.hpp"
 #include "solver/rows.hpp"
 
 namespace signorini::solver {
@@ -92,16 +93,17 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   const std::size_t N = model.size(), K = contacts.size();
   SolverStats stats;
   stats.contacts = static_cast<int>(K);
-  data.body_force.assign(N, Vec3::Zero());
-  data.body_torque.assign(N, Vec3::Zero());
-  data.qd_p.assign(N, BodyVelocity());
-  data.qd.resize(N);
-  data.dI_inv.resize(N);
-  for (std::size_t i = 0; i < N; ++i) {
+  clear_body_forces(data, N);
+  // per body (the listed ones; the others' entries stay zero): velocities in, dt I^-1
+  parallel::fit(data.qd_p, N, BodyVelocity());
+  parallel::fit(data.qd, N, BodyVelocity());
+  parallel::fit(data.dI_inv, N, Mat3(Mat3::Zero()));
+  parallel::each_body(data.bodies, N, [&](std::size_t i) {
+    data.qd_p[i] = BodyVelocity();
     data.dI_inv[i] = dt * dynamics::inverse_inertia_world(model, state, i);
     data.qd[i].omega = omega[i];
     data.qd[i].v = v[i];
-  }
+  });
 
   // a. prepare rows; b. warm start; c. iterate
   prepare(model, state, dt, contacts, anchor_a, anchor_b, data);
@@ -110,12 +112,12 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   data.alpha_iter.resize(K);
   for (std::size_t i = 0; i < K; ++i) data.alpha_iter[i] = data.alpha[3 * data.slot[i]];
   // the poses move with the velocities of c; d changes only the kept ones
-  data.v_pos.resize(N);
-  data.omega_pos.resize(N);
-  for (std::size_t i = 0; i < N; ++i) {
+  parallel::fit(data.v_pos, N, Vec3(Vec3::Zero()));
+  parallel::fit(data.omega_pos, N, Vec3(Vec3::Zero()));
+  parallel::each_body(data.bodies, N, [&](std::size_t i) {
     data.v_pos[i] = data.qd[i].v;
     data.omega_pos[i] = data.qd[i].omega;
-  }
+  });
   // d. restitution (the contacts that approached faster than the threshold and pushed); e. position pass
   assign_n(data.restitutive, K, char(0));
   for (std::size_t i = 0; i < K; ++i)
@@ -124,15 +126,39 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   stats.position_iterations = position_pass(dt, settings, contacts, data);
   // f. store
   store(dt, settings, contacts, data, stats);
-  data.v_move.resize(N);
-  data.omega_move.resize(N);
-  for (std::size_t i = 0; i < N; ++i) {
+  parallel::fit(data.v_move, N, Vec3(Vec3::Zero()));
+  parallel::fit(data.omega_move, N, Vec3(Vec3::Zero()));
+  parallel::each_body(data.bodies, N, [&](std::size_t i) {
     v[i] = data.qd[i].v;
     omega[i] = data.qd[i].omega;
     data.v_move[i] = data.v_pos[i] + data.qd_p[i].v;
     data.omega_move[i] = data.omega_pos[i] + data.qd_p[i].omega;
-  }
+  });
   return stats;
+}
+
+void clear_body_forces(SolverData& d, std::size_t n) {
+  if (d.bodies == nullptr || d.body_force.size() != n || d.body_torque.size() != n || d.is_forced.size() != n) {
+    d.body_force.assign(n, Vec3::Zero());
+    d.body_torque.assign(n, Vec3::Zero());
+    d.is_forced.assign(n, 0);
+    d.forced.clear();
+    return;
+  }
+  for (const int i : d.forced) {
+    d.body_force[i].setZero();
+    d.body_torque[i].setZero();
+    d.is_forced[i] = 0;
+  }
+  d.forced.clear();
+}
+
+void forget_bodies(SolverData& d) {
+  // cleared, not freed: the next step sizes them to N again (zero) within their capacity
+  d.qd.clear(), d.qd_p.clear(), d.dI_inv.clear(), d.v_pos.clear(), d.omega_pos.clear(), d.v_move.clear(),
+      d.omega_move.clear(), d.colours_used.clear(), d.p0.clear(), d.R0.clear(), d.dp.clear(), d.dR.clear();
+  d.is_forced.clear();  // every entry of body_force may be non-zero: the next clear zeroes all
+  d.forced.clear();
 }
 
 }  // namespace signorini::solver

@@ -85,6 +85,11 @@ struct SoftPoint {
 struct SolverData {
   /// the step's worker threads (the World's; null: the calling thread alone)
   const parallel::Pool* pool = nullptr;
+  /// the bodies the per-body stages visit (the World's non-static bodies, ascending; null: all N).
+  /// With a list, the per-body arrays below keep their static bodies' entries at zero from the
+  /// time they are sized to N (forget_bodies: after bodies are added or removed), so a step's
+  /// per-body work grows with the bodies that can move, not with the static ones.
+  const std::vector<int>* bodies = nullptr;
   /// solve positions where each colour starts (colour c: [colour_start[c], colour_start[c + 1]));
   /// the last colour is the shared one, whose contacts may share bodies
   std::vector<int> colour_start;
@@ -114,15 +119,20 @@ struct SolverData {
   std::vector<Mat3> dI_inv;  ///< per body: dt times the world inverse inertia R I_body^-1 R^T at the step's start
   std::vector<Vec3> v_pos, omega_pos;
   std::vector<Vec3> v_move, omega_move;
-  // per body: summed contact force (N) and torque about the com (N m), world
+  // per body: summed contact force (N) and torque about the com (N m), world; forced lists the
+  // bodies whose entries may be non-zero (each once, flagged in is_forced), so that zeroing them
+  // and the step guard's checkpoint of them cost O(contacts), not O(N)
   std::vector<Vec3> body_force, body_torque;
+  std::vector<int> forced;
+  std::vector<char> is_forced;
   // warm-start cache of the previous step, sorted by key, and the one being written
   std::vector<CachedContact> cache, cache_next;
   std::vector<char> cache_used;     ///< per cache entry: already given to a contact this step
   std::vector<int> recalled;        ///< per contact: its cache entry this step (-1: none)
-  /// each body's contacts, in contact order: body x's are body_contacts[body_start[x] ..
-  /// body_start[x + 1]) (body_fill: scratch while listing them)
-  std::vector<int> body_start, body_contacts, body_fill;
+  /// store's list of each forced body's contacts, in contact order: body x's are
+  /// body_contacts[body_first[x] .. body_first[x] + body_count[x]) (N-sized; body_count is zero
+  /// outside store)
+  std::vector<int> body_first, body_count, body_contacts;
   std::vector<double> alpha_iter;   ///< per contact: alpha_n after the iterate stage (N)
   // the soft step: per contact in solve order; per body the pose at the step's start and how far
   // it has moved since (dp = p - p0, dR = R - R0)
@@ -132,6 +142,21 @@ struct SolverData {
   std::vector<Vec3> p0, dp;
   std::vector<Mat3> R0, dR;
 };
+
+/// Bodies were added or removed (N = body_force.size() now): the per-body scratch arrays are
+/// dropped (sized and zeroed again by the next step) and every body_force entry counts as forced.
+void forget_bodies(SolverData& d);
+
+/// Zeroes body_force and body_torque, sized n: the forced entries (all n without a body list, or
+/// when they are not sized n).
+void clear_body_forces(SolverData& d, std::size_t n);
+
+/// Lists body i as forced (its body_force or body_torque may become non-zero).
+inline void mark_forced(SolverData& d, int i) {
+  if (d.is_forced[i]) return;
+  d.is_forced[i] = 1;
+  d.forced.push_back(i);
+}
 
 /// Tangent basis of a unit normal n: k = the first axis whose |n_k| is within 1e-9 of the
 /// smallest (so rounding noise never decides), t1 = unit(n x e_k), t2 = n x t1.

@@ -87,7 +87,9 @@ double coupling(const Row& j, const Row& k) {
 static void solve_order(const Model& model, const std::vector<Contact>& contacts, SolverData& d) {
   const std::size_t K = contacts.size();
   constexpr int kColours = 65;
-  assign_n(d.colours_used, model.size(), std::uint64_t(0));
+  // the colours of the listed bodies (the others, static, never take one) start empty
+  parallel::fit(d.colours_used, model.size(), std::uint64_t(0));
+  parallel::each_body(d.bodies, model.size(), [&](std::size_t i) { d.colours_used[i] = 0; });
   d.slot.resize(K);  // the colour of each contact first
   std::array<int, kColours + 1> start{};
   for (std::size_t i = 0; i < K; ++i) {
@@ -375,27 +377,36 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
     stats.max_overlap = std::max(stats.max_overlap, part.max_overlap);
   });
   // each body's summed force and torque (N, N m), in contact order, body by body over the threads:
-  // the contacts of each body listed first (in contact order), so every thread count adds the
-  // same terms in the same order
+  // the bodies with contacts are listed (d.forced, in the order of their first contact), each with
+  // its contacts in contact order, so every thread count adds the same terms in the same order,
+  // and the work grows with the contacts, not with the bodies (static ones included)
   const std::size_t N = d.body_force.size();
-  assign_n(d.body_start, N + 1, 0);
+  parallel::fit(d.body_count, N, 0);  // zero outside store: reset below for the listed bodies only
+  parallel::fit(d.body_first, N, 0);
   for (const Contact& c : contacts) {
-    ++d.body_start[c.body_a + 1];
-    ++d.body_start[c.body_b + 1];
+    ++d.body_count[c.body_a];
+    ++d.body_count[c.body_b];
+    mark_forced(d, c.body_a);
+    mark_forced(d, c.body_b);
   }
-  for (std::size_t i = 0; i < N; ++i) d.body_start[i + 1] += d.body_start[i];
+  int first = 0;
+  for (const int x : d.forced) {  // body_count becomes each listed body's fill cursor
+    d.body_first[x] = first;
+    first += d.body_count[x];
+    d.body_count[x] = 0;
+  }
   assign_n(d.body_contacts, 2 * K, 0);
-  assign_n(d.body_fill, N, 0);
   for (std::size_t i = 0; i < K; ++i) {
     for (const BodyIndex x : {contacts[i].body_a, contacts[i].body_b})
-      d.body_contacts[d.body_start[x] + d.body_fill[x]++] = static_cast<int>(i);
+      d.body_contacts[d.body_first[x] + d.body_count[x]++] = static_cast<int>(i);
   }
   const bool spin = !d.spin_rows.empty();
-  for_ranges(d, N, 256, [&](std::size_t first, std::size_t end) {
-    for (std::size_t x = first; x < end; ++x) {
+  for_ranges(d, d.forced.size(), 256, [&](std::size_t from, std::size_t to) {
+    for (std::size_t f = from; f < to; ++f) {
+      const std::size_t x = static_cast<std::size_t>(d.forced[f]);
       Vec3& force = d.body_force[x];
       Vec3& torque = d.body_torque[x];
-      for (int e = d.body_start[x]; e < d.body_start[x + 1]; ++e) {
+      for (int e = d.body_first[x]; e < d.body_first[x] + d.body_count[x]; ++e) {
         const Contact& c = contacts[static_cast<std::size_t>(d.body_contacts[e])];
         const std::size_t k0 = 3 * static_cast<std::size_t>(d.slot[d.body_contacts[e]]);
         const bool is_a = static_cast<std::size_t>(c.body_a) == x;
@@ -412,6 +423,7 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
         if (spin && d.spin_slot[k0 / 3] >= 0)  // torsional friction: -t n on A, t n on B
           torque += (is_a ? -c.spin_torque : c.spin_torque) * c.normal;
       }
+      d.body_count[x] = 0;  // zero again for the next store (each listed body is one task's)
     }
   });
   // sorted by key (first in contact order on equal keys), one entry per key; the narrow phase

@@ -28,39 +28,34 @@ void soften(SoftPoint& p, double hertz, double zeta, double h) {
   p.impulse_scale = a3;
 }
 
-/// d.qd <- (v, omega).
+/// d.qd <- (v, omega), for the listed bodies (the others' entries stay zero, as their velocities are).
 void load(const std::vector<Vec3>& v, const std::vector<Vec3>& omega, SolverData& d) {
-  d.qd.resize(v.size());
-  for_ranges(d, v.size(), 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) {
-      d.qd[i].omega = omega[i];
-      d.qd[i].v = v[i];
-    }
+  parallel::fit(d.qd, v.size(), BodyVelocity());
+  parallel::for_bodies(d.pool, d.bodies, v.size(), 1024, [&](std::size_t i) {
+    d.qd[i].omega = omega[i];
+    d.qd[i].v = v[i];
   });
 }
 
-/// (v, omega) <- d.qd.
+/// (v, omega) <- d.qd, for the listed bodies.
 void unload(const SolverData& d, std::vector<Vec3>& v, std::vector<Vec3>& omega) {
-  for_ranges(d, v.size(), 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) {
-      v[i] = d.qd[i].v;
-      omega[i] = d.qd[i].omega;
-    }
+  parallel::for_bodies(d.pool, d.bodies, v.size(), 1024, [&](std::size_t i) {
+    v[i] = d.qd[i].v;
+    omega[i] = d.qd[i].omega;
   });
 }
 
 /// Every contact's gap now, s = gap0 + n . ((dp_B + D_B l_B) - (dp_A + D_A l_A)): its point carried
 /// with each body from the step's start (dp = p - p0, D = R - R0, l_X = R0_X^T r_X the lever arm in
-/// X's frame), exactly gap0 until a body moves.
+/// X's frame), exactly gap0 until a body moves. dp and D of the listed bodies (the others', static
+/// bodies', stay zero).
 void update_gaps(const Model& model, const State& state, SolverData& d) {
   const std::size_t N = model.size();
-  d.dp.resize(N);
-  d.dR.resize(N);
-  for_ranges(d, N, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) {
-      d.dp[i] = state.p[i] - d.p0[i];
-      d.dR[i] = state.R[i] - d.R0[i];
-    }
+  parallel::fit(d.dp, N, Vec3(Vec3::Zero()));
+  parallel::fit(d.dR, N, Mat3(Mat3::Zero()));
+  parallel::for_bodies(d.pool, d.bodies, N, 1024, [&](std::size_t i) {
+    d.dp[i] = state.p[i] - d.p0[i];
+    d.dR[i] = state.R[i] - d.R0[i];
   });
   for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
     for (std::size_t k = first; k < end; ++k) {
@@ -114,15 +109,13 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
                 const std::vector<Contact>& contacts, SolverData& d) {
   const std::size_t N = model.size(), K = contacts.size();
   d.h = h;
-  d.dI_inv.resize(N);
-  d.p0.resize(N);
-  d.R0.resize(N);
-  for_ranges(d, N, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) {
-      d.dI_inv[i] = h * dynamics::inverse_inertia_world(model, state, i);
-      d.p0[i] = state.p[i];
-      d.R0[i] = state.R[i];
-    }
+  parallel::fit(d.dI_inv, N, Mat3(Mat3::Zero()));
+  parallel::fit(d.p0, N, Vec3(Vec3::Zero()));
+  parallel::fit(d.R0, N, Mat3(Mat3::Zero()));
+  parallel::for_bodies(d.pool, d.bodies, N, 1024, [&](std::size_t i) {
+    d.dI_inv[i] = h * dynamics::inverse_inertia_world(model, state, i);
+    d.p0[i] = state.p[i];
+    d.R0[i] = state.R[i];
   });
   load(state.v, state.omega, d);
   prepare(model, state, h, contacts, nullptr, nullptr, d);
@@ -204,8 +197,7 @@ SolverStats soft_end(const Model& model, const State& /*state*/, const SolverSet
   stats.contacts = static_cast<int>(K);
   stats.iterations = settings.soft_iterations + settings.relax_iterations;
   stats.restitution_iterations = d.restitution_sweeps;
-  d.body_force.assign(N, Vec3::Zero());
-  d.body_torque.assign(N, Vec3::Zero());
+  clear_body_forces(d, N);
   load(v, omega, d);
   if (d.alpha_iter.size() != K) {  // no substep ran (never: a step has at least one)
     d.alpha_iter.assign(K, 0.0);

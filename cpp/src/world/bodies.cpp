@@ -153,10 +153,15 @@ BodyIndex World::add_body(const BodyDesc& desc) {
       throw std::invalid_argument(who + ": " + e.what());
     }
   }
-  for (BodyIndex j = 0; j < index; ++j) {
-    if (desc.is_static && model_.is_static[j]) continue;
+  // every body it may touch (a static body: the non-static ones, two static bodies never collide)
+  const auto check_pair = [&](BodyIndex j) {
     const std::string problem = collision::unsupported_pair(model_.shape[j], shape);
     if (!problem.empty()) throw std::invalid_argument(who + ": " + problem + " (with body " + std::to_string(j) + ")");
+  };
+  if (desc.is_static) {
+    for (const BodyIndex j : moving_) check_pair(j);
+  } else {
+    for (BodyIndex j = 0; j < index; ++j) check_pair(j);
   }
 
   // commit
@@ -191,6 +196,8 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   state_.v[index] = desc.velocity;
   state_.omega[index] = desc.angular_velocity;
   memory_->add_body(position);
+  if (!desc.is_static) moving_.push_back(index);
+  bodies_changed(false);
   return index;
 }
 
@@ -223,7 +230,7 @@ void World::remove_bodies(const std::vector<BodyIndex>& indices) {
     if (!gone(j)) broad_phase->add_body(to[j], model_.shape[j], model_.is_static[j], state_.p[j], state_.R[j]);
   // sleeping islands that lose a body, or a body they rest on, wake (before the renumbering)
   islands_->mark_removed(state_, gone);
-  islands_->wake_marked(model_, state_, solver_->cache, true);
+  islands_->wake_marked(model_, state_, solver_->cache, true, &moving_);
   // model, state and per-body solver output compacted in one pass each (storage stays in place)
   const auto compact = [&](auto& v) {
     for (BodyIndex j = 0; j < n; ++j)
@@ -257,6 +264,7 @@ void World::remove_bodies(const std::vector<BodyIndex>& indices) {
   renumber(solver_->cache);
   if (contacts_.use_count() > 1) contacts_ = std::make_shared<std::vector<Contact>>(*contacts_);
   renumber(*contacts_);
+  bodies_changed(true);
 }
 
 }  // namespace signorini

@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "parallel/pool.hpp"
 #include "serial/byte_stream.hpp"
 #include "solver/contact_solver.hpp"
 
@@ -36,7 +37,8 @@ bool sleeping(const Model& model, const State& state, std::size_t i) {
 void Islands::mark(const State& state, BodyIndex i) {
   if (state.island.empty() || state.island[i] < 0) return;
   if (marked_.size() < state.island.size()) marked_.resize(state.island.size(), 0);
-  marked_[state.island[i]] = 1;
+  const std::int32_t label = state.island[i];
+  if (!marked_[label]) marked_[label] = 1, marked_labels_.push_back(label);
   any_marked_ = true;
 }
 
@@ -61,7 +63,8 @@ bool Islands::mark_touched(const Model& model, const State& state, const std::ve
   return any;
 }
 
-bool Islands::wake_marked(const Model& model, State& state, std::vector<CachedContact>& cache, bool purge_now) {
+bool Islands::wake_marked(const Model& model, State& state, std::vector<CachedContact>& cache, bool purge_now,
+                          const std::vector<BodyIndex>* bodies) {
   if (!any_marked_) return false;
   any_marked_ = false;
   // the woken islands' forces back into the warm-start cache (keys are unique: a stashed pair is
@@ -73,15 +76,16 @@ bool Islands::wake_marked(const Model& model, State& state, std::vector<CachedCo
   }
   if (added) std::sort(cache.begin(), cache.end(), key_less);
   bool woke = false;
-  for (std::size_t i = 0; i < model.size(); ++i) {
+  parallel::each_body(bodies, model.size(), [&](std::size_t i) {
     const std::int32_t label = state.island[i];
-    if (label < 0 || !marked_[label]) continue;
+    if (label < 0 || !marked_[label]) return;
     state.awake[i] = 1;
     state.sleep_time[i] = 0.0;
     state.island[i] = -1;
     woke = true;
-  }
-  std::fill(marked_.begin(), marked_.end(), std::uint8_t(0));
+  });
+  for (const std::int32_t label : marked_labels_) marked_[label] = 0;
+  marked_labels_.clear();
   to_purge_ = to_purge_ || woke;
   if (purge_now) purge(model, state);
   return woke;
@@ -94,9 +98,11 @@ void Islands::purge(const Model& /*model*/, const State& state) {
   const auto awake_pair = [&](const auto& c) { return state.island[c.body_a] < 0 && state.island[c.body_b] < 0; };
   stash_.erase(std::remove_if(stash_.begin(), stash_.end(), awake_pair), stash_.end());
   contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), awake_pair), contacts_.end());
-  for (std::size_t i = 0; i < force_.size(); ++i)
+  // (every non-zero entry is listed in forced_)
+  for (const BodyIndex i : forced_)
     if (state.island[i] < 0) force_[i].setZero(), torque_[i].setZero();
   sum_outside(state);
+  list_forced(false);
 }
 
 void Islands::sum_outside(const State& state) {
@@ -123,11 +129,30 @@ void Islands::merge_contacts(const std::vector<Contact>& solved, std::vector<Con
   std::merge(solved.begin(), solved.end(), contacts_.begin(), contacts_.end(), out.begin(), pair_before);
 }
 
-void Islands::add_forces(std::vector<Vec3>& body_force, std::vector<Vec3>& body_torque) const {
+void Islands::list_forced(bool scan_all) {
+  // the candidates: every body (scan_all), or those listed before and those of the sleeping
+  // contacts (a sum changes only at the bodies of contacts that join or leave)
+  listing_.clear();
+  if (scan_all) {
+    for (std::size_t i = 0; i < force_.size(); ++i) listing_.push_back(static_cast<BodyIndex>(i));
+  } else {
+    listing_.insert(listing_.end(), forced_.begin(), forced_.end());
+    for (const Contact& c : contacts_) listing_.push_back(c.body_a), listing_.push_back(c.body_b);
+    std::sort(listing_.begin(), listing_.end());
+    listing_.erase(std::unique(listing_.begin(), listing_.end()), listing_.end());
+  }
+  forced_.clear();
+  for (const BodyIndex i : listing_)
+    if (!force_[i].isZero(0.0) || !torque_[i].isZero(0.0)) forced_.push_back(i);
+}
+
+void Islands::add_forces(solver::SolverData& solver) const {
   if (contacts_.empty()) return;
-  for (std::size_t i = 0; i < force_.size(); ++i) {
-    body_force[i] += force_[i];
-    body_torque[i] += torque_[i];
+  // the bodies with a non-zero sum (adding the others' zeros would change nothing)
+  for (const BodyIndex i : forced_) {
+    solver.body_force[i] += force_[i];
+    solver.body_torque[i] += torque_[i];
+    solver::mark_forced(solver, i);
   }
 }
 
@@ -139,10 +164,12 @@ int Islands::find(int i) {
   return i;
 }
 
-void Islands::link(const Model& model, const State& state, const std::vector<Contact>& contacts) {
+void Islands::link(const Model& model, const State& state, const std::vector<Contact>& contacts,
+                   const std::vector<BodyIndex>* bodies) {
   const std::size_t n = model.size();
+  // only awake dynamic bodies are linked and looked up: the listed entries are enough
   parent_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) parent_[i] = static_cast<int>(i);
+  parallel::each_body(bodies, n, [&](std::size_t i) { parent_[i] = static_cast<int>(i); });
   for (const Contact& c : contacts) {
     if (!awake_dynamic(model, state, c.body_a) || !awake_dynamic(model, state, c.body_b)) continue;
     const int ra = find(c.body_a), rb = find(c.body_b);
@@ -153,43 +180,47 @@ void Islands::link(const Model& model, const State& state, const std::vector<Con
 
 void Islands::end_step(const Model& model, State& state, const SleepSettings& settings, double dt,
                        const std::vector<Contact>& contacts, std::vector<CachedContact>& cache,
-                       const std::vector<Vec3>& body_force, const std::vector<Vec3>& body_torque) {
+                       const std::vector<Vec3>& body_force, const std::vector<Vec3>& body_torque,
+                       const std::vector<BodyIndex>* bodies) {
   if (!settings.enabled) return;
   const std::size_t n = model.size();
   // sleep timers: time below both thresholds, reset by any faster motion
   const double v2 = settings.linear_velocity * settings.linear_velocity;
   const double w2 = settings.angular_velocity * settings.angular_velocity;
-  ready_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!awake_dynamic(model, state, i)) continue;
+  parallel::fit(ready_, n, std::uint8_t(1));
+  parallel::each_body(bodies, n, [&](std::size_t i) {
+    if (!awake_dynamic(model, state, i)) return;
     const bool rest = state.v[i].squaredNorm() <= v2 && state.omega[i].squaredNorm() <= w2;
     state.sleep_time[i] = rest ? state.sleep_time[i] + dt : 0.0;
-  }
+  });
   // a body touching a moving kinematic body stays awake (the kinematic body is in no island)
   for (const Contact& c : contacts) {
     if (moving_kinematic(model, state, c.body_a) && awake_dynamic(model, state, c.body_b)) state.sleep_time[c.body_b] = 0.0;
     if (moving_kinematic(model, state, c.body_b) && awake_dynamic(model, state, c.body_a)) state.sleep_time[c.body_a] = 0.0;
   }
-  // islands of this step's contacts; one that is not ready keeps all its bodies awake
-  link(model, state, contacts);
-  for (std::size_t i = 0; i < n; ++i) ready_[i] = 1;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!awake_dynamic(model, state, i)) continue;
+  // islands of this step's contacts; one that is not ready keeps all its bodies awake (roots are
+  // awake dynamic bodies, so only the listed entries of ready_ are read)
+  link(model, state, contacts, bodies);
+  parallel::each_body(bodies, n, [&](std::size_t i) { ready_[i] = 1; });
+  parallel::each_body(bodies, n, [&](std::size_t i) {
+    if (!awake_dynamic(model, state, i)) return;
     const bool ready = model.can_sleep[i] && state.sleep_time[i] > 0.0 && state.sleep_time[i] >= settings.time_to_sleep;
     if (!ready) ready_[find(static_cast<int>(i))] = 0;
-  }
-  sleep_ready(model, state, cache, contacts, body_force, body_torque);
+  });
+  sleep_ready(model, state, cache, contacts, body_force, body_torque, bodies);
 }
 
 void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedContact>& cache,
                           const std::vector<Contact>& contacts, const std::vector<Vec3>& body_force,
-                          const std::vector<Vec3>& body_torque) {
+                          const std::vector<Vec3>& body_torque, const std::vector<BodyIndex>* bodies) {
   bool any = false;
-  fresh_.assign(model.size(), 0);
-  for (std::size_t i = 0; i < model.size(); ++i) {
-    if (!awake_dynamic(model, state, i)) continue;
+  // fresh_ is set for awake dynamic bodies only: the listed entries start at 0 (the others stay 0)
+  parallel::fit(fresh_, model.size(), std::uint8_t(0));
+  parallel::each_body(bodies, model.size(), [&](std::size_t i) { fresh_[i] = 0; });
+  parallel::each_body(bodies, model.size(), [&](std::size_t i) {
+    if (!awake_dynamic(model, state, i)) return;
     const int root = find(static_cast<int>(i));
-    if (!ready_[root]) continue;
+    if (!ready_[root]) return;
     state.awake[i] = 0;
     state.island[i] = root;
     state.v[i].setZero();
@@ -198,7 +229,7 @@ void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedCo
     torque_[i] = body_torque[i];
     fresh_[i] = 1;
     any = true;
-  }
+  });
   if (!any) return;
   // the new sleepers' warm-start forces wait in the stash (both lists stay sorted by key)
   const auto asleep = [&](const CachedContact& c) {
@@ -220,15 +251,17 @@ void Islands::sleep_ready(const Model& model, State& state, std::vector<CachedCo
   }
   merged_.insert(merged_.end(), contacts_.begin() + static_cast<std::ptrdiff_t>(k), contacts_.end());
   contacts_.swap(merged_);
-  for (std::size_t i = 0; i < force_.size(); ++i)
+  // (every non-zero entry is listed in forced_)
+  for (const BodyIndex i : forced_)
     if (state.island[i] < 0) force_[i].setZero(), torque_[i].setZero();
   sum_outside(state);
+  list_forced(false);
 }
 
 BodyIndex Islands::sleep_island_of(const Model& model, State& state, BodyIndex i, const std::vector<Contact>& contacts,
                                    std::vector<CachedContact>& cache, const std::vector<Vec3>& body_force,
                                    const std::vector<Vec3>& body_torque) {
-  link(model, state, contacts);
+  link(model, state, contacts, nullptr);
   const std::size_t n = model.size();
   const int root = find(i);
   for (std::size_t k = 0; k < n; ++k)
@@ -236,7 +269,7 @@ BodyIndex Islands::sleep_island_of(const Model& model, State& state, BodyIndex i
       return static_cast<BodyIndex>(k);
   ready_.assign(n, 0);
   ready_[root] = 1;
-  sleep_ready(model, state, cache, contacts, body_force, body_torque);
+  sleep_ready(model, state, cache, contacts, body_force, body_torque, nullptr);
   return -1;
 }
 
@@ -256,7 +289,10 @@ void Islands::renumber(State& state, const std::vector<BodyIndex>& to) {
     if (to[j] >= 0) force_[kept] = force_[j], torque_[kept] = torque_[j], ++kept;
   force_.resize(kept);
   torque_.resize(kept);
+  list_forced(true);
   marked_.assign(state.island.size(), 0);
+  marked_labels_.clear();
+  fresh_.clear();  // sized and zeroed again by the next sleep_ready
 }
 
 void Islands::save(serial::Writer& w, const State& state) const {

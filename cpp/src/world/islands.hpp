@@ -31,6 +31,7 @@
 #include "signorini/world.hpp"
 
 namespace signorini::serial { struct Writer; struct Reader; }
+namespace signorini::solver { struct SolverData; }
 
 namespace signorini {
 
@@ -49,7 +50,9 @@ class Islands {
   /// their stashed forces copied into `cache` (then sorted by key). `purge`: drop them from the
   /// stash now (a user call); else at the end of the step (purge()), so that a step the guard
   /// undoes finds them still stashed. Returns whether any body woke.
-  bool wake_marked(const Model& model, State& state, std::vector<CachedContact>& cache, bool purge);
+  /// bodies: those that may sleep (the World's non-static ones, ascending; null: all), the only ones visited.
+  bool wake_marked(const Model& model, State& state, std::vector<CachedContact>& cache, bool purge,
+                   const std::vector<BodyIndex>* bodies = nullptr);
   /// Marks the island body i sleeps in to be woken (nothing for a static or awake body).
   void mark(const State& state, BodyIndex i);
   /// Marks the sleeping islands whose kept contacts touch body i (a static or kinematic body that
@@ -67,15 +70,19 @@ class Islands {
   /// velocities zeroed, label set, their entries of `cache` (the next step's warm start) moved to
   /// the stash. Nothing happens when sleeping is off.
   /// body_force, body_torque (N): the step's contact forces and torques, the sleepers' kept.
+  /// bodies: the bodies that can be awake and dynamic (the World's non-static ones, ascending;
+  /// null: all), the only ones visited.
   void end_step(const Model& model, State& state, const SleepSettings& settings, double dt,
                 const std::vector<Contact>& contacts, std::vector<CachedContact>& cache,
-                const std::vector<Vec3>& body_force, const std::vector<Vec3>& body_torque);
+                const std::vector<Vec3>& body_force, const std::vector<Vec3>& body_torque,
+                const std::vector<BodyIndex>* bodies = nullptr);
 
   /// The step's solved contacts and the sleeping islands' in contact order (pairs by their indices),
   /// written into out (its capacity reused).
   void merge_contacts(const std::vector<Contact>& solved, std::vector<Contact>& out) const;
-  /// Adds the sleeping contacts' forces and torques to the step's per-body sums (N).
-  void add_forces(std::vector<Vec3>& body_force, std::vector<Vec3>& body_torque) const;
+  /// Adds the sleeping contacts' forces and torques to the step's per-body sums (solver.body_force,
+  /// body_torque, N), listing the bodies it adds to as forced.
+  void add_forces(solver::SolverData& solver) const;
   /// The sleeping islands' contacts, in contact order.
   const std::vector<Contact>& contacts() const { return contacts_; }
 
@@ -114,20 +121,27 @@ class Islands {
   void assign(std::vector<CachedContact> stash, std::vector<Contact> contacts, std::vector<Vec3> force,
               std::vector<Vec3> torque) {
     stash_ = std::move(stash), contacts_ = std::move(contacts), force_ = std::move(force), torque_ = std::move(torque);
+    list_forced(true);
   }
   /// A new body (no sleeping contacts).
-  void add_body() { force_.emplace_back(Vec3::Zero()), torque_.emplace_back(Vec3::Zero()); }
+  void add_body() { force_.emplace_back(Vec3::Zero()), torque_.emplace_back(Vec3::Zero()), fresh_.clear(); }
   const std::vector<CachedContact>& stash() const { return stash_; }
 
  private:
   /// The island root of body i (path halving).
   int find(int i);
-  /// Union-find over the contacts between two awake, enabled dynamic bodies (parent_, sized N).
-  void link(const Model& model, const State& state, const std::vector<Contact>& contacts);
-  /// Bodies whose root r has ready_[r] fall asleep with label r; their cache entries move to the stash.
+  /// Union-find over the contacts between two awake, enabled dynamic bodies (parent_, sized N; the
+  /// entries of `bodies` set, null: all).
+  void link(const Model& model, const State& state, const std::vector<Contact>& contacts,
+            const std::vector<BodyIndex>* bodies);
+  /// Bodies (of `bodies`, null: all) whose root r has ready_[r] fall asleep with label r; their
+  /// cache entries move to the stash.
   void sleep_ready(const Model& model, State& state, std::vector<CachedContact>& cache,
                    const std::vector<Contact>& contacts, const std::vector<Vec3>& body_force,
-                   const std::vector<Vec3>& body_torque);
+                   const std::vector<Vec3>& body_torque, const std::vector<BodyIndex>* bodies);
+  /// forced_ <- the bodies whose force_ or torque_ is not zero (after they change), found among
+  /// every body (scan_all) or among forced_ and the bodies of contacts_.
+  void list_forced(bool scan_all);
   /// force_, torque_ of the bodies outside sleeping islands (static, kinematic) summed again over contacts_.
   void sum_outside(const State& state);
 
@@ -135,6 +149,9 @@ class Islands {
   std::vector<Contact> contacts_;     ///< sleeping islands' contacts, in contact order
   std::vector<Contact> merged_;       ///< scratch of sleep_ready
   std::vector<Vec3> force_, torque_;  ///< per body: the force and torque of its sleeping contacts (N)
+  std::vector<BodyIndex> forced_;     ///< the bodies whose force_ or torque_ is not zero, ascending
+  std::vector<BodyIndex> listing_;    ///< scratch of list_forced
+  std::vector<std::int32_t> marked_labels_;  ///< the labels set in marked_
   std::vector<std::uint8_t> fresh_;   ///< per body: fell asleep in this call of sleep_ready (N)
   std::vector<int> parent_;           ///< union-find (N)
   std::vector<std::uint8_t> ready_;   ///< per root: every body of its island may sleep now (N)

@@ -236,6 +236,7 @@ void World::restore_state(const std::string& saved) {
   stats_ = stats;
   checks::copy_into(memory_->previous_p, memory.previous_p);
   checks::copy_into(memory_->crossing, memory.crossing);
+  bodies_changed(false);  // the contact forces and static poses changed outside a step
   if (!settings_.sleep.enabled) wake_all();  // a world with sleeping off keeps nothing asleep
 }
 

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "signorini/world.hpp"
+#include "parallel/pool.hpp"
 #include "solver/contact_solver.hpp"
 #include "world/checks.hpp"
 
@@ -18,18 +19,47 @@ double body_kinetic_energy(const Model& model, const State& s, std::size_t i) {
   return 0.5 * model.mass[i] * s.v[i].squaredNorm() + 0.5 * w.dot(s.R[i] * (model.I_body[i] * (s.R[i].transpose() * w)));
 }
 
-void StepGuard::begin(const State& state, const solver::SolverData& solver) {
-  before_ = state;
+void StepGuard::begin(const State& state, const solver::SolverData& solver, const std::vector<BodyIndex>* bodies) {
+  const std::size_t n = state.p.size();
+  if (whole_ || bodies == nullptr || before_.p.size() != n || before_.awake.size() != state.awake.size()) {
+    before_ = state;
+    whole_ = bodies == nullptr;
+  } else {
+    // the bodies a step can change; every other entry was copied when it last changed
+    for (const BodyIndex i : *bodies) {
+      before_.for_each_array_with(state, [i](auto& mine, const auto& now) { mine[i] = now[i]; });
+      if (!state.awake.empty()) {
+        before_.awake[i] = state.awake[i];
+        before_.sleep_time[i] = state.sleep_time[i];
+        before_.island[i] = state.island[i];
+      }
+    }
+    before_.time = state.time;
+  }
   // copied into kept storage, grown geometrically (a copy assignment allocates the exact size)
   if (cache_before_.capacity() < solver.cache.size()) cache_before_.reserve(2 * solver.cache.size());
   cache_before_ = solver.cache;
-  force_before_ = solver.body_force;
-  torque_before_ = solver.body_torque;
+  whole_forces_ = solver.bodies == nullptr || solver.is_forced.size() != solver.body_force.size();
+  if (whole_forces_) {
+    force_before_ = solver.body_force;
+    torque_before_ = solver.body_torque;
+    return;
+  }
+  const std::size_t m = solver.forced.size();
+  if (forced_before_.capacity() < m) forced_before_.reserve(2 * m);
+  if (force_before_.capacity() < m) force_before_.reserve(2 * m), torque_before_.reserve(2 * m);
+  forced_before_.assign(solver.forced.begin(), solver.forced.end());
+  force_before_.resize(m);
+  torque_before_.resize(m);
+  for (std::size_t k = 0; k < m; ++k) {
+    force_before_[k] = solver.body_force[forced_before_[k]];
+    torque_before_[k] = solver.body_torque[forced_before_[k]];
+  }
 }
 
-void StepGuard::measure_start(const Model& model, const State& state) {
+void StepGuard::measure_start(const Model& model, const State& state, const std::vector<BodyIndex>* bodies) {
   T0_ = 0.0;
-  for (std::size_t i = 0; i < model.size(); ++i) T0_ += body_kinetic_energy(model, state, i);
+  parallel::each_body(bodies, model.size(), [&](std::size_t i) { T0_ += body_kinetic_energy(model, state, i); });
 }
 
 void StepGuard::undo(State& state, solver::SolverData& solver) {
@@ -40,12 +70,27 @@ void StepGuard::undo(State& state, solver::SolverData& solver) {
   checks::copy_into(state.sleep_time, before_.sleep_time);
   checks::copy_into(state.island, before_.island);
   solver.cache.swap(cache_before_);
-  solver.body_force.swap(force_before_);
-  solver.body_torque.swap(torque_before_);
+  if (whole_forces_) {
+    solver.body_force.swap(force_before_);
+    solver.body_torque.swap(torque_before_);
+    solver.is_forced.clear();  // any entry may be non-zero: the next step zeroes all
+    solver.forced.clear();
+    return;
+  }
+  solver::clear_body_forces(solver, solver.body_force.size());
+  for (std::size_t k = 0; k < forced_before_.size(); ++k) {
+    const int i = forced_before_[k];
+    solver.body_force[i] = force_before_[k];
+    solver.body_torque[i] = torque_before_[k];
+    solver::mark_forced(solver, i);
+  }
 }
 
-void StepGuard::check_finite(const Model& model, State& state, solver::SolverData& solver) {
-  for (std::size_t i = 0; i < model.size(); ++i) {
+void StepGuard::check_finite(const Model& model, State& state, solver::SolverData& solver,
+                             const std::vector<BodyIndex>* bodies) {
+  const std::size_t n = bodies ? bodies->size() : model.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = bodies ? static_cast<std::size_t>((*bodies)[k]) : k;
     if (state.p[i].allFinite() && state.v[i].allFinite() && state.omega[i].allFinite() && state.R[i].allFinite())
       continue;
     undo(state, solver);
@@ -56,15 +101,20 @@ void StepGuard::check_finite(const Model& model, State& state, solver::SolverDat
 }
 
 void StepGuard::check_energy(const Model& model, const Vec3& gravity, double dt, State& state,
-                             solver::SolverData& solver) {
+                             solver::SolverData& solver, const std::vector<BodyIndex>* bodies) {
+  const std::size_t n = bodies ? bodies->size() : model.size();
+  const auto body = [&](std::size_t k) { return bodies ? static_cast<std::size_t>((*bodies)[k]) : k; };
   // a moving kinematic body is a source of energy the balance cannot bound
-  for (std::size_t i = 0; i < model.size(); ++i)
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = body(k);
     if (model.is_kinematic[i] && model.enabled[i] && (state.v[i].squaredNorm() > 0.0 || state.omega[i].squaredNorm() > 0.0))
       return;
+  }
   // W counted only where positive: the position pass lifts bodies without giving them kinetic
   // energy, and a heavy body lifted out of an overlap must not hide another's fall
   double T1 = 0.0, W = 0.0;
-  for (std::size_t i = 0; i < model.size(); ++i) {
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = body(k);
     if (model.is_static[i] || model.is_kinematic[i] || !model.enabled[i]) continue;
     T1 += body_kinetic_energy(model, state, i);
     const Vec3 f = model.mass[i] * gravity + before_.f_ext[i] + before_.f_step[i];
@@ -75,7 +125,8 @@ void StepGuard::check_energy(const Model& model, const Vec3& gravity, double dt,
   if (!(T1 > World::kExplosionFactor * budget && T1 - budget > World::kExplosionFloor)) return;
   // name the bodies that gained the most, largest first (at most 3)
   std::array<std::pair<double, std::size_t>, 3> worst{};
-  for (std::size_t i = 0; i < model.size(); ++i) {
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = body(k);
     if (model.is_static[i]) continue;
     const double gained = body_kinetic_energy(model, state, i) - body_kinetic_energy(model, before_, i);
     for (std::size_t k = 0; k < worst.size(); ++k)

@@ -19,19 +19,28 @@ namespace solver { struct SolverData; }
 class StepGuard {
  public:
   /// Checkpoint at the start of a step (before the pending impulses): keeps state, cache and
-  /// contact forces in storage reused from step to step.
-  void begin(const State& state, const solver::SolverData& solver);
+  /// contact forces in storage reused from step to step. bodies: the bodies a step can change (the
+  /// World's non-static bodies, ascending; null: all), the only ones copied once a whole copy has
+  /// been taken: a step never changes a static body, and whatever else changes one (a setter, a
+  /// restore, bodies added or removed) calls invalidate() first. Contact forces: only the entries
+  /// listed as forced (solver::SolverData::forced) when the solver has a body list.
+  void begin(const State& state, const solver::SolverData& solver, const std::vector<BodyIndex>* bodies = nullptr);
+  /// The next begin() copies the whole state (a static body's state changed, or the body count).
+  void invalidate() { whole_ = true; }
   /// The kinetic energy T_0 the step answers to, measured after the pending impulses.
-  void measure_start(const Model& model, const State& state);
+  void measure_start(const Model& model, const State& state, const std::vector<BodyIndex>* bodies = nullptr);
   /// Checkpoint after each substep: a non-finite position, rotation or velocity undoes the step and
-  /// throws, naming the first such body.
-  void check_finite(const Model& model, State& state, solver::SolverData& solver);
+  /// throws, naming the first such body (of `bodies`: those the step moves; null: all).
+  void check_finite(const Model& model, State& state, solver::SolverData& solver,
+                    const std::vector<BodyIndex>* bodies = nullptr);
   /// Checkpoint at the end of the step: the kinetic energy T_1 against T_0 + W, W the work gravity
   /// and the external wrenches did over the step's motion, body by body where positive
   /// (docs/conventions.md, "One step"). T_1 above both kExplosionFactor (T_0 + W) and
   /// kExplosionFloor + T_0 + W undoes the step and throws, naming the bodies that gained most.
-  /// Steps with a moving kinematic body are not checked: it can give any energy.
-  void check_energy(const Model& model, const Vec3& gravity, double dt, State& state, solver::SolverData& solver);
+  /// Steps with a moving kinematic body are not checked: it can give any energy. Sums over
+  /// `bodies` (null: all; a static body adds nothing).
+  void check_energy(const Model& model, const Vec3& gravity, double dt, State& state, solver::SolverData& solver,
+                    const std::vector<BodyIndex>* bodies = nullptr);
   /// The state at the start of the step (before its impulses).
   const State& start() const { return before_; }
 
@@ -41,8 +50,12 @@ class StepGuard {
   void undo(State& state, solver::SolverData& solver);
 
   State before_;
+  bool whole_ = true;  ///< the next begin copies every body
   std::vector<CachedContact> cache_before_;
+  /// contact forces and torques: all N (whole_forces_), or those of the bodies listed in forced_before_
   std::vector<Vec3> force_before_, torque_before_;
+  std::vector<int> forced_before_;
+  bool whole_forces_ = true;
   double T0_ = 0.0;
 };
 

@@ -27,6 +27,7 @@ World::World(const WorldSettings& settings)
       solver_(std::make_unique<solver::SolverData>()),
       guard_(std::make_unique<StepGuard>()),
       islands_(std::make_unique<Islands>()) {
+  solver_->bodies = &moving_;
   set_settings(settings);
 }
 
@@ -87,15 +88,18 @@ void World::step(double dt, int steps) {
 }
 
 void World::wake(BodyIndex i) {
+  // every setter comes here: a static body's state changed outside a step, which the guard's
+  // checkpoint copies only when told
+  if (model_.is_static[i]) guard_->invalidate();
   islands_->mark(state_, i);
   // a static or kinematic body changed by a call: the islands resting on it wake
   if (model_.is_static[i] || model_.is_kinematic[i]) islands_->mark_touching(state_, i);
-  islands_->wake_marked(model_, state_, solver_->cache, true);
+  islands_->wake_marked(model_, state_, solver_->cache, true, &moving_);
 }
 
 void World::wake_all() {
   islands_->mark_all(model_, state_);
-  islands_->wake_marked(model_, state_, solver_->cache, true);
+  islands_->wake_marked(model_, state_, solver_->cache, true, &moving_);
 }
 
 void World::wake_touched(double dt) {
@@ -104,14 +108,28 @@ void World::wake_touched(double dt) {
   // sleeping off nothing sleeps (switching it off, or restoring into such a world, wakes all)
   if (!settings_.sleep.enabled) return;
   while (islands_->mark_touched(model_, state_, contacts_base_) &&
-         islands_->wake_marked(model_, state_, solver_->cache, false))
+         islands_->wake_marked(model_, state_, solver_->cache, false, &moving_))
     detect_contacts(dt, contacts_base_);
 }
 
 void World::end_islands(double dt) {
   islands_->purge(model_, state_);  // what the step woke leaves the sleeping lists
   islands_->end_step(model_, state_, settings_.sleep, dt, *contacts_, solver_->cache, solver_->body_force,
-                     solver_->body_torque);
+                     solver_->body_torque, &moving_);
+}
+
+void World::bodies_changed(bool relist) {
+  if (relist) {
+    moving_.clear();
+    for (std::size_t i = 0; i < model_.size(); ++i)
+      if (!model_.is_static[i]) moving_.push_back(static_cast<BodyIndex>(i));
+  }
+  // the per-body scratch of the stages is sized and zeroed again by the next step
+  guard_->invalidate();
+  solver::forget_bodies(*solver_);
+  v_.clear();
+  omega_.clear();
+  scratch_->reach.clear();
 }
 
 int SolverSettings::substep_count(double dt) const {
@@ -130,24 +148,24 @@ void World::step_once(double dt) {
   if (settings_.solver.method == SolverMethod::Soft) return soft_step_once(dt);
   const int n = settings_.solver.substep_count(dt);
   const double h = dt / n;
-  guard_->begin(state_, *solver_);                     // checkpoint: what an undo puts back
-  dynamics::apply_impulses(model_, state_);            // pending impulses change v and omega
-  guard_->measure_start(model_, state_);               // the kinetic energy the step answers to
+  guard_->begin(state_, *solver_, &moving_);          // checkpoint: what an undo puts back
+  dynamics::apply_impulses(model_, state_, &moving_);  // pending impulses change v and omega
+  guard_->measure_start(model_, state_, &moving_);     // the kinetic energy the step answers to
   detect_contacts(dt, contacts_base_);                 // once, as far as the whole step reaches
   wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
   SolverStats stats;
   for (int k = 0; k < n; ++k) {
     carry_contacts(k);                                 // the step's contacts moved to this substep
     dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, settings_.solver.gyroscopic, v_, omega_,
-                                     pool_.get());
+                                     pool_.get(), &moving_);
     stats = solver::solve_contacts(model_, state_, h, settings_.solver, contacts_next_, v_, omega_, *solver_,
                                    k == 0 ? nullptr : &anchor_a_, k == 0 ? nullptr : &anchor_b_);
     sum_impulses(k);                                   // Contacts.impulse: the whole step's
-    dynamics::advance(model_, state_, solver_->v_move, solver_->omega_move, v_, omega_, h, pool_.get());
-    guard_->check_finite(model_, state_, *solver_);    // checkpoint: nothing non-finite is kept
+    dynamics::advance(model_, state_, solver_->v_move, solver_->omega_move, v_, omega_, h, pool_.get(), &moving_);
+    guard_->check_finite(model_, state_, *solver_, &moving_);  // checkpoint: nothing non-finite is kept
     end_substep(stats, h);
   }
-  guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_);  // checkpoint: no explosion
+  guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_, &moving_);  // checkpoint: no explosion
   commit_step(stats);
   end_islands(dt);                                     // sleep timers; islands at rest fall asleep
 }
@@ -156,25 +174,26 @@ void World::soft_step_once(double dt) {
   const int n = settings_.solver.substep_count(dt);
   const double h = dt / n;
   const SolverSettings& q = settings_.solver;
-  guard_->begin(state_, *solver_);                     // checkpoint: what an undo puts back
-  dynamics::apply_impulses(model_, state_);            // pending impulses change v and omega
-  guard_->measure_start(model_, state_);               // the kinetic energy the step answers to
+  guard_->begin(state_, *solver_, &moving_);          // checkpoint: what an undo puts back
+  dynamics::apply_impulses(model_, state_, &moving_);  // pending impulses change v and omega
+  guard_->measure_start(model_, state_, &moving_);     // the kinetic energy the step answers to
   detect_contacts(dt, contacts_base_);                 // once, as far as the whole step reaches
   wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
   carry_contacts(0);                                   // the step's contacts, to be written by the solver
   solver::soft_begin(model_, state_, h, q, contacts_next_, *solver_);
   for (int k = 0; k < n; ++k) {
-    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, q.gyroscopic, v_, omega_, pool_.get());
+    dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, q.gyroscopic, v_, omega_, pool_.get(),
+                                     &moving_);
     solver::soft_solve(model_, state_, q, v_, omega_, *solver_);
-    dynamics::advance(model_, state_, v_, omega_, v_, omega_, h, pool_.get());  // the poses move with the solved velocities
+    dynamics::advance(model_, state_, v_, omega_, v_, omega_, h, pool_.get(), &moving_);  // the poses move with the solved velocities
     solver::soft_relax(model_, state_, q, state_.v, state_.omega, *solver_);
-    guard_->check_finite(model_, state_, *solver_);    // checkpoint: nothing non-finite is kept
+    guard_->check_finite(model_, state_, *solver_, &moving_);  // checkpoint: nothing non-finite is kept
     ++report_.steps;
   }
   const SolverStats stats = solver::soft_end(model_, state_, q, contacts_next_, state_.v, state_.omega, *solver_);
   end_substep_flags(stats, state_.time);
   solver_->cache.swap(solver_->cache_next);
-  guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_);  // checkpoint: no explosion
+  guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_, &moving_);  // checkpoint: no explosion
   commit_step(stats);
   end_islands(dt);                                     // sleep timers; islands at rest fall asleep
 }
@@ -218,7 +237,7 @@ void World::end_substep_flags(const SolverStats& stats, double time) {
 }
 
 void World::commit_step(const SolverStats& stats) {
-  memory_->commit(guard_->start().p);
+  memory_->commit(guard_->start().p, &moving_);
   // the reported contacts and forces: the step's, and the sleeping islands' as they fell asleep
   std::vector<Contact>& contacts = own_contacts();
   if (islands_->contacts().empty()) {
@@ -226,11 +245,12 @@ void World::commit_step(const SolverStats& stats) {
   } else {
     islands_->purge(model_, state_);  // islands woken in this step are solved in it
     islands_->merge_contacts(contacts_next_, contacts);
-    islands_->add_forces(solver_->body_force, solver_->body_torque);
+    islands_->add_forces(*solver_);
   }
   stats_ = stats;
-  for (std::size_t i = 0; i < model_.size(); ++i) {
-    if (!model_.is_static[i] && model_.enabled[i] && !state_.asleep(i)) state_.q[i] = math::matrix_to_quat(state_.R[i]);
+  // (a static body has no one-step force: apply_force refuses it)
+  for (const BodyIndex i : moving_) {
+    if (model_.enabled[i] && !state_.asleep(i)) state_.q[i] = math::matrix_to_quat(state_.R[i]);
     state_.f_step[i].setZero();
     state_.tau_step[i].setZero();
   }
@@ -248,7 +268,7 @@ void World::detect_contacts(double dt, std::vector<Contact>& out) const {
   if (!(std::isfinite(dt) && dt > 0.0))
     throw std::invalid_argument("detect_contacts: dt must be positive and finite, got " + std::to_string(dt));
   collision::generate_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
-                               *scratch_, out, pool_.get());
+                               *scratch_, out, pool_.get(), &moving_);
 }
 
 std::size_t World::num_bodies() const {
