@@ -90,6 +90,17 @@ def sweep_ray(runs: int) -> float:
     return time.perf_counter() - t
 
 
+def sweep_running_ray(runs: int) -> float:
+    """The sweep on a local Ray started before the timing (as on a cluster that is up)."""
+    import ray
+
+    ray.init(include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1")
+    try:
+        return sweep_ray(runs)
+    finally:
+        ray.shutdown()
+
+
 def ray_task_overhead(tasks: int = 400) -> float:
     """Seconds per no-op Ray task, submitted all at once and gathered (a local Ray)."""
     import ray
@@ -221,6 +232,7 @@ def main(argv=None) -> int:
                f"signorini Batch, {args.threads} threads": lambda: batch(args.runs, args.threads)}
     if have_ray:
         methods[f"signorini sweep on a local Ray ({os.cpu_count()} CPUs, start-up included)"] = lambda: sweep_ray(args.runs)
+        methods["signorini sweep on a local Ray already running"] = lambda: sweep_running_ray(args.runs)
     if not args.no_peers:
         methods[f"pybullet DIRECT, multiprocessing pool of {args.threads}"] = lambda: pybullet_pool(args.runs, args.threads)
         methods[f"MuJoCo rollout, {args.threads} threads"] = lambda: mujoco_rollout(args.runs, args.threads)
