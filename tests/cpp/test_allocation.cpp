@@ -85,15 +85,20 @@ void expect_quiet(const std::array<long, 3>& n) {
   EXPECT_EQ(*std::min_element(n.begin(), n.end()), 0) << "every window of 240 steps allocated";
 }
 
+/// The plane z = 0, static, as body 0.
+void add_ground(World& w) {
+  BodyDesc ground;
+  ground.is_static = true;
+  ground.shape = Plane(Vec3(0, 0, 1), 0.0);
+  w.add_body(ground);
+}
+
 /// A busy scene: 64 bodies of every convex kind (spheres, boxes, capsules, cylinders, hulls,
 /// compounds) dropped into a pit of static boxes on a plane, half of it tessellated as a triangle
 /// mesh floor, so every pair family of the narrow phase and both broad-phase trees are exercised.
 /// spinning_friction (m) on every body: with it, the single-point contacts get spin rows too.
 void build_pit(World& w, double spinning_friction = 0.0) {
-  BodyDesc ground;
-  ground.is_static = true;
-  ground.shape = Plane(Vec3(0, 0, 1), 0.0);
-  w.add_body(ground);
+  add_ground(w);
   BodyDesc floor;
   floor.is_static = true;
   floor.shape = scenes::floor_mesh(0.6, 6);
@@ -143,10 +148,7 @@ TEST(Allocation, StepsOnTwoThreadsAllocateNothingAfterWarmUp) {
     settings.solver.method = method;
     settings.solver.max_iterations = 4;
     World w(settings);
-    BodyDesc ground;
-    ground.is_static = true;
-    ground.shape = Plane(Vec3(0, 0, 1), 0.0);
-    w.add_body(ground);
+    add_ground(w);
     for (int i = 0; i < 17; ++i)
       for (int j = 0; j < 17; ++j) {
         BodyDesc d;
@@ -175,10 +177,7 @@ TEST(Allocation, StepsOfASleepingPileAllocateNothing) {
   WorldSettings settings;
   settings.sleep.enabled = true;
   World w(settings);
-  BodyDesc ground;
-  ground.is_static = true;
-  ground.shape = Plane(Vec3(0, 0, 1), 0.0);
-  w.add_body(ground);
+  add_ground(w);
   for (int k = 0; k < 27; ++k) {
     BodyDesc d;
     d.shape = Box(Vec3(0.1, 0.1, 0.1));
@@ -205,10 +204,7 @@ SleepWakeCount sleep_wake_allocations(int warm_up, int cycles) {
   WorldSettings settings;
   settings.sleep.enabled = true;
   World w(settings);
-  BodyDesc ground;
-  ground.is_static = true;
-  ground.shape = Plane(Vec3(0, 0, 1), 0.0);
-  w.add_body(ground);
+  add_ground(w);
   std::vector<BodyIndex> balls;
   for (int k = 0; k < 4; ++k) {
     BodyDesc cube;

@@ -425,3 +425,15 @@ def slope_box(seed: int = 0, friction: float = 0.3) -> sg.World:
 def down_slope_speed(w: sg.World) -> dict:
     """The box's velocity along the slope, downwards (m/s), as a sweep metric."""
     return {"speed": float(w.velocities[1] @ SLOPE_DOWN)}
+
+
+def ell_arrays():
+    """(vertices (12, 3), faces (20, 3)) of a closed, outward L-shaped prism (0.2 x 0.2 x 0.1 m):
+    not convex; CoACD cuts it in about a second (the decomposition tests' mesh)."""
+    outline = np.array([(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)], dtype=float) * 0.1
+    n = len(outline)
+    v = np.vstack([np.c_[outline, np.zeros(n)], np.c_[outline, np.full(n, 0.1)]])
+    caps = [(0, 2, 1), (0, 3, 2), (0, 4, 3), (0, 5, 4)]
+    f = caps + [(a + n, c + n, b + n) for a, b, c in caps]
+    f += [t for i in range(n) for t in ((i, (i + 1) % n, (i + 1) % n + n), (i, (i + 1) % n + n, i + n))]
+    return v, np.array(f)

@@ -3,9 +3,9 @@
 import importlib.util
 from pathlib import Path
 
-import numpy as np
 import pytest
 import trimesh
+from helpers import ell_arrays
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_decomposition.py"
 
@@ -33,13 +33,7 @@ def test_what_load_mesh_gives_for_pybullet_data(capsys):
 def test_coacd_cuts_a_non_convex_mesh_into_pieces(tmp_path, capsys):
     pytest.importorskip("coacd")
     # an L-shaped prism (the decomposition tests' mesh): CoACD cuts it in about a second
-    outline = np.array([(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)], dtype=float) * 0.1
-    n = len(outline)
-    v = np.vstack([np.c_[outline, np.zeros(n)], np.c_[outline, np.full(n, 0.1)]])
-    caps = [(0, 2, 1), (0, 3, 2), (0, 4, 3), (0, 5, 4)]
-    f = caps + [(a + n, c + n, b + n) for a, b, c in caps]
-    f += [t for i in range(n) for t in ((i, (i + 1) % n, (i + 1) % n + n), (i, (i + 1) % n + n, i + n))]
-    trimesh.Trimesh(v, np.array(f), process=False).export(tmp_path / "ell.obj")
+    trimesh.Trimesh(*ell_arrays(), process=False).export(tmp_path / "ell.obj")
     rows = load_bench().main(["--meshes", "ell.obj", "--coacd", "all", "--data", str(tmp_path)])
     assert rows[0]["gives"] == "non-convex: CoACD cuts it" and rows[0]["pieces"] >= 2 and rows[0]["coacd_s"] > 0
     assert f"{rows[0]['pieces']} pieces" in capsys.readouterr().out

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import signorini as sg
+from helpers import ell_arrays
 from signorini import decomposition, meshes
 
 pytest.importorskip("coacd")
@@ -25,13 +26,7 @@ pytest.importorskip("coacd")
 
 def ell():
     """A closed, outward L-shaped prism (0.2 x 0.2 x 0.1 m, 20 triangles): not convex."""
-    outline = np.array([(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)], dtype=float) * 0.1
-    n = len(outline)
-    v = np.vstack([np.c_[outline, np.zeros(n)], np.c_[outline, np.full(n, 0.1)]])
-    caps = [(0, 2, 1), (0, 3, 2), (0, 4, 3), (0, 5, 4)]
-    f = caps + [(a + n, c + n, b + n) for a, b, c in caps]
-    f += [t for i in range(n) for t in ((i, (i + 1) % n, (i + 1) % n + n), (i, (i + 1) % n + n, i + n))]
-    return sg.Mesh(v, np.array(f))
+    return sg.Mesh(*ell_arrays())
 
 
 def torus():

@@ -10,7 +10,6 @@ import sys
 import textwrap
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 import pytest
 
@@ -20,7 +19,6 @@ from signorini import sweeps as sw
 
 G = 9.81
 ANGLE = SLOPE_ANGLE
-REPO = Path(__file__).resolve().parents[2]
 slope, along_slope = slope_box, down_slope_speed
 
 
@@ -33,12 +31,6 @@ def failing(seed: int, friction: float):
     if friction == 0.3:
         w.set_external_wrench(1, force=(1.7e308, 0.0, 0.0))
     return w
-
-
-def along_slope(w: sg.World) -> dict:
-    """The box's speed down the slope (m/s)."""
-    down = np.array([-math.cos(ANGLE), 0.0, -math.sin(ANGLE)])
-    return {"speed": float(w.velocities[1] @ down)}
 
 
 def no_ray(monkeypatch):
