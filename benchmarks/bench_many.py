@@ -19,6 +19,7 @@ namespace of its own with only loopback up (unshare -n), as the tests do.
 from __future__ import annotations
 
 import argparse
+import copy
 import math
 import os
 import shutil
@@ -178,8 +179,7 @@ def mujoco_rollout(runs: int, threads: int) -> float | None:
     size = mujoco.mj_stateSize(base, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     for i in range(runs):
         mu, yaw = draw(i)
-        m = mujoco.MjModel.from_xml_string(MJCF.format(dt=DT, deg=-math.degrees(ANGLE), h=HALF)) if i == 0 else None
-        m = m or _copy_model(base)
+        m = copy.copy(base)  # a model of its own (MjModel copies its arrays)
         m.geom_friction[1, 0] = mu
         models.append(m)
         pos, q = box_start(yaw)
@@ -191,12 +191,6 @@ def mujoco_rollout(runs: int, threads: int) -> float | None:
     datas = [mujoco.MjData(base) for _ in range(threads)]
     rollout.rollout(models, datas, np.array(states), nstep=STEPS)
     return time.perf_counter() - t
-
-
-def _copy_model(m):
-    import copy
-
-    return copy.copy(m)
 
 
 def in_loopback_namespace() -> bool:

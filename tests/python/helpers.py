@@ -26,8 +26,11 @@ Tolerances (m):
   normals: where the direction is unique, closed forms to EXACT; a support pair's normal n to the
     angle its gap tolerance allows, sqrt(4 tol / (rho + delta)) (normal_bound).
 """
+import importlib.util
 import math
 import os
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -437,3 +440,13 @@ def ell_arrays():
     f = caps + [(a + n, c + n, b + n) for a, b, c in caps]
     f += [t for i in range(n) for t in ((i, (i + 1) % n, (i + 1) % n + n), (i, (i + 1) % n + n, i + n))]
     return v, np.array(f)
+
+
+def load_benchmark(name: str):
+    """benchmarks/<name>.py as a module (the smoke tests call its main), registered in sys.modules
+    before it runs: its dataclasses look their module up by name."""
+    spec = importlib.util.spec_from_file_location(name, Path(__file__).resolve().parents[2] / "benchmarks" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module

@@ -1,25 +1,15 @@
 """Smoke test of benchmarks/bench_decomposition.py: what load_mesh gives for pybullet_data's files
 (no CoACD), and one real CoACD run on a small non-convex OBJ; times are printed, never asserted."""
-import importlib.util
-from pathlib import Path
 
 import pytest
 import trimesh
-from helpers import ell_arrays
+from helpers import ell_arrays, load_benchmark
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_decomposition.py"
-
-
-def load_bench():
-    spec = importlib.util.spec_from_file_location("bench_decomposition", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def test_what_load_mesh_gives_for_pybullet_data(capsys):
     pytest.importorskip("pybullet_data")
-    rows = load_bench().main(["--meshes", "cube.obj,sphere_smooth.obj,bunny.obj,duck_vhacd.obj", "--coacd", "none"])
+    rows = load_benchmark("bench_decomposition").main(["--meshes", "cube.obj,sphere_smooth.obj,bunny.obj,duck_vhacd.obj", "--coacd", "none"])
     assert [(r["mesh"], r["triangles"], r["gives"], r["coacd_s"]) for r in rows] == [
         ("cube.obj", 12, "convex", None),
         ("sphere_smooth.obj", 1792, "its own hull (convex within tolerance)", None),
@@ -34,6 +24,6 @@ def test_coacd_cuts_a_non_convex_mesh_into_pieces(tmp_path, capsys):
     pytest.importorskip("coacd")
     # an L-shaped prism (the decomposition tests' mesh): CoACD cuts it in about a second
     trimesh.Trimesh(*ell_arrays(), process=False).export(tmp_path / "ell.obj")
-    rows = load_bench().main(["--meshes", "ell.obj", "--coacd", "all", "--data", str(tmp_path)])
+    rows = load_benchmark("bench_decomposition").main(["--meshes", "ell.obj", "--coacd", "all", "--data", str(tmp_path)])
     assert rows[0]["gives"] == "non-convex: CoACD cuts it" and rows[0]["pieces"] >= 2 and rows[0]["coacd_s"] > 0
     assert f"{rows[0]['pieces']} pieces" in capsys.readouterr().out

@@ -2,25 +2,13 @@
 second and the script returns and prints a row per scene and engine with finite figures (timing
 is printed, never asserted). The peers run when installed; the test passes without them."""
 
-import importlib.util
 import math
 import re
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import load_benchmark
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_scale.py"
-
-
-def load_bench():
-    spec = importlib.util.spec_from_file_location("bench_scale", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    # registered before running: its dataclasses look their module up by name
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 TIMES = ("ms", "q1", "q3", "ratio")
@@ -58,7 +46,7 @@ def check_rows(bench, rows, engines, out):
 
 
 def test_tiny_scenes_signorini_alone_give_a_finite_row_each(capsys):
-    bench = load_bench()
+    bench = load_benchmark("bench_scale")
     rows = bench.main(["--tiny", "--seconds", "0.25", "--chunks", "3", "--engines", "signorini,soft",
                        "--sweeps", "10", "--substeps", "1"])
     out = capsys.readouterr().out
@@ -79,7 +67,7 @@ def test_tiny_scenes_signorini_alone_give_a_finite_row_each(capsys):
 
 
 def test_tiny_scenes_with_the_installed_peers():
-    bench = load_bench()
+    bench = load_benchmark("bench_scale")
     engines = ["signorini", "signorini soft"] + [e for e, load in (("pybullet", bench.peers.load_pybullet),
                                                  ("rapier3d", bench.peers.load_rapier)) if load() is not None]
     if len(engines) == 2:
@@ -100,7 +88,7 @@ def test_tiny_scenes_with_the_installed_peers():
 
 
 def test_peer_twins_start_as_the_signorini_world():
-    bench = load_bench()
+    bench = load_benchmark("bench_scale")
     mods = {"pybullet": bench.peers.load_pybullet(), "rapier3d": bench.peers.load_rapier()}
     if not any(mods.values()):
         pytest.skip("neither pybullet nor rapier3d is installed")
@@ -131,7 +119,7 @@ def test_peer_twins_start_as_the_signorini_world():
 
 
 def test_convex_pile_points_lie_on_the_two_metre_sphere():
-    bench = load_bench()
+    bench = load_benchmark("bench_scale")
     points = bench.convex_pile_points()
     assert points.shape == (32, 3)
     np.testing.assert_allclose(np.linalg.norm(points, axis=1), 2.0, rtol=1e-12)
@@ -140,7 +128,7 @@ def test_convex_pile_points_lie_on_the_two_metre_sphere():
 
 
 def test_rain_releases_follow_box3d_schedule():
-    bench = load_bench()
+    bench = load_benchmark("bench_scale")
     assert bench.rain_release_steps(400) == [0, 16, 64, 80, 128, 144, 192, 208, 256, 272, 320, 336, 384]
     scene = bench.rain(tiny=True)
     # tiny: 2 columns of 2 cells, one stack of 14 capsules each; the third release re-drops column 0

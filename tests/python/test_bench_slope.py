@@ -2,24 +2,13 @@
 piles) for both solvers, returns finite figures and prints the ratio and slope lines (timing is
 printed, never asserted)."""
 
-import importlib.util
 import math
-import sys
-from pathlib import Path
+from helpers import load_benchmark
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_slope.py"
-
-
-def load_bench():
-    spec = importlib.util.spec_from_file_location("bench_slope", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 def test_tiny_run_prints_both_tables(capsys):
-    bench = load_bench()
+    bench = load_benchmark("bench_slope")
     result = bench.main(["--tiny"])
     out = capsys.readouterr().out
     statics, bodies = result["statics"], result["bodies"]
@@ -37,13 +26,13 @@ def test_tiny_run_prints_both_tables(capsys):
 
 
 def test_slope_of_a_power_law_is_its_exponent():
-    bench = load_bench()
+    bench = load_benchmark("bench_slope")
     sizes = [1000, 3000, 10000, 30000, 50000]
     assert math.isclose(bench.slope(sizes, [2e-3 * n ** 1.25 for n in sizes]), 1.25, rel_tol=1e-12)
     assert math.isclose(bench.slope(sizes, [7.0 * n for n in sizes]), 1.0, rel_tol=1e-12)
 
 
 def test_one_table_alone():
-    bench = load_bench()
+    bench = load_benchmark("bench_slope")
     result = bench.main(["--tiny", "--only", "bodies", "--solvers", "soft"])
     assert result["statics"] == [] and [r["solver"] for r in result["bodies"]] == ["soft", "soft"]

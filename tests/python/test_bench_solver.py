@@ -1,21 +1,12 @@
 """Smoke test of benchmarks/bench_solver.py: its signorini side runs in --quick mode on tiny scenes
 and prints one table with a finite row per scene (timing is printed, never asserted)."""
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import load_benchmark
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_solver.py"
-
-
-def load_bench():
-    spec = importlib.util.spec_from_file_location("bench_solver", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 FIGURES = ("ms", "q1", "q3", "displacement", "penetration", "kinetic_energy", "residual",
@@ -24,7 +15,7 @@ FIGURES = ("ms", "q1", "q3", "displacement", "penetration", "kinetic_energy", "r
 
 
 def test_quick_tiny_signorini_side_prints_a_finite_row_per_scene(capsys):
-    bench = load_bench()
+    bench = load_benchmark("bench_solver")
     rows = bench.main(["--quick", "--tiny", "--no-pybullet"])
     out = capsys.readouterr().out
 
@@ -50,7 +41,7 @@ def test_quick_tiny_signorini_side_prints_a_finite_row_per_scene(capsys):
 
 def test_pybullet_twin_mirrors_the_signorini_world():
     pytest.importorskip("pybullet")
-    bench = load_bench()
+    bench = load_benchmark("bench_solver")
     from signorini import scenes
 
     for build in (lambda: scenes.pyramid(base=3), lambda: scenes.rain(spheres=6, boxes=2),
@@ -79,7 +70,7 @@ def test_pybullet_twin_mirrors_the_signorini_world():
 def test_pybullet_twin_combines_spinning_friction_as_signorini_does():
     # Bullet's s_A f_B + s_B f_A for two bodies of friction 0.5 and spinning friction 2 mm: 2 mm
     pytest.importorskip("pybullet")
-    bench = load_bench()
+    bench = load_benchmark("bench_solver")
     from signorini import scenes
 
     world = scenes.pyramid(base=2).world
