@@ -332,8 +332,8 @@ class Batch:
         idx = self._indices(indices, setter)
         a = self._rows(values, width, setter, setter[4:], idx)
         all_bodies = np.arange(self.num_bodies)
-        # the worlds check every row before writing: a bad row in world k leaves worlds before k set,
-        # so check them all first (a copy of each world's state to put back on an error)
+        # each world checks its own rows before writing them, but a bad row in world k would leave the
+        # worlds before k set: their states are saved first and put back on an error
         saved = [self._worlds[i].save_state() for i in idx]
         try:
             for k, i in enumerate(idx):

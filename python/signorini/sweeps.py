@@ -230,12 +230,11 @@ def _plain(rows: list[dict]) -> list[dict]:
     return [{k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in r.items()} for r in rows]
 
 
-def _write_parquet(rows: list[dict], path: Path) -> None:
-    import pandas as pd
-
+def _write_parquet(table, path: Path) -> None:
+    """A DataFrame to path, whole or not at all (written beside it, then renamed)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
-    pd.DataFrame(_plain(rows)).to_parquet(tmp, index=False)
+    table.to_parquet(tmp, index=False)
     os.replace(tmp, path)
 
 
@@ -322,7 +321,7 @@ def sweep(build: Callable, grid: Mapping[str, Sequence], steps: int, dt: float, 
 
     def collect(got: list[dict]) -> None:
         if parts is not None and got:
-            _write_parquet(got, parts / f"runs-{got[0]['_index']:08d}.parquet")
+            _write_parquet(pd.DataFrame(_plain(got)), parts / f"runs-{got[0]['_index']:08d}.parquet")
         for r in got:
             rows[r.pop("_index")] = r
         bar.update(len(got))
@@ -368,7 +367,7 @@ def sweep(build: Callable, grid: Mapping[str, Sequence], steps: int, dt: float, 
         bar.close()
     table = pd.DataFrame(_plain([rows[i] for i in sorted(rows)]))
     if out is not None:
-        _write_parquet([rows[i] for i in sorted(rows)], out)
+        _write_parquet(table, out)
         if parts is not None and parts.exists():
             for f in parts.glob("*.parquet"):
                 f.unlink()
