@@ -21,6 +21,7 @@ using namespace rows;
 template <bool kSpin>
 int sweeps(const SolverSettings& s, SolverData& d, bool& converged) {
   Velocities& qd = d.qd;
+  const Mat3* dI = d.dI_inv.data();
   converged = d.rows.empty();
   int sweeps = 0;
   while (!converged && sweeps < s.max_iterations) {
@@ -28,12 +29,12 @@ int sweeps(const SolverSettings& s, SolverData& d, bool& converged) {
     const double change = by_colour(d, [&](std::size_t first, std::size_t end) {
       double change = 0.0;
       for (std::size_t k = first; k < end; ++k) {  // in solve order, as the rows are stored
-        const Row* r = &d.rows[3 * k];
+        const ContactRows& r = d.rows[k];
         double* alpha = &d.alpha[3 * k];
         // the contact's two bodies, held locally through its three rows (the same arithmetic; the
         // velocities need not go through memory between rows) and stored back after
-        BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
-        contact_rows(s, r, alpha, A, B, change, HardNormal{});
+        BodyVelocity A = qd[r.a], B = qd[r.b];
+        contact_rows(s, r, dI, alpha, A, B, change, HardNormal{});
         finish_contact<kSpin>(d, k, r, alpha, A, B, change);
       }
       return change;
@@ -76,7 +77,7 @@ int position_pass(double dt, const SolverSettings& s, const std::vector<Contact>
     double change = 0.0;
     for (std::size_t k = 0; k < K; ++k) {  // in solve order
       const int i = d.order[k];
-      change = std::max(change, update_normal(d.rows[3 * k], -d.b_pos[i], d.beta[i], d.qd_p));
+      change = std::max(change, update_normal(d.rows[k], d.dI_inv.data(), -d.b_pos[i], d.beta[i], d.qd_p));
     }
     converged = s.tolerance > 0.0 && change <= s.tolerance;
   }

@@ -17,31 +17,33 @@ namespace signorini::parallel { class Pool; }
 
 namespace signorini::solver {
 
-/// One constraint row: a Jacobian pair with bounds. It knows bodies and directions, never a
-/// Contact, so joints can add rows of their own (any point constraint has J_A_lin = -J_B_lin).
-/// Hot data, read and written by every sweep, so it is kept lean (200 bytes; the linear parts
-/// M^-1 J_lin = m^-1 J_lin are not stored, J_A_lin is -J_lin, and the step dt is folded into
-/// dt M^-1 J so that a force change reaches the velocities in one product):
-///   J_A = (JA_ang, -J_lin), J_B = (JB_ang, J_lin) in the (omega, p_dot) layout (6 each);
-///   its velocity J q_dot = JB_ang . omega_B + J_lin . (v_B - v_A) + JA_ang . omega_A (m/s);
-///   delta = dt (J_A . M_A^-1 J_A + J_B . M_B^-1 J_B) (s/kg), the lecture's delta_i;
-///   a force change d_alpha (N) moves q_dot_X += d_alpha (dt M_X^-1 J_X).
-struct Row {
+/// A contact's three rows (normal n, friction t1 and t2: the lecture's rows of one contact), held
+/// as what they share: the bodies, the three directions and the two lever arms. Row k of direction
+/// d_k (n, t1, t2) has the Jacobian
+///   J_A = (-(r_a x d_k), -d_k), J_B = (r_b x d_k, d_k) in the (omega, p_dot) layout,
+/// so its velocity J q_dot = d_k . (v_B + omega_B x r_b - v_A - omega_A x r_a) is the relative
+/// velocity at the point along d_k, and force changes d_alpha_k (N) move the bodies by the impulse
+/// P = sum_k d_alpha_k d_k (on B; -P on A): q_dot_B += (dt I_B^-1 (r_b x P), dt m_B^-1 P), A the
+/// opposite way, with dt I_X^-1 read from the body (SolverData::dI_inv).
+/// Hot data, read by every sweep, so it is kept lean (240 bytes for the three rows, not three rows
+/// of their own with dt M^-1 J stored per row: 600 bytes, which made the sweeps of a 57,000-contact
+/// pile wait on memory). The lecture's delta_k = dt (J_A,k M_A^-1 J_A,k + J_B,k M_B^-1 J_B,k) (s/kg)
+/// and the friction rows' couplings W are stored. Joints will have rows of their own kind.
+struct ContactRows {
   int a = 0, b = 0;             ///< body indices
   bool a_moves = false, b_moves = false;  ///< false for static and kinematic bodies (M^-1 = 0: skipped)
-  Vec3 J_lin;                   ///< J_B_lin (unit direction d for a contact row); J_A_lin = -J_lin
-  Vec3 JA_ang, JB_ang;
-  Vec3 dMJA_ang, dMJB_ang;      ///< dt I_X^-1 J_X_ang (world inverse inertia; s/(kg m))
-  double dinv_mass_a = 0.0, dinv_mass_b = 0.0;  ///< dt / m_X (s/kg; 0 for static bodies)
-  double delta = 0.0;
-  double inv_delta = 0.0;       ///< 1 / delta (0 when delta = 0): sweeps multiply, never divide
-  double bias = 0.0;            ///< b (m/s): the row asks J q_dot + b >= 0 (normal rows)
-  double mu = 0.0;              ///< friction rows: the bound is mu alpha_normal, of the normal row just before them
-  /// friction rows: the off-diagonal Delassus entries W_jk = dt J_j M^-1 J_k^T (s/kg) coupling this
-  /// row j to its normal row (W_n) and, for t2, to t1 (W_t1); a force change d_alpha_k of row k
-  /// changes this row's velocity by W_jk d_alpha_k, so a sweep gets the velocity a row sees after
-  /// the rows before it in the same contact without waiting for the body velocities to be updated
-  double W_n = 0.0, W_t1 = 0.0;
+  Vec3 n, t1, t2;               ///< the rows' directions d_k (unit, world): normal (A to B), tangents
+  Vec3 r_a, r_b;                ///< lever arms y - p_X of the point on A and on B (m, world)
+  double dinv_mass_a = 0.0, dinv_mass_b = 0.0;  ///< dt / m_X (s/kg; 0 for a body that does not move)
+  double delta[3] = {0.0, 0.0, 0.0};      ///< delta_k of the normal, t1 and t2 rows (s/kg)
+  double inv_delta[3] = {0.0, 0.0, 0.0};  ///< 1 / delta_k (0 when delta_k = 0): sweeps multiply, never divide
+  double bias = 0.0;            ///< b (m/s) of the normal row: it asks J_n q_dot + b >= 0
+  double mu = 0.0;              ///< the friction rows' bound is mu alpha_n
+  /// the off-diagonal Delassus entries W_jk = dt J_j M^-1 J_k^T (s/kg) coupling the t1 row to the
+  /// normal row (W_1n), t2 to the normal row (W_2n) and t2 to t1 (W_21): a force change d_alpha_k
+  /// of row k changes row j's velocity by W_jk d_alpha_k, so a sweep gets the velocity a friction
+  /// row sees after the rows before it in the same contact without updating the bodies in between
+  double W_1n = 0.0, W_2n = 0.0, W_21 = 0.0;
 };
 
 /// A spin row: torsional friction about the normal n of a contact that is its body pair's only
@@ -93,10 +95,10 @@ struct SolverData {
   /// solve positions where each colour starts (colour c: [colour_start[c], colour_start[c + 1]));
   /// the last colour is the shared one, whose contacts may share bodies
   std::vector<int> colour_start;
-  // rows: 3 per contact (normal, t1, t2), in solve order (contact order[k] at 3k); their forces
-  // alpha (N); the solve order (order: position -> contact, slot: contact -> position) and the
+  // rows: one ContactRows per contact (normal, t1, t2), in solve order (contact order[k] at k);
+  // their forces alpha (N), 3 per contact (at 3k, 3k + 1, 3k + 2); the solve order (order: position -> contact, slot: contact -> position) and the
   // colours each body has taken while it was made (a bit per colour)
-  std::vector<Row> rows;
+  std::vector<ContactRows> rows;
   std::vector<double> alpha;
   std::vector<int> order, slot;
   std::vector<std::uint64_t> colours_used;

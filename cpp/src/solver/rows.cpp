@@ -39,40 +39,41 @@ bool alone_in_pair(const std::vector<Contact>& contacts, std::size_t i) {
 
 /// The rows of one contact between bodies a and b, acting at lever arms r_a = y_a - p_a on A and
 /// r_b = y_b - p_b on B, along the directions d[0..2] (unit, world; normal, t1, t2):
-/// J_A = -(r_a x d, d), J_B = (r_b x d, d), delta = dt (J_A M_A^-1 J_A + J_B M_B^-1 J_B).
-/// dI_inv holds dt I_X^-1 per body (world). What the rows share (bodies, masses) is read once.
+/// J_A,k = -(r_a x d_k, d_k), J_B,k = (r_b x d_k, d_k), delta_k = dt (J_A,k M_A^-1 J_A,k + J_B,k M_B^-1 J_B,k),
+/// and the friction rows' couplings W_jk = dt J_j M^-1 J_k^T. dI_inv holds dt I_X^-1 per body (world).
 void make_rows(const Model& model, const std::vector<Mat3>& dI_inv, int a, int b, const Vec3& r_a, const Vec3& r_b,
-               const Vec3* d, double dt, Row* r) {
+               const Vec3* d, double dt, ContactRows& c) {
   // static and kinematic bodies have infinite mass here: contacts never change their velocities
-  const bool a_moves = !model.is_static[a] && !model.is_kinematic[a];
-  const bool b_moves = !model.is_static[b] && !model.is_kinematic[b];
-  const double dinv_mass_a = a_moves ? dt * model.inv_mass[a] : 0.0;
-  const double dinv_mass_b = b_moves ? dt * model.inv_mass[b] : 0.0;
+  c.a = a;
+  c.b = b;
+  c.a_moves = !model.is_static[a] && !model.is_kinematic[a];
+  c.b_moves = !model.is_static[b] && !model.is_kinematic[b];
+  c.dinv_mass_a = c.a_moves ? dt * model.inv_mass[a] : 0.0;
+  c.dinv_mass_b = c.b_moves ? dt * model.inv_mass[b] : 0.0;
+  c.n = d[0];
+  c.t1 = d[1];
+  c.t2 = d[2];
+  c.r_a = r_a;
+  c.r_b = r_b;
+  // per row: the angular parts J_X_ang,k and dt I_X^-1 J_X_ang,k (zero for a body that does not move)
+  Vec3 JA[3], JB[3], MJA[3], MJB[3];
   for (int k = 0; k < 3; ++k) {
-    Row& x = r[k];
-    x.a = a;
-    x.b = b;
-    x.a_moves = a_moves;
-    x.b_moves = b_moves;
-    x.J_lin = d[k];
-    x.JA_ang = -r_a.cross(d[k]);
-    x.JB_ang = r_b.cross(d[k]);
-    x.dMJA_ang = a_moves ? Vec3(dI_inv[a] * x.JA_ang) : Vec3::Zero();
-    x.dMJB_ang = b_moves ? Vec3(dI_inv[b] * x.JB_ang) : Vec3::Zero();
-    x.dinv_mass_a = dinv_mass_a;
-    x.dinv_mass_b = dinv_mass_b;
-    x.delta = x.JB_ang.dot(x.dMJB_ang) + x.JA_ang.dot(x.dMJA_ang) + (dinv_mass_a + dinv_mass_b) * d[k].squaredNorm();
-    x.inv_delta = x.delta > 0.0 ? 1.0 / x.delta : 0.0;
-    x.bias = 0.0;
-    x.mu = 0.0;
-    x.W_n = x.W_t1 = 0.0;
+    JA[k] = -r_a.cross(d[k]);
+    JB[k] = r_b.cross(d[k]);
+    MJA[k] = c.a_moves ? Vec3(dI_inv[a] * JA[k]) : Vec3::Zero();
+    MJB[k] = c.b_moves ? Vec3(dI_inv[b] * JB[k]) : Vec3::Zero();
   }
-}
-
-/// W_jk = dt J_j M^-1 J_k^T (s/kg) of two rows on the same bodies: how much a force change of row k
-/// moves row j's velocity.
-double coupling(const Row& j, const Row& k) {
-  return j.JB_ang.dot(k.dMJB_ang) + j.JA_ang.dot(k.dMJA_ang) + (k.dinv_mass_a + k.dinv_mass_b) * j.J_lin.dot(k.J_lin);
+  const double dinv_mass = c.dinv_mass_a + c.dinv_mass_b;
+  const auto W = [&](int j, int k) { return JB[j].dot(MJB[k]) + JA[j].dot(MJA[k]) + dinv_mass * d[j].dot(d[k]); };
+  for (int k = 0; k < 3; ++k) {
+    c.delta[k] = W(k, k);
+    c.inv_delta[k] = c.delta[k] > 0.0 ? 1.0 / c.delta[k] : 0.0;
+  }
+  c.W_1n = W(1, 0);
+  c.W_2n = W(2, 0);
+  c.W_21 = W(2, 1);
+  c.bias = 0.0;
+  c.mu = 0.0;
 }
 
 }  // namespace
@@ -124,7 +125,7 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
              const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d) {
   const std::size_t K = contacts.size();
   solve_order(model, contacts, d);
-  d.rows.resize(3 * K);
+  d.rows.resize(K);
   assign_n(d.alpha, 3 * K, 0.0);
   d.u.resize(K);
   d.e.resize(K);
@@ -140,18 +141,14 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       Vec3 dir[3];
       dir[0] = c.normal;
       tangent_basis(c.normal, dir[1], dir[2]);
-      Row* r = &d.rows[3 * d.slot[i]];
+      ContactRows& r = d.rows[d.slot[i]];
       const Vec3 r_a = (anchor_a ? (*anchor_a)[i] : c.point) - state.p[a];
       const Vec3 r_b = (anchor_b ? (*anchor_b)[i] : c.point) - state.p[b];
       make_rows(model, d.dI_inv, a, b, r_a, r_b, dir, dt, r);
       // a speculative contact may close its gap, no more; an overlap is left to the position pass
-      r[0].bias = std::max(c.gap, 0.0) / dt;
-      for (int k = 1; k <= 2; ++k) {
-        r[k].mu = mu;
-        r[k].W_n = coupling(r[k], r[0]);
-      }
-      r[2].W_t1 = coupling(r[2], r[1]);
-      d.u[i] = row_velocity(r[0], d.qd);
+      r.bias = std::max(c.gap, 0.0) / dt;
+      r.mu = mu;
+      d.u[i] = normal_velocity(r, d.qd);
       d.e[i] = std::max(ma.restitution, mb.restitution);
       if (ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0) spinning.store(true, std::memory_order_relaxed);
     }
@@ -167,7 +164,7 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
     const double mu_spin =
         std::max(model.material[c.body_a].spinning_friction, model.material[c.body_b].spinning_friction);
     if (!(mu_spin > 0.0) || !alone_in_pair(contacts, static_cast<std::size_t>(i))) continue;
-    const Row& r = d.rows[3 * k];
+    const ContactRows& r = d.rows[k];
     SpinRow q;
     q.n = c.normal;
     q.dMJA_ang = r.a_moves ? Vec3(d.dI_inv[r.a] * -c.normal) : Vec3::Zero();
@@ -230,10 +227,10 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
       if (d.recalled[i] < 0) continue;
       const CachedContact& entry = d.cache[static_cast<std::size_t>(d.recalled[i])];
       const std::size_t k = 3 * static_cast<std::size_t>(d.slot[i]);
-      const Row* r = &d.rows[k];
+      const ContactRows& r = d.rows[d.slot[i]];
       const double alpha_n = entry.alpha;
-      double a1 = entry.friction.dot(r[1].J_lin), a2 = entry.friction.dot(r[2].J_lin);
-      const double bound = r[1].mu * alpha_n;
+      double a1 = entry.friction.dot(r.t1), a2 = entry.friction.dot(r.t2);
+      const double bound = r.mu * alpha_n;
       if (s.friction_cone == FrictionCone::Cone) {
         clamp_to_disk(a1, a2, bound);
       } else {
@@ -254,16 +251,19 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
 }
 
 void apply_forces(SolverData& d) {
-  // each contact's normal, t1 and t2 rows, then its spin row
+  // each contact's three forces as one impulse, then its spin torque
   // (colour by colour: the same sums in the same order per body for every thread count)
   const bool spin = !d.spin_rows.empty();
+  const Mat3* dI = d.dI_inv.data();
   by_colour(d, [&](std::size_t first, std::size_t end) {
-    for (std::size_t k = 3 * first; k < 3 * end; ++k) {
-      if (d.alpha[k] != 0.0) apply(d.rows[k], d.alpha[k], d.qd);
-      if (spin && k % 3 == 2 && d.spin_slot[k / 3] >= 0) {
-        const std::size_t j = static_cast<std::size_t>(d.spin_slot[k / 3]);
-        const Row& r = d.rows[k - 2];
-        if (d.spin_alpha[j] != 0.0) apply_spin(d.spin_rows[j], r, d.spin_alpha[j], d.qd[r.a], d.qd[r.b]);
+    for (std::size_t k = first; k < end; ++k) {
+      const ContactRows& c = d.rows[k];
+      const double* alpha = &d.alpha[3 * k];
+      if (alpha[0] != 0.0 || alpha[1] != 0.0 || alpha[2] != 0.0)
+        push(c, dI, alpha[0] * c.n + alpha[1] * c.t1 + alpha[2] * c.t2, d.qd[c.a], d.qd[c.b]);
+      if (spin && d.spin_slot[k] >= 0) {
+        const std::size_t j = static_cast<std::size_t>(d.spin_slot[k]);
+        if (d.spin_alpha[j] != 0.0) apply_spin(d.spin_rows[j], c, d.spin_alpha[j], d.qd[c.a], d.qd[c.b]);
       }
     }
     return 0.0;
@@ -284,7 +284,7 @@ int restitution(const SolverSettings& s, SolverData& d) {
     for (std::size_t k = 0; k < K; ++k) {  // in solve order
       const int i = d.order[k];
       if (d.restitutive[i])
-        change = std::max(change, update_normal(d.rows[3 * k], d.e[i] * d.u[i], d.alpha[3 * k], d.qd));
+        change = std::max(change, update_normal(d.rows[k], d.dI_inv.data(), d.e[i] * d.u[i], d.alpha[3 * k], d.qd));
     }
     converged = s.tolerance > 0.0 && change <= s.tolerance;
   }
@@ -304,26 +304,27 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
     SolverStats part = start;
     for (std::size_t i = first; i < end; ++i) {
       Contact& c = contacts[i];
-      const Row* r = &d.rows[3 * d.slot[i]];
+      const ContactRows& r = d.rows[d.slot[i]];
       const double* alpha = &d.alpha[3 * d.slot[i]];
       // forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2 (on B; A gets the opposite)
       c.alpha = alpha[0];
       c.impulse = dt * alpha[0];
-      c.friction = alpha[1] * r[1].J_lin + alpha[2] * r[2].J_lin;
+      c.friction = alpha[1] * r.t1 + alpha[2] * r.t2;
       c.force = alpha[0] * c.normal + c.friction;
       // torsional friction: spin_torque n on B, the opposite on A
       const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[d.slot[i]];
       c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
       // velocities after the solve: normal and slip
-      const double vn = row_velocity(r[0], d.qd);
-      const double vt1 = row_velocity(r[1], d.qd), vt2 = row_velocity(r[2], d.qd);
+      const Vec3 dv = point_velocity(r, d.qd[r.a], d.qd[r.b]);
+      const double vn = r.n.dot(dv);
+      const double vt1 = r.t1.dot(dv), vt2 = r.t2.dot(dv);
       c.normal_velocity = vn;
-      c.slip = vt1 * r[1].J_lin + vt2 * r[2].J_lin;
+      c.slip = vt1 * r.t1 + vt2 * r.t2;
 
       // the certificate: w_i against the row's own target
-      const double b = d.restitutive[i] ? d.e[i] * d.u[i] : r[0].bias;
+      const double b = d.restitutive[i] ? d.e[i] * d.u[i] : r.bias;
       const double w = vn + b;
-      const double mu = r[1].mu;
+      const double mu = r.mu;
       part.max_alpha_negative = std::max(part.max_alpha_negative, -alpha[0]);
       part.max_penetration_velocity = std::max(part.max_penetration_velocity, -w);
       part.max_complementarity = std::max(part.max_complementarity, std::abs(alpha[0] * w));
@@ -334,18 +335,18 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
                                                    (c.friction + (mu * alpha[0] / slip_speed) * c.slip).norm());
       part.max_overlap = std::max(part.max_overlap, -c.gap);
       // natural residual delta |alpha - P(alpha - w / delta)| per row
-      if (r[0].delta > 0.0) {
-        part.residual = std::max(part.residual, r[0].delta * std::abs(alpha[0] - std::max(alpha[0] - w / r[0].delta, 0.0)));
+      if (r.delta[0] > 0.0) {
+        part.residual = std::max(part.residual, r.delta[0] * std::abs(alpha[0] - std::max(alpha[0] - w / r.delta[0], 0.0)));
         const double bound = mu * alpha[0];
         if (s.friction_cone == FrictionCone::Cone) {
-          const double delta_t = std::max(r[1].delta, r[2].delta);
+          const double delta_t = std::max(r.delta[1], r.delta[2]);
           double p1 = alpha[1] - vt1 / delta_t, p2 = alpha[2] - vt2 / delta_t;
           clamp_to_disk(p1, p2, bound);
           part.residual = std::max({part.residual, delta_t * std::abs(alpha[1] - p1), delta_t * std::abs(alpha[2] - p2)});
         } else {
-          const double p1 = std::clamp(alpha[1] - vt1 / r[1].delta, -bound, bound);
-          const double p2 = std::clamp(alpha[2] - vt2 / r[2].delta, -bound, bound);
-          part.residual = std::max({part.residual, r[1].delta * std::abs(alpha[1] - p1), r[2].delta * std::abs(alpha[2] - p2)});
+          const double p1 = std::clamp(alpha[1] - vt1 / r.delta[1], -bound, bound);
+          const double p2 = std::clamp(alpha[2] - vt2 / r.delta[2], -bound, bound);
+          part.residual = std::max({part.residual, r.delta[1] * std::abs(alpha[1] - p1), r.delta[2] * std::abs(alpha[2] - p2)});
         }
         if (spin >= 0) {  // the spin row: P onto [-mu_spin alpha_n, mu_spin alpha_n] (rad/s)
           const SpinRow& q = d.spin_rows[spin];
@@ -408,20 +409,20 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       Vec3& torque = d.body_torque[x];
       for (int e = d.body_first[x]; e < d.body_first[x] + d.body_count[x]; ++e) {
         const Contact& c = contacts[static_cast<std::size_t>(d.body_contacts[e])];
-        const std::size_t k0 = 3 * static_cast<std::size_t>(d.slot[d.body_contacts[e]]);
-        const bool is_a = static_cast<std::size_t>(c.body_a) == x;
-        for (std::size_t k = k0; k < k0 + 3; ++k) {
-          const Row& r = d.rows[k];
-          if (is_a) {
-            force -= d.alpha[k] * r.J_lin;
-            torque += d.alpha[k] * r.JA_ang;
-          } else {
-            force += d.alpha[k] * r.J_lin;
-            torque += d.alpha[k] * r.JB_ang;
-          }
+        const std::size_t k = static_cast<std::size_t>(d.slot[d.body_contacts[e]]);
+        const ContactRows& r = d.rows[k];
+        const double* alpha = &d.alpha[3 * k];
+        // the contact's force on B, F = sum_k alpha_k d_k, at r_b; A gets -F at r_a
+        const Vec3 F = alpha[0] * r.n + alpha[1] * r.t1 + alpha[2] * r.t2;
+        if (static_cast<std::size_t>(c.body_a) == x) {
+          force -= F;
+          torque -= r.r_a.cross(F);
+        } else {
+          force += F;
+          torque += r.r_b.cross(F);
         }
-        if (spin && d.spin_slot[k0 / 3] >= 0)  // torsional friction: -t n on A, t n on B
-          torque += (is_a ? -c.spin_torque : c.spin_torque) * c.normal;
+        if (spin && d.spin_slot[k] >= 0)  // torsional friction: -t n on A, t n on B
+          torque += (static_cast<std::size_t>(c.body_a) == x ? -c.spin_torque : c.spin_torque) * c.normal;
       }
       d.body_count[x] = 0;  // zero again for the next store (each listed body is one task's)
     }

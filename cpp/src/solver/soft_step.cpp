@@ -45,11 +45,9 @@ void unload(const SolverData& d, std::vector<Vec3>& v, std::vector<Vec3>& omega)
   });
 }
 
-/// Every contact's gap now, s = gap0 + n . ((dp_B + D_B l_B) - (dp_A + D_A l_A)): its point carried
-/// with each body from the step's start (dp = p - p0, D = R - R0, l_X = R0_X^T r_X the lever arm in
-/// X's frame), exactly gap0 until a body moves. dp and D of the listed bodies (the others', static
-/// bodies', stay zero).
-void update_gaps(const Model& model, const State& state, SolverData& d) {
+/// dp = p - p0 and D = R - R0 of the listed bodies (the others', static bodies', stay zero): how far
+/// each body has moved since the step's start, for the contacts' gaps (gap_now).
+void body_motion(const Model& model, const State& state, SolverData& d) {
   const std::size_t N = model.size();
   parallel::fit(d.dp, N, Vec3(Vec3::Zero()));
   parallel::fit(d.dR, N, Mat3(Mat3::Zero()));
@@ -57,31 +55,34 @@ void update_gaps(const Model& model, const State& state, SolverData& d) {
     d.dp[i] = state.p[i] - d.p0[i];
     d.dR[i] = state.R[i] - d.R0[i];
   });
-  for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t k = first; k < end; ++k) {
-      SoftPoint& p = d.soft[k];
-      const Row& r = d.rows[3 * k];
-      const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * p.l_b;
-      const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * p.l_a;
-      p.s = p.gap0 + r.J_lin.dot(moved_b - moved_a);
-    }
-  });
+}
+
+/// Contact k's gap now, s = gap0 + n . ((dp_B + D_B l_B) - (dp_A + D_A l_A)): its point carried
+/// with each body from the step's start (l_X = R0_X^T r_X the lever arm in X's frame), exactly
+/// gap0 until a body moves. Needs body_motion.
+inline double gap_now(const SolverData& d, const ContactRows& r, const SoftPoint& p) {
+  const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * p.l_b;
+  const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * p.l_a;
+  return p.gap0 + r.n.dot(moved_b - moved_a);
 }
 
 /// One sweep over every contact in solve order: the normal row by the soft rule (biased: the
 /// spring while the contact overlaps; not biased: rigid), then its friction rows
 /// and its spin row. A contact with a positive gap is rigid with the speculative bias gap / h
-/// either way.
-template <bool kSpin>
+/// either way. kGap: each contact's gap is brought up to date first (gap_now: the poses have
+/// moved since the last sweep), in the same pass, so the rows are read once.
+template <bool kSpin, bool kGap>
 void sweep(const SolverSettings& s, SolverData& d, bool biased) {
   const double inv_h = 1.0 / d.h;
   std::vector<BodyVelocity>& qd = d.qd;
+  const Mat3* dI = d.dI_inv.data();
   by_colour(d, [&](std::size_t first, std::size_t end) {
     double change = 0.0;  // not used: the soft step runs a fixed number of sweeps
     for (std::size_t k = first; k < end; ++k) {
-      const Row* r = &d.rows[3 * k];
+      const ContactRows& r = d.rows[k];
       double* alpha = &d.alpha[3 * k];
-      const SoftPoint& p = d.soft[k];
+      SoftPoint& p = d.soft[k];
+      if constexpr (kGap) p.s = gap_now(d, r, p);
       SoftNormal normal;
       if (p.s > 0.0) {
         normal.bias = p.s * inv_h;
@@ -91,16 +92,29 @@ void sweep(const SolverSettings& s, SolverData& d, bool biased) {
         normal.mass_scale = p.mass_scale;
         normal.impulse_scale = p.impulse_scale;
       }
-      BodyVelocity A = qd[r[0].a], B = qd[r[0].b];
-      contact_rows(s, r, alpha, A, B, change, normal);
+      BodyVelocity A = qd[r.a], B = qd[r.b];
+      contact_rows(s, r, dI, alpha, A, B, change, normal);
       finish_contact<kSpin>(d, k, r, alpha, A, B, change);
     }
     return change;
   });
 }
 
-void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count) {
-  for (int i = 0; i < count; ++i) d.spin_rows.empty() ? sweep<false>(s, d, biased) : sweep<true>(s, d, biased);
+/// count sweeps; update_gaps: the first brings every contact's gap up to date (with count 0, a
+/// pass of its own does).
+void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool update_gaps) {
+  const bool spin = !d.spin_rows.empty();
+  if (update_gaps && count == 0) {
+    for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
+      for (std::size_t k = first; k < end; ++k) d.soft[k].s = gap_now(d, d.rows[k], d.soft[k]);
+    });
+  }
+  for (int i = 0; i < count; ++i) {
+    if (i == 0 && update_gaps)
+      spin ? sweep<true, true>(s, d, biased) : sweep<false, true>(s, d, biased);
+    else
+      spin ? sweep<true, false>(s, d, biased) : sweep<false, false>(s, d, biased);
+  }
 }
 
 }  // namespace
@@ -127,7 +141,7 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
     for (std::size_t i = first; i < end; ++i) {
       const Contact& c = contacts[i];
       const std::size_t k = static_cast<std::size_t>(d.slot[i]);
-      const Row& r = d.rows[3 * k];
+      const ContactRows& r = d.rows[k];
       SoftPoint& p = d.soft[k];
       p = SoftPoint();
       p.l_a = state.R[c.body_a].transpose() * (c.point - state.p[c.body_a]);
@@ -152,9 +166,9 @@ void soft_solve(const Model& /*model*/, const State& /*state*/, const SolverSett
   // the approach of each contact that has not pushed yet, for restitution if it pushes now
   for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
     for (std::size_t k = first; k < end; ++k)
-      if (d.soft[k].alpha_max == 0.0) d.soft[k].u_before = row_velocity(d.rows[3 * k], d.qd);
+      if (d.soft[k].alpha_max == 0.0) d.soft[k].u_before = normal_velocity(d.rows[k], d.qd);
   });
-  sweeps(settings, d, true, settings.soft_iterations);
+  sweeps(settings, d, true, settings.soft_iterations, false);
   unload(d, v, omega);
 }
 
@@ -162,8 +176,8 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
                 std::vector<Vec3>& omega, SolverData& d) {
   const std::size_t K = d.soft.size();
   load(v, omega, d);
-  update_gaps(model, state, d);
-  sweeps(settings, d, false, settings.relax_iterations);
+  body_motion(model, state, d);  // the poses have moved: each contact's gap with the first relax sweep
+  sweeps(settings, d, false, settings.relax_iterations, true);
   // restitution, in the substep where a contact first pushes, on its approach before that push
   // (so that the rebound starts within h of the impact, not at the step's end); the warm-start
   // cache keeps the forces before it
@@ -205,7 +219,7 @@ SolverStats soft_end(const Model& model, const State& /*state*/, const SolverSet
   }
   // the certificate's targets: the rigid contact at its end gap (speculative: close it, no more),
   // or e u for a contact that bounced in the last substep
-  for (std::size_t k = 0; k < d.soft.size(); ++k) d.rows[3 * k].bias = std::max(d.soft[k].s, 0.0) / d.h;
+  for (std::size_t k = 0; k < d.soft.size(); ++k) d.rows[k].bias = std::max(d.soft[k].s, 0.0) / d.h;
   store(d.h, settings, contacts, d, stats);
   for (std::size_t i = 0; i < K; ++i) contacts[i].impulse = d.soft[d.slot[i]].impulse;
   unload(d, v, omega);
