@@ -72,7 +72,6 @@ struct BodyVelocity {
 /// A contact as the soft step carries it through its substeps (docs/conventions.md, "The soft
 /// step"), in solve order beside its rows.
 struct SoftPoint {
-  Vec3 l_a = Vec3::Zero(), l_b = Vec3::Zero();  ///< the point's lever arms at the step's start in A's and B's frames, R0^T (y - p0) (m)
   double gap0 = 0.0;         ///< the gap at detection (m)
   double s = 0.0;            ///< the gap now: gap0 + n . (y_B(t) - y_A(t)), y_X carried with body X (m)
   double bias_rate = 0.0;    ///< omega / (2 zeta + h omega) (1/s)
@@ -135,9 +134,12 @@ struct SolverData {
   /// body_contacts[body_first[x] .. body_first[x] + body_count[x]) (N-sized; body_count is zero
   /// outside store)
   std::vector<int> body_first, body_count, body_contacts;
+  /// store's per contact: the torques it puts on A and on B about their centres (2K: A's at 2i,
+  /// B's at 2i + 1; N m, world), written with the contact's outputs and summed per body
+  std::vector<Vec3> contact_torque;
   std::vector<double> alpha_iter;   ///< per contact: alpha_n after the iterate stage (N)
   // the soft step: per contact in solve order; per body the pose at the step's start and how far
-  // it has moved since (dp = p - p0, dR = R - R0)
+  // it has moved and turned since (dp = p - p0, dR = R R0^T - I)
   std::vector<SoftPoint> soft;
   double h = 0.0;  ///< the substep (s)
   int restitution_sweeps = 0;  ///< restitution sweeps over the step's substeps

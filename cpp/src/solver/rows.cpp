@@ -141,6 +141,8 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       Vec3 dir[3];
       dir[0] = c.normal;
       tangent_basis(c.normal, dir[1], dir[2]);
+      // in contact order, reading the contacts in turn (writing the rows where they go costs less
+      // than reading the contacts out of order: a write does not wait)
       ContactRows& r = d.rows[d.slot[i]];
       const Vec3 r_a = (anchor_a ? (*anchor_a)[i] : c.point) - state.p[a];
       const Vec3 r_b = (anchor_b ? (*anchor_b)[i] : c.point) - state.p[b];
@@ -222,12 +224,14 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
     }
   }
   // the forces, clamped to the friction set, over the threads (each contact writes its own rows)
+  // (in solve order, as the rows are stored)
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) {
+    for (std::size_t position = first; position < end; ++position) {
+      const std::size_t i = static_cast<std::size_t>(d.order[position]);
       if (d.recalled[i] < 0) continue;
       const CachedContact& entry = d.cache[static_cast<std::size_t>(d.recalled[i])];
-      const std::size_t k = 3 * static_cast<std::size_t>(d.slot[i]);
-      const ContactRows& r = d.rows[d.slot[i]];
+      const std::size_t k = 3 * position;
+      const ContactRows& r = d.rows[position];
       const double alpha_n = entry.alpha;
       double a1 = entry.friction.dot(r.t1), a2 = entry.friction.dot(r.t2);
       const double bound = r.mu * alpha_n;
@@ -240,8 +244,8 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
       d.alpha[k] = alpha_n;
       d.alpha[k + 1] = a1;
       d.alpha[k + 2] = a2;
-      if (!d.spin_rows.empty() && d.spin_slot[d.slot[i]] >= 0) {
-        const std::size_t j = static_cast<std::size_t>(d.spin_slot[d.slot[i]]);
+      if (!d.spin_rows.empty() && d.spin_slot[position] >= 0) {
+        const std::size_t j = static_cast<std::size_t>(d.spin_slot[position]);
         const double spin_bound = d.spin_rows[j].mu_spin * alpha_n;
         d.spin_alpha[j] = std::clamp(entry.spin, -spin_bound, spin_bound);
       }
@@ -296,6 +300,7 @@ int restitution(const SolverSettings& s, SolverData& d) {
 void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats) {
   const std::size_t K = contacts.size();
   d.cache_next.resize(K);
+  assign_n(d.contact_torque, 2 * K, Vec3(Vec3::Zero()));
   // each contact's own outputs and the certificate's maxima (max: the same whatever the order the
   // parts are joined in), split over the threads; the bodies' sums below in contact order
   const SolverStats start = stats;
@@ -314,6 +319,11 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       // torsional friction: spin_torque n on B, the opposite on A
       const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[d.slot[i]];
       c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
+      // the torques the contact puts on A and B about their centres: the force at the lever arm,
+      // and torsional friction (-t n on A, t n on B); for each body's sums below
+      const Vec3 spin_torque = c.spin_torque * c.normal;
+      d.contact_torque[2 * i] = -r.r_a.cross(c.force) - spin_torque;
+      d.contact_torque[2 * i + 1] = r.r_b.cross(c.force) + spin_torque;
       // velocities after the solve: normal and slip
       const Vec3 dv = point_velocity(r, d.qd[r.a], d.qd[r.b]);
       const double vn = r.n.dot(dv);
@@ -401,28 +411,21 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
     for (const BodyIndex x : {contacts[i].body_a, contacts[i].body_b})
       d.body_contacts[d.body_first[x] + d.body_count[x]++] = static_cast<int>(i);
   }
-  const bool spin = !d.spin_rows.empty();
   for_ranges(d, d.forced.size(), 256, [&](std::size_t from, std::size_t to) {
     for (std::size_t f = from; f < to; ++f) {
       const std::size_t x = static_cast<std::size_t>(d.forced[f]);
       Vec3& force = d.body_force[x];
       Vec3& torque = d.body_torque[x];
       for (int e = d.body_first[x]; e < d.body_first[x] + d.body_count[x]; ++e) {
-        const Contact& c = contacts[static_cast<std::size_t>(d.body_contacts[e])];
-        const std::size_t k = static_cast<std::size_t>(d.slot[d.body_contacts[e]]);
-        const ContactRows& r = d.rows[k];
-        const double* alpha = &d.alpha[3 * k];
-        // the contact's force on B, F = sum_k alpha_k d_k, at r_b; A gets -F at r_a
-        const Vec3 F = alpha[0] * r.n + alpha[1] * r.t1 + alpha[2] * r.t2;
+        const std::size_t i = static_cast<std::size_t>(d.body_contacts[e]);
+        const Contact& c = contacts[i];
         if (static_cast<std::size_t>(c.body_a) == x) {
-          force -= F;
-          torque -= r.r_a.cross(F);
+          force -= c.force;
+          torque += d.contact_torque[2 * i];
         } else {
-          force += F;
-          torque += r.r_b.cross(F);
+          force += c.force;
+          torque += d.contact_torque[2 * i + 1];
         }
-        if (spin && d.spin_slot[k] >= 0)  // torsional friction: -t n on A, t n on B
-          torque += (static_cast<std::size_t>(c.body_a) == x ? -c.spin_torque : c.spin_torque) * c.normal;
       }
       d.body_count[x] = 0;  // zero again for the next store (each listed body is one task's)
     }

@@ -45,24 +45,25 @@ void unload(const SolverData& d, std::vector<Vec3>& v, std::vector<Vec3>& omega)
   });
 }
 
-/// dp = p - p0 and D = R - R0 of the listed bodies (the others', static bodies', stay zero): how far
-/// each body has moved since the step's start, for the contacts' gaps (gap_now).
+/// dp = p - p0 and dR = R R0^T - I of the listed bodies (the others', static bodies', stay zero):
+/// how far each body has moved and turned since the step's start, for the contacts' gaps (gap_now).
 void body_motion(const Model& model, const State& state, SolverData& d) {
   const std::size_t N = model.size();
   parallel::fit(d.dp, N, Vec3(Vec3::Zero()));
   parallel::fit(d.dR, N, Mat3(Mat3::Zero()));
   parallel::for_bodies(d.pool, d.bodies, N, 1024, [&](std::size_t i) {
     d.dp[i] = state.p[i] - d.p0[i];
-    d.dR[i] = state.R[i] - d.R0[i];
+    d.dR[i].noalias() = state.R[i] * d.R0[i].transpose();
+    d.dR[i].diagonal().array() -= 1.0;
   });
 }
 
-/// Contact k's gap now, s = gap0 + n . ((dp_B + D_B l_B) - (dp_A + D_A l_A)): its point carried
-/// with each body from the step's start (l_X = R0_X^T r_X the lever arm in X's frame), exactly
-/// gap0 until a body moves. Needs body_motion.
+/// Contact k's gap now, s = gap0 + n . ((dp_B + dR_B r_B) - (dp_A + dR_A r_A)): its point carried
+/// with each body from the step's start (r_X the lever arm then, world; dR_X r_X = (R R0^T - I) r_X
+/// how far the body's turn has moved the point), exactly gap0 until a body moves. Needs body_motion.
 inline double gap_now(const SolverData& d, const ContactRows& r, const SoftPoint& p) {
-  const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * p.l_b;
-  const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * p.l_a;
+  const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * r.r_b;
+  const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * r.r_a;
   return p.gap0 + r.n.dot(moved_b - moved_a);
 }
 
@@ -136,22 +137,18 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   d.restitution_sweeps = 0;
   d.alpha_iter.clear();
   const double hertz = std::min(settings.contact_hertz, kMaxHertzPerRate / h);
+  // the two springs: between two bodies that move, and against one that does not (twice as stiff
+  // and half as damped: it carries the load alone; Box2D v3)
+  SoftPoint between, against;
+  soften(between, hertz, settings.damping_ratio, h);
+  soften(against, 2.0 * hertz, 0.5 * settings.damping_ratio, h);
   d.soft.resize(K);
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) {
-      const Contact& c = contacts[i];
-      const std::size_t k = static_cast<std::size_t>(d.slot[i]);
+    for (std::size_t k = first; k < end; ++k) {  // in solve order, as the rows and points are stored
       const ContactRows& r = d.rows[k];
       SoftPoint& p = d.soft[k];
-      p = SoftPoint();
-      p.l_a = state.R[c.body_a].transpose() * (c.point - state.p[c.body_a]);
-      p.l_b = state.R[c.body_b].transpose() * (c.point - state.p[c.body_b]);
-      p.gap0 = p.s = c.gap;
-      // against a body that does not move the spring is twice as stiff and half as damped (Box2D v3)
-      if (r.a_moves && r.b_moves)
-        soften(p, hertz, settings.damping_ratio, h);
-      else
-        soften(p, 2.0 * hertz, 0.5 * settings.damping_ratio, h);
+      p = r.a_moves && r.b_moves ? between : against;
+      p.gap0 = p.s = contacts[static_cast<std::size_t>(d.order[k])].gap;
     }
   });
   if (settings.warm_start) recall_forces(settings, contacts, d);
@@ -184,8 +181,8 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
   d.alpha_iter.resize(K);
   d.restitutive.resize(K);
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) {
-      const std::size_t k = static_cast<std::size_t>(d.slot[i]);
+    for (std::size_t k = first; k < end; ++k) {  // in solve order, as the points are stored
+      const std::size_t i = static_cast<std::size_t>(d.order[k]);
       const SoftPoint& p = d.soft[k];
       d.alpha_iter[i] = d.alpha[3 * k];
       d.restitutive[i] = p.alpha_max == 0.0 && d.alpha[3 * k] > 0.0 && d.e[i] > 0.0 &&
