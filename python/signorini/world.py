@@ -161,7 +161,7 @@ SOLVER_DEFAULTS = {
 }
 
 
-SLEEP_DEFAULTS = {"sleeping": False, "sleep_linear_velocity": 0.05, "sleep_angular_velocity": 0.05,
+SLEEP_DEFAULTS = {"sleeping": True, "sleep_linear_velocity": 0.05, "sleep_angular_velocity": 0.05,
                   "time_to_sleep": 0.5}
 # the keywords' names in _core.SleepSettings
 _SLEEP_FIELDS = {"sleeping": "enabled", "sleep_linear_velocity": "linear_velocity",
@@ -297,7 +297,9 @@ class World:
 
     sleeping : bodies at rest fall asleep with their island (docs/conventions.md, "Sleeping"): a
         sleeping body keeps its pose bit for bit and costs no solver or broad-phase work until a
-        moving body touches it or a call wakes it. Off by default for now (``World.awake``).
+        moving body touches it or a call wakes it. On by default (``World.awake``); ``False`` keeps
+        every body awake (what a test of a slow approach to rest, or a comparison with the oracle,
+        wants).
     sleep_linear_velocity : m/s (>= 0): a body slower than this counts as at rest.
     sleep_angular_velocity : rad/s (>= 0): a body turning slower than this counts as at rest.
     time_to_sleep : s (>= 0): an island whose bodies have all been at rest this long falls asleep.
@@ -312,7 +314,7 @@ class World:
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
                  warn_velocity: float = 1.0, solver: str = "pgs", contact_hertz: float = 30.0,
                  damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1,
-                 sleeping: bool = False, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
+                 sleeping: bool = True, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
                  time_to_sleep: float = 0.5, threads: Optional[int] = None):
         g = as_vector(gravity, 3, "World", "gravity")
         given_threads = _threads("World", threads)

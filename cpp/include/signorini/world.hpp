@@ -35,10 +35,9 @@ class Islands;
 /// seconds is ready to sleep; an island (bodies linked by contacts) sleeps when all its bodies are
 /// ready. A sleeping body keeps its pose bit for bit and costs no solver or broad-phase work.
 struct SleepSettings {
-  /// false: nothing sleeps (every body is woken when it is switched off). Off by default for now:
-  /// sleeping stops motion slower than the thresholds (a soft contact's slow creep to rest), which
-  /// closed-form tests measure (docs/conventions.md, "Sleeping", Default).
-  bool enabled = false;
+  /// false: nothing sleeps (every body is woken when it is switched off). On by default
+  /// (docs/conventions.md, "Sleeping", Default).
+  bool enabled = true;
   double linear_velocity = 0.05;  ///< m/s, >= 0: |v| at most this counts as at rest
   double angular_velocity = 0.05; ///< rad/s, >= 0: |omega| at most this counts as at rest
   double time_to_sleep = 0.5;     ///< s, >= 0: how long an island stays at rest before it sleeps
