@@ -216,9 +216,13 @@ SolverStats soft_end(const Model& model, const State& /*state*/, const SolverSet
   }
   // the certificate's targets: the rigid contact at its end gap (speculative: close it, no more),
   // or e u for a contact that bounced in the last substep
-  for (std::size_t k = 0; k < d.soft.size(); ++k) d.rows[k].bias = std::max(d.soft[k].s, 0.0) / d.h;
+  for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t k = first; k < end; ++k) d.rows[k].bias = std::max(d.soft[k].s, 0.0) / d.h;
+  });
   store(d.h, settings, contacts, d, stats);
-  for (std::size_t i = 0; i < K; ++i) contacts[i].impulse = d.soft[d.slot[i]].impulse;
+  for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) contacts[i].impulse = d.soft[d.slot[i]].impulse;
+  });
   unload(d, v, omega);
   // a fixed number of sweeps by design: never flagged as unconverged (the certificate says what
   // the contacts satisfy)
