@@ -32,8 +32,8 @@ Every step is checked (``run``). Failure classes, each with a one-line reproduce
 - ``slow``: a step took more than ``SLOW_STEP`` (100 ms) of wall time.
 
 Measured and summarised, not failed: the deepest overlap of a detected contact relative to the
-smaller body's inner size (the radius of a ball it surely contains; resting contacts keep the
-solver's slop of 1 mm, which is a large fraction of a 1 cm body), the largest energy gain, the
+smaller body's inner size (the radius of a ball it surely contains; a resting contact keeps the
+solver's slop, at most 1 mm and 0.2 of that size), the largest energy gain, the
 worst contact-point error and the slowest step, each with the scene it came from.
 """
 from __future__ import annotations
