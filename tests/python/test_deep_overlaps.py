@@ -112,3 +112,33 @@ def test_the_oracle_and_the_core_push_a_small_sphere_out_to_a_fifth_of_its_radiu
         overlaps.append(r - new["position"][b][2])
         snap = new
     np.testing.assert_allclose(overlaps, slop + (d - slop) * (1 - erp) ** np.arange(1, 11), rtol=1e-9)
+
+
+def flat_floor():
+    """A flat TriangleMesh floor z = 0 of 2 x 2 squares 2 m wide, faces up."""
+    return sg.TriangleMesh(*fuzz.heightfield_mesh({"half_width": 2.0, "cells": 2, "amplitude": 0.0, "waves": [],
+                                                   "noise_seed": 0}))
+
+
+def points_against(floor, shape, pose, margin):
+    """{(kind, index) of B's feature: gap} of the contacts of shape at pose against floor."""
+    c = sg.collide(floor, ((0, 0, 0), (1, 0, 0, 0)), shape, pose, margin=margin)
+    return {(sg.feature(f).kind, sg.feature(f).index): g for f, g in zip(c.feature_b, c.gap)}
+
+
+@pytest.mark.slots("trimesh-capsule", "trimesh-cylinder", role="golden",
+                   note="segment ends and rim points over a face, as against a plane")
+@pytest.mark.parametrize("shape,z,margin", [(sg.Capsule(0.01, 0.05), 0.035, 0.1), (sg.Cylinder(0.03, 0.01), 0.02, 0.01),
+                                            (sg.Cylinder(0.03, 0.01), 0.012, 0.05)])
+def test_a_tilted_capsule_or_cylinder_over_a_face_gets_the_points_a_plane_gives(shape, z, margin):
+    # tilted by 0.6 rad over the middle of a triangle: a capsule's two segment ends and a
+    # cylinder's rim points get the contacts (features and gaps) they get against the plane z = 0.
+    # One point at the lower end let a capsule that landed tilted swing its upper end through the
+    # floor, and a disc tilted into the floor pivot about one rim point and sink (issue 21)
+    a = 0.6
+    pose = ((0.5, 0.6, z), (np.cos(a / 2), np.sin(a / 2), 0.0, 0.0))
+    plane = points_against(sg.Plane((0, 0, 1), 0.0), shape, pose, margin)
+    mesh = points_against(flat_floor(), shape, pose, margin)
+    assert len(plane) >= 2
+    for feature, gap in plane.items():
+        assert mesh[feature] == pytest.approx(gap, rel=0, abs=1e-15)
