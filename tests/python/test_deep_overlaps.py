@@ -132,12 +132,15 @@ def points_against(floor, shape, pose, margin):
                                             (sg.Cylinder(0.03, 0.01), 0.012, 0.05)])
 def test_a_tilted_capsule_or_cylinder_over_a_face_gets_the_points_a_plane_gives(shape, z, margin):
     # tilted by 0.6 rad over the middle of a triangle: a capsule's two segment ends and a
-    # cylinder's rim points get the contacts (features and gaps) they get against the plane z = 0.
-    # One point at the lower end let a capsule that landed tilted swing its upper end through the
-    # floor, and a disc tilted into the floor pivot about one rim point and sink (issue 21)
+    # cylinder's rim points in the floor get the contacts (features and gaps) they get against the
+    # plane z = 0. One point at the lower end let a capsule that landed tilted swing its upper end
+    # through the floor, and a disc tilted into the floor pivot about one rim point and sink (issue 21)
     a = 0.6
     pose = ((0.5, 0.6, z), (np.cos(a / 2), np.sin(a / 2), 0.0, 0.0))
     plane = points_against(sg.Plane((0, 0, 1), 0.0), shape, pose, margin)
+    if isinstance(shape, sg.Cylinder):
+        # speculative rim points are the support clip's (docs/conventions.md, "Contacts")
+        plane = {f: g for f, g in plane.items() if f[0] == "vertex" and g <= 0.0}
     mesh = points_against(flat_floor(), shape, pose, margin)
     assert len(plane) >= 2
     for feature, gap in plane.items():

@@ -369,9 +369,11 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       else
         convex_by_support(face, b, dist, threshold, scratch, out);
       keep_front(mesh, t, pa, first, out);
-      // the 8 rim points of each cap over the triangle's face, each against the face's plane (as
-      // against a plane): the support clip gives one rim point for a disc tilted into the face,
-      // which a turning disc pivots about and sinks through
+      // the 8 rim points of each cap over the triangle's face and in or on it, each against the
+      // face's plane (as against a plane): the support clip gives one rim point for a disc tilted
+      // into the face, which a turning disc pivots about and sinks through. Speculative ones are
+      // left to the clip: the manifold's area rule would take far rim points over near ones
+      // (measured: cylinders falling fast onto a height field went deeper)
       const Vec3& n_l = mesh.normals[t];
       const Mat3 R_l = pa.R.transpose() * b.pose.R;
       const auto tri_id = static_cast<std::uint32_t>(t);
@@ -381,7 +383,7 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
           const double phi = k * kPi / 4.0;
           const Vec3 x = c_s + b.cylinder->radius * (std::cos(phi) * R_l.col(0) + std::sin(phi) * R_l.col(1));
           const double height = n_l.dot(x - tri.vertex(0));
-          if (!(height < threshold)) continue;
+          if (!(height <= 0.0 && height < threshold)) continue;
           bool inside = true;
           for (int e = 0; e < 3 && inside; ++e) {
             const Vec3 a = tri.vertex(e), c = tri.vertex((e + 1) % 3);
