@@ -24,7 +24,9 @@ PINNED = {
     # the 210-box pyramid, 150 steps of 1/240 s
     "pyramid": "897cfeaad98d6543b94d6d90b791b0ee46cbdc271265fb2b6fc092e6af654d9d",
     # fuzzer scene 1:103: 14 bodies of all 7 kinds on a triangle-mesh height field, its full 1.5 s
-    "fuzz 1:103": "cda76a15cb85d86a8c83fd9f07df88f8822e832647498f6fb20769c1f0132056",
+    # (re-pinned when a capsule got both segment ends and a cylinder its rim points in the floor
+    # against mesh triangles, issue 21: its capsule and cylinders land differently)
+    "fuzz 1:103": "a124ccfff6c028b34d3abeffc8d6b4cd2b3a66c32909888a5af983132b9a5c29",
 }
 
 
