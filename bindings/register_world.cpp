@@ -279,6 +279,11 @@ void register_world(py::module_& m) {
       .def_property_readonly("inv_masses", [](const World& w) {
         return py::array_t<double>(py::cast(locked_copy(w, [](const World& w) { return w.model().inv_mass; })));
       })
+      // (N,) m: the radius of a ball each body's shape contains (inner_radius; inf for planes and
+      // triangle meshes), which scales its contacts' slop
+      .def_property_readonly("inner_radii", [](const World& w) {
+        return py::array_t<double>(py::cast(locked_copy(w, [](const World& w) { return w.model().inner; })));
+      })
       .def_property_readonly("inertias", [](const World& w) {
         return bindings::stack_of(locked_copy(w, [](const World& w) { return w.model().I_body; }));
       })

@@ -629,6 +629,9 @@ class World:
     def inertias(self) -> numpy.typing.NDArray[numpy.float64]:
         ...
     @property
+    def inner_radii(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
     def inv_inertias(self) -> numpy.typing.NDArray[numpy.float64]:
         ...
     @property

@@ -13,16 +13,21 @@ when every object is closed and convex within ``CONVEX_TOLERANCE`` (V-HACD's ``*
 object per convex piece), a dynamic ``Mesh`` collides through those objects as its convex pieces and
 is not decomposed again; with ``compound=True`` the objects become the parts of a ``Compound`` of
 convex hulls. Otherwise the objects are one mesh (their union, corners merged across objects),
-which a dynamic body decomposes (``sg.decompose``, ``signorini.decomposition``).
+which a dynamic body decomposes (``sg.decompose``, ``signorini.decomposition``). With
+``repair=True`` each object is judged as repair leaves it (CAD solids wound inconsistently are
+convex pieces once wound outwards).
 
 Problems and repair: a dynamic mesh must be closed, consistently and outward wound and free of
-degenerate faces; a static one free of degenerate and duplicate faces. ``load_mesh`` checks this
-when it reads the file and its error says what is wrong and that ``repair=True`` exists. With
-``repair=True`` it drops degenerate faces (area below 1e-12 of the squared mesh size, the core's
-rule, or a repeated corner) and duplicate faces (the same three corners), makes the winding
-consistent (and outward, for a closed part), fills holes of 3 or 4 edges (dynamic meshes only:
-a static mesh may be open on purpose), drops the vertices no face uses, and reports what it
-changed in a ``MeshRepairWarning`` (its ``report`` is a ``RepairReport`` of counts).
+degenerate faces, and enclose a volume (more than 1e-12 of the cubed mesh size, the core's rule);
+a static one free of degenerate and duplicate faces. ``load_mesh`` checks this when it reads the
+file and its error says what is wrong (an edge of more than two faces is named non-manifold:
+solids touching along an edge, which repair does not separate) and that ``repair=True`` exists.
+With ``repair=True`` it drops degenerate faces (area below 1e-12 of the squared mesh size, the
+core's rule, or a repeated corner) and duplicate faces (the same three corners), makes the
+winding consistent (and outward, for a closed part), fills holes of 3 or 4 edges (dynamic meshes
+only: a static mesh may be open on purpose; a hole whose filling would enclose nothing, such as a
+loose triangle's own three edges, stays open), drops the vertices no face uses, and reports what
+it changed in a ``MeshRepairWarning`` (its ``report`` is a ``RepairReport`` of counts).
 ``repair_arrays`` does the same on arrays and returns the report.
 
 The ``.npz`` mesh file holds the arrays exactly (float64 vertices, int64 faces, and the convex
@@ -71,6 +76,8 @@ CONVEX_TOLERANCE = 1e-3
 
 # the core's rule for a degenerate triangle: doubled area below this times the squared mesh size
 _DEGENERATE_AREA = 1e-12
+# the core's rule for a solid that encloses nothing: volume below this times the cubed mesh size
+_FLAT_VOLUME = 1e-12
 
 _REPAIR_HINT = ("load_mesh(..., repair=True) drops degenerate and duplicate faces, makes the winding consistent, "
                 "fills holes of 3 or 4 edges and reports what it changed")
@@ -160,7 +167,7 @@ def read_mesh_arrays(path: PathLike, scale: float = 1.0) -> tuple[np.ndarray, np
     return read.vertices, read.faces, read.pieces
 
 
-def _read_checked(path: Path, scale: float, static: bool) -> _Read:
+def _read_checked(path: Path, scale: float, static: bool, repair: bool = False) -> _Read:
     """The arrays of a mesh file, checked (shapes, finite, indices in range) and scaled."""
     if isinstance(scale, bool) or not isinstance(scale, (int, float, np.integer, np.floating)) \
             or not (np.isfinite(scale) and scale > 0):
@@ -173,7 +180,7 @@ def _read_checked(path: Path, scale: float, static: bool) -> _Read:
         raise _mesh_error(path, f"unknown mesh format {suffix or '(no suffix)'!r}; "
                                 f"known: {', '.join(MESH_SUFFIXES)}")
     try:
-        read = _read(path, suffix, static)
+        read = _read(path, suffix, static, repair)
     except (MemoryError, RecursionError) as e:
         raise _mesh_error(path, f"out of memory or stack reading it ({type(e).__name__})") from None
     vertices, faces, pieces = read.vertices, read.faces, read.pieces
@@ -191,8 +198,9 @@ def _read_checked(path: Path, scale: float, static: bool) -> _Read:
     return read
 
 
-def _read(path: Path, suffix: str, static: bool) -> _Read:
-    """The arrays of a mesh file as it holds them (checked by the caller)."""
+def _read(path: Path, suffix: str, static: bool, repair: bool = False) -> _Read:
+    """The arrays of a mesh file as it holds them (checked by the caller); repair: the objects of a
+    multi-object file are judged convex pieces or not as repair_arrays leaves them."""
     try:
         filecheck.check_size(path, MAX_MESH_BYTES)
     except filecheck.FileLimitError as e:
@@ -220,16 +228,20 @@ def _read(path: Path, suffix: str, static: bool) -> _Read:
         raise _mesh_error(path, "holds no triangle mesh")
     if len(objects) > 1 and not static:
         arrays = [(np.array(g.vertices, dtype=np.float64), np.array(g.faces, dtype=np.int64)) for g in objects]
+        pieces = []
         for g, (v, f) in zip(objects, arrays):
+            if repair:
+                # judged as repair will leave it (load_mesh repairs, and reports, the union of the objects)
+                v, f, _ = repair_arrays(v, f, closed=True)
             problem = convex_problem(v, f)
             if problem:
                 break
+            pieces.append(v)
         else:
             # every object a convex piece: the mesh is their union, each object closed on its own
             offsets = np.cumsum([0] + [len(v) for v, _ in arrays[:-1]])
             return _Read(np.concatenate([v for v, _ in arrays]),
-                         np.concatenate([f + o for (_, f), o in zip(arrays, offsets)]),
-                         [v for v, _ in arrays])
+                         np.concatenate([f + o for (_, f), o in zip(arrays, offsets)]), pieces)
         name = g.metadata.get("name") or f"object {objects.index(g)}"
         union = _union(trimesh, objects)
         return _Read(np.array(union.vertices, dtype=np.float64), np.array(union.faces, dtype=np.int64), [],
@@ -315,6 +327,16 @@ def _degenerate(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return repeated | (area2 <= _DEGENERATE_AREA * size * size)
 
 
+def _non_manifold_edge(faces: np.ndarray) -> tuple[tuple[int, int], int] | None:
+    """((i, j), n) of the first edge (in vertex order) that more than two faces share, duplicate
+    faces left out (repair drops those); None when every edge has at most two."""
+    f = faces[~_duplicates(faces)]
+    edges, uses = np.unique(np.sort(np.stack([f.ravel(), f[:, [1, 2, 0]].ravel()], axis=1), axis=1), axis=0,
+                            return_counts=True)
+    over = np.flatnonzero(uses > 2)
+    return ((int(edges[over[0], 0]), int(edges[over[0], 1])), int(uses[over[0]])) if len(over) else None
+
+
 def _duplicates(faces: np.ndarray) -> np.ndarray:
     """(k,) bool: faces with the same three corners as an earlier face (either winding)."""
     _, first = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
@@ -340,7 +362,7 @@ def repair_arrays(vertices, faces, closed: bool = True) -> tuple[np.ndarray, np.
     dropped_duplicates = ids[duplicate]
     f = f[~duplicate]
 
-    g = _wind(v, f, closed)
+    g, _ = _wind(v, f, closed)
     holes = added = 0
     if closed and len(g) and _closedness_problem(g):
         # trimesh fills the holes of 3 or 4 edges, each face wound against its hole's edges
@@ -349,10 +371,18 @@ def repair_arrays(vertices, faces, closed: bool = True) -> tuple[np.ndarray, np.
         mesh = trimesh.Trimesh(v, g, process=False, validate=False)
         before, loops = len(g), _boundary_loops(mesh)
         trimesh.repair.fill_holes(mesh)
-        added = len(mesh.faces) - before
-        if added:
-            holes = loops - _boundary_loops(mesh)
-            g = _wind(v, np.array(mesh.faces, dtype=np.int64), closed)
+        if len(mesh.faces) > before:
+            filled, part = _wind(v, np.array(mesh.faces, dtype=np.int64), closed)
+            # a fill that closes a loose sheet (each triangle of trimesh's soup.stl, its hole its
+            # own three edges) makes a part that encloses nothing: it is undone, the sheet stays open
+            flat = _flat_parts(v, filled, part)
+            undo = (np.arange(len(filled)) >= before) & flat[part]
+            if undo.any():
+                filled, _ = _wind(v, filled[~undo], closed)
+            added = len(filled) - before
+            if added:
+                holes = loops - _boundary_loops(trimesh.Trimesh(v, filled, process=False, validate=False))
+                g = filled
     flipped = int(np.count_nonzero(np.any(g[:len(f)] != f, axis=1)))
 
     # vertices no face uses any more, dropped (kept in order)
@@ -367,6 +397,15 @@ def repair_arrays(vertices, faces, closed: bool = True) -> tuple[np.ndarray, np.
     return v[used], remap[g], report
 
 
+def _flat_parts(vertices: np.ndarray, faces: np.ndarray, part: np.ndarray) -> np.ndarray:
+    """(parts,) bool: connected parts (``part`` of ``_wind``) whose enclosed volume is within the
+    core's bound of zero (|V| <= 1e-12 times the cube of the mesh size, as ``solid_properties``)."""
+    a, b, c = (vertices[faces[:, i]] for i in range(3))
+    volume = np.bincount(part, weights=np.einsum("ki,ki->k", a, np.cross(b, c)), minlength=int(part.max()) + 1) / 6.0
+    size = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
+    return np.abs(volume) <= _FLAT_VOLUME * size ** 3
+
+
 def _boundary_loops(mesh) -> int:
     """The number of boundary loops (holes) of a trimesh."""
     import networkx as nx
@@ -376,10 +415,11 @@ def _boundary_loops(mesh) -> int:
     return nx.number_connected_components(nx.from_edgelist(boundary)) if len(boundary) else 0
 
 
-def _wind(vertices: np.ndarray, faces: np.ndarray, closed: bool) -> np.ndarray:
-    """faces (k, 3) with the winding made consistent across each connected part (faces joined by
-    an edge two faces share), then each part turned as a whole: outwards when ``closed`` and the
-    part is closed, else to the winding of most of its area as given.
+def _wind(vertices: np.ndarray, faces: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(faces (k, 3), part (k,)): the faces with the winding made consistent across each connected
+    part (faces joined by an edge two faces share), then each part turned as a whole: outwards
+    when ``closed`` and the part is closed, else to the winding of most of its area as given;
+    part numbers each face's connected part (0, 1, ... in the order of their first faces).
 
     A breadth-first walk over the faces (in Python, linear: trimesh's fix_winding takes minutes on
     the 125,000 faces of pybullet's samurai_monastry.obj) gives each face its flip relative to its
@@ -387,7 +427,7 @@ def _wind(vertices: np.ndarray, faces: np.ndarray, closed: bool) -> np.ndarray:
     relative to the face it was reached from. Edges of more than two faces do not join faces."""
     k = len(faces)
     if k == 0:
-        return faces
+        return faces, np.zeros(0, dtype=np.int64)
     start, end = faces.ravel(), faces[:, [1, 2, 0]].ravel()   # half-edge 3 i + c of face i
     owner = np.repeat(np.arange(k), 3)
     _, edge, uses = np.unique(np.sort(np.stack([start, end], axis=1), axis=1), axis=0,
@@ -428,13 +468,16 @@ def _wind(vertices: np.ndarray, faces: np.ndarray, closed: bool) -> np.ndarray:
     turn = np.bincount(part, weights=area * flip, minlength=count) > np.bincount(part, weights=area * ~flip,
                                                                                    minlength=count)
     if closed:
-        wstart, wend = wound.ravel(), wound[:, [1, 2, 0]].ravel()
+        # half-edge h of the faces as given runs end -> start once its face is flipped (a flipped
+        # face's half-edges are not at the same places 3 i + c, so they are not read from `wound`)
+        flipped = flip[owner]
+        wstart, wend = np.where(flipped, end, start), np.where(flipped, start, end)
         paired = np.zeros(3 * k, dtype=bool)
         paired[h1] = paired[h2] = wstart[h1] == wend[h2]
         is_closed = np.bincount(part[owner], weights=~paired, minlength=count) == 0
         volume = np.bincount(part, weights=np.einsum("ki,ki->k", a, np.cross(b, c)), minlength=count)
         turn = np.where(is_closed, volume < 0.0, turn)
-    return np.where(turn[part][:, None], wound[:, ::-1], wound)
+    return np.where(turn[part][:, None], wound[:, ::-1], wound), part
 
 
 def load_mesh(path: PathLike, scale: float = 1.0, static: bool = False, *, repair: bool = False,
@@ -452,15 +495,16 @@ def load_mesh(path: PathLike, scale: float = 1.0, static: bool = False, *, repai
     Limits (file size, finite vertices, faces in range) in the module doc.
 
     Raises FileNotFoundError for a missing file and ValueError naming the file and the problem for
-    an unreadable, empty, over-limit one, a dynamic mesh that is open, inconsistently wound or
-    inside out, degenerate or duplicate faces (the error says that ``repair=True`` exists), and
+    an unreadable, empty, over-limit one, a dynamic mesh that is open, inconsistently wound,
+    non-manifold, flat or inside out, degenerate or duplicate faces (the error says that
+    ``repair=True`` exists where it helps), and
     ``compound=True`` on a file whose objects are not all convex.
     """
     path = Path(path)
     if compound and static:
         raise _mesh_error(path, "compound=True gives a dynamic body's shape; static=True a TriangleMesh: "
                                 "choose one")
-    read = _read_checked(path, scale, static)
+    read = _read_checked(path, scale, static, repair)
     vertices, faces, report = read.vertices, read.faces, None
     if repair:
         vertices, faces, report = repair_arrays(vertices, faces, closed=not static)
@@ -477,11 +521,26 @@ def load_mesh(path: PathLike, scale: float = 1.0, static: bool = False, *, repai
     except ValueError as e:
         raise _mesh_error(path, f"{e}{after}{_hint(repair, vertices, faces)}") from None
     problem = mesh.closedness_problem()
-    if not problem and _signed_volume(vertices, faces) < 0.0:
-        problem = "its faces point inwards (negative volume): it is inside out"
+    shared = _non_manifold_edge(faces) if problem else None
+    if shared is not None:
+        # no winding can close an edge of more than two faces, and repair does not cut them apart
+        (i, j), n = shared
+        hint = _hint(repair, vertices, faces) if _degenerate(vertices, faces).any() or _duplicates(faces).any() else ""
+        raise _mesh_error(path, f"edge ({i}, {j}) is shared by {n} faces: the mesh is non-manifold (solids that "
+                                f"touch along an edge or share a face){after}; give each solid its own object "
+                                "(OBJ o or g, ASCII STL solid) so that each is closed on its own, or load it with "
+                                f"static=True as a TriangleMesh for a static body{hint}")
+    if not problem:
+        size = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
+        volume = _signed_volume(vertices, faces)
+        if abs(volume) <= _FLAT_VOLUME * size ** 3:
+            problem = f"it encloses no volume ({volume:.3g} m^3 after scaling): it is flat, not a solid"
+        elif volume < 0.0:
+            problem = "its faces point inwards (negative volume): it is inside out"
     if problem:
-        more = ("; holes of more than 4 edges are not filled: close it in a mesh editor, or load it with "
-                "static=True as a TriangleMesh for a static body") if repair and "open" in problem else ""
+        more = ("; holes of more than 4 edges, and holes whose filling would enclose nothing (a loose sheet), "
+                "are not filled: close it in a mesh editor, or load it with static=True as a TriangleMesh for a "
+                "static body") if repair and "open" in problem else ""
         raise _mesh_error(path, f"{problem}{after}{more}{_hint(repair, vertices, faces)}"
                                 f"{'' if repair or 'open' not in problem else '; static=True accepts open meshes'}")
     if compound:

@@ -266,7 +266,8 @@ class World:
     tolerance : a solver stage stops when no row's velocity changes by more than this (m/s);
         0 runs every sweep up to ``max_iterations``.
     max_iterations : at most this many sweeps per solver stage and substep.
-    slop : overlap (m) the position pass leaves alone, so resting contacts are never stirred.
+    slop : overlap (m) the position pass leaves alone, so resting contacts are never stirred; a
+        contact of a thin body gets at most 0.2 of its inner radius (``inner_radii``).
     max_push_velocity : cap on the speed (m/s) at which overlapping bodies are pushed apart.
     restitution_threshold : approach speeds (m/s) below this get no bounce.
     friction_cone : "pyramid" (each tangent force within mu alpha) or "cone" (|f_t| <= mu alpha).
@@ -903,6 +904,16 @@ class World:
 
     @property
     @_locked
+    def inner_radii(self) -> np.ndarray:
+        """(N,) radius (m) of a ball each body's shape contains (sphere and capsule r, box its
+        smallest half extent, cylinder min(r, h), a hull the distance from its vertex mean to its
+        nearest face, a decomposed mesh or compound the largest over its pieces; infinity for
+        planes and triangle meshes). A contact's slop is at most 0.2 of its bodies' smaller one
+        (docs/conventions.md, "One step")."""
+        return readonly(self._core.inner_radii)
+
+    @property
+    @_locked
     def inertias(self) -> np.ndarray:
         """(N, 3, 3) inertia tensors about the centre of mass, body axes (kg m^2); zero for static."""
         return readonly(self._core.inertias)
@@ -1022,9 +1033,10 @@ class World:
         force and torque (``apply_force``); ``impulse``, ``angular_impulse`` (N, 3): pending
         impulses about the centres of mass (``apply_impulse``)."""
         c = self._core
-        inv_masses, inv_inertias = c.inv_masses, c.inv_inertias
+        inv_masses, inv_inertias, inner = c.inv_masses, c.inv_inertias, c.inner_radii
         bodies = [{"shape": codec.shape_to_dict(c.shape(i)), **model, "inv_mass": float(inv_masses[i]),
-                   "inv_inertia": inv_inertias[i]} for i, model in enumerate(codec.body_models(self))]
+                   "inv_inertia": inv_inertias[i], "inner_radius": float(inner[i])}
+                  for i, model in enumerate(codec.body_models(self))]
         return {
             "gravity": np.array(c.gravity),
             "settings": {"contact_margin": c.contact_margin, **self.solver},

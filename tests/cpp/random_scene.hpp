@@ -87,6 +87,7 @@ struct Scene {
   /// Appends a body; static bodies get zero velocities.
   void add(Shape shape, bool is_static, const Vec3& p, const Mat3& R, const Vec3& v, const Vec3& omega) {
     model.rho.push_back(bounding_radius(shape));
+    model.inner.push_back(inner_radius(shape));
     model.shape.push_back(std::move(shape));
     model.is_static.push_back(is_static);
     model.mass.push_back(1.0);

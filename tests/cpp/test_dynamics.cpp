@@ -20,6 +20,7 @@ void one_box(Model& model, State& state, const Vec3& h, const Mat3& R, const Vec
   model.I_body.push_back(mp.inertia);
   model.I_body_inv.push_back(mp.inertia.inverse());
   model.rho.push_back(h.norm());
+  model.inner.push_back(h.minCoeff());
   state.p.push_back(Vec3(0.1, 0.2, 0.3));
   state.R.push_back(R);
   state.v.push_back(Vec3::Zero());
@@ -99,6 +100,7 @@ TEST(Solver, SingleContactClosedForm) {
   model.I_body = {Mat3::Zero(), Mat3::Identity() * 0.2};
   model.I_body_inv = {Mat3::Zero(), Mat3::Identity() * 5.0};
   model.rho = {INFINITY, 0.5};
+  model.inner = {INFINITY, 0.5};
   model.material = {Material(), Material()};
   state.p = {Vec3::Zero(), Vec3(0, 0, 0.5)};
   state.R = {Mat3::Identity(), Mat3::Identity()};

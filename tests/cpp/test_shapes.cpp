@@ -359,6 +359,25 @@ TEST(Compound, PartsAreValidated) {
   expect_error([] { Compound::make_part(Sphere(1.0), Vec3::Zero(), Quat4(kNaN, 0, 0, 1)); }, "finite");
 }
 
+TEST(Shapes, InnerRadiiAreBallsTheShapesContain) {
+  // closed forms: the largest ball about the centre (a hull: about its vertex mean)
+  EXPECT_EQ(inner_radius(Sphere(0.3)), 0.3);
+  EXPECT_EQ(inner_radius(Box(Vec3(0.4, 0.1, 0.2))), 0.1);
+  EXPECT_EQ(inner_radius(Capsule(0.5, 2.0)), 0.5);
+  EXPECT_EQ(inner_radius(Cylinder(3.0, 0.25)), 0.25);
+  EXPECT_EQ(inner_radius(Cylinder(0.25, 3.0)), 0.25);
+  EXPECT_DOUBLE_EQ(inner_radius(ConvexHull(cube_corners(Vec3(1, 2, 0.5)))), 0.5);
+  // a compound: its largest part's, wherever the part is placed
+  const Compound c({{Sphere(0.5), Vec3(3, 0, 0), Mat3::Identity()}, {Box(Vec3(0.7, 0.9, 0.8)), Vec3(0, 0, 1), Mat3::Identity()}});
+  EXPECT_EQ(inner_radius(c), 0.7);
+  // planes and triangle meshes bound nothing
+  EXPECT_EQ(inner_radius(Plane(Vec3::UnitZ(), 0.0)), std::numeric_limits<double>::infinity());
+  Points v(3, 3);
+  v << 0, 0, 0, 1, 0, 0, 0, 1, 0;
+  EXPECT_EQ(inner_radius(TriangleMesh(v, Triangles(Eigen::RowVector3<std::int64_t>(0, 1, 2)))),
+            std::numeric_limits<double>::infinity());
+}
+
 TEST(Shapes, NamesRadiiAndStaticOnly) {
   EXPECT_EQ(shape_name(Capsule(1, 2)), "Capsule");
   EXPECT_EQ(shape_name(ConvexHull(cube_corners(Vec3(1, 1, 1)))), "ConvexHull");

@@ -137,6 +137,8 @@ def test_the_summary_counts_every_scene(sample):
     assert len(report["results"]) == SAMPLE_SCENES
     clean = sum(not r["failures"] for r in report["results"])
     assert f": {clean} clean; " in lines[-1]
+    deep = sum(r["max_overlap"] > fuzz.DEEP_OVERLAP for r in report["results"])
+    assert f"({deep} scenes past 50%)" in lines[-1]
     for r in report["results"]:
         for key in ("max_overlap", "max_energy_gain", "max_point_error"):
             assert math.isfinite(r[key])

@@ -154,6 +154,8 @@ def broken_cubes():
         ("duplicate", np.vstack([f, f[5:6]]), dict(duplicate_faces=1)),
         ("flipped", flipped, dict(flipped_faces=1)),
         ("inside_out", f[:, ::-1].copy(), dict(flipped_faces=12)),
+        # inside out but one face, the walk starting from an inward face (trimesh's multibody.stl)
+        ("inside_out_but_one", np.where(np.arange(12)[:, None] == 3, f, f[:, ::-1]), dict(flipped_faces=11)),
         ("triangle_hole", np.delete(f, 7, axis=0), dict(filled_holes=1, added_faces=1)),
         ("quad_hole", np.delete(f, [0, 6], axis=0), dict(filled_holes=1, added_faces=2)),   # the -z side
     ]

@@ -29,7 +29,9 @@ PINNED = {
     # the 210-box pyramid, 150 steps of 1/240 s
     "pyramid": "1a7a1a0027ec50c6dd9a089eed6a6e1a8f2752542e8ed4cdba46aff9c01d7381",
     # fuzzer scene 1:103: 14 bodies of all 7 kinds on a triangle-mesh height field, its full 1.5 s
-    "fuzz 1:103": "026b09b1b515632c78cfd8fe6d86a9a3ff9f097c8b25bbb7d1d6f47eaed9fe72",
+    # (re-pinned when a capsule got both segment ends and a cylinder its rim points in the floor
+    # against mesh triangles, issue 21: its capsule and cylinders land differently)
+    "fuzz 1:103": "11c7c0c6b183a13e16d78a2c156ff9ef72fedf152699b8adee93960afc7178a9",
 }
 
 

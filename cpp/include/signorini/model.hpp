@@ -43,6 +43,7 @@ struct Model {
   std::vector<Mat3> I_body;      ///< inertia about the com, body axes (kg m^2; zero for static)
   std::vector<Mat3> I_body_inv;  ///< its inverse (zero for static)
   std::vector<double> rho;       ///< bounding radius about the body origin (m; inf for a plane)
+  std::vector<double> inner;     ///< radius of a ball the shape contains (m; inner_radius(), inf for a plane)
   std::vector<Material> material;///< friction, restitution, spinning friction
   /// moved by its own velocity only (no gravity, no forces, no contact impulses): infinite mass in
   /// the solver (inv_mass and I_body_inv zero while kinematic; mass and I_body keep the body's own,
@@ -62,7 +63,7 @@ struct Model {
   /// of the fields, used to remove bodies, so that a new field is added here only.
   template <class F>
   void for_each_array(F&& f) {
-    f(shape), f(is_static), f(mass), f(inv_mass), f(I_body), f(I_body_inv), f(rho), f(material), f(is_kinematic),
+    f(shape), f(is_static), f(mass), f(inv_mass), f(I_body), f(I_body_inv), f(rho), f(inner), f(material), f(is_kinematic),
         f(enabled), f(can_sleep), f(filter), f(name);
   }
 

@@ -148,6 +148,14 @@ std::string shape_name(const Shape& shape);
 /// Largest distance from the body origin to the shape's surface (m); infinity for a plane.
 double bounding_radius(const Shape& shape);
 
+/// Radius (m) of a ball the shape surely contains: sphere and capsule r, box its smallest half
+/// extent, cylinder min(r, h); a convex hull or piece the distance from its vertex mean to its
+/// nearest face plane; a mesh the largest over its convex pieces (or, without pieces, the convex
+/// mesh's own); a compound the largest over its parts; infinity for a plane, a triangle mesh and a
+/// mesh with no piece whose vertex mean lies inside every face plane (no ball is known). The
+/// solver scales a contact's slop by it (SolverSettings::slop_inner_fraction).
+double inner_radius(const Shape& shape);
+
 /// true for shapes that can only be static (Plane, TriangleMesh).
 bool static_only(const Shape& shape);
 

@@ -36,8 +36,14 @@ struct SolverSettings {
   /// Upper bound on sweeps per stage (iterate, restitution, position pass) and step.
   int max_iterations = 30;
   /// Overlap the position pass leaves alone (m, >= 0): resting contacts sink this far at most
-  /// and are never pushed, so a settled stack is not stirred by pushes.
+  /// and are never pushed, so a settled stack is not stirred by pushes. A contact whose smaller
+  /// body is thin gets less: slop_i = min(slop, slop_inner_fraction r_min), r_min the smaller
+  /// inner_radius() of its two bodies.
   double slop = 0.001;
+  /// The most of the smaller body's inner radius a contact's slop may be (dimensionless): a body
+  /// 1.8 mm thick (inner radius 0.9 mm) rests at most 0.18 mm deep, not the 1 mm that is more than
+  /// its half thickness. Bodies of inner radius 5 mm and more keep the whole slop.
+  static constexpr double slop_inner_fraction = 0.2;
   /// Cap on the speed at which the position pass pushes overlapping bodies apart (m/s, > 0).
   double max_push_velocity = 1.0;
   /// Approach speeds below this get no restitution (m/s, >= 0): resting contacts stay at rest.

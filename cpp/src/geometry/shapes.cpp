@@ -265,6 +265,52 @@ double bounding_radius(const Shape& shape) {
   return std::visit(Radius{}, shape);
 }
 
+namespace {
+
+/// Distance (m) from a polytope's vertex mean (an interior point) to its nearest face plane.
+double polytope_inner(const Polytope& p) {
+  double r = std::numeric_limits<double>::infinity();
+  for (std::size_t f = 0; f < p.normals.size(); ++f) r = std::min(r, p.offsets[f] - p.normals[f].dot(p.centroid));
+  return r;
+}
+
+}  // namespace
+
+double inner_radius(const Shape& shape) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  struct Inner {
+    double operator()(const Sphere& s) const { return s.radius; }
+    double operator()(const Box& b) const { return b.half_extents.minCoeff(); }
+    double operator()(const Plane&) const { return inf; }
+    double operator()(const Mesh& m) const {
+      if (!m.pieces.empty()) {
+        double r = 0.0;
+        for (const auto& piece : m.pieces) r = std::max(r, polytope_inner(*piece));
+        return r;
+      }
+      // no pieces: the triangles' planes seen from the vertex mean, a ball only if it is inside all
+      const Vec3 c = m.vertices.colwise().mean().transpose();
+      double r = inf;
+      for (Eigen::Index k = 0; k < m.faces.rows(); ++k) {
+        const Vec3 a = m.vertex(m.faces(k, 0)), b = m.vertex(m.faces(k, 1)), d = m.vertex(m.faces(k, 2));
+        const Vec3 n = (b - a).cross(d - a).normalized();
+        r = std::min(r, n.dot(a - c));
+      }
+      return r > 0.0 ? r : inf;
+    }
+    double operator()(const Capsule& c) const { return c.radius; }
+    double operator()(const Cylinder& c) const { return std::min(c.radius, c.half_height); }
+    double operator()(const ConvexHull& h) const { return polytope_inner(*h.polytope); }
+    double operator()(const TriangleMesh&) const { return inf; }
+    double operator()(const Compound& c) const {
+      double r = 0.0;
+      for (const Compound::Part& p : c.parts) r = std::max(r, std::visit([this](const auto& s) { return (*this)(s); }, p.shape));
+      return r;
+    }
+  };
+  return std::visit(Inner{}, shape);
+}
+
 bool static_only(const Shape& shape) {
   return std::holds_alternative<Plane>(shape) || std::holds_alternative<TriangleMesh>(shape);
 }

@@ -167,6 +167,7 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   // commit
   broad_phase_->add_body(index, shape, desc.is_static, position, R);
   model_.rho.push_back(bounding_radius(shape));
+  model_.inner.push_back(inner_radius(shape));
   model_.shape.push_back(std::move(shape));
   model_.is_static.push_back(desc.is_static);
   model_.mass.push_back(mass);

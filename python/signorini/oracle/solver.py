@@ -64,6 +64,9 @@ DEFAULT_SETTINGS = {
     "soft_iterations": 1,           # sweeps with the soft bias per substep
     "relax_iterations": 1,          # rigid sweeps per substep, after the poses move
 }
+# a contact's slop is at most this fraction of the smaller inner radius of its bodies (a ball each
+# body's shape contains, "inner_radius" of the snapshot's body dicts; infinity when absent)
+SLOP_INNER_FRACTION = 0.2
 AUTO_SUBSTEP = 1.0 / 960.0         # s, the longest automatic substep of the PGS
 SOFT_AUTO_SUBSTEP = 1.0 / 240.0    # s, the longest automatic substep of the soft step
 SOLVERS = ("pgs", "soft")
@@ -618,10 +621,21 @@ def restitution(rows, alpha, q_dot, restitutive, dt, tolerance, max_iterations):
 
 # --------------------------------------------------------------------------- e. position pass
 
+def contact_slops(snapshot, contacts, slop):
+    """slop_i = min(slop, SLOP_INNER_FRACTION min(r_A, r_B)), (K,) m: the overlap the position pass
+    leaves alone at contact i, smaller for a thin body (r_X: body X's "inner_radius", the radius
+    of a ball its shape contains; infinity when the body dict has none)."""
+    inner = np.array([float(b.get("inner_radius", np.inf)) for b in snapshot["bodies"]])
+    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
+    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
+    return np.minimum(slop, SLOP_INNER_FRACTION * np.minimum(inner[A], inner[B]))
+
+
 def position_targets(rows, restitutive, dt, erp, slop, max_push_velocity):
     """b_pos,i = max(push_i, bounce_i), (K,) m/s, the separation speed the position pass asks for:
-        push_i   = min(erp max(-gap_i - slop, 0) / dt, max_push_velocity)
-                   (an overlap up to slop is left alone, so resting contacts are not stirred)
+        push_i   = min(erp max(-gap_i - slop_i, 0) / dt, max_push_velocity)
+                   (an overlap up to slop_i is left alone, so resting contacts are not stirred;
+                   slop: one number or (K,) per contact, ``contact_slops``)
         bounce_i = e_i max(-u_i - max(gap_i, 0) / dt, 0) for a restitutive contact, else 0
     (after the impact at t_c = gap / |u| the bodies separate at e |u| for the rest of the step)."""
     gap = rows["gap"]
@@ -848,7 +862,8 @@ def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
                                          s["max_iterations"])
 
     # e. position pass
-    b_pos = position_targets(rows, restitutive, dt, s["erp"], s["slop"], s["max_push_velocity"])
+    b_pos = position_targets(rows, restitutive, dt, s["erp"], contact_slops(snapshot, contacts, s["slop"]),
+                             s["max_push_velocity"])
     q_p, beta, position_iterations = position_pass(rows, b_pos, N, dt, s["tolerance"],
                                                    s["max_iterations"])
 
