@@ -127,6 +127,60 @@ def _seed_list(seeds) -> list[int]:
     return [int(s) for s in got]
 
 
+# World.step takes at most INT_MAX steps per call
+_STEPS_PER_CALL = 2 ** 30
+# with a timeout, the steps go in blocks sized to last about 1/_TIMEOUT_CHECKS of it
+_TIMEOUT_CHECKS = 20
+
+
+def _advance(world: World, recorder, steps: int, dt: float, start: float, timeout: Optional[float], row: dict) -> None:
+    """Steps the run's world ``steps`` times; sets row's steps_done, and its status and error when
+    a step raises or the run's time (since ``start``) passes ``timeout``.
+
+    The steps go to the core in blocks, not one Python call each: a call's own work (argument
+    checks, the lock, the step report) cost half as much again as the steps of a small scene, and
+    World.step(dt, n) is n single steps, bit for bit. Without a timeout a run is one block; with
+    one, blocks are sized from the steps' measured pace to last about 1/_TIMEOUT_CHECKS of it
+    (starting at one step, at most doubling). A block that raises is stepped again one step at a
+    time from the state saved before it (the steps after restore_state are bit-identical), so the
+    row names the step that failed and keeps the state before it, as single steps would. A
+    recorder observes every step: one at a time."""
+    def fail(k: int, e: Exception) -> None:
+        text = f"step {k} (t = {world.time:.6g} s): {type(e).__name__}: {e}"
+        row.update(status="nonfinite" if "non-finite" in str(e) else "exception", error=text)
+
+    k, block = 0, 1
+    while k < steps:
+        if timeout is not None and time.perf_counter() - start > timeout:
+            row.update(status="timeout", error=f"still running after {timeout:g} s (step {k} of {steps})")
+            return
+        n = 1 if recorder is not None else min(steps - k, _STEPS_PER_CALL if timeout is None else block)
+        saved = world.save_state() if n > 1 else None
+        began = time.perf_counter()
+        try:
+            if recorder is not None:
+                recorder.step(dt, 1)
+            else:
+                world.step(dt, n)
+        except Exception as e:  # noqa: BLE001 - a failing run is a row
+            if saved is None:
+                return fail(k, e)
+            # again one step at a time, to name the step that fails and keep the state before it
+            world.restore_state(saved)
+            for j in range(k, k + n):
+                try:
+                    world.step(dt)
+                except Exception as again:  # noqa: BLE001
+                    return fail(j, again)
+                row["steps_done"] = j + 1
+            # (not reached: the core is deterministic; had the steps passed, the run would go on)
+        k += n
+        row["steps_done"] = k
+        if timeout is not None:
+            pace = (time.perf_counter() - began) / n
+            block = max(1, min(2 * n, int(timeout / _TIMEOUT_CHECKS / pace))) if pace > 0 else 2 * n
+
+
 def run_one(build: Callable, params: dict, seed: int, steps: int, dt: float, metrics: Optional[Callable] = None,
             timeout: Optional[float] = None, trajectories: Optional[str] = None) -> dict:
     """One run as a row (module doc): build(seed=seed, **params), steps steps of dt, the metrics.
@@ -159,20 +213,7 @@ def run_one(build: Callable, params: dict, seed: int, steps: int, dt: float, met
         recorder = Recorder(world, steps=steps)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SolverWarning)  # the certificate columns say what the solver did
-        for k in range(steps):
-            if timeout is not None and time.perf_counter() - start > timeout:
-                row.update(status="timeout", error=f"still running after {timeout:g} s (step {k} of {steps})")
-                break
-            try:
-                if recorder is not None:
-                    recorder.step(dt, 1)
-                else:
-                    world.step(dt)
-            except Exception as e:  # noqa: BLE001
-                text = f"step {k} (t = {world.time:.6g} s): {type(e).__name__}: {e}"
-                row.update(status="nonfinite" if "non-finite" in str(e) else "exception", error=text)
-                break
-            row["steps_done"] = k + 1
+        _advance(world, recorder, steps, dt, start, timeout, row)
     if row["status"] == "ok" and not all(np.isfinite(a).all() for a in (world.positions, world.velocities)):
         row.update(status="nonfinite", error="the final state is not finite")
     if recorder is not None and row["steps_done"] > 0:

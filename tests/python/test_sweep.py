@@ -72,6 +72,30 @@ def test_a_run_that_raises_and_one_that_goes_nonfinite_are_rows_and_the_rest_com
     assert "non-finite" in error[0.3]
 
 
+def pushed_sphere(seed: int, force: float):
+    """A free sphere pushed by a constant force: at 1e307 N its velocity overflows at step 2945."""
+    w = sg.World(gravity=(0, 0, 0))
+    w.add_body(sg.Sphere(0.1), density=1000.0, position=(0, 0, 1))
+    w.set_external_wrench(0, force=(force, 0.0, 0.0))
+    return w
+
+
+def test_a_run_that_fails_mid_way_names_the_step_and_keeps_the_state_single_steps_would():
+    # run_one steps in blocks; the row must still be that of stepping one step at a time
+    world = pushed_sphere(0, 1e307)
+    for k in range(3000):
+        try:
+            world.step(1 / 240)
+        except RuntimeError as e:
+            failed, message = k, str(e)
+            break
+    assert 0 < failed < 3000 and "non-finite" in message
+    row = sw.run_one(pushed_sphere, {"force": 1e307}, 0, 3000, 1 / 240)
+    assert row["status"] == "nonfinite" and row["steps_done"] == failed
+    assert row["error"].startswith(f"step {failed} (t = {world.time:.6g} s): RuntimeError: ")
+    assert row["state_hash"] == sw.state_hash(world)
+
+
 def test_a_timeout_is_a_row(monkeypatch):
     no_ray(monkeypatch)
     row = sw.run_one(slope, {"friction": 0.5}, 0, steps=10 ** 7, dt=1 / 240, timeout=0.2)
