@@ -133,6 +133,41 @@ def test_a_sweep_started_again_runs_only_what_is_missing(tmp_path, monkeypatch):
     assert third["state_hash"].tolist() == full["state_hash"].tolist()
 
 
+def test_task_sizes_amortise_the_per_task_cost_and_shrink_towards_the_end():
+    # before any run is measured: a few runs, to learn what a run costs
+    assert sw.task_size(1000, 2, None) == sw._FIRST_TASK_RUNS
+    assert sw.task_size(1, 2, None) == 1
+    # 3 ms runs: a quarter per worker of what is left, but never below 0.1 s of runs
+    assert sw.task_size(1000, 2, 0.003) == 125
+    assert sw.task_size(200, 2, 0.003) == math.ceil(0.1 / 0.003)
+    assert sw.task_size(10, 2, 0.003) == 10             # never more than is left
+    # long runs: never above 10 s of runs a task (progress and resumable parts keep coming)
+    assert sw.task_size(10 ** 6, 2, 1.0) == 10
+    assert sw.task_size(10 ** 6, 2, 60.0) == 1
+
+
+def test_the_scheduler_gives_every_job_once_in_order_and_keeps_two_tasks_per_worker():
+    jobs = [(i, {"run": i}, 0) for i in range(1000)]
+    queued, sizes, most, got = [], [], [0], []
+
+    def submit(some):
+        queued.append(some)
+        sizes.append(len(some))
+        most[0] = max(most[0], len(queued))
+
+    def wait_one():
+        return [{"_index": i, "wall": 0.003} for i, _, _ in queued.pop(0)]
+
+    sw._schedule(jobs, 2, None, submit, wait_one, got.extend)
+    assert [r["_index"] for r in got] == list(range(1000))
+    assert sizes[:4] == [sw._FIRST_TASK_RUNS] * 4 and max(sizes) == 124 and min(sizes[4:]) == sizes[-1]
+    assert most[0] == 2 * sw._IN_FLIGHT
+    got.clear()
+    sizes.clear()
+    sw._schedule(jobs, 2, 300, submit, wait_one, got.extend)    # chunk given: that many
+    assert sizes == [300, 300, 300, 100] and len(got) == 1000
+
+
 @pytest.mark.parametrize("kwargs, message", [
     ({"grid": {"friction": []}}, "grid parameter 'friction': the list of values is empty"),
     ({"grid": {"friction": 0.5}}, "grid parameter 'friction': give a list of values"),
@@ -195,7 +230,7 @@ def test_cli_sweep_of_a_scene_file_and_its_errors(tmp_path):
     (stub / "ray.py").write_text("raise ImportError('ray hidden by the test')\n")
     env = {"PYTHONPATH": package_path(str(stub))}
     got = run_cli("sweep", "boxes", "--set", "bodies.flat_box.friction=0.1,0.9", "--set", "world.gravity.2=-9.81,-1.62",
-                  "--seeds", "2", "--steps", "120", "--out", str(tmp_path / "r.parquet"), "--quiet",
+                  "--seeds", "2", "--steps", "120", "--chunk", "3", "--out", str(tmp_path / "r.parquet"), "--quiet",
                   cwd=tmp_path, env=env)
     assert got.returncode == 0, got.stderr
     assert "8 runs (8 ok)" in got.stdout
