@@ -297,8 +297,9 @@ def main(argv=None) -> int:
               f"the sweep on a running Ray; {start_up / serial_run:.0f} serial runs' time)")
         print(f"    its parts: ray.init {median('init'):.2f} s, the workers' first tasks (imports) "
               f"{median('warm'):.2f} s, ray.shutdown {median('shutdown'):.2f} s")
+        batched = base / statistics.median(times[f"signorini Batch, {args.threads} threads"])
         print(f"    per-task overhead {median('task') * 1e3:.2f} ms (no-op tasks); on a running Ray the sweep's runs "
-              f"had {median('busy'):.0%} of the CPUs' time; steady state {steady:.2f}x serial")
+              f"had {median('busy'):.0%} of the CPUs' time; steady state {steady:.2f}x serial (Batch {batched:.2f}x)")
         need = runs_for(1.6, start_up, serial_run, steady)
         if math.isinf(need):
             print("    1.6x including start-up: out of reach at any size (the steady state is below 1.6x)")
