@@ -338,12 +338,14 @@ def _schedule(jobs: list, workers: int, chunk: Optional[int], submit: Callable, 
         collect(got)
 
 
-# A local Ray started for a sweep: no dashboard (a sweep has its progress bar), the workers'
+# A local Ray started for a sweep: a new one ("local": ray.init with no address would join the
+# cluster of the machine's last `ray start` or RAY_ADDRESS instead, even one that has gone or
+# that this process cannot reach), no dashboard (a sweep has its progress bar), the workers'
 # output kept in Ray's log files rather than copied to the driver, Ray's INFO lines off, and every
 # server on 127.0.0.1 (a local Ray serves this process only). The CPUs are Ray's own count of the
 # machine's (it reads the container's CPU limit, which os.cpu_count does not).
-LOCAL_RAY = {"include_dashboard": False, "log_to_driver": False, "logging_level": logging.WARNING,
-             "_node_ip_address": "127.0.0.1"}
+LOCAL_RAY = {"address": "local", "include_dashboard": False, "log_to_driver": False,
+             "logging_level": logging.WARNING, "_node_ip_address": "127.0.0.1"}
 
 
 # without Ray: the forked workers find the job here (set before the pool forks), so build and

@@ -305,3 +305,39 @@ def test_a_real_ray_cluster_gives_the_serial_rows_and_survives_a_killed_worker(t
                               "RAY_AUTH_MODE": "disabled"})
     assert got.returncode == 0, got.stdout[-3000:] + got.stderr[-3000:]
     assert "RAY SWEEP OK 8" in got.stdout
+
+
+LOCAL_RAY_DRIVER = '''
+import subprocess, sys
+sys.path.insert(0, {tests!r})
+import signorini as sg
+from signorini import sweeps as sw
+from helpers import slope_box as slope, down_slope_speed as along_slope
+
+subprocess.run(["ip", "link", "set", "lo", "up"], check=True)
+grid = {{"friction": [0.04, 0.16]}}
+table = sg.sweep(slope, grid, steps=60, dt=1 / 240, seeds=3, metrics=along_slope)
+assert (table["status"] == "ok").all(), table[["status", "error"]]
+for _, row in table.iterrows():
+    serial = sw.run_one(slope, {{"friction": row["friction"]}}, int(row["seed"]), 60, 1 / 240, along_slope)
+    assert serial["state_hash"] == row["state_hash"], (row["friction"], row["seed"])
+print("LOCAL RAY SWEEP OK", len(table))
+'''
+
+
+@pytest.mark.slow
+def test_without_an_address_a_sweep_starts_its_own_local_ray_whatever_ray_address_says(tmp_path):
+    pytest.importorskip("ray")
+    if shutil.which("unshare") is None or os.geteuid() != 0:
+        pytest.skip("needs unshare and root (a local Ray only in a loopback-only network namespace)")
+    with socket.socket() as s:   # a port nobody listens on: a cluster that has gone
+        s.bind(("127.0.0.1", 0))
+        gone = f"127.0.0.1:{s.getsockname()[1]}"
+    driver = tmp_path / "driver.py"
+    driver.write_text(textwrap.dedent(LOCAL_RAY_DRIVER.format(tests=str(Path(__file__).parent))))
+    got = subprocess.run(["unshare", "-n", sys.executable, str(driver)], capture_output=True, text=True,
+                         timeout=600, cwd=tmp_path,
+                         env={**os.environ, "PYTHONPATH": package_path(str(Path(__file__).parent)),
+                              "RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "disabled", "RAY_ADDRESS": gone})
+    assert got.returncode == 0, got.stdout[-3000:] + got.stderr[-3000:]
+    assert "LOCAL RAY SWEEP OK 6" in got.stdout
