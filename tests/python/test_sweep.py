@@ -298,9 +298,11 @@ def test_a_real_ray_cluster_gives_the_serial_rows_and_survives_a_killed_worker(t
     driver.write_text(textwrap.dedent(RAY_DRIVER.format(tests=str(Path(__file__).parent), port=6391,
                                                         marker=str(tmp_path / "killed"))))
     # a network namespace of the test's own with only loopback up: every address Ray binds and
-    # dials is 127.0.0.1
-    got = subprocess.run(["unshare", "-n", sys.executable, str(driver)], capture_output=True, text=True,
-                         timeout=600, cwd=tmp_path,
+    # dials is 127.0.0.1; and a process namespace of its own (its own /proc): `ray stop --force`
+    # stops every Ray process it can see, which would otherwise be every Ray on the machine (another
+    # test's, a benchmark's, a user's)
+    got = subprocess.run(["unshare", "-n", "-p", "-f", "--mount-proc", sys.executable, str(driver)],
+                         capture_output=True, text=True, timeout=600, cwd=tmp_path,
                          env={**os.environ, "PYTHONPATH": package_path(), "RAY_USAGE_STATS_ENABLED": "0",
                               "RAY_AUTH_MODE": "disabled"})
     assert got.returncode == 0, got.stdout[-3000:] + got.stderr[-3000:]
