@@ -9,9 +9,11 @@ friction mu in [0.1, 0.9] (the contact's: signorini sqrt(mu_box mu_slope) with t
 box's mu^2; pybullet mu_box mu_slope with the slope's 1; MuJoCo the larger of the two with the
 slope's 0) and yaw, both from numpy.random.default_rng(i); dt 1/240, 240 steps (1 s). Every method
 builds its worlds inside its timing. Figures: runs per second (median of --repeats), the speed-up
-over signorini serial, and Ray's per-task overhead (no-op tasks). Targets (issue 22): Batch at
-least 1.8x serial on 2 cores, Ray at least 1.6x including its start-up, Batch at least MuJoCo
-rollout's runs per second per core.
+over signorini serial, and for Ray its start-up (the sweep with it minus the sweep on a Ray already
+running, and its parts: ray.init, the workers' first tasks, ray.shutdown), its per-task overhead
+(no-op tasks), its steady state (already running) and the sweep size at which the start-up is
+amortised enough for 1.6x. Targets (issue 22): Batch at least 1.8x serial on 2 cores, Ray at
+least 1.6x including its start-up, Batch at least MuJoCo rollout's runs per second per core.
 
 Ray servers listen on 127.0.0.1 only: run as root, the script re-runs itself inside a network
 namespace of its own with only loopback up (unshare -n), as the tests do.
@@ -31,6 +33,7 @@ import time
 import numpy as np
 
 import signorini as sg
+from signorini import sweeps
 
 ANGLE = math.radians(25.0)
 DT, STEPS = 1.0 / 240.0, 240
@@ -85,36 +88,72 @@ def batch(runs: int, threads: int) -> float:
 
 
 def sweep_ray(runs: int) -> float:
+    """The sweep as a user runs it: sg.sweep starts a local Ray, runs, and stops it."""
     t = time.perf_counter()
     table = sg.sweep(lambda seed, run: make(run), {"run": list(range(runs))}, steps=STEPS, dt=DT, progress=False)
     assert (table["status"] == "ok").all()
     return time.perf_counter() - t
 
 
-def sweep_running_ray(runs: int) -> float:
-    """The sweep on a local Ray started before the timing (as on a cluster that is up)."""
+def _warm(seconds: float) -> None:
+    """A first task: imports what a sweep's task imports, then holds its worker for `seconds` (so
+    that each of the tasks given out at once lands on a worker of its own)."""
+    import signorini.sweeps  # noqa: F401
+
+    time.sleep(seconds)
+
+
+def sweep_running_ray(runs: int, figures: list) -> float:
+    """The sweep on a local Ray started before the timing, its workers warm (as on a cluster that
+    is up): its steady state. The start-up's parts are timed on the way and put in `figures`:
+    ray.init (the same options as sg.sweep's own local Ray), the workers' first tasks (their
+    imports), Ray's per-task overhead (no-op tasks), the share of the CPUs' time the sweep spent in
+    runs, and ray.shutdown."""
     import ray
 
-    ray.init(include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1")
+    got = {}
+    t = time.perf_counter()
+    ray.init(**sweeps.LOCAL_RAY)
+    got["init"] = time.perf_counter() - t
+    cpus = int(ray.cluster_resources()["CPU"])
+    hold = 0.5
+    t = time.perf_counter()
+    ray.get([ray.remote(_warm).remote(hold) for _ in range(cpus)])
+    got["warm"] = time.perf_counter() - t - hold
+    got["task"] = ray_task_overhead()
     try:
-        return sweep_ray(runs)
+        t = time.perf_counter()
+        table = sg.sweep(lambda seed, run: make(run), {"run": list(range(runs))}, steps=STEPS, dt=DT, progress=False)
+        elapsed = time.perf_counter() - t
+        assert (table["status"] == "ok").all()
+        got["busy"] = table["wall"].sum() / (cpus * elapsed)
     finally:
+        t = time.perf_counter()
         ray.shutdown()
+        got["shutdown"] = time.perf_counter() - t
+    figures.append(got)
+    return elapsed
 
 
 def ray_task_overhead(tasks: int = 400) -> float:
-    """Seconds per no-op Ray task, submitted all at once and gathered (a local Ray)."""
+    """Seconds per no-op task on the running Ray, submitted all at once and gathered."""
     import ray
 
-    ray.init(include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1")
-    try:
-        noop = ray.remote(lambda: None)
-        ray.get([noop.remote() for _ in range(20)])
-        t = time.perf_counter()
-        ray.get([noop.remote() for _ in range(tasks)])
-        return (time.perf_counter() - t) / tasks
-    finally:
-        ray.shutdown()
+    noop = ray.remote(lambda: None)
+    ray.get([noop.remote() for _ in range(20)])
+    t = time.perf_counter()
+    ray.get([noop.remote() for _ in range(tasks)])
+    return (time.perf_counter() - t) / tasks
+
+
+def runs_for(target: float, start_up: float, serial_run: float, steady: float) -> float:
+    """Runs a sweep needs for `target` times serial including a start-up of `start_up` s: runs R of
+    `serial_run` s each, at `steady` times serial once Ray runs, take R serial_run / steady +
+    start_up; that is R serial_run / target when R = start_up / (serial_run (1/target - 1/steady)).
+    Infinite when the steady state itself is below the target."""
+    if steady <= target:
+        return math.inf
+    return start_up / (serial_run * (1.0 / target - 1.0 / steady))
 
 
 _PB = None
@@ -218,15 +257,19 @@ def main(argv=None) -> int:
         if os.geteuid() == 0 and shutil.which("unshare"):
             command = ["unshare", "-n", "sh", "-c", 'ip link set lo up && exec "$@"', "sh", sys.executable,
                        os.path.abspath(__file__), *(argv if argv is not None else sys.argv[1:])]
-            return subprocess.call(command, env=dict(os.environ, RAY_USAGE_STATS_ENABLED="0"))
+            env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0", RAY_AUTH_MODE="disabled")
+            return subprocess.call(command, env=env)
         print("the Ray sweep is left out: it needs a loopback-only network namespace (root and unshare)")
         have_ray = False
 
     methods = {"signorini serial": lambda: serial(args.runs),
                f"signorini Batch, {args.threads} threads": lambda: batch(args.runs, args.threads)}
+    ray_figures: list[dict] = []
+    with_start = "signorini sweep on a local Ray, start-up included"
+    running = "signorini sweep on a local Ray already running"
     if have_ray:
-        methods[f"signorini sweep on a local Ray ({os.cpu_count()} CPUs, start-up included)"] = lambda: sweep_ray(args.runs)
-        methods["signorini sweep on a local Ray already running"] = lambda: sweep_running_ray(args.runs)
+        methods[with_start] = lambda: sweep_ray(args.runs)
+        methods[running] = lambda: sweep_running_ray(args.runs, ray_figures)
     if not args.no_peers:
         methods[f"pybullet DIRECT, multiprocessing pool of {args.threads}"] = lambda: pybullet_pool(args.runs, args.threads)
         methods[f"MuJoCo rollout, {args.threads} threads"] = lambda: mujoco_rollout(args.runs, args.threads)
@@ -244,7 +287,25 @@ def main(argv=None) -> int:
         t = statistics.median(got)
         print(f"  {name:<62} {args.runs / t:9.0f} {base / t:9.2f}x")
     if have_ray:
-        print(f"  Ray per-task overhead (no-op tasks, local): {ray_task_overhead() * 1e3:.2f} ms")
+        def median(key):
+            return statistics.median(f[key] for f in ray_figures)
+
+        serial_run = base / args.runs
+        steady = base / statistics.median(times[running])
+        start_up = statistics.median(times[with_start]) - statistics.median(times[running])
+        print(f"  Ray on this machine ({os.cpu_count()} cores): start-up {start_up:.2f} s (the sweep with it minus "
+              f"the sweep on a running Ray; {start_up / serial_run:.0f} serial runs' time)")
+        print(f"    its parts: ray.init {median('init'):.2f} s, the workers' first tasks (imports) "
+              f"{median('warm'):.2f} s, ray.shutdown {median('shutdown'):.2f} s")
+        batched = base / statistics.median(times[f"signorini Batch, {args.threads} threads"])
+        print(f"    per-task overhead {median('task') * 1e3:.2f} ms (no-op tasks); on a running Ray the sweep's runs "
+              f"had {median('busy'):.0%} of the CPUs' time; steady state {steady:.2f}x serial (Batch {batched:.2f}x)")
+        need = runs_for(1.6, start_up, serial_run, steady)
+        if math.isinf(need):
+            print("    1.6x including start-up: out of reach at any size (the steady state is below 1.6x)")
+        else:
+            print(f"    1.6x including start-up needs a sweep of at least {math.ceil(need / 1000) * 1000:,} runs "
+                  f"of this scene ({args.runs:,} here)")
     cores = os.cpu_count() or 1
     mj = times.get(f"MuJoCo rollout, {args.threads} threads")
     if mj and mj[0] is not None:

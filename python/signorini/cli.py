@@ -103,6 +103,11 @@ def _stride(text: str) -> int:
     return _positive_int(text, "stride")
 
 
+def _chunk(text: str) -> int:
+    """argparse type: runs per task of a sweep, an integer >= 1."""
+    return _positive_int(text, "runs per task")
+
+
 def _size(text: str) -> tuple[int, int]:
     """argparse type: WIDTHxHEIGHT in pixels, both even and >= 16 (H.264 with yuv420p)."""
     try:
@@ -240,6 +245,8 @@ def make_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--out", type=Path, required=True, help="the results table (.parquet)")
     sweep.add_argument("--address", help="HOST:PORT of a Ray cluster's head (default: a local Ray)")
     sweep.add_argument("--timeout", type=_positive_float, help="seconds per run before it is stopped (default: none)")
+    sweep.add_argument("--chunk", type=_chunk, help="runs per task (default: sized from the runs' measured time, "
+                                                   "0.1 to 10 s of runs a task)")
     sweep.add_argument("--trajectories", type=Path, metavar="DIR", help="also each run's trajectory .npz, in DIR")
     sweep.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_allow_path(sweep)
@@ -325,7 +332,7 @@ def _sweep(args: argparse.Namespace) -> int:
         scene = read_scene(path, allow_paths=args.allow_paths)
         runs = sweep.SceneRuns(path, grid, jitter=args.jitter, allow_paths=args.allow_paths)
         table = sweep.sweep(runs, grid, steps=args.steps or scene.steps, dt=args.dt or scene.dt, seeds=args.seeds,
-                            address=args.address, out=args.out, timeout=args.timeout,
+                            address=args.address, out=args.out, timeout=args.timeout, chunk=args.chunk,
                             trajectories=args.trajectories, progress=False if args.quiet else None)
     except (sweep.SweepError, SceneFileError, FileNotFoundError) as e:
         print(f"python -m signorini: error: {e}", file=sys.stderr)

@@ -14,17 +14,28 @@ tasks (or, without Ray, in local processes), gathered into one table.
 
 Where the runs go (``address``):
 - None: a Ray already initialised in this process (``ray.init`` by the caller) is used as it is;
-  otherwise a local Ray is started on this machine for the sweep and stopped after it.
+  otherwise a local Ray is started on this machine for the sweep (``LOCAL_RAY``: no dashboard,
+  quiet, on 127.0.0.1, Ray's count of the CPUs) and stopped after it.
 - "HOST:PORT": the Ray cluster whose head listens there (``ray start --head --port PORT`` on one
   machine, ``ray start --address HOST:PORT`` on the others); checked to answer before any run.
 - Without Ray installed (``pip install signorini[ray]``), the runs go to local processes (one per
   core, forked, so ``build`` need not be picklable) and the sweep says so once.
 
-A run is: ``world = build(seed=s, **params)``, then ``steps`` steps of ``dt`` (one at a time, so a
-``timeout`` is checked between steps), then the row. Runs are independent: a run that raises,
-goes non-finite or times out is a row with its status and message, and the others go on. Ray
-retries a task whose worker process died (``max_retries``); a run is deterministic, so a retried
-run gives the same row.
+Tasks: a Ray task (or a local process's) runs a chunk of runs, ``chunk`` of them, by default
+sized as the sweep goes (``task_size``): a few runs first, then about 1/4 per worker of what is
+left, at least 0.1 s and at most 10 s of runs by their measured wall time. ``build`` and
+``metrics`` are put in Ray's object store once; a worker imports signorini once, on its first
+task. What a sweep on Ray costs beyond its runs is mostly a local Ray's start-up (ray.init, the
+workers' first imports, ray.shutdown: seconds) and ~1 ms per task; benchmarks/bench_many.py
+prints both, and the sweep size from which start-up is amortised. For a sweep whose serial time
+is no more than that start-up, ``Batch`` (threads, one process) is the faster tool.
+
+A run is: ``world = build(seed=s, **params)``, then ``steps`` steps of ``dt`` (in blocks of
+steps, the same state bit for bit as one at a time; a ``timeout`` is checked between blocks, each
+about 1/20 of it), then the row. Runs are independent: a run that raises, goes non-finite or
+times out is a row with its status and message, and the others go on. Ray retries a task whose
+worker process died (``max_retries``); a run is deterministic, so a retried run gives the same
+row.
 
 Rows (``ROW_COLUMNS``, then the parameters' and the metrics' columns): one column per parameter
 (in the grid's order), ``seed``, ``status`` ("ok", "build_error", "exception", "nonfinite",
@@ -51,6 +62,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import logging
 import math
 import os
 import pickle
@@ -127,6 +139,60 @@ def _seed_list(seeds) -> list[int]:
     return [int(s) for s in got]
 
 
+# World.step takes at most INT_MAX steps per call
+_STEPS_PER_CALL = 2 ** 30
+# with a timeout, the steps go in blocks sized to last about 1/_TIMEOUT_CHECKS of it
+_TIMEOUT_CHECKS = 20
+
+
+def _advance(world: World, recorder, steps: int, dt: float, start: float, timeout: Optional[float], row: dict) -> None:
+    """Steps the run's world ``steps`` times; sets row's steps_done, and its status and error when
+    a step raises or the run's time (since ``start``) passes ``timeout``.
+
+    The steps go to the core in blocks, not one Python call each: a call's own work (argument
+    checks, the lock, the step report) cost half as much again as the steps of a small scene, and
+    World.step(dt, n) is n single steps, bit for bit. Without a timeout a run is one block; with
+    one, blocks are sized from the steps' measured pace to last about 1/_TIMEOUT_CHECKS of it
+    (starting at one step, at most doubling). A block that raises is stepped again one step at a
+    time from the state saved before it (the steps after restore_state are bit-identical), so the
+    row names the step that failed and keeps the state before it, as single steps would. A
+    recorder observes every step: one at a time."""
+    def fail(k: int, e: Exception) -> None:
+        text = f"step {k} (t = {world.time:.6g} s): {type(e).__name__}: {e}"
+        row.update(status="nonfinite" if "non-finite" in str(e) else "exception", error=text)
+
+    k, block = 0, 1
+    while k < steps:
+        if timeout is not None and time.perf_counter() - start > timeout:
+            row.update(status="timeout", error=f"still running after {timeout:g} s (step {k} of {steps})")
+            return
+        n = 1 if recorder is not None else min(steps - k, _STEPS_PER_CALL if timeout is None else block)
+        saved = world.save_state() if n > 1 else None
+        began = time.perf_counter()
+        try:
+            if recorder is not None:
+                recorder.step(dt, 1)
+            else:
+                world.step(dt, n)
+        except Exception as e:  # noqa: BLE001 - a failing run is a row
+            if saved is None:
+                return fail(k, e)
+            # again one step at a time, to name the step that fails and keep the state before it
+            world.restore_state(saved)
+            for j in range(k, k + n):
+                try:
+                    world.step(dt)
+                except Exception as again:  # noqa: BLE001
+                    return fail(j, again)
+                row["steps_done"] = j + 1
+            # (not reached: the core is deterministic; had the steps passed, the run would go on)
+        k += n
+        row["steps_done"] = k
+        if timeout is not None:
+            pace = (time.perf_counter() - began) / n
+            block = max(1, min(2 * n, int(timeout / _TIMEOUT_CHECKS / pace))) if pace > 0 else 2 * n
+
+
 def run_one(build: Callable, params: dict, seed: int, steps: int, dt: float, metrics: Optional[Callable] = None,
             timeout: Optional[float] = None, trajectories: Optional[str] = None) -> dict:
     """One run as a row (module doc): build(seed=seed, **params), steps steps of dt, the metrics.
@@ -159,20 +225,7 @@ def run_one(build: Callable, params: dict, seed: int, steps: int, dt: float, met
         recorder = Recorder(world, steps=steps)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SolverWarning)  # the certificate columns say what the solver did
-        for k in range(steps):
-            if timeout is not None and time.perf_counter() - start > timeout:
-                row.update(status="timeout", error=f"still running after {timeout:g} s (step {k} of {steps})")
-                break
-            try:
-                if recorder is not None:
-                    recorder.step(dt, 1)
-                else:
-                    world.step(dt)
-            except Exception as e:  # noqa: BLE001
-                text = f"step {k} (t = {world.time:.6g} s): {type(e).__name__}: {e}"
-                row.update(status="nonfinite" if "non-finite" in str(e) else "exception", error=text)
-                break
-            row["steps_done"] = k + 1
+        _advance(world, recorder, steps, dt, start, timeout, row)
     if row["status"] == "ok" and not all(np.isfinite(a).all() for a in (world.positions, world.velocities)):
         row.update(status="nonfinite", error="the final state is not finite")
     if recorder is not None and row["steps_done"] > 0:
@@ -238,6 +291,63 @@ def _write_parquet(table, path: Path) -> None:
     os.replace(tmp, path)
 
 
+# Runs per task (``chunk=None``). A task costs ~1 ms of Ray's own work (scheduling, arguments and
+# rows through the object store; bench_many prints it) and a run of a small scene ~3 ms, so one
+# run per task would spend a quarter of the time in Ray; one task per CPU would leave CPUs idle at
+# the end while the last, long tasks finish. So tasks shrink as the sweep goes on (guided
+# self-scheduling: each takes 1/(_GUIDED * workers) of the runs not yet given out), but never
+# below _MIN_TASK_SECONDS of runs (overhead under 1 % of a task) nor above _MAX_TASK_SECONDS
+# (progress and the parts written for resuming keep coming), sized by the runs' mean wall time
+# measured so far. The first tasks, before any run is measured, take _FIRST_TASK_RUNS runs.
+_GUIDED = 4
+_MIN_TASK_SECONDS = 0.1
+_MAX_TASK_SECONDS = 10.0
+_FIRST_TASK_RUNS = 2
+# tasks given out per worker at a time: one running, one waiting, so that no worker waits for the
+# driver between tasks
+_IN_FLIGHT = 2
+
+
+def task_size(remaining: int, workers: int, run_seconds: Optional[float]) -> int:
+    """Runs in the next task (``chunk=None``, see above) with ``remaining`` runs not yet given out
+    to ``workers`` workers, ``run_seconds`` the mean wall time of a run so far (None: none yet)."""
+    guided = math.ceil(remaining / (_GUIDED * workers))
+    if run_seconds is None:
+        size = min(guided, _FIRST_TASK_RUNS)
+    else:
+        per = max(run_seconds, 1e-9)
+        size = min(max(guided, math.ceil(_MIN_TASK_SECONDS / per)), max(1, math.floor(_MAX_TASK_SECONDS / per)))
+    return max(1, min(size, remaining))
+
+
+def _schedule(jobs: list, workers: int, chunk: Optional[int], submit: Callable, wait_one: Callable,
+              collect: Callable) -> None:
+    """Gives out ``jobs`` as tasks of ``chunk`` runs (None: ``task_size``), ``_IN_FLIGHT`` per
+    worker at a time: ``submit(jobs)`` starts a task, ``wait_one()`` returns the rows of one that
+    finished (any), ``collect(rows)`` takes them."""
+    k, in_flight, measured, wall = 0, 0, 0, 0.0
+    while k < len(jobs) or in_flight:
+        while k < len(jobs) and in_flight < _IN_FLIGHT * workers:
+            size = chunk or task_size(len(jobs) - k, workers, wall / measured if measured else None)
+            submit(jobs[k:k + size])
+            k, in_flight = k + size, in_flight + 1
+        got = wait_one()
+        in_flight -= 1
+        measured += len(got)
+        wall += sum(r["wall"] for r in got)
+        collect(got)
+
+
+# A local Ray started for a sweep: a new one ("local": ray.init with no address would join the
+# cluster of the machine's last `ray start` or RAY_ADDRESS instead, even one that has gone or
+# that this process cannot reach), no dashboard (a sweep has its progress bar), the workers'
+# output kept in Ray's log files rather than copied to the driver, Ray's INFO lines off, and every
+# server on 127.0.0.1 (a local Ray serves this process only). The CPUs are Ray's own count of the
+# machine's (it reads the container's CPU limit, which os.cpu_count does not).
+LOCAL_RAY = {"address": "local", "include_dashboard": False, "log_to_driver": False,
+             "logging_level": logging.WARNING, "_node_ip_address": "127.0.0.1"}
+
+
 # without Ray: the forked workers find the job here (set before the pool forks), so build and
 # metrics need not be picklable
 _LOCAL_JOB: dict = {}
@@ -259,10 +369,10 @@ def sweep(build: Callable, grid: Mapping[str, Sequence], steps: int, dt: float, 
     [values]}), steps (>= 1), dt (s, > 0), seeds (a count n, seeds 0..n-1, or a list of distinct
     integers), metrics (callable world -> dict of extra columns, or None), address (None or
     "HOST:PORT", see the module doc), out (a .parquet path: written at the end; a sweep started
-    again with it resumes), timeout (s per run, or None), chunk (runs per task; default about four
-    tasks per CPU), trajectories (a folder: each run's trajectory .npz, written by the workers),
-    progress (a tqdm bar on stderr; default when stderr is a terminal), processes (local
-    processes when Ray is not installed; default the machine's cores).
+    again with it resumes), timeout (s per run, or None), chunk (runs per task; default sized as
+    the sweep goes, see ``task_size``), trajectories (a folder: each run's trajectory .npz, written
+    by the workers), progress (a tqdm bar on stderr; default when stderr is a terminal),
+    processes (local processes when Ray is not installed; default the machine's cores).
     Raises SweepError before any run for a bad grid, seeds, steps, dt, out or address.
     """
     import pandas as pd
@@ -333,34 +443,50 @@ def sweep(build: Callable, grid: Mapping[str, Sequence], steps: int, dt: float, 
                 ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
                 started = True
             elif not ray.is_initialized():
-                ray.init(include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1")
+                ray.init(**LOCAL_RAY)
                 started = True
             try:
                 cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
-                size = chunk or max(1, math.ceil(len(jobs) / (4 * cpus)))
                 task = ray.remote(max_retries=3, retry_exceptions=False)(_run_chunk)
-                build_ref = ray.put(build)
-                pending = [task.remote(build_ref, jobs[k:k + size], steps, dt, metrics, timeout, trajectories)
-                           for k in range(0, len(jobs), size)]
-                while pending:
-                    ready, pending = ray.wait(pending, num_returns=1)
-                    collect(ray.get(ready[0]))
+                # put once, not pickled again with every task
+                build_ref, metrics_ref = ray.put(build), ray.put(metrics)
+                running: list = []
+
+                def wait_one() -> list[dict]:
+                    ready, _ = ray.wait(running, num_returns=1)
+                    running.remove(ready[0])
+                    return ray.get(ready[0])
+
+                _schedule(jobs, cpus, chunk,
+                          lambda some: running.append(task.remote(build_ref, some, steps, dt, metrics_ref, timeout,
+                                                                  trajectories)),
+                          wait_one, collect)
             finally:
                 if started:
                     ray.shutdown()
         elif jobs:
             import multiprocessing
+            import queue
 
             warnings.warn("sweep: Ray is not installed (pip install 'signorini[ray]'): the runs go to local "
                           "processes on this machine", RuntimeWarning, stacklevel=2)
             n = processes or os.cpu_count() or 1
-            size = chunk or max(1, math.ceil(len(jobs) / (4 * n)))
             _LOCAL_JOB.update(build=build, steps=steps, dt=dt, metrics=metrics, timeout=timeout,
                               trajectories=trajectories)
+            finished: queue.SimpleQueue = queue.SimpleQueue()
+
+            def wait_one() -> list[dict]:
+                got = finished.get()
+                if isinstance(got, BaseException):
+                    raise got
+                return got
+
             try:
                 with multiprocessing.get_context("fork").Pool(n) as pool:
-                    for got in pool.imap_unordered(_local_chunk, [jobs[k:k + size] for k in range(0, len(jobs), size)]):
-                        collect(got)
+                    _schedule(jobs, n, chunk,
+                              lambda some: pool.apply_async(_local_chunk, (some,), callback=finished.put,
+                                                            error_callback=finished.put),
+                              wait_one, collect)
             finally:
                 _LOCAL_JOB.clear()
     finally:

@@ -72,6 +72,30 @@ def test_a_run_that_raises_and_one_that_goes_nonfinite_are_rows_and_the_rest_com
     assert "non-finite" in error[0.3]
 
 
+def pushed_sphere(seed: int, force: float):
+    """A free sphere pushed by a constant force: at 1e307 N its velocity overflows at step 2945."""
+    w = sg.World(gravity=(0, 0, 0))
+    w.add_body(sg.Sphere(0.1), density=1000.0, position=(0, 0, 1))
+    w.set_external_wrench(0, force=(force, 0.0, 0.0))
+    return w
+
+
+def test_a_run_that_fails_mid_way_names_the_step_and_keeps_the_state_single_steps_would():
+    # run_one steps in blocks; the row must still be that of stepping one step at a time
+    world = pushed_sphere(0, 1e307)
+    for k in range(3000):
+        try:
+            world.step(1 / 240)
+        except RuntimeError as e:
+            failed, message = k, str(e)
+            break
+    assert 0 < failed < 3000 and "non-finite" in message
+    row = sw.run_one(pushed_sphere, {"force": 1e307}, 0, 3000, 1 / 240)
+    assert row["status"] == "nonfinite" and row["steps_done"] == failed
+    assert row["error"].startswith(f"step {failed} (t = {world.time:.6g} s): RuntimeError: ")
+    assert row["state_hash"] == sw.state_hash(world)
+
+
 def test_a_timeout_is_a_row(monkeypatch):
     no_ray(monkeypatch)
     row = sw.run_one(slope, {"friction": 0.5}, 0, steps=10 ** 7, dt=1 / 240, timeout=0.2)
@@ -107,6 +131,41 @@ def test_a_sweep_started_again_runs_only_what_is_missing(tmp_path, monkeypatch):
     third = sg.sweep(failing, {"friction": [0.1, 0.5]}, steps=20, dt=1 / 240, seeds=2, out=out)
     assert (third["status"] == "ok").all()
     assert third["state_hash"].tolist() == full["state_hash"].tolist()
+
+
+def test_task_sizes_amortise_the_per_task_cost_and_shrink_towards_the_end():
+    # before any run is measured: a few runs, to learn what a run costs
+    assert sw.task_size(1000, 2, None) == sw._FIRST_TASK_RUNS
+    assert sw.task_size(1, 2, None) == 1
+    # 3 ms runs: a quarter per worker of what is left, but never below 0.1 s of runs
+    assert sw.task_size(1000, 2, 0.003) == 125
+    assert sw.task_size(200, 2, 0.003) == math.ceil(0.1 / 0.003)
+    assert sw.task_size(10, 2, 0.003) == 10             # never more than is left
+    # long runs: never above 10 s of runs a task (progress and resumable parts keep coming)
+    assert sw.task_size(10 ** 6, 2, 1.0) == 10
+    assert sw.task_size(10 ** 6, 2, 60.0) == 1
+
+
+def test_the_scheduler_gives_every_job_once_in_order_and_keeps_two_tasks_per_worker():
+    jobs = [(i, {"run": i}, 0) for i in range(1000)]
+    queued, sizes, most, got = [], [], [0], []
+
+    def submit(some):
+        queued.append(some)
+        sizes.append(len(some))
+        most[0] = max(most[0], len(queued))
+
+    def wait_one():
+        return [{"_index": i, "wall": 0.003} for i, _, _ in queued.pop(0)]
+
+    sw._schedule(jobs, 2, None, submit, wait_one, got.extend)
+    assert [r["_index"] for r in got] == list(range(1000))
+    assert sizes[:4] == [sw._FIRST_TASK_RUNS] * 4 and max(sizes) == 124 and min(sizes[4:]) == sizes[-1]
+    assert most[0] == 2 * sw._IN_FLIGHT
+    got.clear()
+    sizes.clear()
+    sw._schedule(jobs, 2, 300, submit, wait_one, got.extend)    # chunk given: that many
+    assert sizes == [300, 300, 300, 100] and len(got) == 1000
 
 
 @pytest.mark.parametrize("kwargs, message", [
@@ -171,7 +230,7 @@ def test_cli_sweep_of_a_scene_file_and_its_errors(tmp_path):
     (stub / "ray.py").write_text("raise ImportError('ray hidden by the test')\n")
     env = {"PYTHONPATH": package_path(str(stub))}
     got = run_cli("sweep", "boxes", "--set", "bodies.flat_box.friction=0.1,0.9", "--set", "world.gravity.2=-9.81,-1.62",
-                  "--seeds", "2", "--steps", "120", "--out", str(tmp_path / "r.parquet"), "--quiet",
+                  "--seeds", "2", "--steps", "120", "--chunk", "3", "--out", str(tmp_path / "r.parquet"), "--quiet",
                   cwd=tmp_path, env=env)
     assert got.returncode == 0, got.stderr
     assert "8 runs (8 ok)" in got.stdout
@@ -239,10 +298,48 @@ def test_a_real_ray_cluster_gives_the_serial_rows_and_survives_a_killed_worker(t
     driver.write_text(textwrap.dedent(RAY_DRIVER.format(tests=str(Path(__file__).parent), port=6391,
                                                         marker=str(tmp_path / "killed"))))
     # a network namespace of the test's own with only loopback up: every address Ray binds and
-    # dials is 127.0.0.1
-    got = subprocess.run(["unshare", "-n", sys.executable, str(driver)], capture_output=True, text=True,
-                         timeout=600, cwd=tmp_path,
+    # dials is 127.0.0.1; and a process namespace of its own (its own /proc): `ray stop --force`
+    # stops every Ray process it can see, which would otherwise be every Ray on the machine (another
+    # test's, a benchmark's, a user's)
+    got = subprocess.run(["unshare", "-n", "-p", "-f", "--mount-proc", sys.executable, str(driver)],
+                         capture_output=True, text=True, timeout=600, cwd=tmp_path,
                          env={**os.environ, "PYTHONPATH": package_path(), "RAY_USAGE_STATS_ENABLED": "0",
                               "RAY_AUTH_MODE": "disabled"})
     assert got.returncode == 0, got.stdout[-3000:] + got.stderr[-3000:]
     assert "RAY SWEEP OK 8" in got.stdout
+
+
+LOCAL_RAY_DRIVER = '''
+import subprocess, sys
+sys.path.insert(0, {tests!r})
+import signorini as sg
+from signorini import sweeps as sw
+from helpers import slope_box as slope, down_slope_speed as along_slope
+
+subprocess.run(["ip", "link", "set", "lo", "up"], check=True)
+grid = {{"friction": [0.04, 0.16]}}
+table = sg.sweep(slope, grid, steps=60, dt=1 / 240, seeds=3, metrics=along_slope)
+assert (table["status"] == "ok").all(), table[["status", "error"]]
+for _, row in table.iterrows():
+    serial = sw.run_one(slope, {{"friction": row["friction"]}}, int(row["seed"]), 60, 1 / 240, along_slope)
+    assert serial["state_hash"] == row["state_hash"], (row["friction"], row["seed"])
+print("LOCAL RAY SWEEP OK", len(table))
+'''
+
+
+@pytest.mark.slow
+def test_without_an_address_a_sweep_starts_its_own_local_ray_whatever_ray_address_says(tmp_path):
+    pytest.importorskip("ray")
+    if shutil.which("unshare") is None or os.geteuid() != 0:
+        pytest.skip("needs unshare and root (a local Ray only in a loopback-only network namespace)")
+    with socket.socket() as s:   # a port nobody listens on: a cluster that has gone
+        s.bind(("127.0.0.1", 0))
+        gone = f"127.0.0.1:{s.getsockname()[1]}"
+    driver = tmp_path / "driver.py"
+    driver.write_text(textwrap.dedent(LOCAL_RAY_DRIVER.format(tests=str(Path(__file__).parent))))
+    got = subprocess.run(["unshare", "-n", sys.executable, str(driver)], capture_output=True, text=True,
+                         timeout=600, cwd=tmp_path,
+                         env={**os.environ, "PYTHONPATH": package_path(str(Path(__file__).parent)),
+                              "RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "disabled", "RAY_ADDRESS": gone})
+    assert got.returncode == 0, got.stdout[-3000:] + got.stderr[-3000:]
+    assert "LOCAL RAY SWEEP OK 6" in got.stdout
