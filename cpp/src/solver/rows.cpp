@@ -300,7 +300,7 @@ int restitution(const SolverSettings& s, SolverData& d) {
 void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats) {
   const std::size_t K = contacts.size();
   d.cache_next.resize(K);
-  assign_n(d.contact_torque, 2 * K, Vec3(Vec3::Zero()));
+  d.contact_torque.resize(2 * K);  // every entry is written below, contact by contact
   // each contact's own outputs and the certificate's maxima (max: the same whatever the order the
   // parts are joined in), split over the threads; the bodies' sums below in contact order
   const SolverStats start = stats;
