@@ -86,18 +86,22 @@ void register_world(py::module_& m) {
       .def_readwrite("damping_ratio", &SolverSettings::damping_ratio)
       .def_readwrite("soft_iterations", &SolverSettings::soft_iterations)
       .def_readwrite("relax_iterations", &SolverSettings::relax_iterations)
+      .def_readwrite("recycle_distance", &SolverSettings::recycle_distance)
       .def(py::pickle(
           [](const SolverSettings& s) {
             return py::make_tuple(s.erp, s.tolerance, s.max_iterations, s.slop, s.max_push_velocity,
                                   s.restitution_threshold, s.friction_cone, s.gyroscopic, s.warm_start, s.substeps,
                                   s.warn_velocity, s.method, s.contact_hertz, s.damping_ratio, s.soft_iterations,
-                                  s.relax_iterations);
+                                  s.relax_iterations, s.recycle_distance);
           },
           [](const py::tuple& t) {
-            // 11 items: a pickle from before the soft step (its settings keep their defaults)
-            if (t.size() != 16 && t.size() != 11)
-              throw py::value_error("SolverSettings: a pickled state has 16 items (11 before the soft step)");
+            // 11 items: a pickle from before the soft step (its settings keep their defaults); 16:
+            // before contact recycling (it stays off, as it was)
+            if (t.size() != 17 && t.size() != 16 && t.size() != 11)
+              throw py::value_error(
+                  "SolverSettings: a pickled state has 17 items (16 before contact recycling, 11 before the soft step)");
             SolverSettings s;
+            s.recycle_distance = t.size() == 17 ? t[16].cast<double>() : 0.0;
             s.erp = t[0].cast<double>();
             s.tolerance = t[1].cast<double>();
             s.max_iterations = t[2].cast<int>();
@@ -109,7 +113,7 @@ void register_world(py::module_& m) {
             s.warm_start = t[8].cast<bool>();
             s.substeps = t[9].cast<int>();
             s.warn_velocity = t[10].cast<double>();
-            if (t.size() == 16) {
+            if (t.size() >= 16) {
               s.method = t[11].cast<SolverMethod>();
               s.contact_hertz = t[12].cast<double>();
               s.damping_ratio = t[13].cast<double>();
@@ -357,6 +361,8 @@ void register_world(py::module_& m) {
         d["position_iterations"] = s.position_iterations;
         d["converged"] = s.converged;
         d["contacts"] = s.contacts;
+        d["pairs"] = s.pairs;
+        d["recycled_pairs"] = s.recycled_pairs;
         d["residual"] = s.residual;
         d["max_alpha_negative"] = s.max_alpha_negative;
         d["max_penetration_velocity"] = s.max_penetration_velocity;

@@ -387,7 +387,7 @@ class SolverSettings:
     gyroscopic: Gyroscopic
     method: SolverMethod
     warm_start: bool
-    def __getstate__(self) -> tuple[float, float, int, float, float, float, FrictionCone, Gyroscopic, bool, int, float, SolverMethod, float, float, int, int]:
+    def __getstate__(self) -> tuple[float, float, int, float, float, float, FrictionCone, Gyroscopic, bool, int, float, SolverMethod, float, float, int, int, float]:
         ...
     def __init__(self) -> None:
         ...
@@ -426,6 +426,12 @@ class SolverSettings:
         ...
     @max_push_velocity.setter
     def max_push_velocity(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def recycle_distance(self) -> float:
+        ...
+    @recycle_distance.setter
+    def recycle_distance(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
     def relax_iterations(self) -> int:

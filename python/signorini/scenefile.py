@@ -330,6 +330,9 @@ class WorldSettings(_Table):
     damping_ratio: Float = 10.0
     soft_iterations: Int = 1
     relax_iterations: Int = 1
+    # off when a file does not say (as sleeping): a scene file written before contact recycling
+    # steps as it did; save_scene writes the world's value
+    recycle_distance: Float = 0.0
     sleeping: Bool = False
     sleep_linear_velocity: Float = 0.05
     sleep_angular_velocity: Float = 0.05

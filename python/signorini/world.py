@@ -116,6 +116,8 @@ class SolverStats:
 
     iterations, restitution_iterations, position_iterations: sweeps of each stage.
     converged: the iterate stage met ``tolerance``. contacts: number of contacts.
+    pairs: body pairs the step's contact detection collided; recycled_pairs: of them, those that
+    kept their manifold (``recycle_distance``; docs/conventions.md, "Contact recycling").
     residual: natural residual over all rows (m/s).
     max_alpha_negative (N): push only. max_penetration_velocity (m/s): no approach beyond the gap.
     max_complementarity (W): max |alpha_i w_i|. max_cone_violation (N): |f| <= mu alpha.
@@ -128,6 +130,8 @@ class SolverStats:
     position_iterations: int
     converged: bool
     contacts: int
+    pairs: int
+    recycled_pairs: int
     residual: float
     max_alpha_negative: float
     max_penetration_velocity: float
@@ -158,6 +162,7 @@ SOLVER_DEFAULTS = {
     "restitution_threshold": 0.5, "friction_cone": "pyramid", "gyroscopic": "midpoint",
     "warm_start": True, "substeps": 0, "warn_velocity": 1.0,
     "solver": "pgs", "contact_hertz": 30.0, "damping_ratio": 10.0, "soft_iterations": 1, "relax_iterations": 1,
+    "recycle_distance": 0.0005,
 }
 
 
@@ -295,6 +300,13 @@ class World:
         kinematic body).
     soft_iterations, relax_iterations : soft step: sweeps per substep with the soft bias (>= 1) and
         rigid sweeps after the poses move (>= 0).
+    recycle_distance : contact recycling (m, >= 0; docs/conventions.md, "Contact recycling"): a
+        pair of bodies other than spheres, planes and triangle meshes keeps the manifold it was last
+        found with, its points carried with the bodies, while neither body has moved relative to
+        the other by more than this (nor by 2% of the smaller one's inner radius) since, counting
+        the coming step at the current velocities; a resting pile is then not collided again step
+        after step. ``solver_stats.recycled_pairs`` counts them. 0: every pair is found anew every
+        step (the narrow phase's exact contacts, as the oracle finds them).
 
     sleeping : bodies at rest fall asleep with their island (docs/conventions.md, "Sleeping"): a
         sleeping body keeps its pose bit for bit and costs no solver or broad-phase work until a
@@ -315,7 +327,7 @@ class World:
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
                  warn_velocity: float = 1.0, solver: str = "pgs", contact_hertz: float = 30.0,
                  damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1,
-                 sleeping: bool = True, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
+                 recycle_distance: float = 0.0005, sleeping: bool = True, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
                  time_to_sleep: float = 0.5, threads: Optional[int] = None):
         g = as_vector(gravity, 3, "World", "gravity")
         given_threads = _threads("World", threads)
@@ -324,7 +336,7 @@ class World:
             max_push_velocity=max_push_velocity, restitution_threshold=restitution_threshold,
             friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
             warn_velocity=warn_velocity, solver=solver, contact_hertz=contact_hertz, damping_ratio=damping_ratio,
-            soft_iterations=soft_iterations, relax_iterations=relax_iterations)
+            soft_iterations=soft_iterations, relax_iterations=relax_iterations, recycle_distance=recycle_distance)
         sleep = _sleep_settings("World", sleeping=sleeping, sleep_linear_velocity=sleep_linear_velocity,
                                 sleep_angular_velocity=sleep_angular_velocity, time_to_sleep=time_to_sleep)
         self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), settings, sleep,
@@ -1012,7 +1024,9 @@ class World:
 
     @_locked
     def detect_contacts(self, dt: float) -> Contacts:
-        """Contacts the current state would give for a step of dt, without stepping (alpha = 0)."""
+        """Contacts the current state would give for a step of dt, without stepping (alpha = 0):
+        kept manifolds included, as the step would find them (``recycle_distance``); it changes
+        nothing the next step reads."""
         return Contacts(**self._core.detect_contacts(as_number(dt, "detect_contacts", "dt")))
 
     @_locked

@@ -146,13 +146,47 @@ struct SeparatingCache {
   std::vector<SeparatingFace> last, next;
 };
 
+/// A pair's manifold as its last full detection found it, kept so that a pair at rest is not
+/// collided again step after step (contact recycling, docs/conventions.md "Contact recycling").
+/// Its points are kept as material points: each witness point in its own body's frame, the normal
+/// in A's, so that a recycled contact's gap is that of the same two points of the bodies now.
+struct KeptManifold {
+  BodyIndex body_a = -1, body_b = -1;  ///< the pair as collide() saw it (A first)
+  Vec3 p_rel = Vec3::Zero();           ///< B's centre in A's frame at the detection: R_A^T (p_B - p_A) (m)
+  Mat3 R_rel = Mat3::Identity();       ///< B's orientation in A's frame then: R_A^T R_B
+  std::uint32_t first = 0, count = 0;  ///< its points: points[first, first + count) of its list
+  bool operator<(const KeptManifold& o) const {
+    return body_a != o.body_a ? body_a < o.body_a : body_b < o.body_b;
+  }
+};
+
+/// One point of a KeptManifold.
+struct KeptPoint {
+  Vec3 on_a = Vec3::Zero();    ///< witness point on A, y - gap/2 n, in A's frame (m)
+  Vec3 on_b = Vec3::Zero();    ///< witness point on B, y + gap/2 n, in B's frame (m)
+  Vec3 normal = Vec3::Zero();  ///< n (A to B, unit) in A's frame
+  FeatureId feature_a = 0, feature_b = 0;
+};
+
+/// The kept manifolds: those of the last kept step's detection (sorted by pair, read) and this
+/// detection's (written, sorted; they become the last when the step is kept: ContactMemory::commit;
+/// a detection run again in the same step, or a step undone, reads the same last ones), each with
+/// its points; and how many pairs this detection collided and how many of them kept their manifold.
+struct ManifoldCache {
+  std::vector<KeptManifold> last, next;
+  std::vector<KeptPoint> last_points, next_points;
+  int pairs = 0, recycled = 0;
+};
+
 /// What lasts from one contact detection to the next, beside the broad phase: the separating-face
-/// cache, and the static triangle meshes' memory of the bodies (previous_p: each body's centre at
-/// the start of the last step, world, m (N); crossing: the triangle each body is being pushed back
-/// through (N); crossing_next: the crossings this detection found (N), kept by commit()). A fresh
-/// (empty) memory knows nothing: no body has travelled or crossed.
+/// cache, the kept manifolds, and the static triangle meshes' memory of the bodies (previous_p:
+/// each body's centre at the start of the last step, world, m (N); crossing: the triangle each body
+/// is being pushed back through (N); crossing_next: the crossings this detection found (N), kept by
+/// commit()). A fresh (empty) memory knows nothing: no body has travelled or crossed, no manifold
+/// is kept.
 struct ContactMemory {
   SeparatingCache separating;
+  ManifoldCache manifolds;
   std::vector<Vec3> previous_p;
   std::vector<Crossing> crossing, crossing_next;
 
@@ -160,18 +194,22 @@ struct ContactMemory {
   void add_body(const Vec3& p);
   /// Body i was placed at p, not moved there: no travel, no crossing.
   void placed(BodyIndex i, const Vec3& p);
-  /// A successful step that started with centres p_start (N): its crossings become the memory.
+  /// A successful step that started with centres p_start (N): its crossings and kept manifolds
+  /// become the memory.
   /// bodies: those whose centres are copied (the non-static ones, ascending; null: all); a static
   /// body's centre changes only by placed().
   void commit(const std::vector<Vec3>& p_start, const std::vector<BodyIndex>* bodies = nullptr);
   /// Drops the bodies with to[i] < 0 and renumbers the rest to to[i] (crossings of dropped meshes
-  /// are forgotten); storage stays in place.
+  /// are forgotten, and every kept manifold); storage stays in place.
   void remove(const std::vector<BodyIndex>& to);
-  /// Its part of a saved state: previous centres and crossings (the separating-face cache is not
+  /// Its part of a saved state: previous centres and crossings, then (from format 5) the kept
+  /// manifolds, which decide the next detection's contacts (the separating-face cache is not
   /// saved: it only saves time). load reads n bodies' memory into this (a fresh one) and checks it
-  /// against the model: a crossing names a triangle of a TriangleMesh body, centres are finite.
+  /// against the model: a crossing names a triangle of a TriangleMesh body, centres are finite, a
+  /// kept manifold names two bodies and finite points; a save of format `version` below '5' keeps
+  /// none.
   void save(serial::Writer& w) const;
-  void load(serial::Reader& r, const Model& model);
+  void load(serial::Reader& r, const Model& model, char version);
 };
 
 /// The pair being collided, as the world knows it (the defaults: a lone pair, nothing known).
@@ -213,6 +251,9 @@ struct Scratch {
     std::vector<Contact> contacts;
     std::vector<SeparatingFace> separating;
     std::vector<std::pair<BodyIndex, Crossing>> crossings;
+    std::vector<KeptManifold> kept;
+    std::vector<KeptPoint> kept_points;
+    int recycled = 0;
   };
   std::vector<PairChunk> chunks;
   std::vector<std::unique_ptr<Scratch>> workers;
@@ -442,8 +483,24 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
 /// detection's crossings to memory.crossing_next). bodies: the bodies that can move (the World's
 /// non-static ones, ascending; null: all), the only ones whose per-body entries (reach, crossings)
 /// are written, so that a detection's cost grows with them and the pairs, not with static bodies.
+/// recycle (m): a pair of shapes that recycle (recycles()) whose manifold is kept in memory
+/// keeps it, carried with its bodies, while no point of B has moved by more than
+/// min(recycle, kRecycleInnerFraction times the smaller inner radius) relative to A since it was
+/// found, counting the step's motion at the current velocities (docs/conventions.md, "Contact
+/// recycling"); 0: every pair is collided anew. The kept manifolds are written to memory.manifolds.
 void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
                        BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& out,
-                       const parallel::Pool* pool = nullptr, const std::vector<BodyIndex>* bodies = nullptr);
+                       const parallel::Pool* pool = nullptr, const std::vector<BodyIndex>* bodies = nullptr,
+                       double recycle = 0.0);
+
+/// A recycled pair's relative drift is at most this fraction of the smaller inner radius (so a
+/// small body's manifold is found again sooner than a large one's).
+constexpr double kRecycleInnerFraction = 0.02;
+
+/// True for a pair of shapes whose manifold may be kept: both bodies' shapes are polytopes, hulls,
+/// cylinders, capsules or compounds (their narrow phase costs a separating-axis test or GJK and a
+/// clip); a sphere, plane or triangle mesh in the pair is collided every step (a sphere's or
+/// plane's query costs less than the check, and a triangle mesh keeps its own memory of crossings).
+bool recycles(const Shape& a, const Shape& b);
 
 }  // namespace signorini::collision

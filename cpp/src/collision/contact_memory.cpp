@@ -25,6 +25,8 @@ void ContactMemory::commit(const std::vector<Vec3>& p_start, const std::vector<B
     std::copy(p_start.begin(), p_start.end(), previous_p.begin());
   }
   crossing.swap(crossing_next);
+  std::swap(manifolds.last, manifolds.next);
+  std::swap(manifolds.last_points, manifolds.next_points);
 }
 
 void ContactMemory::remove(const std::vector<BodyIndex>& to) {
@@ -39,6 +41,11 @@ void ContactMemory::remove(const std::vector<BodyIndex>& to) {
   previous_p.erase(previous_p.begin() + kept, previous_p.end());
   crossing.erase(crossing.begin() + kept, crossing.end());
   crossing_next.clear();  // sized (empty) again by the next detection
+  // the kept manifolds name bodies by index: found anew after a removal
+  manifolds.last.clear();
+  manifolds.last_points.clear();
+  manifolds.next.clear();
+  manifolds.next_points.clear();
   for (Crossing& c : crossing) {
     if (c.mesh >= 0 && to[c.mesh] < 0) c = Crossing();
     else if (c.mesh >= 0) c.mesh = to[c.mesh];
@@ -51,9 +58,26 @@ void ContactMemory::save(serial::Writer& w) const {
     w.pod(static_cast<std::int32_t>(c.mesh));
     w.pod(static_cast<std::int32_t>(c.triangle));
   }
+  w.pod(static_cast<std::uint64_t>(manifolds.last.size()));
+  for (const KeptManifold& m : manifolds.last) {
+    w.pod(static_cast<std::int32_t>(m.body_a));
+    w.pod(static_cast<std::int32_t>(m.body_b));
+    w.mat(m.p_rel);
+    w.mat(m.R_rel);
+    w.pod(m.first);
+    w.pod(m.count);
+  }
+  w.pod(static_cast<std::uint64_t>(manifolds.last_points.size()));
+  for (const KeptPoint& q : manifolds.last_points) {
+    w.mat(q.on_a);
+    w.mat(q.on_b);
+    w.mat(q.normal);
+    w.pod(q.feature_a);
+    w.pod(q.feature_b);
+  }
 }
 
-void ContactMemory::load(serial::Reader& r, const Model& model) {
+void ContactMemory::load(serial::Reader& r, const Model& model, char version) {
   const std::size_t n = model.size();
   r.mats(previous_p, n);
   crossing.assign(n, Crossing());
@@ -70,6 +94,35 @@ void ContactMemory::load(serial::Reader& r, const Model& model) {
   }
   for (const Vec3& x : previous_p)
     if (!x.allFinite()) throw std::invalid_argument("restore_state: the saved state is damaged (previous centres)");
+  manifolds = ManifoldCache();
+  if (version < '5') return;  // none kept: every pair is collided anew at the next detection
+  const auto damaged = [] { return std::invalid_argument("restore_state: the saved state is damaged (kept manifolds)"); };
+  manifolds.last.resize(r.count(2 * sizeof(std::int32_t)));
+  for (KeptManifold& m : manifolds.last) {
+    m.body_a = r.pod<std::int32_t>();
+    m.body_b = r.pod<std::int32_t>();
+    r.mat(m.p_rel);
+    r.mat(m.R_rel);
+    m.first = r.pod<std::uint32_t>();
+    m.count = r.pod<std::uint32_t>();
+  }
+  manifolds.last_points.resize(r.count(9 * sizeof(double)));
+  for (KeptPoint& q : manifolds.last_points) {
+    r.mat(q.on_a);
+    r.mat(q.on_b);
+    r.mat(q.normal);
+    q.feature_a = r.pod<FeatureId>();
+    q.feature_b = r.pod<FeatureId>();
+  }
+  const auto body = [n](BodyIndex k) { return k >= 0 && static_cast<std::size_t>(k) < n; };
+  for (std::size_t k = 0; k < manifolds.last.size(); ++k) {
+    const KeptManifold& m = manifolds.last[k];
+    if (!body(m.body_a) || !body(m.body_b) || m.body_a == m.body_b || !m.p_rel.allFinite() || !m.R_rel.allFinite() ||
+        std::uint64_t(m.first) + m.count > manifolds.last_points.size() || (k > 0 && !(manifolds.last[k - 1] < m)))
+      throw damaged();
+  }
+  for (const KeptPoint& q : manifolds.last_points)
+    if (!q.on_a.allFinite() || !q.on_b.allFinite() || !q.normal.allFinite()) throw damaged();
 }
 
 }  // namespace signorini::collision

@@ -439,9 +439,94 @@ PairContext PairContext::swapped() const {
   return c;
 }
 
+bool recycles(const Shape& a, const Shape& b) {
+  const auto cheap_or_remembering = [](const Shape& s) {
+    return std::holds_alternative<Sphere>(s) || std::holds_alternative<Plane>(s) || std::holds_alternative<TriangleMesh>(s);
+  };
+  return !cheap_or_remembering(a) && !cheap_or_remembering(b);
+}
+
+namespace {
+
+/// Pair (a, b)'s manifold of the last detection (memory.last, sorted), or null.
+const KeptManifold* kept_manifold(const ManifoldCache& memory, BodyIndex a, BodyIndex b) {
+  KeptManifold key;
+  key.body_a = a;
+  key.body_b = b;
+  const auto it = std::lower_bound(memory.last.begin(), memory.last.end(), key);
+  return it != memory.last.end() && it->body_a == a && it->body_b == b ? &*it : nullptr;
+}
+
+/// How far a point of B may have moved relative to A (m), at most, since `kept` was found, plus
+/// how far it may move in the step of dt at the current velocities: in A's frame B's point x sits
+/// at R_rel x_B + p_rel, so it has moved by at most |dp_rel| + ||dR_rel||_F rho_B (the Frobenius
+/// norm bounds the spectral one), and moves at most at |v_B - v_A| + |omega_B| rho_B +
+/// |omega_A| (|p_B - p_A| + rho_B) (A's turn sweeps B's points about A's centre).
+double pair_drift(const Model& model, const State& state, BodyIndex a, BodyIndex b, const KeptManifold& kept, double dt) {
+  const Mat3& R_a = state.R[a];
+  const Vec3 d = state.p[b] - state.p[a];
+  const Vec3 p_rel = R_a.transpose() * d;
+  const Mat3 R_rel = R_a.transpose() * state.R[b];
+  const double rho_b = model.rho[b];
+  const double moved = (p_rel - kept.p_rel).norm() + (R_rel - kept.R_rel).norm() * rho_b;
+  const double speed = (state.v[b] - state.v[a]).norm() + state.omega[b].norm() * rho_b +
+                       state.omega[a].norm() * (d.norm() + rho_b);
+  return moved + dt * speed;
+}
+
+/// The kept manifold's points as contacts of the bodies now: each witness point carried with its
+/// body, the normal with A, gap = n . (w_B - w_A), y the witness points' midpoint. Appended to out.
+void recycled_contacts(const State& state, BodyIndex a, BodyIndex b, const KeptManifold& kept,
+                       const std::vector<KeptPoint>& points, std::vector<Contact>& out) {
+  const Mat3& R_a = state.R[a];
+  const Mat3& R_b = state.R[b];
+  for (std::uint32_t k = kept.first; k < kept.first + kept.count; ++k) {
+    const KeptPoint& q = points[k];
+    Contact c;
+    c.body_a = a;
+    c.body_b = b;
+    const Vec3 w_a = R_a * q.on_a + state.p[a];
+    const Vec3 w_b = R_b * q.on_b + state.p[b];
+    c.normal = R_a * q.normal;
+    c.gap = c.normal.dot(w_b - w_a);
+    c.point = 0.5 * (w_a + w_b);
+    c.feature_a = q.feature_a;
+    c.feature_b = q.feature_b;
+    out.push_back(c);
+  }
+}
+
+/// Keeps the manifold out[first, end) just found for pair (a, b): appended to kept and points.
+void keep_manifold(const State& state, BodyIndex a, BodyIndex b, const std::vector<Contact>& out, std::size_t first,
+                   std::vector<KeptManifold>& kept, std::vector<KeptPoint>& points) {
+  const Mat3& R_a = state.R[a];
+  const Mat3& R_b = state.R[b];
+  KeptManifold m;
+  m.body_a = a;
+  m.body_b = b;
+  m.p_rel = R_a.transpose() * (state.p[b] - state.p[a]);
+  m.R_rel = R_a.transpose() * R_b;
+  m.first = static_cast<std::uint32_t>(points.size());
+  m.count = static_cast<std::uint32_t>(out.size() - first);
+  for (std::size_t k = first; k < out.size(); ++k) {
+    const Contact& c = out[k];
+    const Vec3 half = 0.5 * c.gap * c.normal;
+    KeptPoint q;
+    q.on_a = R_a.transpose() * (c.point - half - state.p[a]);
+    q.on_b = R_b.transpose() * (c.point + half - state.p[b]);
+    q.normal = R_a.transpose() * c.normal;
+    q.feature_a = c.feature_a;
+    q.feature_b = c.feature_b;
+    points.push_back(q);
+  }
+  kept.push_back(m);
+}
+
+}  // namespace
+
 void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
                        BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& contacts,
-                       const parallel::Pool* pool, const std::vector<BodyIndex>* bodies) {
+                       const parallel::Pool* pool, const std::vector<BodyIndex>* bodies, double recycle) {
   // crossings are found for bodies that move only: the others' entries stay empty
   if (bodies == nullptr) memory.crossing_next.assign(model.size(), Crossing());
   parallel::fit(memory.crossing_next, model.size(), Crossing());
@@ -471,13 +556,32 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
 
   contacts.clear();
   memory.separating.next.clear();
+  ManifoldCache& manifolds = memory.manifolds;
+  manifolds.next.clear();
+  manifolds.next_points.clear();
   // one pair: its contacts appended to out, its separating faces to separating, its crossing
-  // (a body pushed back through a mesh triangle) to crossings
+  // (a body pushed back through a mesh triangle) to crossings, its manifold (when it may be kept)
+  // to kept; returns whether it kept the last detection's
   const auto collide_pair = [&](BodyIndex i, BodyIndex j, Scratch& buffers, std::vector<Contact>& out,
-                                std::vector<SeparatingFace>& separating, auto&& crossed) {
+                                std::vector<SeparatingFace>& separating, auto&& crossed, std::vector<KeptManifold>& kept,
+                                std::vector<KeptPoint>& kept_points) {
     // a static-only shape (plane, triangle mesh) is always A
     const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
     const BodyIndex a = swap ? j : i, b = swap ? i : j;
+    const bool keeps = recycle > 0.0 && recycles(model.shape[a], model.shape[b]);
+    if (keeps) {
+      const KeptManifold* last = kept_manifold(manifolds, a, b);
+      const double tolerance = std::min(recycle, kRecycleInnerFraction * std::min(model.inner[a], model.inner[b]));
+      if (last && pair_drift(model, state, a, b, *last, dt) <= tolerance) {
+        recycled_contacts(state, a, b, *last, manifolds.last_points, out);
+        KeptManifold m = *last;  // found where it was: its drift is still measured from there
+        m.first = static_cast<std::uint32_t>(kept_points.size());
+        kept_points.insert(kept_points.end(), manifolds.last_points.begin() + last->first,
+                           manifolds.last_points.begin() + last->first + last->count);
+        kept.push_back(m);
+        return true;
+      }
+    }
     double threshold = margin + reach[i] + reach[j];
     if (const auto* plane = std::get_if<Plane>(&model.shape[a]))
       threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
@@ -503,12 +607,16 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
       out[k].body_a = a;
       out[k].body_b = b;
     }
+    if (keeps && out.size() > first) keep_manifold(state, a, b, out, first, kept, kept_points);
+    return false;
   };
   const std::size_t P = pairs.size();
+  int recycled = 0;
   if (pool == nullptr || pool->threads() <= 1 || P <= kPairsPerChunk) {
     for (const auto& [i, j] : pairs)
-      collide_pair(i, j, scratch, contacts, memory.separating.next,
-                   [&](BodyIndex b, const Crossing& c) { memory.crossing_next[b] = c; });
+      recycled += collide_pair(i, j, scratch, contacts, memory.separating.next,
+                               [&](BodyIndex b, const Crossing& c) { memory.crossing_next[b] = c; }, manifolds.next,
+                               manifolds.next_points);
   } else {
     // chunks of pairs on the pool's threads, each written apart, then joined in pair order: the
     // same contacts, separating faces and crossings, in the same order, as on one thread
@@ -523,9 +631,13 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
         chunk.contacts.clear();
         chunk.separating.clear();
         chunk.crossings.clear();
+        chunk.kept.clear();
+        chunk.kept_points.clear();
+        chunk.recycled = 0;
         for (std::size_t k = c * kPairsPerChunk; k < std::min(P, (c + 1) * kPairsPerChunk); ++k)
-          collide_pair(pairs[k].first, pairs[k].second, buffers, chunk.contacts, chunk.separating,
-                       [&](BodyIndex b, const Crossing& x) { chunk.crossings.emplace_back(b, x); });
+          chunk.recycled += collide_pair(pairs[k].first, pairs[k].second, buffers, chunk.contacts, chunk.separating,
+                                         [&](BodyIndex b, const Crossing& x) { chunk.crossings.emplace_back(b, x); },
+                                         chunk.kept, chunk.kept_points);
       }
     });
     for (std::size_t c = 0; c < chunks; ++c) {
@@ -533,8 +645,21 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
       contacts.insert(contacts.end(), chunk.contacts.begin(), chunk.contacts.end());
       memory.separating.next.insert(memory.separating.next.end(), chunk.separating.begin(), chunk.separating.end());
       for (const auto& [b, x] : chunk.crossings) memory.crossing_next[b] = x;
+      const auto shift = static_cast<std::uint32_t>(manifolds.next_points.size());
+      for (KeptManifold m : chunk.kept) {
+        m.first += shift;
+        manifolds.next.push_back(m);
+      }
+      manifolds.next_points.insert(manifolds.next_points.end(), chunk.kept_points.begin(), chunk.kept_points.end());
+      recycled += chunk.recycled;
     }
   }
+  // kept in pair order, which a static-only A can reorder: sorted to be sure (nearly sorted); they
+  // become the memory when the step is kept (ContactMemory::commit)
+  if (!std::is_sorted(manifolds.next.begin(), manifolds.next.end()))
+    std::sort(manifolds.next.begin(), manifolds.next.end());
+  manifolds.pairs = static_cast<int>(P);
+  manifolds.recycled = recycled;
   // keys were written in pair order, parts in order within a pair: sorted (a static-only shape
   // taken as A can reorder two pairs' keys, so sort to be sure; it is nearly sorted)
   if (!std::is_sorted(memory.separating.next.begin(), memory.separating.next.end()))

@@ -3,9 +3,10 @@
 // kind, static flag and mass, to recognise the world) and flags (kinematic, enabled); the State
 // (time, then its arrays in State::for_each_array order); the solver (contact forces and torques,
 // the warm-start cache); the World's last contacts and solver figures; the contact memory
-// (format 3); the islands (format 4: per body awake, sleep timer and island label, then the
-// sleeping islands' warm-start forces). Formats 1 (no spin torques), 2 (no contact memory) and 3
-// (no islands: every body awake, timers zero) still read.
+// (format 3; from format 5 with the kept manifolds of contact recycling); the islands (format 4:
+// per body awake, sleep timer and island label, then the sleeping islands' warm-start forces).
+// Formats 1 (no spin torques), 2 (no contact memory), 3 (no islands: every body awake, timers
+// zero) and 4 (no kept manifolds: every pair found anew; no pair counts) still read.
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -21,7 +22,7 @@
 namespace signorini {
 namespace {
 
-constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '4'};
+constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '5'};
 constexpr std::size_t kStateVersionAt = 7;  ///< the format digit's position in the magic
 
 void save(serial::Writer& w, const State& s) {
@@ -74,15 +75,21 @@ Contact load_contact(serial::Reader& r, char version) {
 void save(serial::Writer& w, const SolverStats& s) {
   for (int x : {s.iterations, s.restitution_iterations, s.position_iterations, s.contacts, static_cast<int>(s.converged)})
     w.pod(x);
+  w.pod(s.pairs);
+  w.pod(s.recycled_pairs);
   for (double x : {s.residual, s.max_alpha_negative, s.max_penetration_velocity, s.max_complementarity,
                    s.max_cone_violation, s.max_dissipation_violation, s.max_overlap})
     w.pod(x);
 }
 
-SolverStats load_stats(serial::Reader& r) {
+SolverStats load_stats(serial::Reader& r, char version) {
   SolverStats s;
   for (int* x : {&s.iterations, &s.restitution_iterations, &s.position_iterations, &s.contacts}) *x = r.pod<int>();
   s.converged = r.pod<int>() != 0;
+  if (version >= '5') {
+    s.pairs = r.pod<int>();
+    s.recycled_pairs = r.pod<int>();
+  }
   for (double* x : {&s.residual, &s.max_alpha_negative, &s.max_penetration_velocity, &s.max_complementarity,
                     &s.max_cone_violation, &s.max_dissipation_violation, &s.max_overlap})
     *x = r.pod<double>();
@@ -127,9 +134,9 @@ void World::restore_state(const std::string& saved) {
   if (saved.size() < sizeof kStateMagic || std::memcmp(saved.data(), kStateMagic, kStateVersionAt) != 0)
     throw std::invalid_argument("restore_state: not a saved state (no header)");
   const char version = saved[kStateVersionAt];
-  if (version < '1' || version > '4')
+  if (version < '1' || version > '5')
     throw std::invalid_argument(std::string("restore_state: a saved state of format '") + version +
-                                "', which this signorini does not read (it reads formats 1 to 4)");
+                                "', which this signorini does not read (it reads formats 1 to 5)");
   r.at = sizeof kStateMagic;
   const std::size_t n = r.pod<std::uint64_t>();
   if (n != model_.size())
@@ -163,11 +170,11 @@ void World::restore_state(const std::string& saved) {
   solver::load(r, version, n, solved);
   auto contacts = std::make_shared<std::vector<Contact>>(r.count(sizeof(double)));
   for (Contact& c : *contacts) c = load_contact(r, version);
-  const SolverStats stats = load_stats(r);
+  const SolverStats stats = load_stats(r, version);
   // formats 1 and 2 have no contact memory: it starts afresh, as after set_position
   collision::ContactMemory memory;
   if (version >= '3') {
-    memory.load(r, model_);
+    memory.load(r, model_, version);
   } else {
     for (const Vec3& p : s.p) memory.add_body(p);
   }
@@ -236,6 +243,8 @@ void World::restore_state(const std::string& saved) {
   stats_ = stats;
   checks::copy_into(memory_->previous_p, memory.previous_p);
   checks::copy_into(memory_->crossing, memory.crossing);
+  memory_->manifolds.last = std::move(memory.manifolds.last);  // not per body: sized as saved
+  memory_->manifolds.last_points = std::move(memory.manifolds.last_points);
   bodies_changed(false);  // the contact forces and static poses changed outside a step
   if (!settings_.sleep.enabled) wake_all();  // a world with sleeping off keeps nothing asleep
 }

@@ -51,6 +51,8 @@ void World::set_settings(const WorldSettings& s) {
   checks::require(q.substeps >= 0, "substeps must be >= 1, or 0 for automatic, got " + std::to_string(q.substeps));
   checks::require(std::isfinite(q.warn_velocity) && q.warn_velocity >= 0.0,
           "warn_velocity must be finite and >= 0, got " + std::to_string(q.warn_velocity));
+  checks::require(std::isfinite(q.recycle_distance) && q.recycle_distance >= 0.0,
+          "recycle_distance must be finite and >= 0, got " + std::to_string(q.recycle_distance));
   checks::require(q.method == SolverMethod::PGS || q.method == SolverMethod::Soft, "method must be PGS or Soft");
   checks::require(std::isfinite(q.contact_hertz) && q.contact_hertz > 0.0,
           "contact_hertz must be finite and > 0, got " + std::to_string(q.contact_hertz));
@@ -236,7 +238,10 @@ void World::end_substep_flags(const SolverStats& stats, double time) {
   }
 }
 
-void World::commit_step(const SolverStats& stats) {
+void World::commit_step(const SolverStats& solved) {
+  SolverStats stats = solved;
+  stats.pairs = memory_->manifolds.pairs;
+  stats.recycled_pairs = memory_->manifolds.recycled;
   memory_->commit(guard_->start().p, &moving_);
   // the reported contacts and forces: the step's, and the sleeping islands' as they fell asleep
   std::vector<Contact>& contacts = own_contacts();
@@ -268,7 +273,7 @@ void World::detect_contacts(double dt, std::vector<Contact>& out) const {
   if (!(std::isfinite(dt) && dt > 0.0))
     throw std::invalid_argument("detect_contacts: dt must be positive and finite, got " + std::to_string(dt));
   collision::generate_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
-                               *scratch_, out, pool_.get(), &moving_);
+                               *scratch_, out, pool_.get(), &moving_, settings_.solver.recycle_distance);
 }
 
 std::size_t World::num_bodies() const {

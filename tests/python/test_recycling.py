@@ -1,0 +1,164 @@
+"""Contact recycling (docs/conventions.md, "Contact recycling"): a pair at rest keeps the manifold it
+was found with, its points carried with the bodies, while neither body has moved relative to the
+other by more than ``recycle_distance`` (counting the coming step at the current velocities).
+
+The bounds below come from that rule: a kept point is a material point of each body, so after a
+relative motion of at most d (m) of every point of B against A, the kept point, its gap and its
+normal differ from the narrow phase's by at most d (point, gap) and d / rho (normal, rad)."""
+import numpy as np
+import pytest
+
+import signorini as sg
+
+DT = 1.0 / 60.0
+TOL = 0.0005  # the default recycle_distance (m)
+
+
+def stack(n=4, solver="pgs", **kw):
+    """n unit boxes stacked on a static slab (box pairs: they recycle), sleeping off so that the
+    pile stays awake and its pairs are detected every step."""
+    w = sg.World(gravity=(0, 0, -9.81), solver=solver, sleeping=False, **kw)
+    w.add_static(sg.Box((5.0, 5.0, 0.5)), position=(0, 0, -0.5))
+    for k in range(n):
+        w.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0, position=(0.01 * k, 0, 0.5 + k))
+    return w
+
+
+def settled(w, steps=240):
+    for _ in range(steps):
+        w.step(DT)
+    return w
+
+
+def exact_twin(w):
+    """A copy of w that finds every pair anew (recycle_distance 0), in the same state."""
+    twin = stack(len(w.positions) - 1, solver=w.solver["solver"], recycle_distance=0.0)
+    twin.restore_state(w.save_state())
+    return twin
+
+
+@pytest.mark.parametrize("solver", ["pgs", "soft"])
+def test_a_settled_stack_keeps_its_manifolds(solver):
+    w = settled(stack(solver=solver))
+    s = w.solver_stats
+    assert s.pairs == 4 and s.recycled_pairs == s.pairs
+    # and the stack still stands: every box within 1 mm of its column
+    assert np.abs(w.positions[1:, 0] - 0.01 * np.arange(4)).max() < 1e-3
+
+
+@pytest.mark.parametrize("solver", ["pgs", "soft"])
+def test_recycled_contacts_are_the_narrow_phase_s_within_the_drift_bound(solver):
+    w = settled(stack(solver=solver))
+    for _ in range(30):  # let the kept manifolds age
+        w.step(DT)
+    assert w.solver_stats.recycled_pairs == 4
+    kept = w.detect_contacts(DT)
+    exact = exact_twin(w).detect_contacts(DT)
+    assert len(kept.gap) == len(exact.gap)
+    assert np.array_equal(kept.body_a, exact.body_a) and np.array_equal(kept.body_b, exact.body_b)
+    # the points pair up one to one, each within the bound (feature ids may differ: face on face,
+    # a clip point is an edge crossing or a corner by a rounding-sized turn either way)
+    rho = np.sqrt(3.0) * 0.5  # a unit box's bounding radius
+    for pair in set(zip(kept.body_a, kept.body_b)):
+        mine = np.flatnonzero((kept.body_a == pair[0]) & (kept.body_b == pair[1]))
+        theirs = np.flatnonzero((exact.body_a == pair[0]) & (exact.body_b == pair[1]))
+        assert len(mine) == len(theirs) == 4
+        distance = np.linalg.norm(kept.point[mine][:, None] - exact.point[theirs][None], axis=2)
+        match = theirs[distance.argmin(axis=1)]
+        assert len(set(match)) == len(match) and distance.min(axis=1).max() <= TOL
+        assert np.abs(kept.gap[mine] - exact.gap[match]).max() <= TOL
+        turn = np.arccos(np.clip(np.sum(kept.normal[mine] * exact.normal[match], axis=1), -1, 1))
+        assert turn.max() <= TOL / rho + 1e-7  # arccos near 1: 1e-7 rad of rounding
+
+
+def test_off_finds_every_pair_anew_and_matches_the_narrow_phase_exactly():
+    w = settled(stack(recycle_distance=0.0))
+    assert w.solver_stats.recycled_pairs == 0 and w.solver_stats.pairs == 4
+    a, b = w.detect_contacts(DT), exact_twin(w).detect_contacts(DT)
+    assert np.array_equal(a.gap, b.gap) and np.array_equal(a.point, b.point)
+
+
+def test_a_struck_pair_is_found_anew():
+    w = settled(stack())
+    assert w.solver_stats.recycled_pairs == 4
+    w.apply_impulse(4, (2.0, 0.0, 0.0))  # the top box, 2 m/s sideways: 33 mm in the coming step
+    w.step(DT)
+    assert w.solver_stats.recycled_pairs == 3  # the top pair only is collided again
+
+
+def test_a_moved_body_is_found_anew():
+    w = settled(stack())
+    p = w.positions[4].copy()
+    w.set_position(4, p + (0.002, 0.0, 0.0))  # 2 mm: more than recycle_distance
+    w.step(DT)
+    assert w.solver_stats.recycled_pairs == 3
+
+
+def test_spheres_are_always_found_anew():
+    w = sg.World(sleeping=False)
+    w.add_static(sg.Box((5.0, 5.0, 0.5)), position=(0, 0, -0.5))
+    w.add_body(sg.Sphere(0.5), mass=1.0, position=(0, 0, 0.5))
+    w.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0, position=(2, 0, 0.5))
+    settled(w, 120)
+    assert w.solver_stats.pairs == 2 and w.solver_stats.recycled_pairs == 1  # the box's pair only
+
+
+def test_continuing_from_a_saved_state_is_bit_identical_with_kept_manifolds():
+    w = settled(stack(solver="soft"), 120)
+    assert w.solver_stats.recycled_pairs > 0
+    saved = w.save_state()
+    for _ in range(60):
+        w.step(DT)
+    first = (w.positions.copy(), w.orientations.copy(), w.velocities.copy())
+    w.restore_state(saved)
+    for _ in range(60):
+        w.step(DT)
+    assert np.array_equal(first[0], w.positions) and np.array_equal(first[1], w.orientations)
+    assert np.array_equal(first[2], w.velocities)
+
+
+def test_a_step_undone_by_a_failed_step_does_not_advance_the_kept_manifolds():
+    # detection without a step (detect_contacts) writes nothing the next step reads
+    a, b = settled(stack(), 120), settled(stack(), 120)
+    for _ in range(5):
+        a.detect_contacts(DT)
+    for w in (a, b):
+        for _ in range(30):
+            w.step(DT)
+    assert np.array_equal(a.positions, b.positions)
+
+
+def test_threads_give_the_same_bits_with_recycling():
+    def pyramid(threads):
+        w = sg.World(sleeping=False, solver="soft", threads=threads)
+        w.add_static(sg.Box((20.0, 20.0, 0.5)), position=(0, 0, -0.5))
+        for row in range(14):  # 105 boxes, about 200 pairs: the detection splits over threads
+            for k in range(14 - row):
+                w.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0, position=(k - 0.5 * (13 - row), 0, 0.5 + row))
+        return settled(w, 90)
+    one, two = pyramid(1), pyramid(2)
+    assert one.solver_stats.recycled_pairs > 0
+    assert one.solver_stats.recycled_pairs == two.solver_stats.recycled_pairs
+    assert np.array_equal(one.positions, two.positions) and np.array_equal(one.velocities, two.velocities)
+
+
+@pytest.mark.parametrize("bad", [-1e-3, float("nan"), float("inf")])
+def test_bad_recycle_distance_names_the_setting_and_changes_nothing(bad):
+    with pytest.raises(ValueError, match="recycle_distance"):
+        sg.World(recycle_distance=bad)
+    w = stack()
+    before = w.solver
+    with pytest.raises(ValueError, match="recycle_distance"):
+        w.set_solver(recycle_distance=bad)
+    assert w.solver == before
+
+
+def test_a_pickled_world_keeps_its_manifolds():
+    import pickle
+    w = settled(stack(), 120)
+    copy = pickle.loads(pickle.dumps(w))
+    for x in (w, copy):
+        for _ in range(30):
+            x.step(DT)
+    assert copy.solver_stats.recycled_pairs == w.solver_stats.recycled_pairs == 4
+    assert np.array_equal(w.positions, copy.positions)
