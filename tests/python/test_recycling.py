@@ -162,3 +162,15 @@ def test_a_pickled_world_keeps_its_manifolds():
             x.step(DT)
     assert copy.solver_stats.recycled_pairs == w.solver_stats.recycled_pairs == 4
     assert np.array_equal(w.positions, copy.positions)
+
+
+def test_removing_a_far_body_keeps_the_others_manifolds():
+    a, b = settled(stack(), 120), settled(stack(), 120)
+    far = b.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0, position=(50.0, 0, 0.5))
+    b.step(DT)
+    a.step(DT)
+    b.remove_body(far)
+    for w in (a, b):
+        w.step(DT, 30)
+    assert a.solver_stats.recycled_pairs == b.solver_stats.recycled_pairs == 4
+    assert np.array_equal(a.positions, b.positions) and np.array_equal(a.velocities, b.velocities)

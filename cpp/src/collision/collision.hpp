@@ -199,8 +199,8 @@ struct ContactMemory {
   /// bodies: those whose centres are copied (the non-static ones, ascending; null: all); a static
   /// body's centre changes only by placed().
   void commit(const std::vector<Vec3>& p_start, const std::vector<BodyIndex>* bodies = nullptr);
-  /// Drops the bodies with to[i] < 0 and renumbers the rest to to[i] (crossings of dropped meshes
-  /// are forgotten, and every kept manifold); storage stays in place.
+  /// Drops the bodies with to[i] < 0 and renumbers the rest to to[i], increasing (crossings of
+  /// dropped meshes and the kept manifolds of dropped bodies are forgotten); storage stays in place.
   void remove(const std::vector<BodyIndex>& to);
   /// Its part of a saved state: previous centres and crossings, then (from format 5) the kept
   /// manifolds, which decide the next detection's contacts (the separating-face cache is not

@@ -41,9 +41,22 @@ void ContactMemory::remove(const std::vector<BodyIndex>& to) {
   previous_p.erase(previous_p.begin() + kept, previous_p.end());
   crossing.erase(crossing.begin() + kept, crossing.end());
   crossing_next.clear();  // sized (empty) again by the next detection
-  // the kept manifolds name bodies by index: found anew after a removal
-  manifolds.last.clear();
-  manifolds.last_points.clear();
+  // the kept manifolds of the bodies that stay, renumbered (to is increasing over them, so the
+  // order by pair stays), their points moved up; the others' dropped
+  std::size_t kept_count = 0, points = 0;
+  for (const KeptManifold& m : manifolds.last) {
+    if (to[m.body_a] < 0 || to[m.body_b] < 0) continue;
+    KeptManifold moved = m;
+    moved.body_a = to[m.body_a];
+    moved.body_b = to[m.body_b];
+    moved.first = static_cast<std::uint32_t>(points);
+    std::copy(manifolds.last_points.begin() + m.first, manifolds.last_points.begin() + m.first + m.count,
+              manifolds.last_points.begin() + static_cast<std::ptrdiff_t>(points));
+    points += m.count;
+    manifolds.last[kept_count++] = moved;
+  }
+  manifolds.last.resize(kept_count);
+  manifolds.last_points.resize(points);
   manifolds.next.clear();
   manifolds.next_points.clear();
   for (Crossing& c : crossing) {
