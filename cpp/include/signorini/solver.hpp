@@ -78,8 +78,11 @@ struct SolverSettings {
   /// relative to the other since (counting the coming step's motion at the current velocities),
   /// and at most 2% of the smaller body's inner radius; so a resting pile is not collided again
   /// step after step. 0: every pair is found anew every step (the exact contacts of the narrow
-  /// phase, as the oracle computes them).
-  double recycle_distance = 0.0005;
+  /// phase, as the oracle computes them). The default is a twentieth of the default slop: a kept
+  /// manifold's error then stays well inside what the position pass leaves alone (at 0.5 mm, the
+  /// 210-box pyramid at dt 1/240 with 10 sweeps crept 12 mm in 10 s, against 4 mm without recycling
+  /// and 3 mm at 0.05 mm).
+  double recycle_distance = 0.00005;
 
   // ---- the soft step (method = Soft; docs/conventions.md, "The soft step") ----
   /// Stiffness of a contact as the natural frequency of its spring (Hz, > 0), capped at a quarter
