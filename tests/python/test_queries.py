@@ -531,6 +531,12 @@ def test_distance_between_bodies_against_closed_forms():
     w.set_position(b, (0.5, 0, 0))  # overlapping by 0.25
     d = w.distance(a, b)
     assert abs(d.distance + 0.25) <= EXACT and np.allclose(d.point_b - d.point_a, d.distance * d.normal)
+    V = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0.0]])
+    m = w.add_static(sg.TriangleMesh(V, np.array([[0, 1, 2]])), position=(0, 0, -3))
+    assert abs(w.distance(m, a).distance - 2.5) <= EXACT
+    w.set_position(a, (0, 0, -4))
+    with pytest.raises(RuntimeError, match="one-sided"):
+        w.distance(m, a)
 
 
 # ---- bad input ----
@@ -571,3 +577,109 @@ def test_bad_input_names_the_argument_and_changes_nothing():
             call()
     assert w.save_state().data == before.data
     assert w.num_bodies == 2 + 6
+
+
+@pytest.mark.slow
+def test_a_batch_of_100000_rays_gives_exactly_the_single_ray_results():
+    """The issue's acceptance figure (100,000 rays on 2 threads; about 20 s of single casts)."""
+    rng = np.random.default_rng(12)
+    w = mixed_scene(threads=2, n=20)
+    n = 100_000
+    O = rng.uniform(-4, 4, (n, 3)) + [0, 0, 2]
+    D = rng.normal(size=(n, 3))
+    b = w.cast_rays(O, D, 12.0)
+    assert 20_000 < (b.body >= 0).sum() < n
+    for k in range(n):
+        h = w.cast_ray(O[k], D[k], 12.0)
+        if h is None:
+            assert b.body[k] == -1
+        else:
+            assert (b.body[k], b.distance[k], b.feature[k]) == (h.body, h.distance, h.feature)
+            assert np.array_equal(b.point[k], h.point) and np.array_equal(b.normal[k], h.normal)
+
+
+# ---- every shape kind at random poses against the oracle's brute force ----
+
+def oracle_shapes(rng):
+    hull_pts = rng.normal(size=(12, 3)) * 0.4
+    V = np.array([[x, y, z] for x in (-0.4, 0.4) for y in (-0.3, 0.3) for z in (-0.2, 0.2)])
+    return [
+        sg.Sphere(0.45), sg.Box((0.5, 0.3, 0.2)), sg.Capsule(0.2, 0.4), sg.Cylinder(0.35, 0.25),
+        sg.ConvexHull(hull_pts), sg.Mesh(V, sg.ConvexHull(V).faces),
+        sg.Compound([(sg.Box((0.3, 0.1, 0.1)), ((0.2, 0, 0), random_quat(rng))),
+                     (sg.Cylinder(0.1, 0.3), ((-0.2, 0.1, 0), random_quat(rng))),
+                     (sg.Capsule(0.1, 0.2), ((0, -0.2, 0.1), random_quat(rng)))]),
+        ("L", None),  # a non-convex mesh with two convex pieces (as a decomposition gives them)
+    ]
+
+
+@pytest.mark.parametrize("k", range(8))
+def test_every_solid_kind_at_random_poses_agrees_with_the_oracle(k):
+    from signorini.oracle import rays as orays
+    rng = np.random.default_rng(20 + k)
+    shape = oracle_shapes(rng)[k]
+    w = world()
+    q, p = random_quat(rng), rng.uniform(-1, 1, 3)
+    if isinstance(shape, tuple):  # an L-shaped static mesh hit through its two convex pieces
+        A = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.2, 0.2) for z in (-0.2, 0.2)])
+        B = A[:, [1, 0, 2]] + [0.3, 0.5, 0]
+        FA = sg.ConvexHull(A).faces
+        FB = sg.ConvexHull(B).faces
+        surface = sg.Mesh(np.vstack([sg.ConvexHull(A).vertices, sg.ConvexHull(B).vertices]),
+                          np.vstack([FA, FB + len(sg.ConvexHull(A).vertices)]))
+        i = w.add_static(surface.with_pieces([A, B]), position=p, orientation=q)
+    else:
+        i = w.add_static(shape, position=p, orientation=q)
+    d = sg.shape_dict(w.shape(i))
+    R, P = quat_to_matrix(w.orientations[i]), np.asarray(w.positions[i])
+    hits = 0
+    for _ in range(40):
+        o = P + 3.0 * unit(rng.normal(size=3))
+        for target in (P + rng.uniform(-0.1, 0.1, 3), P + rng.uniform(-0.8, 0.8, 3)):
+            u = unit(target - o)
+            h = w.cast_ray(o, u, 8.0)
+            ref = orays.first_entry(d, R, P, o, u, 8.0)
+            if ref is None:
+                continue  # the oracle may miss a grazing chord shorter than its sampling
+            hits += 1
+            assert h is not None and h.body == i
+            assert abs(h.distance - ref) <= EXACT, (h.distance, ref)
+            # the normal is out of the body: a step along it leaves, a step against it enters
+            assert not orays.contains(d, R, P, h.point + 1e-6 * h.normal)
+            assert orays.contains(d, R, P, h.point - 1e-6 * h.normal)
+    assert hits >= 25
+
+
+def test_triangle_meshes_at_random_poses_agree_with_the_oracle():
+    from signorini.oracle import rays as orays
+    rng = np.random.default_rng(30)
+    n = 12
+    xs = np.linspace(-1, 1, n + 1)
+    X, Y = np.meshgrid(xs, xs, indexing="ij")
+    Z = 0.2 * np.sin(3 * X) * np.cos(2 * Y)  # a bumpy terrain
+    V = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+    idx = lambda i, j: i * (n + 1) + j  # noqa: E731
+    F = np.array([[idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)] for i in range(n) for j in range(n)]
+                 + [[idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)] for i in range(n) for j in range(n)])
+    q, p = random_quat(rng), rng.uniform(-1, 1, 3)
+    w = world()
+    w.add_static(sg.TriangleMesh(V, F), position=p, orientation=q)
+    R = quat_to_matrix(w.orientations[0])
+    hits = 0
+    for _ in range(150):
+        o = p + 3.0 * unit(rng.normal(size=3))
+        u = unit(p + rng.uniform(-0.7, 0.7, 3) - o)
+        h = w.cast_ray(o, u, 8.0)
+        ref = orays.triangle_entry(V, F, R, p, o, u, 8.0)
+        assert (h is None) == (ref is None)
+        if ref is None:
+            continue
+        hits += 1
+        assert abs(h.distance - ref[0]) <= EXACT
+        # the triangle named by the feature is met at that distance (through a shared edge, either)
+        mine = orays.triangle_entry(V, F[[sg.feature(h.feature).part]], R, p, o, u, 8.0)
+        assert mine is not None and abs(mine[0] - h.distance) <= EXACT
+        a, b, c = (V[F[sg.feature(h.feature).part]] @ R.T) + p
+        n_tri = unit(np.cross(b - a, c - a))
+        assert np.allclose(h.normal, n_tri if n_tri @ u < 0 else -n_tri, atol=1e-12)
+    assert hits > 50

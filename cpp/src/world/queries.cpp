@@ -336,7 +336,8 @@ BodyDistance World::distance(BodyIndex i, BodyIndex j) const {
   collision::collide(a, Pose{p_i, state_.R[i]}, b, Pose{p_j, state_.R[j]}, threshold,
                      {broad_phase_->triangles(i), broad_phase_->triangles(j), scratch_.get()}, contacts);
   if (contacts.empty())
-    throw std::runtime_error("distance: the narrow phase found no closest pair for " + label(i) + " and " + label(j));
+    throw std::runtime_error("distance: the narrow phase found no closest pair for " + label(i) + " and " + label(j) +
+                             " (a triangle mesh is one-sided: a body wholly behind it has no distance to it)");
   const Contact* c = &contacts[0];
   for (const Contact& k : contacts)
     if (k.gap < c->gap) c = &k;
