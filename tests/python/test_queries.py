@@ -463,6 +463,10 @@ def test_the_broad_phase_prunes_a_world_of_10000_static_boxes():
     assert w.query_stats["body_tests"] <= 3
     assert len(w.cast_ray_all((-5.0, 3.0, 0.0), (1, 0, 0))) == n
     assert n <= w.query_stats["body_tests"] <= 3 * n
+    # overlaps too: a box around one body tests the few bodies whose tree boxes reach it
+    assert w.overlap_aabb((9.9, 19.9, -0.1), (10.1, 20.1, 0.1)).tolist() == [10 * n + 20]
+    assert w.query_stats["body_tests"] <= 4 and w.query_stats["nodes"] < 400
+    assert w.overlap_point((10.0, 20.0, 0.0)).tolist() == [10 * n + 20] and w.query_stats["body_tests"] <= 4
 
 
 # ---- overlaps and distances ----
