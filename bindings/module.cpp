@@ -7,6 +7,7 @@ void register_shapes(py::module_& m);
 void register_world(py::module_& m);
 void register_collision(py::module_& m);
 void register_rotation(py::module_& m);
+void register_queries(py::module_& m);
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "signorini C++ core (private; use the signorini package)";
@@ -14,4 +15,5 @@ PYBIND11_MODULE(_core, m) {
   register_world(m);
   register_collision(m);
   register_rotation(m);
+  register_queries(m);
 }

@@ -17,6 +17,7 @@ from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sp
 from .world import BodyIndexError, Contacts, SavedState, SolverStats, SolverWarning, World, mass_properties
 from .codec import shape_to_dict as shape_dict
 from .collision import Feature, collide, feature
+from .queries import Distance, Hit, RayHits
 from .trajectory import Record, Recorder, load_trajectory, save_trajectory
 from . import meshes, meshfile
 from .meshfile import MeshRepairWarning, load_mesh, save_mesh
@@ -49,7 +50,7 @@ def __dir__() -> list[str]:
 
 # the public API: every name the README and docs use as ``sg.<name>`` (tests/python/test_api.py
 # checks it), the submodules meshes and meshfile included
-__all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
+__all__ = ["World", "Hit", "RayHits", "Distance", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
            "Compound", "mass_properties", "Batch", "Contacts", "SolverStats", "SavedState",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "save_mesh", "decompose",

@@ -15,6 +15,7 @@ the lock without holding the GIL. README "Threads" says what is and is not safe.
 from __future__ import annotations
 
 import functools
+import math
 import os
 import sys
 import threading
@@ -25,7 +26,7 @@ from typing import Optional
 
 import numpy as np
 
-from . import _core, codec
+from . import _core, codec, queries
 from .arguments import (ALL_BITS, INT_MAX, as_bits, as_count, as_flag, as_indices, as_name, as_number, as_rows,
                         as_scalar, as_vector, readonly)
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
@@ -1071,6 +1072,79 @@ class World:
         ValueError naming the body for what a scene file cannot hold (a pending impulse or
         one-step force)."""
         return codec.write_scene(self, path)
+
+    # ---- queries (issue 24; signorini.queries and docs/conventions.md, "Queries") ----
+    @_locked
+    def cast_ray(self, origin, direction, max_distance=math.inf, *, group=ALL_BITS, mask=ALL_BITS,
+                 exclude=()) -> Optional[queries.Hit]:
+        """The closest body the ray ``origin + t direction/|direction|``, ``0 <= t <= max_distance``
+        meets, as a ``Hit`` (ties: the lower body index), or None. Bodies are seen when enabled,
+        ``body_group & mask`` and ``body_mask & group`` are non-zero, and not in ``exclude``."""
+        args = queries.ray_args("cast_ray", origin, direction, max_distance)
+        return queries.hit(self._core.cast_ray(*args, **queries.filter_args("cast_ray", group, mask, exclude)))
+
+    @_locked
+    def cast_ray_any(self, origin, direction, max_distance=math.inf, *, group=ALL_BITS, mask=ALL_BITS,
+                     exclude=()) -> Optional[queries.Hit]:
+        """Some hit of the ray (the first the broad phase's walk meets, not necessarily the
+        closest: "is anything in the way"), or None. Arguments as ``cast_ray``."""
+        args = queries.ray_args("cast_ray_any", origin, direction, max_distance)
+        return queries.hit(self._core.cast_ray_any(*args, **queries.filter_args("cast_ray_any", group, mask, exclude)))
+
+    @_locked
+    def cast_ray_all(self, origin, direction, max_distance=math.inf, *, group=ALL_BITS, mask=ALL_BITS,
+                     exclude=()) -> list:
+        """Every body the ray meets, one ``Hit`` each (where it enters it first), sorted by
+        distance then body. Arguments as ``cast_ray``."""
+        args = queries.ray_args("cast_ray_all", origin, direction, max_distance)
+        hits = self._core.cast_ray_all(*args, **queries.filter_args("cast_ray_all", group, mask, exclude))
+        return [queries.hit(h) for h in hits]
+
+    @_locked
+    def cast_rays(self, origins, directions, max_distance=math.inf, *, group=ALL_BITS, mask=ALL_BITS,
+                  exclude=()) -> queries.RayHits:
+        """n rays at once: origins, directions (n, 3), max_distance a number or (n,). Row k of the
+        result (``RayHits``) is ``cast_ray`` of ray k bit for bit; the rays run on the world's
+        threads with the GIL released, with the same bits for any thread count."""
+        o, d, m = queries.rays_args(origins, directions, max_distance)
+        return queries.ray_hits(self._core.cast_rays(o, d, m, **queries.filter_args("cast_rays", group, mask, exclude)))
+
+    @_locked
+    def overlap(self, shape, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0), *, group=ALL_BITS,
+                mask=ALL_BITS, exclude=()) -> np.ndarray:
+        """Bodies (ascending int32) whose shape overlaps (signed distance < 0) a bounded ``shape``
+        placed at ``position`` (3,) and unit quaternion ``orientation`` (w, x, y, z)."""
+        who = "overlap"
+        return queries.indices(self._core.overlap(shape, as_vector(position, 3, who, "position"),
+                                                  as_vector(orientation, 4, who, "orientation"),
+                                                  **queries.filter_args(who, group, mask, exclude)))
+
+    @_locked
+    def overlap_aabb(self, lo, hi, *, group=ALL_BITS, mask=ALL_BITS, exclude=()) -> np.ndarray:
+        """Bodies (ascending int32) whose shape overlaps the world-axis box [lo, hi] (m, lo < hi)."""
+        who = "overlap_aabb"
+        return queries.indices(self._core.overlap_aabb(as_vector(lo, 3, who, "lo"), as_vector(hi, 3, who, "hi"),
+                                                       **queries.filter_args(who, group, mask, exclude)))
+
+    @_locked
+    def overlap_point(self, point, *, group=ALL_BITS, mask=ALL_BITS, exclude=()) -> np.ndarray:
+        """Bodies (ascending int32) whose closed solid contains ``point`` (3,) (planes: the half-space
+        behind them; triangle meshes contain nothing)."""
+        who = "overlap_point"
+        return queries.indices(self._core.overlap_point(as_vector(point, 3, who, "point"),
+                                                        **queries.filter_args(who, group, mask, exclude)))
+
+    @_locked
+    def distance(self, i: int, j: int) -> queries.Distance:
+        """Signed distance and closest points of bodies i and j (``Distance``; normal i -> j)."""
+        return queries.distance(self._core.distance(self._index(i), self._index(j)))
+
+    @property
+    @_locked
+    def query_stats(self) -> dict:
+        """Counts of the last query: ``queries`` asked, broad-phase tree ``nodes`` tested and exact
+        ``body_tests`` (never timings)."""
+        return self._core.query_stats
 
     @_locked
     def __repr__(self) -> str:

@@ -830,6 +830,7 @@ INDEX_CALLS = {
     "enable_collision": lambda w, i: w.enable_collision(i, 0),
     "set_awake": lambda w, i: w.set_awake(i, True),
     "set_can_sleep": lambda w, i: w.set_can_sleep(i, False),
+    "distance": lambda w, i: w.distance(i, 0),
 }
 OUT_OF_RANGE = [-1, -2, 2, 7, np.int64(-1), np.int32(2), np.uint64(2), 2**31, -2**31 - 1, 2**40, -2**63]
 NOT_INDICES = [True, False, np.bool_(True), 1.0, np.float64(1.0), "1", None, 1 + 0j]
@@ -906,6 +907,7 @@ CORE_INDEX_CALLS = {
     "set_velocities": lambda c, i: c.set_velocities(np.array([i]), _ONE),
     "set_velocity": lambda c, i: c.set_velocity(i, (0.0, 0.0, 0.0)),
     "shape": lambda c, i: c.shape(i),
+    "distance": lambda c, i: c.distance(i, 0),
 }
 
 

@@ -17,6 +17,7 @@
 
 #include "signorini/contact.hpp"
 #include "signorini/model.hpp"
+#include "signorini/query.hpp"
 #include "signorini/shapes.hpp"
 #include "signorini/solver.hpp"
 #include "signorini/state.hpp"
@@ -226,6 +227,37 @@ class World {
   /// Gravitational potential energy -sum m g . p relative to the origin (J).
   double potential_energy() const;
 
+  // queries between steps (issue 24; world/queries.cpp, docs/conventions.md "Queries"): the
+  // broad phase's trees walked, never every body; bodies `filter` sees (query.hpp), sleeping ones
+  // included. A ray is origin + t u, u = direction / |direction|, t in [0, max_distance] (m);
+  // bad input throws std::invalid_argument (BodyIndexError for an exclude index) naming the
+  // argument, and nothing changes. Each call first refits the boxes of the non-static bodies.
+  /// The closest hit (ties: the lower body index), or none.
+  std::optional<RayHit> cast_ray(const Vec3& origin, const Vec3& direction, double max_distance,
+                                 const QueryFilter& filter = QueryFilter()) const;
+  /// Some hit, the first the walk meets (not necessarily the closest), or none.
+  std::optional<RayHit> cast_ray_any(const Vec3& origin, const Vec3& direction, double max_distance,
+                                     const QueryFilter& filter = QueryFilter()) const;
+  /// Every body the ray meets, one hit each (its first), sorted by (distance, body).
+  std::vector<RayHit> cast_ray_all(const Vec3& origin, const Vec3& direction, double max_distance,
+                                   const QueryFilter& filter = QueryFilter()) const;
+  /// n rays: origins, directions (n, 3), max_distance (n,); row k is cast_ray of ray k bit for
+  /// bit, the rays spread over the world's threads (the same bits for any thread count).
+  RayHits cast_rays(const Points& origins, const Points& directions, const Eigen::VectorXd& max_distance,
+                    const QueryFilter& filter = QueryFilter()) const;
+  /// The bodies (ascending) whose shape overlaps (signed distance < 0, as the narrow phase finds
+  /// it) a bounded shape at (position, orientation (w, x, y, z)).
+  std::vector<BodyIndex> overlap(const Shape& shape, const Vec3& position, const Quat4& orientation,
+                                 const QueryFilter& filter = QueryFilter()) const;
+  /// The bodies (ascending) overlapping the box [lo, hi] (world axes, lo < hi in each axis).
+  std::vector<BodyIndex> overlap_aabb(const Vec3& lo, const Vec3& hi, const QueryFilter& filter = QueryFilter()) const;
+  /// The bodies (ascending) whose closed solid contains the point (triangle meshes never do).
+  std::vector<BodyIndex> overlap_point(const Vec3& point, const QueryFilter& filter = QueryFilter()) const;
+  /// Signed distance of bodies i and j (i != j, not both planes or triangle meshes), normal i -> j.
+  BodyDistance distance(BodyIndex i, BodyIndex j) const;
+  /// Counts of the last query call.
+  QueryStats query_stats() const;
+
   /// Contacts the current state would produce for a step of dt, without stepping.
   std::vector<Contact> detect_contacts(double dt) const;
   /// The same, written into out (cleared first; its capacity is reused).
@@ -308,6 +340,7 @@ class World {
   /// the non-static bodies, ascending: the only ones a step moves, so the only ones its per-body
   /// stages visit (a step's cost grows with them and the contacts, not with static bodies)
   std::vector<BodyIndex> moving_;
+  mutable QueryStats query_stats_;  ///< the last query's counts (queries.cpp)
 };
 
 }  // namespace signorini

@@ -37,6 +37,11 @@ class TriangleQuery {
   /// frame, m), in increasing order, written into out (cleared first); stack is the traversal's
   /// scratch. Allocates nothing once out and stack have grown.
   void overlapping(const Vec3& lo, const Vec3& hi, std::vector<int>& out, std::vector<int>& stack) const;
+  /// The ray o + t u (mesh frame, u unit, t in [0, t_max]) against `mesh` (the mesh this query
+  /// was built from) through the BVH: the least t, the lowest triangle index on ties; front as
+  /// ray_triangle (ray.hpp) says. False when no triangle is met.
+  bool cast_ray(const TriangleMesh& mesh, const Vec3& o, const Vec3& u, double t_max, double& t, int& triangle,
+                bool& front, std::vector<int>& stack) const;
 
  private:
   struct Impl;
@@ -414,6 +419,26 @@ class BroadPhase {
   const TriangleQuery* triangles(BodyIndex i) const;
   /// The bodies whose shape is a Plane (not in either tree), ascending.
   const std::vector<BodyIndex>& planes() const;
+
+  // ---- queries (world/queries.cpp): the trees walked by a ray or a box, never a scan ----
+  /// Makes every tree box hold its body's current pose (poses set between steps, bodies that fell
+  /// asleep after the last pairs()): awake dynamic boxes tight (pairs() regrows them), sleeping
+  /// and static ones grown as pairs() grew them, so that the next step's pairs are unchanged.
+  void refresh(const Model& model, const State& state);
+  /// What a ray's walk of the trees calls for each body whose box the ray meets within its bound:
+  /// visit(i, bound) returns the new bound (m; the closest hit so far, or bound itself to see
+  /// every body), or a negative number to stop the walk.
+  struct RayVisitor {
+    virtual double visit(BodyIndex i, double bound) = 0;
+  };
+  /// The ray o + t u (world, u unit) for t in [0, bound] through the static, awake and sleeping
+  /// trees (planes excluded). nodes counts the tree boxes tested. Thread-safe between refreshes.
+  void cast_ray(const Vec3& o, const Vec3& u, double bound, RayVisitor& visitor, std::vector<const void*>& stack,
+                std::int64_t& nodes) const;
+  /// The bodies whose tree boxes overlap [lo, hi] (world, m), appended to out in tree order
+  /// (planes excluded).
+  void overlap_box(const Vec3& lo, const Vec3& hi, std::vector<BodyIndex>& out, std::vector<const void*>& stack,
+                   std::int64_t& nodes) const;
 
  private:
   struct Impl;

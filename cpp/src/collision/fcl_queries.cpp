@@ -12,6 +12,7 @@
 #include <fcl/fcl.h>
 
 #include "collision/collision.hpp"
+#include "collision/ray.hpp"
 
 namespace signorini::collision {
 namespace {
@@ -147,7 +148,33 @@ bool collect_pair(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* da
   return false;  // keep going
 }
 
+/// Where the ray o + t u, t in [0, bound], enters the box [lo, hi] padded by 1e-9 (1 + its largest
+/// coordinate) m (boxes are tight; the pad keeps a ray grazing a face from being culled by
+/// rounding): false when it does not.
+bool ray_enters_box(const Vec3& lo, const Vec3& hi, const Vec3& o, const Vec3& u, double bound, double& t_enter) {
+  const double pad = 1e-9 * (1.0 + std::max(lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()));
+  double t_in = 0.0, t_out = bound;
+  for (int i = 0; i < 3; ++i) {
+    const double a = lo[i] - pad, b = hi[i] + pad;
+    if (u[i] == 0.0) {
+      if (o[i] < a || o[i] > b) return false;
+      continue;
+    }
+    double t0 = (a - o[i]) / u[i], t1 = (b - o[i]) / u[i];
+    if (t0 > t1) std::swap(t0, t1);
+    t_in = std::max(t_in, t0);
+    t_out = std::min(t_out, t1);
+    if (t_in > t_out) return false;
+  }
+  t_enter = t_in;
+  return true;
+}
+
+using TreeNode = fcl::detail::NodeBase<fcl::AABBd>;
+
 }  // namespace
+
+void shape_aabb(const Shape& shape, const Pose& pose, Vec3& lo, Vec3& hi) { tight_aabb(shape, pose.R, pose.p, lo, hi); }
 
 struct TriangleQuery::Impl {
   std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> bvh;
@@ -188,6 +215,40 @@ void TriangleQuery::overlapping(const Vec3& lo, const Vec3& hi, std::vector<int>
     }
   }
   std::sort(out.begin(), out.end());
+}
+
+bool TriangleQuery::cast_ray(const TriangleMesh& mesh, const Vec3& o, const Vec3& u, double t_max, double& t,
+                             int& triangle, bool& front, std::vector<int>& stack) const {
+  // FCL's OBBRSS tree walked with the ray in each node's box frame; a node entered beyond the
+  // best hit so far is skipped (entered exactly there is kept: a lower triangle index may tie)
+  const fcl::BVHModel<fcl::OBBRSSd>& bvh = *impl_->bvh;
+  if (bvh.getNumBVs() == 0) return false;
+  double best = t_max;
+  triangle = -1;
+  stack.clear();
+  stack.push_back(0);
+  while (!stack.empty()) {
+    const auto& node = bvh.getBV(stack.back());
+    stack.pop_back();
+    const fcl::OBBd& box = node.bv.obb;
+    const Vec3 ob = box.axis.transpose() * (o - box.To), ub = box.axis.transpose() * u;
+    double t_enter;
+    if (!ray_enters_box(-box.extent, box.extent, ob, ub, best, t_enter)) continue;
+    if (!node.isLeaf()) {
+      stack.push_back(node.rightChild());
+      stack.push_back(node.leftChild());
+      continue;
+    }
+    const int k = node.primitiveId();
+    double tk;
+    bool fk;
+    if (!ray_triangle(o, u, mesh.vertex(mesh.faces(k, 0)), mesh.vertex(mesh.faces(k, 1)), mesh.vertex(mesh.faces(k, 2)),
+                      best, tk, fk))
+      continue;
+    if (triangle < 0 || tk < best || (tk == best && k < triangle)) best = tk, triangle = k, front = fk;
+  }
+  t = best;
+  return triangle >= 0;
 }
 
 struct BroadPhase::Impl {
@@ -324,5 +385,85 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
 const TriangleQuery* BroadPhase::triangles(BodyIndex i) const { return impl_->triangles.at(i).get(); }
 
 const std::vector<BodyIndex>& BroadPhase::planes() const { return impl_->planes; }
+
+void BroadPhase::refresh(const Model& model, const State& state) {
+  Impl& m = *impl_;
+  if (m.static_dirty) {
+    const double margin = std::max(m.static_margin, 0.0);
+    for (BodyIndex i = 0; i < static_cast<BodyIndex>(m.proxy.size()); ++i) {
+      if (!m.proxy[i] || !model.is_static[i]) continue;
+      m.proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
+      m.proxy[i]->grow_aabb(0.5 * margin);
+    }
+    m.static_tree.update();
+    m.static_dirty = false;
+    m.static_margin = margin;
+  }
+  for (BodyIndex i : m.dynamic_bodies) {
+    if (m.in_sleep_tree[i]) {
+      m.sleep_proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
+      m.sleep_proxy[i]->grow_aabb(0.5 * m.sleep_margin);
+    } else {
+      m.proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
+    }
+  }
+  if (!m.dynamic_bodies.empty()) m.dynamic_tree.update();
+  if (m.sleeping > 0) m.sleep_tree.update();
+}
+
+void BroadPhase::cast_ray(const Vec3& o, const Vec3& u, double bound, RayVisitor& visitor,
+                          std::vector<const void*>& stack, std::int64_t& nodes) const {
+  const Impl& m = *impl_;
+  // sleep: which tree holds a body's box (the other holds it parked, and is skipped)
+  const fcl::DynamicAABBTreeCollisionManagerd* trees[3] = {&m.static_tree, &m.dynamic_tree, &m.sleep_tree};
+  for (int k = 0; k < 3; ++k) {
+    if (bound < 0.0) return;
+    const TreeNode* root = trees[k]->getTree().getRoot();
+    if (!root) continue;
+    stack.clear();
+    stack.push_back(root);
+    while (!stack.empty() && bound >= 0.0) {
+      const TreeNode* node = static_cast<const TreeNode*>(stack.back());
+      stack.pop_back();
+      ++nodes;
+      double t_enter;
+      if (!ray_enters_box(node->bv.min_, node->bv.max_, o, u, bound, t_enter)) continue;
+      if (!node->isLeaf()) {
+        stack.push_back(node->children[1]);
+        stack.push_back(node->children[0]);
+        continue;
+      }
+      const BodyIndex i = static_cast<const Proxy*>(static_cast<const fcl::CollisionObjectd*>(node->data))->index();
+      if (k > 0 && static_cast<bool>(m.in_sleep_tree[i]) != (k == 2)) continue;  // parked here
+      bound = visitor.visit(i, bound);
+    }
+  }
+}
+
+void BroadPhase::overlap_box(const Vec3& lo, const Vec3& hi, std::vector<BodyIndex>& out,
+                             std::vector<const void*>& stack, std::int64_t& nodes) const {
+  const Impl& m = *impl_;
+  const fcl::DynamicAABBTreeCollisionManagerd* trees[3] = {&m.static_tree, &m.dynamic_tree, &m.sleep_tree};
+  for (int k = 0; k < 3; ++k) {
+    const TreeNode* root = trees[k]->getTree().getRoot();
+    if (!root) continue;
+    stack.clear();
+    stack.push_back(root);
+    while (!stack.empty()) {
+      const TreeNode* node = static_cast<const TreeNode*>(stack.back());
+      stack.pop_back();
+      ++nodes;
+      if ((node->bv.min_.array() > hi.array()).any() || (node->bv.max_.array() < lo.array()).any()) continue;
+      if (!node->isLeaf()) {
+        stack.push_back(node->children[1]);
+        stack.push_back(node->children[0]);
+        continue;
+      }
+      const BodyIndex i = static_cast<const Proxy*>(static_cast<const fcl::CollisionObjectd*>(node->data))->index();
+      if (k > 0 && static_cast<bool>(m.in_sleep_tree[i]) != (k == 2)) continue;
+      out.push_back(i);
+    }
+  }
+}
 
 }  // namespace signorini::collision

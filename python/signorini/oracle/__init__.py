@@ -20,6 +20,8 @@ Modules, in the order of a step:
               restitution and store at the end
     pgs       the lecture's frictionless projected Gauss-Seidel (cold start, erp bias)
     lcp       the frictionless problem as an LCP, solved exactly by enumeration (small K)
+    rays      ray casts by brute force (containment tests, sampling and bisection; triangles by
+              edge functions), to check the World's queries
     step      one step (contacts, then substeps of velocity, solve, integrate on the contacts
               carried along: carry_contacts; or the soft step) and a rollout
 
