@@ -11,7 +11,7 @@ import pytest
 import signorini as sg
 
 DT = 1.0 / 60.0
-TOL = 0.00005  # the default recycle_distance (m)
+TOL = 0.00001  # the default recycle_distance (m)
 
 
 def stack(n=4, solver="pgs", **kw):
