@@ -14,6 +14,7 @@ the viewer (``python -m signorini view``) and the video, glTF and USD exports re
 from typing import TYPE_CHECKING
 
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
+from .joints import Distance, Fixed, Motor, Prismatic, Revolute, Spherical
 from .world import BodyIndexError, Contacts, SavedState, SolverStats, SolverWarning, World, mass_properties
 from .codec import shape_to_dict as shape_dict
 from .collision import Feature, collide, feature
@@ -50,7 +51,7 @@ def __dir__() -> list[str]:
 # the public API: every name the README and docs use as ``sg.<name>`` (tests/python/test_api.py
 # checks it), the submodules meshes and meshfile included
 __all__ = ["World", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
-           "Compound", "mass_properties", "Batch", "Contacts", "SolverStats", "SavedState",
+           "Compound", "mass_properties", "Revolute", "Prismatic", "Spherical", "Fixed", "Distance", "Motor", "Batch", "Contacts", "SolverStats", "SavedState",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "save_mesh", "decompose",
            "MeshRepairWarning", "load_scene", "read_scene",

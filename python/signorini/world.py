@@ -28,6 +28,7 @@ import numpy as np
 from . import _core, codec
 from .arguments import (ALL_BITS, INT_MAX, as_bits, as_count, as_flag, as_indices, as_name, as_number, as_rows,
                         as_scalar, as_vector, readonly)
+from .joints import KINDS as _JOINT_KINDS, Joint
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 
 Shape = (Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, TriangleMesh, Compound)
@@ -790,6 +791,79 @@ class World:
         given = d.get("given") or [None] * c.num_bodies
         self._args = [codec.BodyArgs(*g) if g is not None and len(g) == len(codec.BodyArgs._fields) else None
                       for g in given]
+
+    # joints (docs/conventions.md, "Joints") -----------------------------------------------------
+    @_locked
+    def add_joint(self, joint: Joint) -> int:
+        """Adds a joint (``sg.Revolute``, ``sg.Prismatic``, ``sg.Spherical``, ``sg.Fixed``,
+        ``sg.Distance``; anchors and axes in world coordinates now) and returns its index. The two
+        bodies wake and, unless ``collide_connected``, no longer collide with each other. Bad input
+        (a body that does not exist, the same body twice, two static bodies, a zero or non-finite
+        axis or anchor, limits lo > hi, a negative motor torque, a name already taken...) raises
+        TypeError, ValueError or BodyIndexError naming the joint and the problem, and changes
+        nothing."""
+        if not isinstance(joint, Joint) or joint.kind not in _JOINT_KINDS:
+            raise TypeError("add_joint: expected a signorini.Revolute, Prismatic, Spherical, Fixed or Distance, "
+                            f"got {joint!r}")
+        who = (f"joint {self._core.num_joints}" + (f" '{joint.name}'" if isinstance(joint.name, str) and joint.name
+                                                   else "") + f" ({_JOINT_KINDS[joint.kind]})")
+        args = joint._core_args(who, self.positions)
+        return self._core.add_joint(joint.kind, **args)
+
+    @_locked
+    def remove_joint(self, j: int) -> None:
+        """Removes joint j; later joints move down one index (like a list). Its bodies wake and
+        collide again (unless another joint or ``disable_collision`` keeps them apart)."""
+        if isinstance(j, (bool, np.bool_)) or not isinstance(j, (int, np.integer)):
+            raise TypeError(f"joint index must be an integer, got {j!r}")
+        if not 0 <= int(j) < self._core.num_joints:
+            raise IndexError(f"joint index {int(j)} is out of range: the world has {self._core.num_joints} joints")
+        self._core.remove_joint(int(j))
+
+    @property
+    @_locked
+    def num_joints(self) -> int:
+        return self._core.num_joints
+
+    @_locked
+    def find_joint(self, name: str) -> int:
+        """Index of the joint named ``name``, or -1."""
+        return self._core.find_joint(as_name(name, "find_joint"))
+
+    @_locked
+    def joint(self, j: int) -> dict:
+        """Joint j as the world keeps it: kind, bodies, anchors and axes in each body's frame, limits,
+        motor, lengths, name, and its rows' warm-start forces (``alpha``)."""
+        d = self._core.joint(int(j))
+        d["kind"] = _JOINT_KINDS[d["kind"]]
+        return d
+
+    @property
+    @_locked
+    def joint_positions(self) -> np.ndarray:
+        """(J,) each one-dof joint's coordinate: a hinge's angle (rad, in (-pi, pi], 0 at creation),
+        a slider's offset (m); NaN for the other joints. A copy."""
+        return self._core.joint_positions
+
+    @property
+    @_locked
+    def joint_velocities(self) -> np.ndarray:
+        """(J,) the rates of joint_positions (rad/s, m/s); NaN for joints that are not one-dof."""
+        return self._core.joint_velocities
+
+    @property
+    @_locked
+    def joint_forces(self) -> np.ndarray:
+        """(J, 3) the force (N, world) each joint transmitted to its body B in the last substep (A
+        got the opposite). A copy."""
+        return self._core.joint_forces
+
+    @property
+    @_locked
+    def joint_torques(self) -> np.ndarray:
+        """(J, 3) the torque (N m, world) each joint transmitted to its body B in the last substep,
+        about B's anchor point (a hinge's is perpendicular to its axis unless a motor or limit acts)."""
+        return self._core.joint_torques
 
     # stepping ---------------------------------------------------------------------------------
     @_locked

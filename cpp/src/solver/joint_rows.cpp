@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "math/rotation.hpp"
 #include "solver/contact_solver.hpp"
 
 namespace signorini::solver {
@@ -26,6 +27,13 @@ Frames frames(const Joint& j, const State& s) {
 /// The axial vector of the skew part of E: for E = exp([phi]x) close to I, phi (sin |phi| along it).
 Vec3 axial(const Mat3& E) {
   return 0.5 * Vec3(E(2, 1) - E(1, 2), E(0, 2) - E(2, 0), E(1, 0) - E(0, 1));
+}
+
+/// A hinge's angle: B's turn about the axis relative to A (rad, in (-pi, pi]).
+double hinge_angle(const Joint& j, const Mat3& RA, const Mat3& RB) {
+  const Vec3 axis = RA * j.axis_a;
+  const Vec3 u_a = RA * j.ref_a, u_b = RB * j.ref_b;
+  return std::atan2(axis.dot(u_a.cross(u_b)), u_a.dot(u_b));
 }
 
 bool moves(const Model& model, const State& state, int i) {
@@ -143,20 +151,24 @@ void soften(JointSet& js, double hertz, double zeta, double h) {
 
 }  // namespace
 
-void prepare_joints(const Model& model, const State& state, double h, bool soft, JointSet& js, const SolverData& d) {
-  js.blocks.clear();
-  if (soft) soften(js, std::min(kJointHertz, 0.25 / h), kJointDampingRatio, h);
-  for (Joint& j : js.joints) {
-    const bool a_moves = moves(model, state, j.a), b_moves = moves(model, state, j.b);
-    if (!a_moves && !b_moves) continue;  // nothing to move (both asleep, static, kinematic or disabled)
-    const std::size_t first = js.blocks.size();
-    const Frames f = frames(j, state);
-    const Mat3& RA = state.R[j.a];
-    const Mat3& RB = state.R[j.b];
+/// Where a body is: its centre of mass p and rotation R (world).
+struct Pose {
+  Vec3 p;
+  Mat3 R;
+};
+
+/// Appends the blocks of joint j with its bodies at poses A and B (Jacobians and C only).
+void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_moves, bool b_moves) {
+  Frames f;
+  f.r_a = A.R * j.anchor_a;
+  f.r_b = B.R * j.anchor_b;
+  f.d = (B.p + f.r_b) - (A.p + f.r_a);
+  const Mat3& RA = A.R;
+  const Mat3& RB = B.R;
     switch (j.kind) {
       case JointKind::Revolute: {
         const Vec3 axis = RA * j.axis_a;
-        const double theta = joint_position(j, state);
+        const double theta = hinge_angle(j, RA, RB);
         if (j.motor.enabled) {
           JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotMotor, a_moves, b_moves);
           angular_row(b, 0, axis);
@@ -252,6 +264,18 @@ void prepare_joints(const Model& model, const State& state, double h, bool soft,
         break;
       }
     }
+}
+
+void prepare_joints(const Model& model, const State& state, double h, bool soft, bool predict, JointSet& js,
+                    const SolverData& d) {
+  js.blocks.clear();
+  if (soft) soften(js, std::min(kJointHertz, 0.25 / h), kJointDampingRatio, h);
+  for (Joint& j : js.joints) {
+    const bool a_moves = moves(model, state, j.a), b_moves = moves(model, state, j.b);
+    if (!a_moves && !b_moves) continue;  // nothing to move (both asleep, static, kinematic or disabled)
+    const std::size_t first = js.blocks.size();
+    const Pose A{state.p[j.a], state.R[j.a]}, B{state.p[j.b], state.R[j.b]};
+    build_blocks(js, j, A, B, a_moves, b_moves);
     const double inv_m_a = a_moves ? h * model.inv_mass[j.a] : 0.0;
     const double inv_m_b = b_moves ? h * model.inv_mass[j.b] : 0.0;
     for (std::size_t k = first; k < js.blocks.size(); ++k) {
@@ -260,7 +284,31 @@ void prepare_joints(const Model& model, const State& state, double h, bool soft,
       b.w_lin_a = inv_m_a;
       b.w_lin_b = inv_m_b;
       finish_K(b);
+      b.drift.setZero();
     }
+    if (!predict) continue;
+    // the rows at the poses the bodies' velocities reach in h / 2: J(x_{n+1/2}) q_dot - J(x_n) q_dot
+    // is h/2 (dJ/dt) q_dot, half the rows' centripetal term over the substep, asked of the solve as a
+    // velocity bias: the solved velocity is then the one the rows allow at the substep's midpoint.
+    // Projected at x_n alone, a swing loses O((v h / L)^2) of its energy at every substep (the next
+    // substep's rows have turned by v h / L); at x_{n+1} it gains as much; at the midpoint the two
+    // cancel to that order (docs/conventions.md, "Joints")
+    const BodyVelocity& va = d.qd[j.a];
+    const BodyVelocity& vb = d.qd[j.b];
+    const double half = 0.5 * h;
+    const Pose A1{A.p + half * va.v, math::rodrigues(va.omega, half) * A.R};
+    const Pose B1{B.p + half * vb.v, math::rodrigues(vb.omega, half) * B.R};
+    const std::size_t n = js.blocks.size() - first;
+    build_blocks(js, j, A1, B1, a_moves, b_moves);
+    for (std::size_t k = 0; k < n; ++k) {
+      JointBlock& b = js.blocks[first + k];
+      const JointBlock& b1 = js.blocks[first + n + k];
+      if (b.kind == JointBlock::Motor) continue;
+      for (int r = 0; r < b.n; ++r)
+        b.drift[r] = (b1.ang_a[r] - b.ang_a[r]).dot(va.omega) + (b1.lin_a[r] - b.lin_a[r]).dot(va.v) +
+                     (b1.ang_b[r] - b.ang_b[r]).dot(vb.omega) + (b1.lin_b[r] - b.lin_b[r]).dot(vb.v);
+    }
+    js.blocks.resize(first + n);
   }
 }
 
@@ -272,7 +320,7 @@ double sweep_joints(JointSet& js, SolverData& d, JointSweep mode, double h) {
   double change = 0.0;
   const double inv_h = 1.0 / h;
   for (JointBlock& b : js.blocks) {
-    const Vec3 u = block_velocity(b, d.qd);
+    const Vec3 u = block_velocity(b, d.qd) + b.drift;
     Vec3 d_alpha = Vec3::Zero();
     switch (b.kind) {
       case JointBlock::Equality: {
@@ -377,11 +425,7 @@ void store_joints(const State& state, JointSet& js) {
 
 double joint_position(const Joint& j, const State& state) {
   const Mat3& RA = state.R[j.a];
-  if (j.kind == JointKind::Revolute) {
-    const Vec3 axis = RA * j.axis_a;
-    const Vec3 u_a = RA * j.ref_a, u_b = state.R[j.b] * j.ref_b;
-    return std::atan2(axis.dot(u_a.cross(u_b)), u_a.dot(u_b));
-  }
+  if (j.kind == JointKind::Revolute) return hinge_angle(j, RA, state.R[j.b]);
   if (j.kind == JointKind::Prismatic) return (RA * j.axis_a).dot(frames(j, state).d);
   return std::numeric_limits<double>::quiet_NaN();
 }

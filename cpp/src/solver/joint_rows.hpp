@@ -52,6 +52,10 @@ struct JointBlock {
   Vec3 C = Vec3::Zero();     ///< position error of each row (m or rad); a limit row's distance to its limit
   double lo = 0.0, hi = 0.0; ///< Motor: the bounds on alpha (N or N m)
   double target = 0.0;       ///< Motor: target J q_dot (m/s or rad/s)
+  /// h/2 (dJ/dt) q_dot of each row (m/s or rad/s): J at the poses the velocities reach in h / 2,
+  /// minus J now, times the velocities at prepare; the iterate and biased sweeps ask J q_dot + drift = 0
+  /// (0 for a motor, and when prepare was not asked to predict)
+  Vec3 drift = Vec3::Zero();
 };
 
 /// The World's joints as the solver sees them (owned by the World; SolverData points here).
@@ -77,9 +81,11 @@ enum class JointSweep { Hard, SoftBiased, SoftRelax };
 
 /// Builds the blocks of every joint at the current poses.
 /// In: model, state (poses p, R of the substep; sleeping flags), h (s), soft: the soft step (the
-///     joint spring of h is made); d.dI_inv (N, h I^-1 world).
-/// Out: js.blocks (Jacobians, K, K^-1, C), their alpha pointing into js.joints[j].alpha.
-void prepare_joints(const Model& model, const State& state, double h, bool soft, JointSet& js, const SolverData& d);
+///     joint spring of h is made); predict: each row's drift from the poses d.qd reaches in h / 2;
+///     d.dI_inv (N, h I^-1 world), d.qd (N, the velocities before the joints' solve).
+/// Out: js.blocks (Jacobians, K, K^-1, C, drift), their alpha pointing into js.joints[j].alpha.
+void prepare_joints(const Model& model, const State& state, double h, bool soft, bool predict, JointSet& js,
+                    const SolverData& d);
 
 /// Applies every block's alpha (the warm start) to d.qd.
 void warm_start_joints(const JointSet& js, SolverData& d);

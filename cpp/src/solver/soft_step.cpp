@@ -162,7 +162,7 @@ void soft_solve(const Model& model, const State& state, const SolverSettings& se
   load(v, omega, d);
   apply_forces(d);  // the last substep's forces (the cache's in the first) as this one's first guess
   if (d.joints != nullptr && !d.joints->empty()) {  // the joints' rows at these poses, warm started
-    prepare_joints(model, state, d.h, true, *d.joints, d);
+    prepare_joints(model, state, d.h, true, true, *d.joints, d);
     if (settings.warm_start) warm_start_joints(*d.joints, d);
     else for (Joint& j : d.joints->joints) j.alpha.fill(0.0);
   }
@@ -182,7 +182,6 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
   const std::size_t K = d.soft.size();
   load(v, omega, d);
   body_motion(model, state, d);  // the poses have moved: each contact's gap with the first relax sweep
-  if (d.joints != nullptr && !d.joints->empty()) prepare_joints(model, state, d.h, true, *d.joints, d);  // and the joints' rows
   sweeps(settings, d, false, settings.relax_iterations, true);
   // restitution, in the substep where a contact first pushes, on its approach before that push
   // (so that the rebound starts within h of the impact, not at the step's end); the warm-start
