@@ -126,7 +126,6 @@ def double_pendulum(solver, **kw):
     return w, a, b
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("solver, bound", [("pgs", 0.01), ("soft", 0.02)])
 def test_double_pendulum_energy(solver, bound):
     # frictionless: the total energy stays within 1 % of the scale 2 m g L = 19.6 J over 20 s at
