@@ -416,12 +416,15 @@ void register_world(py::module_& m) {
         d["body_a"] = x.a, d["body_b"] = x.b;
         d["anchor_a"] = x.anchor_a, d["anchor_b"] = x.anchor_b;
         d["axis_a"] = x.axis_a, d["axis_b"] = x.axis_b;
+        d["ref_a"] = x.ref_a, d["ref_b"] = x.ref_b;
+        d["R_rel"] = Mat3(x.R_rel);
         d["has_limits"] = x.has_limits, d["lower"] = x.lower, d["upper"] = x.upper;
         d["motor"] = x.motor.enabled, d["motor_speed"] = x.motor.speed, d["motor_max_force"] = x.motor.max_force;
         d["min_length"] = x.min_length, d["max_length"] = x.max_length;
         d["collide_connected"] = x.collide_connected;
         d["name"] = x.name;
         d["alpha"] = std::vector<double>(x.alpha.begin(), x.alpha.end());
+        d["force"] = x.force, d["torque"] = x.torque;
         return d;
       })
       .def_property_readonly("joint_positions", [](const World& w) {

@@ -811,14 +811,18 @@ class World:
         return self._core.add_joint(joint.kind, **args)
 
     @_locked
-    def remove_joint(self, j: int) -> None:
-        """Removes joint j; later joints move down one index (like a list). Its bodies wake and
-        collide again (unless another joint or ``disable_collision`` keeps them apart)."""
-        if isinstance(j, (bool, np.bool_)) or not isinstance(j, (int, np.integer)):
-            raise TypeError(f"joint index must be an integer, got {j!r}")
-        if not 0 <= int(j) < self._core.num_joints:
-            raise IndexError(f"joint index {int(j)} is out of range: the world has {self._core.num_joints} joints")
-        self._core.remove_joint(int(j))
+    def remove_joint(self, joint: int) -> None:
+        """Removes joint ``joint`` (an index from ``add_joint``); later joints move down one index
+        (like a list). Its bodies wake and collide again (unless another joint or
+        ``disable_collision`` keeps them apart)."""
+        self._core.remove_joint(self._joint_index(joint))
+
+    def _joint_index(self, joint) -> int:
+        if isinstance(joint, (bool, np.bool_)) or not isinstance(joint, (int, np.integer)):
+            raise TypeError(f"joint index must be an integer, got {joint!r}")
+        if not 0 <= int(joint) < self._core.num_joints:
+            raise IndexError(f"joint index {int(joint)} is out of range: the world has {self._core.num_joints} joints")
+        return int(joint)
 
     @property
     @_locked
@@ -831,10 +835,11 @@ class World:
         return self._core.find_joint(as_name(name, "find_joint"))
 
     @_locked
-    def joint(self, j: int) -> dict:
-        """Joint j as the world keeps it: kind, bodies, anchors and axes in each body's frame, limits,
-        motor, lengths, name, and its rows' warm-start forces (``alpha``)."""
-        d = self._core.joint(int(j))
+    def joint(self, joint: int) -> dict:
+        """Joint ``joint`` as the world keeps it: kind, bodies, anchors, axes and reference vectors
+        in each body's frame, R_rel, limits, motor, lengths, name, its rows' warm-start forces
+        (``alpha``, 9 slots) and its last force and torque on B (signorini.oracle.joints)."""
+        d = self._core.joint(self._joint_index(joint))
         d["kind"] = _JOINT_KINDS[d["kind"]]
         return d
 
@@ -1103,7 +1108,8 @@ class World:
     @_locked
     def snapshot(self) -> dict:
         """The whole world as plain NumPy data (copies), the input format of ``signorini.oracle``.
-        Linear in the body count. ``step_force``, ``step_torque`` (N, 3): the next step's one-step
+        Linear in the body count. ``joints``: one dict per joint (``joint``; signorini.oracle.joints
+        says what each key holds). ``step_force``, ``step_torque`` (N, 3): the next step's one-step
         force and torque (``apply_force``); ``impulse``, ``angular_impulse`` (N, 3): pending
         impulses about the centres of mass (``apply_impulse``)."""
         c = self._core
@@ -1122,6 +1128,7 @@ class World:
             "force": np.array(c.forces), "torque": np.array(c.torques),
             "step_force": np.array(c.step_forces), "step_torque": np.array(c.step_torques),
             "impulse": np.array(c.impulses), "angular_impulse": np.array(c.angular_impulses),
+            "joints": [self.joint(j) for j in range(c.num_joints)],
         }
 
     @_locked

@@ -232,8 +232,8 @@ def test_a_damaged_crossing_memory_is_refused_and_changes_nothing():
     # the last 8 bytes are body 1's crossing (mesh, triangle): triangle 5 of a one-triangle mesh,
     # and body 1 as a mesh; after them come the islands (format 4: 13 bytes per body, the sleeping
     # islands' cache, here an empty one's count, 48 bytes per body of their forces and torques, and
-    # their contacts, none)
-    end = len(good.data) - (13 * w.num_bodies + 8 + 48 * w.num_bodies + 8)
+    # their contacts, none) and the joints (format 5: their count, here 0)
+    end = len(good.data) - (13 * w.num_bodies + 8 + 48 * w.num_bodies + 8 + 8)
     head, islands = good.data[:end - 8], good.data[end:]
     for tail in (np.array([0, 5], np.int32), np.array([1, 0], np.int32)):
         bad = sg.SavedState(head + tail.tobytes() + islands, good.num_bodies, good.time)

@@ -367,11 +367,14 @@ double sweep_joints(JointSet& js, SolverData& d, JointSweep mode, double h) {
 
 int joint_position_pass(const SolverSettings& s, double h, JointSet& js, SolverData& d) {
   const std::size_t n = js.blocks.size();
+  // every equality block takes part (one without an error holds while the others are corrected);
+  // a limit only while it is violated; the pass runs when some block has an error
   const auto active = [](const JointBlock& b) {
-    return b.kind == JointBlock::Equality ? !b.C.isZero(0.0) : b.kind == JointBlock::Limit && b.C[0] < 0.0;
+    return b.kind == JointBlock::Equality || (b.kind == JointBlock::Limit && b.C[0] < 0.0);
   };
   bool any = false;
-  for (const JointBlock& b : js.blocks) any = any || active(b);
+  for (const JointBlock& b : js.blocks)
+    any = any || (b.kind == JointBlock::Equality ? !b.C.isZero(0.0) : b.kind == JointBlock::Limit && b.C[0] < 0.0);
   if (!any) return 0;
   js.beta.assign(n, {0.0, 0.0, 0.0});
   const double rate = s.erp / h;
@@ -404,22 +407,23 @@ int joint_position_pass(const SolverSettings& s, double h, JointSet& js, SolverD
 }
 
 void store_joints(const State& state, JointSet& js) {
-  for (Joint& j : js.joints) j.force.setZero(), j.torque.setZero();
-  // each block's forces on B: F = sum_k alpha_k lin_b,k, torque about B's com sum_k alpha_k ang_b,k
+  // each block's forces on B: F = sum_k alpha_k lin_b,k, torque about B's com sum_k alpha_k ang_b,k;
+  // a joint without blocks (its bodies asleep or immovable) keeps what it last reported
   std::size_t k = 0;
   for (Joint& j : js.joints) {
-    Vec3 torque_com = Vec3::Zero();
-    for (; k < js.blocks.size() && js.blocks[k].alpha >= j.alpha.data() &&
-           js.blocks[k].alpha < j.alpha.data() + kJointSlots;
-         ++k) {
+    const auto mine = [&](const JointBlock& b) { return b.alpha >= j.alpha.data() && b.alpha < j.alpha.data() + kJointSlots; };
+    if (k == js.blocks.size() || !mine(js.blocks[k])) continue;
+    Vec3 force = Vec3::Zero(), torque_com = Vec3::Zero();
+    for (; k < js.blocks.size() && mine(js.blocks[k]); ++k) {
       const JointBlock& b = js.blocks[k];
       for (int r = 0; r < b.n; ++r) {
-        j.force += b.alpha[r] * b.lin_b[r];
+        force += b.alpha[r] * b.lin_b[r];
         torque_com += b.alpha[r] * b.ang_b[r];
       }
     }
     // about B's anchor: tau_com - r_b x F
-    j.torque = torque_com - (state.R[j.b] * j.anchor_b).cross(j.force);
+    j.force = force;
+    j.torque = torque_com - (state.R[j.b] * j.anchor_b).cross(force);
   }
 }
 

@@ -99,7 +99,8 @@ double sweep_joints(JointSet& js, SolverData& d, JointSweep mode, double h);
 /// Returns the sweeps used (0 when no block has an error).
 int joint_position_pass(const SolverSettings& s, double h, JointSet& js, SolverData& d);
 
-/// Each joint's force on B (N) and torque about B's anchor (N m), world, from its blocks' alpha.
+/// Each joint's force on B (N) and torque about B's anchor (N m), world, from its blocks' alpha (a
+/// joint without blocks this substep, its bodies asleep, keeps its last).
 void store_joints(const State& state, JointSet& js);
 
 /// A one-dof joint's coordinate: a hinge's angle theta (rad, B about the axis relative to A, in
