@@ -573,3 +573,11 @@ def test_every_kind_runs_in_both_solvers_and_holds():
                 a, b = j["body_a"], j["body_b"]
                 gap = (P[b] + R[b] @ j["anchor_b"]) - (P[a] + R[a] @ j["anchor_a"])
                 assert np.linalg.norm(gap) < 2e-3, (solver, j["kind"], np.linalg.norm(gap))
+
+
+def test_a_scene_file_refuses_a_jointed_world(tmp_path):
+    # scene files do not carry joints yet: writing one would silently make another world
+    w, bob, j = pendulum("pgs", 0.3)
+    with pytest.raises(ValueError, match="1 joints"):
+        w.save_scene(tmp_path / "pendulum.toml")
+    assert not (tmp_path / "pendulum.toml").exists()
