@@ -402,6 +402,10 @@ void register_world(py::module_& m) {
            py::arg("motor_max_force"), py::arg("min_length"), py::arg("max_length"), py::arg("collide_connected"),
            py::arg("name"))
       .def("remove_joint", &World::remove_joint, py::arg("j"))
+      .def("set_joint_motor", [](World& w, JointIndex j, bool enabled, double speed, double max_force) {
+             w.set_joint_motor(j, Motor{enabled, speed, max_force});
+           },
+           py::arg("j"), py::arg("enabled"), py::arg("speed"), py::arg("max_force"))
       .def("find_joint", &World::find_joint)
       .def("joint_label", &World::joint_label)
       .def_property_readonly("num_joints", &World::num_joints)

@@ -28,7 +28,7 @@ import numpy as np
 from . import _core, codec
 from .arguments import (ALL_BITS, INT_MAX, as_bits, as_count, as_flag, as_indices, as_name, as_number, as_rows,
                         as_scalar, as_vector, readonly)
-from .joints import KINDS as _JOINT_KINDS, Joint
+from .joints import KINDS as _JOINT_KINDS, Joint, Motor
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 
 Shape = (Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, TriangleMesh, Compound)
@@ -823,6 +823,21 @@ class World:
         if not 0 <= int(joint) < self._core.num_joints:
             raise IndexError(f"joint index {int(joint)} is out of range: the world has {self._core.num_joints} joints")
         return int(joint)
+
+    @_locked
+    def set_joint_motor(self, joint: int, motor: Optional[Motor]) -> None:
+        """Gives hinge or slider ``joint`` a new motor from the next step on (``sg.Motor(speed,
+        max_force)``; None switches it off): a target set per step. Its bodies wake. Bad values
+        raise naming the joint, and nothing changes."""
+        j = self._joint_index(joint)
+        who = self._core.joint_label(j)
+        if motor is None:
+            self._core.set_joint_motor(j, False, 0.0, 0.0)
+            return
+        if not isinstance(motor, Motor):
+            raise TypeError(f"{who}: motor must be a signorini.Motor or None, got {motor!r}")
+        self._core.set_joint_motor(j, True, as_number(motor.speed, who, "motor speed"),
+                                   as_number(motor.max_force, who, "motor max_force"))
 
     @property
     @_locked

@@ -581,3 +581,27 @@ def test_a_scene_file_refuses_a_jointed_world(tmp_path):
     with pytest.raises(ValueError, match="1 joints"):
         w.save_scene(tmp_path / "pendulum.toml")
     assert not (tmp_path / "pendulum.toml").exists()
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_motor_target_set_per_step(solver):
+    # a wheel's motor target changed between steps (up, down, off): it follows each within 1 %, and
+    # switched off it keeps turning (nothing else acts on it)
+    w = world(solver, gravity=(0, 0, 0))
+    ground = w.add_static(sg.Plane(normal=(0, 0, 1), offset=-100.0))
+    wheel = w.add_body(sg.Box((0.3, 0.3, 0.05)), mass=2.0)
+    j = w.add_joint(sg.Revolute(ground, wheel, anchor=(0, 0, 0), axis=(0, 0, 1), motor=sg.Motor(1.0, 10.0)))
+    for speed in (1.0, 4.0, -2.0):
+        w.set_joint_motor(j, sg.Motor(speed, max_torque=10.0))
+        w.step(DT, 120)
+        assert w.joint_velocities[j] == pytest.approx(speed, rel=1e-2)
+    w.set_joint_motor(j, None)
+    w.step(DT, 60)
+    assert w.joint_velocities[j] == pytest.approx(-2.0, rel=1e-2)
+    with pytest.raises(ValueError, match="joint 0 \\(Revolute\\): motor max force"):
+        w.set_joint_motor(j, sg.Motor(1.0, -1.0))
+    ball = w.add_joint(sg.Spherical(ground, wheel, anchor=(0, 0, 0)))
+    with pytest.raises(ValueError, match="only Revolute and Prismatic"):
+        w.set_joint_motor(ball, sg.Motor(1.0, 1.0))
+    with pytest.raises(IndexError):
+        w.set_joint_motor(5, None)

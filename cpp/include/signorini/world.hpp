@@ -140,6 +140,10 @@ class World {
   /// Removes joint j (later joints move down one index); its bodies wake (and collide again unless
   /// another joint or an excluded pair keeps them apart).
   void remove_joint(JointIndex j);
+  /// A new motor for one-dof joint j (Revolute, Prismatic), from the next step on: enabled with its
+  /// target speed (finite) and max_force (finite, >= 0), or disabled. Its bodies wake. Errors as
+  /// add_joint's, naming the joint; nothing changes on error.
+  void set_joint_motor(JointIndex j, const Motor& motor);
   std::size_t num_joints() const;
   /// The joints as kept (body frames, warm-start forces, last forces); a copy.
   std::vector<Joint> joints() const;

@@ -141,6 +141,26 @@ void World::remove_joint(JointIndex j) {
   wake(b);
 }
 
+void World::set_joint_motor(JointIndex j, const Motor& motor) {
+  const Lock lock(mutex_);
+  if (j < 0 || static_cast<std::size_t>(j) >= joints_->joints.size())
+    throw std::out_of_range("joint index " + std::to_string(j) + " is out of range: the world has " +
+                            std::to_string(joints_->joints.size()) + " joints");
+  Joint& x = joints_->joints[static_cast<std::size_t>(j)];
+  const auto fail = [&](const std::string& why) { throw std::invalid_argument(joint_label(j) + ": " + why); };
+  if (motor.enabled) {
+    if (!x.one_dof()) fail("only Revolute and Prismatic joints take a motor");
+    if (!std::isfinite(motor.speed)) fail("motor speed must be finite, got " + num(motor.speed));
+    if (!(std::isfinite(motor.max_force) && motor.max_force >= 0.0))
+      fail("motor max force (torque) must be finite and >= 0, got " + num(motor.max_force));
+  }
+  // a motor switched on or off changes the joint's rows: its warm-start force starts from zero
+  if (motor.enabled != x.motor.enabled) x.alpha[kSlotMotor] = 0.0;
+  x.motor = motor;
+  wake(x.a);
+  wake(x.b);
+}
+
 void World::joints_changed() {
   auto& pairs = model_.joined_pairs;
   pairs.clear();
