@@ -59,7 +59,7 @@ class Joint:
                     name=as_name(self.name, who))
 
 
-def _limits(limits, who: str) -> tuple:
+def _limits(limits, who: str) -> dict:
     if limits is None:
         return dict(has_limits=False)
     if isinstance(limits, (str, bytes)) or not hasattr(limits, "__len__") or len(limits) != 2:

@@ -291,6 +291,24 @@ def test_hinge_limit_stops_the_swing(solver):
     assert abs(w.joint_velocities[j]) < 1e-2
 
 
+@pytest.mark.xfail(strict=True, reason="a limit row on a point-like bob (1 cm sphere on a 1 m arm) is solved block "
+                   "by block against the point rows, which take its turn back as spin: the PGS overshoots to "
+                   "0.60 rad, the soft step's limit force grows until the guard stops an explosion; a joint-wide "
+                   "block solve is left to do (docs/conventions.md, 'Joints')")
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_hinge_limit_stops_a_point_like_bob(solver):
+    w = world(solver)
+    ground = w.add_static(sg.Plane(normal=(0, 0, 1), offset=-100.0))
+    bob = w.add_body(sg.Sphere(0.01), mass=10.0, position=(1.0, 0.0, 0.0))
+    j = w.add_joint(sg.Revolute(ground, bob, anchor=(0, 0, 0), axis=(0, 1, 0), limits=(-0.3, 0.5)))
+    highest = -1.0
+    for _ in range(3 * 240):
+        w.step(DT)
+        highest = max(highest, w.joint_positions[j])
+    assert highest < 0.5 + math.radians(1.0)
+    assert w.joint_positions[j] == pytest.approx(0.5, abs=math.radians(1.0))
+
+
 @pytest.mark.parametrize("solver", SOLVERS)
 def test_motor_reaches_its_speed_within_its_torque(solver):
     # a wheel (box spun about z at its centre, no gravity torque) driven at 3 rad/s with at most
