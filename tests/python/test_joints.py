@@ -623,3 +623,20 @@ def test_motor_target_set_per_step(solver):
         w.set_joint_motor(ball, sg.Motor(1.0, 1.0))
     with pytest.raises(IndexError):
         w.set_joint_motor(5, None)
+
+
+def test_a_bob_hung_from_a_moving_kinematic_carriage_follows_it():
+    # sleeping on: a bob on a rod under a kinematic carriage that moves at a steady 0.2 m/s is
+    # carried along (the carriage's velocity enters the joint's rows; it is in no island, and the
+    # bob stays awake), the rod at its length
+    w = sg.World(gravity=(0, 0, -G))
+    cart = w.add_body(sg.Box((0.1, 0.1, 0.1)), kinematic=True, position=(0, 0, 1.0), velocity=(0.2, 0, 0))
+    bob = w.add_body(sg.Sphere(0.05), mass=1.0, position=(0, 0, 0.5))
+    w.add_joint(sg.Distance(cart, bob, (0, 0, 1.0), (0, 0, 0.5)))
+    w.step(DT, 3 * 240)
+    assert w.awake[bob]
+    assert np.linalg.norm(w.positions[bob] - w.positions[cart]) == pytest.approx(0.5, abs=1e-3)
+    # it trails the carriage within its swing: started at rest under a carriage at 0.2 m/s, it swings
+    # with a velocity amplitude of 0.2 m/s about the carriage, so at most 0.2 / sqrt(g / L) = 0.045 m
+    # to either side (the carriage has gone 0.6 m)
+    assert abs(w.positions[bob][0] - w.positions[cart][0]) < 0.05
