@@ -385,6 +385,72 @@ void register_world(py::module_& m) {
       .def_property_readonly("contact_forces", [](const World& w) { return bindings::rows_of(w.contact_forces()); })
       .def_property_readonly("contact_torques", [](const World& w) { return bindings::rows_of(w.contact_torques()); })
       .def_property_readonly("warm_start_cache", [](const World& w) { return bindings::cache_arrays(w.warm_start_cache()); })
+      // joints (docs/conventions.md, "Joints"): the Python layer builds the desc from sg.Revolute & co.
+      .def("add_joint", [](World& w, int kind, BodyIndex body_a, BodyIndex body_b, const Vec3& anchor,
+                           const Vec3& anchor_b, const Vec3& axis, bool has_limits, double lower, double upper,
+                           bool motor, double motor_speed, double motor_max_force, double min_length,
+                           double max_length, bool collide_connected, const std::string& name) {
+             if (kind < 0 || kind > static_cast<int>(JointKind::Distance))
+               throw std::invalid_argument("add_joint: unknown joint kind " + std::to_string(kind));
+             JointDesc d;
+             d.kind = static_cast<JointKind>(kind);
+             d.body_a = body_a, d.body_b = body_b;
+             d.anchor = anchor, d.anchor_b = anchor_b, d.axis = axis;
+             d.has_limits = has_limits, d.lower = lower, d.upper = upper;
+             d.motor.enabled = motor, d.motor.speed = motor_speed, d.motor.max_force = motor_max_force;
+             d.min_length = min_length, d.max_length = max_length;
+             d.collide_connected = collide_connected;
+             d.name = name;
+             return w.add_joint(d);
+           },
+           py::arg("kind"), py::arg("body_a"), py::arg("body_b"), py::arg("anchor"), py::arg("anchor_b"), py::arg("axis"),
+           py::arg("has_limits"), py::arg("lower"), py::arg("upper"), py::arg("motor"), py::arg("motor_speed"),
+           py::arg("motor_max_force"), py::arg("min_length"), py::arg("max_length"), py::arg("collide_connected"),
+           py::arg("name"))
+      .def("remove_joint", &World::remove_joint, py::arg("j"))
+      .def("set_joint_motor", [](World& w, JointIndex j, bool enabled, double speed, double max_force) {
+             w.set_joint_motor(j, Motor{enabled, speed, max_force});
+           },
+           py::arg("j"), py::arg("enabled"), py::arg("speed"), py::arg("max_force"))
+      .def("find_joint", &World::find_joint)
+      .def("joint_label", &World::joint_label)
+      .def_property_readonly("num_joints", &World::num_joints)
+      .def("joint", [](const World& w, JointIndex j) {
+        const std::vector<Joint> all = w.joints();
+        if (j < 0 || static_cast<std::size_t>(j) >= all.size())
+          throw std::out_of_range("joint index " + std::to_string(j) + " is out of range: the world has " +
+                                  std::to_string(all.size()) + " joints");
+        const Joint& x = all[static_cast<std::size_t>(j)];
+        py::dict d;
+        d["kind"] = static_cast<int>(x.kind);
+        d["body_a"] = x.a, d["body_b"] = x.b;
+        d["anchor_a"] = x.anchor_a, d["anchor_b"] = x.anchor_b;
+        d["axis_a"] = x.axis_a, d["axis_b"] = x.axis_b;
+        d["ref_a"] = x.ref_a, d["ref_b"] = x.ref_b;
+        d["R_rel"] = Mat3(x.R_rel);
+        d["has_limits"] = x.has_limits, d["lower"] = x.lower, d["upper"] = x.upper;
+        d["motor"] = x.motor.enabled, d["motor_speed"] = x.motor.speed, d["motor_max_force"] = x.motor.max_force;
+        d["min_length"] = x.min_length, d["max_length"] = x.max_length;
+        d["collide_connected"] = x.collide_connected;
+        d["name"] = x.name;
+        d["alpha"] = std::vector<double>(x.alpha.begin(), x.alpha.end());
+        d["force"] = x.force, d["torque"] = x.torque;
+        return d;
+      })
+      .def_property_readonly("joint_positions", [](const World& w) {
+        const std::vector<double> x = w.joint_positions();
+        py::array_t<double> out(static_cast<py::ssize_t>(x.size()));
+        std::copy(x.begin(), x.end(), out.mutable_data());
+        return out;
+      })
+      .def_property_readonly("joint_velocities", [](const World& w) {
+        const std::vector<double> x = w.joint_velocities();
+        py::array_t<double> out(static_cast<py::ssize_t>(x.size()));
+        std::copy(x.begin(), x.end(), out.mutable_data());
+        return out;
+      })
+      .def_property_readonly("joint_forces", [](const World& w) { return bindings::rows_of(w.joint_forces()); })
+      .def_property_readonly("joint_torques", [](const World& w) { return bindings::rows_of(w.joint_torques()); })
       .def("kinetic_energy", &World::kinetic_energy)
       .def("potential_energy", &World::potential_energy);
   bindings::refuse_pickling(py::reinterpret_borrow<py::class_<World>>(m.attr("World")),

@@ -14,10 +14,11 @@ the viewer (``python -m signorini view``) and the video, glTF and USD exports re
 from typing import TYPE_CHECKING
 
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
+from .joints import Distance, Fixed, Motor, Prismatic, Revolute, Spherical
 from .world import BodyIndexError, Contacts, SavedState, SolverStats, SolverWarning, World, mass_properties
 from .codec import shape_to_dict as shape_dict
 from .collision import Feature, collide, feature
-from .queries import Distance, Hit, RayHits
+from .queries import BodyDistance, Hit, RayHits
 from .trajectory import Record, Recorder, load_trajectory, save_trajectory
 from . import meshes, meshfile
 from .meshfile import MeshRepairWarning, load_mesh, save_mesh
@@ -50,8 +51,9 @@ def __dir__() -> list[str]:
 
 # the public API: every name the README and docs use as ``sg.<name>`` (tests/python/test_api.py
 # checks it), the submodules meshes and meshfile included
-__all__ = ["World", "Hit", "RayHits", "Distance", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder", "ConvexHull", "TriangleMesh",
-           "Compound", "mass_properties", "Batch", "Contacts", "SolverStats", "SavedState",
+__all__ = ["World", "Hit", "RayHits", "BodyDistance", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder",
+           "ConvexHull", "TriangleMesh", "Compound", "mass_properties", "Revolute", "Prismatic", "Spherical", "Fixed",
+           "Distance", "Motor", "Batch", "Contacts", "SolverStats", "SavedState",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "save_mesh", "decompose",
            "MeshRepairWarning", "load_scene", "read_scene",

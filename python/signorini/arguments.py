@@ -63,6 +63,15 @@ def as_indices(x, who: str) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int64)
 
 
+def as_index(x, who: str, what: str) -> int:
+    """x as a body index (a Python or NumPy integer, not a bool); the core checks the range."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)):
+        raise TypeError(f"{who}: {what} must be a body index (an integer), got {x!r}")
+    if not -2**31 <= int(x) < 2**31:
+        raise _core.BodyIndexError(f"{who}: {what} = {int(x)} is out of range")
+    return int(x)
+
+
 def as_bits(x, who: str, what: str) -> int:
     """x as a 32-bit unsigned integer (collision filter bits)."""
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)) or not 0 <= x <= ALL_BITS:

@@ -400,6 +400,10 @@ def write_scene(world, path, info: Optional[dict] = None, names=None,
     path = Path(path)
     if path.suffix.lower() != ".toml":
         raise ValueError(f"scene file {str(path)!r}: a scene file's name must end in .toml")
+    if world.num_joints:
+        # a file without them would load as another world (issue 23: joints in scene files)
+        raise ValueError(f"scene file {str(path)!r}: the world has {world.num_joints} joints, which scene files "
+                         "do not carry yet; save_state() and pickle keep them")
     if names is None:
         names = world.names
     document = scene_document(world, path, info, names)

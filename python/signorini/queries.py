@@ -46,7 +46,7 @@ class RayHits:
 
 
 @dataclass(frozen=True)
-class Distance:
+class BodyDistance:
     """Signed distance of two bodies (``World.distance(i, j)``): ``distance`` m (negative: depth of
     overlap), witness points ``point_a`` on body i and ``point_b`` on body j (3,), unit ``normal``
     (3,) from i towards j, with ``point_b - point_a = distance * normal``."""
@@ -103,9 +103,9 @@ def ray_hits(d: dict) -> RayHits:
     return RayHits(**{k: readonly(np.asarray(v)) for k, v in d.items()})
 
 
-def distance(t) -> Distance:
+def distance(t) -> BodyDistance:
     gap, a, b, n = t
-    return Distance(float(gap), readonly(np.asarray(a)), readonly(np.asarray(b)), readonly(np.asarray(n)))
+    return BodyDistance(float(gap), readonly(np.asarray(a)), readonly(np.asarray(b)), readonly(np.asarray(n)))
 
 
 def indices(xs) -> np.ndarray:

@@ -29,6 +29,7 @@ import numpy as np
 from . import _core, codec, queries
 from .arguments import (ALL_BITS, INT_MAX, as_bits, as_count, as_flag, as_indices, as_name, as_number, as_rows,
                         as_scalar, as_vector, readonly)
+from .joints import KINDS as _JOINT_KINDS, Joint, Motor
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 
 Shape = (Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, TriangleMesh, Compound)
@@ -805,6 +806,99 @@ class World:
         self._args = [codec.BodyArgs(*g) if g is not None and len(g) == len(codec.BodyArgs._fields) else None
                       for g in given]
 
+    # joints (docs/conventions.md, "Joints") -----------------------------------------------------
+    @_locked
+    def add_joint(self, joint: Joint) -> int:
+        """Adds a joint (``sg.Revolute``, ``sg.Prismatic``, ``sg.Spherical``, ``sg.Fixed``,
+        ``sg.Distance``; anchors and axes in world coordinates now) and returns its index. The two
+        bodies wake and, unless ``collide_connected``, no longer collide with each other. Bad input
+        (a body that does not exist, the same body twice, two static bodies, a zero or non-finite
+        axis or anchor, limits lo > hi, a negative motor torque, a name already taken...) raises
+        TypeError, ValueError or BodyIndexError naming the joint and the problem, and changes
+        nothing."""
+        if not isinstance(joint, Joint) or joint.kind not in _JOINT_KINDS:
+            raise TypeError("add_joint: expected a signorini.Revolute, Prismatic, Spherical, Fixed or Distance, "
+                            f"got {joint!r}")
+        who = (f"joint {self._core.num_joints}" + (f" '{joint.name}'" if isinstance(joint.name, str) and joint.name
+                                                   else "") + f" ({_JOINT_KINDS[joint.kind]})")
+        args = joint._core_args(who, self.positions)
+        return self._core.add_joint(joint.kind, **args)
+
+    @_locked
+    def remove_joint(self, joint: int) -> None:
+        """Removes joint ``joint`` (an index from ``add_joint``); later joints move down one index
+        (like a list). Its bodies wake and collide again (unless another joint or
+        ``disable_collision`` keeps them apart)."""
+        self._core.remove_joint(self._joint_index(joint))
+
+    def _joint_index(self, joint) -> int:
+        if isinstance(joint, (bool, np.bool_)) or not isinstance(joint, (int, np.integer)):
+            raise TypeError(f"joint index must be an integer, got {joint!r}")
+        if not 0 <= int(joint) < self._core.num_joints:
+            raise IndexError(f"joint index {int(joint)} is out of range: the world has {self._core.num_joints} joints")
+        return int(joint)
+
+    @_locked
+    def set_joint_motor(self, joint: int, motor: Optional[Motor]) -> None:
+        """Gives hinge or slider ``joint`` a new motor from the next step on (``sg.Motor(speed,
+        max_force)``; None switches it off): a target set per step. Its bodies wake. Bad values
+        raise naming the joint, and nothing changes."""
+        j = self._joint_index(joint)
+        who = self._core.joint_label(j)
+        if motor is None:
+            self._core.set_joint_motor(j, False, 0.0, 0.0)
+            return
+        if not isinstance(motor, Motor):
+            raise TypeError(f"{who}: motor must be a signorini.Motor or None, got {motor!r}")
+        self._core.set_joint_motor(j, True, as_number(motor.speed, who, "motor speed"),
+                                   as_number(motor.max_force, who, "motor max_force"))
+
+    @property
+    @_locked
+    def num_joints(self) -> int:
+        return self._core.num_joints
+
+    @_locked
+    def find_joint(self, name: str) -> int:
+        """Index of the joint named ``name``, or -1."""
+        return self._core.find_joint(as_name(name, "find_joint"))
+
+    @_locked
+    def joint(self, joint: int) -> dict:
+        """Joint ``joint`` as the world keeps it: kind, bodies, anchors, axes and reference vectors
+        in each body's frame, R_rel, limits, motor, lengths, name, its rows' warm-start forces
+        (``alpha``, 9 slots) and its last force and torque on B (signorini.oracle.joints)."""
+        d = self._core.joint(self._joint_index(joint))
+        d["kind"] = _JOINT_KINDS[d["kind"]]
+        return d
+
+    @property
+    @_locked
+    def joint_positions(self) -> np.ndarray:
+        """(J,) each one-dof joint's coordinate: a hinge's angle (rad, in (-pi, pi], 0 at creation),
+        a slider's offset (m); NaN for the other joints. A copy."""
+        return self._core.joint_positions
+
+    @property
+    @_locked
+    def joint_velocities(self) -> np.ndarray:
+        """(J,) the rates of joint_positions (rad/s, m/s); NaN for joints that are not one-dof."""
+        return self._core.joint_velocities
+
+    @property
+    @_locked
+    def joint_forces(self) -> np.ndarray:
+        """(J, 3) the force (N, world) each joint transmitted to its body B in the last substep (A
+        got the opposite). A copy."""
+        return self._core.joint_forces
+
+    @property
+    @_locked
+    def joint_torques(self) -> np.ndarray:
+        """(J, 3) the torque (N m, world) each joint transmitted to its body B in the last substep,
+        about B's anchor point (a hinge's is perpendicular to its axis unless a motor or limit acts)."""
+        return self._core.joint_torques
+
     # stepping ---------------------------------------------------------------------------------
     @_locked
     def step(self, dt: float, steps: int = 1) -> None:
@@ -1045,7 +1139,8 @@ class World:
     @_locked
     def snapshot(self) -> dict:
         """The whole world as plain NumPy data (copies), the input format of ``signorini.oracle``.
-        Linear in the body count. ``step_force``, ``step_torque`` (N, 3): the next step's one-step
+        Linear in the body count. ``joints``: one dict per joint (``joint``; signorini.oracle.joints
+        says what each key holds). ``step_force``, ``step_torque`` (N, 3): the next step's one-step
         force and torque (``apply_force``); ``impulse``, ``angular_impulse`` (N, 3): pending
         impulses about the centres of mass (``apply_impulse``)."""
         c = self._core
@@ -1064,6 +1159,7 @@ class World:
             "force": np.array(c.forces), "torque": np.array(c.torques),
             "step_force": np.array(c.step_forces), "step_torque": np.array(c.step_torques),
             "impulse": np.array(c.impulses), "angular_impulse": np.array(c.angular_impulses),
+            "joints": [self.joint(j) for j in range(c.num_joints)],
         }
 
     @_locked
@@ -1135,8 +1231,8 @@ class World:
                                                         **queries.filter_args(who, group, mask, exclude)))
 
     @_locked
-    def distance(self, i: int, j: int) -> queries.Distance:
-        """Signed distance and closest points of bodies i and j (``Distance``; normal i -> j)."""
+    def distance(self, i: int, j: int) -> queries.BodyDistance:
+        """Signed distance and closest points of bodies i and j (``BodyDistance``; normal i -> j)."""
         return queries.distance(self._core.distance(self._index(i), self._index(j)))
 
     @property

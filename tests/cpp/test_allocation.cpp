@@ -147,6 +147,52 @@ TEST(Allocation, StepsOfABusyPileAllocateNothingAfterWarmUp) {
   EXPECT_GT(w.contacts().size(), 100u);
 }
 
+/// Jointed chains (each joint kind, a limit and a motor) swinging onto the ground among loose
+/// boxes, in both solvers: the joints' blocks and their undo copy are reused from step to step.
+TEST(Allocation, StepsOfJointedChainsAllocateNothingAfterWarmUp) {
+  for (SolverMethod method : {SolverMethod::Soft, SolverMethod::PGS}) {
+    WorldSettings settings = awake();
+    settings.solver.method = method;
+    World w(settings);
+    add_ground(w);
+    const JointKind kinds[] = {JointKind::Revolute, JointKind::Spherical, JointKind::Fixed, JointKind::Distance,
+                               JointKind::Prismatic};
+    for (int c = 0; c < 5; ++c) {
+      BodyIndex previous = 0;  // the ground
+      for (int k = 0; k < 4; ++k) {
+        BodyDesc d;
+        d.shape = Box(Vec3(0.1, 0.03, 0.03));
+        d.density = 500.0;
+        d.position = Vec3(0.1 + 0.2 * k, 0.3 * c, 0.6);
+        const BodyIndex b = w.add_body(d);
+        JointDesc j;
+        j.kind = k == 0 && kinds[c] == JointKind::Fixed ? JointKind::Revolute : kinds[c];
+        j.body_a = previous;
+        j.body_b = b;
+        j.anchor = Vec3(0.2 * k, 0.3 * c, 0.6);
+        j.anchor_b = j.kind == JointKind::Distance ? Vec3(0.2 * k + 0.05, 0.3 * c, 0.6) : j.anchor;
+        j.max_length = j.kind == JointKind::Distance ? 0.06 : j.max_length;
+        j.axis = j.kind == JointKind::Prismatic ? Vec3(0.6, 0.0, -0.8) : Vec3::UnitY();
+        if (j.kind == JointKind::Revolute && k == 1) j.has_limits = true, j.lower = -0.5, j.upper = 0.5;
+        if (j.kind == JointKind::Revolute && k == 2) j.motor = Motor{true, 2.0, 0.1};
+        if (j.kind == JointKind::Prismatic) j.has_limits = true, j.lower = -0.1, j.upper = 0.3;
+        w.add_joint(j);
+        previous = b;
+      }
+    }
+    for (int k = 0; k < 8; ++k) {
+      BodyDesc d;
+      d.shape = Box(Vec3(0.05, 0.05, 0.05));
+      d.density = 500.0;
+      d.position = Vec3(0.15 * k, 0.15 + 0.05 * (k % 3), 0.06);
+      w.add_body(d);
+    }
+    expect_quiet(allocations_after_warm_up(w, 1.0 / 240.0));
+    EXPECT_EQ(w.num_joints(), 20u);
+    EXPECT_GT(w.contacts().size(), 8u);
+  }
+}
+
 /// Steps on two threads (the soft step and the PGS): a 17 x 17 grid of boxes on a plane, so that
 /// a colour holds more contacts than one task and the solve is split over the threads; oneTBB's
 /// tasks come from its own pools once warm.

@@ -56,6 +56,9 @@ struct Model {
   std::vector<std::string> name; ///< "" when unnamed; otherwise unique in the world
   /// pairs (i, j), i < j, that never collide whatever their filters say; sorted
   std::vector<std::pair<int, int>> excluded_pairs;
+  /// pairs (i, j), i < j, held by a joint with collide_connected false (one entry per such joint):
+  /// they never collide either; sorted. Written by the World from its joints.
+  std::vector<std::pair<int, int>> joined_pairs;
 
   std::size_t size() const { return shape.size(); }
 
@@ -74,8 +77,9 @@ struct Model {
     if (!enabled[i] || !enabled[j]) return false;
     if (inv_mass[i] == 0.0 && inv_mass[j] == 0.0) return false;
     if (!(filter[i].group & filter[j].mask) || !(filter[j].group & filter[i].mask)) return false;
-    return excluded_pairs.empty() ||
-           !std::binary_search(excluded_pairs.begin(), excluded_pairs.end(), std::make_pair(std::min(i, j), std::max(i, j)));
+    const auto key = std::make_pair(std::min(i, j), std::max(i, j));
+    if (!joined_pairs.empty() && std::binary_search(joined_pairs.begin(), joined_pairs.end(), key)) return false;
+    return excluded_pairs.empty() || !std::binary_search(excluded_pairs.begin(), excluded_pairs.end(), key);
   }
 
   /// Appends the defaults of the fields after `material` for one body (for models built by hand:

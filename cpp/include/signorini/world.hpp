@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "signorini/contact.hpp"
+#include "signorini/joint.hpp"
 #include "signorini/model.hpp"
 #include "signorini/query.hpp"
 #include "signorini/shapes.hpp"
@@ -26,7 +27,7 @@
 namespace signorini {
 
 namespace collision { class BroadPhase; struct Scratch; struct ContactMemory; }
-namespace solver { struct SolverData; }
+namespace solver { struct SolverData; struct JointSet; }
 namespace parallel { class Pool; }
 class StepGuard;
 class Islands;
@@ -128,6 +129,35 @@ class World {
   /// close up. Throws BodyIndexError for an index out of range and std::invalid_argument for one
   /// given twice, with nothing changed.
   void remove_bodies(const std::vector<BodyIndex>& indices);
+
+  // ---- joints (docs/conventions.md, "Joints") ----
+  /// Validates desc completely (bodies exist, differ and are not both static; anchors and axes
+  /// finite, axes non-zero; limits lower <= upper; motor max_force >= 0; lengths 0 <= min <= max,
+  /// max > 0; a unique name), then adds the joint, converting its world anchor and axis to each
+  /// body's frame at the bodies' current poses; returns its index. Both bodies wake. On a bad desc
+  /// throws std::invalid_argument (BodyIndexError for a body out of range) naming the joint and the
+  /// problem, and the world is unchanged.
+  JointIndex add_joint(const JointDesc& desc);
+  /// Removes joint j (later joints move down one index); its bodies wake (and collide again unless
+  /// another joint or an excluded pair keeps them apart).
+  void remove_joint(JointIndex j);
+  /// A new motor for one-dof joint j (Revolute, Prismatic), from the next step on: enabled with its
+  /// target speed (finite) and max_force (finite, >= 0), or disabled. Its bodies wake. Errors as
+  /// add_joint's, naming the joint; nothing changes on error.
+  void set_joint_motor(JointIndex j, const Motor& motor);
+  std::size_t num_joints() const;
+  /// The joints as kept (body frames, warm-start forces, last forces); a copy.
+  std::vector<Joint> joints() const;
+  /// Index of the joint named `name`, or -1.
+  JointIndex find_joint(const std::string& name) const;
+  /// Per joint: the coordinate (rad or m) and its rate of a one-dof joint (NaN for the others), and
+  /// the force (N) and torque about B's anchor (N m) it transmits to body B in the last substep (world).
+  std::vector<double> joint_positions() const;
+  std::vector<double> joint_velocities() const;
+  std::vector<Vec3> joint_forces() const;
+  std::vector<Vec3> joint_torques() const;
+  /// "joint 2 'knee' (Revolute)" or "joint 2 (Revolute)": how errors name joint j.
+  std::string joint_label(JointIndex j) const;
 
   /// Advances `steps` steps of dt seconds. dt must be positive and finite.
   void step(double dt, int steps = 1);
@@ -310,6 +340,8 @@ class World {
   /// Keeps a step the guard let through: its last contacts and figures, what the meshes remember,
   /// the new rotations' quaternions; the one-step forces are spent.
   void commit_step(const SolverStats& stats);
+  /// model_.joined_pairs again from the joints (after they or the bodies change).
+  void joints_changed();
 
   using Lock = std::lock_guard<std::recursive_mutex>;
   /// Taken by every public member function (recursive: they call each other).
@@ -331,6 +363,7 @@ class World {
   std::unique_ptr<parallel::Pool> pool_;        ///< the step's worker threads (settings_.threads of them)
   std::unique_ptr<StepGuard> guard_;            ///< the step's checkpoints and what an undo restores
   std::unique_ptr<Islands> islands_;            ///< sleeping islands' warm-start forces, the union-find
+  std::unique_ptr<solver::JointSet> joints_;    ///< the joints and their rows (solver/joint_rows.hpp)
   // step scratch, kept between steps so that a step reuses its buffers instead of allocating
   std::vector<Contact> contacts_base_;   ///< the step's contacts as detected
   std::vector<Contact> contacts_next_;   ///< a substep's contacts (carried), kept when the step succeeds

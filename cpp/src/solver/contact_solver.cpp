@@ -7,6 +7,7 @@
 
 #include "dynamics/rigid_body.hpp"
 #include "parallel/pool.hpp"
+#include "solver/joint_rows.hpp"
 #include "solver/rows.hpp"
 
 namespace signorini::solver {
@@ -19,10 +20,11 @@ using namespace rows;
 /// The sweeps of iterate; kSpin: some contacts have a spin row (without any, the loop is the one
 /// of a scene without spinning friction, untouched).
 template <bool kSpin>
-int sweeps(const SolverSettings& s, SolverData& d, bool& converged) {
+int sweeps(const SolverSettings& s, double h, SolverData& d, bool& converged) {
   Velocities& qd = d.qd;
   const Mat3* dI = d.dI_inv.data();
-  converged = d.rows.empty();
+  JointSet* joints = d.joints != nullptr && !d.joints->blocks.empty() ? d.joints : nullptr;
+  converged = d.rows.empty() && joints == nullptr;
   int sweeps = 0;
   while (!converged && sweeps < s.max_iterations) {
     ++sweeps;
@@ -39,7 +41,8 @@ int sweeps(const SolverSettings& s, SolverData& d, bool& converged) {
       }
       return change;
     });
-    converged = s.tolerance > 0.0 && change <= s.tolerance;
+    const double joint_change = joints ? sweep_joints(*joints, d, JointSweep::Hard, h) : 0.0;
+    converged = s.tolerance > 0.0 && std::max(change, joint_change) <= s.tolerance;
   }
   return sweeps;
 }
@@ -47,8 +50,8 @@ int sweeps(const SolverSettings& s, SolverData& d, bool& converged) {
 /// PGS sweeps over all rows (normal, then its two friction rows, then its spin row if it has one,
 /// contact by contact in solve order). Returns the sweeps used; converged tells whether the last
 /// one met the tolerance.
-int iterate(const SolverSettings& s, SolverData& d, bool& converged) {
-  return d.spin_rows.empty() ? sweeps<false>(s, d, converged) : sweeps<true>(s, d, converged);
+int iterate(const SolverSettings& s, double h, SolverData& d, bool& converged) {
+  return d.spin_rows.empty() ? sweeps<false>(s, h, d, converged) : sweeps<true>(s, h, d, converged);
 }
 
 // ---- d. restitution: rows.cpp -------------------------------------------------------------------
@@ -114,7 +117,13 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   // a. prepare rows; b. warm start; c. iterate
   prepare(model, state, dt, contacts, anchor_a, anchor_b, data);
   if (settings.warm_start && recall_forces(settings, contacts, data)) apply_forces(data);
-  stats.iterations = iterate(settings, data, stats.converged);
+  JointSet* joints = data.joints != nullptr && !data.joints->empty() ? data.joints : nullptr;
+  if (joints) {  // the joints' rows at this substep's poses, warm started from their last forces
+    prepare_joints(model, state, dt, false, true, *joints, data);
+    if (settings.warm_start) warm_start_joints(*joints, data);
+    else for (Joint& j : joints->joints) j.alpha.fill(0.0);
+  }
+  stats.iterations = iterate(settings, dt, data, stats.converged);
   data.alpha_iter.resize(K);
   for (std::size_t i = 0; i < K; ++i) data.alpha_iter[i] = data.alpha[3 * data.slot[i]];
   // the poses move with the velocities of c; d changes only the kept ones
@@ -130,8 +139,10 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
     data.restitutive[i] = data.e[i] > 0.0 && data.u[i] < -settings.restitution_threshold && data.alpha[3 * data.slot[i]] > 0.0;
   stats.restitution_iterations = restitution(settings, data);
   stats.position_iterations = position_pass(dt, settings, model, contacts, data);
+  if (joints) stats.position_iterations += joint_position_pass(settings, dt, *joints, data);
   // f. store
   store(dt, settings, contacts, data, stats);
+  if (joints) store_joints(state, *joints);
   parallel::fit(data.v_move, N, Vec3(Vec3::Zero()));
   parallel::fit(data.omega_move, N, Vec3(Vec3::Zero()));
   parallel::each_body(data.bodies, N, [&](std::size_t i) {

@@ -17,6 +17,8 @@ namespace signorini::parallel { class Pool; }
 
 namespace signorini::solver {
 
+struct JointSet;
+
 /// A contact's three rows (normal n, friction t1 and t2: the lecture's rows of one contact), held
 /// as what they share: the bodies, the three directions and the two lever arms. Row k of direction
 /// d_k (n, t1, t2) has the Jacobian
@@ -91,6 +93,8 @@ struct SolverData {
   /// time they are sized to N (forget_bodies: after bodies are added or removed), so a step's
   /// per-body work grows with the bodies that can move, not with the static ones.
   const std::vector<int>* bodies = nullptr;
+  /// the World's joints (solver/joint_rows.hpp), solved beside the contacts; null or empty: none
+  JointSet* joints = nullptr;
   /// solve positions where each colour starts (colour c: [colour_start[c], colour_start[c + 1]));
   /// the last colour is the shared one, whose contacts may share bodies
   std::vector<int> colour_start;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "dynamics/rigid_body.hpp"
+#include "solver/joint_rows.hpp"
 #include "solver/rows.hpp"
 
 namespace signorini::solver {
@@ -110,11 +111,13 @@ void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool
       for (std::size_t k = first; k < end; ++k) d.soft[k].s = gap_now(d, d.rows[k], d.soft[k]);
     });
   }
+  JointSet* joints = d.joints != nullptr && !d.joints->blocks.empty() ? d.joints : nullptr;
   for (int i = 0; i < count; ++i) {
     if (i == 0 && update_gaps)
       spin ? sweep<true, true>(s, d, biased) : sweep<false, true>(s, d, biased);
     else
       spin ? sweep<true, false>(s, d, biased) : sweep<false, false>(s, d, biased);
+    if (joints) sweep_joints(*joints, d, biased ? JointSweep::SoftBiased : JointSweep::SoftRelax, d.h);
   }
 }
 
@@ -154,10 +157,15 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   if (settings.warm_start) recall_forces(settings, contacts, d);
 }
 
-void soft_solve(const Model& /*model*/, const State& /*state*/, const SolverSettings& settings, std::vector<Vec3>& v,
+void soft_solve(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
                 std::vector<Vec3>& omega, SolverData& d) {
   load(v, omega, d);
   apply_forces(d);  // the last substep's forces (the cache's in the first) as this one's first guess
+  if (d.joints != nullptr && !d.joints->empty()) {  // the joints' rows at these poses, warm started
+    prepare_joints(model, state, d.h, true, true, *d.joints, d);
+    if (settings.warm_start) warm_start_joints(*d.joints, d);
+    else for (Joint& j : d.joints->joints) j.alpha.fill(0.0);
+  }
   // the gaps are those soft_relax left (or soft_begin's in the first substep): the poses have not
   // moved since
   // the approach of each contact that has not pushed yet, for restitution if it pushes now
@@ -201,7 +209,7 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
   });
 }
 
-SolverStats soft_end(const Model& model, const State& /*state*/, const SolverSettings& settings,
+SolverStats soft_end(const Model& model, const State& state, const SolverSettings& settings,
                      std::vector<Contact>& contacts, std::vector<Vec3>& v, std::vector<Vec3>& omega, SolverData& d) {
   const std::size_t N = model.size(), K = contacts.size();
   SolverStats stats;
@@ -220,6 +228,7 @@ SolverStats soft_end(const Model& model, const State& /*state*/, const SolverSet
     for (std::size_t k = first; k < end; ++k) d.rows[k].bias = std::max(d.soft[k].s, 0.0) / d.h;
   });
   store(d.h, settings, contacts, d, stats);
+  if (d.joints != nullptr && !d.joints->empty()) store_joints(state, *d.joints);
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
     for (std::size_t i = first; i < end; ++i) contacts[i].impulse = d.soft[d.slot[i]].impulse;
   });

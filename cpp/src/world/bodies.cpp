@@ -12,6 +12,7 @@
 #include "signorini/mass_properties.hpp"
 #include "signorini/world.hpp"
 #include "solver/contact_solver.hpp"
+#include "solver/joint_rows.hpp"
 #include "world/checks.hpp"
 #include "world/islands.hpp"
 
@@ -231,6 +232,10 @@ void World::remove_bodies(const std::vector<BodyIndex>& indices) {
     if (!gone(j)) broad_phase->add_body(to[j], model_.shape[j], model_.is_static[j], state_.p[j], state_.R[j]);
   // sleeping islands that lose a body, or a body they rest on, wake (before the renumbering)
   islands_->mark_removed(state_, gone);
+  for (const Joint& x : joints_->joints) {  // a sleeping island held by a joint to a removed body
+    if (gone(x.a)) islands_->mark(state_, x.b);
+    if (gone(x.b)) islands_->mark(state_, x.a);
+  }
   islands_->wake_marked(model_, state_, solver_->cache, true, &moving_);
   // model, state and per-body solver output compacted in one pass each (storage stays in place)
   const auto compact = [&](auto& v) {
@@ -263,6 +268,12 @@ void World::remove_bodies(const std::vector<BodyIndex>& indices) {
     for (auto& c : list) c.body_a = to[c.body_a], c.body_b = to[c.body_b];
   };
   renumber(solver_->cache);
+  // joints: those of a removed body dropped, the rest renumbered
+  auto& joints = joints_->joints;
+  joints.erase(std::remove_if(joints.begin(), joints.end(), [&](const Joint& x) { return gone(x.a) || gone(x.b); }),
+               joints.end());
+  for (Joint& x : joints) x.a = to[x.a], x.b = to[x.b];
+  joints_changed();
   if (contacts_.use_count() > 1) contacts_ = std::make_shared<std::vector<Contact>>(*contacts_);
   renumber(*contacts_);
   bodies_changed(true);

@@ -60,6 +60,11 @@ bool Islands::mark_touched(const Model& model, const State& state, const std::ve
     if (sleeping(model, state, c.body_a) && moves(c.body_b)) mark(state, c.body_a), any = true;
     if (sleeping(model, state, c.body_b) && moves(c.body_a)) mark(state, c.body_b), any = true;
   }
+  if (joints_ != nullptr)
+    for (const Joint& j : *joints_) {
+      if (sleeping(model, state, j.a) && moves(j.b)) mark(state, j.a), any = true;
+      if (sleeping(model, state, j.b) && moves(j.a)) mark(state, j.b), any = true;
+    }
   return any;
 }
 
@@ -176,6 +181,13 @@ void Islands::link(const Model& model, const State& state, const std::vector<Con
     if (ra < rb) parent_[rb] = ra;
     if (rb < ra) parent_[ra] = rb;  // the root is the island's smallest index
   }
+  if (joints_ == nullptr) return;
+  for (const Joint& j : *joints_) {  // a joint links as a contact does
+    if (!awake_dynamic(model, state, j.a) || !awake_dynamic(model, state, j.b)) continue;
+    const int ra = find(j.a), rb = find(j.b);
+    if (ra < rb) parent_[rb] = ra;
+    if (rb < ra) parent_[ra] = rb;
+  }
 }
 
 void Islands::end_step(const Model& model, State& state, const SleepSettings& settings, double dt,
@@ -198,6 +210,11 @@ void Islands::end_step(const Model& model, State& state, const SleepSettings& se
     if (moving_kinematic(model, state, c.body_a) && awake_dynamic(model, state, c.body_b)) state.sleep_time[c.body_b] = 0.0;
     if (moving_kinematic(model, state, c.body_b) && awake_dynamic(model, state, c.body_a)) state.sleep_time[c.body_a] = 0.0;
   }
+  if (joints_ != nullptr)
+    for (const Joint& j : *joints_) {
+      if (moving_kinematic(model, state, j.a) && awake_dynamic(model, state, j.b)) state.sleep_time[j.b] = 0.0;
+      if (moving_kinematic(model, state, j.b) && awake_dynamic(model, state, j.a)) state.sleep_time[j.a] = 0.0;
+    }
   // islands of this step's contacts; one that is not ready keeps all its bodies awake (roots are
   // awake dynamic bodies, so only the listed entries of ready_ are read)
   link(model, state, contacts, bodies);

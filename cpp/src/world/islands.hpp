@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "signorini/contact.hpp"
+#include "signorini/joint.hpp"
 #include "signorini/model.hpp"
 #include "signorini/state.hpp"
 #include "signorini/world.hpp"
@@ -126,6 +127,9 @@ class Islands {
   /// A new body (no sleeping contacts).
   void add_body() { force_.emplace_back(Vec3::Zero()), torque_.emplace_back(Vec3::Zero()), fresh_.clear(); }
   const std::vector<CachedContact>& stash() const { return stash_; }
+  /// The World's joints: a joint links its two bodies' islands as a contact does (they sleep and
+  /// wake together), and a body jointed to a moving kinematic body stays awake. Null: none.
+  void set_joints(const std::vector<Joint>* joints) { joints_ = joints; }
 
  private:
   /// The island root of body i (path halving).
@@ -156,6 +160,7 @@ class Islands {
   std::vector<int> parent_;           ///< union-find (N)
   std::vector<std::uint8_t> ready_;   ///< per root: every body of its island may sleep now (N)
   std::vector<std::uint8_t> marked_;  ///< per label: the sleeping island is to be woken (N)
+  const std::vector<Joint>* joints_ = nullptr;  ///< the World's joints (links, like contacts)
   bool any_marked_ = false;
   bool to_purge_ = false;  ///< something woke since the last purge
 };

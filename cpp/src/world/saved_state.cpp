@@ -4,9 +4,11 @@
 // (time, then its arrays in State::for_each_array order); the solver (contact forces and torques,
 // the warm-start cache); the World's last contacts and solver figures; the contact memory
 // (format 3; from format 5 with the kept manifolds of contact recycling); the islands (format 4:
-// per body awake, sleep timer and island label, then the sleeping islands' warm-start forces).
-// Formats 1 (no spin torques), 2 (no contact memory), 3 (no islands: every body awake, timers
-// zero) and 4 (no kept manifolds: every pair found anew; no pair counts) still read.
+// per body awake, sleep timer and island label, then the sleeping islands' warm-start forces); the
+// joints (format 5: each joint whole, in its bodies' frames, with its warm-start forces and last
+// force and torque). Formats 1 (no spin torques), 2 (no contact memory), 3 (no islands: every body
+// awake, timers zero) and 4 (no kept manifolds: every pair found anew, no pair counts; no joints:
+// the world keeps its joints, their warm start zeroed) still read.
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -16,6 +18,7 @@
 #include "serial/byte_stream.hpp"
 #include "signorini/world.hpp"
 #include "solver/contact_solver.hpp"
+#include "solver/joint_rows.hpp"
 #include "world/checks.hpp"
 #include "world/islands.hpp"
 
@@ -96,6 +99,65 @@ SolverStats load_stats(serial::Reader& r, char version) {
   return s;
 }
 
+void save(serial::Writer& w, const Joint& j) {
+  w.pod(static_cast<std::uint8_t>(j.kind));
+  w.pod(static_cast<std::int32_t>(j.a));
+  w.pod(static_cast<std::int32_t>(j.b));
+  for (const Vec3* x : {&j.anchor_a, &j.anchor_b, &j.axis_a, &j.axis_b, &j.ref_a, &j.ref_b}) w.mat(*x);
+  w.mat(j.R_rel);
+  w.pod(static_cast<std::uint8_t>(j.has_limits));
+  w.pod(j.lower);
+  w.pod(j.upper);
+  w.pod(static_cast<std::uint8_t>(j.motor.enabled));
+  w.pod(j.motor.speed);
+  w.pod(j.motor.max_force);
+  w.pod(j.min_length);
+  w.pod(j.max_length);
+  w.pod(static_cast<std::uint8_t>(j.collide_connected));
+  w.pod(static_cast<std::uint64_t>(j.name.size()));
+  w.out.append(j.name);
+  for (const double a : j.alpha) w.pod(a);
+  w.mat(j.force);
+  w.mat(j.torque);
+}
+
+/// A joint of a saved state, checked against n bodies (kinds, indices, finite values).
+Joint load_joint(serial::Reader& r, std::size_t n) {
+  const std::string damaged = "restore_state: the saved state is damaged (a joint)";
+  Joint j;
+  const auto kind = r.pod<std::uint8_t>();
+  if (kind > static_cast<std::uint8_t>(JointKind::Distance)) throw std::invalid_argument(damaged);
+  j.kind = static_cast<JointKind>(kind);
+  j.a = r.pod<std::int32_t>();
+  j.b = r.pod<std::int32_t>();
+  if (j.a < 0 || j.b < 0 || static_cast<std::size_t>(j.a) >= n || static_cast<std::size_t>(j.b) >= n || j.a == j.b)
+    throw std::invalid_argument(damaged);
+  for (Vec3* x : {&j.anchor_a, &j.anchor_b, &j.axis_a, &j.axis_b, &j.ref_a, &j.ref_b}) r.mat(*x);
+  r.mat(j.R_rel);
+  j.has_limits = r.pod<std::uint8_t>() != 0;
+  j.lower = r.pod<double>();
+  j.upper = r.pod<double>();
+  j.motor.enabled = r.pod<std::uint8_t>() != 0;
+  j.motor.speed = r.pod<double>();
+  j.motor.max_force = r.pod<double>();
+  j.min_length = r.pod<double>();
+  j.max_length = r.pod<double>();
+  j.collide_connected = r.pod<std::uint8_t>() != 0;
+  const std::size_t length = r.count(1);
+  j.name.assign(r.in, r.at, length);
+  r.at += length;
+  for (double& a : j.alpha) a = r.pod<double>();
+  r.mat(j.force);
+  r.mat(j.torque);
+  bool finite = j.anchor_a.allFinite() && j.anchor_b.allFinite() && j.axis_a.allFinite() && j.axis_b.allFinite() &&
+                j.ref_a.allFinite() && j.ref_b.allFinite() && j.R_rel.allFinite() && j.force.allFinite() &&
+                j.torque.allFinite() && !std::isnan(j.lower) && !std::isnan(j.upper) && std::isfinite(j.min_length) &&
+                !std::isnan(j.max_length) && std::isfinite(j.motor.speed) && std::isfinite(j.motor.max_force);
+  for (const double a : j.alpha) finite = finite && std::isfinite(a);
+  if (!finite) throw std::invalid_argument(damaged);
+  return j;
+}
+
 }  // namespace
 
 std::string World::save_state() const {
@@ -123,6 +185,8 @@ std::string World::save_state() const {
   islands_->save(w, state_);
   w.pod(static_cast<std::uint64_t>(islands_->contacts().size()));
   for (const Contact& c : islands_->contacts()) save(w, c);
+  w.pod(static_cast<std::uint64_t>(joints_->joints.size()));
+  for (const Joint& j : joints_->joints) save(w, j);
   return std::move(w.out);
 }
 
@@ -192,6 +256,15 @@ void World::restore_state(const std::string& saved) {
   } else {
     for (std::size_t i = 0; i < n; ++i) awake[i] = model_.is_static[i] ? 0 : 1;
   }
+  // format 4 and before: no joints (the world keeps its own, their warm start zeroed)
+  std::vector<Joint> joints;
+  if (version >= '5') {
+    joints.resize(r.count(64));
+    for (Joint& j : joints) j = load_joint(r, n);
+  } else {
+    joints = joints_->joints;
+    for (Joint& j : joints) j.alpha.fill(0.0), j.force.setZero(), j.torque.setZero();
+  }
   if (r.at != saved.size()) throw std::invalid_argument("restore_state: the saved state has trailing bytes");
   const auto in_range = [n](BodyIndex k) { return k >= 0 && static_cast<std::size_t>(k) < n; };
   for (const CachedContact& c : solved.cache)
@@ -245,6 +318,8 @@ void World::restore_state(const std::string& saved) {
   checks::copy_into(memory_->crossing, memory.crossing);
   memory_->manifolds.last = std::move(memory.manifolds.last);  // not per body: sized as saved
   memory_->manifolds.last_points = std::move(memory.manifolds.last_points);
+  joints_->joints = std::move(joints);
+  joints_changed();
   bodies_changed(false);  // the contact forces and static poses changed outside a step
   if (!settings_.sleep.enabled) wake_all();  // a world with sleeping off keeps nothing asleep
 }

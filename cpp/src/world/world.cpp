@@ -12,6 +12,7 @@
 #include "math/rotation.hpp"
 #include "parallel/pool.hpp"
 #include "solver/contact_solver.hpp"
+#include "solver/joint_rows.hpp"
 #include "solver/soft_step.hpp"
 #include "world/checks.hpp"
 #include "world/islands.hpp"
@@ -26,8 +27,11 @@ World::World(const WorldSettings& settings)
       scratch_(std::make_unique<collision::Scratch>()),
       solver_(std::make_unique<solver::SolverData>()),
       guard_(std::make_unique<StepGuard>()),
-      islands_(std::make_unique<Islands>()) {
+      islands_(std::make_unique<Islands>()),
+      joints_(std::make_unique<solver::JointSet>()) {
   solver_->bodies = &moving_;
+  solver_->joints = joints_.get();
+  islands_->set_joints(&joints_->joints);
   set_settings(settings);
 }
 
@@ -86,7 +90,28 @@ void World::step(double dt, int steps) {
     throw std::invalid_argument("step: dt must be positive and finite, got " + std::to_string(dt));
   if (steps < 0) throw std::invalid_argument("step: steps must be >= 0, got " + std::to_string(steps));
   report_ = StepReport();
-  for (int s = 0; s < steps; ++s) step_once(dt);
+  std::vector<solver::JointSet::Kept>& kept = joints_->kept;
+  for (int s = 0; s < steps; ++s) {
+    if (joints_->empty()) {
+      step_once(dt);
+      continue;
+    }
+    // the joints' forces as they were, for a step the guard undoes (it puts back the rest)
+    kept.resize(joints_->joints.size());
+    for (std::size_t j = 0; j < kept.size(); ++j) {
+      const Joint& x = joints_->joints[j];
+      kept[j] = {x.alpha, x.force, x.torque};
+    }
+    try {
+      step_once(dt);
+    } catch (...) {
+      for (std::size_t j = 0; j < kept.size(); ++j) {
+        Joint& x = joints_->joints[j];
+        x.alpha = kept[j].alpha, x.force = kept[j].force, x.torque = kept[j].torque;
+      }
+      throw;
+    }
+  }
 }
 
 void World::wake(BodyIndex i) {

@@ -40,6 +40,8 @@ of a contact by one delta_t = max(delta_1, delta_2) instead of each by its own d
 
 import numpy as np
 
+from .joints import joint_position_pass, prepare_joints, store_joints, sweep_joints, warm_start_joints
+
 from .rigid import GYROSCOPIC_DEFAULT, GYROSCOPIC_OPTIONS, body_arrays, inverse_mass_blocks, motion_flags
 
 # the documented defaults (conventions, last paragraph); a snapshot without a key uses these
@@ -474,7 +476,7 @@ def apply_forces(rows, alpha, q_dot, dt, alpha_spin=None, sweep=None):
 
 # --------------------------------------------------------------------------- c. iterate
 
-def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone, alpha_spin=None):
+def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone, alpha_spin=None, joint_sweep=None):
     """Stage c: projected Gauss-Seidel sweeps over all rows, contact by contact in solve order.
 
     Per contact i, with its current alpha_n:
@@ -502,7 +504,9 @@ def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone, al
 
     Inputs: rows, alpha (3K,) N modified in place, q_dot (N, 6) modified in place, dt s,
             tolerance m/s, max_iterations, friction_cone, alpha_spin (K,) N m modified in place
-            (None: start the spin rows from 0 and keep their torques to this call).
+            (None: start the spin rows from 0 and keep their torques to this call),
+            joint_sweep: called with q_dot after each sweep of the contact rows (the joints' blocks,
+            ``joints.sweep_joints``), returning its largest change, which the stopping rule counts.
     Outputs: (iterations, converged); converged is True with 0 sweeps when there are no rows.
     """
     sweep = RowSweep(rows, dt)
@@ -511,7 +515,7 @@ def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone, al
     bias, mu = rows["bias"].tolist(), rows["mu"].tolist()
     order = rows["order"].tolist()
     x = alpha.tolist()
-    iterations, converged = 0, K == 0
+    iterations, converged = 0, K == 0 and joint_sweep is None
     while not converged and iterations < max_iterations:
         iterations += 1
         change = 0.0
@@ -520,6 +524,8 @@ def iterate(rows, alpha, q_dot, dt, tolerance, max_iterations, friction_cone, al
             change = max(change, sweep.update_normal(3 * i, bias[i], x, q_dot))
             # friction and spin, bounded by the current normal force
             change = max(change, friction_rows(sweep, i, mu[i], x, tau, q_dot, friction_cone))
+        if joint_sweep is not None:  # the joints' blocks after the contacts
+            change = max(change, joint_sweep(q_dot))
         converged = tolerance > 0.0 and change <= tolerance
     alpha[:] = x
     if alpha_spin is not None:
@@ -822,6 +828,20 @@ def certificate(rows, alpha, q_dot, restitutive, friction, slip, friction_cone, 
 
 # --------------------------------------------------------------------------- all stages
 
+def read_joints(snapshot):
+    """The snapshot's joints (``snapshot["joints"]``, see ``joints``) as new dicts of NumPy arrays
+    (the snapshot is not modified): [] when it has none."""
+    out = []
+    for j in snapshot.get("joints", ()):
+        joint = dict(j)
+        for key in ("anchor_a", "anchor_b", "axis_a", "axis_b", "ref_a", "ref_b", "R_rel", "alpha"):
+            joint[key] = np.array(j[key], dtype=float)
+        for key in ("body_a", "body_b"):
+            joint[key] = int(j[key])
+        out.append(joint)
+    return out
+
+
 def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
     """Stages a-f of step 3 for one step of dt.
 
@@ -836,7 +856,9 @@ def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
         body_force, body_torque, cache), the ``certificate`` keys,
         mu, restitution, mu_spin, u (K,); restitutive (K,) bool; alpha_iter (K,) N; b_pos (K,) m/s;
         beta (K,) N; alpha_rows (3K,) N; alpha_spin (K,) N m; rows (``prepare_rows``);
-        iterations, restitution_iterations, position_iterations, converged, contacts (K).
+        iterations, restitution_iterations, position_iterations, converged, contacts (K);
+        joints (the snapshot's joints with their new alpha), joint_force, joint_torque (J, 3) N,
+        N m on B (``joints.store_joints``).
     """
     s = solver_settings(snapshot)
     N = len(snapshot["bodies"])
@@ -850,8 +872,16 @@ def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
         alpha = warm_start(rows, contacts, read_cache(snapshot), q_dot, dt, s["friction_cone"], alpha_spin)
     else:
         alpha = np.zeros(3 * len(rows["mu"]))
+    # the joints' blocks at these poses, warm started from their last forces (docs, "Joints")
+    joints = read_joints(snapshot)
+    blocks = prepare_joints(snapshot, joints, q_dot, dt) if joints else []
+    if not s["warm_start"]:
+        for joint in joints:
+            joint["alpha"][:] = 0.0
+    warm_start_joints(blocks, q_dot)
     iterations, converged = iterate(rows, alpha, q_dot, dt, s["tolerance"], s["max_iterations"],
-                                    s["friction_cone"], alpha_spin)
+                                    s["friction_cone"], alpha_spin,
+                                    (lambda q: sweep_joints(blocks, q, dt)) if blocks else None)
     alpha_iter = alpha[0::3].copy()
     # the poses move with the velocities of c; d changes only the kept ones
     q_dot_pos = q_dot.copy()
@@ -866,9 +896,12 @@ def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
                              s["max_push_velocity"])
     q_p, beta, position_iterations = position_pass(rows, b_pos, N, dt, s["tolerance"],
                                                    s["max_iterations"])
+    position_iterations += joint_position_pass(blocks, q_p, dt, s["erp"], s["tolerance"], s["max_iterations"])
 
     # f. store and certify
     out = store(rows, contacts, snapshot, alpha, alpha_iter, q_dot, dt, alpha_spin)
+    out["joints"] = joints
+    out["joint_force"], out["joint_torque"] = store_joints(snapshot, joints, blocks)
     out.update(certificate(rows, alpha, q_dot, restitutive, out["friction"], out["slip"],
                            s["friction_cone"], out["spin_torque"]))
     q_move = q_dot_pos + q_p

@@ -66,7 +66,9 @@ def step_once(snapshot, dt, contacts=None):
     new["velocity"] = result["velocity"]
     new["angular_velocity"] = result["angular_velocity"]
     new["cache"] = result["cache"]
-    info = {"contacts": contacts}
+    if result["joints"]:
+        new["joints"] = result["joints"]
+    info = {"contacts": contacts, "joint_force": result["joint_force"], "joint_torque": result["joint_torque"]}
     info.update({key: result[key] for key in INFO_KEYS})
     return new, info
 
@@ -139,6 +141,8 @@ def step(snapshot, dt, contacts=None, ties=None):
     snapshot = apply_impulses(snapshot)
     if contacts is None:
         contacts = detect_contacts(snapshot, dt)
+    if settings["solver"] == "soft" and snapshot.get("joints"):
+        raise ValueError("the oracle's soft step has no joint rows yet (docs/conventions.md, 'Joints')")
     if settings["solver"] == "soft":
         # the soft step: its substeps share one set of rows; flagged once, at its end
         state, info = soft_step(snapshot, contacts, dt, n, ties)

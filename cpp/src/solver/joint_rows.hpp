@@ -1,0 +1,112 @@
+// Joint rows (docs/conventions.md, "Joints"): each joint of the World becomes a few row blocks,
+// Jacobian pairs J_A = (ang_a, lin_a), J_B = (ang_b, lin_b) in the lecture's (omega, p_dot) layout,
+// solved beside the contact rows in both schedules:
+//   the PGS (contact_solver.cpp): prepare -> warm start -> one joint sweep after each contact sweep
+//     (equality rows unbiased: drift is left to the position pass) -> position pass on the
+//     pseudo-velocities (erp of the position error C per substep, never kept as velocity) -> store;
+//   the soft step (soft_step.cpp): per substep prepare at the substep's poses -> warm start -> a
+//     joint sweep after each biased contact sweep (a spring-damper of kJointHertz on C) -> poses
+//     move -> prepare again at the new poses -> a rigid joint sweep after each relax sweep -> store.
+// Blocks are solved in joint order on the calling thread (a few per joint: the results do not
+// depend on the thread count). Equality blocks of 2 or 3 rows are solved together with K^-1,
+// K = J W J^T, W = diag(dt I_A^-1, dt/m_A, dt I_B^-1, dt/m_B) (s/kg); limit and motor rows are single
+// rows with bounds. A row's alpha is a force (N) or torque (N m), as a contact row's.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "signorini/joint.hpp"
+#include "signorini/model.hpp"
+#include "signorini/solver.hpp"
+#include "signorini/state.hpp"
+
+namespace signorini::solver {
+
+struct SolverData;
+
+/// Joint springs of the soft step (Catto, "Soft constraints"): a joint's position error C is a
+/// spring-damper of this frequency (Hz, capped at a quarter of the substep rate) and damping ratio
+/// in the biased sweeps, and rigid in the relax sweeps.
+constexpr double kJointHertz = 60.0;
+constexpr double kJointDampingRatio = 2.0;
+
+/// One block of a joint's rows (1 to 3 rows of one kind), as a sweep reads it.
+struct JointBlock {
+  enum Kind : std::uint8_t {
+    Equality,  ///< J q_dot = 0 (C = 0), unbounded, solved as one block with K^-1
+    Limit,     ///< one row, alpha >= 0: J q_dot >= -C / h while C > 0 (speculative), C >= 0 kept
+    Motor,     ///< one row, |alpha| <= max_force: J q_dot = target
+  };
+  Kind kind = Equality;
+  int n = 1;                 ///< rows (1..3)
+  int a = 0, b = 0;          ///< bodies
+  bool a_moves = false, b_moves = false;  ///< dynamic, enabled and awake (else infinite mass)
+  double* alpha = nullptr;   ///< the rows' forces, in the joint's Joint::alpha (n entries)
+  std::array<Vec3, 3> ang_a, lin_a, ang_b, lin_b;  ///< the rows' Jacobians (world)
+  std::array<Vec3, 3> w_ang_a, w_ang_b;            ///< dt I_X^-1 ang_X (0 when X does not move)
+  double w_lin_a = 0.0, w_lin_b = 0.0;             ///< dt / m_X (0 when X does not move)
+  Mat3 K = Mat3::Zero();     ///< J W J^T (top-left n x n; s/kg, s/(kg m^2), ...)
+  Mat3 K_inv = Mat3::Zero(); ///< its inverse (zero when K is singular)
+  Vec3 C = Vec3::Zero();     ///< position error of each row (m or rad); a limit row's distance to its limit
+  double lo = 0.0, hi = 0.0; ///< Motor: the bounds on alpha (N or N m)
+  double target = 0.0;       ///< Motor: target J q_dot (m/s or rad/s)
+  /// h/2 (dJ/dt) q_dot of each row (m/s or rad/s): J at the poses the velocities reach in h / 2,
+  /// minus J now, times the velocities at prepare; the iterate and biased sweeps ask J q_dot + drift = 0
+  /// (0 for a motor, and when prepare was not asked to predict)
+  Vec3 drift = Vec3::Zero();
+};
+
+/// The World's joints as the solver sees them (owned by the World; SolverData points here).
+struct JointSet {
+  std::vector<Joint> joints;            ///< in index order; their alpha are the warm start
+  std::vector<JointBlock> blocks;       ///< this substep's blocks, in joint order
+  std::vector<std::array<double, 3>> beta;  ///< the PGS position pass's pseudo-forces per block
+  /// what a step changes in each joint (its alpha, force and torque), kept at the step's start so
+  /// that a step the guard refuses leaves the joints as they were
+  struct Kept {
+    std::array<double, kJointSlots> alpha;
+    Vec3 force, torque;
+  };
+  std::vector<Kept> kept;
+  // the soft step's joint spring for the current substep (soften: bias_rate 1/s, the two scales)
+  double bias_rate = 0.0, mass_scale = 1.0, impulse_scale = 0.0;
+  bool empty() const { return joints.empty(); }
+};
+
+/// Sweep modes: the PGS's iterate (equality rows without bias), the soft step's biased sweep, and
+/// its relax sweep (rigid).
+enum class JointSweep { Hard, SoftBiased, SoftRelax };
+
+/// Builds the blocks of every joint at the current poses.
+/// In: model, state (poses p, R of the substep; sleeping flags), h (s), soft: the soft step (the
+///     joint spring of h is made); predict: each row's drift from the poses d.qd reaches in h / 2;
+///     d.dI_inv (N, h I^-1 world), d.qd (N, the velocities before the joints' solve).
+/// Out: js.blocks (Jacobians, K, K^-1, C, drift), their alpha pointing into js.joints[j].alpha.
+void prepare_joints(const Model& model, const State& state, double h, bool soft, bool predict, JointSet& js,
+                    const SolverData& d);
+
+/// Applies every block's alpha (the warm start) to d.qd.
+void warm_start_joints(const JointSet& js, SolverData& d);
+
+/// One Gauss-Seidel sweep over the blocks on d.qd; returns the largest velocity change of a row
+/// (|K d_alpha|, m/s or rad/s), as a contact sweep's change.
+double sweep_joints(JointSet& js, SolverData& d, JointSweep mode, double h);
+
+/// The PGS position pass for joints, after the contacts' (on d.qd_p, the pseudo-velocities): per
+/// block the target J q_p = -erp C / h (limits only while violated), swept to the tolerance.
+/// Returns the sweeps used (0 when no block has an error).
+int joint_position_pass(const SolverSettings& s, double h, JointSet& js, SolverData& d);
+
+/// Each joint's force on B (N) and torque about B's anchor (N m), world, from its blocks' alpha (a
+/// joint without blocks this substep, its bodies asleep, keeps its last).
+void store_joints(const State& state, JointSet& js);
+
+/// A one-dof joint's coordinate: a hinge's angle theta (rad, B about the axis relative to A, in
+/// (-pi, pi]) or a slider's offset (m along the axis, from A's anchor to B's); NaN for the others.
+double joint_position(const Joint& j, const State& state);
+/// Its rate (rad/s or m/s; NaN for the others).
+double joint_velocity(const Joint& j, const State& state);
+
+}  // namespace signorini::solver

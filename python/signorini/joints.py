@@ -1,0 +1,175 @@
+"""Joints as a user writes them: ``w.add_joint(sg.Revolute(a, b, anchor=..., axis=...))``.
+
+These are plain descriptions in world coordinates at the moment of creation (docs/conventions.md,
+"Joints"); ``World.add_joint`` checks them, the core converts anchors and axes to each body's frame
+and keeps the joint. Nothing here computes physics.
+
+Bodies are indices (``add_body``'s return value); ``body_b`` may be a static body (the world).
+"""
+from __future__ import annotations
+
+import math
+from typing import Optional
+
+import numpy as np
+
+from .arguments import as_flag, as_index, as_name, as_number, as_vector
+
+# the core's JointKind values
+REVOLUTE, PRISMATIC, SPHERICAL, FIXED, DISTANCE = range(5)
+
+
+class Motor:
+    """A velocity motor of a hinge or a slider: it drives the joint velocity (rad/s, m/s) to
+    ``speed`` with at most ``max_force`` (N m for a hinge, N for a slider; ``max_torque`` is the
+    same argument by another name)."""
+
+    def __init__(self, speed: float, max_force: Optional[float] = None, *, max_torque: Optional[float] = None):
+        if (max_force is None) == (max_torque is None):
+            raise TypeError("Motor: give max_force (or max_torque), once")
+        self.speed = speed
+        self.max_force = max_force if max_force is not None else max_torque
+
+    def __repr__(self) -> str:
+        return f"Motor(speed={self.speed!r}, max_force={self.max_force!r})"
+
+
+class Joint:
+    """What every joint description has: two bodies, a name, and whether they collide."""
+    kind = -1
+
+    def __init__(self, body_a: int, body_b: int, *, name: Optional[str] = None, collide_connected: bool = False):
+        self.body_a = body_a
+        self.body_b = body_b
+        self.name = name
+        self.collide_connected = collide_connected
+
+    def __repr__(self) -> str:
+        fields = ", ".join(f"{k}={v!r}" for k, v in vars(self).items() if v is not None)
+        return f"{type(self).__name__}({fields})"
+
+    def _core_args(self, who: str, positions: np.ndarray) -> dict:
+        """The keyword arguments of the core's add_joint, type-checked (values are the core's to check)."""
+        a = as_index(self.body_a, who, "body_a")
+        b = as_index(self.body_b, who, "body_b")
+        return dict(body_a=a, body_b=b, anchor=np.zeros(3), anchor_b=np.zeros(3), axis=np.array([0.0, 0.0, 1.0]),
+                    has_limits=False, lower=0.0, upper=0.0, motor=False, motor_speed=0.0, motor_max_force=0.0,
+                    min_length=0.0, max_length=math.inf,
+                    collide_connected=as_flag(self.collide_connected, who, "collide_connected"),
+                    name=as_name(self.name, who))
+
+
+def _limits(limits, who: str) -> dict:
+    if limits is None:
+        return dict(has_limits=False)
+    if isinstance(limits, (str, bytes)) or not hasattr(limits, "__len__") or len(limits) != 2:
+        raise TypeError(f"{who}: limits must be (lower, upper), got {limits!r}")
+    return dict(has_limits=True, lower=as_number(limits[0], who, "limits[0]"), upper=as_number(limits[1], who, "limits[1]"))
+
+
+def _motor(motor, who: str) -> dict:
+    if motor is None:
+        return dict(motor=False)
+    if not isinstance(motor, Motor):
+        raise TypeError(f"{who}: motor must be a signorini.Motor, got {motor!r}")
+    return dict(motor=True, motor_speed=as_number(motor.speed, who, "motor speed"),
+                motor_max_force=as_number(motor.max_force, who, "motor max_force"))
+
+
+class _Axial(Joint):
+    """A one-degree-of-freedom joint about or along an axis (world, at creation)."""
+
+    def __init__(self, body_a: int, body_b: int, anchor=None, axis=(0.0, 0.0, 1.0), *, limits=None,
+                 motor: Optional[Motor] = None, name: Optional[str] = None, collide_connected: bool = False):
+        super().__init__(body_a, body_b, name=name, collide_connected=collide_connected)
+        self.anchor = anchor
+        self.axis = axis
+        self.limits = limits
+        self.motor = motor
+
+    def _core_args(self, who: str, positions: np.ndarray) -> dict:
+        d = super()._core_args(who, positions)
+        anchor = self.anchor
+        if anchor is None:
+            if self.kind == REVOLUTE:
+                raise TypeError(f"{who}: a hinge needs its anchor (a world point)")
+            anchor = positions[d["body_b"]] if 0 <= d["body_b"] < len(positions) else np.zeros(3)
+        d.update(anchor=as_vector(anchor, 3, who, "anchor"), axis=as_vector(self.axis, 3, who, "axis"),
+                 **_limits(self.limits, who), **_motor(self.motor, who))
+        return d
+
+
+class Revolute(_Axial):
+    """A hinge: the bodies share the ``anchor`` point and B turns about ``axis`` only (world, at
+    creation). ``limits=(lo, hi)`` (rad, in (-pi, pi); the angle is 0 at creation, positive when B
+    turns counter-clockwise about the axis relative to A); ``motor=Motor(speed, max_torque)``."""
+    kind = REVOLUTE
+
+
+class Prismatic(_Axial):
+    """A slider: no relative turn, and B moves along ``axis`` (world, at creation) only. ``anchor``
+    defaults to B's centre of mass; ``limits=(lo, hi)`` (m, the offset is 0 at creation);
+    ``motor=Motor(speed, max_force)``."""
+    kind = PRISMATIC
+
+
+class Spherical(Joint):
+    """A ball joint: the bodies share the ``anchor`` point (world, at creation)."""
+    kind = SPHERICAL
+
+    def __init__(self, body_a: int, body_b: int, anchor, *, name: Optional[str] = None,
+                 collide_connected: bool = False):
+        super().__init__(body_a, body_b, name=name, collide_connected=collide_connected)
+        self.anchor = anchor
+
+    def _core_args(self, who: str, positions: np.ndarray) -> dict:
+        d = super()._core_args(who, positions)
+        d["anchor"] = as_vector(self.anchor, 3, who, "anchor")
+        return d
+
+
+class Fixed(Spherical):
+    """A weld: no relative motion from the poses at creation. ``anchor`` (the point whose force and
+    torque are reported) defaults to B's centre of mass."""
+    kind = FIXED
+
+    def __init__(self, body_a: int, body_b: int, anchor=None, *, name: Optional[str] = None,
+                 collide_connected: bool = False):
+        super().__init__(body_a, body_b, anchor, name=name, collide_connected=collide_connected)
+
+    def _core_args(self, who: str, positions: np.ndarray) -> dict:
+        if self.anchor is None:
+            d = Joint._core_args(self, who, positions)
+            d["anchor"] = positions[d["body_b"]].copy() if 0 <= d["body_b"] < len(positions) else np.zeros(3)
+            return d
+        return super()._core_args(who, positions)
+
+
+class Distance(Joint):
+    """min_length <= |x_B - x_A| <= max_length for the points ``anchor_a`` on A and ``anchor_b`` on
+    B (world, at creation; m). Both None: a rod of the current length; ``min_length=0`` with a
+    ``max_length``: a rope; ``min_length == max_length``: a rod."""
+    kind = DISTANCE
+
+    def __init__(self, body_a: int, body_b: int, anchor_a, anchor_b, min_length: Optional[float] = None,
+                 max_length: Optional[float] = None, *, name: Optional[str] = None, collide_connected: bool = False):
+        super().__init__(body_a, body_b, name=name, collide_connected=collide_connected)
+        self.anchor_a = anchor_a
+        self.anchor_b = anchor_b
+        self.min_length = min_length
+        self.max_length = max_length
+
+    def _core_args(self, who: str, positions: np.ndarray) -> dict:
+        d = super()._core_args(who, positions)
+        a = as_vector(self.anchor_a, 3, who, "anchor_a")
+        b = as_vector(self.anchor_b, 3, who, "anchor_b")
+        length = float(np.linalg.norm(b - a))
+        lo = None if self.min_length is None else as_number(self.min_length, who, "min_length")
+        hi = None if self.max_length is None else as_number(self.max_length, who, "max_length")
+        if lo is None and hi is None:
+            lo = hi = length
+        d.update(anchor=a, anchor_b=b, min_length=0.0 if lo is None else lo, max_length=math.inf if hi is None else hi)
+        return d
+
+
+KINDS = {REVOLUTE: "Revolute", PRISMATIC: "Prismatic", SPHERICAL: "Spherical", FIXED: "Fixed", DISTANCE: "Distance"}

@@ -1,0 +1,117 @@
+// Joints on the core alone (docs/conventions.md, "Joints"): a simple pendulum on a hinge against
+// its small-angle period, in both solvers, and what add_joint refuses.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "signorini/world.hpp"
+
+using namespace signorini;
+
+namespace {
+
+constexpr double kG = 9.81;
+
+/// A 1 kg point-like bob (sphere of 1 cm) 1 m below a hinge about y at the origin, on a static
+/// plane far below (the world), pulled theta0 aside; returns the bob's index.
+BodyIndex pendulum(World& w, double theta0) {
+  BodyDesc ground;
+  ground.is_static = true;
+  ground.shape = Plane(Vec3(0, 0, 1), -100.0);
+  const BodyIndex g = w.add_body(ground);
+  BodyDesc bob;
+  bob.shape = Sphere(0.01);
+  bob.mass = 1.0;
+  bob.position = Vec3(std::sin(theta0), 0.0, -std::cos(theta0));
+  const BodyIndex b = w.add_body(bob);
+  JointDesc hinge;
+  hinge.kind = JointKind::Revolute;
+  hinge.body_a = g;
+  hinge.body_b = b;
+  hinge.anchor = Vec3::Zero();
+  hinge.axis = Vec3::UnitY();
+  EXPECT_EQ(w.add_joint(hinge), 0);
+  return b;
+}
+
+WorldSettings settings(SolverMethod method) {
+  WorldSettings s;
+  s.gravity = Vec3(0, 0, -kG);
+  s.sleep.enabled = false;
+  s.solver.method = method;
+  return s;
+}
+
+}  // namespace
+
+class PendulumOnTheCore : public ::testing::TestWithParam<SolverMethod> {};
+
+TEST_P(PendulumOnTheCore, SmallAnglePeriod) {
+  // 0.05 rad: T = 2 pi sqrt(L / g) (1 + theta0^2 / 16 + ...), within 0.5 %; the hinge's angle is
+  // the bob's angle from where it was made (B = the bob turns about +y as it swings towards -x)
+  World w(settings(GetParam()));
+  const BodyIndex b = pendulum(w, 0.05);
+  const double dt = 1.0 / 240.0;
+  std::vector<double> crossings;
+  double x_before = w.state().p[b].x();
+  for (int k = 0; k < 5 * 240; ++k) {
+    w.step(dt);
+    const double x = w.state().p[b].x();
+    if (x_before > 0.0 && x <= 0.0) crossings.push_back(w.state().time - dt * x / (x - x_before));
+    x_before = x;
+    const double theta = std::atan2(-x, -w.state().p[b].z()) + 0.05;
+    ASSERT_NEAR(w.joint_positions()[0], theta, 2e-4);
+  }
+  ASSERT_GE(crossings.size(), 2u);
+  const double expected = 2.0 * M_PI * std::sqrt(1.0 / kG);
+  for (std::size_t k = 1; k < crossings.size(); ++k)
+    EXPECT_NEAR(crossings[k] - crossings[k - 1], expected, 5e-3 * expected);
+  // the bob stays 1 m from the hinge (PGS to 1e-5 m, the soft step's 60 Hz spring to 1e-4 m)
+  EXPECT_NEAR(w.state().p[b].norm(), 1.0, 1e-4);
+}
+
+TEST_P(PendulumOnTheCore, SavedStateContinuesBitIdentical) {
+  World w(settings(GetParam()));
+  const BodyIndex b = pendulum(w, 1.0);
+  w.step(1.0 / 240.0, 50);
+  const std::string saved = w.save_state();
+  w.step(1.0 / 240.0, 50);
+  const Vec3 p = w.state().p[b], v = w.state().v[b], f = w.joint_forces()[0];
+  w.restore_state(saved);
+  w.step(1.0 / 240.0, 50);
+  EXPECT_EQ(w.state().p[b], p);
+  EXPECT_EQ(w.state().v[b], v);
+  EXPECT_EQ(w.joint_forces()[0], f);
+}
+
+INSTANTIATE_TEST_SUITE_P(Solvers, PendulumOnTheCore, ::testing::Values(SolverMethod::PGS, SolverMethod::Soft));
+
+TEST(Joints, BadInputNamesTheJointAndChangesNothing) {
+  World w(settings(SolverMethod::PGS));
+  pendulum(w, 0.0);
+  const std::string before = w.save_state();
+  JointDesc d;
+  d.kind = JointKind::Revolute;
+  d.body_a = 0;
+  d.body_b = 1;
+  d.axis = Vec3::Zero();
+  try {
+    w.add_joint(d);
+    FAIL() << "a zero axis was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("joint 1 (Revolute): axis must be a non-zero vector"), std::string::npos)
+        << e.what();
+  }
+  d.axis = Vec3::UnitZ();
+  d.body_b = 7;
+  EXPECT_THROW(w.add_joint(d), BodyIndexError);
+  d.body_b = 1;
+  d.has_limits = true;
+  d.lower = 1.0;
+  d.upper = -1.0;
+  EXPECT_THROW(w.add_joint(d), std::invalid_argument);
+  EXPECT_EQ(w.num_joints(), 1u);
+  EXPECT_EQ(w.save_state(), before);
+}
