@@ -164,7 +164,7 @@ SOLVER_DEFAULTS = {
     "restitution_threshold": 0.5, "friction_cone": "pyramid", "gyroscopic": "midpoint",
     "warm_start": True, "substeps": 0, "warn_velocity": 1.0,
     "solver": "pgs", "contact_hertz": 30.0, "damping_ratio": 10.0, "soft_iterations": 1, "relax_iterations": 1,
-    "recycle_distance": 0.00001,
+    "recycle_distance": 0.0,
 }
 
 
@@ -305,11 +305,12 @@ class World:
     recycle_distance : contact recycling (m, >= 0; docs/conventions.md, "Contact recycling"): a
         pair of bodies other than spheres, planes and triangle meshes keeps the manifold it was last
         found with, its points carried with the bodies, while neither body has moved relative to
-        the other by more than this (default 0.01 mm, a hundredth of ``slop``; nor by 2% of the
+        the other by more than this (try 1e-5, a hundredth of ``slop``; nor by 2% of the
         smaller one's inner radius) since, counting
         the coming step at the current velocities; a resting pile is then not collided again step
-        after step. ``solver_stats.recycled_pairs`` counts them. 0: every pair is found anew every
-        step (the narrow phase's exact contacts, as the oracle finds them).
+        after step. ``solver_stats.recycled_pairs`` counts them. 0 (the default, for now: the soft
+        step's stacks are sensitive to what a kept manifold changes): every pair is found anew
+        every step (the narrow phase's exact contacts, as the oracle finds them).
 
     sleeping : bodies at rest fall asleep with their island (docs/conventions.md, "Sleeping"): a
         sleeping body keeps its pose bit for bit and costs no solver or broad-phase work until a
@@ -330,7 +331,7 @@ class World:
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
                  warn_velocity: float = 1.0, solver: str = "pgs", contact_hertz: float = 30.0,
                  damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1,
-                 recycle_distance: float = 0.00001, sleeping: bool = True, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
+                 recycle_distance: float = 0.0, sleeping: bool = True, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
                  time_to_sleep: float = 0.5, threads: Optional[int] = None):
         g = as_vector(gravity, 3, "World", "gravity")
         given_threads = _threads("World", threads)

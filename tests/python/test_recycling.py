@@ -11,12 +11,13 @@ import pytest
 import signorini as sg
 
 DT = 1.0 / 60.0
-TOL = 0.00001  # the default recycle_distance (m)
+TOL = 0.00001  # recycle_distance in these tests (m): the largest that keeps soft stacks still
 
 
 def stack(n=4, solver="pgs", **kw):
     """n unit boxes stacked on a static slab (box pairs: they recycle), sleeping off so that the
     pile stays awake and its pairs are detected every step."""
+    kw.setdefault("recycle_distance", TOL)
     w = sg.World(gravity=(0, 0, -9.81), solver=solver, sleeping=False, **kw)
     w.add_static(sg.Box((5.0, 5.0, 0.5)), position=(0, 0, -0.5))
     for k in range(n):
@@ -95,7 +96,7 @@ def test_a_moved_body_is_found_anew():
 
 
 def test_spheres_are_always_found_anew():
-    w = sg.World(sleeping=False)
+    w = sg.World(sleeping=False, recycle_distance=TOL)
     w.add_static(sg.Box((5.0, 5.0, 0.5)), position=(0, 0, -0.5))
     w.add_body(sg.Sphere(0.5), mass=1.0, position=(0, 0, 0.5))
     w.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0, position=(2, 0, 0.5))
@@ -130,7 +131,7 @@ def test_a_step_undone_by_a_failed_step_does_not_advance_the_kept_manifolds():
 
 def test_threads_give_the_same_bits_with_recycling():
     def pyramid(threads):
-        w = sg.World(sleeping=False, solver="soft", threads=threads)
+        w = sg.World(sleeping=False, solver="soft", threads=threads, recycle_distance=TOL)
         w.add_static(sg.Box((20.0, 20.0, 0.5)), position=(0, 0, -0.5))
         for row in range(14):  # 105 boxes, about 200 pairs: the detection splits over threads
             for k in range(14 - row):
