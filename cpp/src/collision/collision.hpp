@@ -441,6 +441,8 @@ class BroadPhase {
                    std::int64_t& nodes) const;
 
  private:
+  /// Sets every static body's box from its pose, grown by margin/2, and refits the static tree.
+  void refit_static(const Model& model, const State& state, double margin);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

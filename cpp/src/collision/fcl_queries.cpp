@@ -316,20 +316,23 @@ void BroadPhase::move_static(BodyIndex i, const Vec3& p, const Mat3& R) {
   impl_->static_dirty = true;
 }
 
+void BroadPhase::refit_static(const Model& model, const State& state, double margin) {
+  Impl& m = *impl_;
+  for (BodyIndex i = 0; i < static_cast<BodyIndex>(m.proxy.size()); ++i) {
+    if (!m.proxy[i] || !model.is_static[i]) continue;
+    m.proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
+    m.proxy[i]->grow_aabb(0.5 * margin);
+  }
+  m.static_tree.update();
+  m.static_dirty = false;
+  m.static_margin = margin;
+}
+
 void BroadPhase::pairs(const Model& model, const State& state, const std::vector<double>& reach, double margin,
                        std::vector<std::pair<BodyIndex, BodyIndex>>& out) {
   Impl& m = *impl_;
   // static bodies: grown once by margin/2, refitted only when one moved or the margin changed
-  if (m.static_dirty || m.static_margin != margin) {
-    for (BodyIndex i = 0; i < static_cast<BodyIndex>(m.proxy.size()); ++i) {
-      if (!m.proxy[i] || !model.is_static[i]) continue;
-      m.proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
-      m.proxy[i]->grow_aabb(0.5 * margin);
-    }
-    m.static_tree.update();
-    m.static_dirty = false;
-    m.static_margin = margin;
-  }
+  if (m.static_dirty || m.static_margin != margin) refit_static(model, state, margin);
   // sleeping bodies: moved to their own tree as they fall asleep, back as they wake (their poses
   // are frozen, so their boxes are set once); the other tree's proxy is parked
   const bool sleep_refit = m.sleeping > 0 && m.sleep_margin != margin;
@@ -388,17 +391,7 @@ const std::vector<BodyIndex>& BroadPhase::planes() const { return impl_->planes;
 
 void BroadPhase::refresh(const Model& model, const State& state) {
   Impl& m = *impl_;
-  if (m.static_dirty) {
-    const double margin = std::max(m.static_margin, 0.0);
-    for (BodyIndex i = 0; i < static_cast<BodyIndex>(m.proxy.size()); ++i) {
-      if (!m.proxy[i] || !model.is_static[i]) continue;
-      m.proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
-      m.proxy[i]->grow_aabb(0.5 * margin);
-    }
-    m.static_tree.update();
-    m.static_dirty = false;
-    m.static_margin = margin;
-  }
+  if (m.static_dirty) refit_static(model, state, std::max(m.static_margin, 0.0));
   for (BodyIndex i : m.dynamic_bodies) {
     if (m.in_sleep_tree[i]) {
       m.sleep_proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);

@@ -71,6 +71,15 @@ struct BodyVelocity {
   Vec3 v = Vec3::Zero();      ///< m/s, world
 };
 
+/// The soft constraint of a spring of `hertz` (Hz) and damping ratio zeta over a substep h (s)
+/// (Catto, "Soft Constraints", GDC 2011): with omega = 2 pi hertz, a1 = 2 zeta + h omega,
+/// a2 = h omega a1: bias_rate = omega / a1 (1/s), mass_scale = a2 / (1 + a2), impulse_scale =
+/// 1 / (1 + a2). The soft step's contacts and joints both use it.
+struct Softness {
+  double bias_rate = 0.0, mass_scale = 1.0, impulse_scale = 0.0;
+};
+Softness soften(double hertz, double zeta, double h);
+
 /// A contact as the soft step carries it through its substeps (docs/conventions.md, "The soft
 /// step"), in solve order beside its rows.
 struct SoftPoint {

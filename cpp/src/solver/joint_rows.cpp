@@ -140,13 +140,10 @@ double change_of(const JointBlock& b, const Vec3& d_alpha) {
 
 /// The soft step's spring of `hertz` and damping ratio zeta over h (the contacts' soften).
 void soften(JointSet& js, double hertz, double zeta, double h) {
-  const double omega = 2.0 * M_PI * hertz;
-  const double a1 = 2.0 * zeta + h * omega;
-  const double a2 = h * omega * a1;
-  const double a3 = 1.0 / (1.0 + a2);
-  js.bias_rate = omega / a1;
-  js.mass_scale = a2 * a3;
-  js.impulse_scale = a3;
+  const Softness k = solver::soften(hertz, zeta, h);
+  js.bias_rate = k.bias_rate;
+  js.mass_scale = k.mass_scale;
+  js.impulse_scale = k.impulse_scale;
 }
 
 }  // namespace

@@ -16,17 +16,12 @@ using namespace rows;
 /// than the substep can resolve only add energy (Catto, "Solver2D"; Box2D v3 uses 0.25).
 constexpr double kMaxHertzPerRate = 0.25;
 
-/// The soft constraint of a spring of `hertz` and damping ratio zeta over a substep h (Catto,
-/// "Soft Constraints", GDC 2011): with omega = 2 pi hertz, a1 = 2 zeta + h omega, a2 = h omega a1,
-/// bias_rate = omega / a1, mass_scale = a2 / (1 + a2), impulse_scale = 1 / (1 + a2).
+/// p's spring (soften) of `hertz` and damping ratio zeta over h.
 void soften(SoftPoint& p, double hertz, double zeta, double h) {
-  const double omega = 2.0 * M_PI * hertz;
-  const double a1 = 2.0 * zeta + h * omega;
-  const double a2 = h * omega * a1;
-  const double a3 = 1.0 / (1.0 + a2);
-  p.bias_rate = omega / a1;
-  p.mass_scale = a2 * a3;
-  p.impulse_scale = a3;
+  const Softness k = solver::soften(hertz, zeta, h);
+  p.bias_rate = k.bias_rate;
+  p.mass_scale = k.mass_scale;
+  p.impulse_scale = k.impulse_scale;
 }
 
 /// d.qd <- (v, omega), for the listed bodies (the others' entries stay zero, as their velocities are).
@@ -122,6 +117,14 @@ void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool
 }
 
 }  // namespace
+
+Softness soften(double hertz, double zeta, double h) {
+  const double omega = 2.0 * M_PI * hertz;
+  const double a1 = 2.0 * zeta + h * omega;
+  const double a2 = h * omega * a1;
+  const double a3 = 1.0 / (1.0 + a2);
+  return Softness{omega / a1, a2 * a3, a3};
+}
 
 void soft_begin(const Model& model, const State& state, double h, const SolverSettings& settings,
                 const std::vector<Contact>& contacts, SolverData& d) {

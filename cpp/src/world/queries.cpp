@@ -138,30 +138,34 @@ std::optional<RayHit> closest(RayContext& ctx, const Ray& ray, Mode mode) {
   return as_hit(w.best_body, ray, w.best);
 }
 
+/// One ray of World::cast_ray (mode Closest) or cast_ray_any (Any), checked and named by `who`,
+/// through the bodies as they are now; stats: the query's counts.
+std::optional<RayHit> one_ray(const char* who, Mode mode, const Model& model, const State& state,
+                              collision::BroadPhase& broad_phase, const Vec3& origin, const Vec3& direction,
+                              double max_distance, const QueryFilter& filter, QueryStats& stats) {
+  const Ray ray = checked_ray(who, origin, direction, max_distance);
+  const Seen seen = seen_by(model, filter, who);
+  broad_phase.refresh(model, state);
+  RayContext ctx(model, state, broad_phase, seen);
+  std::optional<RayHit> hit = closest(ctx, ray, mode);
+  stats = QueryStats{1, ctx.nodes, ctx.tests};
+  return hit;
+}
+
 }  // namespace
 
 std::optional<RayHit> World::cast_ray(const Vec3& origin, const Vec3& direction, double max_distance,
                                       const QueryFilter& filter) const {
   const Lock lock(mutex_);
-  const Ray ray = checked_ray("cast_ray", origin, direction, max_distance);
-  const Seen seen = seen_by(model_, filter, "cast_ray");
-  broad_phase_->refresh(model_, state_);
-  RayContext ctx(model_, state_, *broad_phase_, seen);
-  std::optional<RayHit> hit = closest(ctx, ray, Mode::Closest);
-  query_stats_ = QueryStats{1, ctx.nodes, ctx.tests};
-  return hit;
+  return one_ray("cast_ray", Mode::Closest, model_, state_, *broad_phase_, origin, direction, max_distance, filter,
+                 query_stats_);
 }
 
 std::optional<RayHit> World::cast_ray_any(const Vec3& origin, const Vec3& direction, double max_distance,
                                           const QueryFilter& filter) const {
   const Lock lock(mutex_);
-  const Ray ray = checked_ray("cast_ray_any", origin, direction, max_distance);
-  const Seen seen = seen_by(model_, filter, "cast_ray_any");
-  broad_phase_->refresh(model_, state_);
-  RayContext ctx(model_, state_, *broad_phase_, seen);
-  std::optional<RayHit> hit = closest(ctx, ray, Mode::Any);
-  query_stats_ = QueryStats{1, ctx.nodes, ctx.tests};
-  return hit;
+  return one_ray("cast_ray_any", Mode::Any, model_, state_, *broad_phase_, origin, direction, max_distance, filter,
+                 query_stats_);
 }
 
 std::vector<RayHit> World::cast_ray_all(const Vec3& origin, const Vec3& direction, double max_distance,
