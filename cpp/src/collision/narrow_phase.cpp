@@ -440,10 +440,8 @@ PairContext PairContext::swapped() const {
 }
 
 bool recycles(const Shape& a, const Shape& b) {
-  const auto cheap_or_remembering = [](const Shape& s) {
-    return std::holds_alternative<Sphere>(s) || std::holds_alternative<Plane>(s) || std::holds_alternative<TriangleMesh>(s);
-  };
-  return !cheap_or_remembering(a) && !cheap_or_remembering(b);
+  const auto recyclable = [](const Shape& s) { return !static_only(s) && !std::holds_alternative<Sphere>(s); };
+  return recyclable(a) && recyclable(b);
 }
 
 namespace {
@@ -654,10 +652,9 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
       recycled += chunk.recycled;
     }
   }
-  // kept in pair order, which a static-only A can reorder: sorted to be sure (nearly sorted); they
-  // become the memory when the step is kept (ContactMemory::commit)
-  if (!std::is_sorted(manifolds.next.begin(), manifolds.next.end()))
-    std::sort(manifolds.next.begin(), manifolds.next.end());
+  // kept in pair order, so sorted: a pair that keeps its manifold has no static-only shape, so it
+  // is never swapped (a = i < b = j); they become the memory when the step is kept
+  // (ContactMemory::commit)
   manifolds.pairs = static_cast<int>(P);
   manifolds.recycled = recycled;
   // keys were written in pair order, parts in order within a pair: sorted (a static-only shape
