@@ -99,8 +99,8 @@ inline py::array mat3_view(const py::handle& owner, const Mat3* xs, std::size_t 
 
 /// Contacts as a dict of read-only views into the shared list (which the base, a capsule holding
 /// it, keeps alive and unchanged): body_a, body_b (K,) int32; point, normal, friction, force,
-/// slip (K, 3); gap, alpha, impulse, spin_torque, normal_velocity (K,); feature_a, feature_b (K,)
-/// uint64.
+/// slip, arm_a, arm_b (K, 3); gap, alpha, impulse, spin_torque, normal_velocity (K,); feature_a,
+/// feature_b (K,) uint64; kept (K,) bool.
 inline py::dict contact_views(std::shared_ptr<const std::vector<Contact>> list) {
   const std::vector<Contact>& cs = *list;
   py::capsule owner(new std::shared_ptr<const std::vector<Contact>>(std::move(list)),
@@ -131,6 +131,9 @@ inline py::dict contact_views(std::shared_ptr<const std::vector<Contact>> list) 
   d["slip"] = vector3(&c.slip);
   d["feature_a"] = scalar(&c.feature_a);
   d["feature_b"] = scalar(&c.feature_b);
+  d["arm_a"] = vector3(&c.arm_a);
+  d["arm_b"] = vector3(&c.arm_b);
+  d["kept"] = scalar(&c.kept);
   return d;
 }
 
@@ -156,17 +159,21 @@ inline py::object from_shape(const Shape& shape) {
 }
 
 /// Contacts as a dict of arrays: body_a, body_b (K,) int64; point, normal (K, 3); gap, alpha,
-/// impulse, spin_torque, normal_velocity (K,); friction, force, slip (K, 3); feature_a, feature_b
-/// (K,) uint64
+/// impulse, spin_torque, normal_velocity (K,); friction, force, slip, arm_a, arm_b (K, 3);
+/// feature_a, feature_b (K,) uint64; kept (K,) bool
 /// (docs/conventions.md, "Feature ids" and "The Signorini certificate").
 inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
   const auto K = static_cast<py::ssize_t>(contacts.size());
   py::array_t<std::int64_t> a(K), b(K);
   py::array_t<std::uint64_t> fa(K), fb(K);
   py::array_t<double> gap(K), alpha(K), impulse(K), spin_torque(K), vn(K);
-  std::vector<Vec3> point, normal, friction, force, slip;
+  py::array_t<bool> kept(K);
+  std::vector<Vec3> point, normal, friction, force, slip, arm_a, arm_b;
   for (py::ssize_t i = 0; i < K; ++i) {
     const Contact& c = contacts[i];
+    kept.mutable_at(i) = c.kept;
+    arm_a.push_back(c.arm_a);
+    arm_b.push_back(c.arm_b);
     a.mutable_at(i) = c.body_a;
     b.mutable_at(i) = c.body_b;
     fa.mutable_at(i) = c.feature_a;
@@ -197,6 +204,9 @@ inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
   d["slip"] = rows_of(slip);
   d["feature_a"] = fa;
   d["feature_b"] = fb;
+  d["arm_a"] = rows_of(arm_a);
+  d["arm_b"] = rows_of(arm_b);
+  d["kept"] = kept;
   return d;
 }
 

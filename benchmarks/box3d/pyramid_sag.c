@@ -7,10 +7,12 @@
 //
 // Build, given a Box3D checkout at $B built with CMake in $B/build (its benchmark app's build):
 //   cc -O2 -I$B/include benchmarks/box3d/pyramid_sag.c $B/build/src/libbox3d.a -lm -lpthread -o pyramid_sag
-// Run:   ./pyramid_sag STEPS SUBSTEPS HZ      (default 600 steps, 4 substeps, 60 Hz)
+// Run:   ./pyramid_sag STEPS SUBSTEPS HZ [RECYCLE]   (default 600 steps, 4 substeps, 60 Hz, Box3D's
+//        contact recycle distance; RECYCLE 0 switches its contact recycling off)
 // Prints one line per simulated second and a last line
-//   result steps=S max_disp=M top_dz=Z boxes_over_1cm=C
-// with M and Z in metres (Z: the top box's vertical displacement, negative when it sank).
+//   result steps=S max_disp=M top_dz=Z boxes_over_1cm=C in_plane=X out_of_plane=Y
+// with M, Z, X and Y in metres (Z: the top box's vertical displacement, negative when it sank; X, Y:
+// the largest horizontal displacement in the pyramid's plane and out of it).
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -22,6 +24,9 @@ enum { kBase = 100, kBoxes = kBase * (kBase + 1) / 2 };
 static b3BodyId g_ids[kBoxes];
 static b3Pos g_start[kBoxes];
 
+static double in_plane(int k) { return fabs(b3Body_GetPosition(g_ids[k]).x - g_start[k].x); }
+static double out_of_plane(int k) { return fabs(b3Body_GetPosition(g_ids[k]).z - g_start[k].z); }
+
 static double displacement(int k) {
   b3Pos p = b3Body_GetPosition(g_ids[k]);
   double dx = p.x - g_start[k].x, dy = p.y - g_start[k].y, dz = p.z - g_start[k].z;
@@ -32,13 +37,15 @@ int main(int argc, char** argv) {
   int steps = argc > 1 ? atoi(argv[1]) : 600;
   int substeps = argc > 2 ? atoi(argv[2]) : 4;
   float hz = argc > 3 ? (float)atof(argv[3]) : 60.0f;
+  float recycle = argc > 4 ? (float)atof(argv[4]) : -1.0f;
   if (steps < 1 || substeps < 1 || !(hz > 0.0f)) {
-    fprintf(stderr, "usage: pyramid_sag [STEPS >= 1] [SUBSTEPS >= 1] [HZ > 0]\n");
+    fprintf(stderr, "usage: pyramid_sag [STEPS >= 1] [SUBSTEPS >= 1] [HZ > 0] [RECYCLE >= 0]\n");
     return 2;
   }
   b3WorldDef world_def = b3DefaultWorldDef();
   world_def.enableSleep = false;
   b3WorldId world = b3CreateWorld(&world_def);
+  if (recycle >= 0.0f) b3World_SetContactRecycleDistance(world, recycle);
   {
     b3BodyDef ground_def = b3DefaultBodyDef();
     ground_def.position = (b3Pos){0.0f, -1.0f, 0.0f};
@@ -63,22 +70,26 @@ int main(int argc, char** argv) {
       ++count;
     }
   }
-  double worst = 0.0, top_dz = 0.0;
+  double worst = 0.0, top_dz = 0.0, x = 0.0, y = 0.0;
   int over = 0;
   for (int s = 1; s <= steps; ++s) {
     b3World_Step(world, 1.0f / hz, substeps);
     if (s % (int)hz != 0 && s != steps) continue;
-    worst = 0.0;
+    worst = x = y = 0.0;
     over = 0;
     for (int k = 0; k < count; ++k) {
-      double d = displacement(k);
+      double d = displacement(k), dx = in_plane(k), dy = out_of_plane(k);
       worst = d > worst ? d : worst;
+      x = dx > x ? dx : x;
+      y = dy > y ? dy : y;
       over += d > 0.01;
     }
     top_dz = b3Body_GetPosition(g_ids[count - 1]).y - g_start[count - 1].y;
-    printf("t=%.2f s: max_disp=%.4f m top_dz=%.4f m boxes_over_1cm=%d\n", s / hz, worst, top_dz, over);
+    printf("t=%.2f s: max_disp=%.4f m top_dz=%.4f m boxes_over_1cm=%d in_plane=%.4f m out_of_plane=%.4f m\n", s / hz,
+           worst, top_dz, over, x, y);
   }
-  printf("result steps=%d max_disp=%.6f top_dz=%.6f boxes_over_1cm=%d\n", steps, worst, top_dz, over);
+  printf("result steps=%d max_disp=%.6f top_dz=%.6f boxes_over_1cm=%d in_plane=%.6f out_of_plane=%.6f\n", steps, worst,
+         top_dz, over, x, y);
   b3DestroyWorld(world);
   return 0;
 }

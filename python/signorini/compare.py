@@ -121,13 +121,19 @@ def lockstep(world: World, dt: float, steps: int) -> Report:
     the same contacts (those the step detects at its start; its substeps carry them along): the
     state (STATE_KEYS), the step's contacts (CONTACT_KEYS) and certificate (CERTIFICATE_KEYS), in
     the scales of ``_SCALE``, and the solver's counts (STAT_KEYS, which must be equal). The oracle
-    runs the world's solver (``solver`` "pgs" or "soft"). The world is advanced by `steps` steps."""
+    runs the world's solver (``solver`` "pgs" or "soft"); a contact the world recycled (``kept``) reaches
+    it with the lever arms its rows keep (anchor_a, anchor_b). The world is advanced by `steps` steps."""
     report = Report("lockstep", steps)
     for k in range(steps):
         before = world.snapshot()
         detected = world.detect_contacts(dt).as_dict()
         contacts = {key: detected[key] for key in ("body_a", "body_b", "point", "normal", "gap", "feature_a",
                                                    "feature_b")}
+        if detected["kept"].any():  # recycled contacts: their rows keep the lever arms they were found with
+            kept = detected["kept"][:, None]
+            p = before["position"]
+            contacts["anchor_a"] = np.where(kept, p[detected["body_a"]] + detected["arm_a"], detected["point"])
+            contacts["anchor_b"] = np.where(kept, p[detected["body_b"]] + detected["arm_b"], detected["point"])
         world.step(dt)
         core = _state(world.snapshot())
         expected, info = oracle.step(before, dt, contacts=contacts)

@@ -86,6 +86,11 @@ class Contacts:
     feature_a, feature_b: (K,) uint64 feature ids of the point on A and on B, the same from one
         step to the next for the same contact: part * 2**32 + kind * 2**28 + index, kind 0 whole
         shape, 1 vertex, 2 edge, 3 face (see ``signorini.feature``).
+    arm_a, arm_b: (K, 3) the lever arms of the contact's rows (m, world): y - p_A and y - p_B when
+        the point was found; a kept contact's are those of the detection that found its manifold.
+    kept: (K,) bool, True for a contact whose pair kept its manifold from an earlier detection
+        (contact recycling, ``recycle_distance``): its gap, point and normal follow the bodies, its
+        rows keep their lever arms (docs/conventions.md, "Contact recycling").
     """
 
     body_a: np.ndarray
@@ -102,6 +107,9 @@ class Contacts:
     slip: np.ndarray
     feature_a: np.ndarray
     feature_b: np.ndarray
+    arm_a: np.ndarray
+    arm_b: np.ndarray
+    kept: np.ndarray
 
     def __len__(self) -> int:
         return len(self.gap)
@@ -164,8 +172,13 @@ SOLVER_DEFAULTS = {
     "restitution_threshold": 0.5, "friction_cone": "pyramid", "gyroscopic": "midpoint",
     "warm_start": True, "substeps": 0, "warn_velocity": 1.0,
     "solver": "pgs", "contact_hertz": 30.0, "damping_ratio": 10.0, "soft_iterations": 1, "relax_iterations": 1,
-    "recycle_distance": 0.0,
+    "recycle_distance": None,
 }
+
+# recycle_distance when not given, by solver (m): the soft step keeps resting manifolds (Box3D's 5 cm:
+# its tall stacks stand only with them, docs/conventions.md "Contact recycling"); the PGS finds
+# every pair anew
+RECYCLE_DEFAULTS = {"pgs": 0.0, "soft": 0.05}
 
 
 SLEEP_DEFAULTS = {"sleeping": True, "sleep_linear_velocity": 0.05, "sleep_angular_velocity": 0.05,
@@ -188,6 +201,19 @@ def _sleep_settings(who: str, current=None, **given):
     return s
 
 
+def _default_recycle(current, solver) -> float:
+    """recycle_distance when not given: the solver's default (RECYCLE_DEFAULTS) for a new world;
+    for a change of settings the current value, unless the solver changes from one whose default
+    it still is (then the new solver's default)."""
+    solver = solver if isinstance(solver, str) else None  # a bad value is refused by name below
+    if current is None:
+        return RECYCLE_DEFAULTS.get(solver if solver is not None else SOLVER_DEFAULTS["solver"], 0.0)
+    old = current.method.name
+    if solver is not None and solver != old and current.recycle_distance == RECYCLE_DEFAULTS[old]:
+        return RECYCLE_DEFAULTS.get(solver, current.recycle_distance)
+    return current.recycle_distance
+
+
 def _setting(s, key: str):
     """Setting `key` of a _core.SolverSettings as the constructor takes it (enums by name; the
     keyword ``solver`` is the core's ``method``)."""
@@ -203,7 +229,9 @@ def _solver_settings(who: str, current=None, **given):
     s = _core.SolverSettings()
     for key, default in SOLVER_DEFAULTS.items():
         value = given.get(key)
-        if value is None:
+        if key == "recycle_distance" and value is None:
+            value = _default_recycle(current, given.get("solver"))
+        elif value is None:
             value = _setting(current, key) if current is not None else default
         if key in ("max_iterations", "substeps", "soft_iterations", "relax_iterations"):
             value = as_count(value, who, key)
@@ -304,13 +332,13 @@ class World:
         rigid sweeps after the poses move (>= 0).
     recycle_distance : contact recycling (m, >= 0; docs/conventions.md, "Contact recycling"): a
         pair of bodies other than spheres, planes and triangle meshes keeps the manifold it was last
-        found with, its points carried with the bodies, while neither body has moved relative to
-        the other by more than this (try 1e-5, a hundredth of ``slop``; nor by 2% of the
-        smaller one's inner radius) since, counting
-        the coming step at the current velocities; a resting pile is then not collided again step
-        after step. ``solver_stats.recycled_pairs`` counts them. 0 (the default, for now: the soft
-        step's stacks are sensitive to what a kept manifold changes): every pair is found anew
-        every step (the narrow phase's exact contacts, as the oracle finds them).
+        found with while it has drifted by at most this (and by 10% of the smaller body's inner
+        radius) since, counting the coming step at the current velocities: its gaps follow the
+        bodies, its rows keep the lever arms they were found with, and a resting pile is not
+        collided again step after step. ``solver_stats.recycled_pairs`` counts them. Not given:
+        0.05 with ``solver="soft"`` (Box3D's choice; its tall stacks stand only with it), 0 with
+        ``"pgs"`` (``RECYCLE_DEFAULTS``); 0 finds every pair anew every step (the narrow phase's
+        exact contacts, as the oracle finds them).
 
     sleeping : bodies at rest fall asleep with their island (docs/conventions.md, "Sleeping"): a
         sleeping body keeps its pose bit for bit and costs no solver or broad-phase work until a
@@ -331,7 +359,7 @@ class World:
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
                  warn_velocity: float = 1.0, solver: str = "pgs", contact_hertz: float = 30.0,
                  damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1,
-                 recycle_distance: float = 0.0, sleeping: bool = True, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
+                 recycle_distance: Optional[float] = None, sleeping: bool = True, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
                  time_to_sleep: float = 0.5, threads: Optional[int] = None):
         g = as_vector(gravity, 3, "World", "gravity")
         given_threads = _threads("World", threads)
@@ -377,7 +405,9 @@ class World:
 
     @_locked
     def set_solver(self, **settings) -> None:
-        """Changes solver settings by keyword (the names of the constructor's); the others stay."""
+        """Changes solver settings by keyword (the names of the constructor's); the others stay,
+        but for ``recycle_distance``, which follows a change of ``solver`` while it is the old
+        solver's default (``RECYCLE_DEFAULTS``)."""
         unknown = set(settings) - set(SOLVER_DEFAULTS)
         if unknown:
             raise TypeError(f"set_solver: unknown setting(s) {sorted(unknown)}; known: {sorted(SOLVER_DEFAULTS)}")

@@ -20,14 +20,18 @@ from signorini import fuzz, scenes
 # another rounding; the oracle still matches every step (test_oracle_solver, test_oracle_soft).
 # The fuzzer scene re-pinned once more when sleeping became the default: two of its bodies sleep
 # by its end (the pile and the pyramid keep theirs: nothing in them sleeps within their steps)
+# The pile and the pyramid re-pinned when contacts against a static body moved to the solve
+# order's colours from 32 up (solved after the contacts between moving bodies, issue 21): the
+# same rows in another order; the fuzzer scene, whose bodies meet the floor more than each other,
+# kept its bits. The oracle repeats the order and still matches every step.
 PINNED = {
     # built-in mixed pile (spheres, boxes, capsules, cylinders, hulls, meshes, compounds, decomposed
     # tori in a walled pit), 400 steps of 1/240 s: bodies landing on each other (re-pinned once, when
     # the shipped pile.toml was written again with the last bits of 9 orientations changed; the
     # restructuring had kept the earlier pin)
-    "pile": "197a2a99a483b76fae19153a6ecf6f8ac4e8578f91de4af62542d2c7d0535129",
+    "pile": "194dfe458181394cfe0016be12729126d7c1bfbeebd8f6eabdb9859585b3e342",
     # the 210-box pyramid, 150 steps of 1/240 s
-    "pyramid": "1a7a1a0027ec50c6dd9a089eed6a6e1a8f2752542e8ed4cdba46aff9c01d7381",
+    "pyramid": "4de41f08daa998d23c5596baad2d1b7f67e73510c53fe4fdee3e15ea791581bc",
     # fuzzer scene 1:103: 14 bodies of all 7 kinds on a triangle-mesh height field, its full 1.5 s
     # (re-pinned when a capsule got both segment ends and a cylinder its rim points in the floor
     # against mesh triangles, issue 21: its capsule and cylinders land differently)

@@ -230,7 +230,7 @@ def test_a_damaged_crossing_memory_is_refused_and_changes_nothing():
     w.step(DT, 3)
     good, before = w.save_state(), fingerprint(w)
     # 8 bytes of body 1's crossing (mesh, triangle): triangle 5 of a one-triangle mesh, and body 1
-    # as a mesh; after them come the kept manifolds (format 5: their count and their points' count,
+    # as a mesh; after them come the kept manifolds (format 6: their count and their points' count,
     # none: a sphere's pairs are found anew every step), the islands (format 4: 13 bytes per body,
     # the sleeping islands' cache, here an empty one's count, 48 bytes per body of their forces and
     # torques, and their contacts, none) and the joints (format 5: their count, here 0)
@@ -270,9 +270,9 @@ def test_a_state_saved_before_spinning_friction_is_restored_and_steps_on():
     assert np.array_equal(c.alpha, old["contact_alpha"]) and np.array_equal(c.friction, old["contact_friction"])
     assert np.array_equal(cache["alpha"], old["cache_alpha"]) and np.array_equal(cache["friction"], old["cache_friction"])
     assert not c.spin_torque.any() and not cache["spin"].any()
-    # saved again, it is the current format (5); stepped on, it follows the old build (to rounding: another
+    # saved again, it is the current format (6); stepped on, it follows the old build (to rounding: another
     # compiler may round differently; the same build gives the same bits)
-    assert w.save_state().data[:8] == b"SGSTATE5"
+    assert w.save_state().data[:8] == b"SGSTATE6"
     w.step(1 / 240, 10)
     np.testing.assert_allclose(w.positions, old["position_after"], rtol=0, atol=1e-12)
     np.testing.assert_allclose(w.angular_velocities, old["angular_velocity_after"], rtol=0, atol=1e-12)

@@ -31,6 +31,11 @@ struct Contact {
   double gap = 0.0;            ///< signed distance along n_i (m); negative = overlap
   FeatureId feature_a = 0;     ///< feature of A the point comes from
   FeatureId feature_b = 0;     ///< feature of B the point comes from
+  /// the lever arms of the contact's rows, y - p_A and y - p_B when the point was found (m, world);
+  /// a kept contact (its pair kept the manifold an earlier detection found: docs/conventions.md,
+  /// "Contact recycling") keeps that detection's, while its gap, point and normal follow the bodies
+  Vec3 arm_a = Vec3::Zero(), arm_b = Vec3::Zero();
+  bool kept = false;
   // written by the solver (docs/conventions.md, step 3 f and "The Signorini certificate")
   double alpha = 0.0;          ///< normal force alpha_i >= 0 (N), as in the notes
   /// the step's whole normal impulse, sum over its substeps of h alpha_i (N s), applied as

@@ -153,12 +153,14 @@ struct SeparatingCache {
 
 /// A pair's manifold as its last full detection found it, kept so that a pair at rest is not
 /// collided again step after step (contact recycling, docs/conventions.md "Contact recycling").
-/// Its points are kept as material points: each witness point in its own body's frame, the normal
-/// in A's, so that a recycled contact's gap is that of the same two points of the bodies now.
+/// Its points keep their rows' lever arms as found (world) and their witness points as material
+/// points (each in its own body's frame, the normal in A's), so that a recycled contact's gap is
+/// that of the same two points of the bodies now.
 struct KeptManifold {
   BodyIndex body_a = -1, body_b = -1;  ///< the pair as collide() saw it (A first)
-  Vec3 p_rel = Vec3::Zero();           ///< B's centre in A's frame at the detection: R_A^T (p_B - p_A) (m)
-  Mat3 R_rel = Mat3::Identity();       ///< B's orientation in A's frame then: R_A^T R_B
+  Vec3 d0 = Vec3::Zero();              ///< p_B - p_A at the detection (m, world)
+  Mat3 R_a0 = Mat3::Identity();        ///< A's orientation then (world from body)
+  Mat3 R_b0 = Mat3::Identity();        ///< B's orientation then
   std::uint32_t first = 0, count = 0;  ///< its points: points[first, first + count) of its list
   bool operator<(const KeptManifold& o) const {
     return body_a != o.body_a ? body_a < o.body_a : body_b < o.body_b;
@@ -170,6 +172,8 @@ struct KeptPoint {
   Vec3 on_a = Vec3::Zero();    ///< witness point on A, y - gap/2 n, in A's frame (m)
   Vec3 on_b = Vec3::Zero();    ///< witness point on B, y + gap/2 n, in B's frame (m)
   Vec3 normal = Vec3::Zero();  ///< n (A to B, unit) in A's frame
+  Vec3 arm_a = Vec3::Zero();   ///< y - p_A as found (m, world): the rows' lever arm on A
+  Vec3 arm_b = Vec3::Zero();   ///< y - p_B as found (m, world)
   FeatureId feature_a = 0, feature_b = 0;
 };
 
@@ -211,8 +215,8 @@ struct ContactMemory {
   /// manifolds, which decide the next detection's contacts (the separating-face cache is not
   /// saved: it only saves time). load reads n bodies' memory into this (a fresh one) and checks it
   /// against the model: a crossing names a triangle of a TriangleMesh body, centres are finite, a
-  /// kept manifold names two bodies and finite points; a save of format `version` below '5' keeps
-  /// none.
+  /// kept manifold names two bodies and finite points; a save of format `version` below '6' keeps
+  /// none (format 5's kept manifolds, without their rows, are read past).
   void save(serial::Writer& w) const;
   void load(serial::Reader& r, const Model& model, char version);
 };
@@ -511,18 +515,20 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
 /// non-static ones, ascending; null: all), the only ones whose per-body entries (reach, crossings)
 /// are written, so that a detection's cost grows with them and the pairs, not with static bodies.
 /// recycle (m): a pair of shapes that recycle (recycles()) whose manifold is kept in memory
-/// keeps it, carried with its bodies, while no point of B has moved by more than
-/// min(recycle, kRecycleInnerFraction times the smaller inner radius) relative to A since it was
-/// found, counting the step's motion at the current velocities (docs/conventions.md, "Contact
+/// keeps it (its rows as found, its gaps carried with its bodies) while its drift (pair_drift:
+/// how far B's centre has moved relative to A's plus how far each body's turn has moved its
+/// points, counting the step's motion at the current velocities) is at most min(recycle,
+/// kRecycleInnerFraction times the smaller inner radius) (docs/conventions.md, "Contact
 /// recycling"); 0: every pair is collided anew. The kept manifolds are written to memory.manifolds.
 void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
                        BroadPhase& broad_phase, ContactMemory& memory, Scratch& scratch, std::vector<Contact>& out,
                        const parallel::Pool* pool = nullptr, const std::vector<BodyIndex>* bodies = nullptr,
                        double recycle = 0.0);
 
-/// A recycled pair's relative drift is at most this fraction of the smaller inner radius (so a
-/// small body's manifold is found again sooner than a large one's).
-constexpr double kRecycleInnerFraction = 0.02;
+/// A recycled pair's drift is at most this fraction of the smaller inner radius (so a small
+/// body's manifold is found again sooner than a large one's): 5 cm for a unit cube, Box3D's
+/// recycle distance (10 linear slops).
+constexpr double kRecycleInnerFraction = 0.1;
 
 /// True for a pair of shapes whose manifold may be kept: both bodies' shapes are polytopes, hulls,
 /// cylinders, capsules or compounds (their narrow phase costs a separating-axis test or GJK and a

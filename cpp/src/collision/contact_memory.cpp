@@ -75,8 +75,9 @@ void ContactMemory::save(serial::Writer& w) const {
   for (const KeptManifold& m : manifolds.last) {
     w.pod(static_cast<std::int32_t>(m.body_a));
     w.pod(static_cast<std::int32_t>(m.body_b));
-    w.mat(m.p_rel);
-    w.mat(m.R_rel);
+    w.mat(m.d0);
+    w.mat(m.R_a0);
+    w.mat(m.R_b0);
     w.pod(m.first);
     w.pod(m.count);
   }
@@ -85,6 +86,8 @@ void ContactMemory::save(serial::Writer& w) const {
     w.mat(q.on_a);
     w.mat(q.on_b);
     w.mat(q.normal);
+    w.mat(q.arm_a);
+    w.mat(q.arm_b);
     w.pod(q.feature_a);
     w.pod(q.feature_b);
   }
@@ -110,12 +113,15 @@ void ContactMemory::load(serial::Reader& r, const Model& model, char version) {
   manifolds = ManifoldCache();
   if (version < '5') return;  // none kept: every pair is collided anew at the next detection
   const auto damaged = [] { return std::invalid_argument("restore_state: the saved state is damaged (kept manifolds)"); };
+  // format 5 kept a manifold's pose and normal in A's frame and no lever arms: read past, and found anew
+  const bool rows_kept = version >= '6';
   manifolds.last.resize(r.count(2 * sizeof(std::int32_t)));
   for (KeptManifold& m : manifolds.last) {
     m.body_a = r.pod<std::int32_t>();
     m.body_b = r.pod<std::int32_t>();
-    r.mat(m.p_rel);
-    r.mat(m.R_rel);
+    r.mat(m.d0);
+    r.mat(m.R_a0);
+    if (rows_kept) r.mat(m.R_b0);
     m.first = r.pod<std::uint32_t>();
     m.count = r.pod<std::uint32_t>();
   }
@@ -124,18 +130,24 @@ void ContactMemory::load(serial::Reader& r, const Model& model, char version) {
     r.mat(q.on_a);
     r.mat(q.on_b);
     r.mat(q.normal);
+    if (rows_kept) {
+      r.mat(q.arm_a);
+      r.mat(q.arm_b);
+    }
     q.feature_a = r.pod<FeatureId>();
     q.feature_b = r.pod<FeatureId>();
   }
   const auto body = [n](BodyIndex k) { return k >= 0 && static_cast<std::size_t>(k) < n; };
   for (std::size_t k = 0; k < manifolds.last.size(); ++k) {
     const KeptManifold& m = manifolds.last[k];
-    if (!body(m.body_a) || !body(m.body_b) || m.body_a == m.body_b || !m.p_rel.allFinite() || !m.R_rel.allFinite() ||
+    if (!body(m.body_a) || !body(m.body_b) || m.body_a == m.body_b || !m.d0.allFinite() || !m.R_a0.allFinite() || !m.R_b0.allFinite() ||
         std::uint64_t(m.first) + m.count > manifolds.last_points.size() || (k > 0 && !(manifolds.last[k - 1] < m)))
       throw damaged();
   }
   for (const KeptPoint& q : manifolds.last_points)
-    if (!q.on_a.allFinite() || !q.on_b.allFinite() || !q.normal.allFinite()) throw damaged();
+    if (!q.on_a.allFinite() || !q.on_b.allFinite() || !q.normal.allFinite() || !q.arm_a.allFinite() || !q.arm_b.allFinite())
+      throw damaged();
+  if (!rows_kept) manifolds = ManifoldCache();
 }
 
 }  // namespace signorini::collision

@@ -427,6 +427,10 @@ void carry_contacts(const std::vector<Contact>& at_detection, const State& detec
     anchor_a[k] = c.point + (now.p[a] - detected.p[a]);
     anchor_b[k] = c.point + (now.p[b] - detected.p[b]);
     c.point = 0.5 * (anchor_a[k] + anchor_b[k]);
+    if (c.kept) {  // its rows keep the lever arms of the detection that found its manifold
+      anchor_a[k] = now.p[a] + c.arm_a;
+      anchor_b[k] = now.p[b] + c.arm_b;
+    }
   }
 }
 
@@ -455,25 +459,23 @@ const KeptManifold* kept_manifold(const ManifoldCache& memory, BodyIndex a, Body
   return it != memory.last.end() && it->body_a == a && it->body_b == b ? &*it : nullptr;
 }
 
-/// How far a point of B may have moved relative to A (m), at most, since `kept` was found, plus
-/// how far it may move in the step of dt at the current velocities: in A's frame B's point x sits
-/// at R_rel x_B + p_rel, so it has moved by at most |dp_rel| + ||dR_rel||_F rho_B (the Frobenius
-/// norm bounds the spectral one), and moves at most at |v_B - v_A| + |omega_B| rho_B +
-/// |omega_A| (|p_B - p_A| + rho_B) (A's turn sweeps B's points about A's centre).
+/// How far the kept rows may be from the bodies now (m), at most, counting the step of dt at the
+/// current velocities. The rows keep the detection's world lever arms, so every motion counts, not
+/// only B's relative to A: B's centre relative to A's, |d - d_0| with d = p_B - p_A, and each
+/// body's turn, ||R_X - R_X0||_F rho_X (how far it has moved any point of X about its centre; the
+/// Frobenius norm bounds the spectral one); and in the coming step |v_B - v_A| + |omega_A| rho_A +
+/// |omega_B| rho_B. A pair turning together (a stack carried round) is found anew.
 double pair_drift(const Model& model, const State& state, BodyIndex a, BodyIndex b, const KeptManifold& kept, double dt) {
-  const Mat3& R_a = state.R[a];
   const Vec3 d = state.p[b] - state.p[a];
-  const Vec3 p_rel = R_a.transpose() * d;
-  const Mat3 R_rel = R_a.transpose() * state.R[b];
-  const double rho_b = model.rho[b];
-  const double moved = (p_rel - kept.p_rel).norm() + (R_rel - kept.R_rel).norm() * rho_b;
-  const double speed = (state.v[b] - state.v[a]).norm() + state.omega[b].norm() * rho_b +
-                       state.omega[a].norm() * (d.norm() + rho_b);
+  const double rho_a = model.rho[a], rho_b = model.rho[b];
+  const double moved = (d - kept.d0).norm() + (state.R[a] - kept.R_a0).norm() * rho_a + (state.R[b] - kept.R_b0).norm() * rho_b;
+  const double speed = (state.v[b] - state.v[a]).norm() + state.omega[a].norm() * rho_a + state.omega[b].norm() * rho_b;
   return moved + dt * speed;
 }
 
 /// The kept manifold's points as contacts of the bodies now: each witness point carried with its
-/// body, the normal with A, gap = n . (w_B - w_A), y the witness points' midpoint. Appended to out.
+/// body, the normal with A, gap = n . (w_B - w_A), y the witness points' midpoint, and the rows'
+/// lever arms as found (kept). Appended to out.
 void recycled_contacts(const State& state, BodyIndex a, BodyIndex b, const KeptManifold& kept,
                        const std::vector<KeptPoint>& points, std::vector<Contact>& out) {
   const Mat3& R_a = state.R[a];
@@ -490,6 +492,9 @@ void recycled_contacts(const State& state, BodyIndex a, BodyIndex b, const KeptM
     c.point = 0.5 * (w_a + w_b);
     c.feature_a = q.feature_a;
     c.feature_b = q.feature_b;
+    c.kept = true;
+    c.arm_a = q.arm_a;
+    c.arm_b = q.arm_b;
     out.push_back(c);
   }
 }
@@ -502,8 +507,9 @@ void keep_manifold(const State& state, BodyIndex a, BodyIndex b, const std::vect
   KeptManifold m;
   m.body_a = a;
   m.body_b = b;
-  m.p_rel = R_a.transpose() * (state.p[b] - state.p[a]);
-  m.R_rel = R_a.transpose() * R_b;
+  m.d0 = state.p[b] - state.p[a];
+  m.R_a0 = R_a;
+  m.R_b0 = R_b;
   m.first = static_cast<std::uint32_t>(points.size());
   m.count = static_cast<std::uint32_t>(out.size() - first);
   for (std::size_t k = first; k < out.size(); ++k) {
@@ -513,6 +519,8 @@ void keep_manifold(const State& state, BodyIndex a, BodyIndex b, const std::vect
     q.on_a = R_a.transpose() * (c.point - half - state.p[a]);
     q.on_b = R_b.transpose() * (c.point + half - state.p[b]);
     q.normal = R_a.transpose() * c.normal;
+    q.arm_a = c.arm_a;
+    q.arm_b = c.arm_b;
     q.feature_a = c.feature_a;
     q.feature_b = c.feature_b;
     points.push_back(q);
@@ -604,6 +612,8 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
     for (std::size_t k = first; k < out.size(); ++k) {
       out[k].body_a = a;
       out[k].body_b = b;
+      out[k].arm_a = out[k].point - state.p[a];
+      out[k].arm_b = out[k].point - state.p[b];
     }
     if (keeps && out.size() > first) keep_manifold(state, a, b, out, first, kept, kept_points);
     return false;
@@ -687,6 +697,8 @@ std::vector<Contact> collide(const Shape& shape_a, const Vec3& p_a, const Quat4&
   for (Contact& c : out) {
     c.body_a = 0;
     c.body_b = 1;
+    c.arm_a = c.point - p_a;
+    c.arm_b = c.point - p_b;
   }
   return out;
 }

@@ -80,14 +80,18 @@ void make_rows(const Model& model, const std::vector<Mat3>& dI_inv, int a, int b
 
 // ---- a. prepare ---------------------------------------------------------------------------------
 /// The solve order (docs/conventions.md, "Solve order"): contacts coloured greedily in contact
-/// order, each taking the lowest of 64 colours that none of its moving bodies has yet (the rest
-/// share a 65th), then listed colour by colour, in contact order within a colour. Consecutive
+/// order, each taking the lowest of 64 colours that none of its moving bodies has yet, from colour
+/// 32 up for a contact against a body that does not move (the rest share a 65th), then listed
+/// colour by colour, in contact order within a colour. A contact with the ground is then solved
+/// after those of the bodies it carries, so that in a sweep the ground has the last word (Box2D v3
+/// does the same with its last colours): a light body under a heavy one no longer rocks. Consecutive
 /// contacts then rarely share a body, so a sweep does not wait for one contact's velocity update
 /// before starting the next (the idea of Box2D v3's graph colouring, here for one thread).
 /// Out: d.order (K: solve position -> contact), d.slot (K: contact -> solve position).
 static void solve_order(const Model& model, const std::vector<Contact>& contacts, SolverData& d) {
   const std::size_t K = contacts.size();
   constexpr int kColours = 65;
+  constexpr int kStaticColour = 32;  // where contacts against a body that does not move start
   // the colours of the listed bodies (the others, static, never take one) start empty
   parallel::fit(d.colours_used, model.size(), std::uint64_t(0));
   parallel::each_body(d.bodies, model.size(), [&](std::size_t i) { d.colours_used[i] = 0; });
@@ -100,7 +104,10 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
     const std::uint64_t taken = (a_moves ? d.colours_used[a] : 0) | (b_moves ? d.colours_used[b] : 0);
     int colour = kColours - 1;
     if (~taken != 0) {
-      colour = 0;
+      // against a body that does not move: the lowest free colour from kStaticColour up (solved
+      // after the others), else the lowest free one
+      colour = a_moves && b_moves ? 0 : kStaticColour;
+      if (colour > 0 && (~taken >> colour) == 0) colour = 0;
       while (taken >> colour & 1) ++colour;
       if (a_moves) d.colours_used[a] |= std::uint64_t(1) << colour;
       if (b_moves) d.colours_used[b] |= std::uint64_t(1) << colour;
@@ -144,8 +151,9 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       // in contact order, reading the contacts in turn (writing the rows where they go costs less
       // than reading the contacts out of order: a write does not wait)
       ContactRows& r = d.rows[d.slot[i]];
-      const Vec3 r_a = (anchor_a ? (*anchor_a)[i] : c.point) - state.p[a];
-      const Vec3 r_b = (anchor_b ? (*anchor_b)[i] : c.point) - state.p[b];
+      // a kept contact's lever arms are those it was found with (docs/conventions.md, "Contact recycling")
+      const Vec3 r_a = anchor_a ? Vec3((*anchor_a)[i] - state.p[a]) : c.kept ? c.arm_a : Vec3(c.point - state.p[a]);
+      const Vec3 r_b = anchor_b ? Vec3((*anchor_b)[i] - state.p[b]) : c.kept ? c.arm_b : Vec3(c.point - state.p[b]);
       make_rows(model, d.dI_inv, a, b, r_a, r_b, dir, dt, r);
       // a speculative contact may close its gap, no more; an overlap is left to the position pass
       r.bias = std::max(c.gap, 0.0) / dt;

@@ -6,9 +6,10 @@
 // (format 3; from format 5 with the kept manifolds of contact recycling); the islands (format 4:
 // per body awake, sleep timer and island label, then the sleeping islands' warm-start forces); the
 // joints (format 5: each joint whole, in its bodies' frames, with its warm-start forces and last
-// force and torque). Formats 1 (no spin torques), 2 (no contact memory), 3 (no islands: every body
-// awake, timers zero) and 4 (no kept manifolds: every pair found anew, no pair counts; no joints:
-// the world keeps its joints, their warm start zeroed) still read.
+// force and torque; format 6: the kept manifolds with their rows as found). Formats 1 (no spin
+// torques), 2 (no contact memory), 3 (no islands: every body awake, timers zero), 4 (no kept
+// manifolds: every pair found anew, no pair counts; no joints: the world keeps its joints, their
+// warm start zeroed) and 5 (kept manifolds without their rows: every pair found anew) still read.
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -25,7 +26,7 @@
 namespace signorini {
 namespace {
 
-constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '5'};
+constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '6'};
 constexpr std::size_t kStateVersionAt = 7;  ///< the format digit's position in the magic
 
 void save(serial::Writer& w, const State& s) {
@@ -198,9 +199,9 @@ void World::restore_state(const std::string& saved) {
   if (saved.size() < sizeof kStateMagic || std::memcmp(saved.data(), kStateMagic, kStateVersionAt) != 0)
     throw std::invalid_argument("restore_state: not a saved state (no header)");
   const char version = saved[kStateVersionAt];
-  if (version < '1' || version > '5')
+  if (version < '1' || version > '6')
     throw std::invalid_argument(std::string("restore_state: a saved state of format '") + version +
-                                "', which this signorini does not read (it reads formats 1 to 5)");
+                                "', which this signorini does not read (it reads formats 1 to 6)");
   r.at = sizeof kStateMagic;
   const std::size_t n = r.pod<std::uint64_t>();
   if (n != model_.size())

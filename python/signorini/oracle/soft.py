@@ -53,6 +53,7 @@ from .solver import (
     RowSweep,
     apply_forces,
     certificate,
+    contact_anchors,
     friction_rows,
     prepare_rows,
     read_cache,
@@ -113,26 +114,29 @@ def carried_gaps(contacts, start, now):
     start to now: the point y moves with body X to y_X = p_X + R_X l_X, l_X = R_X0^T (y - p_X0) its
     lever arm in X's frame, so with dp_X = p_X - p_X0,
         s = gap + n . ((dp_B + (R_B - R_B0) l_B) - (dp_A + (R_A - R_A0) l_A)),
-    exactly gap until a body moves. The normal stays as detected.
+    exactly gap until a body moves. The normal stays as detected. With anchor_a, anchor_b (a
+    recycled contact's: its rows' lever arms as its manifold was found) the point carried with X is
+    anchor_X, as the rows' lever arms say (``contact_anchors``).
 
-    Inputs: contacts dict (K; body_a, body_b, point, normal, gap as detected at ``start``), two
-            snapshots (position (N, 3), rotation (N, 3, 3)): the step's start and now.
+    Inputs: contacts dict (K; body_a, body_b, point, normal, gap as detected at ``start``; optional
+            anchor_a, anchor_b (K, 3)), two snapshots (position (N, 3), rotation (N, 3, 3)): the
+            step's start and now.
     Output: s (K,) m.
     """
     A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
     B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
     n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
-    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    y_A, y_B = contact_anchors(contacts)
     gap = np.asarray(contacts["gap"], dtype=float).reshape(-1)
     p0, p = np.asarray(start["position"], dtype=float), np.asarray(now["position"], dtype=float)
     R0, R = np.asarray(start["rotation"], dtype=float), np.asarray(now["rotation"], dtype=float)
     D = R - R0
 
-    def moved(X):  # y_X - y: how far the point moved with body X
+    def moved(X, y):  # y_X - y: how far the point y moved with body X
         lever = np.einsum("kji,kj->ki", R0[X], y - p0[X])  # R0^T (y - p0)
         return (p[X] - p0[X]) + np.einsum("kij,kj->ki", D[X], lever)
 
-    return gap + np.einsum("ki,ki->k", n, moved(B) - moved(A)) if len(gap) else gap.copy()
+    return gap + np.einsum("ki,ki->k", n, moved(B, y_B) - moved(A, y_A)) if len(gap) else gap.copy()
 
 
 def gap_rounding(contacts, start, now):
@@ -141,10 +145,10 @@ def gap_rounding(contacts, start, now):
     from. Inputs as ``carried_gaps``."""
     A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
     B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
-    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    y_A, y_B = contact_anchors(contacts)
     gap = np.asarray(contacts["gap"], dtype=float).reshape(-1)
     p0, p = np.asarray(start["position"], dtype=float), np.asarray(now["position"], dtype=float)
-    size = (np.abs(gap) + np.linalg.norm(y - p0[A], axis=1) + np.linalg.norm(y - p0[B], axis=1)
+    size = (np.abs(gap) + np.linalg.norm(y_A - p0[A], axis=1) + np.linalg.norm(y_B - p0[B], axis=1)
             + np.linalg.norm(p[A] - p0[A], axis=1) + np.linalg.norm(p[B] - p0[B], axis=1))
     return GAP_ROUNDING_ULPS * np.finfo(float).eps * size
 

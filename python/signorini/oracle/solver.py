@@ -223,13 +223,19 @@ def contact_anchors(contacts):
     return y_A, y_B
 
 
+# the first colour of a contact against a body that does not move (static or kinematic)
+STATIC_COLOUR = 32
+
+
 def solve_order(snapshot, contacts):
     """The order the sweeps visit the contacts in (docs/conventions.md, step 3, "Solve order").
 
     Greedy colouring in contact order: contact i takes the lowest of the colours 0..63 that
-    neither of its moving (not static, not kinematic) bodies has taken yet, or colour 64 when
-    all are taken; the order lists colour 0's contacts, then colour 1's, ..., each in contact
-    order. Consecutive contacts then rarely share a body, which lets the core's sweep start one
+    neither of its moving (not static, not kinematic) bodies has taken yet, from colour 32 up
+    against a body that does not move (so that the ground's contacts are solved after those of
+    the bodies they carry, as Box2D v3 does; below 32 when 32..63 are all taken), or colour 64
+    when all are taken; the order lists
+    colour 0's contacts, then colour 1's, ..., each in contact order. Consecutive contacts then rarely share a body, which lets the core's sweep start one
     contact before the previous one's velocity update is done; the order is part of the method,
     so the oracle repeats it.
 
@@ -248,7 +254,11 @@ def solve_order(snapshot, contacts):
         if taken == everything:
             colour.append(64)
             continue
-        c = ((taken + 1) & ~taken).bit_length() - 1   # the lowest zero bit
+        c = 0 if free[a] and free[b] else STATIC_COLOUR  # against a body that does not move: from 32
+        if c and (~taken & everything) >> c == 0:
+            c = 0
+        while taken >> c & 1:
+            c += 1
         for x in (a, b):
             if free[x]:
                 used[x] |= 1 << c

@@ -79,8 +79,9 @@ def carry_contacts(contacts, detected, now):
     body's displacement dp = p - p_0 and turn dtheta = vee of the skew part of R R_0^T, and the
     witness points w_A = y - gap/2 n, w_B = y + gap/2 n,
     gap <- gap + n . ((dp_B + dtheta_B x (w_B - p_B0)) - (dp_A + dtheta_A x (w_A - p_A0))).
-    The normal stays; the lever arms stay as detected: anchor_X = y + dp_X, where the solver applies
-    the force on X; y <- (anchor_a + anchor_b) / 2.
+    The normal stays; the lever arms stay as detected: anchor_X = y + dp_X (or, when the contacts
+    carry anchor_X, anchor_X + dp_X), where the solver applies the force on X; y <- (anchor_a +
+    anchor_b) / 2.
 
     Inputs: contacts dict (K contacts), two snapshots (position (N, 3), rotation (N, 3, 3)).
     Output: a new contacts dict, the same but for point (K, 3), gap (K,), and with anchor_a,
@@ -105,6 +106,9 @@ def carry_contacts(contacts, detected, now):
     out["gap"] = gap + np.einsum("ki,ki->k", n, moved(b, point + half) - moved(a, point - half))
     out["anchor_a"], out["anchor_b"] = point + dp[a], point + dp[b]
     out["point"] = 0.5 * (out["anchor_a"] + out["anchor_b"])
+    for key, i in (("anchor_a", a), ("anchor_b", b)):  # given lever arms (a recycled contact's) stay
+        if key in contacts:
+            out[key] = np.asarray(contacts[key], dtype=float).reshape(-1, 3) + dp[i]
     return out
 
 
