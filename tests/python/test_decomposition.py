@@ -204,8 +204,10 @@ def children(pid: int) -> list:
 def test_ctrl_c_in_a_program_stops_its_worker(tmp_path):
     # a program decomposing a torus gets SIGINT (Ctrl-C) once its worker runs: it ends with
     # KeyboardInterrupt, and the worker (in its own session, so only the program can stop it) is gone
+    # (a fine torus: its decomposition lasts seconds, so the signal lands while the worker runs even
+    # on a loaded machine; a coarse one could finish first and the program exit cleanly)
     program = ("import signorini as sg\nfrom signorini import meshes\n"
-               "sg.decompose(sg.Mesh(*meshes.torus(0.3, 0.1, 24, 12)))\n")
+               "sg.decompose(sg.Mesh(*meshes.torus(0.3, 0.1, 64, 32)))\n")
     env = dict(os.environ, SIGNORINI_CACHE=str(tmp_path / "cache"), TMPDIR=str(tmp_path),
                PYTHONPATH=os.pathsep.join([str(Path(sg.__file__).parents[1]), os.environ.get("PYTHONPATH", "")]))
     parent = subprocess.Popen([sys.executable, "-c", program], env=env, stderr=subprocess.PIPE, text=True)
