@@ -7,6 +7,7 @@
 #include <array>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <variant>
 #include <vector>
 
@@ -120,6 +121,15 @@ struct TriangleMesh {
 
 /// One convex part of a Compound.
 using Primitive = std::variant<Sphere, Box, Capsule, Cylinder, ConvexHull>;
+
+/// is_primitive_v<T>: T is one of the kinds a Primitive holds (the convex kinds with a support
+/// function), for the std::visit branches that treat them alike.
+template <class T, class V = Primitive>
+struct is_primitive;
+template <class T, class... Kinds>
+struct is_primitive<T, std::variant<Kinds...>> : std::bool_constant<(std::is_same_v<T, Kinds> || ...)> {};
+template <class T>
+inline constexpr bool is_primitive_v = is_primitive<T>::value;
 
 /// Several convex parts with local poses on one body. The body frame is the compound's frame;
 /// when it is added as a dynamic body it is re-centred on the combined centre of mass.

@@ -67,8 +67,7 @@ void tight_aabb(const Shape& shape, const Mat3& R, const Vec3& p, Vec3& lo, Vec3
     std::visit(
         [&](const auto& s) {
           using T = std::decay_t<decltype(s)>;
-          if constexpr (std::is_same_v<T, Sphere> || std::is_same_v<T, Box> || std::is_same_v<T, Capsule> ||
-                        std::is_same_v<T, Cylinder> || std::is_same_v<T, ConvexHull>)
+          if constexpr (is_primitive_v<T>)
             grow_by_primitive(Primitive(s), R, p, lo, hi);
         },
         shape);

@@ -325,8 +325,7 @@ bool ray_shape(const Shape& shape, const Pose& pose, const Ray& ray, const Trian
     std::visit(
         [&](const auto& s) {
           using T = std::decay_t<decltype(s)>;
-          if constexpr (std::is_same_v<T, Sphere> || std::is_same_v<T, Box> || std::is_same_v<T, Capsule> ||
-                        std::is_same_v<T, Cylinder> || std::is_same_v<T, ConvexHull>)
+          if constexpr (is_primitive_v<T>)
             keep_first(ray_convex(s, pose, ray, 0, r), r, hit, result);
           else
             throw std::logic_error("ray_shape: no ray test for a " + shape_name(shape));
@@ -360,8 +359,7 @@ bool shape_contains(const Shape& shape, const Pose& pose, const Vec3& x) {
   std::visit(
       [&](const auto& s) {
         using T = std::decay_t<decltype(s)>;
-        if constexpr (std::is_same_v<T, Sphere> || std::is_same_v<T, Box> || std::is_same_v<T, Capsule> ||
-                      std::is_same_v<T, Cylinder> || std::is_same_v<T, ConvexHull>)
+        if constexpr (is_primitive_v<T>)
           in = local_contains(s, xl);
         else
           throw std::logic_error("shape_contains: no point test for a " + shape_name(shape));
