@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "collision/collision.hpp"
+#include "collision/ray.hpp"
 #include "math/rotation.hpp"
 #include "random_scene.hpp"
 #include "signorini/world.hpp"
@@ -213,6 +214,72 @@ TEST(BroadPhase, KeepsFindingThemWhileBodiesMove) {
     }
     scenes::drift(scene, dt, side);
   }
+}
+
+/// Every pair (i < j) whose boxes overlap: a body's tight box grown by margin/2, and by its reach
+/// too while it is dynamic and awake; at least one side dynamic and awake (what pairs() promises).
+std::vector<Pair> box_pairs(const scenes::Scene& scene, const std::vector<double>& reach, double margin) {
+  const std::size_t n = scene.size();
+  std::vector<Vec3> lo(n), hi(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    collision::shape_aabb(scene.model.shape[i], Pose{scene.state.p[i], scene.state.R[i]}, lo[i], hi[i]);
+    const bool awake = !scene.model.is_static[i] && !scene.state.asleep(static_cast<BodyIndex>(i));
+    const double grow = 0.5 * margin + (awake ? reach[i] : 0.0);
+    lo[i] -= Vec3::Constant(grow);
+    hi[i] += Vec3::Constant(grow);
+  }
+  const auto awake = [&](std::size_t i) { return !scene.model.is_static[i] && !scene.state.asleep(static_cast<BodyIndex>(i)); };
+  std::vector<Pair> pairs;
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j)
+      if ((awake(i) || awake(j)) && (lo[i].array() <= hi[j].array()).all() && (lo[j].array() <= hi[i].array()).all())
+        pairs.emplace_back(static_cast<BodyIndex>(i), static_cast<BodyIndex>(j));
+  return pairs;
+}
+
+TEST(BroadPhase, FatBoxesGiveExactlyThePairsWhoseBoxesOverlapWhateverMoves) {
+  // the tree holds fat boxes and is walked again only when a box leaves its fat one; the pairs must
+  // still be exactly those whose boxes overlap now, step after step, whether nothing moved, a few
+  // bodies moved (their leaves looked up alone) or most did (the tree walked whole), and as bodies
+  // fall asleep and wake
+  const double dt = 1.0 / 60.0, margin = 0.005, side = 4.5;
+  const Vec3 gravity(0, 0, -9.81);
+  scenes::Scene scene = scenes::random_scene(12, 200, scenes::Mix::AllConvex, side, 0.05, 0.4, 5.0, 8.0, 0.2);
+  const std::size_t n = scene.size();
+  const State start = scene.state;
+  collision::BroadPhase broad_phase;
+  scenes::register_bodies(scene, broad_phase);
+  std::mt19937_64 rng(5);
+  int mismatched = 0;
+  for (int step = 0; step < 120; ++step) {
+    // phases of 20 steps: all move at full speed, nothing moves, a few creep, a few jump, sleep
+    // comes and goes, all move again
+    const int phase = step / 20;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (scene.model.is_static[i]) continue;
+      const double scale = phase == 0 || phase == 5 ? 1.0 : phase == 1 ? 0.0 : (i % 17 == 0 ? 1.0 : 0.0);
+      scene.state.v[i] = scale * start.v[i];
+      scene.state.omega[i] = scale * start.omega[i];
+      if (phase == 3 && i % 17 == 0 && rng() % 4 == 0) scene.state.p[i] += Vec3(0.3, -0.2, 0.25);
+    }
+    scene.state.awake.assign(n, 1);
+    if (phase == 4)
+      for (std::size_t i = 0; i < n; ++i)
+        if (!scene.model.is_static[i] && (i + static_cast<std::size_t>(step / 5)) % 3 == 0) {
+          scene.state.awake[i] = 0;
+          scene.state.v[i].setZero();
+          scene.state.omega[i].setZero();
+        }
+    const std::vector<double> reach = reach_of(scene, dt, gravity);
+    const std::vector<Pair> broad = pairs_of(broad_phase, scene, reach, margin);
+    const std::vector<Pair> exact = box_pairs(scene, reach, margin);
+    if (broad != exact && mismatched++ < 5)
+      ADD_FAILURE() << "step " << step << " (phase " << phase << "): " << broad.size() << " pairs, the boxes give "
+                    << exact.size();
+    EXPECT_FALSE(exact.empty()) << "step " << step;
+    scenes::drift(scene, dt, side);
+  }
+  EXPECT_EQ(mismatched, 0);
 }
 
 // ---- determinism -------------------------------------------------------------------------------

@@ -91,6 +91,11 @@ class Proxy : public fcl::CollisionObjectd {
     aabb.min_ -= Vec3::Constant(by);
     aabb.max_ += Vec3::Constant(by);
   }
+  /// The box [lo, hi] (world, m) as the tree's leaf will hold it at the next update.
+  void set_box(const Vec3& lo, const Vec3& hi) {
+    aabb.min_ = lo;
+    aabb.max_ = hi;
+  }
   /// Out of the way: a 1 m box of its own, far from anything a world holds, at z = side * 1e9 m
   /// (side +1 in the awake tree, -1 in the sleeping one, so parked boxes of the two never meet).
   void park(double side) {
@@ -267,6 +272,18 @@ struct BroadPhase::Impl {
   std::vector<char> in_sleep_tree;  ///< by body index: its sleep_proxy holds its box (else parked)
   /// the proxies that moved in or out of parking in this call (scratch, reserved to the body count)
   std::vector<fcl::CollisionObjectd*> moved_awake, moved_asleep;
+  /// Fat boxes (Box2D's idea; FCL's manager has none): an awake dynamic body's leaf holds its box
+  /// grown by fat[i] more, and is moved only when the body's box (grown by reach + margin/2, kept
+  /// in box) leaves it. While no leaf moves, the pairs of leaves that overlap (candidates) stay the
+  /// same, so a pile at rest costs no tree update and no tree walk: only the candidates' boxes are
+  /// tested again. Every pair whose boxes overlap is a candidate (each box lies in its leaf), so
+  /// pairs() gives what a walk over the exact boxes would.
+  std::vector<double> fat;                    ///< by body index (m): 1/10 of the shape's bounding radius
+  std::vector<fcl::AABBd> box;                ///< by body index: an awake dynamic body's box this step
+  std::vector<fcl::CollisionObjectd*> moved_fat;  ///< leaves given a new fat box in this call (scratch)
+  std::vector<char> moved_flag;               ///< by body index: in moved_fat (scratch, all 0 between calls)
+  std::vector<std::pair<BodyIndex, BodyIndex>> candidates;  ///< leaf pairs that overlap, sorted
+  bool fat_valid = false;  ///< false: every awake leaf gets its fat box and the trees are walked anew
   bool static_dirty = false;
   double static_margin = -1.0;  ///< margin the static AABBs were last grown by
   double sleep_margin = -1.0;   ///< margin the sleeping AABBs were last grown by
@@ -281,6 +298,10 @@ void BroadPhase::add_body(BodyIndex i, const Shape& shape, bool is_static, const
     throw std::logic_error("BroadPhase::add_body: bodies must be added in index order");
   impl_->triangles.emplace_back(nullptr);
   impl_->in_sleep_tree.push_back(0);
+  impl_->fat.push_back(std::holds_alternative<Plane>(shape) ? 0.0 : 0.1 * bounding_radius(shape));
+  impl_->box.emplace_back();
+  impl_->moved_flag.push_back(0);
+  impl_->fat_valid = false;
   impl_->sleep_proxy.emplace_back(nullptr);
   if (const auto* mesh = std::get_if<TriangleMesh>(&shape)) impl_->triangles.back() = std::make_unique<TriangleQuery>(*mesh);
   if (std::holds_alternative<Plane>(shape)) {
@@ -313,6 +334,7 @@ void BroadPhase::move_static(BodyIndex i, const Vec3& p, const Mat3& R) {
   if (!proxy) return;
   proxy->setTransform(R, p);  // the box is refitted from the shape at the next pairs()
   impl_->static_dirty = true;
+  impl_->fat_valid = false;
 }
 
 void BroadPhase::refit_static(const Model& model, const State& state, double margin) {
@@ -331,7 +353,10 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
                        std::vector<std::pair<BodyIndex, BodyIndex>>& out) {
   Impl& m = *impl_;
   // static bodies: grown once by margin/2, refitted only when one moved or the margin changed
-  if (m.static_dirty || m.static_margin != margin) refit_static(model, state, margin);
+  if (m.static_dirty || m.static_margin != margin) {
+    refit_static(model, state, margin);
+    m.fat_valid = false;
+  }
   // sleeping bodies: moved to their own tree as they fall asleep, back as they wake (their poses
   // are frozen, so their boxes are set once); the other tree's proxy is parked
   const bool sleep_refit = m.sleeping > 0 && m.sleep_margin != margin;
@@ -363,25 +388,73 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
   }
   // the moved leaves re-inserted where their new boxes are (a refit alone would stretch their old
   // neighbours' boxes out to the parking place)
+  bool walk = !m.fat_valid || sleep_refit || !m.moved_awake.empty();
   if (!m.moved_awake.empty()) {
     m.dynamic_tree.update(m.moved_awake);
     m.sleep_tree.update(m.moved_asleep);
   }
   if (sleep_refit) m.sleep_tree.update();
   m.sleep_margin = margin;
-  // awake dynamic bodies: new pose, AABB grown by their reach, incremental tree refit
+  // awake dynamic bodies: the box at the new pose, grown by their reach; the leaf moves (with its
+  // fat box) only when the box has left it
+  m.moved_fat.clear();
   for (BodyIndex i : m.dynamic_bodies) {
     if (m.in_sleep_tree[i]) continue;
-    m.proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
-    m.proxy[i]->grow_aabb(reach[i] + 0.5 * margin);
+    Vec3 lo, hi;
+    tight_aabb(model.shape[i], state.R[i], state.p[i], lo, hi);
+    const Vec3 grow = Vec3::Constant(reach[i] + 0.5 * margin);
+    fcl::AABBd& b = m.box[i];
+    b.min_ = lo - grow;
+    b.max_ = hi + grow;
+    Proxy& leaf = *m.proxy[i];
+    if (m.fat_valid && leaf.getAABB().contain(b)) continue;
+    leaf.setTransform(state.R[i], state.p[i]);
+    leaf.set_box(b.min_ - Vec3::Constant(m.fat[i]), b.max_ + Vec3::Constant(m.fat[i]));
+    m.moved_fat.push_back(&leaf);
   }
-  m.dynamic_tree.update();
+  // many leaves moved (a pile falling): every box read anew, the tree refitted and walked whole;
+  // a few (a pile at rest, a body or two rolling): those leaves re-inserted and only they looked up
+  if (!m.fat_valid || 4 * m.moved_fat.size() > m.dynamic_bodies.size()) {
+    m.dynamic_tree.update();
+    walk = true;
+  } else if (!m.moved_fat.empty() && !walk) {
+    m.dynamic_tree.update(m.moved_fat);
+    for (fcl::CollisionObjectd* leaf : m.moved_fat) m.moved_flag[static_cast<Proxy*>(leaf)->index()] = 1;
+    const auto stale = [&](const std::pair<BodyIndex, BodyIndex>& ij) {
+      return m.moved_flag[ij.first] || m.moved_flag[ij.second];
+    };
+    m.candidates.erase(std::remove_if(m.candidates.begin(), m.candidates.end(), stale), m.candidates.end());
+    for (fcl::CollisionObjectd* leaf : m.moved_fat) {
+      m.moved_flag[static_cast<Proxy*>(leaf)->index()] = 0;
+      m.dynamic_tree.collide(leaf, &m.candidates, collect_pair);  // finds the leaf itself too: dropped below
+      m.static_tree.collide(leaf, &m.candidates, collect_pair);
+      if (m.sleeping > 0) m.sleep_tree.collide(leaf, &m.candidates, collect_pair);
+    }
+    const auto itself = [](const std::pair<BodyIndex, BodyIndex>& ij) { return ij.first == ij.second; };
+    m.candidates.erase(std::remove_if(m.candidates.begin(), m.candidates.end(), itself), m.candidates.end());
+    std::sort(m.candidates.begin(), m.candidates.end());
+    m.candidates.erase(std::unique(m.candidates.begin(), m.candidates.end()), m.candidates.end());
+  } else if (!m.moved_fat.empty()) {
+    m.dynamic_tree.update(m.moved_fat);
+  }
+  m.fat_valid = true;
+  if (walk) {
+    m.candidates.clear();
+    m.dynamic_tree.collide(&m.candidates, collect_pair);
+    m.dynamic_tree.collide(&m.static_tree, &m.candidates, collect_pair);
+    if (m.sleeping > 0) m.dynamic_tree.collide(&m.sleep_tree, &m.candidates, collect_pair);
+    std::sort(m.candidates.begin(), m.candidates.end());
+    m.candidates.erase(std::unique(m.candidates.begin(), m.candidates.end()), m.candidates.end());
+  }
+  // the candidates whose boxes overlap now (a static or sleeping body's box is its leaf's)
+  const auto box_of = [&](BodyIndex i) -> const fcl::AABBd& {
+    if (model.is_static[i]) return m.proxy[i]->getAABB();
+    if (m.in_sleep_tree[i]) return m.sleep_proxy[i]->getAABB();
+    return m.box[i];
+  };
   out.clear();
-  m.dynamic_tree.collide(&out, collect_pair);
-  m.dynamic_tree.collide(&m.static_tree, &out, collect_pair);
-  if (m.sleeping > 0) m.dynamic_tree.collide(&m.sleep_tree, &out, collect_pair);
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
+  for (const auto& ij : m.candidates)
+    if (box_of(ij.first).overlap(box_of(ij.second))) out.push_back(ij);
 }
 
 const TriangleQuery* BroadPhase::triangles(BodyIndex i) const { return impl_->triangles.at(i).get(); }
@@ -401,6 +474,7 @@ void BroadPhase::refresh(const Model& model, const State& state) {
   }
   if (!m.dynamic_bodies.empty()) m.dynamic_tree.update();
   if (m.sleeping > 0) m.sleep_tree.update();
+  m.fat_valid = false;  // the awake leaves are tight now: the next pairs() fattens them again
 }
 
 void BroadPhase::cast_ray(const Vec3& o, const Vec3& u, double bound, RayVisitor& visitor,
