@@ -145,11 +145,14 @@ struct SolverData {
   std::vector<int> recalled;        ///< per contact: its cache entry this step (-1: none)
   /// store's list of each forced body's contacts, in contact order: body x's are
   /// body_contacts[body_first[x] .. body_first[x] + body_count[x]) (N-sized; body_count is zero
-  /// outside store)
+  /// outside store), each entry 2i for contact i's body A, 2i + 1 for its body B
   std::vector<int> body_first, body_count, body_contacts;
   /// store's per contact: the torques it puts on A and on B about their centres (2K: A's at 2i,
-  /// B's at 2i + 1; N m, world), written with the contact's outputs and summed per body
-  std::vector<Vec3> contact_torque;
+  /// B's at 2i + 1; N m, world), its force on B (K; N, world) and its bodies (2K: A at 2i, B at
+  /// 2i + 1), written with the contact's outputs and summed per body (compact, so that the sums
+  /// do not read the contacts themselves again)
+  std::vector<Vec3> contact_torque, contact_force;
+  std::vector<BodyIndex> contact_body;
   std::vector<double> alpha_iter;   ///< per contact: alpha_n after the iterate stage (N)
   // the soft step: per contact in solve order; per body the pose at the step's start and how far
   // it has moved and turned since (dp = p - p0, dR = R R0^T - I)

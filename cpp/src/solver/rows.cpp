@@ -108,7 +108,7 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
       // after the others), else the lowest free one
       colour = a_moves && b_moves ? 0 : kStaticColour;
       if (colour > 0 && (~taken >> colour) == 0) colour = 0;
-      while (taken >> colour & 1) ++colour;
+      colour += __builtin_ctzll(~taken >> colour);  // the lowest free colour from there (one is free)
       if (a_moves) d.colours_used[a] |= std::uint64_t(1) << colour;
       if (b_moves) d.colours_used[b] |= std::uint64_t(1) << colour;
     }
@@ -309,6 +309,8 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   const std::size_t K = contacts.size();
   d.cache_next.resize(K);
   d.contact_torque.resize(2 * K);  // every entry is written below, contact by contact
+  d.contact_force.resize(K);
+  d.contact_body.resize(2 * K);
   // each contact's own outputs and the certificate's maxima (max: the same whatever the order the
   // parts are joined in), split over the threads; the bodies' sums below in contact order
   const SolverStats start = stats;
@@ -332,6 +334,9 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       const Vec3 spin_torque = c.spin_torque * c.normal;
       d.contact_torque[2 * i] = -r.r_a.cross(c.force) - spin_torque;
       d.contact_torque[2 * i + 1] = r.r_b.cross(c.force) + spin_torque;
+      d.contact_force[i] = c.force;
+      d.contact_body[2 * i] = c.body_a;
+      d.contact_body[2 * i + 1] = c.body_b;
       // velocities after the solve: normal and slip
       const Vec3 dv = point_velocity(r, d.qd[r.a], d.qd[r.b]);
       const double vn = r.n.dot(dv);
@@ -402,11 +407,10 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   const std::size_t N = d.body_force.size();
   parallel::fit(d.body_count, N, 0);  // zero outside store: reset below for the listed bodies only
   parallel::fit(d.body_first, N, 0);
-  for (const Contact& c : contacts) {
-    ++d.body_count[c.body_a];
-    ++d.body_count[c.body_b];
-    mark_forced(d, c.body_a);
-    mark_forced(d, c.body_b);
+  for (std::size_t e = 0; e < 2 * K; ++e) {
+    const BodyIndex x = d.contact_body[e];
+    ++d.body_count[x];
+    mark_forced(d, x);
   }
   int first = 0;
   for (const int x : d.forced) {  // body_count becomes each listed body's fill cursor
@@ -415,25 +419,21 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
     d.body_count[x] = 0;
   }
   assign_n(d.body_contacts, 2 * K, 0);
-  for (std::size_t i = 0; i < K; ++i) {
-    for (const BodyIndex x : {contacts[i].body_a, contacts[i].body_b})
-      d.body_contacts[d.body_first[x] + d.body_count[x]++] = static_cast<int>(i);
+  for (std::size_t e = 0; e < 2 * K; ++e) {
+    const BodyIndex x = d.contact_body[e];
+    d.body_contacts[d.body_first[x] + d.body_count[x]++] = static_cast<int>(e);
   }
   for_ranges(d, d.forced.size(), 256, [&](std::size_t from, std::size_t to) {
     for (std::size_t f = from; f < to; ++f) {
       const std::size_t x = static_cast<std::size_t>(d.forced[f]);
       Vec3& force = d.body_force[x];
       Vec3& torque = d.body_torque[x];
-      for (int e = d.body_first[x]; e < d.body_first[x] + d.body_count[x]; ++e) {
-        const std::size_t i = static_cast<std::size_t>(d.body_contacts[e]);
-        const Contact& c = contacts[i];
-        if (static_cast<std::size_t>(c.body_a) == x) {
-          force -= c.force;
-          torque += d.contact_torque[2 * i];
-        } else {
-          force += c.force;
-          torque += d.contact_torque[2 * i + 1];
-        }
+      for (int k = d.body_first[x]; k < d.body_first[x] + d.body_count[x]; ++k) {
+        const std::size_t e = static_cast<std::size_t>(d.body_contacts[k]);  // 2i: x is A, 2i + 1: x is B
+        const Vec3& contact_force = d.contact_force[e / 2];
+        if (e % 2 == 0) force -= contact_force;
+        else force += contact_force;
+        torque += d.contact_torque[e];
       }
       d.body_count[x] = 0;  // zero again for the next store (each listed body is one task's)
     }

@@ -171,10 +171,12 @@ void soft_solve(const Model& model, const State& state, const SolverSettings& se
   }
   // the gaps are those soft_relax left (or soft_begin's in the first substep): the poses have not
   // moved since
-  // the approach of each contact that has not pushed yet, for restitution if it pushes now
+  // the approach of each contact that has not pushed yet, for restitution if it pushes now (only
+  // a contact with restitution can bounce: the others' approach is never read)
   for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
     for (std::size_t k = first; k < end; ++k)
-      if (d.soft[k].alpha_max == 0.0) d.soft[k].u_before = normal_velocity(d.rows[k], d.qd);
+      if (d.soft[k].alpha_max == 0.0 && d.e[static_cast<std::size_t>(d.order[k])] > 0.0)
+        d.soft[k].u_before = normal_velocity(d.rows[k], d.qd);
   });
   sweeps(settings, d, true, settings.soft_iterations, false);
   unload(d, v, omega);
