@@ -37,6 +37,16 @@ class Pool {
     run(n, grain, &call<Fn>, const_cast<void*>(static_cast<const void*>(&f)));
   }
 
+  /// f(k) for k in [0, threads()) on this pool's threads: the participants of a job that they
+  /// share out among themselves (claiming work from an atomic counter). Any participant may run
+  /// before, after or beside any other, or all on the calling thread, so f must be written so that
+  /// one participant alone finishes the job (it may only wait on work another has claimed).
+  template <class F>
+  void join(F&& f) const {
+    for_ranges(static_cast<std::size_t>(threads_), 1, [&](std::size_t first, std::size_t end) {
+      for (std::size_t k = first; k < end; ++k) f(k);
+    });
+  }
   /// The number of threads the machine offers (oneTBB's default concurrency), at least 1.
   static int machine_threads();
 
@@ -56,6 +66,13 @@ class Pool {
   struct Arena;
   std::unique_ptr<Arena> arena_;  // oneTBB stays inside pool.cpp
 };
+
+/// A spinning thread's breath: the CPU's pause hint where it has one (x86), else nothing.
+inline void pause() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#endif
+}
 
 /// f(begin, end) over [0, n) on pool's threads, or on the calling thread when pool is null.
 template <class F>
