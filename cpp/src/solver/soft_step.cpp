@@ -1,6 +1,7 @@
 #include "solver/soft_step.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "dynamics/rigid_body.hpp"
@@ -193,6 +194,14 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
   // cache keeps the forces before it
   d.alpha_iter.resize(K);
   d.restitutive.resize(K);
+  // and each contact's impulse and largest force so far, in the same pass for a contact that does
+  // not bounce (restitution leaves its force as it is), after restitution for one that does
+  std::atomic<bool> bounces{false};
+  const auto add_impulse = [&](std::size_t k) {
+    SoftPoint& p = d.soft[k];
+    p.impulse += d.h * d.alpha[3 * k];
+    p.alpha_max = std::max(p.alpha_max, d.alpha[3 * k]);
+  };
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
     for (std::size_t k = first; k < end; ++k) {  // in solve order, as the points are stored
       const std::size_t i = static_cast<std::size_t>(d.order[k]);
@@ -200,18 +209,22 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
       d.alpha_iter[i] = d.alpha[3 * k];
       d.restitutive[i] = p.alpha_max == 0.0 && d.alpha[3 * k] > 0.0 && d.e[i] > 0.0 &&
                          p.u_before < -settings.restitution_threshold;
-      if (d.restitutive[i]) d.u[i] = p.u_before;
+      if (d.restitutive[i]) {
+        d.u[i] = p.u_before;
+        bounces.store(true, std::memory_order_relaxed);
+      } else {
+        add_impulse(k);
+      }
     }
   });
-  d.restitution_sweeps += restitution(settings, d);  // 0 sweeps when no contact is restitutive
+  if (bounces.load(std::memory_order_relaxed)) {
+    d.restitution_sweeps += restitution(settings, d);
+    for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
+      for (std::size_t k = first; k < end; ++k)
+        if (d.restitutive[static_cast<std::size_t>(d.order[k])]) add_impulse(k);
+    });
+  }
   unload(d, v, omega);
-  for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t k = first; k < end; ++k) {
-      SoftPoint& p = d.soft[k];
-      p.impulse += d.h * d.alpha[3 * k];
-      p.alpha_max = std::max(p.alpha_max, d.alpha[3 * k]);
-    }
-  });
 }
 
 SolverStats soft_end(const Model& model, const State& state, const SolverSettings& settings,
