@@ -7,8 +7,10 @@
 // count gives the same bits. A reduction is only a max, which does not depend on the order.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <memory>
+#include <thread>
 #include <type_traits>
 #include <vector>
 
@@ -67,11 +69,22 @@ class Pool {
   std::unique_ptr<Arena> arena_;  // oneTBB stays inside pool.cpp
 };
 
-/// A spinning thread's breath: the CPU's pause hint where it has one (x86), else nothing.
-inline void pause() {
+/// One wait of a thread spinning on other threads' work, the spin-th in a row: the CPU's pause
+/// hint for the first thousand or so (a colour's blocks end within microseconds of each other),
+/// then the processor offered to others (a yield returns at once when nobody else wants it), and
+/// after some thousands of those a short sleep: with more threads than cores (other programs,
+/// other Worlds) the thread waited for may not be running at all, and a waiter that never sleeps
+/// can keep it off the core. On an unloaded machine a wait ends long before the sleeps begin.
+inline void back_off(int spin) {
+  if (spin < 1024) {
 #if defined(__x86_64__) || defined(__i386__)
-  __builtin_ia32_pause();
+    __builtin_ia32_pause();
 #endif
+  } else if (spin < 1024 + 4096) {
+    std::this_thread::yield();
+  } else {
+    std::this_thread::sleep_for(std::chrono::microseconds(20));
+  }
 }
 
 /// f(begin, end) over [0, n) on pool's threads, or on the calling thread when pool is null.

@@ -11,7 +11,6 @@
 #include <cstdint>
 #include <mutex>
 #include <stdexcept>
-#include <thread>
 #include <vector>
 
 #include "parallel/pool.hpp"
@@ -64,10 +63,7 @@ double by_colour(const SolverData& d, Sweep&& sweep) {
     for (std::size_t b = next.fetch_add(1, std::memory_order_relaxed); b < total;
          b = next.fetch_add(1, std::memory_order_relaxed)) {
       while (first_block[c + 1] <= b) ++c;  // blocks are claimed in increasing order
-      for (int spin = 0; done.load(std::memory_order_acquire) < first_block[c]; ++spin) {
-        if (spin < 64) parallel::pause();
-        else std::this_thread::yield();
-      }
+      for (int spin = 0; done.load(std::memory_order_acquire) < first_block[c]; ++spin) parallel::back_off(spin);
       const std::size_t start = static_cast<std::size_t>(d.colour_start[c]);
       const std::size_t end = static_cast<std::size_t>(d.colour_start[c + 1]);
       const std::size_t first = start + (b - first_block[c]) * kContactsPerTask;
