@@ -413,29 +413,33 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
     m.moved_fat.push_back(&leaf);
   }
   // many leaves moved (a pile falling): every box read anew, the tree refitted and walked whole;
-  // a few (a pile at rest, a body or two rolling): those leaves re-inserted and only they looked up
-  if (!m.fat_valid || 4 * m.moved_fat.size() > m.dynamic_bodies.size()) {
-    m.dynamic_tree.update();
-    walk = true;
-  } else if (!m.moved_fat.empty() && !walk) {
-    m.dynamic_tree.update(m.moved_fat);
-    for (fcl::CollisionObjectd* leaf : m.moved_fat) m.moved_flag[static_cast<Proxy*>(leaf)->index()] = 1;
-    const auto stale = [&](const std::pair<BodyIndex, BodyIndex>& ij) {
-      return m.moved_flag[ij.first] || m.moved_flag[ij.second];
-    };
-    m.candidates.erase(std::remove_if(m.candidates.begin(), m.candidates.end(), stale), m.candidates.end());
-    for (fcl::CollisionObjectd* leaf : m.moved_fat) {
-      m.moved_flag[static_cast<Proxy*>(leaf)->index()] = 0;
-      m.dynamic_tree.collide(leaf, &m.candidates, collect_pair);  // finds the leaf itself too: dropped below
-      m.static_tree.collide(leaf, &m.candidates, collect_pair);
-      if (m.sleeping > 0) m.sleep_tree.collide(leaf, &m.candidates, collect_pair);
-    }
+  // a few (a pile at rest, a body or two rolling): those leaves re-inserted and, unless the trees
+  // are walked whole anyway, only they looked up
+  const auto tidy = [&] {  // sorted, each pair once, none of a leaf with itself
     const auto itself = [](const std::pair<BodyIndex, BodyIndex>& ij) { return ij.first == ij.second; };
     m.candidates.erase(std::remove_if(m.candidates.begin(), m.candidates.end(), itself), m.candidates.end());
     std::sort(m.candidates.begin(), m.candidates.end());
     m.candidates.erase(std::unique(m.candidates.begin(), m.candidates.end()), m.candidates.end());
+  };
+  if (!m.fat_valid || 4 * m.moved_fat.size() > m.dynamic_bodies.size()) {
+    m.dynamic_tree.update();
+    walk = true;
   } else if (!m.moved_fat.empty()) {
     m.dynamic_tree.update(m.moved_fat);
+    if (!walk) {
+      for (fcl::CollisionObjectd* leaf : m.moved_fat) m.moved_flag[static_cast<Proxy*>(leaf)->index()] = 1;
+      const auto stale = [&](const std::pair<BodyIndex, BodyIndex>& ij) {
+        return m.moved_flag[ij.first] || m.moved_flag[ij.second];
+      };
+      m.candidates.erase(std::remove_if(m.candidates.begin(), m.candidates.end(), stale), m.candidates.end());
+      for (fcl::CollisionObjectd* leaf : m.moved_fat) {
+        m.moved_flag[static_cast<Proxy*>(leaf)->index()] = 0;
+        m.dynamic_tree.collide(leaf, &m.candidates, collect_pair);  // finds the leaf itself too
+        m.static_tree.collide(leaf, &m.candidates, collect_pair);
+        if (m.sleeping > 0) m.sleep_tree.collide(leaf, &m.candidates, collect_pair);
+      }
+      tidy();
+    }
   }
   m.fat_valid = true;
   if (walk) {
@@ -443,8 +447,7 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
     m.dynamic_tree.collide(&m.candidates, collect_pair);
     m.dynamic_tree.collide(&m.static_tree, &m.candidates, collect_pair);
     if (m.sleeping > 0) m.dynamic_tree.collide(&m.sleep_tree, &m.candidates, collect_pair);
-    std::sort(m.candidates.begin(), m.candidates.end());
-    m.candidates.erase(std::unique(m.candidates.begin(), m.candidates.end()), m.candidates.end());
+    tidy();
   }
   // the candidates whose boxes overlap now (a static or sleeping body's box is its leaf's)
   const auto box_of = [&](BodyIndex i) -> const fcl::AABBd& {
