@@ -315,19 +315,22 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   // parts are joined in), split over the threads; the bodies' sums below in contact order
   const SolverStats start = stats;
   std::mutex joined;
+  // in solve order, as the rows and forces are stored: the contacts are then the ones reached out
+  // of order (their fields are written more than read, and a write does not wait)
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
     SolverStats part = start;
-    for (std::size_t i = first; i < end; ++i) {
+    for (std::size_t k = first; k < end; ++k) {
+      const std::size_t i = static_cast<std::size_t>(d.order[k]);
       Contact& c = contacts[i];
-      const ContactRows& r = d.rows[d.slot[i]];
-      const double* alpha = &d.alpha[3 * d.slot[i]];
+      const ContactRows& r = d.rows[k];
+      const double* alpha = &d.alpha[3 * k];
       // forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2 (on B; A gets the opposite)
       c.alpha = alpha[0];
       c.impulse = dt * alpha[0];
       c.friction = alpha[1] * r.t1 + alpha[2] * r.t2;
       c.force = alpha[0] * c.normal + c.friction;
       // torsional friction: spin_torque n on B, the opposite on A
-      const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[d.slot[i]];
+      const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[k];
       c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
       // the torques the contact puts on A and B about their centres: the force at the lever arm,
       // and torsional friction (-t n on A, t n on B); for each body's sums below

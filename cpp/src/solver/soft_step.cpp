@@ -248,7 +248,7 @@ SolverStats soft_end(const Model& model, const State& state, const SolverSetting
   store(d.h, settings, contacts, d, stats);
   if (d.joints != nullptr && !d.joints->empty()) store_joints(state, *d.joints);
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) contacts[i].impulse = d.soft[d.slot[i]].impulse;
+    for (std::size_t k = first; k < end; ++k) contacts[static_cast<std::size_t>(d.order[k])].impulse = d.soft[k].impulse;
   });
   unload(d, v, omega);
   // a fixed number of sweeps by design: never flagged as unconverged (the certificate says what
