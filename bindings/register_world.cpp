@@ -67,6 +67,9 @@ void register_world(py::module_& m) {
   bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<FrictionCone>>(m.attr("FrictionCone")));
   bindings::pickle_at_every_protocol(py::reinterpret_borrow<py::class_<Gyroscopic>>(m.attr("Gyroscopic")));
 
+  m.def("set_simd", &set_simd, py::arg("isa"));
+  m.def("simd", &simd);
+
   // solver settings: plain fields, validated by World (docs/conventions.md, "Defaults")
   py::class_<SolverSettings>(m, "SolverSettings")
       .def(py::init<>())

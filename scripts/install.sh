@@ -125,7 +125,7 @@ if [ "${SIGNORINI_REINSTALL:-0}" != 1 ] && installed_matches "$kind" "$mode"; th
   exit 0
 fi
 
-packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libqhull-dev libtbb-dev)
+packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfcl-dev libccd-dev libqhull-dev libtbb-dev libxsimd-dev)
 [ "$with_tests" = 1 ] && packages+=(libgtest-dev chromium)
 python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip)
 # the extension compiles against Python.h

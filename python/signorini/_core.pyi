@@ -6,7 +6,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['BatchStepper', 'BodyIndexError', 'Box', 'Capsule', 'Compound', 'ConvexHull', 'Cylinder', 'FrictionCone', 'Gyroscopic', 'Mesh', 'Plane', 'SleepSettings', 'SolverMethod', 'SolverSettings', 'Sphere', 'TriangleMesh', 'World', 'collide', 'mass_properties', 'matrix_to_quat', 'quat_to_matrix']
+__all__: list[str] = ['BatchStepper', 'BodyIndexError', 'Box', 'Capsule', 'Compound', 'ConvexHull', 'Cylinder', 'FrictionCone', 'Gyroscopic', 'Mesh', 'Plane', 'SleepSettings', 'SolverMethod', 'SolverSettings', 'Sphere', 'TriangleMesh', 'World', 'collide', 'mass_properties', 'matrix_to_quat', 'quat_to_matrix', 'set_simd', 'simd']
 class Sphere:
     """
     Ball of the given radius (m), centred at the body origin.
@@ -789,3 +789,7 @@ def quat_to_matrix(q: typing.Any) -> typing.Annotated[numpy.typing.NDArray[numpy
     """
     Rotation matrix (3, 3), world-from-body, of a quaternion (4,) (w, x, y, z), made unit first as the World does (equal to World.rotations to the bit). ValueError for a wrong shape or a non-finite or zero quaternion.
     """
+def set_simd(isa: str) -> None:
+    ...
+def simd() -> str:
+    ...

@@ -2,6 +2,8 @@
 // certificate"). The solver itself is internal (cpp/src/solver/); users see these two structs.
 #pragma once
 
+#include <string>
+
 namespace signorini {
 
 /// How friction is bounded by the normal force alpha_n.
@@ -116,5 +118,14 @@ struct SolverStats {
   double max_dissipation_violation = 0.0;  ///< sliding contacts: max |f_i + mu_i alpha_i s_i/|s_i|| (N)
   double max_overlap = 0.0;                ///< max(0, -min gap_i) (m)
 };
+
+/// The code the soft step's sweeps solve four contacts at a time with (docs/conventions.md, "Rows
+/// four at a time"): "auto" (the widest the CPU has, the default), "avx2", "sse2", or "scalar" (one
+/// contact at a time). Every choice gives the same bits; process-wide, for benchmarks and tests
+/// that compare them. Throws std::invalid_argument for another name, or "avx2" on a CPU or build
+/// without it.
+void set_simd(const std::string& isa);
+/// The code the sweeps run with now: "avx2", "sse2" or "scalar".
+std::string simd();
 
 }  // namespace signorini

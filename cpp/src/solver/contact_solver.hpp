@@ -93,6 +93,21 @@ struct SoftPoint {
   double u_before = 0.0;     ///< J_n q_dot before the last biased sweep, while it has not pushed (m/s)
 };
 
+/// Four contacts of one colour laid out for SIMD (solver/wide_rows.hpp): their ContactRows'
+/// fields that the soft step's sweeps read, each as four values side by side (lane l: the
+/// contact at the group's first solve position + l), so a field of the four loads as one register.
+struct alignas(32) WideGroup {
+  double n[3][4], t1[3][4], t2[3][4];  ///< the rows' directions, component by component
+  double r_a[3][4], r_b[3][4];         ///< lever arms (m, world)
+  double dinv_mass_a[4], dinv_mass_b[4];
+  double inv_delta[3][4];
+  double W_1n[4], W_2n[4], W_21[4];
+  double mu[4];
+  int a[4], b[4];
+  bool a_moves[4], b_moves[4];
+  bool one_by_one = false;  ///< a contact whose normal or first friction row has delta <= 0: solved by the scalar code
+};
+
 /// Everything the solver keeps between steps (the cache) or reuses (scratch), as flat arrays.
 struct SolverData {
   /// the step's worker threads (the World's; null: the calling thread alone)
@@ -111,6 +126,10 @@ struct SolverData {
   // their forces alpha (N), 3 per contact (at 3k, 3k + 1, 3k + 2); the solve order (order: position -> contact, slot: contact -> position) and the
   // colours each body has taken while it was made (a bit per colour)
   std::vector<ContactRows> rows;
+  /// the soft step's rows four at a time (wide_rows.hpp: widen): colour c's groups are
+  /// wide[wide_first[c] .. wide_first[c + 1]), from the colour's first contact on
+  std::vector<WideGroup> wide;
+  std::vector<int> wide_first;
   std::vector<double> alpha;
   std::vector<int> order, slot;
   std::vector<std::uint64_t> colours_used;

@@ -7,6 +7,8 @@
 #include "dynamics/rigid_body.hpp"
 #include "solver/joint_rows.hpp"
 #include "solver/rows.hpp"
+#include "solver/soft_contact.hpp"
+#include "solver/wide_rows.hpp"
 
 namespace signorini::solver {
 namespace {
@@ -55,46 +57,22 @@ void body_motion(const Model& model, const State& state, SolverData& d) {
   });
 }
 
-/// Contact k's gap now, s = gap0 + n . ((dp_B + dR_B r_B) - (dp_A + dR_A r_A)): its point carried
-/// with each body from the step's start (r_X the lever arm then, world; dR_X r_X = (R R0^T - I) r_X
-/// how far the body's turn has moved the point), exactly gap0 until a body moves. Needs body_motion.
-inline double gap_now(const SolverData& d, const ContactRows& r, const SoftPoint& p) {
-  const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * r.r_b;
-  const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * r.r_a;
-  return p.gap0 + r.n.dot(moved_b - moved_a);
-}
-
-/// One sweep over every contact in solve order: the normal row by the soft rule (biased: the
-/// spring while the contact overlaps; not biased: rigid), then its friction rows
-/// and its spin row. A contact with a positive gap is rigid with the speculative bias gap / h
-/// either way. kGap: each contact's gap is brought up to date first (gap_now: the poses have
-/// moved since the last sweep), in the same pass, so the rows are read once.
+/// One sweep over every contact in solve order (soft_contact), colour by colour over the threads;
+/// four contacts at a time (wide_sweep) unless the rows have spin rows or the cone rule.
 template <bool kSpin, bool kGap>
 void sweep(const SolverSettings& s, SolverData& d, bool biased) {
-  const double inv_h = 1.0 / d.h;
-  std::vector<BodyVelocity>& qd = d.qd;
-  const Mat3* dI = d.dI_inv.data();
+  SoftSweep x;
+  x.biased = biased;
+  x.update_gaps = kGap;
+  x.inv_h = 1.0 / d.h;
+  x.max_push_velocity = s.max_push_velocity;
   by_colour(d, [&](std::size_t first, std::size_t end) {
-    double change = 0.0;  // not used: the soft step runs a fixed number of sweeps
-    for (std::size_t k = first; k < end; ++k) {
-      const ContactRows& r = d.rows[k];
-      double* alpha = &d.alpha[3 * k];
-      SoftPoint& p = d.soft[k];
-      if constexpr (kGap) p.s = gap_now(d, r, p);
-      SoftNormal normal;
-      if (p.s > 0.0) {
-        normal.bias = p.s * inv_h;
-      } else if (biased) {
-        // the spring on the whole overlap (no slop: the relax sweeps keep a resting contact still)
-        normal.bias = std::max(p.mass_scale * p.bias_rate * p.s, -s.max_push_velocity);
-        normal.mass_scale = p.mass_scale;
-        normal.impulse_scale = p.impulse_scale;
-      }
-      BodyVelocity A = qd[r.a], B = qd[r.b];
-      contact_rows(s, r, dI, alpha, A, B, change, normal);
-      finish_contact<kSpin>(d, k, r, alpha, A, B, change);
+    if (!kSpin && s.friction_cone == FrictionCone::Pyramid) {
+      wide_sweep(s, x, d, first, end);
+    } else {
+      for (std::size_t k = first; k < end; ++k) soft_contact<kSpin, kGap>(s, x, d, k);
     }
-    return change;
+    return 0.0;  // not used: the soft step runs a fixed number of sweeps
   });
 }
 
@@ -158,6 +136,7 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
       p.gap0 = p.s = contacts[static_cast<std::size_t>(d.order[k])].gap;
     }
   });
+  widen(d);
   if (settings.warm_start) recall_forces(settings, contacts, d);
 }
 

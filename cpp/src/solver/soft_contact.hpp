@@ -1,0 +1,50 @@
+// One contact of the soft step in a sweep, by the scalar code (docs/conventions.md, "The soft
+// step"): what the soft step's sweeps run for a contact that is in no WideGroup, and for every
+// contact when the rows have spin rows or the cone friction rule (wide_rows.hpp).
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+
+#include "solver/rows.hpp"
+#include "solver/wide_rows.hpp"
+
+namespace signorini::solver {
+
+/// Contact k's gap now, s = gap0 + n . ((dp_B + dR_B r_B) - (dp_A + dR_A r_A)): its point carried
+/// with each body from the step's start (r_X the lever arm then, world; dR_X r_X = (R R0^T - I) r_X
+/// how far the body's turn has moved the point), exactly gap0 until a body moves. Needs d.dp, d.dR.
+inline double gap_now(const SolverData& d, const ContactRows& r, const SoftPoint& p) {
+  const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * r.r_b;
+  const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * r.r_a;
+  return p.gap0 + r.n.dot(moved_b - moved_a);
+}
+
+/// The contact at solve position k in a sweep: the normal row by the soft rule (biased: the spring
+/// while the contact overlaps; not biased: rigid), then its friction rows and its spin row. A
+/// contact with a positive gap is rigid with the speculative bias gap / h either way. kGap: its
+/// gap is brought up to date first (gap_now: the poses have moved since the last sweep), in the
+/// same pass, so the rows are read once.
+template <bool kSpin, bool kGap>
+[[gnu::always_inline]] inline void soft_contact(const SolverSettings& s, const SoftSweep& x, SolverData& d,
+                                                std::size_t k) {
+  const ContactRows& r = d.rows[k];
+  double* alpha = &d.alpha[3 * k];
+  SoftPoint& p = d.soft[k];
+  if constexpr (kGap) p.s = gap_now(d, r, p);
+  rows::SoftNormal normal;
+  if (p.s > 0.0) {
+    normal.bias = p.s * x.inv_h;
+  } else if (x.biased) {
+    // the spring on the whole overlap (no slop: the relax sweeps keep a resting contact still)
+    normal.bias = std::max(p.mass_scale * p.bias_rate * p.s, -x.max_push_velocity);
+    normal.mass_scale = p.mass_scale;
+    normal.impulse_scale = p.impulse_scale;
+  }
+  BodyVelocity A = d.qd[r.a], B = d.qd[r.b];
+  double change = 0.0;  // not used: the soft step runs a fixed number of sweeps
+  rows::contact_rows(s, r, d.dI_inv.data(), alpha, A, B, change, normal);
+  rows::finish_contact<kSpin>(d, k, r, alpha, A, B, change);
+}
+
+}  // namespace signorini::solver

@@ -1,0 +1,13 @@
+// The wide sweep in four lanes of AVX2; this file alone is compiled with -mavx2 (and without
+// FMA contraction: the lanes must round as the scalar sweep does), and runs only where the CPU
+// has AVX2 (wide_rows.cpp asks xsimd).
+#include "solver/wide_kernel.hpp"
+
+namespace signorini::solver::wide {
+
+void sweep_avx2(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups, std::size_t position) {
+  if (x.update_gaps) Kernel<xsimd::avx2>::run<true>(x, d, group, groups, position);
+  else Kernel<xsimd::avx2>::run<false>(x, d, group, groups, position);
+}
+
+}  // namespace signorini::solver::wide

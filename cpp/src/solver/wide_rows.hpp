@@ -1,0 +1,78 @@
+// The soft step's sweeps four contacts at a time (docs/conventions.md, "Rows four at a time").
+// A colour's contacts share no moving body, so any of them can be solved at once: the rows of each
+// four consecutive contacts of a colour are copied into one WideGroup (each field four values
+// side by side), and a sweep runs a group's four contacts in the lanes of SIMD registers (xsimd:
+// two lanes of SSE2, or four of AVX2 where the CPU has it, chosen at run time). Each lane does
+// exactly the scalar sweep's operations in the scalar sweep's order, so the bits are those of the
+// scalar sweep for every lane width and every thread count (ctest WideRows.*).
+//
+//   widen (once per step, after prepare): d.rows -> d.wide, d.wide_first
+//   wide_sweep (per sweep, per block of by_colour): the groups of [first, end), and the contacts
+//   that are in no group (a colour's last n mod 4, the shared last colour) one by one
+#pragma once
+
+#include <cstddef>
+
+#include "solver/contact_solver.hpp"
+
+namespace signorini::solver {
+
+/// Contacts per WideGroup.
+constexpr std::size_t kLanes = 4;
+
+/// One sweep's settings as the lanes read them.
+struct SoftSweep {
+  bool biased = false;      ///< the spring's bias on overlapping contacts (else rigid: the relax sweep)
+  bool update_gaps = false; ///< each contact's gap is brought up to date first (gap_now)
+  double inv_h = 0.0;       ///< 1 / h (1/s)
+  double max_push_velocity = 0.0;  ///< the spring's bias is at least -this (m/s)
+};
+
+/// Which code runs the groups: the best the CPU has (Auto), or one forced, for tests that compare
+/// them; Scalar runs every contact one by one.
+enum class WideIsa { Auto, Scalar, SSE2, AVX2 };
+
+/// Sets the code the wide sweeps run with (process-wide; Auto by default). Throws
+/// std::invalid_argument when the CPU (or the build) lacks the one asked for.
+void set_wide_isa(WideIsa isa);
+/// The code the wide sweeps run with now (never Auto).
+WideIsa wide_isa();
+
+/// Contacts the lanes have solved since the process started (summed per wide run, a count for tests
+/// that check the lanes ran).
+std::size_t wide_contacts_solved();
+
+/// d.wide and d.wide_first from d.rows and d.colour_start: colour c's contacts at solve positions
+/// [colour_start[c], colour_start[c + 1]) fill groups wide_first[c] .. wide_first[c + 1] - 1, four
+/// by four from the colour's start; the shared last colour has none. A group with a contact whose
+/// normal or first friction row has delta <= 0 (both bodies static: never made by the narrow
+/// phase) is flagged, and its contacts run one by one.
+void widen(SolverData& d);
+
+/// The soft step's sweep over solve positions [first, end) (one by_colour block, or everything):
+/// each group in it at once, the other contacts one by one, in solve order, colour by colour.
+/// The contacts' rows have no spin rows and the pyramid friction rule (the soft step runs the
+/// scalar sweep otherwise).
+void wide_sweep(const SolverSettings& s, const SoftSweep& x, SolverData& d, std::size_t first, std::size_t end);
+
+namespace wide {
+/// What the per-ISA sweeps read and write, as raw arrays: those files run no Eigen or standard
+/// library code, whose inline functions compiled for AVX2 the linker could otherwise pick for the
+/// whole program.
+struct Lanes {
+  const WideGroup* groups;  ///< d.wide
+  double* qd;               ///< d.qd: per body omega (3) then v (3)
+  const double* dI;         ///< d.dI_inv: per body dt I^-1 (3 x 3, column-major)
+  double* alpha;            ///< d.alpha: 3 per solve position
+  SoftPoint* soft;          ///< d.soft: per solve position
+  const double* dp;         ///< d.dp: per body (3)
+  const double* dR;         ///< d.dR: per body (3 x 3, column-major)
+};
+
+/// The groups [group, group + groups) (none flagged one_by_one), the first at solve position
+/// `position`, in the lanes of one ISA (wide_kernel.hpp, compiled once per ISA).
+void sweep_sse2(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups, std::size_t position);
+void sweep_avx2(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups, std::size_t position);
+}  // namespace wide
+
+}  // namespace signorini::solver

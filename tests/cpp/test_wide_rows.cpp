@@ -1,0 +1,107 @@
+// The soft step's sweeps four contacts at a time (cpp/src/solver/wide_rows.hpp) give the bits of
+// the scalar sweep, in every ISA this CPU has and at every thread count.
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "signorini/world.hpp"
+#include "solver/wide_rows.hpp"
+
+using namespace signorini;
+
+namespace {
+
+/// Restores the process-wide choice when a test ends, whatever it set.
+struct KeepSimd {
+  std::string isa = simd();
+  ~KeepSimd() { set_simd("auto"); }
+};
+
+std::vector<std::string> isas() {
+  std::vector<std::string> out{"scalar", "sse2"};
+  set_simd("auto");
+  if (simd() == "avx2") out.push_back("avx2");
+  return out;
+}
+
+/// A busy scene for the lanes: 300 boxes in stacks of 3 on the ground (thousands of contacts:
+/// full groups, colours whose count is not a multiple of four, the shared last colour), spheres
+/// that bounce (restitution) and a kinematic paddle sweeping through a row of them (a body that
+/// does not move in the lanes but has a velocity). The state after `steps` steps as bytes.
+std::vector<double> busy_scene(int threads, int steps) {
+  WorldSettings settings;
+  settings.solver.method = SolverMethod::Soft;
+  settings.threads = threads;
+  settings.sleep.enabled = false;
+  World world(settings);
+  BodyDesc ground;
+  ground.shape = Plane(Vec3::UnitZ(), 0.0);
+  ground.is_static = true;
+  world.add_body(ground);
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j)
+      for (int k = 0; k < 3; ++k) {
+        BodyDesc d;
+        d.shape = Box(Vec3(0.5, 0.5, 0.5));
+        d.density = 1000.0 * (1 + (i + j + k) % 3);
+        d.position = Vec3(1.2 * i + 0.03 * k, 1.2 * j, 0.55 + 1.05 * k);
+        d.orientation = Quat4(1.0, 0.01 * (i % 3), 0.01 * (j % 2), 0.02 * k);
+        d.material.friction = 0.3 + 0.1 * (j % 4);
+        world.add_body(d);
+      }
+  for (int i = 0; i < 12; ++i) {
+    BodyDesc s;
+    s.shape = Sphere(0.2);
+    s.mass = 1.0 + i;
+    s.position = Vec3(-2.0, 0.5 * i, 0.5 + 0.3 * i);
+    s.material.restitution = 0.6;
+    world.add_body(s);
+  }
+  BodyDesc paddle;
+  paddle.shape = Box(Vec3(0.1, 3.0, 0.3));
+  paddle.is_kinematic = true;
+  paddle.position = Vec3(-3.0, 2.5, 0.3);
+  paddle.velocity = Vec3(0.8, 0.0, 0.0);
+  world.add_body(paddle);
+  world.step(1.0 / 60.0, steps);
+  std::vector<double> bytes;
+  for (std::size_t i = 0; i < world.state().p.size(); ++i)
+    for (const Vec3& x : {world.state().p[i], world.state().v[i], world.state().omega[i]})
+      bytes.insert(bytes.end(), x.data(), x.data() + 3);
+  for (const Contact& c : world.contacts()) {
+    bytes.push_back(c.alpha);
+    bytes.push_back(c.impulse);
+    bytes.insert(bytes.end(), c.friction.data(), c.friction.data() + 3);
+  }
+  return bytes;
+}
+
+}  // namespace
+
+TEST(WideRows, EveryIsaGivesTheBitsOfTheScalarSweepAtEveryThreadCount) {
+  KeepSimd keep;
+  set_simd("scalar");
+  const std::size_t before = solver::wide_contacts_solved();
+  const std::vector<double> scalar = busy_scene(1, 60);
+  EXPECT_EQ(solver::wide_contacts_solved(), before) << "the scalar choice ran lanes";
+  for (const std::string& isa : isas()) {
+    for (int threads : {1, 2, 3}) {
+      set_simd(isa);
+      const std::size_t start = solver::wide_contacts_solved();
+      EXPECT_EQ(busy_scene(threads, 60), scalar) << isa << ", " << threads << " threads";
+      if (isa != "scalar") EXPECT_GT(solver::wide_contacts_solved(), start) << isa << ": no contact went through the lanes";
+    }
+  }
+}
+
+TEST(WideRows, UnknownIsasAreRefusedAndTheChoiceIsKept) {
+  KeepSimd keep;
+  set_simd("sse2");
+  EXPECT_THROW(set_simd("avx512"), std::invalid_argument);
+  EXPECT_THROW(set_simd(""), std::invalid_argument);
+  EXPECT_EQ(simd(), "sse2");
+  set_simd("auto");
+  EXPECT_NE(simd(), "scalar");
+}
