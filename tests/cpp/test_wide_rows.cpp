@@ -1,5 +1,5 @@
-// The soft step's sweeps four contacts at a time (cpp/src/solver/wide_rows.hpp) give the bits of
-// the scalar sweep, in every ISA this CPU has and at every thread count.
+// The soft step's sweeps and warm start four body pairs at a time (cpp/src/solver/wide_rows.hpp)
+// give the bits of the scalar code, in every ISA this CPU has and at every thread count.
 #include <gtest/gtest.h>
 
 #include <stdexcept>
@@ -16,7 +16,7 @@ namespace {
 /// Restores the process-wide choice when a test ends, whatever it set.
 struct KeepSimd {
   std::string isa = simd();
-  ~KeepSimd() { set_simd("auto"); }
+  ~KeepSimd() { set_simd(isa); }
 };
 
 std::vector<std::string> isas() {
@@ -27,9 +27,10 @@ std::vector<std::string> isas() {
 }
 
 /// A busy scene for the lanes: 300 boxes in stacks of 3 on the ground (thousands of contacts:
-/// full groups, colours whose count is not a multiple of four, the shared last colour), spheres
-/// that bounce (restitution) and a kinematic paddle sweeping through a row of them (a body that
-/// does not move in the lanes but has a velocity). The state after `steps` steps as bytes.
+/// full groups, colours whose pairs do not fill their last group), spheres that bounce
+/// (restitution; pairs of one point beside pairs of four in a group) and a kinematic paddle
+/// sweeping through a row of them (a body that does not move in the lanes but has a velocity).
+/// The state after `steps` steps as bytes.
 std::vector<double> busy_scene(int threads, int steps) {
   WorldSettings settings;
   settings.solver.method = SolverMethod::Soft;

@@ -59,6 +59,18 @@ def stack(**settings):
     return w
 
 
+def pyramid(**settings):
+    """Six boxes in a pyramid of three rows, each on two below, the boxes of a row 2 mm apart
+    (speculative contacts): every box in three to five pairs of four points, solved pair by pair."""
+    w = sg.World(gravity=(0, 0, -G), sleeping=False, **settings)
+    w.add_static(sg.Plane((0, 0, 1), 0.0), friction=0.6)
+    for row in range(3):
+        for j in range(3 - row):
+            w.add_body(sg.Box((0.1, 0.1, 0.1)), density=500.0, friction=0.6,
+                       position=(0.1 * row + 0.2 * j + 0.002 * j, 0.003 * row, 0.1 + 0.2 * row))
+    return w
+
+
 def spinning_pile(**settings):
     """Six balls spinning about the vertical dropped into a pile (ball-ball and ball-ground points,
     each its pair's only one: spin rows), and a capsule spinning upright on its end; the ground's
@@ -209,6 +221,7 @@ LOCKSTEP = {
     "incline": (incline, 1 / 240, 300, {}),
     "incline_cone_substeps": (incline, 1 / 60, 120, {"friction_cone": "cone"}),
     "stack_substeps": (stack, 1 / 60, 200, {}),
+    "pyramid_substeps": (pyramid, 1 / 60, 120, {}),
     "stack_more_sweeps_cold": (stack, 1 / 120, 200, {"soft_iterations": 2, "relax_iterations": 3,
                                                       "warm_start": False, "damping_ratio": 0.5}),
     "spinning_pile": (spinning_pile, 1 / 240, 300, {}),

@@ -119,8 +119,8 @@ struct SolverStats {
   double max_overlap = 0.0;                ///< max(0, -min gap_i) (m)
 };
 
-/// The code the soft step's sweeps solve four contacts at a time with (docs/conventions.md, "Rows
-/// four at a time"): "auto" (the widest the CPU has, the default), "avx2", "sse2", or "scalar" (one
+/// The code the soft step's sweeps solve four body pairs at a time with (docs/conventions.md, "Rows
+/// four pairs at a time"): "auto" (the widest the CPU has, the default), "avx2", "sse2", or "scalar" (one
 /// contact at a time). Every choice gives the same bits; process-wide, for benchmarks and tests
 /// that compare them. Throws std::invalid_argument for another name, or "avx2" on a CPU or build
 /// without it.

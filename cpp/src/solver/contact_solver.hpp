@@ -93,18 +93,34 @@ struct SoftPoint {
   double u_before = 0.0;     ///< J_n q_dot before the last biased sweep, while it has not pushed (m/s)
 };
 
-/// Four contacts of one colour laid out for SIMD (solver/wide_rows.hpp): their ContactRows'
-/// fields that the soft step's sweeps read, each as four values side by side (lane l: the
-/// contact at the group's first solve position + l), so a field of the four loads as one register.
+/// Units (body pairs) a WideGroup solves at once, one per SIMD lane (solver/wide_rows.hpp).
+constexpr std::size_t kLanes = 4;
+/// The most contacts of a pair a lane takes (a pair with more is solved one contact at a time).
+constexpr std::size_t kManifoldPoints = 4;
+
+/// How the solve order is made (rows.cpp, solve_order): a colour per contact (the lecture's PGS) or
+/// per body pair, the pair's contacts one after the other (the soft step).
+enum class Order { ByContact, ByPair };
+
+/// Four body pairs of one colour laid out for SIMD (solver/wide_rows.hpp), lane l the run of
+/// count[l] contacts (1 to kManifoldPoints) of one pair from solve position first[l] on: the
+/// ContactRows' fields that the soft step's sweeps read, each as four values side by side, so a
+/// field of the four pairs loads as one register, and each lane's bodies are read once per sweep.
 struct alignas(32) WideGroup {
-  double n[3][4], t1[3][4], t2[3][4];  ///< the rows' directions, component by component
-  double r_a[3][4], r_b[3][4];         ///< lever arms (m, world)
-  double dinv_mass_a[4], dinv_mass_b[4];
-  double inv_delta[3][4];
-  double W_1n[4], W_2n[4], W_21[4];
-  double mu[4];
-  int a[4], b[4];
-  bool a_moves[4], b_moves[4];
+  /// the rows of point j of each lane (a lane with fewer points leaves the rest unused)
+  struct Point {
+    double n[3][kLanes], t1[3][kLanes], t2[3][kLanes];  ///< the rows' directions, component by component
+    double r_a[3][kLanes], r_b[3][kLanes];              ///< lever arms (m, world)
+    double inv_delta[3][kLanes];
+    double W_1n[kLanes], W_2n[kLanes], W_21[kLanes];
+  };
+  Point point[kManifoldPoints];
+  double dinv_mass_a[kLanes], dinv_mass_b[kLanes];  ///< per pair (s/kg)
+  double mu[kLanes];                                ///< per pair
+  int a[kLanes], b[kLanes];
+  int first[kLanes], count[kLanes];  ///< each lane's solve positions [first, first + count)
+  bool a_moves[kLanes], b_moves[kLanes];
+  int points = 0;           ///< the largest count
   bool one_by_one = false;  ///< a contact whose normal or first friction row has delta <= 0: solved by the scalar code
 };
 
@@ -120,14 +136,19 @@ struct SolverData {
   /// the World's joints (solver/joint_rows.hpp), solved beside the contacts; null or empty: none
   JointSet* joints = nullptr;
   /// solve positions where each colour starts (colour c: [colour_start[c], colour_start[c + 1]));
-  /// the last colour is the shared one, whose contacts may share bodies
-  std::vector<int> colour_start;
+  /// the last colour is the shared one, whose contacts may share bodies; where each colour's units
+  /// of more than kManifoldPoints contacts start (the colour's end when it has none)
+  std::vector<int> colour_start, long_start;
+  /// the blocks the threads claim in a sweep (rows::by_colour): block i is the solve positions
+  /// [block_start[i], block_start[i + 1]), colour c's blocks are colour_block[c] ..
+  /// colour_block[c + 1] - 1 (block_start ends with K)
+  std::vector<int> block_start, colour_block;
   // rows: one ContactRows per contact (normal, t1, t2), in solve order (contact order[k] at k);
   // their forces alpha (N), 3 per contact (at 3k, 3k + 1, 3k + 2); the solve order (order: position -> contact, slot: contact -> position) and the
   // colours each body has taken while it was made (a bit per colour)
   std::vector<ContactRows> rows;
-  /// the soft step's rows four at a time (wide_rows.hpp: widen): colour c's groups are
-  /// wide[wide_first[c] .. wide_first[c + 1]), from the colour's first contact on
+  /// the soft step's rows four pairs at a time (wide_rows.hpp: widen): colour c's groups are
+  /// wide[wide_first[c] .. wide_first[c + 1]), from the colour's first contact on, one after the other
   std::vector<WideGroup> wide;
   std::vector<int> wide_first;
   std::vector<double> alpha;

@@ -79,25 +79,36 @@ void make_rows(const Model& model, const std::vector<Mat3>& dI_inv, int a, int b
 }  // namespace
 
 // ---- a. prepare ---------------------------------------------------------------------------------
-/// The solve order (docs/conventions.md, "Solve order"): contacts coloured greedily in contact
-/// order, each taking the lowest of 64 colours that none of its moving bodies has yet, from colour
-/// 32 up for a contact against a body that does not move (the rest share a 65th), then listed
-/// colour by colour, in contact order within a colour. A contact with the ground is then solved
+/// The solve order (docs/conventions.md, "Solve order"): units coloured greedily in contact order
+/// (a unit is a contact, Order::ByContact, or the run of consecutive contacts of one body pair,
+/// Order::ByPair), each taking the lowest of 64 colours that none of its moving bodies has yet,
+/// from colour 32 up for a unit against a body that does not move (the rest share a 65th), then
+/// listed colour by colour, within a colour first the units of at most kManifoldPoints contacts,
+/// then the longer ones, each part in contact order. A contact with the ground is then solved
 /// after those of the bodies it carries, so that in a sweep the ground has the last word (Box2D v3
-/// does the same with its last colours): a light body under a heavy one no longer rocks. Consecutive
-/// contacts then rarely share a body, so a sweep does not wait for one contact's velocity update
-/// before starting the next (the idea of Box2D v3's graph colouring, here for one thread).
-/// Out: d.order (K: solve position -> contact), d.slot (K: contact -> solve position).
-static void solve_order(const Model& model, const std::vector<Contact>& contacts, SolverData& d) {
+/// does the same with its last colours): a light body under a heavy one no longer rocks. By
+/// contact, consecutive contacts rarely share a body, so a sweep does not wait for one contact's
+/// velocity update before starting the next (the idea of Box2D v3's graph colouring, here for one
+/// thread); by pair, a pair's points follow each other and the soft step's lanes solve four pairs
+/// at once (wide_rows.hpp), each lane keeping its pair's two bodies in registers.
+/// Out: d.order (K: solve position -> contact), d.slot (K: contact -> solve position),
+/// d.colour_start, d.long_start, and the blocks the threads claim (d.block_start, d.colour_block).
+static void solve_order(const Model& model, const std::vector<Contact>& contacts, Order kind, SolverData& d) {
   const std::size_t K = contacts.size();
   constexpr int kColours = 65;
-  constexpr int kStaticColour = 32;  // where contacts against a body that does not move start
+  constexpr int kStaticColour = 32;  // where units against a body that does not move start
+  const auto same_pair = [&](std::size_t i, std::size_t j) {
+    return contacts[i].body_a == contacts[j].body_a && contacts[i].body_b == contacts[j].body_b;
+  };
   // the colours of the listed bodies (the others, static, never take one) start empty
   parallel::fit(d.colours_used, model.size(), std::uint64_t(0));
   parallel::each_body(d.bodies, model.size(), [&](std::size_t i) { d.colours_used[i] = 0; });
-  d.slot.resize(K);  // the colour of each contact first
-  std::array<int, kColours + 1> start{};
-  for (std::size_t i = 0; i < K; ++i) {
+  d.slot.resize(K);  // each contact's bucket first: 2 colour, + 1 in a long unit
+  std::array<int, 2 * kColours + 1> start{};
+  for (std::size_t i = 0, j = 0; i < K; i = j) {
+    j = i + 1;
+    if (kind == Order::ByPair)
+      while (j < K && same_pair(i, j)) ++j;
     const int a = contacts[i].body_a, b = contacts[i].body_b;
     const bool a_moves = !model.is_static[a] && !model.is_kinematic[a];
     const bool b_moves = !model.is_static[b] && !model.is_kinematic[b];
@@ -112,26 +123,59 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
       if (a_moves) d.colours_used[a] |= std::uint64_t(1) << colour;
       if (b_moves) d.colours_used[b] |= std::uint64_t(1) << colour;
     }
-    d.slot[i] = colour;
-    ++start[colour + 1];
+    const int bucket = 2 * colour + (j - i > kManifoldPoints ? 1 : 0);
+    for (std::size_t k = i; k < j; ++k) d.slot[k] = bucket;
+    start[bucket + 1] += static_cast<int>(j - i);
   }
-  for (int c = 0; c < kColours; ++c) start[c + 1] += start[c];
-  d.colour_start.assign(start.begin(), start.end());  // 66 ints: the capacity stays after the first step
+  for (int c = 0; c < 2 * kColours; ++c) start[c + 1] += start[c];
+  d.colour_start.resize(kColours + 1);  // 66 ints: the capacity stays after the first step
+  d.long_start.resize(kColours);
+  for (int c = 0; c <= kColours; ++c) d.colour_start[c] = start[2 * c];
+  for (int c = 0; c < kColours; ++c) d.long_start[c] = start[2 * c + 1];
   d.order.resize(K);
   for (std::size_t i = 0; i < K; ++i) {
     const int k = start[d.slot[i]]++;
     d.order[k] = static_cast<int>(i);
     d.slot[i] = k;
   }
+  // the blocks of about kContactsPerTask contacts the threads claim (by_colour), each within one
+  // colour; by pair, cut between units only, and among the short units only every kLanes units
+  // (a WideGroup is never split); the shared last colour is one block
+  d.block_start.clear();
+  d.colour_block.resize(kColours + 1);
+  for (int c = 0; c < kColours; ++c) {
+    d.colour_block[c] = static_cast<int>(d.block_start.size());
+    const int first = d.colour_start[c], end = d.colour_start[c + 1];
+    if (first == end) continue;
+    if (c + 1 == kColours) {
+      d.block_start.push_back(first);
+      continue;
+    }
+    int block = first, units = 0;  // the block's first position; short units so far in the colour
+    d.block_start.push_back(first);
+    for (int k = first + 1; k <= end; ++k) {
+      const bool unit_ends = k == end || kind == Order::ByContact ||
+                             !same_pair(static_cast<std::size_t>(d.order[k - 1]), static_cast<std::size_t>(d.order[k]));
+      if (!unit_ends) continue;
+      if (k - 1 < d.long_start[c]) ++units;
+      const bool at_group = k >= d.long_start[c] || units % static_cast<int>(kLanes) == 0;
+      if (k < end && k - block >= static_cast<int>(kContactsPerTask) && at_group) {
+        block = k;
+        d.block_start.push_back(k);
+      }
+    }
+  }
+  d.colour_block[kColours] = static_cast<int>(d.block_start.size());
+  d.block_start.push_back(static_cast<int>(K));
 }
 
 /// Rows (normal, t1, t2 per contact, stored in solve order), pair materials, u_i = J_n q_dot*
 /// (before the solve), and the spin rows (a contact alone in its body pair, with
 /// mu_spin = max(mu_spin_A, mu_spin_B) > 0, in solve order).
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
-             const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d) {
+             const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d, Order order) {
   const std::size_t K = contacts.size();
-  solve_order(model, contacts, d);
+  solve_order(model, contacts, order, d);
   d.rows.resize(K);
   assign_n(d.alpha, 3 * K, 0.0);
   d.u.resize(K);
@@ -265,19 +309,9 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
 void apply_forces(SolverData& d) {
   // each contact's three forces as one impulse, then its spin torque
   // (colour by colour: the same sums in the same order per body for every thread count)
-  const bool spin = !d.spin_rows.empty();
   const Mat3* dI = d.dI_inv.data();
   by_colour(d, [&](std::size_t first, std::size_t end) {
-    for (std::size_t k = first; k < end; ++k) {
-      const ContactRows& c = d.rows[k];
-      const double* alpha = &d.alpha[3 * k];
-      if (alpha[0] != 0.0 || alpha[1] != 0.0 || alpha[2] != 0.0)
-        push(c, dI, alpha[0] * c.n + alpha[1] * c.t1 + alpha[2] * c.t2, d.qd[c.a], d.qd[c.b]);
-      if (spin && d.spin_slot[k] >= 0) {
-        const std::size_t j = static_cast<std::size_t>(d.spin_slot[k]);
-        if (d.spin_alpha[j] != 0.0) apply_spin(d.spin_rows[j], c, d.spin_alpha[j], d.qd[c.a], d.qd[c.b]);
-      }
-    }
+    for (std::size_t k = first; k < end; ++k) apply_force(d, dI, k);
     return 0.0;
   });
 }

@@ -32,28 +32,21 @@ void for_ranges(const SolverData& d, std::size_t n, std::size_t grain, F&& f) {
 }
 
 /// sweep(begin, end) over the solve positions [0, K), K = d.rows.size(), in solve order colour by
-/// colour; each colour (whose contacts share no moving body) cut into blocks of kContactsPerTask
-/// that d.pool's threads claim in order from one counter, and the shared last colour (whose
-/// contacts may share a body) one block, so that every thread count gives the bits of one thread.
-/// A thread that claims a block of colour c first waits until every block of the colours before c
-/// is done (each was claimed, so a running thread is finishing it: a thread alone finishes the
-/// sweep). One job per sweep, not one per colour: the threads stay in it from colour to colour, as
-/// in Box2D v3's solver stages, instead of being woken up some 30 times a sweep. sweep returns the
-/// largest change of its positions; returns the largest over all.
+/// colour; each colour (whose units share no moving body) cut into the blocks of solve_order
+/// (about kContactsPerTask contacts, never splitting a unit or a WideGroup) that d.pool's threads
+/// claim in order from one counter, and the shared last colour (whose contacts may share a body)
+/// one block, so that every thread count gives the bits of one thread. A thread that claims a
+/// block of colour c first waits until every block of the colours before c is done (each was
+/// claimed, so a running thread is finishing it: a thread alone finishes the sweep). One job per
+/// sweep, not one per colour: the threads stay in it from colour to colour, as in Box2D v3's
+/// solver stages, instead of being woken up some 30 times a sweep. sweep returns the largest
+/// change of its positions; returns the largest over all.
 template <class Sweep>
 double by_colour(const SolverData& d, Sweep&& sweep) {
   const std::size_t K = d.rows.size();
   if (d.pool == nullptr || d.pool->threads() <= 1 || K <= kContactsPerTask) return sweep(std::size_t(0), K);
   const std::size_t colours = d.colour_start.size() - 1;
-  constexpr std::size_t kMaxColours = 80;
-  std::array<std::size_t, kMaxColours + 1> first_block{};  // blocks of the colours before colour c
-  if (colours > kMaxColours) throw std::logic_error("by_colour: more colours than blocks were laid out for");
-  for (std::size_t c = 0; c < colours; ++c) {
-    const std::size_t n = static_cast<std::size_t>(d.colour_start[c + 1] - d.colour_start[c]);
-    const std::size_t blocks = c + 1 == colours ? (n > 0 ? 1 : 0) : (n + kContactsPerTask - 1) / kContactsPerTask;
-    first_block[c + 1] = first_block[c] + blocks;
-  }
-  const std::size_t total = first_block[colours];
+  const std::size_t total = d.block_start.size() - 1;
   std::atomic<std::size_t> next{0}, done{0};
   double change = 0.0;
   std::mutex joined;  // only the participants' maxima meet here (a max: the order does not matter)
@@ -62,13 +55,10 @@ double by_colour(const SolverData& d, Sweep&& sweep) {
     std::size_t c = 0;
     for (std::size_t b = next.fetch_add(1, std::memory_order_relaxed); b < total;
          b = next.fetch_add(1, std::memory_order_relaxed)) {
-      while (first_block[c + 1] <= b) ++c;  // blocks are claimed in increasing order
-      for (int spin = 0; done.load(std::memory_order_acquire) < first_block[c]; ++spin) parallel::back_off(spin);
-      const std::size_t start = static_cast<std::size_t>(d.colour_start[c]);
-      const std::size_t end = static_cast<std::size_t>(d.colour_start[c + 1]);
-      const std::size_t first = start + (b - first_block[c]) * kContactsPerTask;
-      const std::size_t last = c + 1 == colours ? end : std::min(end, first + kContactsPerTask);
-      m = std::max(m, sweep(first, last));
+      while (static_cast<std::size_t>(d.colour_block[c + 1]) <= b && c + 1 < colours) ++c;  // blocks are claimed in increasing order
+      const std::size_t before = static_cast<std::size_t>(d.colour_block[c]);
+      for (int spin = 0; done.load(std::memory_order_acquire) < before; ++spin) parallel::back_off(spin);
+      m = std::max(m, sweep(static_cast<std::size_t>(d.block_start[b]), static_cast<std::size_t>(d.block_start[b + 1])));
       done.fetch_add(1, std::memory_order_release);
     }
     const std::lock_guard<std::mutex> lock(joined);
@@ -268,7 +258,8 @@ struct SoftNormal {
 /// spin rows. A normal row's bias is max(gap, 0) / dt (a speculative contact closes its gap, no
 /// more). d.dI_inv must hold dt I_X^-1 per body.
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
-             const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d);
+             const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d,
+             Order order = Order::ByContact);
 
 /// d.alpha (and d.spin_alpha) from the previous step's cache d.cache, matched by key and clamped
 /// to the friction set. Returns whether any contact found its entry.
@@ -276,6 +267,19 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
 
 /// Applies every row's force d.alpha (and spin torque) to d.qd, in solve order.
 void apply_forces(SolverData& d);
+
+/// apply_forces for the contact at solve position k: its three forces as one impulse, then its
+/// spin torque. dI holds dt I_X^-1 per body.
+inline void apply_force(SolverData& d, const Mat3* dI, std::size_t k) {
+  const ContactRows& c = d.rows[k];
+  const double* alpha = &d.alpha[3 * k];
+  if (alpha[0] != 0.0 || alpha[1] != 0.0 || alpha[2] != 0.0)
+    push(c, dI, alpha[0] * c.n + alpha[1] * c.t1 + alpha[2] * c.t2, d.qd[c.a], d.qd[c.b]);
+  if (!d.spin_rows.empty() && d.spin_slot[k] >= 0) {
+    const std::size_t j = static_cast<std::size_t>(d.spin_slot[k]);
+    if (d.spin_alpha[j] != 0.0) apply_spin(d.spin_rows[j], c, d.spin_alpha[j], d.qd[c.a], d.qd[c.b]);
+  }
+}
 
 /// Newton's law on the contacts flagged in d.restitutive (contact order):
 /// n^T (v_B - v_A) >= -e u, by sweeps over d.qd up to the tolerance. Returns the sweeps used.

@@ -58,7 +58,7 @@ void body_motion(const Model& model, const State& state, SolverData& d) {
 }
 
 /// One sweep over every contact in solve order (soft_contact), colour by colour over the threads;
-/// four contacts at a time (wide_sweep) unless the rows have spin rows or the cone rule.
+/// four body pairs at a time (wide_sweep) unless the rows have spin rows or the cone rule.
 template <bool kSpin, bool kGap>
 void sweep(const SolverSettings& s, SolverData& d, bool biased) {
   SoftSweep x;
@@ -118,7 +118,7 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
     d.R0[i] = state.R[i];
   });
   load(state.v, state.omega, d);
-  prepare(model, state, h, contacts, nullptr, nullptr, d);
+  prepare(model, state, h, contacts, nullptr, nullptr, d, Order::ByPair);  // a pair's points together, for the lanes
   d.restitution_sweeps = 0;
   d.alpha_iter.clear();
   const double hertz = std::min(settings.contact_hertz, kMaxHertzPerRate / h);
@@ -143,7 +143,7 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
 void soft_solve(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
                 std::vector<Vec3>& omega, SolverData& d) {
   load(v, omega, d);
-  apply_forces(d);  // the last substep's forces (the cache's in the first) as this one's first guess
+  wide_warm_start(d);  // the last substep's forces (the cache's in the first) as this one's first guess
   if (d.joints != nullptr && !d.joints->empty()) {  // the joints' rows at these poses, warm started
     prepare_joints(model, state, d.h, true, true, *d.joints, d);
     if (settings.warm_start) warm_start_joints(*d.joints, d);

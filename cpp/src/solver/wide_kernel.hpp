@@ -1,9 +1,9 @@
-// The soft step's sweep over WideGroups in the lanes of one ISA (solver/wide_rows.hpp), included
+// The soft step's sweep and warm start over WideGroups in the lanes of one ISA (solver/wide_rows.hpp), included
 // once per ISA by wide_kernel_sse2.cpp and wide_kernel_avx2.cpp (compiled with -mavx2). xsimd
 // gives the registers and their operations; nothing here calls Eigen or the standard library.
 //
-// Every lane repeats the scalar sweep's operations (rows.hpp, contact_rows with SoftNormal;
-// wide_rows.hpp, gap_now) in the same order, so the results are the same bits: a sum of three
+// Every lane repeats the scalar code's operations (rows.hpp, contact_rows with SoftNormal and
+// apply_force; soft_contact.hpp, gap_now) in the same order, so the results are the same bits: a sum of three
 // products is (x0 y0 + x1 y1) + x2 y2 as Eigen's dot; a 3 x 3 matrix times a vector is, row by
 // row, (m_i0 x0 + m_i1 x1) + m_i2 x2 for the first two rows and m_20 x0 + (m_21 x1 + m_22 x2) for
 // the third, as Eigen's fixed-size product evaluates them at the library's compile flags (ctest
@@ -69,120 +69,185 @@ struct Kernel {
     for (int j = 0; j < n; ++j) out[j] = B::load_aligned(t[j]);
   }
 
-  /// gap_now for lanes h .. h + L - 1 of g: gap0 + n . ((dp_B + dR_B r_B) - (dp_A + dR_A r_A))
-  static B gap(const Lanes& d, const WideGroup& g, std::size_t h, std::size_t k0) {
-    B dRa[9], dRb[9], dpa[3], dpb[3];
-    gather_n<9>(d.dR, 9, g.a + h, dRa);
-    gather_n<9>(d.dR, 9, g.b + h, dRb);
-    gather_n<3>(d.dp, 3, g.a + h, dpa);
-    gather_n<3>(d.dp, 3, g.b + h, dpb);
-    const V3 moved_b = add({dpb[0], dpb[1], dpb[2]}, mul(dRb, load3(g.r_b, h)));
-    const V3 moved_a = add({dpa[0], dpa[1], dpa[2]}, mul(dRa, load3(g.r_a, h)));
-    const B gap0 = gather([&](std::size_t l) { return d.soft[k0 + l].gap0; });
-    return gap0 + dot(load3(g.n, h), sub(moved_b, moved_a));
+  /// L lanes' ints i[l] as doubles (small counts: exact)
+  static B as_doubles(const int* i) {
+    return gather([&](std::size_t l) { return static_cast<double>(i[l]); });
   }
 
-  template <bool kGap>
-  static void run(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups, std::size_t position) {
-    const B zero(0.0), one(1.0), inv_h(x.inv_h), max_push(-x.max_push_velocity);
-    for (std::size_t gi = group; gi < group + groups; ++gi, position += kLanes) {
+  /// Lanes h .. h + L - 1 of a group: their pairs' bodies' velocities (omega, v of A and of B)
+  /// and inverse inertias, read once for all the pairs' points.
+  struct Pairs {
+    V3 wa, va, wb, vb;
+    B dIa[9], dIb[9];
+    Mask a_moves, b_moves;  // a body that does not move keeps its velocity (static: zero; kinematic: its own)
+  };
+  static Pairs load_pairs(const Lanes& d, const WideGroup& g, std::size_t h) {
+    Pairs q;
+    B qa[6], qb[6];
+    gather_n<6>(d.qd, 6, g.a + h, qa);
+    gather_n<6>(d.qd, 6, g.b + h, qb);
+    gather_n<9>(d.dI, 9, g.a + h, q.dIa);
+    gather_n<9>(d.dI, 9, g.b + h, q.dIb);
+    q.wa = {qa[0], qa[1], qa[2]};
+    q.va = {qa[3], qa[4], qa[5]};
+    q.wb = {qb[0], qb[1], qb[2]};
+    q.vb = {qb[3], qb[4], qb[5]};
+    const B zero(0.0);
+    q.a_moves = gather([&](std::size_t l) { return g.a_moves[h + l] ? 1.0 : 0.0; }) != zero;
+    q.b_moves = gather([&](std::size_t l) { return g.b_moves[h + l] ? 1.0 : 0.0; }) != zero;
+    return q;
+  }
+  /// The velocities back, for the bodies that move.
+  static void store_pairs(const Lanes& d, const WideGroup& g, std::size_t h, const Pairs& q) {
+    alignas(64) double out[12][L];
+    const B* parts[12] = {&q.wa.x, &q.wa.y, &q.wa.z, &q.va.x, &q.va.y, &q.va.z,
+                          &q.wb.x, &q.wb.y, &q.wb.z, &q.vb.x, &q.vb.y, &q.vb.z};
+    for (int i = 0; i < 12; ++i) parts[i]->store_aligned(out[i]);
+    for (std::size_t l = 0; l < L; ++l) {
+      if (g.a_moves[h + l]) {
+        double* v = d.qd + 6 * static_cast<std::size_t>(g.a[h + l]);
+        for (int i = 0; i < 6; ++i) v[i] = out[i][l];
+      }
+      if (g.b_moves[h + l]) {
+        double* v = d.qd + 6 * static_cast<std::size_t>(g.b[h + l]);
+        for (int i = 0; i < 6; ++i) v[i] = out[6 + i][l];
+      }
+    }
+  }
+  /// Point j's solve position in each lane (a lane past its last point repeats it, and writes nothing).
+  static void positions(const WideGroup& g, std::size_t h, int j, std::size_t* k) {
+    for (std::size_t l = 0; l < L; ++l)
+      k[l] = static_cast<std::size_t>(g.first[h + l] + (j < g.count[h + l] ? j : g.count[h + l] - 1));
+  }
+  /// q_dot += the impulse P (N s / dt: the rows' forces summed along their directions) on B at
+  /// r_b and -P on A at r_a, in the lanes where `where` holds (rows.hpp, push).
+  static void push(Pairs& q, const Mask& where, const V3& r_a, const V3& r_b, const V3& P, const B& dinv_mass_a,
+                   const B& dinv_mass_b) {
+    const Mask on_a = where && q.a_moves, on_b = where && q.b_moves;
+    q.wa = select3(on_a, sub(q.wa, mul(q.dIa, cross(r_a, P))), q.wa);
+    q.va = select3(on_a, sub(q.va, scale(dinv_mass_a, P)), q.va);
+    q.wb = select3(on_b, add(q.wb, mul(q.dIb, cross(r_b, P))), q.wb);
+    q.vb = select3(on_b, add(q.vb, scale(dinv_mass_b, P)), q.vb);
+  }
+
+  /// The warm start over the groups (rows.cpp, apply_forces): each point's three forces as one
+  /// impulse on its pair's bodies, point after point in solve order.
+  static void warm_start(const Lanes& d, std::size_t group, std::size_t groups) {
+    const B zero(0.0);
+    for (std::size_t gi = group; gi < group + groups; ++gi) {
       const WideGroup& g = d.groups[gi];
       for (std::size_t h = 0; h < kLanes; h += L) {
-        const std::size_t k0 = position + h;
-        SoftPoint* p = d.soft + k0;
-        // the normal row's rule (SoftNormal): speculative (s > 0) closes its gap; an overlap is
-        // the spring in a biased sweep, rigid in a relax sweep
-        B s;
+        Pairs q = load_pairs(d, g, h);
+        const B dinv_mass_a = load(g.dinv_mass_a + h), dinv_mass_b = load(g.dinv_mass_b + h);
+        const B count = as_doubles(g.count + h);
+        for (int j = 0; j < g.points; ++j) {
+          const WideGroup::Point& pt = g.point[j];
+          std::size_t k[L];
+          positions(g, h, j, k);
+          const B a0 = gather([&](std::size_t l) { return d.alpha[3 * k[l]]; });
+          const B a1 = gather([&](std::size_t l) { return d.alpha[3 * k[l] + 1]; });
+          const B a2 = gather([&](std::size_t l) { return d.alpha[3 * k[l] + 2]; });
+          const Mask any = ((a0 != zero) || (a1 != zero) || (a2 != zero)) && (B(static_cast<double>(j)) < count);
+          const V3 P = add(add(scale(a0, load3(pt.n, h)), scale(a1, load3(pt.t1, h))), scale(a2, load3(pt.t2, h)));
+          push(q, any, load3(pt.r_a, h), load3(pt.r_b, h), P, dinv_mass_a, dinv_mass_b);
+        }
+        store_pairs(d, g, h, q);
+      }
+    }
+  }
+
+  /// One sweep over the groups: each lane's pair, point after point in solve order, its two bodies'
+  /// velocities kept in registers from the first point to the last.
+  template <bool kGap>
+  static void run(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups) {
+    const B zero(0.0), one(1.0), inv_h(x.inv_h), max_push(-x.max_push_velocity);
+    for (std::size_t gi = group; gi < group + groups; ++gi) {
+      const WideGroup& g = d.groups[gi];
+      for (std::size_t h = 0; h < kLanes; h += L) {
+        // the pairs: bodies, their velocities and inverse inertias (and how far they have moved)
+        Pairs q = load_pairs(d, g, h);
+        B dRa[9], dRb[9], dpa[3], dpb[3];
         if constexpr (kGap) {
-          s = gap(d, g, h, k0);
-          alignas(64) double t[L];
-          s.store_aligned(t);
-          for (std::size_t l = 0; l < L; ++l) p[l].s = t[l];
-        } else {
-          s = gather([&](std::size_t l) { return p[l].s; });
+          gather_n<9>(d.dR, 9, g.a + h, dRa);
+          gather_n<9>(d.dR, 9, g.b + h, dRb);
+          gather_n<3>(d.dp, 3, g.a + h, dpa);
+          gather_n<3>(d.dp, 3, g.b + h, dpb);
         }
-        const Mask speculative = s > zero;
-        B bias = xsimd::select(speculative, s * inv_h, zero), mass_scale = one, impulse_scale = zero;
-        if (x.biased) {
-          const B ms = gather([&](std::size_t l) { return p[l].mass_scale; });
-          const B rate = gather([&](std::size_t l) { return p[l].bias_rate; });
-          const B is = gather([&](std::size_t l) { return p[l].impulse_scale; });
-          bias = xsimd::select(speculative, bias, max_of(ms * rate * s, max_push));
-          mass_scale = xsimd::select(speculative, one, ms);
-          impulse_scale = xsimd::select(speculative, zero, is);
-        }
-        // the bodies' velocities and inverse inertias
-        B qa[6], qb[6], dIa[9], dIb[9];
-        gather_n<6>(d.qd, 6, g.a + h, qa);
-        gather_n<6>(d.qd, 6, g.b + h, qb);
-        gather_n<9>(d.dI, 9, g.a + h, dIa);
-        gather_n<9>(d.dI, 9, g.b + h, dIb);
-        const V3 wa{qa[0], qa[1], qa[2]}, va{qa[3], qa[4], qa[5]};
-        const V3 wb{qb[0], qb[1], qb[2]}, vb{qb[3], qb[4], qb[5]};
-        B a_n = gather([&](std::size_t l) { return d.alpha[3 * (k0 + l)]; });
-        B a_1 = gather([&](std::size_t l) { return d.alpha[3 * (k0 + l) + 1]; });
-        B a_2 = gather([&](std::size_t l) { return d.alpha[3 * (k0 + l) + 2]; });
-        const V3 n = load3(g.n, h), t1 = load3(g.t1, h), t2 = load3(g.t2, h);
-        const V3 r_a = load3(g.r_a, h), r_b = load3(g.r_b, h);
-        // the relative velocity at the point
-        const V3 dv = sub(add(vb, cross(wb, r_b)), add(va, cross(wa, r_a)));
-        // normal
-        const B vn = dot(n, dv);
-        const B a0 = max_of(a_n - (mass_scale * vn + bias) * load(g.inv_delta[0] + h) - impulse_scale * a_n, zero);
-        const B d0 = a0 - a_n;
-        // friction, bounded by mu times the new normal force
-        const B bound = load(g.mu + h) * a0;
-        const B u1 = dot(t1, dv) + load(g.W_1n + h) * d0;
-        B a1 = clamp(a_1 - u1 * load(g.inv_delta[1] + h), -bound, bound);
-        B d1 = a1 - a_1;
-        const B u2 = dot(t2, dv) + (load(g.W_2n + h) * d0 + load(g.W_21 + h) * d1);
-        B a2 = clamp(a_2 - u2 * load(g.inv_delta[2] + h), -bound, bound);
-        B d2 = a2 - a_2;
-        const Mask unbounded = bound == zero;  // a zero bound projects friction to 0
-        d1 = xsimd::select(unbounded, -a_1, d1);
-        d2 = xsimd::select(unbounded, -a_2, d2);
-        a1 = xsimd::select(unbounded, zero, a1);
-        a2 = xsimd::select(unbounded, zero, a2);
-        // the three changes as one impulse on B (the opposite on A), where any changed
-        const Mask moved = (d0 != zero) || (d1 != zero) || (d2 != zero);
-        const V3 P = add(add(scale(d0, n), scale(d1, t1)), scale(d2, t2));
-        const V3 wa_new = sub(wa, mul(dIa, cross(r_a, P)));
-        const V3 va_new = sub(va, scale(load(g.dinv_mass_a + h), P));
-        const V3 wb_new = add(wb, mul(dIb, cross(r_b, P)));
-        const V3 vb_new = add(vb, scale(load(g.dinv_mass_b + h), P));
-        // back: the forces, and the velocities of the bodies that move
-        alignas(64) double out[15][L];
-        a0.store_aligned(out[0]);
-        a1.store_aligned(out[1]);
-        a2.store_aligned(out[2]);
-        const V3 w_a = select3(moved, wa_new, wa), v_a = select3(moved, va_new, va);
-        const V3 w_b = select3(moved, wb_new, wb), v_b = select3(moved, vb_new, vb);
-        w_a.x.store_aligned(out[3]);
-        w_a.y.store_aligned(out[4]);
-        w_a.z.store_aligned(out[5]);
-        v_a.x.store_aligned(out[6]);
-        v_a.y.store_aligned(out[7]);
-        v_a.z.store_aligned(out[8]);
-        w_b.x.store_aligned(out[9]);
-        w_b.y.store_aligned(out[10]);
-        w_b.z.store_aligned(out[11]);
-        v_b.x.store_aligned(out[12]);
-        v_b.y.store_aligned(out[13]);
-        v_b.z.store_aligned(out[14]);
-        for (std::size_t l = 0; l < L; ++l) {
-          double* alpha_l = d.alpha + 3 * (k0 + l);
-          alpha_l[0] = out[0][l];
-          alpha_l[1] = out[1][l];
-          alpha_l[2] = out[2][l];
-          if (g.a_moves[h + l]) {
-            double* q = d.qd + 6 * static_cast<std::size_t>(g.a[h + l]);
-            for (int j = 0; j < 6; ++j) q[j] = out[3 + j][l];
+        const B dinv_mass_a = load(g.dinv_mass_a + h), dinv_mass_b = load(g.dinv_mass_b + h), mu = load(g.mu + h);
+        const B count = as_doubles(g.count + h);
+        for (int j = 0; j < g.points; ++j) {
+          const WideGroup::Point& pt = g.point[j];
+          const Mask active = B(static_cast<double>(j)) < count;
+          std::size_t k[L];
+          positions(g, h, j, k);
+          const V3 n = load3(pt.n, h), t1 = load3(pt.t1, h), t2 = load3(pt.t2, h);
+          const V3 r_a = load3(pt.r_a, h), r_b = load3(pt.r_b, h);
+          // the normal row's rule (SoftNormal): speculative (s > 0) closes its gap; an overlap is
+          // the spring in a biased sweep, rigid in a relax sweep
+          B s;
+          if constexpr (kGap) {
+            // gap_now: gap0 + n . ((dp_B + dR_B r_B) - (dp_A + dR_A r_A))
+            const V3 moved_b = add({dpb[0], dpb[1], dpb[2]}, mul(dRb, r_b));
+            const V3 moved_a = add({dpa[0], dpa[1], dpa[2]}, mul(dRa, r_a));
+            const B gap0 = gather([&](std::size_t l) { return d.soft[k[l]].gap0; });
+            s = gap0 + dot(n, sub(moved_b, moved_a));
+            alignas(64) double t[L];
+            s.store_aligned(t);
+            for (std::size_t l = 0; l < L; ++l)
+              if (j < g.count[h + l]) d.soft[k[l]].s = t[l];
+          } else {
+            s = gather([&](std::size_t l) { return d.soft[k[l]].s; });
           }
-          if (g.b_moves[h + l]) {
-            double* q = d.qd + 6 * static_cast<std::size_t>(g.b[h + l]);
-            for (int j = 0; j < 6; ++j) q[j] = out[9 + j][l];
+          const Mask speculative = s > zero;
+          B bias = xsimd::select(speculative, s * inv_h, zero), mass_scale = one, impulse_scale = zero;
+          if (x.biased) {
+            const B ms = gather([&](std::size_t l) { return d.soft[k[l]].mass_scale; });
+            const B rate = gather([&](std::size_t l) { return d.soft[k[l]].bias_rate; });
+            const B is = gather([&](std::size_t l) { return d.soft[k[l]].impulse_scale; });
+            bias = xsimd::select(speculative, bias, max_of(ms * rate * s, max_push));
+            mass_scale = xsimd::select(speculative, one, ms);
+            impulse_scale = xsimd::select(speculative, zero, is);
+          }
+          const B a_n = gather([&](std::size_t l) { return d.alpha[3 * k[l]]; });
+          const B a_1 = gather([&](std::size_t l) { return d.alpha[3 * k[l] + 1]; });
+          const B a_2 = gather([&](std::size_t l) { return d.alpha[3 * k[l] + 2]; });
+          // the relative velocity at the point
+          const V3 dv = sub(add(q.vb, cross(q.wb, r_b)), add(q.va, cross(q.wa, r_a)));
+          // normal
+          const B vn = dot(n, dv);
+          const B a0 = max_of(a_n - (mass_scale * vn + bias) * load(pt.inv_delta[0] + h) - impulse_scale * a_n, zero);
+          const B d0 = a0 - a_n;
+          // friction, bounded by mu times the new normal force
+          const B bound = mu * a0;
+          const B u1 = dot(t1, dv) + load(pt.W_1n + h) * d0;
+          B a1 = clamp(a_1 - u1 * load(pt.inv_delta[1] + h), -bound, bound);
+          B d1 = a1 - a_1;
+          const B u2 = dot(t2, dv) + (load(pt.W_2n + h) * d0 + load(pt.W_21 + h) * d1);
+          B a2 = clamp(a_2 - u2 * load(pt.inv_delta[2] + h), -bound, bound);
+          B d2 = a2 - a_2;
+          const Mask unbounded = bound == zero;  // a zero bound projects friction to 0
+          d1 = xsimd::select(unbounded, -a_1, d1);
+          d2 = xsimd::select(unbounded, -a_2, d2);
+          a1 = xsimd::select(unbounded, zero, a1);
+          a2 = xsimd::select(unbounded, zero, a2);
+          // the three changes as one impulse on B (the opposite on A), where any changed
+          const Mask moved = ((d0 != zero) || (d1 != zero) || (d2 != zero)) && active;
+          const V3 P = add(add(scale(d0, n), scale(d1, t1)), scale(d2, t2));
+          push(q, moved, r_a, r_b, P, dinv_mass_a, dinv_mass_b);
+          // the point's forces
+          alignas(64) double out[3][L];
+          a0.store_aligned(out[0]);
+          a1.store_aligned(out[1]);
+          a2.store_aligned(out[2]);
+          for (std::size_t l = 0; l < L; ++l) {
+            if (j >= g.count[h + l]) continue;
+            double* alpha_l = d.alpha + 3 * k[l];
+            alpha_l[0] = out[0][l];
+            alpha_l[1] = out[1][l];
+            alpha_l[2] = out[2][l];
           }
         }
+        store_pairs(d, g, h, q);
       }
     }
   }

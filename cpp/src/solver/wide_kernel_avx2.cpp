@@ -5,9 +5,13 @@
 
 namespace signorini::solver::wide {
 
-void sweep_avx2(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups, std::size_t position) {
-  if (x.update_gaps) Kernel<xsimd::avx2>::run<true>(x, d, group, groups, position);
-  else Kernel<xsimd::avx2>::run<false>(x, d, group, groups, position);
+void sweep_avx2(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups) {
+  if (x.update_gaps) Kernel<xsimd::avx2>::run<true>(x, d, group, groups);
+  else Kernel<xsimd::avx2>::run<false>(x, d, group, groups);
+}
+
+void warm_start_avx2(const Lanes& d, std::size_t group, std::size_t groups) {
+  Kernel<xsimd::avx2>::warm_start(d, group, groups);
 }
 
 }  // namespace signorini::solver::wide

@@ -12,7 +12,6 @@
 
 namespace signorini::solver {
 
-static_assert(rows::kContactsPerTask % kLanes == 0, "by_colour's blocks must start at a group");
 static_assert(sizeof(BodyVelocity) == 6 * sizeof(double), "the lanes read a body's velocity as 6 doubles");
 static_assert(sizeof(Mat3) == 9 * sizeof(double) && sizeof(Vec3) == 3 * sizeof(double),
               "the lanes read matrices and vectors as packed doubles");
@@ -71,52 +70,126 @@ namespace signorini::solver {
 
 void widen(SolverData& d) {
   const std::size_t colours = d.colour_start.size() - 1;
+  const auto same_pair = [&](std::size_t k, std::size_t m) {
+    const ContactRows& x = d.rows[k];
+    const ContactRows& y = d.rows[m];
+    return x.a == y.a && x.b == y.b;
+  };
+  // the groups' lanes, colour by colour: every four units (pairs of at most kManifoldPoints
+  // contacts, listed first in their colour) from the colour's start; the shared last colour has none
   d.wide_first.resize(colours + 1);
-  d.wide_first[0] = 0;
+  std::size_t G = 0;
   for (std::size_t c = 0; c < colours; ++c) {
-    // the shared last colour's contacts may share a body: none of them in a group
-    const int n = c + 1 == colours ? 0 : d.colour_start[c + 1] - d.colour_start[c];
-    d.wide_first[c + 1] = d.wide_first[c] + n / static_cast<int>(kLanes);
+    d.wide_first[c] = static_cast<int>(G);
+    if (c + 1 == colours) continue;
+    const std::size_t end = static_cast<std::size_t>(d.long_start[c]);
+    std::size_t lane = 0;
+    for (std::size_t k = static_cast<std::size_t>(d.colour_start[c]); k < end;) {
+      std::size_t m = k + 1;
+      while (m < end && same_pair(k, m)) ++m;
+      if (lane == 0) {
+        if (G == d.wide.size()) d.wide.emplace_back();
+        ++G;
+      }
+      WideGroup& g = d.wide[G - 1];
+      g.first[lane] = static_cast<int>(k);
+      g.count[lane] = static_cast<int>(m - k);
+      lane = (lane + 1) % kLanes;
+      k = m;
+    }
+    if (lane != 0) --G;  // the colour's last units that do not fill a group: one by one
   }
-  const std::size_t G = static_cast<std::size_t>(d.wide_first[colours]);
-  if (G > d.wide.capacity()) d.wide.reserve(std::max(G, 2 * d.wide.capacity()));
+  d.wide_first[colours] = static_cast<int>(G);
   d.wide.resize(G);
-  // each group written by one thread; its colour is the one whose groups it falls in
-  rows::for_ranges(d, G, 256, [&](std::size_t from, std::size_t to) {
-    std::size_t c = static_cast<std::size_t>(
-        std::upper_bound(d.wide_first.begin(), d.wide_first.end(), static_cast<int>(from)) - d.wide_first.begin() - 1);
+  // each group filled by one thread: its pairs' bodies and materials, and each point's rows
+  rows::for_ranges(d, G, 64, [&](std::size_t from, std::size_t to) {
     for (std::size_t gi = from; gi < to; ++gi) {
-      while (static_cast<std::size_t>(d.wide_first[c + 1]) <= gi) ++c;
       WideGroup& g = d.wide[gi];
-      const std::size_t first = static_cast<std::size_t>(d.colour_start[c]) +
-                                kLanes * (gi - static_cast<std::size_t>(d.wide_first[c]));
       g.one_by_one = false;
+      g.points = 0;
       for (std::size_t l = 0; l < kLanes; ++l) {
-        const ContactRows& r = d.rows[first + l];
-        for (int i = 0; i < 3; ++i) {
-          g.n[i][l] = r.n[i];
-          g.t1[i][l] = r.t1[i];
-          g.t2[i][l] = r.t2[i];
-          g.r_a[i][l] = r.r_a[i];
-          g.r_b[i][l] = r.r_b[i];
-          g.inv_delta[i][l] = r.inv_delta[i];
+        const ContactRows& pair = d.rows[static_cast<std::size_t>(g.first[l])];
+        g.a[l] = pair.a;
+        g.b[l] = pair.b;
+        g.a_moves[l] = pair.a_moves;
+        g.b_moves[l] = pair.b_moves;
+        g.dinv_mass_a[l] = pair.dinv_mass_a;
+        g.dinv_mass_b[l] = pair.dinv_mass_b;
+        g.mu[l] = pair.mu;
+        g.points = std::max(g.points, g.count[l]);
+        for (std::size_t j = 0; j < kManifoldPoints; ++j) {
+          WideGroup::Point& p = g.point[j];
+          // a lane with fewer points repeats its last: the lanes compute it, and write nothing
+          const int count = g.count[l];
+          const ContactRows& r = d.rows[static_cast<std::size_t>(g.first[l]) + std::min<std::size_t>(j, count - 1)];
+          for (int i = 0; i < 3; ++i) {
+            p.n[i][l] = r.n[i];
+            p.t1[i][l] = r.t1[i];
+            p.t2[i][l] = r.t2[i];
+            p.r_a[i][l] = r.r_a[i];
+            p.r_b[i][l] = r.r_b[i];
+            p.inv_delta[i][l] = r.inv_delta[i];
+          }
+          p.W_1n[l] = r.W_1n;
+          p.W_2n[l] = r.W_2n;
+          p.W_21[l] = r.W_21;
+          // the lanes assume the rows the scalar sweep solves in full (contact_rows' first branches)
+          if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0)) g.one_by_one = true;
         }
-        g.dinv_mass_a[l] = r.dinv_mass_a;
-        g.dinv_mass_b[l] = r.dinv_mass_b;
-        g.W_1n[l] = r.W_1n;
-        g.W_2n[l] = r.W_2n;
-        g.W_21[l] = r.W_21;
-        g.mu[l] = r.mu;
-        g.a[l] = r.a;
-        g.b[l] = r.b;
-        g.a_moves[l] = r.a_moves;
-        g.b_moves[l] = r.b_moves;
-        // the lanes assume the rows the scalar sweep solves in full (contact_rows' first branches)
-        if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0)) g.one_by_one = true;
       }
     }
   });
 }
+
+namespace {
+
+wide::Lanes raw_lanes(SolverData& d) {
+  return wide::Lanes{d.wide.data(),
+                     d.qd.empty() ? nullptr : d.qd[0].omega.data(),
+                     d.dI_inv.empty() ? nullptr : d.dI_inv[0].data(),
+                     d.alpha.data(),
+                     d.soft.data(),
+                     d.dp.empty() ? nullptr : d.dp[0].data(),
+                     d.dR.empty() ? nullptr : d.dR[0].data()};
+}
+
+/// Solve positions [first, end) colour by colour from the colour of `first` on: lanes(group,
+/// groups) for the groups in it (a colour's groups cover its first positions one after the other,
+/// and by_colour's blocks start at a group or after them), one_by_one(from, to) for the rest.
+template <class Lanes, class OneByOne>
+void walk(SolverData& d, std::size_t first, std::size_t end, Lanes&& lanes, OneByOne&& one_by_one) {
+  std::size_t c = static_cast<std::size_t>(
+      std::upper_bound(d.colour_start.begin(), d.colour_start.end(), static_cast<int>(first)) - d.colour_start.begin() - 1);
+  const auto group_first = [&](std::size_t gi) { return static_cast<std::size_t>(d.wide[gi].first[0]); };
+  const auto group_end = [&](std::size_t gi) {
+    return static_cast<std::size_t>(d.wide[gi].first[kLanes - 1] + d.wide[gi].count[kLanes - 1]);
+  };
+  for (std::size_t k = first; k < end; ++c) {
+    const std::size_t stop = std::min(end, static_cast<std::size_t>(d.colour_start[c + 1]));
+    if (k >= stop) continue;  // an empty colour
+    std::size_t gi = static_cast<std::size_t>(d.wide_first[c]);
+    const std::size_t g_end = static_cast<std::size_t>(d.wide_first[c + 1]);
+    while (gi < g_end && group_first(gi) < k) ++gi;  // the groups of the blocks before this one
+    while (gi < g_end && group_end(gi) <= stop) {
+      std::size_t run = 0;  // groups in a row that the lanes take
+      while (gi + run < g_end && group_end(gi + run) <= stop && !d.wide[gi + run].one_by_one) ++run;
+      if (run > 0) {
+        lanes(gi, run);
+        solved.fetch_add(group_end(gi + run - 1) - k, std::memory_order_relaxed);
+        k = group_end(gi + run - 1);
+        gi += run;
+      } else {
+        one_by_one(k, group_end(gi));
+        k = group_end(gi);
+        ++gi;
+      }
+    }
+    one_by_one(k, stop);
+    k = stop;
+  }
+}
+
+}  // namespace
 
 void wide_sweep(const SolverSettings& s, const SoftSweep& x, SolverData& d, std::size_t first, std::size_t end) {
   const auto one_by_one = [&](std::size_t from, std::size_t to) {
@@ -127,42 +200,24 @@ void wide_sweep(const SolverSettings& s, const SoftSweep& x, SolverData& d, std:
   };
   const WideIsa isa = wide_isa();
   if (isa == WideIsa::Scalar || d.wide_first.empty()) return one_by_one(first, end);
-  const auto lanes = isa == WideIsa::AVX2 ? wide::sweep_avx2 : wide::sweep_sse2;
-  const wide::Lanes raw{d.wide.data(),
-                        d.qd.empty() ? nullptr : d.qd[0].omega.data(),
-                        d.dI_inv.empty() ? nullptr : d.dI_inv[0].data(),
-                        d.alpha.data(),
-                        d.soft.data(),
-                        d.dp.empty() ? nullptr : d.dp[0].data(),
-                        d.dR.empty() ? nullptr : d.dR[0].data()};
-  // colour by colour: the colour of `first`, then on
-  std::size_t c = static_cast<std::size_t>(
-      std::upper_bound(d.colour_start.begin(), d.colour_start.end(), static_cast<int>(first)) - d.colour_start.begin() - 1);
-  for (std::size_t k = first; k < end; ++c) {
-    const std::size_t start = static_cast<std::size_t>(d.colour_start[c]);
-    const std::size_t stop = std::min(end, static_cast<std::size_t>(d.colour_start[c + 1]));
-    if (k >= stop) continue;  // an empty colour
-    // the colour's groups in [k, stop): a block of by_colour starts a multiple of kLanes from its
-    // colour's start; the rest of the colour (its last n mod 4) one by one
-    std::size_t gi = static_cast<std::size_t>(d.wide_first[c]) + (k - start) / kLanes;
-    const std::size_t g_end = static_cast<std::size_t>(d.wide_first[c + 1]);
-    while (gi < g_end && k + kLanes <= stop) {
-      std::size_t run = 0;  // groups in a row that the lanes take
-      while (gi + run < g_end && k + kLanes * (run + 1) <= stop && !d.wide[gi + run].one_by_one) ++run;
-      if (run > 0) {
-        lanes(x, raw, gi, run, k);
-        solved.fetch_add(kLanes * run, std::memory_order_relaxed);
-        gi += run;
-        k += kLanes * run;
-      } else {
-        one_by_one(k, k + kLanes);
-        ++gi;
-        k += kLanes;
-      }
-    }
-    one_by_one(k, stop);
-    k = stop;
-  }
+  const auto sweep = isa == WideIsa::AVX2 ? wide::sweep_avx2 : wide::sweep_sse2;
+  const wide::Lanes raw = raw_lanes(d);
+  walk(d, first, end, [&](std::size_t group, std::size_t groups) { sweep(x, raw, group, groups); }, one_by_one);
+}
+
+void wide_warm_start(SolverData& d) {
+  const WideIsa isa = wide_isa();
+  if (isa == WideIsa::Scalar || d.wide_first.empty() || !d.spin_rows.empty()) return rows::apply_forces(d);
+  const auto warm_start = isa == WideIsa::AVX2 ? wide::warm_start_avx2 : wide::warm_start_sse2;
+  const wide::Lanes raw = raw_lanes(d);
+  const Mat3* dI = d.dI_inv.data();
+  rows::by_colour(d, [&](std::size_t first, std::size_t end) {
+    walk(d, first, end, [&](std::size_t group, std::size_t groups) { warm_start(raw, group, groups); },
+         [&](std::size_t from, std::size_t to) {
+           for (std::size_t k = from; k < to; ++k) rows::apply_force(d, dI, k);
+         });
+    return 0.0;
+  });
 }
 
 }  // namespace signorini::solver

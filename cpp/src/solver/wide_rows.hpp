@@ -1,14 +1,17 @@
-// The soft step's sweeps four contacts at a time (docs/conventions.md, "Rows four at a time").
-// A colour's contacts share no moving body, so any of them can be solved at once: the rows of each
-// four consecutive contacts of a colour are copied into one WideGroup (each field four values
-// side by side), and a sweep runs a group's four contacts in the lanes of SIMD registers (xsimd:
-// two lanes of SSE2, or four of AVX2 where the CPU has it, chosen at run time). Each lane does
-// exactly the scalar sweep's operations in the scalar sweep's order, so the bits are those of the
-// scalar sweep for every lane width and every thread count (ctest WideRows.*).
+// The soft step's sweeps and warm start four body pairs at a time (docs/conventions.md, "Rows
+// four pairs at a time"). A colour's pairs share no moving body, so any of them can be solved at
+// once: the rows of each four consecutive pairs of a colour (of at most kManifoldPoints contacts)
+// are copied into one WideGroup (each field four values side by side, point by point), and a
+// sweep runs a group's four pairs in the lanes of SIMD registers (xsimd: two lanes of SSE2, or
+// four of AVX2 where the CPU has it, chosen at run time), each lane its pair's points one after
+// the other with the pair's two bodies in registers. Each lane does exactly the scalar sweep's
+// operations in the scalar sweep's order, so the bits are those of the scalar sweep for every lane
+// width and every thread count (ctest WideRows.*).
 //
-//   widen (once per step, after prepare): d.rows -> d.wide, d.wide_first
-//   wide_sweep (per sweep, per block of by_colour): the groups of [first, end), and the contacts
-//   that are in no group (a colour's last n mod 4, the shared last colour) one by one
+//   widen (once per step, after prepare and the soft points): d.rows -> d.wide, d.wide_first
+//   wide_sweep, wide_warm_start (per sweep and per substep, per block of by_colour): the groups of
+//   [first, end), and the contacts in no group (the colour's last pairs that fill no group, its
+//   pairs of more points, the shared last colour) one by one
 #pragma once
 
 #include <cstddef>
@@ -16,9 +19,6 @@
 #include "solver/contact_solver.hpp"
 
 namespace signorini::solver {
-
-/// Contacts per WideGroup.
-constexpr std::size_t kLanes = 4;
 
 /// One sweep's settings as the lanes read them.
 struct SoftSweep {
@@ -42,18 +42,22 @@ WideIsa wide_isa();
 /// that check the lanes ran).
 std::size_t wide_contacts_solved();
 
-/// d.wide and d.wide_first from d.rows and d.colour_start: colour c's contacts at solve positions
-/// [colour_start[c], colour_start[c + 1]) fill groups wide_first[c] .. wide_first[c + 1] - 1, four
-/// by four from the colour's start; the shared last colour has none. A group with a contact whose
-/// normal or first friction row has delta <= 0 (both bodies static: never made by the narrow
-/// phase) is flagged, and its contacts run one by one.
+/// d.wide and d.wide_first from d.rows, d.colour_start and d.long_start (the solve order by pair):
+/// colour c's pairs of at most kManifoldPoints contacts, from the colour's start, fill groups
+/// wide_first[c] .. wide_first[c + 1] - 1, four pairs a group; the shared last colour has none. A
+/// group with a contact whose normal or first friction row has delta <= 0 (both bodies static:
+/// never made by the narrow phase) is flagged, and its contacts run one by one.
 void widen(SolverData& d);
 
 /// The soft step's sweep over solve positions [first, end) (one by_colour block, or everything):
-/// each group in it at once, the other contacts one by one, in solve order, colour by colour.
+/// each group's pairs in lanes, the other contacts one by one, colour by colour.
 /// The contacts' rows have no spin rows and the pyramid friction rule (the soft step runs the
 /// scalar sweep otherwise).
 void wide_sweep(const SolverSettings& s, const SoftSweep& x, SolverData& d, std::size_t first, std::size_t end);
+
+/// rows::apply_forces with the groups in lanes (each pair's points in solve order, its bodies read
+/// once), colour by colour over the threads; rows::apply_forces itself when the rows have spin rows.
+void wide_warm_start(SolverData& d);
 
 namespace wide {
 /// What the per-ISA sweeps read and write, as raw arrays: those files run no Eigen or standard
@@ -69,10 +73,13 @@ struct Lanes {
   const double* dR;         ///< d.dR: per body (3 x 3, column-major)
 };
 
-/// The groups [group, group + groups) (none flagged one_by_one), the first at solve position
-/// `position`, in the lanes of one ISA (wide_kernel.hpp, compiled once per ISA).
-void sweep_sse2(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups, std::size_t position);
-void sweep_avx2(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups, std::size_t position);
+/// The groups [group, group + groups) (none flagged one_by_one) in the lanes of one ISA
+/// (wide_kernel.hpp, compiled once per ISA).
+void sweep_sse2(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups);
+void sweep_avx2(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups);
+/// The warm start of the groups [group, group + groups) (wide_warm_start).
+void warm_start_sse2(const Lanes& d, std::size_t group, std::size_t groups);
+void warm_start_avx2(const Lanes& d, std::size_t group, std::size_t groups);
 }  // namespace wide
 
 }  // namespace signorini::solver

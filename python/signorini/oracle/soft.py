@@ -59,6 +59,7 @@ from .solver import (
     read_cache,
     recall_forces,
     restitution,
+    solve_order,
     solver_settings,
     store,
 )
@@ -253,6 +254,7 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
     q_start = np.hstack([np.asarray(start["angular_velocity"], dtype=float).reshape(-1, 3),
                          np.asarray(start["velocity"], dtype=float).reshape(-1, 3)])
     rows = prepare_rows(start, contacts, q_start, h)
+    rows["order"] = solve_order(start, contacts, by_pair=True)  # a body pair's contacts together
     K = len(rows["mu"])
     soft = contact_softness(start, contacts, s, h)
     sweep = RowSweep(rows, h)

@@ -227,17 +227,25 @@ def contact_anchors(contacts):
 STATIC_COLOUR = 32
 
 
-def solve_order(snapshot, contacts):
+# a unit of more contacts than this (a body pair's run, ``by_pair``) is listed after the shorter
+# ones of its colour
+MANIFOLD_POINTS = 4
+
+
+def solve_order(snapshot, contacts, by_pair=False):
     """The order the sweeps visit the contacts in (docs/conventions.md, step 3, "Solve order").
 
-    Greedy colouring in contact order: contact i takes the lowest of the colours 0..63 that
-    neither of its moving (not static, not kinematic) bodies has taken yet, from colour 32 up
-    against a body that does not move (so that the ground's contacts are solved after those of
-    the bodies they carry, as Box2D v3 does; below 32 when 32..63 are all taken), or colour 64
-    when all are taken; the order lists
-    colour 0's contacts, then colour 1's, ..., each in contact order. Consecutive contacts then rarely share a body, which lets the core's sweep start one
-    contact before the previous one's velocity update is done; the order is part of the method,
-    so the oracle repeats it.
+    Greedy colouring of units in contact order, a unit being a contact (the PGS) or, with
+    ``by_pair`` (the soft step), a body pair's run of consecutive contacts: unit u takes the
+    lowest of the colours 0..63 that neither of its moving (not static, not kinematic) bodies has
+    taken yet, from colour 32 up against a body that does not move (so that the ground's contacts
+    are solved after those of the bodies they carry, as Box2D v3 does; below 32 when 32..63 are
+    all taken), or colour 64 when all are taken; the order lists colour 0's units, then colour
+    1's, ..., within a colour first the units of at most MANIFOLD_POINTS contacts, then the
+    longer ones, each part in contact order, a unit's contacts in contact order. By contact,
+    consecutive contacts rarely share a body, which lets the core's sweep start one contact
+    before the previous one's velocity update is done; by pair, the core's lanes solve four pairs
+    at once. The order is part of the method, so the oracle repeats it.
 
     Inputs: snapshot (bodies), contacts dict (body_a, body_b, K). Output: order (K,) int64.
     """
@@ -248,22 +256,28 @@ def solve_order(snapshot, contacts):
     free = (~static & ~kinematic).tolist()
     used = [0] * len(free)
     everything = (1 << 64) - 1
-    colour = []
-    for a, b in zip(A, B):
+    bucket = []  # 2 colour, + 1 in a unit of more than MANIFOLD_POINTS contacts
+    i, K = 0, len(A)
+    while i < K:
+        j = i + 1
+        while by_pair and j < K and (A[j], B[j]) == (A[i], B[i]):
+            j += 1
+        a, b = A[i], B[i]
         taken = (used[a] if free[a] else 0) | (used[b] if free[b] else 0)
         if taken == everything:
-            colour.append(64)
-            continue
-        c = 0 if free[a] and free[b] else STATIC_COLOUR  # against a body that does not move: from 32
-        if c and (~taken & everything) >> c == 0:
-            c = 0
-        while taken >> c & 1:
-            c += 1
-        for x in (a, b):
-            if free[x]:
-                used[x] |= 1 << c
-        colour.append(c)
-    return np.argsort(np.asarray(colour, dtype=np.int64), kind="stable")
+            c = 64
+        else:
+            c = 0 if free[a] and free[b] else STATIC_COLOUR  # against a body that does not move: from 32
+            if c and (~taken & everything) >> c == 0:
+                c = 0
+            while taken >> c & 1:
+                c += 1
+            for x in (a, b):
+                if free[x]:
+                    used[x] |= 1 << c
+        bucket += [2 * c + (j - i > MANIFOLD_POINTS)] * (j - i)
+        i = j
+    return np.argsort(np.asarray(bucket, dtype=np.int64), kind="stable")
 
 
 def prepare_rows(snapshot, contacts, q_dot_star, dt):
