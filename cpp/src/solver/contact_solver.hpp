@@ -103,25 +103,31 @@ constexpr std::size_t kManifoldPoints = 4;
 enum class Order { ByContact, ByPair };
 
 /// Four body pairs of one colour laid out for SIMD (solver/wide_rows.hpp), lane l the run of
-/// count[l] contacts (1 to kManifoldPoints) of one pair from solve position first[l] on: the
-/// ContactRows' fields that the soft step's sweeps read, each as four values side by side, so a
-/// field of the four pairs loads as one register, and each lane's bodies are read once per sweep.
+/// count[l] contacts (1 to kManifoldPoints) of one pair from solve position first[l] on: what the
+/// soft step's sweeps read of their ContactRows and SoftPoints, each field as four values side by
+/// side, so a field of the four pairs loads as one register, and each lane's bodies are read once
+/// per sweep. A pair's points share its normal and tangents (widen checks it, bit for bit) and its
+/// spring; each point's gap lives here during the step (soft_end gives it back to the soft points).
 struct alignas(32) WideGroup {
-  /// the rows of point j of each lane (a lane with fewer points leaves the rest unused)
+  /// the rows of point j of each lane (a lane with fewer points repeats its last: unused)
   struct Point {
-    double n[3][kLanes], t1[3][kLanes], t2[3][kLanes];  ///< the rows' directions, component by component
-    double r_a[3][kLanes], r_b[3][kLanes];              ///< lever arms (m, world)
+    double r_a[3][kLanes], r_b[3][kLanes];  ///< lever arms (m, world)
     double inv_delta[3][kLanes];
     double W_1n[kLanes], W_2n[kLanes], W_21[kLanes];
+    double gap0[kLanes], s[kLanes];  ///< the gap at detection and now (m): SoftPoint's
   };
   Point point[kManifoldPoints];
-  double dinv_mass_a[kLanes], dinv_mass_b[kLanes];  ///< per pair (s/kg)
-  double mu[kLanes];                                ///< per pair
+  double n[3][kLanes], t1[3][kLanes], t2[3][kLanes];  ///< the rows' directions, per pair
+  double dinv_mass_a[kLanes], dinv_mass_b[kLanes];    ///< per pair (s/kg)
+  double mu[kLanes];                                  ///< per pair
+  double bias_rate[kLanes], mass_scale[kLanes], impulse_scale[kLanes];  ///< the pair's spring (SoftPoint's)
   int a[kLanes], b[kLanes];
   int first[kLanes], count[kLanes];  ///< each lane's solve positions [first, first + count)
   bool a_moves[kLanes], b_moves[kLanes];
   int points = 0;           ///< the largest count
-  bool one_by_one = false;  ///< a contact whose normal or first friction row has delta <= 0: solved by the scalar code
+  /// solved by the scalar code: a contact whose normal or first friction row has delta <= 0 (both
+  /// bodies static: never made by the narrow phase), or a pair whose points differ in normal or spring
+  bool one_by_one = false;
 };
 
 /// Everything the solver keeps between steps (the cache) or reuses (scratch), as flat arrays.
@@ -151,6 +157,9 @@ struct SolverData {
   /// wide[wide_first[c] .. wide_first[c + 1]), from the colour's first contact on, one after the other
   std::vector<WideGroup> wide;
   std::vector<int> wide_first;
+  /// the soft step's sweeps run the groups in lanes this step (set by soft_begin: not with the
+  /// scalar code chosen, spin rows or the cone rule); the grouped contacts' gaps then live in d.wide
+  bool lanes = false;
   std::vector<double> alpha;
   std::vector<int> order, slot;
   std::vector<std::uint64_t> colours_used;
@@ -198,6 +207,7 @@ struct SolverData {
   // it has moved and turned since (dp = p - p0, dR = R R0^T - I)
   std::vector<SoftPoint> soft;
   double h = 0.0;  ///< the substep (s)
+  bool bouncy = false;  ///< some contact of the step has restitution e > 0
   int restitution_sweeps = 0;  ///< restitution sweeps over the step's substeps
   std::vector<Vec3> p0, dp;
   std::vector<Mat3> R0, dR;

@@ -58,7 +58,7 @@ void body_motion(const Model& model, const State& state, SolverData& d) {
 }
 
 /// One sweep over every contact in solve order (soft_contact), colour by colour over the threads;
-/// four body pairs at a time (wide_sweep) unless the rows have spin rows or the cone rule.
+/// four body pairs at a time (wide_sweep) when the lanes run (d.lanes).
 template <bool kSpin, bool kGap>
 void sweep(const SolverSettings& s, SolverData& d, bool biased) {
   SoftSweep x;
@@ -67,7 +67,7 @@ void sweep(const SolverSettings& s, SolverData& d, bool biased) {
   x.inv_h = 1.0 / d.h;
   x.max_push_velocity = s.max_push_velocity;
   by_colour(d, [&](std::size_t first, std::size_t end) {
-    if (!kSpin && s.friction_cone == FrictionCone::Pyramid) {
+    if (!kSpin) {
       wide_sweep(s, x, d, first, end);
     } else {
       for (std::size_t k = first; k < end; ++k) soft_contact<kSpin, kGap>(s, x, d, k);
@@ -84,6 +84,7 @@ void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool
     for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
       for (std::size_t k = first; k < end; ++k) d.soft[k].s = gap_now(d, d.rows[k], d.soft[k]);
     });
+    if (d.lanes) wide_gaps_in(d);  // the groups' copies of the gaps
   }
   JointSet* joints = d.joints != nullptr && !d.joints->blocks.empty() ? d.joints : nullptr;
   for (int i = 0; i < count; ++i) {
@@ -136,7 +137,9 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
       p.gap0 = p.s = contacts[static_cast<std::size_t>(d.order[k])].gap;
     }
   });
-  widen(d);
+  // whether any contact has restitution (without, no contact's approach is ever read)
+  d.bouncy = std::any_of(d.e.begin(), d.e.begin() + static_cast<std::ptrdiff_t>(K), [](double e) { return e > 0.0; });
+  widen(settings, d);
   if (settings.warm_start) recall_forces(settings, contacts, d);
 }
 
@@ -153,11 +156,13 @@ void soft_solve(const Model& model, const State& state, const SolverSettings& se
   // moved since
   // the approach of each contact that has not pushed yet, for restitution if it pushes now (only
   // a contact with restitution can bounce: the others' approach is never read)
-  for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t k = first; k < end; ++k)
-      if (d.soft[k].alpha_max == 0.0 && d.e[static_cast<std::size_t>(d.order[k])] > 0.0)
-        d.soft[k].u_before = normal_velocity(d.rows[k], d.qd);
-  });
+  if (d.bouncy) {
+    for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
+      for (std::size_t k = first; k < end; ++k)
+        if (d.soft[k].alpha_max == 0.0 && d.e[static_cast<std::size_t>(d.order[k])] > 0.0)
+          d.soft[k].u_before = normal_velocity(d.rows[k], d.qd);
+    });
+  }
   sweeps(settings, d, true, settings.soft_iterations, false);
   unload(d, v, omega);
 }
@@ -219,6 +224,7 @@ SolverStats soft_end(const Model& model, const State& state, const SolverSetting
     d.alpha_iter.assign(K, 0.0);
     d.restitutive.assign(K, char(0));
   }
+  if (d.lanes) wide_gaps_out(d);  // the grouped contacts' gaps, from the lanes' groups
   // the certificate's targets: the rigid contact at its end gap (speculative: close it, no more),
   // or e u for a contact that bounced in the last substep
   for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {

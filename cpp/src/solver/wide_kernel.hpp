@@ -119,8 +119,9 @@ struct Kernel {
     for (std::size_t l = 0; l < L; ++l)
       k[l] = static_cast<std::size_t>(g.first[h + l] + (j < g.count[h + l] ? j : g.count[h + l] - 1));
   }
-  /// q_dot += the impulse P (N s / dt: the rows' forces summed along their directions) on B at
-  /// r_b and -P on A at r_a, in the lanes where `where` holds (rows.hpp, push).
+  /// q_dot += the force P (N: the rows' forces summed along their directions; dt is folded into
+  /// dI and dinv_mass) on B at r_b and -P on A at r_a, in the lanes where `where` holds and for the
+  /// bodies that move (rows.hpp, push).
   static void push(Pairs& q, const Mask& where, const V3& r_a, const V3& r_b, const V3& P, const B& dinv_mass_a,
                    const B& dinv_mass_b) {
     const Mask on_a = where && q.a_moves, on_b = where && q.b_moves;
@@ -140,6 +141,7 @@ struct Kernel {
         Pairs q = load_pairs(d, g, h);
         const B dinv_mass_a = load(g.dinv_mass_a + h), dinv_mass_b = load(g.dinv_mass_b + h);
         const B count = as_doubles(g.count + h);
+        const V3 n = load3(g.n, h), t1 = load3(g.t1, h), t2 = load3(g.t2, h);
         for (int j = 0; j < g.points; ++j) {
           const WideGroup::Point& pt = g.point[j];
           std::size_t k[L];
@@ -148,7 +150,7 @@ struct Kernel {
           const B a1 = gather([&](std::size_t l) { return d.alpha[3 * k[l] + 1]; });
           const B a2 = gather([&](std::size_t l) { return d.alpha[3 * k[l] + 2]; });
           const Mask any = ((a0 != zero) || (a1 != zero) || (a2 != zero)) && (B(static_cast<double>(j)) < count);
-          const V3 P = add(add(scale(a0, load3(pt.n, h)), scale(a1, load3(pt.t1, h))), scale(a2, load3(pt.t2, h)));
+          const V3 P = add(add(scale(a0, n), scale(a1, t1)), scale(a2, t2));
           push(q, any, load3(pt.r_a, h), load3(pt.r_b, h), P, dinv_mass_a, dinv_mass_b);
         }
         store_pairs(d, g, h, q);
@@ -162,7 +164,7 @@ struct Kernel {
   static void run(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups) {
     const B zero(0.0), one(1.0), inv_h(x.inv_h), max_push(-x.max_push_velocity);
     for (std::size_t gi = group; gi < group + groups; ++gi) {
-      const WideGroup& g = d.groups[gi];
+      WideGroup& g = d.groups[gi];
       for (std::size_t h = 0; h < kLanes; h += L) {
         // the pairs: bodies, their velocities and inverse inertias (and how far they have moved)
         Pairs q = load_pairs(d, g, h);
@@ -175,12 +177,18 @@ struct Kernel {
         }
         const B dinv_mass_a = load(g.dinv_mass_a + h), dinv_mass_b = load(g.dinv_mass_b + h), mu = load(g.mu + h);
         const B count = as_doubles(g.count + h);
+        const V3 n = load3(g.n, h), t1 = load3(g.t1, h), t2 = load3(g.t2, h);
+        B ms = one, rate = zero, is = zero;  // the pairs' springs
+        if (x.biased) {
+          ms = load(g.mass_scale + h);
+          rate = load(g.bias_rate + h);
+          is = load(g.impulse_scale + h);
+        }
         for (int j = 0; j < g.points; ++j) {
-          const WideGroup::Point& pt = g.point[j];
+          WideGroup::Point& pt = g.point[j];
           const Mask active = B(static_cast<double>(j)) < count;
           std::size_t k[L];
           positions(g, h, j, k);
-          const V3 n = load3(pt.n, h), t1 = load3(pt.t1, h), t2 = load3(pt.t2, h);
           const V3 r_a = load3(pt.r_a, h), r_b = load3(pt.r_b, h);
           // the normal row's rule (SoftNormal): speculative (s > 0) closes its gap; an overlap is
           // the spring in a biased sweep, rigid in a relax sweep
@@ -189,21 +197,14 @@ struct Kernel {
             // gap_now: gap0 + n . ((dp_B + dR_B r_B) - (dp_A + dR_A r_A))
             const V3 moved_b = add({dpb[0], dpb[1], dpb[2]}, mul(dRb, r_b));
             const V3 moved_a = add({dpa[0], dpa[1], dpa[2]}, mul(dRa, r_a));
-            const B gap0 = gather([&](std::size_t l) { return d.soft[k[l]].gap0; });
-            s = gap0 + dot(n, sub(moved_b, moved_a));
-            alignas(64) double t[L];
-            s.store_aligned(t);
-            for (std::size_t l = 0; l < L; ++l)
-              if (j < g.count[h + l]) d.soft[k[l]].s = t[l];
+            s = load(pt.gap0 + h) + dot(n, sub(moved_b, moved_a));
+            s.store_aligned(pt.s + h);  // (a lane past its last point writes its own unused slot)
           } else {
-            s = gather([&](std::size_t l) { return d.soft[k[l]].s; });
+            s = load(pt.s + h);
           }
           const Mask speculative = s > zero;
           B bias = xsimd::select(speculative, s * inv_h, zero), mass_scale = one, impulse_scale = zero;
           if (x.biased) {
-            const B ms = gather([&](std::size_t l) { return d.soft[k[l]].mass_scale; });
-            const B rate = gather([&](std::size_t l) { return d.soft[k[l]].bias_rate; });
-            const B is = gather([&](std::size_t l) { return d.soft[k[l]].impulse_scale; });
             bias = xsimd::select(speculative, bias, max_of(ms * rate * s, max_push));
             mass_scale = xsimd::select(speculative, one, ms);
             impulse_scale = xsimd::select(speculative, zero, is);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -68,7 +69,13 @@ std::string simd() {
 
 namespace signorini::solver {
 
-void widen(SolverData& d) {
+void widen(const SolverSettings& s, SolverData& d) {
+  d.lanes = wide_isa() != WideIsa::Scalar && d.spin_rows.empty() && s.friction_cone == FrictionCone::Pyramid;
+  if (!d.lanes) {
+    d.wide.clear();
+    d.wide_first.assign(d.colour_start.size(), 0);
+    return;
+  }
   const std::size_t colours = d.colour_start.size() - 1;
   const auto same_pair = [&](std::size_t k, std::size_t m) {
     const ContactRows& x = d.rows[k];
@@ -101,14 +108,17 @@ void widen(SolverData& d) {
   }
   d.wide_first[colours] = static_cast<int>(G);
   d.wide.resize(G);
-  // each group filled by one thread: its pairs' bodies and materials, and each point's rows
+  // each group filled by one thread: its pairs' bodies, materials, directions and springs, and
+  // each point's rows and gaps
   rows::for_ranges(d, G, 64, [&](std::size_t from, std::size_t to) {
     for (std::size_t gi = from; gi < to; ++gi) {
       WideGroup& g = d.wide[gi];
       g.one_by_one = false;
       g.points = 0;
       for (std::size_t l = 0; l < kLanes; ++l) {
-        const ContactRows& pair = d.rows[static_cast<std::size_t>(g.first[l])];
+        const std::size_t k0 = static_cast<std::size_t>(g.first[l]);
+        const ContactRows& pair = d.rows[k0];
+        const SoftPoint& spring = d.soft[k0];
         g.a[l] = pair.a;
         g.b[l] = pair.b;
         g.a_moves[l] = pair.a_moves;
@@ -116,16 +126,22 @@ void widen(SolverData& d) {
         g.dinv_mass_a[l] = pair.dinv_mass_a;
         g.dinv_mass_b[l] = pair.dinv_mass_b;
         g.mu[l] = pair.mu;
+        for (int i = 0; i < 3; ++i) {
+          g.n[i][l] = pair.n[i];
+          g.t1[i][l] = pair.t1[i];
+          g.t2[i][l] = pair.t2[i];
+        }
+        g.bias_rate[l] = spring.bias_rate;
+        g.mass_scale[l] = spring.mass_scale;
+        g.impulse_scale[l] = spring.impulse_scale;
         g.points = std::max(g.points, g.count[l]);
         for (std::size_t j = 0; j < kManifoldPoints; ++j) {
           WideGroup::Point& p = g.point[j];
           // a lane with fewer points repeats its last: the lanes compute it, and write nothing
-          const int count = g.count[l];
-          const ContactRows& r = d.rows[static_cast<std::size_t>(g.first[l]) + std::min<std::size_t>(j, count - 1)];
+          const std::size_t k = k0 + std::min<std::size_t>(j, static_cast<std::size_t>(g.count[l]) - 1);
+          const ContactRows& r = d.rows[k];
+          const SoftPoint& soft = d.soft[k];
           for (int i = 0; i < 3; ++i) {
-            p.n[i][l] = r.n[i];
-            p.t1[i][l] = r.t1[i];
-            p.t2[i][l] = r.t2[i];
             p.r_a[i][l] = r.r_a[i];
             p.r_b[i][l] = r.r_b[i];
             p.inv_delta[i][l] = r.inv_delta[i];
@@ -133,10 +149,41 @@ void widen(SolverData& d) {
           p.W_1n[l] = r.W_1n;
           p.W_2n[l] = r.W_2n;
           p.W_21[l] = r.W_21;
-          // the lanes assume the rows the scalar sweep solves in full (contact_rows' first branches)
-          if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0)) g.one_by_one = true;
+          p.gap0[l] = soft.gap0;
+          p.s[l] = soft.s;
+          // the lanes assume the rows the scalar sweep solves in full (contact_rows' first
+          // branches), and one normal (so one tangent basis) and one spring per pair, to the bit
+          const bool same = std::memcmp(r.n.data(), pair.n.data(), sizeof(Vec3)) == 0 &&
+                            std::memcmp(r.t1.data(), pair.t1.data(), sizeof(Vec3)) == 0 &&
+                            std::memcmp(r.t2.data(), pair.t2.data(), sizeof(Vec3)) == 0 &&
+                            soft.bias_rate == spring.bias_rate && soft.mass_scale == spring.mass_scale &&
+                            soft.impulse_scale == spring.impulse_scale;
+          if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0) || !same) g.one_by_one = true;
         }
       }
+    }
+  });
+}
+
+void wide_gaps_out(SolverData& d) {
+  rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
+    for (std::size_t gi = from; gi < to; ++gi) {
+      const WideGroup& g = d.wide[gi];
+      if (g.one_by_one) continue;  // its contacts' gaps are the soft points' already
+      for (std::size_t l = 0; l < kLanes; ++l)
+        for (int j = 0; j < g.count[l]; ++j) d.soft[static_cast<std::size_t>(g.first[l] + j)].s = g.point[j].s[l];
+    }
+  });
+}
+
+void wide_gaps_in(SolverData& d) {
+  rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
+    for (std::size_t gi = from; gi < to; ++gi) {
+      WideGroup& g = d.wide[gi];
+      for (std::size_t l = 0; l < kLanes; ++l)
+        for (std::size_t j = 0; j < kManifoldPoints; ++j)
+          g.point[j].s[l] = d.soft[static_cast<std::size_t>(g.first[l]) +
+                                   std::min<std::size_t>(j, static_cast<std::size_t>(g.count[l]) - 1)].s;
     }
   });
 }
@@ -148,7 +195,6 @@ wide::Lanes raw_lanes(SolverData& d) {
                      d.qd.empty() ? nullptr : d.qd[0].omega.data(),
                      d.dI_inv.empty() ? nullptr : d.dI_inv[0].data(),
                      d.alpha.data(),
-                     d.soft.data(),
                      d.dp.empty() ? nullptr : d.dp[0].data(),
                      d.dR.empty() ? nullptr : d.dR[0].data()};
 }
@@ -198,17 +244,16 @@ void wide_sweep(const SolverSettings& s, const SoftSweep& x, SolverData& d, std:
     else
       for (std::size_t k = from; k < to; ++k) soft_contact<false, false>(s, x, d, k);
   };
-  const WideIsa isa = wide_isa();
-  if (isa == WideIsa::Scalar || d.wide_first.empty()) return one_by_one(first, end);
-  const auto sweep = isa == WideIsa::AVX2 ? wide::sweep_avx2 : wide::sweep_sse2;
+  if (!d.lanes) return one_by_one(first, end);
+  // (the ISA as chosen now: the groups hold the gaps for the whole step once it began with lanes)
+  const auto sweep = wide_isa() == WideIsa::AVX2 ? wide::sweep_avx2 : wide::sweep_sse2;
   const wide::Lanes raw = raw_lanes(d);
   walk(d, first, end, [&](std::size_t group, std::size_t groups) { sweep(x, raw, group, groups); }, one_by_one);
 }
 
 void wide_warm_start(SolverData& d) {
-  const WideIsa isa = wide_isa();
-  if (isa == WideIsa::Scalar || d.wide_first.empty() || !d.spin_rows.empty()) return rows::apply_forces(d);
-  const auto warm_start = isa == WideIsa::AVX2 ? wide::warm_start_avx2 : wide::warm_start_sse2;
+  if (!d.lanes) return rows::apply_forces(d);
+  const auto warm_start = wide_isa() == WideIsa::AVX2 ? wide::warm_start_avx2 : wide::warm_start_sse2;
   const wide::Lanes raw = raw_lanes(d);
   const Mat3* dI = d.dI_inv.data();
   rows::by_colour(d, [&](std::size_t first, std::size_t end) {

@@ -47,16 +47,23 @@ std::size_t wide_contacts_solved();
 /// wide_first[c] .. wide_first[c + 1] - 1, four pairs a group; the shared last colour has none. A
 /// group with a contact whose normal or first friction row has delta <= 0 (both bodies static:
 /// never made by the narrow phase) is flagged, and its contacts run one by one.
-void widen(SolverData& d);
+/// Out: d.lanes (whether the lanes run this step: not with the scalar code chosen, spin rows or
+/// the cone rule; without them no groups are made).
+void widen(const SolverSettings& s, SolverData& d);
+
+/// The gaps of the grouped contacts (which live in the groups while the sweeps run) back into their
+/// soft points (wide_gaps_out), and the soft points' gaps into the groups (wide_gaps_in: after a
+/// pass over the soft points changed them).
+void wide_gaps_out(SolverData& d);
+void wide_gaps_in(SolverData& d);
 
 /// The soft step's sweep over solve positions [first, end) (one by_colour block, or everything):
-/// each group's pairs in lanes, the other contacts one by one, colour by colour.
-/// The contacts' rows have no spin rows and the pyramid friction rule (the soft step runs the
-/// scalar sweep otherwise).
+/// each group's pairs in lanes, the other contacts one by one, colour by colour (all one by one
+/// without lanes, d.lanes). The rows have no spin rows when d.lanes.
 void wide_sweep(const SolverSettings& s, const SoftSweep& x, SolverData& d, std::size_t first, std::size_t end);
 
 /// rows::apply_forces with the groups in lanes (each pair's points in solve order, its bodies read
-/// once), colour by colour over the threads; rows::apply_forces itself when the rows have spin rows.
+/// once), colour by colour over the threads; rows::apply_forces itself without lanes (d.lanes).
 void wide_warm_start(SolverData& d);
 
 namespace wide {
@@ -64,11 +71,10 @@ namespace wide {
 /// library code, whose inline functions compiled for AVX2 the linker could otherwise pick for the
 /// whole program.
 struct Lanes {
-  const WideGroup* groups;  ///< d.wide
+  WideGroup* groups;        ///< d.wide (the points' gaps are written)
   double* qd;               ///< d.qd: per body omega (3) then v (3)
   const double* dI;         ///< d.dI_inv: per body dt I^-1 (3 x 3, column-major)
   double* alpha;            ///< d.alpha: 3 per solve position
-  SoftPoint* soft;          ///< d.soft: per solve position
   const double* dp;         ///< d.dp: per body (3)
   const double* dR;         ///< d.dR: per body (3 x 3, column-major)
 };
