@@ -162,6 +162,9 @@ struct SolverData {
   bool lanes = false;
   std::vector<double> alpha;
   std::vector<int> order, slot;
+  /// per solve position: 1 where a unit of the solve order starts (each contact by contact; a
+  /// pair's first contact by pair)
+  std::vector<char> unit_first;
   std::vector<std::uint64_t> colours_used;
   // spin rows (torsional friction), in solve order: spin_slot (K: solve position -> its spin row,
   // or -1 for a contact without one), the rows, and their torques (N m). spin_rows is empty when

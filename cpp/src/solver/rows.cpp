@@ -92,7 +92,8 @@ void make_rows(const Model& model, const std::vector<Mat3>& dI_inv, int a, int b
 /// thread); by pair, a pair's points follow each other and the soft step's lanes solve four pairs
 /// at once (wide_rows.hpp), each lane keeping its pair's two bodies in registers.
 /// Out: d.order (K: solve position -> contact), d.slot (K: contact -> solve position),
-/// d.colour_start, d.long_start, and the blocks the threads claim (d.block_start, d.colour_block).
+/// d.unit_first, d.colour_start, d.long_start, and the blocks the threads claim (d.block_start,
+/// d.colour_block).
 static void solve_order(const Model& model, const std::vector<Contact>& contacts, Order kind, SolverData& d) {
   const std::size_t K = contacts.size();
   constexpr int kColours = 65;
@@ -133,10 +134,13 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
   for (int c = 0; c <= kColours; ++c) d.colour_start[c] = start[2 * c];
   for (int c = 0; c < kColours; ++c) d.long_start[c] = start[2 * c + 1];
   d.order.resize(K);
+  d.unit_first.resize(K);
   for (std::size_t i = 0; i < K; ++i) {
     const int k = start[d.slot[i]]++;
     d.order[k] = static_cast<int>(i);
     d.slot[i] = k;
+    // a unit's contacts are consecutive in both orders: it starts where its pair does
+    d.unit_first[k] = kind == Order::ByContact || i == 0 || !same_pair(i - 1, i);
   }
   // the blocks of about kContactsPerTask contacts the threads claim (by_colour), each within one
   // colour; by pair, cut between units only, and among the short units only every kLanes units
@@ -154,9 +158,7 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
     int block = first, units = 0;  // the block's first position; short units so far in the colour
     d.block_start.push_back(first);
     for (int k = first + 1; k <= end; ++k) {
-      const bool unit_ends = k == end || kind == Order::ByContact ||
-                             !same_pair(static_cast<std::size_t>(d.order[k - 1]), static_cast<std::size_t>(d.order[k]));
-      if (!unit_ends) continue;
+      if (k < end && !d.unit_first[k]) continue;  // within a unit
       if (k - 1 < d.long_start[c]) ++units;
       const bool at_group = k >= d.long_start[c] || units % static_cast<int>(kLanes) == 0;
       if (k < end && k - block >= static_cast<int>(kContactsPerTask) && at_group) {

@@ -77,11 +77,6 @@ void widen(const SolverSettings& s, SolverData& d) {
     return;
   }
   const std::size_t colours = d.colour_start.size() - 1;
-  const auto same_pair = [&](std::size_t k, std::size_t m) {
-    const ContactRows& x = d.rows[k];
-    const ContactRows& y = d.rows[m];
-    return x.a == y.a && x.b == y.b;
-  };
   // the groups' lanes, colour by colour: every four units (pairs of at most kManifoldPoints
   // contacts, listed first in their colour) from the colour's start; the shared last colour has none
   d.wide_first.resize(colours + 1);
@@ -93,7 +88,7 @@ void widen(const SolverSettings& s, SolverData& d) {
     std::size_t lane = 0;
     for (std::size_t k = static_cast<std::size_t>(d.colour_start[c]); k < end;) {
       std::size_t m = k + 1;
-      while (m < end && same_pair(k, m)) ++m;
+      while (m < end && !d.unit_first[m]) ++m;
       if (lane == 0) {
         if (G == d.wide.size()) d.wide.emplace_back();
         ++G;
