@@ -32,6 +32,12 @@ WideIsa best_isa() { return cpu_has_avx2() ? WideIsa::AVX2 : WideIsa::SSE2; }
 std::atomic<WideIsa> current{best_isa()};
 std::atomic<std::size_t> solved{0};
 
+/// The solve position of lane l's point j in g (a lane with fewer points repeats its last; the
+/// kernel's `positions` is the same rule, written there without the standard library).
+std::size_t point_position(const WideGroup& g, std::size_t l, std::size_t j) {
+  return static_cast<std::size_t>(g.first[l]) + std::min<std::size_t>(j, static_cast<std::size_t>(g.count[l]) - 1);
+}
+
 }  // namespace
 
 void set_wide_isa(WideIsa isa) {
@@ -133,7 +139,7 @@ void widen(const SolverSettings& s, SolverData& d) {
         for (std::size_t j = 0; j < kManifoldPoints; ++j) {
           WideGroup::Point& p = g.point[j];
           // a lane with fewer points repeats its last: the lanes compute it, and write nothing
-          const std::size_t k = k0 + std::min<std::size_t>(j, static_cast<std::size_t>(g.count[l]) - 1);
+          const std::size_t k = point_position(g, l, j);
           const ContactRows& r = d.rows[k];
           const SoftPoint& soft = d.soft[k];
           for (int i = 0; i < 3; ++i) {
@@ -177,8 +183,7 @@ void wide_gaps_in(SolverData& d) {
       WideGroup& g = d.wide[gi];
       for (std::size_t l = 0; l < kLanes; ++l)
         for (std::size_t j = 0; j < kManifoldPoints; ++j)
-          g.point[j].s[l] = d.soft[static_cast<std::size_t>(g.first[l]) +
-                                   std::min<std::size_t>(j, static_cast<std::size_t>(g.count[l]) - 1)].s;
+          g.point[j].s[l] = d.soft[point_position(g, l, j)].s;
     }
   });
 }
