@@ -384,6 +384,21 @@ void register_world(py::module_& m) {
         d["worst_time"] = r.worst_time;
         return d;
       })
+      .def_property_readonly("step_profile", [](const World& w) {
+        const StepProfile t = w.step_report().time;
+        py::dict d;  // in the step's order (StepProfile), then the whole step
+        d["guard"] = t.guard;
+        d["detect"] = t.detect;
+        d["wake"] = t.wake;
+        d["prepare"] = t.prepare;
+        d["solve"] = t.solve;
+        d["integrate"] = t.integrate;
+        d["relax"] = t.relax;
+        d["store"] = t.store;
+        d["commit"] = t.commit;
+        d["total"] = t.total;
+        return d;
+      })
       // per body (N x 3): summed contact force (N) and torque about the com (N m) of the last step
       .def_property_readonly("contact_forces", [](const World& w) { return bindings::rows_of(w.contact_forces()); })
       .def_property_readonly("contact_torques", [](const World& w) { return bindings::rows_of(w.contact_torques()); })

@@ -738,6 +738,9 @@ class World:
     def step_forces(self) -> numpy.ndarray:
         ...
     @property
+    def step_profile(self) -> dict:
+        ...
+    @property
     def step_report(self) -> dict:
         ...
     @property

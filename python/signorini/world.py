@@ -1149,6 +1149,20 @@ class World:
     def solver_stats(self) -> SolverStats:
         return SolverStats(**self._core.solver_stats)
 
+    @property
+    @_locked
+    def step_profile(self) -> dict[str, float]:
+        """Where the wall time of the last ``step`` call went, in ms summed over its steps, stage by
+        stage in the step's order: ``guard`` (the checkpoint an undo puts back, pending impulses,
+        the energy check), ``detect`` (broad and narrow phase), ``wake`` (sleeping islands touched),
+        ``prepare`` (soft step: rows, colours, warm-start lookup), ``solve`` (per substep: gravity,
+        warm start, sweeps; the PGS's whole solve), ``integrate`` (poses, finite check), ``relax``
+        (soft step: relax sweeps, restitution), ``store`` (soft step: forces, cache, certificate),
+        ``commit`` (reported contacts, sleep timers, islands), and ``total``, which the stages add
+        up to. For finding what a scene costs (docs/conventions.md, "Where a step's time goes");
+        never part of a result, and as noisy as the machine."""
+        return dict(self._core.step_profile)
+
     @_locked
     def detect_contacts(self, dt: float) -> Contacts:
         """Contacts the current state would give for a step of dt, without stepping (alpha = 0):

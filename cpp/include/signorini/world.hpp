@@ -86,6 +86,25 @@ struct BodyDesc {
   bool can_sleep = true;                 ///< false: never sleeps, and keeps every island it is in awake
 };
 
+/// Where the wall time of the last call of World::step went (ms, summed over its steps), stage by
+/// stage in the step's order (docs/conventions.md, "Where a step's time goes"): for finding what a
+/// scene costs, as Box2D's b2Profile and MuJoCo's mjData.timer do. The stages follow each other
+/// without gaps, so they add up to `total` (up to rounding). Never part of any result; a step
+/// that throws adds nothing for its last stage.
+struct StepProfile {
+  double detect = 0.0;     ///< broad and narrow phase: the step's contacts (once per step)
+  double wake = 0.0;       ///< sleeping islands touched by moving bodies woken
+  double prepare = 0.0;    ///< soft step: rows, solve order and colours, groups, warm-start lookup (once per step)
+  double solve = 0.0;      ///< the solver per substep: velocities with gravity, warm start, sweeps (the PGS: its
+                           ///< rows, sweeps, position pass and store too, every substep)
+  double integrate = 0.0;  ///< poses moved with the solved velocities, and the finite check, per substep
+  double relax = 0.0;      ///< soft step: relax sweeps and restitution, per substep
+  double store = 0.0;      ///< soft step: forces, the next warm-start cache and the certificate (once per step)
+  double guard = 0.0;      ///< the step's checkpoint (what an undo puts back), pending impulses, energy check
+  double commit = 0.0;     ///< the reported contacts and forces, sleep timers and islands
+  double total = 0.0;      ///< the whole step
+};
+
 /// What the last call of World::step did over its steps (and substeps).
 struct StepReport {
   int steps = 0;                   ///< steps (substeps included) run by the call
@@ -93,6 +112,7 @@ struct StepReport {
                                    ///< max_penetration_velocity > warn_velocity
   double worst_penetration_velocity = 0.0;  ///< the largest such figure (m/s)
   double worst_time = 0.0;         ///< time at the start of that step (s)
+  StepProfile time;                ///< where the call's wall time went
 };
 
 /// Threads: every public member function takes the world's lock, so calls from several threads on

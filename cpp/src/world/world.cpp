@@ -4,6 +4,7 @@
 #include "signorini/world.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 
@@ -19,6 +20,28 @@
 #include "world/step_guard.hpp"
 
 namespace signorini {
+namespace {
+
+/// The step's stages timed one after the other (StepProfile): each call adds the wall time since
+/// the last to a stage, and done() the whole step's to total.
+class Laps {
+ public:
+  explicit Laps(StepProfile& into) : into_(into), start_(Clock::now()), last_(start_) {}
+  void operator()(double& stage) {
+    const Clock::time_point now = Clock::now();
+    stage += ms(now - last_);
+    last_ = now;
+  }
+  void done() { into_.total += ms(last_ - start_); }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  static double ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
+  StepProfile& into_;
+  Clock::time_point start_, last_;
+};
+
+}  // namespace
 
 World::World(const WorldSettings& settings)
     : contacts_(std::make_shared<std::vector<Contact>>()),
@@ -175,11 +198,16 @@ void World::step_once(double dt) {
   if (settings_.solver.method == SolverMethod::Soft) return soft_step_once(dt);
   const int n = settings_.solver.substep_count(dt);
   const double h = dt / n;
+  StepProfile& t = report_.time;
+  Laps lap(t);
   guard_->begin(state_, *solver_, &moving_);          // checkpoint: what an undo puts back
   dynamics::apply_impulses(model_, state_, &moving_);  // pending impulses change v and omega
   guard_->measure_start(model_, state_, &moving_);     // the kinetic energy the step answers to
+  lap(t.guard);
   detect_contacts(dt, contacts_base_);                 // once, as far as the whole step reaches
+  lap(t.detect);
   wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
+  lap(t.wake);
   SolverStats stats;
   for (int k = 0; k < n; ++k) {
     carry_contacts(k);                                 // the step's contacts moved to this substep
@@ -188,41 +216,60 @@ void World::step_once(double dt) {
     stats = solver::solve_contacts(model_, state_, h, settings_.solver, contacts_next_, v_, omega_, *solver_,
                                    k == 0 ? nullptr : &anchor_a_, k == 0 ? nullptr : &anchor_b_);
     sum_impulses(k);                                   // Contacts.impulse: the whole step's
+    lap(t.solve);
     dynamics::advance(model_, state_, solver_->v_move, solver_->omega_move, v_, omega_, h, pool_.get(), &moving_);
     guard_->check_finite(model_, state_, *solver_, &moving_);  // checkpoint: nothing non-finite is kept
     end_substep(stats, h);
+    lap(t.integrate);
   }
   guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_, &moving_);  // checkpoint: no explosion
+  lap(t.guard);
   commit_step(stats);
   end_islands(dt);                                     // sleep timers; islands at rest fall asleep
+  lap(t.commit);
+  lap.done();
 }
 
 void World::soft_step_once(double dt) {
   const int n = settings_.solver.substep_count(dt);
   const double h = dt / n;
   const SolverSettings& q = settings_.solver;
+  StepProfile& t = report_.time;
+  Laps lap(t);
   guard_->begin(state_, *solver_, &moving_);          // checkpoint: what an undo puts back
   dynamics::apply_impulses(model_, state_, &moving_);  // pending impulses change v and omega
   guard_->measure_start(model_, state_, &moving_);     // the kinetic energy the step answers to
+  lap(t.guard);
   detect_contacts(dt, contacts_base_);                 // once, as far as the whole step reaches
+  lap(t.detect);
   wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
+  lap(t.wake);
   carry_contacts(0);                                   // the step's contacts, to be written by the solver
   solver::soft_begin(model_, state_, h, q, contacts_next_, *solver_);
+  lap(t.prepare);
   for (int k = 0; k < n; ++k) {
     dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, q.gyroscopic, v_, omega_, pool_.get(),
                                      &moving_);
     solver::soft_solve(model_, state_, q, v_, omega_, *solver_);
+    lap(t.solve);
     dynamics::advance(model_, state_, v_, omega_, v_, omega_, h, pool_.get(), &moving_);  // the poses move with the solved velocities
+    lap(t.integrate);
     solver::soft_relax(model_, state_, q, state_.v, state_.omega, *solver_);
+    lap(t.relax);
     guard_->check_finite(model_, state_, *solver_, &moving_);  // checkpoint: nothing non-finite is kept
     ++report_.steps;
+    lap(t.integrate);
   }
   const SolverStats stats = solver::soft_end(model_, state_, q, contacts_next_, state_.v, state_.omega, *solver_);
   end_substep_flags(stats, state_.time);
   solver_->cache.swap(solver_->cache_next);
+  lap(t.store);
   guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_, &moving_);  // checkpoint: no explosion
+  lap(t.guard);
   commit_step(stats);
   end_islands(dt);                                     // sleep timers; islands at rest fall asleep
+  lap(t.commit);
+  lap.done();
 }
 
 void World::carry_contacts(int k) {
