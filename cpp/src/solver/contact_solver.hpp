@@ -264,7 +264,13 @@ void load(serial::Reader& r, char version, std::size_t n, SolverData& out);
 void save_cache(serial::Writer& w, const std::vector<CachedContact>& cache);
 void load_cache(serial::Reader& r, char version, std::vector<CachedContact>& cache);
 
-/// The warm-start cache's order: by body pair, then feature ids.
-bool key_less(const CachedContact& x, const CachedContact& y);
+/// The warm-start cache's order: by body pair, then feature ids (inline: the step's lookups and
+/// sorts call it some hundred thousand times).
+inline bool key_less(const CachedContact& x, const CachedContact& y) {
+  if (x.body_a != y.body_a) return x.body_a < y.body_a;
+  if (x.body_b != y.body_b) return x.body_b < y.body_b;
+  if (x.feature_a != y.feature_a) return x.feature_a < y.feature_a;
+  return x.feature_b < y.feature_b;
+}
 
 }  // namespace signorini::solver

@@ -5,17 +5,6 @@
 #include <limits>
 #include <mutex>
 
-namespace signorini::solver {
-
-bool key_less(const CachedContact& x, const CachedContact& y) {
-  if (x.body_a != y.body_a) return x.body_a < y.body_a;
-  if (x.body_b != y.body_b) return x.body_b < y.body_b;
-  if (x.feature_a != y.feature_a) return x.feature_a < y.feature_a;
-  return x.feature_b < y.feature_b;
-}
-
-}  // namespace signorini::solver
-
 namespace signorini::solver::rows {
 
 /// tangent_basis treats components of a unit normal that differ by less than this as tied.
@@ -27,6 +16,8 @@ namespace {
 constexpr double kSlidingSpeed = 1e-3;
 
 bool same_key(const CachedContact& x, const CachedContact& y) { return !key_less(x, y) && !key_less(y, x); }
+/// key_less as a function object, which the standard algorithms inline (a function pointer they may not).
+constexpr auto by_key = [](const CachedContact& x, const CachedContact& y) { return key_less(x, y); };
 
 /// true when contact i is the only one of its body pair: the contact list holds each pair's
 /// contacts next to each other (docs/conventions.md, "Order"), so its neighbours tell.
@@ -186,6 +177,7 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
   // each contact writes only its own rows, u_i and e_i: split over the threads
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
     for (std::size_t i = first; i < end; ++i) {
+      if (i + kAhead < end) prefetch_write(&d.rows[d.slot[i + kAhead]], sizeof(ContactRows));
       const Contact& c = contacts[i];
       const int a = c.body_a, b = c.body_b;
       const Material& ma = model.material[a];
@@ -258,7 +250,7 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
       if (i > first && !key_less(key, previous))
         while (it != d.cache.end() && key_less(*it, key)) ++it;
       else
-        it = std::lower_bound(d.cache.begin(), d.cache.end(), key, key_less);
+        it = std::lower_bound(d.cache.begin(), d.cache.end(), key, by_key);
       cursor = it;
       previous = key;
       d.recalled[i] = it != d.cache.end() && same_key(*it, key) ? static_cast<int>(it - d.cache.begin()) : -1;
@@ -277,12 +269,18 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
       found = true;
     }
   }
-  // the forces, clamped to the friction set, over the threads (each contact writes its own rows)
-  // (in solve order, as the rows are stored)
+  // the forces, clamped to the friction set, over the threads (each contact writes its own rows),
+  // in contact order, as the cache is sorted: the rows are reached out of order, asked for early
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t position = first; position < end; ++position) {
-      const std::size_t i = static_cast<std::size_t>(d.order[position]);
+    for (std::size_t i = first; i < end; ++i) {
+      if (i + kAhead < end && d.recalled[i + kAhead] >= 0) {
+        const std::size_t ahead = static_cast<std::size_t>(d.slot[i + kAhead]);
+        prefetch_read(&d.rows[ahead].t1, 2 * sizeof(Vec3));  // what is read: t1, t2 and mu
+        prefetch_read(&d.rows[ahead].mu, sizeof(double));
+        prefetch_write(&d.alpha[3 * ahead], 3 * sizeof(double));
+      }
       if (d.recalled[i] < 0) continue;
+      const std::size_t position = static_cast<std::size_t>(d.slot[i]);
       const CachedContact& entry = d.cache[static_cast<std::size_t>(d.recalled[i])];
       const std::size_t k = 3 * position;
       const ContactRows& r = d.rows[position];
@@ -356,6 +354,13 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
     SolverStats part = start;
     for (std::size_t k = first; k < end; ++k) {
+      if (k + kAhead < end) {
+        const std::size_t j = static_cast<std::size_t>(d.order[k + kAhead]);
+        prefetch_write(&contacts[j], sizeof(Contact));
+        prefetch_write(&d.cache_next[j], sizeof(CachedContact));
+        prefetch_write(&d.contact_torque[2 * j], 2 * sizeof(Vec3));
+        prefetch_write(&d.contact_force[j], sizeof(Vec3));
+      }
       const std::size_t i = static_cast<std::size_t>(d.order[k]);
       Contact& c = contacts[i];
       const ContactRows& r = d.rows[k];
@@ -484,7 +489,9 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   };
   if (!std::is_sorted(d.cache_next.begin(), d.cache_next.end(), before))
     std::sort(d.cache_next.begin(), d.cache_next.end(), before);
-  d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(), same_key), d.cache_next.end());
+  d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(),
+                                 [](const CachedContact& x, const CachedContact& y) { return same_key(x, y); }),
+                     d.cache_next.end());
   // maxima of violations: 0 when nothing violates (and when there are no contacts)
   stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
   stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);

@@ -131,6 +131,7 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   d.soft.resize(K);
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
     for (std::size_t k = first; k < end; ++k) {  // in solve order, as the rows and points are stored
+      if (k + kAhead < end) prefetch_read(&contacts[static_cast<std::size_t>(d.order[k + kAhead])].gap, sizeof(double));
       const ContactRows& r = d.rows[k];
       SoftPoint& p = d.soft[k];
       p = r.a_moves && r.b_moves ? between : against;

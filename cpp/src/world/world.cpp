@@ -244,7 +244,9 @@ void World::soft_step_once(double dt) {
   lap(t.detect);
   wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
   lap(t.wake);
-  carry_contacts(0);                                   // the step's contacts, to be written by the solver
+  // the step's contacts, to be written by the solver: moved, not copied (the soft step never
+  // reads them as detected again; the next step detects into the other list)
+  contacts_next_.swap(contacts_base_);
   solver::soft_begin(model_, state_, h, q, contacts_next_, *solver_);
   lap(t.prepare);
   for (int k = 0; k < n; ++k) {
