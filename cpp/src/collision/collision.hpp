@@ -263,6 +263,7 @@ struct Scratch {
     std::vector<KeptManifold> kept;
     std::vector<KeptPoint> kept_points;
     int recycled = 0;
+    std::size_t contacts_at = 0, points_at = 0;  ///< where the join puts its contacts and kept points
   };
   std::vector<PairChunk> chunks;
   std::vector<std::unique_ptr<Scratch>> workers;

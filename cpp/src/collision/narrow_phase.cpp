@@ -560,11 +560,12 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
                              [&](const auto& p) { return !model.can_collide(p.first, p.second) || resting(p.first, p.second); }),
               pairs.end());
 
-  contacts.clear();
+  const bool chunked = pool != nullptr && pool->threads() > 1 && pairs.size() > kPairsPerChunk;
+  if (!chunked) contacts.clear();  // chunked: resized to the joined length below
   memory.separating.next.clear();
   ManifoldCache& manifolds = memory.manifolds;
   manifolds.next.clear();
-  manifolds.next_points.clear();
+  if (!chunked) manifolds.next_points.clear();
   // one pair: its contacts appended to out, its separating faces to separating, its crossing
   // (a body pushed back through a mesh triangle) to crossings, its manifold (when it may be kept)
   // to kept; returns whether it kept the last detection's
@@ -620,7 +621,7 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   };
   const std::size_t P = pairs.size();
   int recycled = 0;
-  if (pool == nullptr || pool->threads() <= 1 || P <= kPairsPerChunk) {
+  if (!chunked) {
     for (const auto& [i, j] : pairs)
       recycled += collide_pair(i, j, scratch, contacts, memory.separating.next,
                                [&](BodyIndex b, const Crossing& c) { memory.crossing_next[b] = c; }, manifolds.next,
@@ -648,19 +649,33 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
                                          chunk.kept, chunk.kept_points);
       }
     });
+    // the small parts joined here; the contacts and kept points, the bulk, copied to their places
+    // over the threads (a list of the last step's length is only overwritten: no element is made)
+    std::size_t contacts_end = 0, points_end = 0;
     for (std::size_t c = 0; c < chunks; ++c) {
-      const Scratch::PairChunk& chunk = scratch.chunks[c];
-      contacts.insert(contacts.end(), chunk.contacts.begin(), chunk.contacts.end());
+      Scratch::PairChunk& chunk = scratch.chunks[c];
+      chunk.contacts_at = contacts_end;
+      chunk.points_at = points_end;
+      contacts_end += chunk.contacts.size();
+      points_end += chunk.kept_points.size();
       memory.separating.next.insert(memory.separating.next.end(), chunk.separating.begin(), chunk.separating.end());
       for (const auto& [b, x] : chunk.crossings) memory.crossing_next[b] = x;
-      const auto shift = static_cast<std::uint32_t>(manifolds.next_points.size());
       for (KeptManifold m : chunk.kept) {
-        m.first += shift;
+        m.first += static_cast<std::uint32_t>(chunk.points_at);
         manifolds.next.push_back(m);
       }
-      manifolds.next_points.insert(manifolds.next_points.end(), chunk.kept_points.begin(), chunk.kept_points.end());
       recycled += chunk.recycled;
     }
+    contacts.resize(contacts_end);
+    manifolds.next_points.resize(points_end);
+    pool->for_ranges(chunks, 1, [&](std::size_t first, std::size_t end) {
+      for (std::size_t c = first; c < end; ++c) {
+        const Scratch::PairChunk& chunk = scratch.chunks[c];
+        std::copy(chunk.contacts.begin(), chunk.contacts.end(), contacts.begin() + static_cast<std::ptrdiff_t>(chunk.contacts_at));
+        std::copy(chunk.kept_points.begin(), chunk.kept_points.end(),
+                  manifolds.next_points.begin() + static_cast<std::ptrdiff_t>(chunk.points_at));
+      }
+    });
   }
   // kept in pair order, so sorted: a pair that keeps its manifold has no static-only shape, so it
   // is never swapped (a = i < b = j); they become the memory when the step is kept
