@@ -417,9 +417,10 @@ class BroadPhase {
   /// of their own, neither refitted nor collided with each other or with static bodies; a body
   /// moves between the trees as it falls asleep or wakes, allocating nothing: it is registered in
   /// both once, parked far away in the one it is not in); planes excluded. Sorted
-  /// lexicographically, written into out (cleared first; its capacity is reused).
+  /// lexicographically, written into out (cleared first; its capacity is reused). The awake
+  /// bodies' boxes are computed on pool's threads (null: the calling thread alone).
   void pairs(const Model& model, const State& state, const std::vector<double>& reach, double margin,
-             std::vector<std::pair<BodyIndex, BodyIndex>>& out);
+             std::vector<std::pair<BodyIndex, BodyIndex>>& out, const parallel::Pool* pool = nullptr);
   /// The triangle query of body i if it is a TriangleMesh, else null.
   const TriangleQuery* triangles(BodyIndex i) const;
   /// The bodies whose shape is a Plane (not in either tree), ascending.

@@ -13,6 +13,7 @@
 
 #include "collision/collision.hpp"
 #include "collision/ray.hpp"
+#include "parallel/pool.hpp"
 
 namespace signorini::collision {
 namespace {
@@ -350,7 +351,7 @@ void BroadPhase::refit_static(const Model& model, const State& state, double mar
 }
 
 void BroadPhase::pairs(const Model& model, const State& state, const std::vector<double>& reach, double margin,
-                       std::vector<std::pair<BodyIndex, BodyIndex>>& out) {
+                       std::vector<std::pair<BodyIndex, BodyIndex>>& out, const parallel::Pool* pool) {
   Impl& m = *impl_;
   // static bodies: grown once by margin/2, refitted only when one moved or the margin changed
   if (m.static_dirty || m.static_margin != margin) {
@@ -396,10 +397,10 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
   if (sleep_refit) m.sleep_tree.update();
   m.sleep_margin = margin;
   // awake dynamic bodies: the box at the new pose, grown by their reach; the leaf moves (with its
-  // fat box) only when the box has left it
-  m.moved_fat.clear();
-  for (BodyIndex i : m.dynamic_bodies) {
-    if (m.in_sleep_tree[i]) continue;
+  // fat box) only when the box has left it. Each body touches its own box and leaf only: over the
+  // threads, the leaves that moved flagged, then listed in body order
+  parallel::for_bodies(pool, &m.dynamic_bodies, 0, 512, [&](std::size_t i) {
+    if (m.in_sleep_tree[i]) return;
     Vec3 lo, hi;
     tight_aabb(model.shape[i], state.R[i], state.p[i], lo, hi);
     const Vec3 grow = Vec3::Constant(reach[i] + 0.5 * margin);
@@ -407,10 +408,16 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
     b.min_ = lo - grow;
     b.max_ = hi + grow;
     Proxy& leaf = *m.proxy[i];
-    if (m.fat_valid && leaf.getAABB().contain(b)) continue;
+    if (m.fat_valid && leaf.getAABB().contain(b)) return;
     leaf.setTransform(state.R[i], state.p[i]);
     leaf.set_box(b.min_ - Vec3::Constant(m.fat[i]), b.max_ + Vec3::Constant(m.fat[i]));
-    m.moved_fat.push_back(&leaf);
+    m.moved_flag[i] = 1;
+  });
+  m.moved_fat.clear();
+  for (BodyIndex i : m.dynamic_bodies) {
+    if (!m.moved_flag[i]) continue;
+    m.moved_flag[i] = 0;  // all 0 again between calls
+    m.moved_fat.push_back(m.proxy[i].get());
   }
   // many leaves moved (a pile falling): every box read anew, the tree refitted and walked whole;
   // a few (a pile at rest, a body or two rolling): those leaves re-inserted and, unless the trees

@@ -542,7 +542,7 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   speculative_reach(model, state, dt, gravity, reach, bodies);
   // candidate pairs: the broad phase's, plus every plane against every dynamic body
   std::vector<std::pair<BodyIndex, BodyIndex>>& pairs = scratch.pairs;
-  broad_phase.pairs(model, state, reach, margin, pairs);
+  broad_phase.pairs(model, state, reach, margin, pairs, pool);
   for (const BodyIndex k : broad_phase.planes()) {
     parallel::each_body(bodies, model.size(), [&](std::size_t i) {
       const auto b = static_cast<BodyIndex>(i);
