@@ -72,7 +72,8 @@ int position_pass(double dt, const SolverSettings& s, const Model& model, const 
     const double r_min = std::min(model.inner[contacts[i].body_a], model.inner[contacts[i].body_b]);
     const double slop = std::min(s.slop, SolverSettings::slop_inner_fraction * r_min);
     const double push = std::min(s.erp * std::max(-gap - slop, 0.0) / dt, s.max_push_velocity);
-    const double bounce = d.restitutive[i] ? d.e[i] * std::max(-d.u[i] - std::max(gap, 0.0) / dt, 0.0) : 0.0;
+    const std::size_t k = static_cast<std::size_t>(d.slot[i]);  // u, e and the flags are by solve position
+    const double bounce = d.restitutive[k] ? d.e[k] * std::max(-d.u[k] - std::max(gap, 0.0) / dt, 0.0) : 0.0;
     d.b_pos[i] = std::max(push, bounce);
     any = any || d.b_pos[i] > 0.0;
   }
@@ -125,7 +126,7 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   }
   stats.iterations = iterate(settings, dt, data, stats.converged);
   data.alpha_iter.resize(K);
-  for (std::size_t i = 0; i < K; ++i) data.alpha_iter[i] = data.alpha[3 * data.slot[i]];
+  for (std::size_t k = 0; k < K; ++k) data.alpha_iter[k] = data.alpha[3 * k];
   // the poses move with the velocities of c; d changes only the kept ones
   parallel::fit(data.v_pos, N, Vec3(Vec3::Zero()));
   parallel::fit(data.omega_pos, N, Vec3(Vec3::Zero()));
@@ -135,8 +136,8 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   });
   // d. restitution (the contacts that approached faster than the threshold and pushed); e. position pass
   assign_n(data.restitutive, K, char(0));
-  for (std::size_t i = 0; i < K; ++i)
-    data.restitutive[i] = data.e[i] > 0.0 && data.u[i] < -settings.restitution_threshold && data.alpha[3 * data.slot[i]] > 0.0;
+  for (std::size_t k = 0; k < K; ++k)
+    data.restitutive[k] = data.e[k] > 0.0 && data.u[k] < -settings.restitution_threshold && data.alpha[3 * k] > 0.0;
   stats.restitution_iterations = restitution(settings, data);
   stats.position_iterations = position_pass(dt, settings, model, contacts, data);
   if (joints) stats.position_iterations += joint_position_pass(settings, dt, *joints, data);

@@ -174,8 +174,9 @@ struct SolverData {
   std::vector<int> spin_slot;
   std::vector<SpinRow> spin_rows;
   std::vector<double> spin_alpha;
-  // per contact (cold): pre-solve normal velocity u_i (m/s), restitution e_i, whether stage d
-  // applies, position-pass target b_pos (m/s) and pseudo-force beta (N)
+  // per solve position (as the rows are stored, so that the passes over them read in order): the
+  // pre-solve normal velocity u_i (m/s), restitution e_i, whether stage d applies; per contact
+  // (cold): position-pass target b_pos (m/s) and pseudo-force beta (N)
   std::vector<double> u, e, b_pos, beta;
   std::vector<char> restitutive;
   // per body: the velocities being solved (copied in and out of the caller's v, omega), the
@@ -205,7 +206,7 @@ struct SolverData {
   /// do not read the contacts themselves again)
   std::vector<Vec3> contact_torque, contact_force;
   std::vector<BodyIndex> contact_body;
-  std::vector<double> alpha_iter;   ///< per contact: alpha_n after the iterate stage (N)
+  std::vector<double> alpha_iter;   ///< per solve position: alpha_n after the iterate stage (N)
   // the soft step: per contact in solve order; per body the pose at the step's start and how far
   // it has moved and turned since (dp = p - p0, dR = R R0^T - I)
   std::vector<SoftPoint> soft;

@@ -196,8 +196,8 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       // a speculative contact may close its gap, no more; an overlap is left to the position pass
       r.bias = std::max(c.gap, 0.0) / dt;
       r.mu = mu;
-      d.u[i] = normal_velocity(r, d.qd);
-      d.e[i] = std::max(ma.restitution, mb.restitution);
+      d.u[d.slot[i]] = normal_velocity(r, d.qd);
+      d.e[d.slot[i]] = std::max(ma.restitution, mb.restitution);
       if (ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0) spinning.store(true, std::memory_order_relaxed);
     }
   });
@@ -328,9 +328,8 @@ int restitution(const SolverSettings& s, SolverData& d) {
     ++sweeps;
     double change = 0.0;
     for (std::size_t k = 0; k < K; ++k) {  // in solve order
-      const int i = d.order[k];
-      if (d.restitutive[i])
-        change = std::max(change, update_normal(d.rows[k], d.dI_inv.data(), d.e[i] * d.u[i], d.alpha[3 * k], d.qd));
+      if (d.restitutive[k])
+        change = std::max(change, update_normal(d.rows[k], d.dI_inv.data(), d.e[k] * d.u[k], d.alpha[3 * k], d.qd));
     }
     converged = s.tolerance > 0.0 && change <= s.tolerance;
   }
@@ -389,7 +388,7 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       c.slip = vt1 * r.t1 + vt2 * r.t2;
 
       // the certificate: w_i against the row's own target
-      const double b = d.restitutive[i] ? d.e[i] * d.u[i] : r.bias;
+      const double b = d.restitutive[k] ? d.e[k] * d.u[k] : r.bias;
       const double w = vn + b;
       const double mu = r.mu;
       part.max_alpha_negative = std::max(part.max_alpha_negative, -alpha[0]);
@@ -430,7 +429,7 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       e.body_b = c.body_b;
       e.feature_a = c.feature_a;
       e.feature_b = c.feature_b;
-      e.alpha = d.alpha_iter[i];
+      e.alpha = d.alpha_iter[k];
       e.friction = c.friction;
       e.spin = c.spin_torque;
       e.order = static_cast<int>(i);

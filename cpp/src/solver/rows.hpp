@@ -295,7 +295,7 @@ inline void apply_force(SolverData& d, const Mat3* dI, std::size_t k) {
   }
 }
 
-/// Newton's law on the contacts flagged in d.restitutive (contact order):
+/// Newton's law on the contacts flagged in d.restitutive (by solve position):
 /// n^T (v_B - v_A) >= -e u, by sweeps over d.qd up to the tolerance. Returns the sweeps used.
 int restitution(const SolverSettings& s, SolverData& d);
 

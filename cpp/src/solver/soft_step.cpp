@@ -160,7 +160,7 @@ void soft_solve(const Model& model, const State& state, const SolverSettings& se
   if (d.bouncy) {
     for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
       for (std::size_t k = first; k < end; ++k)
-        if (d.soft[k].alpha_max == 0.0 && d.e[static_cast<std::size_t>(d.order[k])] > 0.0)
+        if (d.soft[k].alpha_max == 0.0 && d.e[k] > 0.0)
           d.soft[k].u_before = normal_velocity(d.rows[k], d.qd);
     });
   }
@@ -188,14 +188,13 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
     p.alpha_max = std::max(p.alpha_max, d.alpha[3 * k]);
   };
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t k = first; k < end; ++k) {  // in solve order, as the points are stored
-      const std::size_t i = static_cast<std::size_t>(d.order[k]);
+    for (std::size_t k = first; k < end; ++k) {  // in solve order, as the points and flags are stored
       const SoftPoint& p = d.soft[k];
-      d.alpha_iter[i] = d.alpha[3 * k];
-      d.restitutive[i] = p.alpha_max == 0.0 && d.alpha[3 * k] > 0.0 && d.e[i] > 0.0 &&
+      d.alpha_iter[k] = d.alpha[3 * k];
+      d.restitutive[k] = p.alpha_max == 0.0 && d.alpha[3 * k] > 0.0 && d.e[k] > 0.0 &&
                          p.u_before < -settings.restitution_threshold;
-      if (d.restitutive[i]) {
-        d.u[i] = p.u_before;
+      if (d.restitutive[k]) {
+        d.u[k] = p.u_before;
         bounces.store(true, std::memory_order_relaxed);
       } else {
         add_impulse(k);
@@ -206,7 +205,7 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
     d.restitution_sweeps += restitution(settings, d);
     for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
       for (std::size_t k = first; k < end; ++k)
-        if (d.restitutive[static_cast<std::size_t>(d.order[k])]) add_impulse(k);
+        if (d.restitutive[k]) add_impulse(k);
     });
   }
   unload(d, v, omega);
