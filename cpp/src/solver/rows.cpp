@@ -2,6 +2,7 @@
 
 #include <array>
 #include <atomic>
+#include <cstring>
 #include <limits>
 #include <mutex>
 
@@ -176,6 +177,7 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
   std::atomic<bool> spinning{false};  // some contact's pair has spinning friction
   // each contact writes only its own rows, u_i and e_i: split over the threads
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
+    Vec3 dir[3];  // the last contact's normal and tangents
     for (std::size_t i = first; i < end; ++i) {
       if (i + kAhead < end) prefetch_write(&d.rows[d.slot[i + kAhead]], sizeof(ContactRows));
       const Contact& c = contacts[i];
@@ -183,9 +185,12 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       const Material& ma = model.material[a];
       const Material& mb = model.material[b];
       const double mu = std::sqrt(ma.friction * mb.friction);
-      Vec3 dir[3];
-      dir[0] = c.normal;
-      tangent_basis(c.normal, dir[1], dir[2]);
+      // the tangents are a function of the normal's bits alone: a manifold's points, which share
+      // it, find them once (the range's first contact finds its own)
+      if (i == first || std::memcmp(c.normal.data(), dir[0].data(), sizeof(Vec3)) != 0) {
+        dir[0] = c.normal;
+        tangent_basis(c.normal, dir[1], dir[2]);
+      }
       // in contact order, reading the contacts in turn (writing the rows where they go costs less
       // than reading the contacts out of order: a write does not wait)
       ContactRows& r = d.rows[d.slot[i]];
@@ -338,7 +343,8 @@ int restitution(const SolverSettings& s, SolverData& d) {
 
 // ---- f. store -----------------------------------------------------------------------------------
 /// Forces and velocities per contact, summed forces per body, the next cache, the certificate.
-void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats) {
+void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats,
+           const std::vector<SoftPoint>* soft) {
   const std::size_t K = contacts.size();
   d.cache_next.resize(K);
   d.contact_torque.resize(2 * K);  // every entry is written below, contact by contact
@@ -366,7 +372,7 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       const double* alpha = &d.alpha[3 * k];
       // forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2 (on B; A gets the opposite)
       c.alpha = alpha[0];
-      c.impulse = dt * alpha[0];
+      c.impulse = soft ? (*soft)[k].impulse : dt * alpha[0];
       c.friction = alpha[1] * r.t1 + alpha[2] * r.t2;
       c.force = alpha[0] * c.normal + c.friction;
       // torsional friction: spin_torque n on B, the opposite on A

@@ -230,11 +230,8 @@ SolverStats soft_end(const Model& model, const State& state, const SolverSetting
   for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
     for (std::size_t k = first; k < end; ++k) d.rows[k].bias = std::max(d.soft[k].s, 0.0) / d.h;
   });
-  store(d.h, settings, contacts, d, stats);
+  store(d.h, settings, contacts, d, stats, &d.soft);  // each contact's impulse: its substeps' summed
   if (d.joints != nullptr && !d.joints->empty()) store_joints(state, *d.joints);
-  for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t k = first; k < end; ++k) contacts[static_cast<std::size_t>(d.order[k])].impulse = d.soft[k].impulse;
-  });
   unload(d, v, omega);
   // a fixed number of sweeps by design: never flagged as unconverged (the certificate says what
   // the contacts satisfy)
