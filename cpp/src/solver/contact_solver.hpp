@@ -107,7 +107,8 @@ enum class Order { ByContact, ByPair };
 /// soft step's sweeps read of their ContactRows and SoftPoints, each field as four values side by
 /// side, so a field of the four pairs loads as one register, and each lane's bodies are read once
 /// per sweep. A pair's points share its normal and tangents (widen checks it, bit for bit) and its
-/// spring; each point's gap lives here during the step (soft_end gives it back to the soft points).
+/// spring; each point's gap and forces live here during the step (soft_end gives the gaps back to
+/// the soft points; the forces go back to d.alpha after each substep's relax sweeps).
 struct alignas(32) WideGroup {
   /// the rows of point j of each lane (a lane with fewer points repeats its last: unused)
   struct Point {
@@ -115,6 +116,7 @@ struct alignas(32) WideGroup {
     double inv_delta[3][kLanes];
     double W_1n[kLanes], W_2n[kLanes], W_21[kLanes];
     double gap0[kLanes], s[kLanes];  ///< the gap at detection and now (m): SoftPoint's
+    double alpha[3][kLanes];         ///< the forces of the normal, t1 and t2 rows (N): d.alpha's
   };
   Point point[kManifoldPoints];
   double n[3][kLanes], t1[3][kLanes], t2[3][kLanes];  ///< the rows' directions, per pair

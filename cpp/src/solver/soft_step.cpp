@@ -140,8 +140,8 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   });
   // whether any contact has restitution (without, no contact's approach is ever read)
   d.bouncy = std::any_of(d.e.begin(), d.e.begin() + static_cast<std::ptrdiff_t>(K), [](double e) { return e > 0.0; });
-  widen(settings, d);
   if (settings.warm_start) recall_forces(settings, contacts, d);
+  widen(settings, d);  // the groups take the warm-start forces too
 }
 
 void soft_solve(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
@@ -174,6 +174,7 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
   load(v, omega, d);
   body_motion(model, state, d);  // the poses have moved: each contact's gap with the first relax sweep
   sweeps(settings, d, false, settings.relax_iterations, true);
+  if (d.lanes) wide_alpha_out(d);  // the grouped contacts' forces, for the pass below and for store
   // restitution, in the substep where a contact first pushes, on its approach before that push
   // (so that the rebound starts within h of the impact, not at the step's end); the warm-start
   // cache keeps the forces before it
@@ -203,6 +204,7 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
   });
   if (bounces.load(std::memory_order_relaxed)) {
     d.restitution_sweeps += restitution(settings, d);
+    if (d.lanes) wide_alpha_in(d);  // the next substep's sweeps start from the bounced forces
     for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
       for (std::size_t k = first; k < end; ++k)
         if (d.restitutive[k]) add_impulse(k);

@@ -114,11 +114,6 @@ struct Kernel {
       }
     }
   }
-  /// Point j's solve position in each lane (a lane past its last point repeats it, and writes nothing).
-  static void positions(const WideGroup& g, std::size_t h, int j, std::size_t* k) {
-    for (std::size_t l = 0; l < L; ++l)
-      k[l] = static_cast<std::size_t>(g.first[h + l] + (j < g.count[h + l] ? j : g.count[h + l] - 1));
-  }
   /// q_dot += the force P (N: the rows' forces summed along their directions; dt is folded into
   /// dI and dinv_mass) on B at r_b and -P on A at r_a, in the lanes where `where` holds and for the
   /// bodies that move (rows.hpp, push).
@@ -144,11 +139,7 @@ struct Kernel {
         const V3 n = load3(g.n, h), t1 = load3(g.t1, h), t2 = load3(g.t2, h);
         for (int j = 0; j < g.points; ++j) {
           const WideGroup::Point& pt = g.point[j];
-          std::size_t k[L];
-          positions(g, h, j, k);
-          const B a0 = gather([&](std::size_t l) { return d.alpha[3 * k[l]]; });
-          const B a1 = gather([&](std::size_t l) { return d.alpha[3 * k[l] + 1]; });
-          const B a2 = gather([&](std::size_t l) { return d.alpha[3 * k[l] + 2]; });
+          const B a0 = load(pt.alpha[0] + h), a1 = load(pt.alpha[1] + h), a2 = load(pt.alpha[2] + h);
           const Mask any = ((a0 != zero) || (a1 != zero) || (a2 != zero)) && (B(static_cast<double>(j)) < count);
           const V3 P = add(add(scale(a0, n), scale(a1, t1)), scale(a2, t2));
           push(q, any, load3(pt.r_a, h), load3(pt.r_b, h), P, dinv_mass_a, dinv_mass_b);
@@ -187,8 +178,6 @@ struct Kernel {
         for (int j = 0; j < g.points; ++j) {
           WideGroup::Point& pt = g.point[j];
           const Mask active = B(static_cast<double>(j)) < count;
-          std::size_t k[L];
-          positions(g, h, j, k);
           const V3 r_a = load3(pt.r_a, h), r_b = load3(pt.r_b, h);
           // the normal row's rule (SoftNormal): speculative (s > 0) closes its gap; an overlap is
           // the spring in a biased sweep, rigid in a relax sweep
@@ -209,9 +198,7 @@ struct Kernel {
             mass_scale = xsimd::select(speculative, one, ms);
             impulse_scale = xsimd::select(speculative, zero, is);
           }
-          const B a_n = gather([&](std::size_t l) { return d.alpha[3 * k[l]]; });
-          const B a_1 = gather([&](std::size_t l) { return d.alpha[3 * k[l] + 1]; });
-          const B a_2 = gather([&](std::size_t l) { return d.alpha[3 * k[l] + 2]; });
+          const B a_n = load(pt.alpha[0] + h), a_1 = load(pt.alpha[1] + h), a_2 = load(pt.alpha[2] + h);
           // the relative velocity at the point
           const V3 dv = sub(add(q.vb, cross(q.wb, r_b)), add(q.va, cross(q.wa, r_a)));
           // normal
@@ -235,18 +222,10 @@ struct Kernel {
           const Mask moved = ((d0 != zero) || (d1 != zero) || (d2 != zero)) && active;
           const V3 P = add(add(scale(d0, n), scale(d1, t1)), scale(d2, t2));
           push(q, moved, r_a, r_b, P, dinv_mass_a, dinv_mass_b);
-          // the point's forces
-          alignas(64) double out[3][L];
-          a0.store_aligned(out[0]);
-          a1.store_aligned(out[1]);
-          a2.store_aligned(out[2]);
-          for (std::size_t l = 0; l < L; ++l) {
-            if (j >= g.count[h + l]) continue;
-            double* alpha_l = d.alpha + 3 * k[l];
-            alpha_l[0] = out[0][l];
-            alpha_l[1] = out[1][l];
-            alpha_l[2] = out[2][l];
-          }
+          // the point's forces (a lane past its last point keeps its unused slot as it was)
+          xsimd::select(active, a0, a_n).store_aligned(pt.alpha[0] + h);
+          xsimd::select(active, a1, a_1).store_aligned(pt.alpha[1] + h);
+          xsimd::select(active, a2, a_2).store_aligned(pt.alpha[2] + h);
         }
         store_pairs(d, g, h, q);
       }

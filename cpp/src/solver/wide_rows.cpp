@@ -32,8 +32,7 @@ WideIsa best_isa() { return cpu_has_avx2() ? WideIsa::AVX2 : WideIsa::SSE2; }
 std::atomic<WideIsa> current{best_isa()};
 std::atomic<std::size_t> solved{0};
 
-/// The solve position of lane l's point j in g (a lane with fewer points repeats its last; the
-/// kernel's `positions` is the same rule, written there without the standard library).
+/// The solve position of lane l's point j in g (a lane with fewer points repeats its last).
 std::size_t point_position(const WideGroup& g, std::size_t l, std::size_t j) {
   return static_cast<std::size_t>(g.first[l]) + std::min<std::size_t>(j, static_cast<std::size_t>(g.count[l]) - 1);
 }
@@ -152,6 +151,7 @@ void widen(const SolverSettings& s, SolverData& d) {
           p.W_21[l] = r.W_21;
           p.gap0[l] = soft.gap0;
           p.s[l] = soft.s;
+          for (int i = 0; i < 3; ++i) p.alpha[i][l] = d.alpha[3 * k + static_cast<std::size_t>(i)];
           // the lanes assume the rows the scalar sweep solves in full (contact_rows' first
           // branches), and one normal (so one tangent basis) and one spring per pair, to the bit
           const bool same = std::memcmp(r.n.data(), pair.n.data(), sizeof(Vec3)) == 0 &&
@@ -188,13 +188,37 @@ void wide_gaps_in(SolverData& d) {
   });
 }
 
+void wide_alpha_out(SolverData& d) {
+  rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
+    for (std::size_t gi = from; gi < to; ++gi) {
+      const WideGroup& g = d.wide[gi];
+      if (g.one_by_one) continue;  // its contacts' forces are d.alpha's already
+      for (std::size_t l = 0; l < kLanes; ++l)
+        for (int j = 0; j < g.count[l]; ++j)
+          for (int i = 0; i < 3; ++i)
+            d.alpha[3 * static_cast<std::size_t>(g.first[l] + j) + static_cast<std::size_t>(i)] = g.point[j].alpha[i][l];
+    }
+  });
+}
+
+void wide_alpha_in(SolverData& d) {
+  rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
+    for (std::size_t gi = from; gi < to; ++gi) {
+      WideGroup& g = d.wide[gi];
+      for (std::size_t l = 0; l < kLanes; ++l)
+        for (std::size_t j = 0; j < kManifoldPoints; ++j)
+          for (int i = 0; i < 3; ++i)
+            g.point[j].alpha[i][l] = d.alpha[3 * point_position(g, l, j) + static_cast<std::size_t>(i)];
+    }
+  });
+}
+
 namespace {
 
 wide::Lanes raw_lanes(SolverData& d) {
   return wide::Lanes{d.wide.data(),
                      d.qd.empty() ? nullptr : d.qd[0].omega.data(),
                      d.dI_inv.empty() ? nullptr : d.dI_inv[0].data(),
-                     d.alpha.data(),
                      d.dp.empty() ? nullptr : d.dp[0].data(),
                      d.dR.empty() ? nullptr : d.dR[0].data()};
 }

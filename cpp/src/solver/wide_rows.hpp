@@ -8,7 +8,9 @@
 // operations in the scalar sweep's order, so the bits are those of the scalar sweep for every lane
 // width and every thread count (ctest WideRows.*).
 //
-//   widen (once per step, after prepare and the soft points): d.rows -> d.wide, d.wide_first
+//   widen (once per step, after prepare, the soft points and the warm-start forces): d.rows,
+//     d.soft, d.alpha -> d.wide, d.wide_first
+//   wide_alpha_out, wide_alpha_in: the grouped contacts' forces to d.alpha and back
 //   wide_sweep, wide_warm_start (per sweep and per substep, per block of by_colour): the groups of
 //   [first, end), and the contacts in no group (the colour's last pairs that fill no group, its
 //   pairs of more points, the shared last colour) one by one
@@ -57,6 +59,12 @@ void widen(const SolverSettings& s, SolverData& d);
 void wide_gaps_out(SolverData& d);
 void wide_gaps_in(SolverData& d);
 
+/// Likewise the forces of the grouped contacts, which live in the groups while the sweeps run: to
+/// d.alpha (wide_alpha_out: after a substep's relax sweeps, for what reads them there, and for
+/// store) and back (wide_alpha_in: after restitution changed some in d.alpha).
+void wide_alpha_out(SolverData& d);
+void wide_alpha_in(SolverData& d);
+
 /// The soft step's sweep over solve positions [first, end) (one by_colour block, or everything):
 /// each group's pairs in lanes, the other contacts one by one, colour by colour (all one by one
 /// without lanes, d.lanes). The rows have no spin rows when d.lanes.
@@ -71,10 +79,9 @@ namespace wide {
 /// library code, whose inline functions compiled for AVX2 the linker could otherwise pick for the
 /// whole program.
 struct Lanes {
-  WideGroup* groups;        ///< d.wide (the points' gaps are written)
+  WideGroup* groups;        ///< d.wide (the points' gaps and forces are written)
   double* qd;               ///< d.qd: per body omega (3) then v (3)
   const double* dI;         ///< d.dI_inv: per body dt I^-1 (3 x 3, column-major)
-  double* alpha;            ///< d.alpha: 3 per solve position
   const double* dp;         ///< d.dp: per body (3)
   const double* dR;         ///< d.dR: per body (3 x 3, column-major)
 };
