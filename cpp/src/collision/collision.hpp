@@ -254,8 +254,8 @@ struct Scratch {
   std::unique_ptr<PolytopeScratch, ScratchDeleter> polytope;
   std::unique_ptr<EpaScratch, ScratchDeleter> epa;
   /// generate_contacts on several threads: the pairs cut into chunks of kPairsPerChunk, each
-  /// chunk's contacts, separating faces and crossings written apart and joined in pair order; the
-  /// threads' own buffers (by oneTBB thread index)
+  /// chunk's pairs found anew written apart (contacts, separating faces, crossings, kept
+  /// manifolds) and joined in pair order; the threads' own buffers (by oneTBB thread index)
   struct PairChunk {
     std::vector<Contact> contacts;
     std::vector<SeparatingFace> separating;
@@ -263,9 +263,17 @@ struct Scratch {
     std::vector<KeptManifold> kept;
     std::vector<KeptPoint> kept_points;
     int recycled = 0;
-    std::size_t contacts_at = 0, points_at = 0;  ///< where the join puts its contacts and kept points
   };
   std::vector<PairChunk> chunks;
+  /// Per candidate pair, on several threads: the kept manifold it recycles (its index in the last
+  /// ones; -1: found anew), its contacts' count and where they go in the step's list, and where
+  /// its kept points come from (the last points, or its chunk's) and go
+  struct PairPlace {
+    int last = -1;
+    std::uint32_t count = 0, points = 0, points_from = 0;
+    std::size_t at = 0, points_at = 0;
+  };
+  std::vector<PairPlace> places;
   std::vector<std::unique_ptr<Scratch>> workers;
 };
 

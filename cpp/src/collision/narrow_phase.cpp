@@ -473,30 +473,24 @@ double pair_drift(const Model& model, const State& state, BodyIndex a, BodyIndex
   return moved + dt * speed;
 }
 
-/// The kept manifold's points as contacts of the bodies now: each witness point carried with its
+/// A kept manifold's point q as a contact of the bodies now: each witness point carried with its
 /// body, the normal with A, gap = n . (w_B - w_A), y the witness points' midpoint, and the rows'
-/// lever arms as found (kept). Appended to out.
-void recycled_contacts(const State& state, BodyIndex a, BodyIndex b, const KeptManifold& kept,
-                       const std::vector<KeptPoint>& points, std::vector<Contact>& out) {
-  const Mat3& R_a = state.R[a];
-  const Mat3& R_b = state.R[b];
-  for (std::uint32_t k = kept.first; k < kept.first + kept.count; ++k) {
-    const KeptPoint& q = points[k];
-    Contact c;
-    c.body_a = a;
-    c.body_b = b;
-    const Vec3 w_a = R_a * q.on_a + state.p[a];
-    const Vec3 w_b = R_b * q.on_b + state.p[b];
-    c.normal = R_a * q.normal;
-    c.gap = c.normal.dot(w_b - w_a);
-    c.point = 0.5 * (w_a + w_b);
-    c.feature_a = q.feature_a;
-    c.feature_b = q.feature_b;
-    c.kept = true;
-    c.arm_a = q.arm_a;
-    c.arm_b = q.arm_b;
-    out.push_back(c);
-  }
+/// lever arms as found (kept).
+Contact recycled_contact(const State& state, BodyIndex a, BodyIndex b, const KeptPoint& q) {
+  Contact c;
+  c.body_a = a;
+  c.body_b = b;
+  const Vec3 w_a = state.R[a] * q.on_a + state.p[a];
+  const Vec3 w_b = state.R[b] * q.on_b + state.p[b];
+  c.normal = state.R[a] * q.normal;
+  c.gap = c.normal.dot(w_b - w_a);
+  c.point = 0.5 * (w_a + w_b);
+  c.feature_a = q.feature_a;
+  c.feature_b = q.feature_b;
+  c.kept = true;
+  c.arm_a = q.arm_a;
+  c.arm_b = q.arm_b;
+  return c;
 }
 
 /// Keeps the manifold out[first, end) just found for pair (a, b): appended to kept and points.
@@ -566,29 +560,26 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   ManifoldCache& manifolds = memory.manifolds;
   manifolds.next.clear();
   if (!chunked) manifolds.next_points.clear();
-  // one pair: its contacts appended to out, its separating faces to separating, its crossing
-  // (a body pushed back through a mesh triangle) to crossings, its manifold (when it may be kept)
-  // to kept; returns whether it kept the last detection's
-  const auto collide_pair = [&](BodyIndex i, BodyIndex j, Scratch& buffers, std::vector<Contact>& out,
+  // a candidate pair (i, j) as collide() takes it: a static-only shape (plane, triangle mesh) is A
+  const auto ordered = [&](BodyIndex i, BodyIndex j) {
+    const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
+    return swap ? std::make_pair(j, i) : std::make_pair(i, j);
+  };
+  // the last detection's manifold of (a, b) when the pair keeps it this step (it has hardly moved
+  // since: docs/conventions.md, "Contact recycling"), else null
+  const auto kept_for = [&](BodyIndex a, BodyIndex b) -> const KeptManifold* {
+    if (!(recycle > 0.0 && recycles(model.shape[a], model.shape[b]))) return nullptr;
+    const KeptManifold* last = kept_manifold(manifolds, a, b);
+    const double tolerance = std::min(recycle, kRecycleInnerFraction * std::min(model.inner[a], model.inner[b]));
+    return last && pair_drift(model, state, a, b, *last, dt) <= tolerance ? last : nullptr;
+  };
+  // candidate pair (i, j) found anew: its contacts appended to out, its separating faces to
+  // separating, its crossing (a body pushed back through a mesh triangle) to crossings, its
+  // manifold (when it may be kept) to kept
+  const auto collide_anew = [&](BodyIndex i, BodyIndex j, Scratch& buffers, std::vector<Contact>& out,
                                 std::vector<SeparatingFace>& separating, auto&& crossed, std::vector<KeptManifold>& kept,
                                 std::vector<KeptPoint>& kept_points) {
-    // a static-only shape (plane, triangle mesh) is always A
-    const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
-    const BodyIndex a = swap ? j : i, b = swap ? i : j;
-    const bool keeps = recycle > 0.0 && recycles(model.shape[a], model.shape[b]);
-    if (keeps) {
-      const KeptManifold* last = kept_manifold(manifolds, a, b);
-      const double tolerance = std::min(recycle, kRecycleInnerFraction * std::min(model.inner[a], model.inner[b]));
-      if (last && pair_drift(model, state, a, b, *last, dt) <= tolerance) {
-        recycled_contacts(state, a, b, *last, manifolds.last_points, out);
-        KeptManifold m = *last;  // found where it was: its drift is still measured from there
-        m.first = static_cast<std::uint32_t>(kept_points.size());
-        kept_points.insert(kept_points.end(), manifolds.last_points.begin() + last->first,
-                           manifolds.last_points.begin() + last->first + last->count);
-        kept.push_back(m);
-        return true;
-      }
-    }
+    const auto [a, b] = ordered(i, j);
     double threshold = margin + reach[i] + reach[j];
     if (const auto* plane = std::get_if<Plane>(&model.shape[a]))
       threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
@@ -616,23 +607,42 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
       out[k].arm_a = out[k].point - state.p[a];
       out[k].arm_b = out[k].point - state.p[b];
     }
+    const bool keeps = recycle > 0.0 && recycles(model.shape[a], model.shape[b]);
     if (keeps && out.size() > first) keep_manifold(state, a, b, out, first, kept, kept_points);
-    return false;
   };
   const std::size_t P = pairs.size();
   int recycled = 0;
   if (!chunked) {
-    for (const auto& [i, j] : pairs)
-      recycled += collide_pair(i, j, scratch, contacts, memory.separating.next,
-                               [&](BodyIndex b, const Crossing& c) { memory.crossing_next[b] = c; }, manifolds.next,
-                               manifolds.next_points);
+    for (const auto& [i, j] : pairs) {
+      const auto [a, b] = ordered(i, j);
+      if (const KeptManifold* last = kept_for(a, b)) {
+        for (std::uint32_t k = last->first; k < last->first + last->count; ++k)
+          contacts.push_back(recycled_contact(state, a, b, manifolds.last_points[k]));
+        KeptManifold m = *last;  // found where it was: its drift is still measured from there
+        m.first = static_cast<std::uint32_t>(manifolds.next_points.size());
+        manifolds.next_points.insert(manifolds.next_points.end(), manifolds.last_points.begin() + last->first,
+                                     manifolds.last_points.begin() + last->first + last->count);
+        manifolds.next.push_back(m);
+        ++recycled;
+        continue;
+      }
+      collide_anew(i, j, scratch, contacts, memory.separating.next,
+                   [&](BodyIndex x, const Crossing& c) { memory.crossing_next[x] = c; }, manifolds.next,
+                   manifolds.next_points);
+    }
   } else {
-    // chunks of pairs on the pool's threads, each written apart, then joined in pair order: the
-    // same contacts, separating faces and crossings, in the same order, as on one thread
+    // chunks of pairs on the pool's threads, in two passes. The first finds which pairs keep their
+    // manifold (their contacts are then as many as its points) and collides the others, each chunk
+    // into lists of its own; once every pair's place in the step's lists is summed, the second
+    // writes the kept pairs' contacts and points straight there and copies the others' from their
+    // chunk. The same contacts, separating faces, crossings and kept manifolds, in the same order,
+    // as on one thread (a pair recycled or found anew writes nothing else)
     const std::size_t chunks = (P + kPairsPerChunk - 1) / kPairsPerChunk;
     if (scratch.chunks.size() < chunks) scratch.chunks.resize(std::max(chunks, 2 * scratch.chunks.size()));
+    if (scratch.places.size() < P) scratch.places.resize(std::max(P, 2 * scratch.places.size()));
     const std::size_t workers = static_cast<std::size_t>(pool->threads());
     while (scratch.workers.size() < workers) scratch.workers.push_back(std::make_unique<Scratch>());
+    const auto pairs_of = [&](std::size_t c) { return std::make_pair(c * kPairsPerChunk, std::min(P, (c + 1) * kPairsPerChunk)); };
     pool->for_ranges(chunks, 1, [&](std::size_t first, std::size_t end) {
       Scratch& buffers = *scratch.workers[static_cast<std::size_t>(parallel::Pool::thread_index()) % workers];
       for (std::size_t c = first; c < end; ++c) {
@@ -643,37 +653,75 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
         chunk.kept.clear();
         chunk.kept_points.clear();
         chunk.recycled = 0;
-        for (std::size_t k = c * kPairsPerChunk; k < std::min(P, (c + 1) * kPairsPerChunk); ++k)
-          chunk.recycled += collide_pair(pairs[k].first, pairs[k].second, buffers, chunk.contacts, chunk.separating,
-                                         [&](BodyIndex b, const Crossing& x) { chunk.crossings.emplace_back(b, x); },
-                                         chunk.kept, chunk.kept_points);
+        const auto [from, to] = pairs_of(c);
+        for (std::size_t k = from; k < to; ++k) {
+          const auto [a, b] = ordered(pairs[k].first, pairs[k].second);
+          Scratch::PairPlace& place = scratch.places[k];
+          if (const KeptManifold* last = kept_for(a, b)) {
+            place.last = static_cast<int>(last - manifolds.last.data());
+            place.count = place.points = last->count;
+            place.points_from = last->first;
+            ++chunk.recycled;
+            continue;
+          }
+          const std::size_t before = chunk.contacts.size(), kept_before = chunk.kept.size();
+          collide_anew(pairs[k].first, pairs[k].second, buffers, chunk.contacts, chunk.separating,
+                       [&](BodyIndex x, const Crossing& y) { chunk.crossings.emplace_back(x, y); }, chunk.kept,
+                       chunk.kept_points);
+          place.last = -1;
+          place.count = static_cast<std::uint32_t>(chunk.contacts.size() - before);
+          const bool kept = chunk.kept.size() > kept_before;
+          place.points = kept ? chunk.kept.back().count : 0;
+          place.points_from = kept ? chunk.kept.back().first : 0;
+        }
       }
     });
-    // the small parts joined here; the contacts and kept points, the bulk, copied to their places
-    // over the threads (a list of the last step's length is only overwritten: no element is made)
-    std::size_t contacts_end = 0, points_end = 0;
+    // every pair's places, in pair order; the small lists joined here
+    std::size_t at = 0, points_at = 0;
     for (std::size_t c = 0; c < chunks; ++c) {
-      Scratch::PairChunk& chunk = scratch.chunks[c];
-      chunk.contacts_at = contacts_end;
-      chunk.points_at = points_end;
-      contacts_end += chunk.contacts.size();
-      points_end += chunk.kept_points.size();
+      const Scratch::PairChunk& chunk = scratch.chunks[c];
+      std::size_t fresh_kept = 0;  // the chunk's kept manifolds of pairs found anew, in pair order
+      const auto [from, to] = pairs_of(c);
+      for (std::size_t k = from; k < to; ++k) {
+        Scratch::PairPlace& place = scratch.places[k];
+        place.at = at;
+        place.points_at = points_at;
+        at += place.count;
+        if (place.points == 0) continue;
+        // a kept manifold found where it was (its drift is still measured from there), or anew
+        KeptManifold m = place.last >= 0 ? manifolds.last[static_cast<std::size_t>(place.last)] : chunk.kept[fresh_kept++];
+        m.first = static_cast<std::uint32_t>(points_at);
+        manifolds.next.push_back(m);
+        points_at += place.points;
+      }
       memory.separating.next.insert(memory.separating.next.end(), chunk.separating.begin(), chunk.separating.end());
       for (const auto& [b, x] : chunk.crossings) memory.crossing_next[b] = x;
-      for (KeptManifold m : chunk.kept) {
-        m.first += static_cast<std::uint32_t>(chunk.points_at);
-        manifolds.next.push_back(m);
-      }
       recycled += chunk.recycled;
     }
-    contacts.resize(contacts_end);
-    manifolds.next_points.resize(points_end);
+    // (a list of the last step's length is only overwritten: no element is made)
+    contacts.resize(at);
+    manifolds.next_points.resize(points_at);
     pool->for_ranges(chunks, 1, [&](std::size_t first, std::size_t end) {
       for (std::size_t c = first; c < end; ++c) {
         const Scratch::PairChunk& chunk = scratch.chunks[c];
-        std::copy(chunk.contacts.begin(), chunk.contacts.end(), contacts.begin() + static_cast<std::ptrdiff_t>(chunk.contacts_at));
-        std::copy(chunk.kept_points.begin(), chunk.kept_points.end(),
-                  manifolds.next_points.begin() + static_cast<std::ptrdiff_t>(chunk.points_at));
+        std::size_t fresh = 0;  // the chunk's contacts of pairs found anew so far
+        const auto [from, to] = pairs_of(c);
+        for (std::size_t k = from; k < to; ++k) {
+          const Scratch::PairPlace& place = scratch.places[k];
+          const std::vector<KeptPoint>& points = place.last >= 0 ? manifolds.last_points : chunk.kept_points;
+          std::copy(points.begin() + place.points_from, points.begin() + place.points_from + place.points,
+                    manifolds.next_points.begin() + static_cast<std::ptrdiff_t>(place.points_at));
+          if (place.last >= 0) {
+            const auto [a, b] = ordered(pairs[k].first, pairs[k].second);
+            for (std::uint32_t q = 0; q < place.count; ++q)
+              contacts[place.at + q] = recycled_contact(state, a, b, points[place.points_from + q]);
+          } else {
+            std::copy(chunk.contacts.begin() + static_cast<std::ptrdiff_t>(fresh),
+                      chunk.contacts.begin() + static_cast<std::ptrdiff_t>(fresh + place.count),
+                      contacts.begin() + static_cast<std::ptrdiff_t>(place.at));
+            fresh += place.count;
+          }
+        }
       }
     });
   }
