@@ -162,6 +162,7 @@ struct SolverData {
   /// the soft step's sweeps run the groups in lanes this step (set by soft_begin: not with the
   /// scalar code chosen, spin rows or the cone rule); the grouped contacts' gaps then live in d.wide
   bool lanes = false;
+  std::vector<char> in_lanes;  ///< per solve position (with lanes): in a group the lanes solve
   std::vector<double> alpha;
   std::vector<int> order, slot;
   /// per solve position: 1 where a unit of the solve order starts (each contact by contact; a

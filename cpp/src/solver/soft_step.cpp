@@ -174,40 +174,23 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
   load(v, omega, d);
   body_motion(model, state, d);  // the poses have moved: each contact's gap with the first relax sweep
   sweeps(settings, d, false, settings.relax_iterations, true);
-  if (d.lanes) wide_alpha_out(d);  // the grouped contacts' forces, for the pass below and for store
-  // restitution, in the substep where a contact first pushes, on its approach before that push
-  // (so that the rebound starts within h of the impact, not at the step's end); the warm-start
-  // cache keeps the forces before it
+  // each contact settled (settle: its force for the cache, whether it bounces, its impulse); the
+  // grouped ones as their forces leave the groups, the others in order
   d.alpha_iter.resize(K);
   d.restitutive.resize(K);
-  // and each contact's impulse and largest force so far, in the same pass for a contact that does
-  // not bounce (restitution leaves its force as it is), after restitution for one that does
-  std::atomic<bool> bounces{false};
-  const auto add_impulse = [&](std::size_t k) {
-    SoftPoint& p = d.soft[k];
-    p.impulse += d.h * d.alpha[3 * k];
-    p.alpha_max = std::max(p.alpha_max, d.alpha[3 * k]);
-  };
+  std::atomic<bool> bounces{d.lanes && wide_settle(settings, d)};
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t k = first; k < end; ++k) {  // in solve order, as the points and flags are stored
-      const SoftPoint& p = d.soft[k];
-      d.alpha_iter[k] = d.alpha[3 * k];
-      d.restitutive[k] = p.alpha_max == 0.0 && d.alpha[3 * k] > 0.0 && d.e[k] > 0.0 &&
-                         p.u_before < -settings.restitution_threshold;
-      if (d.restitutive[k]) {
-        d.u[k] = p.u_before;
-        bounces.store(true, std::memory_order_relaxed);
-      } else {
-        add_impulse(k);
-      }
-    }
+    bool any = false;
+    for (std::size_t k = first; k < end; ++k)  // in solve order, as the points and flags are stored
+      if (!d.lanes || !d.in_lanes[k]) any = settle(settings, d, k) || any;
+    if (any) bounces.store(true, std::memory_order_relaxed);
   });
   if (bounces.load(std::memory_order_relaxed)) {
     d.restitution_sweeps += restitution(settings, d);
     if (d.lanes) wide_alpha_in(d);  // the next substep's sweeps start from the bounced forces
     for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
       for (std::size_t k = first; k < end; ++k)
-        if (d.restitutive[k]) add_impulse(k);
+        if (d.restitutive[k]) add_impulse(d, k);
     });
   }
   unload(d, v, omega);

@@ -108,6 +108,7 @@ void widen(const SolverSettings& s, SolverData& d) {
   }
   d.wide_first[colours] = static_cast<int>(G);
   d.wide.resize(G);
+  rows::assign_n(d.in_lanes, d.rows.size(), char(0));
   // each group filled by one thread: its pairs' bodies, materials, directions and springs, and
   // each point's rows and gaps
   rows::for_ranges(d, G, 64, [&](std::size_t from, std::size_t to) {
@@ -162,6 +163,9 @@ void widen(const SolverSettings& s, SolverData& d) {
           if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0) || !same) g.one_by_one = true;
         }
       }
+      if (g.one_by_one) continue;
+      for (std::size_t l = 0; l < kLanes; ++l)
+        for (int j = 0; j < g.count[l]; ++j) d.in_lanes[static_cast<std::size_t>(g.first[l] + j)] = 1;
     }
   });
 }
@@ -188,17 +192,23 @@ void wide_gaps_in(SolverData& d) {
   });
 }
 
-void wide_alpha_out(SolverData& d) {
+bool wide_settle(const SolverSettings& s, SolverData& d) {
+  std::atomic<bool> bounces{false};
   rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
+    bool any = false;
     for (std::size_t gi = from; gi < to; ++gi) {
       const WideGroup& g = d.wide[gi];
-      if (g.one_by_one) continue;  // its contacts' forces are d.alpha's already
+      if (g.one_by_one) continue;  // its contacts' forces are d.alpha's already (settled one by one)
       for (std::size_t l = 0; l < kLanes; ++l)
-        for (int j = 0; j < g.count[l]; ++j)
-          for (int i = 0; i < 3; ++i)
-            d.alpha[3 * static_cast<std::size_t>(g.first[l] + j) + static_cast<std::size_t>(i)] = g.point[j].alpha[i][l];
+        for (int j = 0; j < g.count[l]; ++j) {
+          const std::size_t k = static_cast<std::size_t>(g.first[l] + j);
+          for (int i = 0; i < 3; ++i) d.alpha[3 * k + static_cast<std::size_t>(i)] = g.point[j].alpha[i][l];
+          any = settle(s, d, k) || any;
+        }
     }
+    if (any) bounces.store(true, std::memory_order_relaxed);
   });
+  return bounces.load(std::memory_order_relaxed);
 }
 
 void wide_alpha_in(SolverData& d) {

@@ -10,7 +10,7 @@
 //
 //   widen (once per step, after prepare, the soft points and the warm-start forces): d.rows,
 //     d.soft, d.alpha -> d.wide, d.wide_first
-//   wide_alpha_out, wide_alpha_in: the grouped contacts' forces to d.alpha and back
+//   wide_settle, wide_alpha_in: the grouped contacts' forces to d.alpha (settled) and back
 //   wide_sweep, wide_warm_start (per sweep and per substep, per block of by_colour): the groups of
 //   [first, end), and the contacts in no group (the colour's last pairs that fill no group, its
 //   pairs of more points, the shared last colour) one by one
@@ -60,9 +60,11 @@ void wide_gaps_out(SolverData& d);
 void wide_gaps_in(SolverData& d);
 
 /// Likewise the forces of the grouped contacts, which live in the groups while the sweeps run: to
-/// d.alpha (wide_alpha_out: after a substep's relax sweeps, for what reads them there, and for
-/// store) and back (wide_alpha_in: after restitution changed some in d.alpha).
-void wide_alpha_out(SolverData& d);
+/// d.alpha after a substep's relax sweeps (wide_settle, which settles each such contact in the
+/// same pass: soft_contact.hpp, settle; returns whether any bounces), and back (wide_alpha_in:
+/// after restitution changed some in d.alpha). d.in_lanes flags the solve positions they cover
+/// (set by widen: the contacts of the groups the lanes solve).
+bool wide_settle(const SolverSettings& s, SolverData& d);
 void wide_alpha_in(SolverData& d);
 
 /// The soft step's sweep over solve positions [first, end) (one by_colour block, or everything):
