@@ -492,11 +492,23 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   const auto before = [](const CachedContact& x, const CachedContact& y) {
     return key_less(x, y) || (same_key(x, y) && x.order < y.order);
   };
-  if (!std::is_sorted(d.cache_next.begin(), d.cache_next.end(), before))
-    std::sort(d.cache_next.begin(), d.cache_next.end(), before);
-  d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(),
-                                 [](const CachedContact& x, const CachedContact& y) { return same_key(x, y); }),
-                     d.cache_next.end());
+  // (checked over the threads: each range with the entry before it; sorted and without repeated
+  // keys, the usual case, nothing more is done)
+  std::atomic<bool> unsorted{false}, repeats{false};
+  for_ranges(d, K, 4096, [&](std::size_t first, std::size_t end) {
+    bool down = false, same = false;
+    for (std::size_t k = std::max<std::size_t>(first, 1); k < end && !down; ++k) {
+      down = before(d.cache_next[k], d.cache_next[k - 1]);
+      same = same || same_key(d.cache_next[k], d.cache_next[k - 1]);
+    }
+    if (down) unsorted.store(true, std::memory_order_relaxed);
+    if (same) repeats.store(true, std::memory_order_relaxed);
+  });
+  if (unsorted.load()) std::sort(d.cache_next.begin(), d.cache_next.end(), before);
+  if (unsorted.load() || repeats.load())
+    d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(),
+                                   [](const CachedContact& x, const CachedContact& y) { return same_key(x, y); }),
+                       d.cache_next.end());
   // maxima of violations: 0 when nothing violates (and when there are no contacts)
   stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
   stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);

@@ -19,26 +19,33 @@ double body_kinetic_energy(const Model& model, const State& s, std::size_t i) {
   return 0.5 * model.mass[i] * s.v[i].squaredNorm() + 0.5 * w.dot(s.R[i] * (model.I_body[i] * (s.R[i].transpose() * w)));
 }
 
-void StepGuard::begin(const State& state, const solver::SolverData& solver, const std::vector<BodyIndex>* bodies) {
+void StepGuard::begin(const State& state, const solver::SolverData& solver, const std::vector<BodyIndex>* bodies,
+                      const parallel::Pool* pool) {
   const std::size_t n = state.p.size();
   if (whole_ || bodies == nullptr || before_.p.size() != n || before_.awake.size() != state.awake.size()) {
     before_ = state;
     whole_ = bodies == nullptr;
   } else {
-    // the bodies a step can change; every other entry was copied when it last changed
-    for (const BodyIndex i : *bodies) {
+    // the bodies a step can change (each its own entries); every other entry was copied when it
+    // last changed
+    parallel::for_bodies(pool, bodies, n, 1024, [&](std::size_t i) {
       before_.for_each_array_with(state, [i](auto& mine, const auto& now) { mine[i] = now[i]; });
       if (!state.awake.empty()) {
         before_.awake[i] = state.awake[i];
         before_.sleep_time[i] = state.sleep_time[i];
         before_.island[i] = state.island[i];
       }
-    }
+    });
     before_.time = state.time;
   }
-  // copied into kept storage, grown geometrically (a copy assignment allocates the exact size)
+  // copied into kept storage, grown geometrically (a copy assignment allocates the exact size),
+  // in ranges over the threads
   if (cache_before_.capacity() < solver.cache.size()) cache_before_.reserve(2 * solver.cache.size());
-  cache_before_ = solver.cache;
+  cache_before_.resize(solver.cache.size());
+  parallel::for_ranges(pool, solver.cache.size(), 4096, [&](std::size_t first, std::size_t end) {
+    std::copy(solver.cache.begin() + static_cast<std::ptrdiff_t>(first), solver.cache.begin() + static_cast<std::ptrdiff_t>(end),
+              cache_before_.begin() + static_cast<std::ptrdiff_t>(first));
+  });
   whole_forces_ = solver.bodies == nullptr || solver.is_forced.size() != solver.body_force.size();
   if (whole_forces_) {
     force_before_ = solver.body_force;

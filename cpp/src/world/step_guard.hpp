@@ -15,6 +15,7 @@
 namespace signorini {
 
 namespace solver { struct SolverData; }
+namespace parallel { class Pool; }
 
 class StepGuard {
  public:
@@ -23,8 +24,10 @@ class StepGuard {
   /// World's non-static bodies, ascending; null: all), the only ones copied once a whole copy has
   /// been taken: a step never changes a static body, and whatever else changes one (a setter, a
   /// restore, bodies added or removed) calls invalidate() first. Contact forces: only the entries
-  /// listed as forced (solver::SolverData::forced) when the solver has a body list.
-  void begin(const State& state, const solver::SolverData& solver, const std::vector<BodyIndex>* bodies = nullptr);
+  /// listed as forced (solver::SolverData::forced) when the solver has a body list. The bodies'
+  /// entries and the cache are copied on pool's threads (null: the calling thread alone).
+  void begin(const State& state, const solver::SolverData& solver, const std::vector<BodyIndex>* bodies = nullptr,
+             const parallel::Pool* pool = nullptr);
   /// The next begin() copies the whole state (a static body's state changed, or the body count).
   void invalidate() { whole_ = true; }
   /// The kinetic energy T_0 the step answers to, measured after the pending impulses.

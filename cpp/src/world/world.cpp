@@ -200,7 +200,7 @@ void World::step_once(double dt) {
   const double h = dt / n;
   StepProfile& t = report_.time;
   Laps lap(t);
-  guard_->begin(state_, *solver_, &moving_);          // checkpoint: what an undo puts back
+  guard_->begin(state_, *solver_, &moving_, pool_.get());  // checkpoint: what an undo puts back
   dynamics::apply_impulses(model_, state_, &moving_);  // pending impulses change v and omega
   guard_->measure_start(model_, state_, &moving_);     // the kinetic energy the step answers to
   lap(t.guard);
@@ -236,7 +236,7 @@ void World::soft_step_once(double dt) {
   const SolverSettings& q = settings_.solver;
   StepProfile& t = report_.time;
   Laps lap(t);
-  guard_->begin(state_, *solver_, &moving_);          // checkpoint: what an undo puts back
+  guard_->begin(state_, *solver_, &moving_, pool_.get());  // checkpoint: what an undo puts back
   dynamics::apply_impulses(model_, state_, &moving_);  // pending impulses change v and omega
   guard_->measure_start(model_, state_, &moving_);     // the kinetic energy the step answers to
   lap(t.guard);
