@@ -28,9 +28,10 @@ def test_one_step_agrees_to_1e_10(scene):
 def test_free_rollout_agrees_over_500_steps_to_1e_8(scene):
     # one substep a step: with the default 4 (carried contacts, checked step by step to 1e-10 by
     # the lockstep test above), mesh_drop's flat-lying mesh, whose coplanar vertex contacts make
-    # the forces non-unique, amplifies rounding over the 2,000 solves to 4e-6 m/s
+    # the forces non-unique, amplifies rounding over the 2,000 solves to 4e-6 m/s. The PGS: these
+    # figures are its free rollout's against the oracle's PGS
     world, dt, steps = compare.build(scene)
-    world.set_solver(substeps=1)
+    world.set_solver(solver="pgs", substeps=1)
     assert steps == 500
     report = compare.free(world, dt, steps)
     assert report.largest < 1e-8, "\n".join(report.lines())
@@ -116,7 +117,7 @@ def test_pgs_reaches_the_exact_lcp_solution():
     # a ball on the plane with a second ball landing on it off-centre: a coupled 2-contact LCP with
     # a positive definite Delassus matrix, so its solution is unique and PGS must converge to it
     # (frictionless, so that the LCP is the lecture's normal-only one)
-    w = sg.World(gravity=(0, 0, -9.81), tolerance=1e-13, max_iterations=10000, substeps=1)  # one LCP
+    w = sg.World(gravity=(0, 0, -9.81), solver="pgs", tolerance=1e-13, max_iterations=10000, substeps=1)  # one LCP
     w.add_static(sg.Plane((0, 0, 1), 0.0), friction=0.0)
     w.add_body(sg.Sphere(0.3), mass=2.0, position=(0, 0, 0.3), velocity=(0, 0, -0.5), friction=0.0)
     d = np.array([0.2, 0.1, 1.0]) / np.linalg.norm([0.2, 0.1, 1.0])

@@ -114,10 +114,10 @@ def test_two_box_stack_with_mass_ratio_100_stands():
 
 
 def test_contact_forces_of_a_resting_stack_carry_the_weight_above():
-    # a converged solve (tight tolerance, enough sweeps): the contacts under box k carry the boxes
-    # k..n-1, and the net contact force on each box is its weight
+    # a converged solve of the PGS (tight tolerance, enough sweeps): the contacts under box k carry
+    # the boxes k..n-1, and the net contact force on each box is its weight
     n, m = 10, 1.0
-    w = sg.World(tolerance=1e-12, max_iterations=3000, substeps=1)  # one converged solve a step
+    w = sg.World(solver="pgs", tolerance=1e-12, max_iterations=3000, substeps=1)  # one converged solve a step
     w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
     boxes = [w.add_body(sg.Box((0.5, 0.5, 0.5)), mass=m, position=(0, 0, 0.5 + k)) for k in range(n)]
     w.step(1 / 240, 240)
@@ -190,9 +190,10 @@ def test_fast_spinner_at_dt_1_60_stays_finite_and_gains_no_energy():
 
 
 def test_cone_keeps_friction_inside_the_circle_the_pyramid_may_not():
-    # a box sliding diagonally to the pyramid's tangent axes on a plane
+    # a box sliding diagonally to the pyramid's tangent axes on a plane; the PGS, whose certificate
+    # (cone and dissipation violations) is that of a converged solve
     for cone, bound in (("cone", 1e-9), ("pyramid", math.sqrt(2) - 1 + 1e-9)):
-        w = sg.World(friction_cone=cone)
+        w = sg.World(solver="pgs", friction_cone=cone)
         w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
         b = w.add_body(sg.Box((0.3, 0.3, 0.3)), mass=1.0, position=(0, 0, 0.3), velocity=(2.0, 2.0, 0.0))
         w.step(1 / 240, 12)
@@ -242,8 +243,8 @@ def test_overlap_is_removed_without_adding_kinetic_energy():
 
 def test_unconverged_substeps_warn():
     # a stack at rest with one cold sweep a substep approaches at about 0.1 m/s: under the 1 m/s
-    # default (a pile's harmless leftover), flagged at 0.01 m/s
-    w = sg.World(max_iterations=1, warm_start=False, warn_velocity=0.01)
+    # default (a pile's harmless leftover), flagged at 0.01 m/s. The PGS: only it raises the warning
+    w = sg.World(solver="pgs", max_iterations=1, warm_start=False, warn_velocity=0.01)
     w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
     for k in range(5):
         w.add_body(sg.Box((0.5, 0.5, 0.5)), mass=1.0, position=(0, 0, 0.5 + k))
@@ -253,8 +254,9 @@ def test_unconverged_substeps_warn():
 
 def test_a_loop_of_unconverged_substeps_warns_once_and_counts_them_all():
     # one sweep a step leaves a stack unconverged every step: stepped one step per call, the world
-    # warns on the first call only and counts every flagged step; new settings re-arm the warning
-    w = sg.World(max_iterations=1, tolerance=1e-12, warn_velocity=1e-9, warm_start=False, substeps=1)
+    # warns on the first call only and counts every flagged step; new settings re-arm the warning.
+    # The PGS: only it raises the warning
+    w = sg.World(solver="pgs", max_iterations=1, tolerance=1e-12, warn_velocity=1e-9, warm_start=False, substeps=1)
     w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
     for k in range(4):
         w.add_body(sg.Box((0.1, 0.1, 0.1)), mass=1.0, position=(0.01 * k, 0, 0.1 + 0.2 * k))

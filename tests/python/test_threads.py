@@ -24,11 +24,11 @@ MAIN = 7      # the ground and a stack of six boxes: indices 0..6, never removed
 FAR = 4       # bodies far from the stack, changed by setters: indices 7..10, never removed
 
 
-def build(far=FAR):
+def build(far=FAR, **solver):
     """A stack the solver leaves unconverged (2 sweeps, 4 substeps: with warn_velocity 0.01 m/s some
     steps flag 1..4 substeps) and `far` spheres 1 km away that never touch it (nor the ground:
-    collision group 2 only)."""
-    w = sg.World(max_iterations=2, substeps=4, warn_velocity=0.01)
+    collision group 2 only). `solver`: more World keywords."""
+    w = sg.World(max_iterations=2, substeps=4, warn_velocity=0.01, **solver)
     w.add_static(sg.Plane((0.0, 0.0, 1.0), 0.0), name="ground")
     for k in range(6):
         w.add_body(sg.Box((0.2, 0.2, 0.2)), density=1000.0, position=(0.01 * k, 0.0, 0.4 + 0.21 * k), name=f"box{k}")
@@ -80,12 +80,12 @@ def test_four_threads_stepping_one_world_equal_one_thread_bit_for_bit():
     out = run_child("""
         with warnings.catch_warnings(record=True) as warned_alone:
             warnings.simplefilter("always")
-            alone = build()
+            alone = build(solver="pgs")  # the PGS: only it flags unconverged substeps and warns
             for _ in range(100):
                 alone.step(DT)
         assert alone.unconverged_substeps > 0
         for round in range(4):
-            w = build()
+            w = build(solver="pgs")
             with warnings.catch_warnings(record=True) as warned:
                 warnings.simplefilter("always")
                 errors = run_threads(*[lambda: [w.step(DT) for _ in range(25)]] * 4)

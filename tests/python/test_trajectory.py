@@ -195,8 +195,8 @@ def test_bad_files_give_errors_naming_them(tmp_path, boxes_record):
 
 
 def test_solver_warnings_of_a_recorded_run_are_given_once():
-    """A stack solved with one sweep a step flags every step: one warning says how many."""
-    w = sg.World(gravity=(0, 0, -9.81), max_iterations=1, tolerance=1e-12, warn_velocity=1e-9)
+    """A stack solved by the PGS with one sweep a step flags every step: one warning says how many."""
+    w = sg.World(gravity=(0, 0, -9.81), solver="pgs", max_iterations=1, tolerance=1e-12, warn_velocity=1e-9)
     w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
     for k in range(4):
         w.add_body(sg.Box((0.1, 0.1, 0.1)), mass=1.0, position=(0.01 * k, 0, 0.1 + 0.2 * k))

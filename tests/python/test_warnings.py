@@ -46,7 +46,7 @@ def test_a_built_in_pile_runs_without_a_warning(name, steps):
 
 @pytest.mark.parametrize("how", ["World.step", "Recorder.step", "output.run"])
 def test_the_warning_names_the_users_line(how):
-    w = flagging_stack()
+    w = flagging_stack(solver="pgs")  # the PGS: only it raises the unconverged warning
     with pytest.warns(sg.SolverWarning) as caught:
         if how == "World.step":
             w.step(1 / 240, 10)
@@ -60,7 +60,7 @@ def test_the_warning_names_the_users_line(how):
 
 
 def test_the_warning_says_what_to_change_and_comes_once_per_world():
-    w = flagging_stack()
+    w = flagging_stack(solver="pgs")  # the PGS: only it raises the unconverged warning
     with pytest.warns(sg.SolverWarning) as caught:
         for _ in range(20):
             w.step(1 / 240)
@@ -78,7 +78,7 @@ def test_the_warning_says_what_to_change_and_comes_once_per_world():
 
 
 def test_a_warnings_filter_silences_it_and_the_count_goes_on():
-    w = flagging_stack()
+    w = flagging_stack(solver="pgs")  # the PGS: only it flags unconverged substeps
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         warnings.filterwarnings("ignore", category=sg.SolverWarning)
@@ -98,7 +98,7 @@ def run_cli(*args):
 @pytest.mark.slow
 def test_run_quiet_prints_nothing_of_the_warning(tmp_path):
     path = tmp_path / "stack.toml"
-    flagging_stack().save_scene(path)
+    flagging_stack(solver="pgs").save_scene(path)  # the file says solver = "pgs": only it raises the warning
     loud = run_cli("run", str(path), "--steps", "20", "--out", str(tmp_path / "loud"), "--no-html", "--no-plot")
     assert loud.returncode == 0 and "SolverWarning" in loud.stderr
     quiet = run_cli("run", str(path), "--steps", "20", "--out", str(tmp_path / "quiet"), "--no-html", "--no-plot",

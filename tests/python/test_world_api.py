@@ -249,8 +249,8 @@ def format1_world():
     ball rolling, spinning about the vertical. The file was written by signorini before spinning
     friction (saved-state format 1), with this world stepped 30 steps of 1/240 s: its save_state()
     bytes, its state and contact arrays then, and its positions and angular velocities 10 steps
-    later."""
-    w = sg.World()
+    later. The PGS: the file's world was stepped by it."""
+    w = sg.World(solver="pgs")
     w.add_static(sg.Plane((0, 0, 1), 0.0))
     w.add_body(sg.Box((0.2, 0.15, 0.1)), density=500.0, position=(0, 0, 0.1), angular_velocity=(0, 0, 2.0))
     w.add_body(sg.Sphere(0.1), mass=1.0, position=(1.0, 0, 0.1), velocity=(0.3, 0, 0), angular_velocity=(0, 0, 5.0))
@@ -771,7 +771,7 @@ def test_kinematic_disabled_and_filtered_bodies_agree_with_the_oracle():
 @pytest.mark.slow
 def test_impulses_and_one_step_forces_agree_with_an_oracle_rollout():
     from signorini import compare
-    w = sg.World(tolerance=0.0, substeps=2)
+    w = sg.World(solver="pgs", tolerance=0.0, substeps=2)  # the PGS: 1e-8 is its rollout's against the oracle's
     w.add_static(sg.Plane((0, 0, 1), 0.0))
     box = w.add_body(sg.Box((0.3, 0.2, 0.1)), density=500.0, position=(0, 0, 0.1), orientation=(1, 0, 0, 0.2))
     ball = w.add_body(sg.Sphere(0.1), mass=1.0, position=(1.0, 0, 0.1))
