@@ -47,17 +47,19 @@ template <bool kSpin, bool kGap>
   rows::finish_contact<kSpin>(d, k, r, alpha, A, B, change);
 }
 
-/// The contact at solve position k after a substep's relax sweeps (soft_relax), with its normal
-/// force alpha_n: that force kept for the warm-start cache (alpha_iter); whether it bounces now
-/// (restitution: in the substep where the contact first pushes, on its approach before that push,
-/// so that the rebound starts within h of the impact, not at the step's end; u becomes that
-/// approach); and, unless it bounces, its impulse and largest force so far (add_impulse: after
-/// restitution for one that does). Returns whether it bounces.
+/// The impulse and largest normal force so far of the contact at solve position k, with this
+/// substep's force.
 inline void add_impulse(SolverData& d, std::size_t k) {
   SoftPoint& p = d.soft[k];
   p.impulse += d.h * d.alpha[3 * k];
   p.alpha_max = std::max(p.alpha_max, d.alpha[3 * k]);
 }
+/// The contact at solve position k after a substep's relax sweeps (soft_relax), with its normal
+/// force alpha_n: that force kept for the warm-start cache (alpha_iter); whether it bounces now
+/// (restitution: in the substep where the contact first pushes, on its approach before that push,
+/// so that the rebound starts within h of the impact, not at the step's end; u becomes that
+/// approach); and, unless it bounces, add_impulse (after restitution for one that does). Returns
+/// whether it bounces.
 inline bool settle(const SolverSettings& s, SolverData& d, std::size_t k) {
   const SoftPoint& p = d.soft[k];
   const double alpha_n = d.alpha[3 * k];

@@ -37,6 +37,19 @@ std::size_t point_position(const WideGroup& g, std::size_t l, std::size_t j) {
   return static_cast<std::size_t>(g.first[l]) + std::min<std::size_t>(j, static_cast<std::size_t>(g.count[l]) - 1);
 }
 
+/// f(point, l, k) for every point slot of every group, over the threads: lane l of point j and
+/// the solve position k it holds (point_position), for copying a field into the groups.
+template <class F>
+void each_slot(SolverData& d, F&& f) {
+  rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
+    for (std::size_t gi = from; gi < to; ++gi) {
+      WideGroup& g = d.wide[gi];
+      for (std::size_t l = 0; l < kLanes; ++l)
+        for (std::size_t j = 0; j < kManifoldPoints; ++j) f(g.point[j], l, point_position(g, l, j));
+    }
+  });
+}
+
 }  // namespace
 
 void set_wide_isa(WideIsa isa) {
@@ -182,14 +195,7 @@ void wide_gaps_out(SolverData& d) {
 }
 
 void wide_gaps_in(SolverData& d) {
-  rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
-    for (std::size_t gi = from; gi < to; ++gi) {
-      WideGroup& g = d.wide[gi];
-      for (std::size_t l = 0; l < kLanes; ++l)
-        for (std::size_t j = 0; j < kManifoldPoints; ++j)
-          g.point[j].s[l] = d.soft[point_position(g, l, j)].s;
-    }
-  });
+  each_slot(d, [&](WideGroup::Point& p, std::size_t l, std::size_t k) { p.s[l] = d.soft[k].s; });
 }
 
 bool wide_settle(const SolverSettings& s, SolverData& d) {
@@ -212,14 +218,8 @@ bool wide_settle(const SolverSettings& s, SolverData& d) {
 }
 
 void wide_alpha_in(SolverData& d) {
-  rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
-    for (std::size_t gi = from; gi < to; ++gi) {
-      WideGroup& g = d.wide[gi];
-      for (std::size_t l = 0; l < kLanes; ++l)
-        for (std::size_t j = 0; j < kManifoldPoints; ++j)
-          for (int i = 0; i < 3; ++i)
-            g.point[j].alpha[i][l] = d.alpha[3 * point_position(g, l, j) + static_cast<std::size_t>(i)];
-    }
+  each_slot(d, [&](WideGroup::Point& p, std::size_t l, std::size_t k) {
+    for (std::size_t i = 0; i < 3; ++i) p.alpha[i][l] = d.alpha[3 * k + i];
   });
 }
 
