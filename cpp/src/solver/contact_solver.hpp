@@ -199,10 +199,6 @@ struct SolverData {
   std::vector<CachedContact> cache, cache_next;
   std::vector<char> cache_used;     ///< per cache entry: already given to a contact this step
   std::vector<int> recalled;        ///< per contact: its cache entry this step (-1: none)
-  /// store's list of each forced body's contacts, in contact order: body x's are
-  /// body_contacts[body_first[x] .. body_first[x] + body_count[x]) (N-sized; body_count is zero
-  /// outside store), each entry 2i for contact i's body A, 2i + 1 for its body B
-  std::vector<int> body_first, body_count, body_contacts;
   /// store's per contact: the torques it puts on A and on B about their centres (2K: A's at 2i,
   /// B's at 2i + 1; N m, world), its force on B (K; N, world) and its bodies (2K: A at 2i, B at
   /// 2i + 1), written with the contact's outputs and summed per body (compact, so that the sums

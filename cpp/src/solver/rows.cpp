@@ -449,44 +449,27 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
     stats.max_dissipation_violation = std::max(stats.max_dissipation_violation, part.max_dissipation_violation);
     stats.max_overlap = std::max(stats.max_overlap, part.max_overlap);
   });
-  // each body's summed force and torque (N, N m), in contact order, body by body over the threads:
-  // the bodies with contacts are listed (d.forced, in the order of their first contact), each with
-  // its contacts in contact order, so every thread count adds the same terms in the same order,
-  // and the work grows with the contacts, not with the bodies (static ones included)
+  // each body's summed force and torque (N, N m), in contact order: the bodies with contacts are
+  // listed (d.forced, in the order of their first contact), and the sums split by body index over
+  // the pool's participants, each walking every contact's two entries in contact order and adding
+  // those of its own bodies. So every thread count adds the same terms in the same order, no
+  // per-body list is built on the calling thread, and each participant reads the 2K entries once
+  for (std::size_t e = 0; e < 2 * K; ++e) mark_forced(d, d.contact_body[e]);
   const std::size_t N = d.body_force.size();
-  parallel::fit(d.body_count, N, 0);  // zero outside store: reset below for the listed bodies only
-  parallel::fit(d.body_first, N, 0);
-  for (std::size_t e = 0; e < 2 * K; ++e) {
-    const BodyIndex x = d.contact_body[e];
-    ++d.body_count[x];
-    mark_forced(d, x);
-  }
-  int first = 0;
-  for (const int x : d.forced) {  // body_count becomes each listed body's fill cursor
-    d.body_first[x] = first;
-    first += d.body_count[x];
-    d.body_count[x] = 0;
-  }
-  assign_n(d.body_contacts, 2 * K, 0);
-  for (std::size_t e = 0; e < 2 * K; ++e) {
-    const BodyIndex x = d.contact_body[e];
-    d.body_contacts[d.body_first[x] + d.body_count[x]++] = static_cast<int>(e);
-  }
-  for_ranges(d, d.forced.size(), 256, [&](std::size_t from, std::size_t to) {
-    for (std::size_t f = from; f < to; ++f) {
-      const std::size_t x = static_cast<std::size_t>(d.forced[f]);
-      Vec3& force = d.body_force[x];
-      Vec3& torque = d.body_torque[x];
-      for (int k = d.body_first[x]; k < d.body_first[x] + d.body_count[x]; ++k) {
-        const std::size_t e = static_cast<std::size_t>(d.body_contacts[k]);  // 2i: x is A, 2i + 1: x is B
-        const Vec3& contact_force = d.contact_force[e / 2];
-        if (e % 2 == 0) force -= contact_force;
-        else force += contact_force;
-        torque += d.contact_torque[e];
-      }
-      d.body_count[x] = 0;  // zero again for the next store (each listed body is one task's)
+  const std::size_t parts = d.pool != nullptr && K > kContactsPerTask ? static_cast<std::size_t>(d.pool->threads()) : 1;
+  const auto sum_part = [&](std::size_t part) {
+    const auto lo = static_cast<BodyIndex>(N * part / parts), hi = static_cast<BodyIndex>(N * (part + 1) / parts);
+    for (std::size_t e = 0; e < 2 * K; ++e) {  // 2i: contact i's body A, 2i + 1: its body B
+      const BodyIndex x = d.contact_body[e];
+      if (x < lo || x >= hi) continue;
+      const Vec3& contact_force = d.contact_force[e / 2];
+      if (e % 2 == 0) d.body_force[static_cast<std::size_t>(x)] -= contact_force;
+      else d.body_force[static_cast<std::size_t>(x)] += contact_force;
+      d.body_torque[static_cast<std::size_t>(x)] += d.contact_torque[e];
     }
-  });
+  };
+  if (parts == 1) sum_part(0);
+  else d.pool->join(sum_part);
   // sorted by key (first in contact order on equal keys), one entry per key; the narrow phase
   // lists contacts by body pair and feature ids, so this is usually sorted already
   const auto before = [](const CachedContact& x, const CachedContact& y) {
