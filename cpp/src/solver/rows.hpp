@@ -268,8 +268,8 @@ struct SoftNormal {
 };
 
 /// The solve order and the rows: d.order, d.slot, d.rows (a contact's normal, t1 and t2 rows,
-/// in solve order, dt folded in), d.alpha zeroed, per contact u_i = J_n q_dot (from d.qd), e_i, and the
-/// spin rows. A normal row's bias is max(gap, 0) / dt (a speculative contact closes its gap, no
+/// in solve order, dt folded in), d.alpha zeroed, by solve position u_i = J_n q_dot (from d.qd) and
+/// e_i, and the spin rows. A normal row's bias is max(gap, 0) / dt (a speculative contact closes its gap, no
 /// more). d.dI_inv must hold dt I_X^-1 per body.
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
              const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d,
