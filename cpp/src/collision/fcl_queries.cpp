@@ -284,6 +284,7 @@ struct BroadPhase::Impl {
   std::vector<fcl::CollisionObjectd*> moved_fat;  ///< leaves given a new fat box in this call (scratch)
   std::vector<char> moved_flag;               ///< by body index: in moved_fat (scratch, all 0 between calls)
   std::vector<std::pair<BodyIndex, BodyIndex>> candidates;  ///< leaf pairs that overlap, sorted
+  std::vector<std::pair<BodyIndex, BodyIndex>> merged;      ///< scratch: candidates merged with new pairs
   bool fat_valid = false;  ///< false: every awake leaf gets its fat box and the trees are walked anew
   bool static_dirty = false;
   double static_margin = -1.0;  ///< margin the static AABBs were last grown by
@@ -422,10 +423,19 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
   // many leaves moved (a pile falling): every box read anew, the tree refitted and walked whole;
   // a few (a pile at rest, a body or two rolling): those leaves re-inserted and, unless the trees
   // are walked whole anyway, only they looked up
-  const auto tidy = [&] {  // sorted, each pair once, none of a leaf with itself
+  // sorted, each pair once, none of a leaf with itself; the pairs from `from` on are new, those
+  // before sorted already: only the new ones are sorted, then merged in (a few leaves moved: a
+  // few new pairs beside thousands)
+  const auto tidy = [&](std::size_t from) {
     const auto itself = [](const std::pair<BodyIndex, BodyIndex>& ij) { return ij.first == ij.second; };
-    m.candidates.erase(std::remove_if(m.candidates.begin(), m.candidates.end(), itself), m.candidates.end());
-    std::sort(m.candidates.begin(), m.candidates.end());
+    const auto added = [&] { return m.candidates.begin() + static_cast<std::ptrdiff_t>(from); };
+    m.candidates.erase(std::remove_if(added(), m.candidates.end(), itself), m.candidates.end());
+    std::sort(added(), m.candidates.end());
+    if (from > 0 && added() != m.candidates.end()) {
+      m.merged.resize(m.candidates.size());
+      std::merge(m.candidates.begin(), added(), added(), m.candidates.end(), m.merged.begin());
+      m.candidates.swap(m.merged);
+    }
     m.candidates.erase(std::unique(m.candidates.begin(), m.candidates.end()), m.candidates.end());
   };
   if (!m.fat_valid || 4 * m.moved_fat.size() > m.dynamic_bodies.size()) {
@@ -439,13 +449,14 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
         return m.moved_flag[ij.first] || m.moved_flag[ij.second];
       };
       m.candidates.erase(std::remove_if(m.candidates.begin(), m.candidates.end(), stale), m.candidates.end());
+      const std::size_t kept = m.candidates.size();  // sorted, without the moved leaves' pairs
       for (fcl::CollisionObjectd* leaf : m.moved_fat) {
         m.moved_flag[static_cast<Proxy*>(leaf)->index()] = 0;
         m.dynamic_tree.collide(leaf, &m.candidates, collect_pair);  // finds the leaf itself too
         m.static_tree.collide(leaf, &m.candidates, collect_pair);
         if (m.sleeping > 0) m.sleep_tree.collide(leaf, &m.candidates, collect_pair);
       }
-      tidy();
+      tidy(kept);
     }
   }
   m.fat_valid = true;
@@ -454,7 +465,7 @@ void BroadPhase::pairs(const Model& model, const State& state, const std::vector
     m.dynamic_tree.collide(&m.candidates, collect_pair);
     m.dynamic_tree.collide(&m.static_tree, &m.candidates, collect_pair);
     if (m.sleeping > 0) m.dynamic_tree.collide(&m.sleep_tree, &m.candidates, collect_pair);
-    tidy();
+    tidy(0);
   }
   // the candidates whose boxes overlap now (a static or sleeping body's box is its leaf's)
   const auto box_of = [&](BodyIndex i) -> const fcl::AABBd& {
