@@ -23,7 +23,7 @@ template <bool kSpin>
 int sweeps(const SolverSettings& s, double h, SolverData& d, bool& converged) {
   Velocities& qd = d.qd;
   const Mat3* dI = d.dI_inv.data();
-  JointSet* joints = d.joints != nullptr && !d.joints->blocks.empty() ? d.joints : nullptr;
+  JointSet* joints = joints_of(d, true);
   converged = d.rows.empty() && joints == nullptr;
   int sweeps = 0;
   while (!converged && sweeps < s.max_iterations) {
@@ -118,7 +118,7 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   // a. prepare rows; b. warm start; c. iterate
   prepare(model, state, dt, contacts, anchor_a, anchor_b, data);
   if (settings.warm_start && recall_forces(settings, contacts, data)) apply_forces(data);
-  JointSet* joints = data.joints != nullptr && !data.joints->empty() ? data.joints : nullptr;
+  JointSet* joints = joints_of(data);
   if (joints) {  // the joints' rows at this substep's poses, warm started from their last forces
     prepare_joints(model, state, dt, false, true, *joints, data);
     if (settings.warm_start) warm_start_joints(*joints, data);

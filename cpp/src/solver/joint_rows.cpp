@@ -445,4 +445,9 @@ double joint_velocity(const Joint& j, const State& state) {
   return std::numeric_limits<double>::quiet_NaN();
 }
 
+JointSet* joints_of(const SolverData& d, bool with_blocks) {
+  if (d.joints == nullptr || d.joints->empty() || (with_blocks && d.joints->blocks.empty())) return nullptr;
+  return d.joints;
+}
+
 }  // namespace signorini::solver

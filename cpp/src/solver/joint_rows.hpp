@@ -75,6 +75,10 @@ struct JointSet {
   bool empty() const { return joints.empty(); }
 };
 
+/// The joints a solve works with: d.joints when the World has any (else null); with_blocks: only
+/// when this substep's blocks are built (the sweeps' check).
+JointSet* joints_of(const SolverData& d, bool with_blocks = false);
+
 /// Sweep modes: the PGS's iterate (equality rows without bias), the soft step's biased sweep, and
 /// its relax sweep (rigid).
 enum class JointSweep { Hard, SoftBiased, SoftRelax };

@@ -86,7 +86,7 @@ void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool
     });
     if (d.lanes) wide_gaps_in(d);  // the groups' copies of the gaps
   }
-  JointSet* joints = d.joints != nullptr && !d.joints->blocks.empty() ? d.joints : nullptr;
+  JointSet* joints = joints_of(d, true);
   for (int i = 0; i < count; ++i) {
     if (i == 0 && update_gaps)
       spin ? sweep<true, true>(s, d, biased) : sweep<false, true>(s, d, biased);
@@ -148,10 +148,10 @@ void soft_solve(const Model& model, const State& state, const SolverSettings& se
                 std::vector<Vec3>& omega, SolverData& d) {
   load(v, omega, d);
   wide_warm_start(d);  // the last substep's forces (the cache's in the first) as this one's first guess
-  if (d.joints != nullptr && !d.joints->empty()) {  // the joints' rows at these poses, warm started
-    prepare_joints(model, state, d.h, true, true, *d.joints, d);
-    if (settings.warm_start) warm_start_joints(*d.joints, d);
-    else for (Joint& j : d.joints->joints) j.alpha.fill(0.0);
+  if (JointSet* joints = joints_of(d)) {  // the joints' rows at these poses, warm started
+    prepare_joints(model, state, d.h, true, true, *joints, d);
+    if (settings.warm_start) warm_start_joints(*joints, d);
+    else for (Joint& j : joints->joints) j.alpha.fill(0.0);
   }
   // the gaps are those soft_relax left (or soft_begin's in the first substep): the poses have not
   // moved since
@@ -216,7 +216,7 @@ SolverStats soft_end(const Model& model, const State& state, const SolverSetting
     for (std::size_t k = first; k < end; ++k) d.rows[k].bias = std::max(d.soft[k].s, 0.0) / d.h;
   });
   store(d.h, settings, contacts, d, stats, &d.soft);  // each contact's impulse: its substeps' summed
-  if (d.joints != nullptr && !d.joints->empty()) store_joints(state, *d.joints);
+  if (JointSet* joints = joints_of(d)) store_joints(state, *joints);
   unload(d, v, omega);
   // a fixed number of sweeps by design: never flagged as unconverged (the certificate says what
   // the contacts satisfy)
