@@ -160,7 +160,8 @@ struct SolverData {
   std::vector<WideGroup> wide;
   std::vector<int> wide_first;
   /// the soft step's sweeps run the groups in lanes this step (set by soft_begin: not with the
-  /// scalar code chosen, spin rows or the cone rule); the grouped contacts' gaps then live in d.wide
+  /// scalar code chosen, spin rows or the cone rule); the grouped contacts' gaps and forces then
+  /// live in d.wide
   bool lanes = false;
   std::vector<char> in_lanes;  ///< per solve position (with lanes): in a group the lanes solve
   std::vector<double> alpha;
