@@ -394,7 +394,9 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       c.slip = vt1 * r.t1 + vt2 * r.t2;
 
       // the certificate: w_i against the row's own target
-      const double b = d.restitutive[k] ? d.e[k] * d.u[k] : r.bias;
+      // (the soft step's target: the rigid contact at its end gap, closed if speculative, no more)
+      const double bias = soft ? std::max((*soft)[k].s, 0.0) / dt : r.bias;
+      const double b = d.restitutive[k] ? d.e[k] * d.u[k] : bias;
       const double w = vn + b;
       const double mu = r.mu;
       part.max_alpha_negative = std::max(part.max_alpha_negative, -alpha[0]);

@@ -302,7 +302,8 @@ int restitution(const SolverSettings& s, SolverData& d);
 /// Forces and velocities per contact (from d.alpha and d.qd), summed forces per body, the next
 /// cache (normal forces d.alpha_iter), the certificate (against each row's bias, or e u for a
 /// restitutive contact; its violation maxima at least 0). c.impulse = dt alpha, or with soft (the
-/// soft step's points, by solve position) the impulse summed over its substeps.
+/// soft step's points, by solve position) the impulse summed over its substeps, and the bias
+/// max(s, 0) / dt of each point's gap s at the step's end instead of the row's.
 void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats,
            const std::vector<SoftPoint>* soft = nullptr);
 

@@ -211,11 +211,9 @@ SolverStats soft_end(const Model& model, const State& state, const SolverSetting
   }
   if (d.lanes) wide_gaps_out(d);  // the grouped contacts' gaps, from the lanes' groups
   // the certificate's targets: the rigid contact at its end gap (speculative: close it, no more),
-  // or e u for a contact that bounced in the last substep
-  for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t k = first; k < end; ++k) d.rows[k].bias = std::max(d.soft[k].s, 0.0) / d.h;
-  });
-  store(d.h, settings, contacts, d, stats, &d.soft);  // each contact's impulse: its substeps' summed
+  // or e u for a contact that bounced in the last substep; each contact's impulse: its substeps'
+  // summed (store reads both from the soft points)
+  store(d.h, settings, contacts, d, stats, &d.soft);
   if (JointSet* joints = joints_of(d)) store_joints(state, *joints);
   unload(d, v, omega);
   // a fixed number of sweeps by design: never flagged as unconverged (the certificate says what
