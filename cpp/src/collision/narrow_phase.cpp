@@ -565,10 +565,12 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
     const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
     return swap ? std::make_pair(j, i) : std::make_pair(i, j);
   };
+  // whether pair (a, b) keeps its manifolds from step to step (docs/conventions.md, "Contact recycling")
+  const auto keeps = [&](BodyIndex a, BodyIndex b) { return recycle > 0.0 && recycles(model.shape[a], model.shape[b]); };
   // the last detection's manifold of (a, b) when the pair keeps it this step (it has hardly moved
-  // since: docs/conventions.md, "Contact recycling"), else null
+  // since), else null
   const auto kept_for = [&](BodyIndex a, BodyIndex b) -> const KeptManifold* {
-    if (!(recycle > 0.0 && recycles(model.shape[a], model.shape[b]))) return nullptr;
+    if (!keeps(a, b)) return nullptr;
     const KeptManifold* last = kept_manifold(manifolds, a, b);
     const double tolerance = std::min(recycle, kRecycleInnerFraction * std::min(model.inner[a], model.inner[b]));
     return last && pair_drift(model, state, a, b, *last, dt) <= tolerance ? last : nullptr;
@@ -607,8 +609,7 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
       out[k].arm_a = out[k].point - state.p[a];
       out[k].arm_b = out[k].point - state.p[b];
     }
-    const bool keeps = recycle > 0.0 && recycles(model.shape[a], model.shape[b]);
-    if (keeps && out.size() > first) keep_manifold(state, a, b, out, first, kept, kept_points);
+    if (keeps(a, b) && out.size() > first) keep_manifold(state, a, b, out, first, kept, kept_points);
   };
   const std::size_t P = pairs.size();
   int recycled = 0;

@@ -16,7 +16,8 @@ namespace {
 /// Below this slip speed (m/s) a contact counts as sticking for the maximum-dissipation check.
 constexpr double kSlidingSpeed = 1e-3;
 
-bool same_key(const CachedContact& x, const CachedContact& y) { return !key_less(x, y) && !key_less(y, x); }
+/// Equal keys; a function object, as by_key below, which the standard algorithms inline.
+constexpr auto same_key = [](const CachedContact& x, const CachedContact& y) { return !key_less(x, y) && !key_less(y, x); };
 /// key_less as a function object, which the standard algorithms inline (a function pointer they may not).
 constexpr auto by_key = [](const CachedContact& x, const CachedContact& y) { return key_less(x, y); };
 
@@ -193,7 +194,8 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       }
       // in contact order, reading the contacts in turn (writing the rows where they go costs less
       // than reading the contacts out of order: a write does not wait)
-      ContactRows& r = d.rows[d.slot[i]];
+      const std::size_t k = static_cast<std::size_t>(d.slot[i]);  // its solve position
+      ContactRows& r = d.rows[k];
       // a kept contact's lever arms are those it was found with (docs/conventions.md, "Contact recycling")
       const Vec3 r_a = anchor_a ? Vec3((*anchor_a)[i] - state.p[a]) : c.kept ? c.arm_a : Vec3(c.point - state.p[a]);
       const Vec3 r_b = anchor_b ? Vec3((*anchor_b)[i] - state.p[b]) : c.kept ? c.arm_b : Vec3(c.point - state.p[b]);
@@ -201,8 +203,8 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       // a speculative contact may close its gap, no more; an overlap is left to the position pass
       r.bias = std::max(c.gap, 0.0) / dt;
       r.mu = mu;
-      d.u[d.slot[i]] = normal_velocity(r, d.qd);
-      d.e[d.slot[i]] = std::max(ma.restitution, mb.restitution);
+      d.u[k] = normal_velocity(r, d.qd);
+      d.e[k] = std::max(ma.restitution, mb.restitution);
       if (ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0) spinning.store(true, std::memory_order_relaxed);
     }
   });
@@ -491,9 +493,7 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   });
   if (unsorted.load()) std::sort(d.cache_next.begin(), d.cache_next.end(), before);
   if (unsorted.load() || repeats.load())
-    d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(),
-                                   [](const CachedContact& x, const CachedContact& y) { return same_key(x, y); }),
-                       d.cache_next.end());
+    d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(), same_key), d.cache_next.end());
   // maxima of violations: 0 when nothing violates (and when there are no contacts)
   stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
   stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);

@@ -37,6 +37,14 @@ std::size_t point_position(const WideGroup& g, std::size_t l, std::size_t j) {
   return static_cast<std::size_t>(g.first[l]) + std::min<std::size_t>(j, static_cast<std::size_t>(g.count[l]) - 1);
 }
 
+/// f(point, l, k) for each point the lanes of g solve (lane l's points j < count[l]), with its
+/// solve position k.
+template <class G, class F>
+void each_point(G& g, F&& f) {
+  for (std::size_t l = 0; l < kLanes; ++l)
+    for (int j = 0; j < g.count[l]; ++j) f(g.point[j], l, static_cast<std::size_t>(g.first[l] + j));
+}
+
 /// f(point, l, k) for every point slot of every group, over the threads: lane l of point j and
 /// the solve position k it holds (point_position), for copying a field into the groups.
 template <class F>
@@ -176,9 +184,7 @@ void widen(const SolverSettings& s, SolverData& d) {
           if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0) || !same) g.one_by_one = true;
         }
       }
-      if (g.one_by_one) continue;
-      for (std::size_t l = 0; l < kLanes; ++l)
-        for (int j = 0; j < g.count[l]; ++j) d.in_lanes[static_cast<std::size_t>(g.first[l] + j)] = 1;
+      if (!g.one_by_one) each_point(g, [&](const WideGroup::Point&, std::size_t, std::size_t k) { d.in_lanes[k] = 1; });
     }
   });
 }
@@ -188,8 +194,7 @@ void wide_gaps_out(SolverData& d) {
     for (std::size_t gi = from; gi < to; ++gi) {
       const WideGroup& g = d.wide[gi];
       if (g.one_by_one) continue;  // its contacts' gaps are the soft points' already
-      for (std::size_t l = 0; l < kLanes; ++l)
-        for (int j = 0; j < g.count[l]; ++j) d.soft[static_cast<std::size_t>(g.first[l] + j)].s = g.point[j].s[l];
+      each_point(g, [&](const WideGroup::Point& p, std::size_t l, std::size_t k) { d.soft[k].s = p.s[l]; });
     }
   });
 }
@@ -205,12 +210,10 @@ bool wide_settle(const SolverSettings& s, SolverData& d) {
     for (std::size_t gi = from; gi < to; ++gi) {
       const WideGroup& g = d.wide[gi];
       if (g.one_by_one) continue;  // its contacts' forces are d.alpha's already (settled one by one)
-      for (std::size_t l = 0; l < kLanes; ++l)
-        for (int j = 0; j < g.count[l]; ++j) {
-          const std::size_t k = static_cast<std::size_t>(g.first[l] + j);
-          for (int i = 0; i < 3; ++i) d.alpha[3 * k + static_cast<std::size_t>(i)] = g.point[j].alpha[i][l];
-          any = settle(s, d, k) || any;
-        }
+      each_point(g, [&](const WideGroup::Point& p, std::size_t l, std::size_t k) {
+        for (std::size_t i = 0; i < 3; ++i) d.alpha[3 * k + i] = p.alpha[i][l];
+        any = settle(s, d, k) || any;
+      });
     }
     if (any) bounces.store(true, std::memory_order_relaxed);
   });
