@@ -121,6 +121,9 @@ struct alignas(32) WideGroup {
   Point point[kManifoldPoints];
   double n[3][kLanes], t1[3][kLanes], t2[3][kLanes];  ///< the rows' directions, per pair
   double dinv_mass_a[kLanes], dinv_mass_b[kLanes];    ///< per pair (s/kg)
+  /// dt I^-1 of each pair's bodies (s/(kg m^2), world, column-major: [3 j + i] is row i, column j),
+  /// d.dI_inv's, fixed over the step: read in order by the sweeps rather than gathered by body
+  double dI_a[9][kLanes], dI_b[9][kLanes];
   double mu[kLanes];                                  ///< per pair
   double bias_rate[kLanes], mass_scale[kLanes], impulse_scale[kLanes];  ///< the pair's spring (SoftPoint's)
   int a[kLanes], b[kLanes];

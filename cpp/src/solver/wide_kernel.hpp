@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstddef>
+#include <utility>
 
 #include <xsimd/xsimd.hpp>
 
@@ -51,22 +52,22 @@ struct Kernel {
   static B max_of(const B& x, const B& y) { return xsimd::select(x < y, y, x); }
   static B clamp(const B& v, const B& lo, const B& hi) { return xsimd::select(v < lo, lo, xsimd::select(hi < v, hi, v)); }
 
-  /// L lanes' values f(l) as one register
+  /// L lanes' values f(l) as one register, built in registers (no store of single lanes read back
+  /// as a vector, which stalls the load on store forwarding)
+  template <class F, std::size_t... I>
+  static B gather(F&& f, std::index_sequence<I...>) {
+    return B{static_cast<double>(f(I))...};
+  }
   template <class F>
   static B gather(F&& f) {
-    alignas(64) double t[L];
-    for (std::size_t l = 0; l < L; ++l) t[l] = f(l);
-    return B::load_aligned(t);
+    return gather(f, std::make_index_sequence<L>());
   }
   /// n consecutive doubles from base + stride * index[l] for each lane, as n registers
   template <int n>
   static void gather_n(const double* base, std::size_t stride, const int* index, B* out) {
-    alignas(64) double t[n][L];
-    for (std::size_t l = 0; l < L; ++l) {
-      const double* p = base + stride * static_cast<std::size_t>(index[l]);
-      for (int j = 0; j < n; ++j) t[j][l] = p[j];
-    }
-    for (int j = 0; j < n; ++j) out[j] = B::load_aligned(t[j]);
+    const double* p[L];
+    for (std::size_t l = 0; l < L; ++l) p[l] = base + stride * static_cast<std::size_t>(index[l]);
+    for (int j = 0; j < n; ++j) out[j] = gather([&](std::size_t l) { return p[l][j]; });
   }
 
   /// L lanes' ints i[l] as doubles (small counts: exact)
@@ -86,8 +87,10 @@ struct Kernel {
     B qa[6], qb[6];
     gather_n<6>(d.qd, 6, g.a + h, qa);
     gather_n<6>(d.qd, 6, g.b + h, qb);
-    gather_n<9>(d.dI, 9, g.a + h, q.dIa);
-    gather_n<9>(d.dI, 9, g.b + h, q.dIb);
+    for (int i = 0; i < 9; ++i) {
+      q.dIa[i] = load(g.dI_a[i] + h);
+      q.dIb[i] = load(g.dI_b[i] + h);
+    }
     q.wa = {qa[0], qa[1], qa[2]};
     q.va = {qa[3], qa[4], qa[5]};
     q.wb = {qb[0], qb[1], qb[2]};

@@ -147,6 +147,12 @@ void widen(const SolverSettings& s, SolverData& d) {
         g.b_moves[l] = pair.b_moves;
         g.dinv_mass_a[l] = pair.dinv_mass_a;
         g.dinv_mass_b[l] = pair.dinv_mass_b;
+        const double* dIa = d.dI_inv[static_cast<std::size_t>(pair.a)].data();
+        const double* dIb = d.dI_inv[static_cast<std::size_t>(pair.b)].data();
+        for (int i = 0; i < 9; ++i) {
+          g.dI_a[i][l] = dIa[i];
+          g.dI_b[i][l] = dIb[i];
+        }
         g.mu[l] = pair.mu;
         for (int i = 0; i < 3; ++i) {
           g.n[i][l] = pair.n[i];
@@ -231,7 +237,6 @@ namespace {
 wide::Lanes raw_lanes(SolverData& d) {
   return wide::Lanes{d.wide.data(),
                      d.qd.empty() ? nullptr : d.qd[0].omega.data(),
-                     d.dI_inv.empty() ? nullptr : d.dI_inv[0].data(),
                      d.dp.empty() ? nullptr : d.dp[0].data(),
                      d.dR.empty() ? nullptr : d.dR[0].data()};
 }

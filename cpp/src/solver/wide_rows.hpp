@@ -83,7 +83,6 @@ namespace wide {
 struct Lanes {
   WideGroup* groups;        ///< d.wide (the points' gaps and forces are written)
   double* qd;               ///< d.qd: per body omega (3) then v (3)
-  const double* dI;         ///< d.dI_inv: per body dt I^-1 (3 x 3, column-major)
   const double* dp;         ///< d.dp: per body (3)
   const double* dR;         ///< d.dR: per body (3 x 3, column-major)
 };
