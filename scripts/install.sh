@@ -148,7 +148,7 @@ runtime=("scikit-build-core>=0.10" "pybind11==3.1.0" "numpy>=1.22" "matplotlib>=
          "pythreejs>=2.4" "pillow>=9" "imageio>=2.20" "imageio-ffmpeg>=0.4.8" "pygltflib>=1.15" "usd-core>=23.0"
          "viser>=1.0" "trimesh>=4" "networkx>=2.6" "pydantic>=2" "tomli-w>=1" "pandas>=1.5" "pyarrow>=12")
 tests=("pytest>=7" "pytest-xdist>=3" "scipy>=1.8" "playwright>=1.40" "mujoco>=3" "pybind11-stubgen==3.0.0"
-       "import-linter>=2.17" "pybullet>=3.2.6" "ray>=2.9")
+       "import-linter>=2.17" "pybullet>=3.2.6" "ray>=2.9" "yourdfpy>=0.0.56")
 
 [ "$with_tests" = 1 ] || tests=()
 echo "signorini: Python dependencies (runtime$([ "$with_tests" = 1 ] && echo ' and test'))"
