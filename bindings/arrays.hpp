@@ -12,6 +12,7 @@
 #include "signorini/contact.hpp"
 #include "signorini/shapes.hpp"
 #include "signorini/types.hpp"
+#include "signorini/world.hpp"
 
 namespace py = pybind11;
 
@@ -207,6 +208,34 @@ inline py::dict contact_arrays(const std::vector<Contact>& contacts) {
   d["arm_a"] = rows_of(arm_a);
   d["arm_b"] = rows_of(arm_b);
   d["kept"] = kept;
+  return d;
+}
+
+/// Contact events as a dict of arrays (n events): step, body_a, body_b (n,) int64; point, normal
+/// (n, 3) world; speed (n,) m/s; impulse (n,) N s.
+inline py::dict event_arrays(const std::vector<ContactEvent>& events) {
+  const auto n = static_cast<py::ssize_t>(events.size());
+  py::array_t<std::int64_t> step(n), a(n), b(n);
+  py::array_t<double> speed(n), impulse(n);
+  std::vector<Vec3> point, normal;
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const ContactEvent& e = events[static_cast<std::size_t>(i)];
+    step.mutable_at(i) = e.step;
+    a.mutable_at(i) = e.body_a;
+    b.mutable_at(i) = e.body_b;
+    speed.mutable_at(i) = e.speed;
+    impulse.mutable_at(i) = e.impulse;
+    point.push_back(e.point);
+    normal.push_back(e.normal);
+  }
+  py::dict d;
+  d["step"] = step;
+  d["body_a"] = a;
+  d["body_b"] = b;
+  d["point"] = rows_of(point);
+  d["normal"] = rows_of(normal);
+  d["speed"] = speed;
+  d["impulse"] = impulse;
   return d;
 }
 

@@ -384,6 +384,15 @@ void register_world(py::module_& m) {
         d["worst_time"] = r.worst_time;
         return d;
       })
+      .def_property_readonly("events", [](const World& w) {
+        const ContactEvents e = w.events();
+        py::dict d;
+        d["begin"] = bindings::event_arrays(e.begin);
+        d["end"] = bindings::event_arrays(e.end);
+        d["hits"] = bindings::event_arrays(e.hits);
+        return d;
+      })
+      .def_property("hit_speed", &World::hit_speed, &World::set_hit_speed)
       .def_property_readonly("step_profile", [](const World& w) {
         const StepProfile t = w.step_report().time;
         py::dict d;  // in the step's order (StepProfile), then the whole step

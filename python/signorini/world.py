@@ -120,6 +120,50 @@ class Contacts:
 
 
 @dataclass(frozen=True)
+class ContactEventList:
+    """One kind of contact event of the last ``step`` call, one row per event (n rows), in the
+    order of the steps and, within a step, of the body pairs (body_a, then body_b): the same for
+    every thread count (docs/conventions.md, "Contact events").
+
+    step: (n,) int64, the step of the call it happened in (0 .. steps - 1).
+    body_a, body_b: (n,) int64 body indices of the pair, as in its contacts (the normal points from
+        A to B).
+    point: (n, 3) the pair's first contact point (m, world); zero for an end.
+    normal: (n, 3) that contact's unit normal (world); zero for an end.
+    speed: (n,) the fastest approach of the pair's contacts at the step's start,
+        -n . (v_B(y) - v_A(y)) from the velocities the step started with (m/s, 0 when none
+        approached); 0 for an end.
+    impulse: (n,) the pair's summed normal impulse in the step (N s); 0 for an end.
+    """
+
+    step: np.ndarray
+    body_a: np.ndarray
+    body_b: np.ndarray
+    point: np.ndarray
+    normal: np.ndarray
+    speed: np.ndarray
+    impulse: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.step)
+
+
+@dataclass(frozen=True)
+class ContactEvents:
+    """The contact events of the last ``step`` call. A body pair touches after a step when one of
+    its contacts pushed in it (impulse > 0) or overlaps (gap < 0).
+
+    begin: pairs that touch after a step and did not before it.
+    end: pairs that touched before a step and do not after it (or whose body was disabled).
+    hits: the beginnings whose approach ``speed`` was above ``World.hit_speed``.
+    """
+
+    begin: ContactEventList
+    end: ContactEventList
+    hits: ContactEventList
+
+
+@dataclass(frozen=True)
 class SolverStats:
     """What the last step's contact solver did, and its Signorini certificate
     (docs/conventions.md, "The Signorini certificate"; w_i = normal velocity + the row's target).
@@ -803,7 +847,7 @@ class World:
         return {"version": 1, "gravity": np.array(c.gravity), "contact_margin": c.contact_margin,
                 "solver": self.solver, "sleep": self.sleep, "bodies": bodies, "excluded_pairs": list(c.excluded_pairs),
                 "state": self.save_state(), "given": [None if g is None else tuple(g) for g in self._args],
-                "threads": self._threads}
+                "threads": self._threads, "hit_speed": c.hit_speed}
 
     def __setstate__(self, d: dict) -> None:
         """Builds the pickled world in a new core, then (holding the lock) puts it in place of this
@@ -813,6 +857,7 @@ class World:
         new = World(gravity=d["gravity"], contact_margin=d["contact_margin"], threads=d.get("threads"), **d["solver"],
                     **d.get("sleep", {}))
         new._fill(d)
+        new._core.hit_speed = d.get("hit_speed", 1.0)
         lock = self.__dict__.setdefault("_lock", threading.RLock())
         with lock:
             self.__dict__.update({k: v for k, v in new.__dict__.items() if k != "_lock"})
@@ -1148,6 +1193,27 @@ class World:
     @_locked
     def solver_stats(self) -> SolverStats:
         return SolverStats(**self._core.solver_stats)
+
+    @property
+    @_locked
+    def events(self) -> ContactEvents:
+        """The contact events (begin, end, hits) of the last ``step`` call, as arrays (copies); a
+        call of several steps gives those of every step, each with its ``step``. Whether a pair
+        touched before a step follows from the contacts reported then, so a restored state or an
+        unpickled world goes on giving the events the original would have."""
+        e = self._core.events
+        return ContactEvents(**{k: ContactEventList(**e[k]) for k in ("begin", "end", "hits")})
+
+    @property
+    @_locked
+    def hit_speed(self) -> float:
+        """The approach speed above which a beginning is also a hit (m/s; default 1, as Box2D's)."""
+        return self._core.hit_speed
+
+    @hit_speed.setter
+    @_locked
+    def hit_speed(self, speed: float) -> None:
+        self._core.hit_speed = as_number(speed, "World", "hit_speed")
 
     @property
     @_locked

@@ -115,6 +115,29 @@ struct StepReport {
   StepProfile time;                ///< where the call's wall time went
 };
 
+/// One contact event of the last World::step call (docs/conventions.md, "Contact events"). A body
+/// pair touches after a step when one of its contacts pushed in the step (impulse > 0) or overlaps
+/// (gap < 0); it begins touching in the step after which it touches and did not before, and ends
+/// in the step after which it no longer touches. A hit is a beginning whose approach was faster
+/// than the world's hit_speed.
+struct ContactEvent {
+  int step = 0;                        ///< the step of the call it happened in (0 .. steps - 1)
+  BodyIndex body_a = -1, body_b = -1;  ///< the pair, as in its contacts (body_a < body_b but for planes and meshes)
+  Vec3 point = Vec3::Zero();   ///< begin and hit: the pair's first contact point (m, world); end: zero
+  Vec3 normal = Vec3::Zero();  ///< begin and hit: that contact's unit normal, from A to B; end: zero
+  /// begin and hit: the fastest approach of the pair's contacts at the step's start,
+  /// -n . (v_B(y) - v_A(y)) with the velocities the step started from (m/s; 0 when none
+  /// approached); end: 0
+  double speed = 0.0;
+  double impulse = 0.0;  ///< begin and hit: the pair's summed normal impulse in the step (N s); end: 0
+};
+
+/// The events of the last World::step call, each list in the order of the steps and, within a
+/// step, of the body pairs (body_a, then body_b): the same for every thread count.
+struct ContactEvents {
+  std::vector<ContactEvent> begin, end, hits;
+};
+
 /// Threads: every public member function takes the world's lock, so calls from several threads on
 /// one World run one at a time (a step waits for an add_body in another thread, and the other way
 /// round) and none sees another half done. What they return is a copy taken under the lock
@@ -262,6 +285,12 @@ class World {
   SolverStats solver_stats() const;
   /// What the last call of step() did (for warnings).
   StepReport step_report() const;
+  /// The contact events of the last call of step() (copies).
+  ContactEvents events() const;
+  /// The approach speed above which a beginning is also a hit (m/s, >= 0 and finite; default 1,
+  /// as Box2D's). Throws std::invalid_argument otherwise, and keeps the old value.
+  void set_hit_speed(double speed);
+  double hit_speed() const;
   /// Per body, the summed contact force (N, world) and torque about its com (N m, world) of the
   /// last step; static bodies included (the reaction on the ground). Copies: a step in another
   /// thread rewrites the solver's own arrays as it runs.
@@ -360,6 +389,17 @@ class World {
   /// Keeps a step the guard let through: its last contacts and figures, what the meshes remember,
   /// the new rotations' quaternions; the one-step forces are spent.
   void commit_step(const SolverStats& stats);
+  /// The touching pairs of a contact list (in its order, which lists a pair's contacts together):
+  /// body_a, body_b, the pair's first contact and its summed normal impulse.
+  struct Touch {
+    BodyIndex a, b;
+    std::size_t first;
+    double impulse;
+  };
+  static void touching_pairs(const std::vector<Contact>& contacts, std::vector<Touch>& out);
+  /// The step's events from the pairs touching before (touching_, from the last contacts when not
+  /// known) and after it (the new contacts), appended to events_; touching_ becomes the new pairs.
+  void record_events(const std::vector<Contact>& now);
   /// model_.joined_pairs again from the joints (after they or the bodies change).
   void joints_changed();
 
@@ -374,6 +414,11 @@ class World {
   std::unordered_map<std::string, BodyIndex> by_name_;
   std::vector<std::shared_ptr<void>> retired_;  ///< outgrown state storage (see push_keeping)
   StepReport report_;
+  ContactEvents events_;       ///< the last step() call's contact events
+  double hit_speed_ = 1.0;      ///< m/s: a beginning faster than this is a hit
+  int event_step_ = 0;          ///< the step of the call the next events belong to
+  std::vector<Touch> touching_, touching_next_;  ///< pairs touching after the last step, and scratch
+  bool touching_known_ = false;  ///< touching_ matches the reported contacts (else taken from them)
   std::unique_ptr<collision::BroadPhase> broad_phase_;
   /// what contact detection remembers across steps (separating faces, the meshes' crossings)
   std::unique_ptr<collision::ContactMemory> memory_;

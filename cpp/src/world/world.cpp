@@ -113,6 +113,10 @@ void World::step(double dt, int steps) {
     throw std::invalid_argument("step: dt must be positive and finite, got " + std::to_string(dt));
   if (steps < 0) throw std::invalid_argument("step: steps must be >= 0, got " + std::to_string(steps));
   report_ = StepReport();
+  events_.begin.clear();
+  events_.end.clear();
+  events_.hits.clear();
+  event_step_ = 0;
   std::vector<solver::JointSet::Kept>& kept = joints_->kept;
   for (int s = 0; s < steps; ++s) {
     if (joints_->empty()) {
@@ -176,6 +180,7 @@ void World::bodies_changed(bool relist) {
   }
   // the per-body scratch of the stages is sized and zeroed again by the next step
   guard_->invalidate();
+  touching_known_ = false;  // the reported contacts were renumbered or replaced
   solver::forget_bodies(*solver_);
   v_.clear();
   omega_.clear();
@@ -317,6 +322,9 @@ void World::commit_step(const SolverStats& solved) {
   stats.pairs = memory_->manifolds.pairs;
   stats.recycled_pairs = memory_->manifolds.recycled;
   memory_->commit(guard_->start().p, &moving_);
+  // the pairs touching before the step, for its events: from the contacts reported then, when a
+  // restore or a change of bodies made them new
+  if (!touching_known_) touching_pairs(*contacts_, touching_);
   // the reported contacts and forces: the step's, and the sleeping islands' as they fell asleep
   std::vector<Contact>& contacts = own_contacts();
   if (islands_->contacts().empty()) {
@@ -326,6 +334,7 @@ void World::commit_step(const SolverStats& solved) {
     islands_->merge_contacts(contacts_next_, contacts);
     islands_->add_forces(*solver_);
   }
+  record_events(contacts);
   stats_ = stats;
   // (a static body has no one-step force: apply_force refuses it)
   for (const BodyIndex i : moving_) {

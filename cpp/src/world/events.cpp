@@ -1,0 +1,106 @@
+// Contact events (issue 24, "Events"): after each step, the body pairs that began and ended
+// touching, and the beginnings faster than hit_speed (hits), as lists in a deterministic order
+// (docs/conventions.md, "Contact events"). Box2D v3 reports its events the same way: arrays read
+// after the step, not callbacks during it.
+//
+// Which pairs touched before a step is a function of the reported contacts alone (kept in
+// touching_), so a restored state, a pickled world and a world whose bodies were renumbered give
+// the events a world that had gone on would have given.
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "signorini/world.hpp"
+#include "world/checks.hpp"
+#include "world/step_guard.hpp"
+
+namespace signorini {
+
+void World::touching_pairs(const std::vector<Contact>& contacts, std::vector<Touch>& out) {
+  out.clear();
+  const std::size_t K = contacts.size();
+  for (std::size_t i = 0, j = 0; i < K; i = j) {
+    const Contact& c = contacts[i];
+    bool touches = false;
+    double impulse = 0.0;
+    for (j = i; j < K && contacts[j].body_a == c.body_a && contacts[j].body_b == c.body_b; ++j) {
+      touches = touches || contacts[j].impulse > 0.0 || contacts[j].gap < 0.0;
+      impulse += contacts[j].impulse;
+    }
+    if (touches) out.push_back({c.body_a, c.body_b, i, impulse});
+  }
+  // by pair, as the merge in record_events walks them (the contact list usually is already: the
+  // narrow phase lists pairs in order; sleeping islands' contacts are merged in)
+  const auto by_pair = [](const Touch& x, const Touch& y) { return x.a < y.a || (x.a == y.a && x.b < y.b); };
+  if (!std::is_sorted(out.begin(), out.end(), by_pair)) std::sort(out.begin(), out.end(), by_pair);
+}
+
+void World::record_events(const std::vector<Contact>& now) {
+  touching_pairs(now, touching_next_);
+  const State& start = guard_->start();  // the velocities the step started from
+  const auto approach = [&](const Touch& t) {
+    double speed = 0.0;
+    for (std::size_t k = t.first; k < now.size() && now[k].body_a == t.a && now[k].body_b == t.b; ++k) {
+      const Contact& c = now[k];
+      const Vec3 v_a = start.v[t.a] + start.omega[t.a].cross(c.point - start.p[t.a]);
+      const Vec3 v_b = start.v[t.b] + start.omega[t.b].cross(c.point - start.p[t.b]);
+      speed = std::max(speed, -c.normal.dot(v_b - v_a));
+    }
+    return speed;
+  };
+  const auto begin = [&](const Touch& t) {
+    const Contact& c = now[t.first];
+    ContactEvent e;
+    e.step = event_step_;
+    e.body_a = t.a;
+    e.body_b = t.b;
+    e.point = c.point;
+    e.normal = c.normal;
+    e.speed = approach(t);
+    e.impulse = t.impulse;
+    events_.begin.push_back(e);
+    if (e.speed > hit_speed_) events_.hits.push_back(e);
+  };
+  const auto end = [&](const Touch& t) {
+    ContactEvent e;
+    e.step = event_step_;
+    e.body_a = t.a;
+    e.body_b = t.b;
+    events_.end.push_back(e);
+  };
+  // both lists by pair: a merge
+  std::size_t i = 0, j = 0;
+  const std::vector<Touch>& was = touching_;
+  const std::vector<Touch>& is = touching_next_;
+  while (i < was.size() || j < is.size()) {
+    if (j == is.size() || (i < was.size() && (was[i].a < is[j].a || (was[i].a == is[j].a && was[i].b < is[j].b)))) {
+      end(was[i++]);
+    } else if (i == was.size() || is[j].a < was[i].a || (is[j].a == was[i].a && is[j].b < was[i].b)) {
+      begin(is[j++]);
+    } else {
+      ++i, ++j;
+    }
+  }
+  touching_.swap(touching_next_);
+  touching_known_ = true;
+  ++event_step_;
+}
+
+ContactEvents World::events() const {
+  const Lock lock(mutex_);
+  return events_;
+}
+
+void World::set_hit_speed(double speed) {
+  const Lock lock(mutex_);
+  checks::require(std::isfinite(speed) && speed >= 0.0, "hit_speed must be finite and >= 0, got " + std::to_string(speed));
+  hit_speed_ = speed;
+}
+
+double World::hit_speed() const {
+  const Lock lock(mutex_);
+  return hit_speed_;
+}
+
+}  // namespace signorini
