@@ -20,18 +20,39 @@ REVOLUTE, PRISMATIC, SPHERICAL, FIXED, DISTANCE = range(5)
 
 
 class Motor:
-    """A velocity motor of a hinge or a slider: it drives the joint velocity (rad/s, m/s) to
-    ``speed`` with at most ``max_force`` (N m for a hinge, N for a slider; ``max_torque`` is the
-    same argument by another name)."""
+    """The drive of a hinge or a slider (docs/conventions.md, "Motors, servos and damping").
 
-    def __init__(self, speed: float, max_force: Optional[float] = None, *, max_torque: Optional[float] = None):
+    With ``stiffness`` and ``damping`` 0 (the default), a velocity motor: it drives the joint
+    velocity (rad/s, m/s) to ``speed`` with at most ``max_force`` (N m for a hinge, N for a
+    slider; ``max_torque`` is the same argument by another name). Otherwise a spring-damper,
+    integrated implicitly over each substep: F = stiffness (position - x) + damping (speed - x_dot),
+    |F| <= max_force (which may be ``math.inf``). A servo holds ``position`` (rad or m, as
+    ``World.joint_positions``; a hinge's error is taken the short way round); joint damping is
+    ``Motor(0, math.inf, damping=c)``; MuJoCo's velocity actuator is ``Motor(ctrl, max, damping=kv)``
+    and its position actuator ``Motor(0, max, position=ctrl, stiffness=kp, damping=kv)``.
+    """
+
+    def __init__(self, speed: float, max_force: Optional[float] = None, *, max_torque: Optional[float] = None,
+                 position: float = 0.0, stiffness: float = 0.0, damping: float = 0.0):
         if (max_force is None) == (max_torque is None):
             raise TypeError("Motor: give max_force (or max_torque), once")
         self.speed = speed
         self.max_force = max_force if max_force is not None else max_torque
+        self.position = position
+        self.stiffness = stiffness
+        self.damping = damping
+
+    def _core_args(self, who: str) -> dict:
+        """The motor's numbers, type-checked (values are the core's to check)."""
+        return dict(speed=as_number(self.speed, who, "motor speed"),
+                    max_force=as_number(self.max_force, who, "motor max_force"),
+                    position=as_number(self.position, who, "motor position"),
+                    stiffness=as_number(self.stiffness, who, "motor stiffness"),
+                    damping=as_number(self.damping, who, "motor damping"))
 
     def __repr__(self) -> str:
-        return f"Motor(speed={self.speed!r}, max_force={self.max_force!r})"
+        extra = "".join(f", {k}={getattr(self, k)!r}" for k in ("position", "stiffness", "damping") if getattr(self, k))
+        return f"Motor(speed={self.speed!r}, max_force={self.max_force!r}{extra})"
 
 
 class Joint:
@@ -72,8 +93,7 @@ def _motor(motor, who: str) -> dict:
         return dict(motor=False)
     if not isinstance(motor, Motor):
         raise TypeError(f"{who}: motor must be a signorini.Motor, got {motor!r}")
-    return dict(motor=True, motor_speed=as_number(motor.speed, who, "motor speed"),
-                motor_max_force=as_number(motor.max_force, who, "motor max_force"))
+    return {"motor": True, **{f"motor_{k}": v for k, v in motor._core_args(who).items()}}
 
 
 class _Axial(Joint):

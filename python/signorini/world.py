@@ -926,8 +926,7 @@ class World:
             return
         if not isinstance(motor, Motor):
             raise TypeError(f"{who}: motor must be a signorini.Motor or None, got {motor!r}")
-        self._core.set_joint_motor(j, True, as_number(motor.speed, who, "motor speed"),
-                                   as_number(motor.max_force, who, "motor max_force"))
+        self._core.set_joint_motor(j, True, **motor._core_args(who))
 
     @property
     @_locked

@@ -23,12 +23,22 @@ enum class JointKind {
   Distance,   ///< min_length <= |x_B - x_A| <= max_length (a rope for min 0, a rod for min = max)
 };
 
-/// A velocity motor of a one-degree-of-freedom joint: it drives the joint's velocity (rad/s for a
-/// hinge, m/s for a slider) to `speed` with a force (N) or torque (N m) of at most max_force.
+/// The drive of a one-degree-of-freedom joint (docs/conventions.md, "Joints", "Motors, servos and
+/// damping"). With stiffness and damping both 0, a velocity motor: it drives the joint's velocity
+/// (rad/s for a hinge, m/s for a slider) to `speed` with a force (N) or torque (N m) of at most
+/// max_force. Otherwise a spring-damper drive, integrated implicitly over each substep:
+/// F = stiffness (position - theta) + damping (speed - theta_dot), |F| <= max_force; a servo
+/// (stiffness > 0) holds `position`, a damper (stiffness 0, speed 0) is joint damping, and
+/// MuJoCo's velocity actuator is damping kv with speed the control.
 struct Motor {
   bool enabled = false;
   double speed = 0.0;      ///< target joint velocity (rad/s or m/s)
-  double max_force = 0.0;  ///< >= 0: bound on |motor torque| (N m) or |motor force| (N)
+  double max_force = 0.0;  ///< >= 0 (may be infinite): bound on |motor torque| (N m) or |motor force| (N)
+  double position = 0.0;   ///< target coordinate of a servo (rad or m, as joint_position)
+  double stiffness = 0.0;  ///< >= 0: N m/rad or N/m
+  double damping = 0.0;    ///< >= 0: N m s/rad or N s/m
+  /// a spring-damper drive (else a rigid velocity motor)
+  bool soft() const { return stiffness > 0.0 || damping > 0.0; }
 };
 
 /// What a user asks for when adding a joint. Points and axes are world coordinates at the moment

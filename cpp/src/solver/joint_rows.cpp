@@ -154,8 +154,27 @@ struct Pose {
   Mat3 R;
 };
 
-/// Appends the blocks of joint j with its bodies at poses A and B (Jacobians and C only).
-void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_moves, bool b_moves) {
+/// The drive row b of a one-dof joint whose coordinate is x (rad or m): a rigid velocity motor, or
+/// a spring-damper F = k (position - x_new) + c (speed - x_dot_new) over a substep of h with
+/// x_new = x + h x_dot_new, i.e. x_dot_new = target - gamma F with gamma = 1 / (k h + c) and
+/// target = gamma (k (position - x) + c speed); a hinge's position error taken the short way round.
+void drive(JointBlock& b, const Motor& m, double x, double h, bool angle) {
+  b.lo = -m.max_force;
+  b.hi = m.max_force;
+  if (!m.soft()) {
+    b.target = m.speed;
+    b.gamma = 0.0;
+    return;
+  }
+  double error = m.position - x;
+  if (angle) error = std::remainder(error, 2.0 * M_PI);  // in [-pi, pi]
+  b.gamma = 1.0 / (m.stiffness * h + m.damping);
+  b.target = b.gamma * (m.stiffness * error + m.damping * m.speed);
+}
+
+/// Appends the blocks of joint j with its bodies at poses A and B (Jacobians and C only; h: the
+/// substep, for a spring-damper drive).
+void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_moves, bool b_moves, double h) {
   Frames f;
   f.r_a = A.R * j.anchor_a;
   f.r_b = B.R * j.anchor_b;
@@ -169,9 +188,7 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
         if (j.motor.enabled) {
           JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotMotor, a_moves, b_moves);
           angular_row(b, 0, axis);
-          b.target = j.motor.speed;
-          b.lo = -j.motor.max_force;
-          b.hi = j.motor.max_force;
+          drive(b, j.motor, theta, h, true);
         }
         if (j.has_limits) {
           JointBlock& lo = add_block(js, j, JointBlock::Limit, 1, kSlotLower, a_moves, b_moves);
@@ -200,9 +217,7 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
         if (j.motor.enabled) {
           JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotMotor, a_moves, b_moves);
           linear_row(b, 0, axis, ra_lin, f.r_b);
-          b.target = j.motor.speed;
-          b.lo = -j.motor.max_force;
-          b.hi = j.motor.max_force;
+          drive(b, j.motor, s, h, false);
         }
         if (j.has_limits) {
           JointBlock& lo = add_block(js, j, JointBlock::Limit, 1, kSlotLower, a_moves, b_moves);
@@ -272,7 +287,7 @@ void prepare_joints(const Model& model, const State& state, double h, bool soft,
     if (!a_moves && !b_moves) continue;  // nothing to move (both asleep, static, kinematic or disabled)
     const std::size_t first = js.blocks.size();
     const Pose A{state.p[j.a], state.R[j.a]}, B{state.p[j.b], state.R[j.b]};
-    build_blocks(js, j, A, B, a_moves, b_moves);
+    build_blocks(js, j, A, B, a_moves, b_moves, h);
     const double inv_m_a = a_moves ? h * model.inv_mass[j.a] : 0.0;
     const double inv_m_b = b_moves ? h * model.inv_mass[j.b] : 0.0;
     for (std::size_t k = first; k < js.blocks.size(); ++k) {
@@ -296,7 +311,7 @@ void prepare_joints(const Model& model, const State& state, double h, bool soft,
     const Pose A1{A.p + half * va.v, math::rodrigues(va.omega, half) * A.R};
     const Pose B1{B.p + half * vb.v, math::rodrigues(vb.omega, half) * B.R};
     const std::size_t n = js.blocks.size() - first;
-    build_blocks(js, j, A1, B1, a_moves, b_moves);
+    build_blocks(js, j, A1, B1, a_moves, b_moves, h);
     for (std::size_t k = 0; k < n; ++k) {
       JointBlock& b = js.blocks[first + k];
       const JointBlock& b1 = js.blocks[first + n + k];
@@ -350,7 +365,10 @@ double sweep_joints(JointSet& js, SolverData& d, JointSweep mode, double h) {
       }
       case JointBlock::Motor: {
         const double old = b.alpha[0];
-        const double next = std::clamp(old - b.K_inv(0, 0) * (u[0] - b.target), b.lo, b.hi);
+        // a rigid motor: J q_dot = target; a spring-damper drive: J q_dot + gamma alpha = target
+        const double next = b.gamma == 0.0 ? std::clamp(old - b.K_inv(0, 0) * (u[0] - b.target), b.lo, b.hi)
+                                           : std::clamp(old - (u[0] + b.gamma * old - b.target) / (b.K(0, 0) + b.gamma),
+                                                        b.lo, b.hi);
         d_alpha[0] = next - old;
         b.alpha[0] = next;
         break;

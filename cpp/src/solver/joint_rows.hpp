@@ -37,7 +37,7 @@ struct JointBlock {
   enum Kind : std::uint8_t {
     Equality,  ///< J q_dot = 0 (C = 0), unbounded, solved as one block with K^-1
     Limit,     ///< one row, alpha >= 0: J q_dot >= -C / h while C > 0 (speculative), C >= 0 kept
-    Motor,     ///< one row, |alpha| <= max_force: J q_dot = target
+    Motor,     ///< one row, |alpha| <= max_force: J q_dot + gamma alpha = target
   };
   Kind kind = Equality;
   int n = 1;                 ///< rows (1..3)
@@ -52,6 +52,9 @@ struct JointBlock {
   Vec3 C = Vec3::Zero();     ///< position error of each row (m or rad); a limit row's distance to its limit
   double lo = 0.0, hi = 0.0; ///< Motor: the bounds on alpha (N or N m)
   double target = 0.0;       ///< Motor: target J q_dot (m/s or rad/s)
+  /// Motor: the drive's compliance 1 / (stiffness h + damping) (0: a rigid velocity motor; rad/(N m s)
+  /// or m/(N s)): a spring-damper drive's row asks J q_dot = target - gamma alpha
+  double gamma = 0.0;
   /// h/2 (dJ/dt) q_dot of each row (m/s or rad/s): J at the poses the velocities reach in h / 2,
   /// minus J now, times the velocities at prepare; the iterate and biased sweeps ask J q_dot + drift = 0
   /// (0 for a motor, and when prepare was not asked to predict)

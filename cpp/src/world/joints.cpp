@@ -34,6 +34,19 @@ std::string num(double x) {
 
 std::string vec(const Vec3& x) { return "(" + num(x[0]) + ", " + num(x[1]) + ", " + num(x[2]) + ")"; }
 
+/// A motor's settings, or fail(why): a finite speed and position, max_force >= 0 (infinite allowed:
+/// an unbounded drive), stiffness and damping finite and >= 0.
+template <class Fail>
+void check_motor(const Motor& m, Fail&& fail) {
+  if (!std::isfinite(m.speed)) fail("motor speed must be finite, got " + num(m.speed));
+  if (!(m.max_force >= 0.0)) fail("motor max force (torque) must be >= 0, got " + num(m.max_force));
+  if (!std::isfinite(m.position)) fail("motor position must be finite, got " + num(m.position));
+  if (!(std::isfinite(m.stiffness) && m.stiffness >= 0.0))
+    fail("motor stiffness must be finite and >= 0, got " + num(m.stiffness));
+  if (!(std::isfinite(m.damping) && m.damping >= 0.0))
+    fail("motor damping must be finite and >= 0, got " + num(m.damping));
+}
+
 /// A unit vector perpendicular to unit a: the first tangent of the contacts' basis.
 Vec3 perpendicular(const Vec3& a) {
   Vec3 t1, t2;
@@ -78,11 +91,7 @@ JointIndex World::add_joint(const JointDesc& desc) {
       if (desc.kind == JointKind::Revolute && (desc.lower <= -M_PI || desc.upper >= M_PI))
         fail("a hinge's limits must lie in (-pi, pi) rad, got (" + num(desc.lower) + ", " + num(desc.upper) + ")");
     }
-    if (desc.motor.enabled) {
-      if (!std::isfinite(desc.motor.speed)) fail("motor speed must be finite, got " + num(desc.motor.speed));
-      if (!(std::isfinite(desc.motor.max_force) && desc.motor.max_force >= 0.0))
-        fail("motor max force (torque) must be finite and >= 0, got " + num(desc.motor.max_force));
-    }
+    if (desc.motor.enabled) check_motor(desc.motor, fail);
   } else {
     if (desc.has_limits) fail("only Revolute and Prismatic joints take limits");
     if (desc.motor.enabled) fail("only Revolute and Prismatic joints take a motor");
@@ -150,9 +159,7 @@ void World::set_joint_motor(JointIndex j, const Motor& motor) {
   const auto fail = [&](const std::string& why) { throw std::invalid_argument(joint_label(j) + ": " + why); };
   if (motor.enabled) {
     if (!x.one_dof()) fail("only Revolute and Prismatic joints take a motor");
-    if (!std::isfinite(motor.speed)) fail("motor speed must be finite, got " + num(motor.speed));
-    if (!(std::isfinite(motor.max_force) && motor.max_force >= 0.0))
-      fail("motor max force (torque) must be finite and >= 0, got " + num(motor.max_force));
+    check_motor(motor, fail);
   }
   // a motor switched on or off changes the joint's rows: its warm-start force starts from zero
   if (motor.enabled != x.motor.enabled) x.alpha[kSlotMotor] = 0.0;

@@ -6,10 +6,12 @@
 // (format 3; from format 5 with the kept manifolds of contact recycling); the islands (format 4:
 // per body awake, sleep timer and island label, then the sleeping islands' warm-start forces); the
 // joints (format 5: each joint whole, in its bodies' frames, with its warm-start forces and last
-// force and torque; format 6: the kept manifolds with their rows as found). Formats 1 (no spin
+// force and torque; format 6: the kept manifolds with their rows as found; format 7: each joint's
+// motor with its servo position, stiffness and damping). Formats 1 (no spin
 // torques), 2 (no contact memory), 3 (no islands: every body awake, timers zero), 4 (no kept
 // manifolds: every pair found anew, no pair counts; no joints: the world keeps its joints, their
-// warm start zeroed) and 5 (kept manifolds without their rows: every pair found anew) still read.
+// warm start zeroed), 5 (kept manifolds without their rows: every pair found anew) and 6 (rigid
+// velocity motors only) still read.
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -26,7 +28,7 @@
 namespace signorini {
 namespace {
 
-constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '6'};
+constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '7'};
 constexpr std::size_t kStateVersionAt = 7;  ///< the format digit's position in the magic
 
 void save(serial::Writer& w, const State& s) {
@@ -112,6 +114,9 @@ void save(serial::Writer& w, const Joint& j) {
   w.pod(static_cast<std::uint8_t>(j.motor.enabled));
   w.pod(j.motor.speed);
   w.pod(j.motor.max_force);
+  w.pod(j.motor.position);
+  w.pod(j.motor.stiffness);
+  w.pod(j.motor.damping);
   w.pod(j.min_length);
   w.pod(j.max_length);
   w.pod(static_cast<std::uint8_t>(j.collide_connected));
@@ -123,7 +128,7 @@ void save(serial::Writer& w, const Joint& j) {
 }
 
 /// A joint of a saved state, checked against n bodies (kinds, indices, finite values).
-Joint load_joint(serial::Reader& r, std::size_t n) {
+Joint load_joint(serial::Reader& r, std::size_t n, char version) {
   const std::string damaged = "restore_state: the saved state is damaged (a joint)";
   Joint j;
   const auto kind = r.pod<std::uint8_t>();
@@ -141,6 +146,11 @@ Joint load_joint(serial::Reader& r, std::size_t n) {
   j.motor.enabled = r.pod<std::uint8_t>() != 0;
   j.motor.speed = r.pod<double>();
   j.motor.max_force = r.pod<double>();
+  if (version >= '7') {  // format 6 and before: a rigid velocity motor
+    j.motor.position = r.pod<double>();
+    j.motor.stiffness = r.pod<double>();
+    j.motor.damping = r.pod<double>();
+  }
   j.min_length = r.pod<double>();
   j.max_length = r.pod<double>();
   j.collide_connected = r.pod<std::uint8_t>() != 0;
@@ -153,7 +163,9 @@ Joint load_joint(serial::Reader& r, std::size_t n) {
   bool finite = j.anchor_a.allFinite() && j.anchor_b.allFinite() && j.axis_a.allFinite() && j.axis_b.allFinite() &&
                 j.ref_a.allFinite() && j.ref_b.allFinite() && j.R_rel.allFinite() && j.force.allFinite() &&
                 j.torque.allFinite() && !std::isnan(j.lower) && !std::isnan(j.upper) && std::isfinite(j.min_length) &&
-                !std::isnan(j.max_length) && std::isfinite(j.motor.speed) && std::isfinite(j.motor.max_force);
+                !std::isnan(j.max_length) && std::isfinite(j.motor.speed) && j.motor.max_force >= 0.0 &&
+                std::isfinite(j.motor.position) && std::isfinite(j.motor.stiffness) && j.motor.stiffness >= 0.0 &&
+                std::isfinite(j.motor.damping) && j.motor.damping >= 0.0;
   for (const double a : j.alpha) finite = finite && std::isfinite(a);
   if (!finite) throw std::invalid_argument(damaged);
   return j;
@@ -199,7 +211,7 @@ void World::restore_state(const std::string& saved) {
   if (saved.size() < sizeof kStateMagic || std::memcmp(saved.data(), kStateMagic, kStateVersionAt) != 0)
     throw std::invalid_argument("restore_state: not a saved state (no header)");
   const char version = saved[kStateVersionAt];
-  if (version < '1' || version > '6')
+  if (version < '1' || version > '7')
     throw std::invalid_argument(std::string("restore_state: a saved state of format '") + version +
                                 "', which this signorini does not read (it reads formats 1 to 6)");
   r.at = sizeof kStateMagic;
@@ -261,7 +273,7 @@ void World::restore_state(const std::string& saved) {
   std::vector<Joint> joints;
   if (version >= '5') {
     joints.resize(r.count(64));
-    for (Joint& j : joints) j = load_joint(r, n);
+    for (Joint& j : joints) j = load_joint(r, n, version);
   } else {
     joints = joints_->joints;
     for (Joint& j : joints) j.alpha.fill(0.0), j.force.setZero(), j.torque.setZero();

@@ -9,7 +9,8 @@ A joint (``snapshot["joints"]``, a list of dicts, as ``World.snapshot()`` writes
     anchor_a, anchor_b  (3,) m, lever arms from each body's centre of mass in its own frame
     axis_a, axis_b, ref_a, ref_b  (3,) unit, each body's frame (R_A axis_a = R_B axis_b at creation)
     R_rel       (3, 3) R_A^T R_B at creation
-    has_limits, lower, upper    (rad or m);  motor, motor_speed, motor_max_force
+    has_limits, lower, upper    (rad or m);  motor, motor_speed, motor_max_force (and, for a
+    spring-damper motor, motor_position, motor_stiffness, motor_damping)
     min_length, max_length      (m; Distance)
     alpha       (9,) the rows' forces of the last substep by slot (N or N m): the warm start
 Slots: motor 0, lower 1, upper 2, linear 3..5, angular 6..8.
@@ -48,7 +49,8 @@ def hinge_angle(joint, RA, RB):
 def _block(kind, n, joint, slot):
     return {"kind": kind, "n": n, "a": joint["body_a"], "b": joint["body_b"], "joint": joint, "slot": slot,
             "ang_a": np.zeros((n, 3)), "lin_a": np.zeros((n, 3)), "ang_b": np.zeros((n, 3)),
-            "lin_b": np.zeros((n, 3)), "C": np.zeros(n), "target": 0.0, "lo": 0.0, "hi": 0.0}
+            "lin_b": np.zeros((n, 3)), "C": np.zeros(n), "target": 0.0, "gamma": 0.0, "lo": 0.0,
+            "hi": 0.0}
 
 
 def _linear(b, k, e, ra_lin, r_b):
@@ -62,9 +64,27 @@ def _angular(b, k, e):
     b["ang_a"][k], b["ang_b"][k] = -e, e
 
 
-def build_blocks(joint, pA, RA, pB, RB):
+def _drive(m, joint, x, h, angle):
+    """The motor row m of a joint at coordinate x (rad or m) over a substep of h: a rigid velocity
+    motor (gamma 0, target the speed), or the spring-damper F = k (position - x_new) + c (speed -
+    x_dot_new) with x_new = x + h x_dot_new, so that x_dot_new = target - gamma F:
+    gamma = 1 / (k h + c), target = gamma (k (position - x) + c speed), a hinge's error taken the
+    short way round (in [-pi, pi])."""
+    k, c = joint.get("motor_stiffness", 0.0), joint.get("motor_damping", 0.0)
+    m["lo"], m["hi"] = -joint["motor_max_force"], joint["motor_max_force"]
+    if k == 0.0 and c == 0.0:
+        m["target"], m["gamma"] = joint["motor_speed"], 0.0
+        return
+    error = joint.get("motor_position", 0.0) - x
+    if angle:  # the core's std::remainder: error - n 2 pi, n the nearest integer (ties to even)
+        error = error - 2.0 * np.pi * float(np.rint(error / (2.0 * np.pi)))
+    m["gamma"] = 1.0 / (k * h + c)
+    m["target"] = m["gamma"] * (k * error + c * joint["motor_speed"])
+
+
+def build_blocks(joint, pA, RA, pB, RB, h):
     """The blocks of one joint with its bodies at (pA, RA), (pB, RB), in the core's order: motor,
-    lower limit, upper limit, then the equality blocks."""
+    lower limit, upper limit, then the equality blocks (h: the substep, for a spring-damper motor)."""
     r_a, r_b = RA @ joint["anchor_a"], RB @ joint["anchor_b"]
     d = (pB + r_b) - (pA + r_a)
     kind, out = joint["kind"], []
@@ -74,7 +94,7 @@ def build_blocks(joint, pA, RA, pB, RB):
         if joint["motor"]:
             m = _block(MOTOR, 1, joint, SLOT_MOTOR)
             _angular(m, 0, axis)
-            m["target"], m["lo"], m["hi"] = joint["motor_speed"], -joint["motor_max_force"], joint["motor_max_force"]
+            _drive(m, joint, theta, h, True)
             out.append(m)
         if joint["has_limits"]:
             lo, hi = _block(LIMIT, 1, joint, SLOT_LOWER), _block(LIMIT, 1, joint, SLOT_UPPER)
@@ -101,7 +121,7 @@ def build_blocks(joint, pA, RA, pB, RB):
         if joint["motor"]:
             m = _block(MOTOR, 1, joint, SLOT_MOTOR)
             _linear(m, 0, axis, ra_lin, r_b)
-            m["target"], m["lo"], m["hi"] = joint["motor_speed"], -joint["motor_max_force"], joint["motor_max_force"]
+            _drive(m, joint, s, h, False)
             out.append(m)
         if joint["has_limits"]:
             lo, hi = _block(LIMIT, 1, joint, SLOT_LOWER), _block(LIMIT, 1, joint, SLOT_UPPER)
@@ -180,10 +200,10 @@ def prepare_joints(snapshot, joints, q_dot, h):
         a, b = joint["body_a"], joint["body_b"]
         if not moves[a] and not moves[b]:
             continue
-        here = build_blocks(joint, P[a], R[a], P[b], R[b])
+        here = build_blocks(joint, P[a], R[a], P[b], R[b], h)
         half = 0.5 * h
         there = build_blocks(joint, P[a] + half * q_dot[a, 3:], rodrigues(q_dot[a, :3], half) @ R[a],
-                             P[b] + half * q_dot[b, 3:], rodrigues(q_dot[b, :3], half) @ R[b])
+                             P[b] + half * q_dot[b, 3:], rodrigues(q_dot[b, :3], half) @ R[b], h)
         for blk, later in zip(here, there):
             W_ang = {x: (h * R[i] @ np.asarray(snapshot["bodies"][i]["inv_inertia"], float) @ R[i].T if moves[i]
                          else np.zeros((3, 3))) for x, i in (("a", a), ("b", b))}
@@ -235,7 +255,8 @@ def sweep_joints(blocks, q_dot, h):
     """One Gauss-Seidel sweep over the blocks (the PGS's iterate), q_dot (N, 6) in place:
         equality  d_alpha = -K^-1 (J q_dot + drift)
         limit     alpha <- max(alpha - (J q_dot + drift + max(C, 0) / h) / K, 0)
-        motor     alpha <- clamp(alpha - (J q_dot - speed) / K, -max_force, max_force)
+        motor     alpha <- clamp(alpha - (J q_dot - target) / K, -max_force, max_force) (rigid), or
+                  clamp(alpha - (J q_dot + gamma alpha - target) / (K + gamma), ...) (a spring-damper)
     Returns the largest |K d_alpha| (m/s or rad/s)."""
     change = 0.0
     for blk in blocks:
@@ -252,7 +273,10 @@ def sweep_joints(blocks, q_dot, h):
                 new = old - k_inv * (u[0] + C / h) if C > 0.0 else old - k_inv * u[0]
                 new = max(new, 0.0)
             else:
-                new = min(max(old - k_inv * (u[0] - blk["target"]), blk["lo"]), blk["hi"])
+                g = blk["gamma"]
+                new = (old - k_inv * (u[0] - blk["target"]) if g == 0.0
+                       else old - (u[0] + g * old - blk["target"]) / (blk["K"][0, 0] + g))
+                new = min(max(new, blk["lo"]), blk["hi"])
             d = np.array([new - old])
             alpha[s] = new
         _apply(blk, d, q_dot)

@@ -1,0 +1,156 @@
+"""Spring-damper motors of hinges and sliders (sg.Motor with stiffness and damping: joint damping,
+servos, MuJoCo's velocity and position actuators), against closed forms: the damped rotor's decay
+and the servo's damped oscillation. The oracle repeats them step by step in
+test_joints.py::test_oracle_matches_pgs_steps_of_a_jointed_scene (its scene has a servo hinge and a
+damped slider)."""
+import math
+
+import numpy as np
+import pytest
+
+import signorini as sg
+
+SOLVERS = ["pgs", "soft"]
+
+
+def rotor(solver, motor, omega0=3.0, substeps=1):
+    """A 1 kg box (0.4 x 0.2 x 0.1 m half extents) spinning at omega0 about z on a hinge through its
+    centre to a static body, no gravity: the hinge's coordinate is its angle about z."""
+    w = sg.World(gravity=(0.0, 0.0, 0.0), solver=solver, sleeping=False)
+    w.set_solver(substeps=substeps)
+    ground = w.add_static(sg.Box((0.1, 0.1, 0.1)), position=(0.0, 0.0, -1.0))
+    body = w.add_body(sg.Box((0.4, 0.2, 0.1)), mass=1.0, angular_velocity=(0.0, 0.0, omega0))
+    j = w.add_joint(sg.Revolute(ground, body, anchor=(0, 0, 0), axis=(0, 0, 1), motor=motor))
+    I_z = 1.0 / 3.0 * (0.4 ** 2 + 0.2 ** 2)  # m (a^2 + b^2) / 3 for half extents a, b
+    return w, body, j, I_z
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_joint_damping_decays_a_rotor_as_implicit_euler_and_the_exponential(solver):
+    # I omega_dot = -c omega: each substep h of implicit Euler gives omega / (1 + c h / I), exactly;
+    # the exponential exp(-c t / I) differs from it by n ((c h / I)^2 / 2) in the logarithm
+    c, dt, steps = 0.05, 1 / 240, 240
+    w, body, j, I = rotor(solver, sg.Motor(0.0, math.inf, damping=c))
+    h = dt / w.solver["substeps"] if w.solver["substeps"] else dt
+    n = round(dt / h) * steps
+    w.step(dt, steps)
+    omega = w.joint_velocities[j]
+    assert omega == pytest.approx(3.0 / (1 + c * h / I) ** n, rel=1e-9)
+    x = c * h / I
+    assert abs(math.log(omega / 3.0) + c * (dt * steps) / I) <= n * x * x / 2 * 1.01
+    # the torque the damper transmits is -c omega_new (about the axis, on B)
+    assert w.joint_torques[j][2] == pytest.approx(-c * omega, rel=1e-9)
+
+
+def substep_count(w, dt):
+    s = w.solver["substeps"]
+    return s if s else max(1, math.ceil(dt * (960 if w.solver["solver"] == "pgs" else 240) - 1e-9))
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_a_servo_rings_down_to_its_position_at_the_damped_frequency(solver):
+    # I theta'' = k (theta_t - theta) - c theta': omega_n = sqrt(k / I), zeta = c / (2 sqrt(k I)),
+    # the error rings at omega_d = omega_n sqrt(1 - zeta^2) and decays as exp(-zeta omega_n t).
+    # Implicit Euler at h stretches the period by O((omega_n h)^2) and adds the decay rate
+    # omega_n^2 h / 2 (its amplification 1 / (1 + i omega h) has modulus exp(-omega^2 h / 2 + ...)):
+    # with omega_n h < 0.01 the period stays well inside the 1 % asked
+    dt = 1 / 240
+    w, body, j, I = rotor(solver, None, omega0=0.0, substeps=4)
+    k = I * (2 * math.pi) ** 2  # 1 Hz
+    c = 2 * 0.05 * math.sqrt(k * I)  # zeta = 0.05
+    target = 0.5
+    w.set_joint_motor(j, sg.Motor(0.0, math.inf, position=target, stiffness=k, damping=c))
+    theta = []
+    for _ in range(240 * 6):
+        w.step(dt)
+        theta.append(w.joint_positions[j])
+    e = np.array(theta) - target
+    # upward zero crossings of the error, interpolated: their spacing is the damped period
+    up = [i + e[i] / (e[i] - e[i + 1]) for i in range(len(e) - 1) if e[i] < 0.0 <= e[i + 1]]
+    assert len(up) >= 4
+    period = float(np.mean(np.diff(up))) * dt
+    omega_n, zeta = math.sqrt(k / I), c / (2 * math.sqrt(k * I))
+    assert period == pytest.approx(2 * math.pi / (omega_n * math.sqrt(1 - zeta ** 2)), rel=0.01)
+    # the envelope: peaks fall at zeta omega_n plus implicit Euler's omega_n^2 h / 2 (h the substep)
+    h = dt / 4
+    peaks = [abs(e[int(round(u + 0.75 * period / dt))]) for u in up[:3]]
+    rate = math.log(peaks[0] / peaks[2]) / (2 * period)
+    assert rate == pytest.approx(zeta * omega_n + omega_n ** 2 * h / 2, rel=0.01)
+    # and it closes on the target at least as fast as the exact envelope (1 + zeta-sized phase slack)
+    T = len(theta) * dt
+    assert abs(e[-1]) <= target * math.exp(-zeta * omega_n * T) / math.sqrt(1 - zeta ** 2)
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_a_servo_never_exceeds_its_max_torque_and_takes_the_short_way_round(solver):
+    # saturated at first (k times the 2 rad error is 40 times max_torque), yet strong enough to
+    # brake: the clamp holds |torque| <= max_torque throughout. Then a target of -3 rad from +2 rad:
+    # 1.28 rad forwards through pi, not 5 rad back through 0
+    dt, max_torque = 1 / 240, 0.5
+    w, body, j, I = rotor(solver, None, omega0=0.0)
+    w.set_joint_motor(j, sg.Motor(0.0, max_torque, position=2.0, stiffness=10.0, damping=1.0))
+    torques = []
+    for _ in range(240 * 4):
+        w.step(dt)
+        torques.append(w.joint_torques[j][2])
+    assert max(abs(t) for t in torques) <= max_torque * (1 + 1e-12)
+    assert w.joint_positions[j] == pytest.approx(2.0, abs=1e-3)
+    w.set_joint_motor(j, sg.Motor(0.0, max_torque, position=-3.0, stiffness=10.0, damping=1.0))
+    w.step(dt, 10)
+    assert w.joint_velocities[j] > 0.0  # forwards through pi, not back through 0
+    w.step(dt, 240 * 4)
+    assert abs(math.remainder(w.joint_positions[j] + 3.0, 2 * math.pi)) < 1e-3
+    assert max(abs(t) for t in torques) == pytest.approx(max_torque, rel=1e-12)  # it did saturate
+
+
+def test_a_damped_slider_falls_at_the_terminal_speed():
+    # a 2 kg block on a vertical slider with damping c falls at m g / c once the transient is gone
+    m, c, dt = 2.0, 40.0, 1 / 240
+    w = sg.World(gravity=(0.0, 0.0, -9.81), sleeping=False)
+    ground = w.add_static(sg.Box((0.1, 0.1, 0.1)), position=(0.0, 0.0, 5.0))
+    block = w.add_body(sg.Box((0.1, 0.1, 0.1)), mass=m, position=(0.0, 0.0, 4.0))
+    j = w.add_joint(sg.Prismatic(ground, block, anchor=(0, 0, 4.0), axis=(0, 0, 1),
+                                 motor=sg.Motor(0.0, math.inf, damping=c)))
+    w.step(dt, 240)  # tau = m / c = 0.05 s: 20 time constants
+    assert w.joint_velocities[j] == pytest.approx(-m * 9.81 / c, rel=1e-6)
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("stiffness", -1.0, "stiffness must be finite and >= 0"),
+    ("stiffness", math.nan, "stiffness must be finite and >= 0"),
+    ("damping", -0.5, "damping must be finite and >= 0"),
+    ("damping", math.inf, "damping must be finite and >= 0"),
+    ("position", math.nan, "position must be finite"),
+])
+def test_bad_drive_settings_name_the_joint_and_change_nothing(field, value, message):
+    w, body, j, I = rotor("pgs", sg.Motor(1.0, 2.0))
+    before = w.joint(j)
+    bad = sg.Motor(0.0, 1.0, **{field: value})
+    with pytest.raises(ValueError, match=message) as info:
+        w.set_joint_motor(j, bad)
+    assert "joint 0" in str(info.value)
+    assert w.joint(j)["motor_speed"] == before["motor_speed"] == 1.0
+    assert w.joint(j)["motor_max_force"] == 2.0
+    n = w.num_joints
+    with pytest.raises(ValueError, match=message):
+        w.add_joint(sg.Revolute(0, body, anchor=(0, 0, 0), axis=(0, 0, 1), motor=bad))
+    assert w.num_joints == n
+    with pytest.raises(TypeError, match="motor stiffness"):
+        w.set_joint_motor(j, sg.Motor(0.0, 1.0, stiffness="stiff"))
+
+
+def test_a_saved_state_and_a_pickle_keep_the_drive():
+    import pickle
+    w, body, j, I = rotor("pgs", sg.Motor(0.3, 5.0, position=1.0, stiffness=2.0, damping=0.4))
+    w.step(1 / 240, 30)
+    saved = w.save_state()
+    copy = pickle.loads(pickle.dumps(w))
+    w.step(1 / 240, 60)
+    ahead = w.joint_positions.copy()
+    w.restore_state(saved)
+    w.step(1 / 240, 60)
+    assert np.array_equal(w.joint_positions, ahead)
+    copy.step(1 / 240, 60)
+    assert np.array_equal(copy.joint_positions, ahead)
+    assert copy.joint(j)["motor_stiffness"] == 2.0 and copy.joint(j)["motor_damping"] == 0.4
+    assert copy.joint(j)["motor_position"] == 1.0
