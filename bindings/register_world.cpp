@@ -417,7 +417,7 @@ void register_world(py::module_& m) {
                            const Vec3& anchor_b, const Vec3& axis, bool has_limits, double lower, double upper,
                            bool motor, double motor_speed, double motor_max_force, double min_length,
                            double max_length, bool collide_connected, const std::string& name, double motor_position,
-                           double motor_stiffness, double motor_damping) {
+                           double motor_stiffness, double motor_damping, double friction) {
              if (kind < 0 || kind > static_cast<int>(JointKind::Distance))
                throw std::invalid_argument("add_joint: unknown joint kind " + std::to_string(kind));
              JointDesc d;
@@ -427,6 +427,7 @@ void register_world(py::module_& m) {
              d.has_limits = has_limits, d.lower = lower, d.upper = upper;
              d.motor.enabled = motor, d.motor.speed = motor_speed, d.motor.max_force = motor_max_force;
              d.motor.position = motor_position, d.motor.stiffness = motor_stiffness, d.motor.damping = motor_damping;
+             d.friction = friction;
              d.min_length = min_length, d.max_length = max_length;
              d.collide_connected = collide_connected;
              d.name = name;
@@ -436,7 +437,7 @@ void register_world(py::module_& m) {
            py::arg("has_limits"), py::arg("lower"), py::arg("upper"), py::arg("motor"), py::arg("motor_speed"),
            py::arg("motor_max_force"), py::arg("min_length"), py::arg("max_length"), py::arg("collide_connected"),
            py::arg("name"), py::arg("motor_position") = 0.0, py::arg("motor_stiffness") = 0.0,
-           py::arg("motor_damping") = 0.0)
+           py::arg("motor_damping") = 0.0, py::arg("friction") = 0.0)
       .def("remove_joint", &World::remove_joint, py::arg("j"))
       .def("set_joint_motor", [](World& w, JointIndex j, bool enabled, double speed, double max_force, double position,
                                  double stiffness, double damping) {
@@ -464,6 +465,7 @@ void register_world(py::module_& m) {
         d["motor"] = x.motor.enabled, d["motor_speed"] = x.motor.speed, d["motor_max_force"] = x.motor.max_force;
         d["motor_position"] = x.motor.position, d["motor_stiffness"] = x.motor.stiffness;
         d["motor_damping"] = x.motor.damping;
+        d["friction"] = x.friction;
         d["min_length"] = x.min_length, d["max_length"] = x.max_length;
         d["collide_connected"] = x.collide_connected;
         d["name"] = x.name;

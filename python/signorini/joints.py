@@ -100,12 +100,14 @@ class _Axial(Joint):
     """A one-degree-of-freedom joint about or along an axis (world, at creation)."""
 
     def __init__(self, body_a: int, body_b: int, anchor=None, axis=(0.0, 0.0, 1.0), *, limits=None,
-                 motor: Optional[Motor] = None, name: Optional[str] = None, collide_connected: bool = False):
+                 motor: Optional[Motor] = None, friction: float = 0.0, name: Optional[str] = None,
+                 collide_connected: bool = False):
         super().__init__(body_a, body_b, name=name, collide_connected=collide_connected)
         self.anchor = anchor
         self.axis = axis
         self.limits = limits
         self.motor = motor
+        self.friction = friction
 
     def _core_args(self, who: str, positions: np.ndarray) -> dict:
         d = super()._core_args(who, positions)
@@ -115,21 +117,23 @@ class _Axial(Joint):
                 raise TypeError(f"{who}: a hinge needs its anchor (a world point)")
             anchor = positions[d["body_b"]] if 0 <= d["body_b"] < len(positions) else np.zeros(3)
         d.update(anchor=as_vector(anchor, 3, who, "anchor"), axis=as_vector(self.axis, 3, who, "axis"),
-                 **_limits(self.limits, who), **_motor(self.motor, who))
+                 **_limits(self.limits, who), **_motor(self.motor, who),
+                 friction=as_number(self.friction, who, "friction"))
         return d
 
 
 class Revolute(_Axial):
     """A hinge: the bodies share the ``anchor`` point and B turns about ``axis`` only (world, at
     creation). ``limits=(lo, hi)`` (rad, in (-pi, pi); the angle is 0 at creation, positive when B
-    turns counter-clockwise about the axis relative to A); ``motor=Motor(speed, max_torque)``."""
+    turns counter-clockwise about the axis relative to A); ``motor=Motor(speed, max_torque)``;
+    ``friction`` (N m): Coulomb friction, the most torque the hinge resists turning with."""
     kind = REVOLUTE
 
 
 class Prismatic(_Axial):
     """A slider: no relative turn, and B moves along ``axis`` (world, at creation) only. ``anchor``
     defaults to B's centre of mass; ``limits=(lo, hi)`` (m, the offset is 0 at creation);
-    ``motor=Motor(speed, max_force)``."""
+    ``motor=Motor(speed, max_force)``; ``friction`` (N): the most force it resists sliding with."""
     kind = PRISMATIC
 
 

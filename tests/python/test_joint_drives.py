@@ -1,8 +1,8 @@
-"""Spring-damper motors of hinges and sliders (sg.Motor with stiffness and damping: joint damping,
+"""Friction, and spring-damper motors of hinges and sliders (sg.Motor with stiffness and damping: joint damping,
 servos, MuJoCo's velocity and position actuators), against closed forms: the damped rotor's decay
-and the servo's damped oscillation. The oracle repeats them step by step in
-test_joints.py::test_oracle_matches_pgs_steps_of_a_jointed_scene (its scene has a servo hinge and a
-damped slider)."""
+the servo's damped oscillation, a rotor braked by Coulomb friction. The oracle repeats them step by step in
+test_joints.py::test_oracle_matches_pgs_steps_of_a_jointed_scene (its scene has a servo hinge, a
+damped slider, and a hinge and a slider with friction)."""
 import math
 
 import numpy as np
@@ -13,14 +13,14 @@ import signorini as sg
 SOLVERS = ["pgs", "soft"]
 
 
-def rotor(solver, motor, omega0=3.0, substeps=1):
+def rotor(solver, motor, omega0=3.0, substeps=1, friction=0.0):
     """A 1 kg box (0.4 x 0.2 x 0.1 m half extents) spinning at omega0 about z on a hinge through its
     centre to a static body, no gravity: the hinge's coordinate is its angle about z."""
     w = sg.World(gravity=(0.0, 0.0, 0.0), solver=solver, sleeping=False)
     w.set_solver(substeps=substeps)
     ground = w.add_static(sg.Box((0.1, 0.1, 0.1)), position=(0.0, 0.0, -1.0))
     body = w.add_body(sg.Box((0.4, 0.2, 0.1)), mass=1.0, angular_velocity=(0.0, 0.0, omega0))
-    j = w.add_joint(sg.Revolute(ground, body, anchor=(0, 0, 0), axis=(0, 0, 1), motor=motor))
+    j = w.add_joint(sg.Revolute(ground, body, anchor=(0, 0, 0), axis=(0, 0, 1), motor=motor, friction=friction))
     I_z = 1.0 / 3.0 * (0.4 ** 2 + 0.2 ** 2)  # m (a^2 + b^2) / 3 for half extents a, b
     return w, body, j, I_z
 
@@ -154,3 +154,43 @@ def test_a_saved_state_and_a_pickle_keep_the_drive():
     assert np.array_equal(copy.joint_positions, ahead)
     assert copy.joint(j)["motor_stiffness"] == 2.0 and copy.joint(j)["motor_damping"] == 0.4
     assert copy.joint(j)["motor_position"] == 1.0
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_joint_friction_brakes_a_rotor_at_f_over_i_and_holds_it(solver):
+    # Coulomb friction f on a free rotor: omega falls at f / I and stops at t = I omega0 / f, then
+    # stays at rest (the row holds it, |torque| <= f); before it stops the torque is -f exactly
+    f, dt = 0.02, 1 / 240
+    w, body, j, I = rotor(solver, None, omega0=3.0, friction=f)
+    stop = I * 3.0 / f
+    steps = int(0.5 * stop / dt)
+    w.step(dt, steps)
+    assert w.joint_velocities[j] == pytest.approx(3.0 - f / I * steps * dt, rel=1e-9)
+    assert w.joint_torques[j][2] == pytest.approx(-f, rel=1e-12)
+    w.step(dt, 2 * steps)
+    assert abs(w.joint_velocities[j]) < 1e-12
+    assert abs(w.joint_torques[j][2]) <= f
+
+
+def test_joint_friction_holds_a_slider_below_it_and_lets_it_slide_above():
+    # a 1 kg block on a vertical slider: friction above m g holds it; below, it falls at g - f / m
+    dt = 1 / 240
+    for f, expected in ((12.0, 0.0), (4.0, -(9.81 - 4.0) * 1.0)):
+        w = sg.World(gravity=(0.0, 0.0, -9.81), sleeping=False)
+        ground = w.add_static(sg.Box((0.1, 0.1, 0.1)), position=(0.0, 0.0, 5.0))
+        block = w.add_body(sg.Box((0.1, 0.1, 0.1)), mass=1.0, position=(0.0, 0.0, 4.0))
+        j = w.add_joint(sg.Prismatic(ground, block, anchor=(0, 0, 4.0), axis=(0, 0, 1), friction=f))
+        w.step(dt, 240)
+        assert w.joint_velocities[j] == pytest.approx(expected, abs=1e-9)
+
+
+@pytest.mark.parametrize("bad, error, message", [
+    (lambda g, b: sg.Revolute(g, b, anchor=(0, 0, 0), friction=-1.0), ValueError, "friction must be finite and >= 0"),
+    (lambda g, b: sg.Prismatic(g, b, friction=math.nan), ValueError, "friction must be finite and >= 0"),
+    (lambda g, b: sg.Revolute(g, b, anchor=(0, 0, 0), friction="some"), TypeError, "friction"),
+])
+def test_bad_friction_names_the_joint_and_adds_nothing(bad, error, message):
+    w, body, j, I = rotor("pgs", None)
+    with pytest.raises(error, match=message):
+        w.add_joint(bad(0, body))
+    assert w.num_joints == 1

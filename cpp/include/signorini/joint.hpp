@@ -52,6 +52,9 @@ struct JointDesc {
   bool has_limits = false;           ///< Revolute (rad), Prismatic (m): lower <= coordinate <= upper
   double lower = 0.0, upper = 0.0;   ///< lower <= upper; the coordinate is 0 at creation
   Motor motor;                       ///< Revolute, Prismatic
+  /// Revolute, Prismatic: Coulomb friction, the most torque (N m) or force (N) the joint resists
+  /// sliding with (>= 0, finite; 0: none): a row J q_dot = 0 with |alpha| <= friction
+  double friction = 0.0;
   double min_length = 0.0;           ///< Distance (m, >= 0)
   double max_length = std::numeric_limits<double>::infinity();  ///< Distance (m, >= min_length, > 0)
   bool collide_connected = false;    ///< false: bodies A and B get no contacts with each other
@@ -65,7 +68,8 @@ enum JointSlot : int {
   kSlotUpper = 2,      ///< upper limit row (1)
   kSlotLinear = 3,     ///< point rows (3, world x y z) or a slider's two perpendicular rows (2)
   kSlotAngular = 6,    ///< angular rows: a hinge's two perpendicular rows, a weld's or slider's 3
-  kJointSlots = 9,
+  kSlotFriction = 9,   ///< friction row (1)
+  kJointSlots = 10,
 };
 
 /// A joint as the World keeps it. Anchors are lever arms from each body's centre of mass in the
@@ -81,6 +85,7 @@ struct Joint {
   bool has_limits = false;
   double lower = 0.0, upper = 0.0;
   Motor motor;
+  double friction = 0.0;  ///< N m or N (JointDesc::friction)
   double min_length = 0.0, max_length = std::numeric_limits<double>::infinity();
   bool collide_connected = false;
   std::string name;

@@ -172,6 +172,14 @@ void drive(JointBlock& b, const Motor& m, double x, double h, bool angle) {
   b.target = b.gamma * (m.stiffness * error + m.damping * m.speed);
 }
 
+/// The friction row b of a one-dof joint: a rigid motor of speed 0 whose force is at most `friction`.
+void resist(JointBlock& b, double friction) {
+  b.target = 0.0;
+  b.gamma = 0.0;
+  b.lo = -friction;
+  b.hi = friction;
+}
+
 /// Appends the blocks of joint j with its bodies at poses A and B (Jacobians and C only; h: the
 /// substep, for a spring-damper drive).
 void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_moves, bool b_moves, double h) {
@@ -189,6 +197,11 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
           JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotMotor, a_moves, b_moves);
           angular_row(b, 0, axis);
           drive(b, j.motor, theta, h, true);
+        }
+        if (j.friction > 0.0) {
+          JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotFriction, a_moves, b_moves);
+          angular_row(b, 0, axis);
+          resist(b, j.friction);
         }
         if (j.has_limits) {
           JointBlock& lo = add_block(js, j, JointBlock::Limit, 1, kSlotLower, a_moves, b_moves);
@@ -218,6 +231,11 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
           JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotMotor, a_moves, b_moves);
           linear_row(b, 0, axis, ra_lin, f.r_b);
           drive(b, j.motor, s, h, false);
+        }
+        if (j.friction > 0.0) {
+          JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotFriction, a_moves, b_moves);
+          linear_row(b, 0, axis, ra_lin, f.r_b);
+          resist(b, j.friction);
         }
         if (j.has_limits) {
           JointBlock& lo = add_block(js, j, JointBlock::Limit, 1, kSlotLower, a_moves, b_moves);

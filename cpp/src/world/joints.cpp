@@ -92,9 +92,12 @@ JointIndex World::add_joint(const JointDesc& desc) {
         fail("a hinge's limits must lie in (-pi, pi) rad, got (" + num(desc.lower) + ", " + num(desc.upper) + ")");
     }
     if (desc.motor.enabled) check_motor(desc.motor, fail);
+    if (!(std::isfinite(desc.friction) && desc.friction >= 0.0))
+      fail("friction must be finite and >= 0, got " + num(desc.friction));
   } else {
     if (desc.has_limits) fail("only Revolute and Prismatic joints take limits");
     if (desc.motor.enabled) fail("only Revolute and Prismatic joints take a motor");
+    if (desc.friction != 0.0) fail("only Revolute and Prismatic joints take friction");
   }
   if (desc.kind == JointKind::Distance) {
     if (!(std::isfinite(desc.min_length) && desc.min_length >= 0.0))
@@ -127,6 +130,7 @@ JointIndex World::add_joint(const JointDesc& desc) {
   x.lower = desc.lower;
   x.upper = desc.upper;
   x.motor = desc.motor;
+  x.friction = desc.friction;
   x.min_length = desc.min_length;
   x.max_length = desc.max_length;
   x.collide_connected = desc.collide_connected;

@@ -7,7 +7,7 @@
 // per body awake, sleep timer and island label, then the sleeping islands' warm-start forces); the
 // joints (format 5: each joint whole, in its bodies' frames, with its warm-start forces and last
 // force and torque; format 6: the kept manifolds with their rows as found; format 7: each joint's
-// motor with its servo position, stiffness and damping). Formats 1 (no spin
+// motor with its servo position, stiffness and damping, its friction and the friction row's force). Formats 1 (no spin
 // torques), 2 (no contact memory), 3 (no islands: every body awake, timers zero), 4 (no kept
 // manifolds: every pair found anew, no pair counts; no joints: the world keeps its joints, their
 // warm start zeroed), 5 (kept manifolds without their rows: every pair found anew) and 6 (rigid
@@ -117,6 +117,7 @@ void save(serial::Writer& w, const Joint& j) {
   w.pod(j.motor.position);
   w.pod(j.motor.stiffness);
   w.pod(j.motor.damping);
+  w.pod(j.friction);
   w.pod(j.min_length);
   w.pod(j.max_length);
   w.pod(static_cast<std::uint8_t>(j.collide_connected));
@@ -150,6 +151,7 @@ Joint load_joint(serial::Reader& r, std::size_t n, char version) {
     j.motor.position = r.pod<double>();
     j.motor.stiffness = r.pod<double>();
     j.motor.damping = r.pod<double>();
+    j.friction = r.pod<double>();
   }
   j.min_length = r.pod<double>();
   j.max_length = r.pod<double>();
@@ -157,7 +159,9 @@ Joint load_joint(serial::Reader& r, std::size_t n, char version) {
   const std::size_t length = r.count(1);
   j.name.assign(r.in, r.at, length);
   r.at += length;
-  for (double& a : j.alpha) a = r.pod<double>();
+  // format 6 and before: the slots before the friction row's
+  const std::size_t slots = version >= '7' ? j.alpha.size() : static_cast<std::size_t>(kSlotFriction);
+  for (std::size_t k = 0; k < slots; ++k) j.alpha[k] = r.pod<double>();
   r.mat(j.force);
   r.mat(j.torque);
   bool finite = j.anchor_a.allFinite() && j.anchor_b.allFinite() && j.axis_a.allFinite() && j.axis_b.allFinite() &&
@@ -165,7 +169,8 @@ Joint load_joint(serial::Reader& r, std::size_t n, char version) {
                 j.torque.allFinite() && !std::isnan(j.lower) && !std::isnan(j.upper) && std::isfinite(j.min_length) &&
                 !std::isnan(j.max_length) && std::isfinite(j.motor.speed) && j.motor.max_force >= 0.0 &&
                 std::isfinite(j.motor.position) && std::isfinite(j.motor.stiffness) && j.motor.stiffness >= 0.0 &&
-                std::isfinite(j.motor.damping) && j.motor.damping >= 0.0;
+                std::isfinite(j.motor.damping) && j.motor.damping >= 0.0 && std::isfinite(j.friction) &&
+                j.friction >= 0.0;
   for (const double a : j.alpha) finite = finite && std::isfinite(a);
   if (!finite) throw std::invalid_argument(damaged);
   return j;

@@ -10,16 +10,16 @@ A joint (``snapshot["joints"]``, a list of dicts, as ``World.snapshot()`` writes
     axis_a, axis_b, ref_a, ref_b  (3,) unit, each body's frame (R_A axis_a = R_B axis_b at creation)
     R_rel       (3, 3) R_A^T R_B at creation
     has_limits, lower, upper    (rad or m);  motor, motor_speed, motor_max_force (and, for a
-    spring-damper motor, motor_position, motor_stiffness, motor_damping)
+    spring-damper motor, motor_position, motor_stiffness, motor_damping); friction (N m or N, 0: none)
     min_length, max_length      (m; Distance)
     alpha       (9,) the rows' forces of the last substep by slot (N or N m): the warm start
-Slots: motor 0, lower 1, upper 2, linear 3..5, angular 6..8.
+Slots: motor 0, lower 1, upper 2, linear 3..5, angular 6..8, friction 9.
 """
 import numpy as np
 
 from .rigid import rodrigues
 
-SLOT_MOTOR, SLOT_LOWER, SLOT_UPPER, SLOT_LINEAR, SLOT_ANGULAR = 0, 1, 2, 3, 6
+SLOT_MOTOR, SLOT_LOWER, SLOT_UPPER, SLOT_LINEAR, SLOT_ANGULAR, SLOT_FRICTION = 0, 1, 2, 3, 6, 9
 SLOTS = 9
 EQUALITY, LIMIT, MOTOR = "equality", "limit", "motor"
 
@@ -84,7 +84,8 @@ def _drive(m, joint, x, h, angle):
 
 def build_blocks(joint, pA, RA, pB, RB, h):
     """The blocks of one joint with its bodies at (pA, RA), (pB, RB), in the core's order: motor,
-    lower limit, upper limit, then the equality blocks (h: the substep, for a spring-damper motor)."""
+    friction, lower limit, upper limit, then the equality blocks (h: the substep, for a
+    spring-damper motor); friction is a motor row of speed 0 bounded by the joint's friction."""
     r_a, r_b = RA @ joint["anchor_a"], RB @ joint["anchor_b"]
     d = (pB + r_b) - (pA + r_a)
     kind, out = joint["kind"], []
@@ -96,6 +97,11 @@ def build_blocks(joint, pA, RA, pB, RB, h):
             _angular(m, 0, axis)
             _drive(m, joint, theta, h, True)
             out.append(m)
+        if joint.get("friction", 0.0) > 0.0:
+            f = _block(MOTOR, 1, joint, SLOT_FRICTION)
+            _angular(f, 0, axis)
+            f["lo"], f["hi"] = -joint["friction"], joint["friction"]
+            out.append(f)
         if joint["has_limits"]:
             lo, hi = _block(LIMIT, 1, joint, SLOT_LOWER), _block(LIMIT, 1, joint, SLOT_UPPER)
             _angular(lo, 0, axis)
@@ -123,6 +129,11 @@ def build_blocks(joint, pA, RA, pB, RB, h):
             _linear(m, 0, axis, ra_lin, r_b)
             _drive(m, joint, s, h, False)
             out.append(m)
+        if joint.get("friction", 0.0) > 0.0:
+            f = _block(MOTOR, 1, joint, SLOT_FRICTION)
+            _linear(f, 0, axis, ra_lin, r_b)
+            f["lo"], f["hi"] = -joint["friction"], joint["friction"]
+            out.append(f)
         if joint["has_limits"]:
             lo, hi = _block(LIMIT, 1, joint, SLOT_LOWER), _block(LIMIT, 1, joint, SLOT_UPPER)
             _linear(lo, 0, axis, ra_lin, r_b)
