@@ -27,7 +27,7 @@ from .decomposition import decompose
 from .batch import Batch
 
 if TYPE_CHECKING:
-    from .mjcf import MJCFError, load_mjcf, read_mjcf
+    from .mjcf import MJCFError, import_mjcf, load_mjcf, read_mjcf
     from .urdf import URDFError, add_urdf, load_urdf
     from .scenefile import SceneFileError, load_scene, read_scene, save_scene
     from .sweeps import SweepError, state_hash, sweep
@@ -35,6 +35,7 @@ if TYPE_CHECKING:
 # imported when first used: pydantic takes a tenth of a second to import
 _LAZY = {"load_scene": "scenefile", "read_scene": "scenefile", "save_scene": "scenefile",
          "SceneFileError": "scenefile", "load_mjcf": "mjcf", "read_mjcf": "mjcf", "MJCFError": "mjcf",
+         "import_mjcf": "mjcf",
          "load_urdf": "urdf", "add_urdf": "urdf", "URDFError": "urdf",
          "sweep": "sweeps", "SweepError": "sweeps", "state_hash": "sweeps"}
 
@@ -60,6 +61,6 @@ __all__ = ["World", "Hit", "RayHits", "BodyDistance", "Sphere", "Box", "Plane", 
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "save_mesh", "decompose",
            "MeshRepairWarning", "load_scene", "read_scene",
-           "save_scene", "SceneFileError", "load_mjcf", "read_mjcf", "MJCFError", "load_urdf", "add_urdf",
+           "save_scene", "SceneFileError", "load_mjcf", "read_mjcf", "import_mjcf", "MJCFError", "load_urdf", "add_urdf",
            "URDFError", "sweep", "SweepError", "state_hash", "meshes", "meshfile"]
 __version__ = "0.1.0"

@@ -3,6 +3,7 @@
 
     w = sg.load_mjcf("model.xml")            # the World
     scene = sg.read_mjcf("model.xml")        # a scenefile.Scene: the World, dt = option timestep, names
+    model = sg.import_mjcf("model.xml")      # an MJCFModel: the Scene, bodies, joints, actuators, set_ctrl
 
 What is imported:
 
@@ -11,7 +12,7 @@ What is imported:
   ``cylinder``, ``ellipsoid`` (equal radii: a sphere; unequal, static only: the convex hull of a
   subdivided icosphere stretched to the radii) and ``mesh`` (a ``TriangleMesh`` of the file);
 - a body with a ``<freejoint/>`` (or ``<joint type="free"/>``) directly under ``<worldbody>``
-  becomes a dynamic body; its geoms and those of its joint-less child bodies (welded to it, as in
+  (or in a ``<frame>`` there) becomes a dynamic body; its geoms and those of its joint-less child bodies (welded to it, as in
   MuJoCo) are one shape, a ``Compound`` when there are several or the geom is not at the body
   origin. The body frame is MuJoCo's body frame (``pos``/``quat``...); its centre of mass goes
   where MuJoCo puts it. Mesh geoms of dynamic bodies are the convex hull of the mesh, as MuJoCo
@@ -38,13 +39,48 @@ What is imported:
   1 (frictionless in MuJoCo) gives its body friction 0; MuJoCo takes the larger condim of a pair,
   so such a geom against one of condim 3 has friction there and none here (sqrt(0 mu) = 0).
 
+Joints (docs/conventions.md, "MJCF joints and actuators"):
+
+- a body with one ``hinge``, ``slide`` or ``ball`` joint (directly or in a ``<frame>`` of the
+  body; ``pos`` and ``axis`` in the body's frame) is a moving body joined to its parent's body by
+  ``sg.Revolute``, ``sg.Prismatic`` or ``sg.Spherical`` (anchor and axis converted to the world
+  at the file's pose); its parent is the nearest moving ancestor, or, for a body whose ancestors
+  are welded to the world, a static body named "world" (a 1 cm sphere colliding with nothing)
+  added after the static geoms. Bodies without joints are welded to their moving ancestor (one
+  shape) or to the world (static geoms), as before. ``<frame>`` (pos, orientation, childclass)
+  poses what it holds. The joint's two bodies do not collide (MuJoCo's parent-child filter);
+- ``ref``: MuJoCo's coordinate at the file's pose, where signorini's is 0: MuJoCo's qpos =
+  ``joint_positions`` + ref (``MJCFModel.qpos``); ``range`` (limited by ``limited`` or the
+  compiler's ``autolimits``) becomes the limits range - ref; ``stiffness`` (towards
+  ``springref``) and ``damping`` are the joint's drive (``sg.Motor`` spring-damper, max force
+  inf), ``frictionloss`` its ``friction``;
+- actuators ``position`` (kp, kv) and ``velocity`` (kv) on a hinge or slide, with ``gear``
+  (first value), ``ctrlrange`` (controls are clamped to it) and a symmetric ``forcerange``: the
+  joint's drive, summed with its spring and damper (``_drive``); controls start at 0 as in MuJoCo
+  and ``MJCFModel.set_ctrl`` changes them;
+- ``<contact><exclude body1 body2>``: those bodies never collide (``disable_collision``);
+  ``<option><flag contact="disable"/>`` makes every body collide with nothing (filter 0, 0) and
+  ``gravity="disable"`` sets gravity to 0.
+
+Refused (listed in the one error below): ``armature`` (it adds inertia to the joint coordinate
+alone, which no rigid body's mass matrix does), a body with several joints (each signorini joint
+joins two bodies; the massless bodies between chained joints are not possible, a body needs a
+positive mass), a ball joint's range (a cone limit), stiffness, damping or frictionloss, a hinge
+range that minus ref reaches outside (-180, 180) degrees (signorini's hinge angle wraps there),
+the ``motor`` actuator (a direct torque: the core has no joint torque input) and every other
+actuator type, actuators on ball joints, an asymmetric ``forcerange``, a ``forcerange`` on a joint
+with stiffness or damping (the one drive would bound their sum), two actuators on one joint,
+contact ``<pair>``s. Bad input (an error naming the line and element, before any body is added):
+a joint on the world body, a zero axis, a range or ctrlrange with lo > hi, an unknown joint type,
+a range without ``limited`` when autolimits is false, negative stiffness, damping, frictionloss,
+kp or kv, an actuator naming no hinge or slide joint, gear 0, an exclude naming no body.
+
 Ignored, because they do not change the rigid bodies: sites, cameras, lights, sensors,
 keyframes, visual, statistic, size, custom, textures and materials, and the contact-tuning
 attributes (solref, solimp, margin, gap, priority, contype, conaffinity, rgba, group).
-Everything else (hinge, slide and ball joints, actuators, tendons, equality constraints, contact
-pairs and excludes, height fields, includes, frames, plugins...) is an ``MJCFError`` listing every
-unsupported element with its line, in line order, the joints inside a ``<frame>`` too (as MuJoCo
-writes a converted URDF), so a model is never imported with a part silently missing.
+Everything else (tendons, equality constraints, contact pairs, height fields, includes,
+replicates, plugins...) is an ``MJCFError`` listing every unsupported element with its line, in
+line order, inside ``<frame>``s too, so a model is never imported with a part silently missing.
 Errors for a missing or malformed file, an unknown geom type or a bad value name the file, the
 line and the element.
 
@@ -72,13 +108,16 @@ from . import filecheck
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Plane, Sphere, TriangleMesh
 from .codec import matrix_to_quat
 
-__all__ = ["load_mjcf", "read_mjcf", "MJCFError", "MAX_MJCF_BYTES", "MAX_MJCF_DEPTH"]
+__all__ = ["load_mjcf", "read_mjcf", "import_mjcf", "MJCFModel", "MJCFJoint", "MJCFActuator", "MJCFError",
+           "MAX_MJCF_BYTES", "MAX_MJCF_DEPTH"]
 
 # limits (module doc): MuJoCo's menagerie models are under 1 MB of XML (meshes apart), 64 MiB is far
 # above any hand-written or exported model while bounding the tree built in memory
 MAX_MJCF_BYTES = 64 * 2**20
 # a humanoid's kinematic tree nests bodies about 15 deep; 64 keeps the reader's recursion shallow
 MAX_MJCF_DEPTH = 64
+# the static body that bodies jointed to MuJoCo's world hang from (m): it collides with nothing
+_ANCHOR_RADIUS = 0.01
 
 
 class MJCFError(ValueError):
@@ -87,7 +126,7 @@ class MJCFError(ValueError):
 
 
 # the rigid-body subset: what is read, and what is skipped because it does not change the bodies
-_TOP_READ = {"compiler", "option", "default", "asset", "worldbody"}
+_TOP_READ = {"compiler", "option", "default", "asset", "worldbody", "actuator", "contact"}
 _TOP_IGNORED = {"size", "visual", "statistic", "sensor", "keyframe", "custom"}
 _BODY_READ = {"geom", "body", "inertial", "freejoint", "joint"}
 _BODY_IGNORED = {"site", "camera", "light"}
@@ -99,10 +138,19 @@ _GEOM_IGNORED = {"rgba", "group", "material", "contype", "conaffinity", "solref"
                  "margin", "gap", "priority", "user", "fitscale", "shellinertia"}
 _BODY_ATTRS = {"name", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "childclass"}
 _BODY_IGNORED_ATTRS = {"mocap", "gravcomp", "user"}
-_COMPILER_ATTRS = {"angle", "meshdir", "assetdir", "eulerseq", "inertiafromgeom"}
-_COMPILER_IGNORED = {"autolimits", "texturedir", "discardvisual", "strippath", "inertiagrouprange", "fitaabb",
+_COMPILER_ATTRS = {"angle", "meshdir", "assetdir", "eulerseq", "inertiafromgeom", "autolimits"}
+_COMPILER_IGNORED = {"texturedir", "discardvisual", "strippath", "inertiagrouprange", "fitaabb",
                      "usethread", "convexhull", "alignfree", "fusestatic"}
 _OPTION_ATTRS = {"gravity", "timestep", "cone"}
+_FRAME_ATTRS = {"name", "pos", "quat", "euler", "axisangle", "xyaxes", "zaxis", "childclass"}
+# joints and actuators: what maps (module doc, "Joints"); the solver-tuning attributes are skipped
+_JOINT_ATTRS = {"name", "class", "type", "pos", "axis", "range", "limited", "ref", "springref", "stiffness",
+                "damping", "frictionloss", "armature"}
+_JOINT_IGNORED = {"group", "user", "margin", "solreflimit", "solimplimit", "solreffriction", "solimpfriction"}
+_ACTUATOR_ATTRS = {"name", "class", "joint", "gear", "ctrlrange", "ctrllimited", "forcerange", "forcelimited", "kv"}
+_ACTUATOR_IGNORED = {"group", "user"}
+# elements whose <default> values are read (the others are allowed in <default> and unused)
+_DEFAULTED = ("geom", "mesh", "joint", "position", "velocity", "motor")
 # MuJoCo's geom friction (sliding, torsional m, rolling m) and contact dimensions when not given
 _MUJOCO_FRICTION = "1 0.005 0.0001"
 _MUJOCO_CONDIM = 3
@@ -213,6 +261,7 @@ class _Part:
     friction: float
     spinning_friction: float  # m, MuJoCo's torsional friction where condim >= 4, else 0
     element: ET.Element
+    body: Optional[str] = None  # the MuJoCo body it belongs to ("world" for the world's own), if named
 
 
 class _Reader:
@@ -243,9 +292,10 @@ class _Reader:
         self.eulerseq = "xyz"
         self.meshdir = path.parent
         self.inertia_from_geom = "auto"
+        self.autolimits = True  # MuJoCo 3's default: a range given makes a joint limited
+        self.contacts_off = False  # <option><flag contact="disable"/>
         self.defaults: dict[str, dict[str, dict[str, str]]] = {"main": {}}
         self.meshes: dict[str, ET.Element] = {}
-        self.current: Optional[ET.Element] = None  # the free body being read
 
     # errors ------------------------------------------------------------------------------------
     def where(self, el: ET.Element) -> str:
@@ -373,16 +423,31 @@ class _Reader:
                 if key in el.attrib:
                     self.meshdir = self.path.parent / el.get(key)
             self.inertia_from_geom = el.get("inertiafromgeom", self.inertia_from_geom)
+            autolimits = el.get("autolimits", "true" if self.autolimits else "false")
+            if autolimits not in ("true", "false"):
+                raise self.error(el, f"autolimits must be true or false, got {autolimits!r}")
+            self.autolimits = autolimits == "true"
             if self.inertia_from_geom not in ("auto", "true", "false"):
                 raise self.error(el, f"inertiafromgeom must be auto, true or false, got {self.inertia_from_geom!r}")
         settings = {}
         dt = None
+        self.gravity_off = False
         for el in self.root.iter("option"):
             self.check_attrs(el, _OPTION_ATTRS, {"integrator", "iterations", "tolerance", "solver", "jacobian",
                                                  "ls_iterations", "noslip_iterations", "impratio", "o_margin"})
             for child in el:
                 if child.tag != "flag":
                     self.skip(child)
+                    continue
+                # flags that change the bodies' motion; the others tune MuJoCo's solver
+                for key in ("contact", "gravity"):
+                    value = child.get(key, "enable")
+                    if value not in ("enable", "disable"):
+                        raise self.error(child, f"{key} must be enable or disable, got {value!r}")
+                if child.get("contact") == "disable":
+                    self.contacts_off = True
+                if child.get("gravity") == "disable":
+                    self.gravity_off = True
             g = self.numbers(el, el.attrib, "gravity", 3)
             if g is not None:
                 settings["gravity"] = g
@@ -397,6 +462,8 @@ class _Reader:
                 if cone not in ("pyramidal", "elliptic"):
                     raise self.error(el, f"cone must be pyramidal or elliptic, got {cone!r}")
                 settings["friction_cone"] = "pyramid" if cone == "pyramidal" else "cone"
+        if self.gravity_off:
+            settings["gravity"] = np.zeros(3)
         for top in self.root.findall("default"):
             self.read_defaults(top, {}, top=True)
         for asset in self.root.findall("asset"):
@@ -420,7 +487,7 @@ class _Reader:
         for child in el:
             if child.tag == "default":
                 continue
-            if child.tag in ("geom", "mesh"):
+            if child.tag in _DEFAULTED:
                 values = own.setdefault(child.tag, {})
                 friction = values.get("friction", _MUJOCO_FRICTION)
                 values.update(child.attrib)
@@ -555,49 +622,405 @@ class _Reader:
             return None, float(mass[0]), mu
         return (1000.0 if density is None else float(density[0])), None, mu
 
-    def body_parts(self, body: ET.Element, frame: _Pose, cls: str, dynamic: bool, parts: list) -> None:
-        """Adds the geoms of a body and its welded (joint-less) children to parts, posed in
-        ``frame`` (the dynamic body's frame, or the world for static ones)."""
-        for child in body:
-            if child.tag in _BODY_IGNORED:
-                continue
-            if child.tag == "geom":
-                attrs = self.attrs(child, cls)
-                self.check_attrs(child, _GEOM_ATTRS, _GEOM_IGNORED)
-                shape, pose = self.geom_shape(child, attrs, dynamic)
-                density, mass, mu = self.geom_mass(child, attrs)
-                spin = self.geom_spinning_friction(child, attrs)
-                pose = frame.then(pose)
-                if isinstance(shape, str):
-                    # a plane: the geom's z axis is the normal, through the geom's origin
-                    n = _qrot(pose.q)[:, 2]
-                    shape, pose = Plane(n, float(n @ pose.p)), _Pose()
-                parts.append(_Part(shape, pose, density, mass, mu, spin, child))
-            elif child.tag == "body":
-                self.check_attrs(child, _BODY_ATTRS, _BODY_IGNORED_ATTRS)
-                joints = [j for j in child if j.tag in ("joint", "freejoint")]
-                for j in joints:
-                    kind = "free" if j.tag == "freejoint" else self.attrs(j, cls).get("type", "hinge")
-                    self.skip(j, "a free joint with other joints, or on a body not directly under <worldbody>"
-                              if kind == "free" else f"{kind} joint")
-                inner = self.attrs(child, cls).get("childclass", cls)
-                self.body_parts(child, frame.then(self.pose(child, self.attrs(child, cls))), inner, dynamic, parts)
-            elif child.tag == "inertial":
-                if dynamic and body is not self.current:
+    def geom_part(self, el: ET.Element, cls: str, frame: _Pose, dynamic: bool, body: Optional[str]) -> _Part:
+        """A geom as a part posed in ``frame``'s parent (the moving body's frame, or the world)."""
+        attrs = self.attrs(el, cls)
+        self.check_attrs(el, _GEOM_ATTRS, _GEOM_IGNORED)
+        shape, pose = self.geom_shape(el, attrs, dynamic)
+        density, mass, mu = self.geom_mass(el, attrs)
+        spin = self.geom_spinning_friction(el, attrs)
+        pose = frame.then(pose)
+        if isinstance(shape, str):
+            # a plane: the geom's z axis is the normal, through the geom's origin
+            n = _qrot(pose.q)[:, 2]
+            shape, pose = Plane(n, float(n @ pose.p)), _Pose()
+        return _Part(shape, pose, density, mass, mu, spin, el, body)
+
+    def body_joints(self, el: ET.Element, cls: str, frame: _Pose) -> list:
+        """The joints of a body (or of <worldbody>): its <joint> and <freejoint> children and those
+        of the <frame>s in it, as (element, default class, the pose of the joint's parent element in
+        the body's frame)."""
+        out = []
+        for child in el:
+            if child.tag in ("joint", "freejoint"):
+                out.append((child, cls, frame))
+            elif child.tag == "frame":
+                out += self.body_joints(child, self.class_of(child, cls), frame.then(self.pose(child, child.attrib)))
+        return out
+
+    def class_of(self, el: ET.Element, cls: str) -> str:
+        """The default class an element's children use (its childclass, else the inherited one)."""
+        inner = el.get("childclass", cls)
+        if inner not in self.defaults:
+            raise self.error(el, f"unknown default class {inner!r} (known: {', '.join(sorted(self.defaults))})")
+        return inner
+
+    def walk(self, el: ET.Element, frame: _Pose, cls: str, owner: Optional[int], top: bool, body: Optional[str],
+             static_parts: list, links: list) -> None:
+        """Reads the children of ``el`` (<worldbody>, <body> or <frame>), whose frame is ``frame`` in
+        its owner's: the moving body ``links[owner]`` or, for None, the world (static geoms).
+        ``top``: ``el`` is <worldbody> or a frame in it (where free bodies may be); ``body``: the
+        MuJoCo body ``el`` belongs to. A body without joints is welded to its owner; a body with
+        joints is a new moving body (a _Link) whose parent is the owner."""
+        parts = static_parts if owner is None else links[owner].parts
+        owner_pose = _Pose() if owner is None else links[owner].pose
+        for child in el:
+            tag = child.tag
+            if tag in _BODY_IGNORED or tag in ("joint", "freejoint"):
+                continue  # joints: read with their body (body_joints)
+            if tag == "inertial":
+                if el.tag != "body":
+                    self.skip(child, "an inertial outside a body")
+                elif owner is not None and links[owner].element is not el:
                     self.skip(child, "an inertial on a welded child body")
-            elif child.tag in ("joint", "freejoint"):
-                pass  # read by the caller
+            elif tag == "geom":
+                parts.append(self.geom_part(child, cls, frame, owner is not None, body))
+            elif tag == "frame":
+                self.check_attrs(child, _FRAME_ATTRS)
+                self.walk(child, frame.then(self.pose(child, child.attrib)), self.class_of(child, cls), owner, top,
+                          body, static_parts, links)
+            elif tag == "body":
+                self.check_attrs(child, _BODY_ATTRS, _BODY_IGNORED_ATTRS)
+                attrs = self.attrs(child, cls)
+                inner = self.class_of(child, cls)
+                here = frame.then(self.pose(child, attrs))
+                name = child.get("name")
+                joints = self.body_joints(child, inner, _Pose())
+                if not joints:
+                    if owner is not None and name:
+                        links[owner].welded.append(name)
+                    self.walk(child, here, inner, owner, False, name, static_parts, links)
+                    continue
+                kinds = ["free" if j.tag == "freejoint" else self.attrs(j, c).get("type", "hinge") for j, c, _ in joints]
+                if "free" in kinds and (len(kinds) > 1 or not top):
+                    for (j, _, _), kind in zip(joints, kinds):
+                        if kind == "free":
+                            self.skip(j, "a free joint with other joints, or on a body not directly under <worldbody>")
+                elif len(joints) > 1:
+                    self.skip(child, f"{len(joints)} joints on one body ({', '.join(kinds)}): a signorini joint joins "
+                                     "two bodies, and the massless bodies between chained joints are not possible "
+                                     "(every moving body needs a positive mass)")
+                links.append(_Link(child, name, owner_pose.then(here), inner, owner, joints))
+                self.walk(child, _Pose(), inner, len(links) - 1, False, name, static_parts, links)
             else:
                 self.skip_tree(child)
 
+    # joints and actuators -----------------------------------------------------------------------
+    def limited(self, el: ET.Element, attrs: dict, flag: str, key: str, scale: float = 1.0):
+        """A range attribute (``range``, ``ctrlrange``, ``forcerange``) as (lo, hi) when it is
+        limited (``limited``/``ctrllimited``/``forcelimited``, "auto" by the compiler's
+        autolimits), else None; lo > hi is an error."""
+        value = attrs.get(flag, "auto")
+        if value not in ("true", "false", "auto"):
+            raise self.error(el, f"{flag} must be true, false or auto, got {value!r}")
+        given = self.numbers(el, attrs, key, 2)
+        if value == "auto" and given is not None and not self.autolimits:
+            raise self.error(el, f"{key} is given without {flag} while the compiler's autolimits is false "
+                                 f"(set {flag} or autolimits)")
+        if value == "false" or (value == "auto" and given is None):
+            return None
+        lo, hi = (0.0, 0.0) if given is None else (float(given[0]) * scale, float(given[1]) * scale)
+        if lo > hi:
+            raise self.error(el, f"{key}={attrs[key]!r}: the lower bound is above the upper one")
+        return lo, hi
+
+    def nonnegative(self, el: ET.Element, attrs: dict, key: str, default: float = 0.0) -> float:
+        value = self.numbers(el, attrs, key, 1)
+        if value is None:
+            return default
+        if value[0] < 0.0:
+            raise self.error(el, f"{key}={attrs[key]!r} must be >= 0")
+        return float(value[0])
+
+    def joint_plan(self, link: "_Link") -> Optional["_JointPlan"]:
+        """The checked joint of a moving body (None for a free body or one already listed as
+        unsupported): anchor and axis in the world, limits and spring in signorini's coordinate."""
+        if len(link.joints) != 1:
+            return None
+        el, cls, frame = link.joints[0]
+        if el.tag == "freejoint":
+            self.check_attrs(el, {"name"}, {"group", "align"})
+            return None
+        attrs = self.attrs(el, cls)
+        kind = attrs.get("type", "hinge")
+        if kind == "free":
+            return None
+        if kind not in ("hinge", "slide", "ball"):
+            raise self.error(el, f"unknown joint type {kind!r} (MJCF: free, ball, slide, hinge)")
+        extra = sorted(set(attrs) - _JOINT_ATTRS - _JOINT_IGNORED)
+        if extra:
+            self.skip(el, f"attribute{'s' if len(extra) > 1 else ''} {', '.join(extra)}")
+        R = _qrot(link.pose.q)
+        local = frame.then(_Pose(self.numbers(el, attrs, "pos", 3) if "pos" in attrs else np.zeros(3)))
+        anchor = link.pose.p + R @ local.p
+        axis = self.numbers(el, attrs, "axis", 3)
+        axis = np.array([0.0, 0.0, 1.0]) if axis is None else axis
+        n = float(np.linalg.norm(axis))
+        if kind != "ball" and not n > 1e-14:
+            raise self.error(el, f"axis={attrs.get('axis')!r} is zero")
+        axis = R @ _qrot(frame.q) @ (axis / n if n > 0 else axis)
+        scale = self.angle_scale if kind == "hinge" else 1.0
+        ref = self.numbers(el, attrs, "ref", 1)
+        ref = 0.0 if ref is None or kind == "ball" else float(ref[0]) * scale
+        springref = self.numbers(el, attrs, "springref", 1)
+        springref = 0.0 if springref is None or kind == "ball" else float(springref[0]) * scale
+        values = {key: self.nonnegative(el, attrs, key) for key in ("stiffness", "damping", "frictionloss", "armature")}
+        rng = self.limited(el, attrs, "limited", "range", self.angle_scale if kind in ("hinge", "ball") else 1.0)
+        if values["armature"]:
+            self.skip(el, "armature: a rotor inertia added to the joint's coordinate alone, which no rigid body's "
+                          "mass matrix has")
+        if kind == "ball":
+            for key in ("stiffness", "damping", "frictionloss"):
+                if values[key]:
+                    self.skip(el, f"{key} of a ball joint (signorini's ball joint has no drive or friction)")
+            if rng is not None:
+                self.skip(el, "range of a ball joint (a cone limit, which signorini's ball joint does not have)")
+            rng = None
+        limits = None
+        if rng is not None:
+            limits = (rng[0] - ref, rng[1] - ref)
+            if kind == "hinge" and not (-math.pi < limits[0] and limits[1] < math.pi):
+                unit = "degrees" if self.angle_scale != 1.0 else "rad"
+                self.skip(el, f"range {attrs['range']} {unit} minus ref reaches outside (-180, 180) degrees, where "
+                              "signorini's hinge angle wraps")
+        name = el.get("name")
+        return _JointPlan(el, kind, name, anchor, axis, ref, springref, rng, limits, **values)
+
+    def read_actuators(self, plans: dict) -> list:
+        """The position and velocity actuators on hinge and slide joints (``plans``: joint name ->
+        _JointPlan), checked; every other actuator is listed as unsupported."""
+        out: list[_ActuatorPlan] = []
+        driven: dict = {}
+        for top in self.root.findall("actuator"):
+            self.check_attrs(top, set())
+            for el in top:
+                if el.tag not in ("position", "velocity"):
+                    self.skip(el, "a direct joint torque, which the core has no input for" if el.tag == "motor" else
+                              f"{el.tag} actuator (position and velocity actuators are imported)")
+                    continue
+                attrs = self.attrs(el, "main")
+                known = _ACTUATOR_ATTRS | ({"kp"} if el.tag == "position" else set())
+                extra = sorted(set(attrs) - known - _ACTUATOR_IGNORED)
+                if extra:
+                    self.skip(el, f"attribute{'s' if len(extra) > 1 else ''} {', '.join(extra)}")
+                    continue
+                joint = attrs.get("joint")
+                if joint is None:
+                    raise self.error(el, "an actuator needs a joint")
+                plan = plans.get(joint)
+                if plan is None:
+                    raise self.error(el, f"joint {joint!r} is not a hinge or slide joint of the model "
+                                         f"(known: {', '.join(sorted(plans)) or 'none'})")
+                if plan.kind == "ball":
+                    self.skip(el, f"an actuator on ball joint {joint!r}")
+                    continue
+                gear = self.numbers(el, attrs, "gear", (1, 2, 3, 4, 5, 6))
+                gear = 1.0 if gear is None else float(gear[0])
+                if gear == 0.0:
+                    raise self.error(el, "gear is 0: the actuator does nothing")
+                ctrl = self.limited(el, attrs, "ctrllimited", "ctrlrange")
+                force = self.limited(el, attrs, "forcelimited", "forcerange")
+                kp = self.nonnegative(el, attrs, "kp", 1.0) if el.tag == "position" else 0.0
+                kv = self.nonnegative(el, attrs, "kv", 1.0 if el.tag == "velocity" else 0.0)
+                if force is not None and force[0] != -force[1]:
+                    self.skip(el, f"forcerange {attrs['forcerange']} is not symmetric about 0 (a joint drive's "
+                                  "force bound is)")
+                elif force is not None and (plan.stiffness or plan.damping):
+                    self.skip(el, f"forcerange with joint {joint!r}'s stiffness or damping (signorini's one drive "
+                                  "per joint would bound their sum)")
+                if joint in driven:
+                    self.skip(el, f"a second actuator on joint {joint!r} (the first is at line {driven[joint]})")
+                driven[joint] = self.lines.get(id(el), "?")
+                out.append(_ActuatorPlan(el, el.tag, el.get("name"), joint, gear, kp, kv, ctrl, force))
+        return out
+
+    def read_excludes(self, known: Collection[str]) -> list:
+        """<contact><exclude body1 body2/> pairs of body names; other contact elements are listed
+        as unsupported."""
+        out = []
+        for top in self.root.findall("contact"):
+            self.check_attrs(top, set())
+            for el in top:
+                if el.tag != "exclude":
+                    self.skip(el, "contact pairs are not imported (<exclude> is)" if el.tag == "pair" else "")
+                    continue
+                self.check_attrs(el, {"name", "body1", "body2"})
+                pair = (el.get("body1"), el.get("body2"))
+                for b in pair:
+                    if b is None:
+                        raise self.error(el, "an exclude needs body1 and body2")
+                    if b not in known:
+                        raise self.error(el, f"body {b!r} is not a body of the model")
+                out.append((el, *pair))
+        return out
+
+
+@dataclass
+class _Link:
+    """A moving body of the tree: its <body> and name (None if unnamed), its frame (world, MuJoCo's
+    body frame), default class, its joints [(element, class, pose of the joint's parent element in
+    the body's frame)], its parent (an index in the links; None: the world), the named bodies
+    welded to it, and its parts (its own frame)."""
+    element: ET.Element
+    name: Optional[str]
+    pose: _Pose
+    cls: str
+    parent: Optional[int]
+    joints: list
+    welded: list = field(default_factory=list)
+    parts: list = field(default_factory=list)
+
+
+@dataclass
+class _JointPlan:
+    """A checked hinge, slide or ball joint: anchor and unit axis (3,) world at the file's pose;
+    ref and springref, range (lo, hi) in MuJoCo's coordinate (rad, m); limits in signorini's
+    (range - ref) or None."""
+    element: ET.Element
+    kind: str
+    name: Optional[str]
+    anchor: np.ndarray
+    axis: np.ndarray
+    ref: float
+    springref: float
+    range: Optional[tuple]
+    limits: Optional[tuple]
+    stiffness: float
+    damping: float
+    frictionloss: float
+    armature: float
+
+
+@dataclass
+class _ActuatorPlan:
+    element: ET.Element
+    kind: str
+    name: Optional[str]
+    joint: str
+    gear: float
+    kp: float
+    kv: float
+    ctrlrange: Optional[tuple]
+    forcerange: Optional[tuple]
+
+
+@dataclass(frozen=True)
+class MJCFJoint:
+    """A hinge, slide or ball joint as imported. ``index``: its World joint; ``body`` and
+    ``parent``: the child's and the parent's body indices (a body jointed to MuJoCo's world hangs
+    from the static body named "world"). MuJoCo's units and coordinate (rad, m): ``ref`` is the
+    coordinate at the file's pose, where signorini's is 0, so MuJoCo's qpos is
+    ``World.joint_positions[index] + ref``; ``lower``/``upper`` the range (NaN: not limited; the
+    World's limits are these minus ref); ``stiffness`` (N m/rad, N/m) pulling towards
+    ``springref``, ``damping`` (N m s/rad, N s/m), ``frictionloss`` (N m, N)."""
+    name: str
+    type: str
+    index: int
+    body: int
+    parent: int
+    ref: float
+    lower: float
+    upper: float
+    stiffness: float
+    springref: float
+    damping: float
+    frictionloss: float
+
+
+@dataclass(frozen=True)
+class MJCFActuator:
+    """A ``position`` or ``velocity`` actuator (``type``) on the hinge or slide ``joint`` (its
+    MJCFJoint's name): the first ``gear`` value, ``kp``, ``kv``, ``ctrlrange`` and ``forcerange``
+    as (lo, hi), or None when not limited."""
+    name: Optional[str]
+    type: str
+    joint: str
+    gear: float
+    kp: float
+    kv: float
+    ctrlrange: Optional[tuple]
+    forcerange: Optional[tuple]
+
+
+def _drive(joint: MJCFJoint, actuator: Optional[MJCFActuator], u: float):
+    """The ``Motor`` that gives a joint MuJoCo's passive spring and damper plus its actuator's force
+    at control ``u``, or None when there is none. MuJoCo's generalised force on the joint (q its
+    coordinate, g the gear) is -k (q - springref) - c q_dot plus g clamp(F) with F = kp (u - g q) -
+    kv g q_dot (position) or kv (u - g q_dot) (velocity): a sum of linear springs and dampers, one
+    spring-damper with stiffness K = k + kp g^2, damping C = c + kv g^2 and targets (k springref +
+    kp g u) / K, (kv g u) / C (velocity) or 0. The clamp bounds the sum (a forcerange with k or c
+    is refused at import), hence max_force = |g| forcerange."""
+    from .joints import Motor
+
+    g = actuator.gear if actuator is not None else 0.0
+    kp = actuator.kp if actuator is not None and actuator.type == "position" else 0.0
+    kv = actuator.kv if actuator is not None else 0.0
+    K = joint.stiffness + kp * g * g
+    C = joint.damping + kv * g * g
+    if K == 0.0 and C == 0.0:
+        return None
+    position = (joint.stiffness * joint.springref + kp * g * u) / K - joint.ref if K > 0.0 else 0.0
+    speed = kv * g * u / C if actuator is not None and actuator.type == "velocity" and C > 0.0 else 0.0
+    limit = math.inf if actuator is None or actuator.forcerange is None else abs(g) * actuator.forcerange[1]
+    return Motor(speed, limit, position=position, stiffness=K, damping=C)
+
+
+@dataclass
+class MJCFModel:
+    """An imported MJCF model (``import_mjcf``).
+
+    - ``scene``: what ``read_mjcf`` gives (``scene.world``, ``scene.dt``, body names);
+    - ``bodies``: MuJoCo body name -> list of body indices: a moving body's own (the bodies welded
+      to it share it), a body welded to the world its static geoms', "world" every static body;
+    - ``joints``: joint name -> ``MJCFJoint``, in file order (an unnamed one: "joint_<k>", k its
+      World index);
+    - ``actuators``: the ``MJCFActuator``s in MuJoCo's order (that of ``ctrl``);
+    - ``ctrl``: (nu,) the controls in force, 0 at import as in MuJoCo's ``mjData``.
+    """
+    scene: object
+    bodies: dict
+    joints: dict
+    actuators: list
+    ctrl: np.ndarray
+
+    @property
+    def world(self):
+        return self.scene.world
+
+    def qpos(self) -> np.ndarray:
+        """(n,) MuJoCo's coordinates of the hinge and slide joints, in file order: the World's
+        ``joint_positions`` + ref (rad, m; a hinge's angle wraps within pi of ref)."""
+        positions = self.world.joint_positions
+        return np.array([positions[j.index] + j.ref for j in self.joints.values() if j.type != "ball"])
+
+    def set_ctrl(self, ctrl) -> None:
+        """Sets MuJoCo's controls (nu,): each clamped to its actuator's ctrlrange and applied to its
+        joint's drive from the next step on (``World.set_joint_motor``)."""
+        values = np.array(ctrl, dtype=np.float64).reshape(-1)
+        if values.shape != (len(self.actuators),) or not np.all(np.isfinite(values)):
+            raise ValueError(f"set_ctrl: expected {len(self.actuators)} finite controls, got {ctrl!r}")
+        for k, a in enumerate(self.actuators):
+            if a.ctrlrange is not None:
+                values[k] = min(max(values[k], a.ctrlrange[0]), a.ctrlrange[1])
+        for a, u in zip(self.actuators, values):
+            joint = self.joints[a.joint]
+            self.world.set_joint_motor(joint.index, _drive(joint, a, float(u)))
+        self.ctrl = values
+
 
 def read_mjcf(path, *, package_dirs=()):
-    """The ``scenefile.Scene`` of an MJCF file: its World (static geoms, then the free bodies in file
-    order), dt from ``<option timestep>`` (MuJoCo's default 0.002 s), 500 steps, body names (the
-    body's name, or the geom's for static ones). Mesh files are read from inside the MJCF file's
-    folder and the folders in ``package_dirs`` (paths) only; limits in the module doc. Raises
-    FileNotFoundError or MJCFError naming the file, the line, the element and the problem; nothing
-    is half built."""
+    """The ``scenefile.Scene`` of an MJCF file: its World (static geoms, then the moving bodies in
+    file order, with their joints), dt from ``<option timestep>`` (MuJoCo's default 0.002 s), 500
+    steps, body names (the body's name, or the geom's for static ones). Mesh files are read from
+    inside the MJCF file's folder and the folders in ``package_dirs`` (paths) only; limits in the
+    module doc. Raises FileNotFoundError or MJCFError naming the file, the line, the element and
+    the problem; nothing is half built. ``import_mjcf`` gives the joints and actuators too."""
+    return import_mjcf(path, package_dirs=package_dirs).scene
+
+
+def import_mjcf(path, *, package_dirs=()) -> MJCFModel:
+    """The ``MJCFModel`` of an MJCF file: ``read_mjcf``'s Scene with the bodies, joints and
+    actuators by name, and ``set_ctrl`` for the actuators' controls."""
     path = Path(path)
     try:
         return _read_mjcf(path, package_dirs)
@@ -605,7 +1028,8 @@ def read_mjcf(path, *, package_dirs=()):
         raise MJCFError(f"MJCF file {str(path)!r}: out of memory or stack reading it ({type(e).__name__})") from None
 
 
-def _read_mjcf(path: Path, package_dirs):
+def _read_mjcf(path: Path, package_dirs) -> MJCFModel:
+    from .joints import Prismatic, Revolute, Spherical
     from .scenefile import Scene  # pydantic loads only when a file is read
     from .world import World, mass_properties
 
@@ -615,65 +1039,103 @@ def _read_mjcf(path: Path, package_dirs):
     if not worldbodies:
         raise MJCFError(f"MJCF file {str(path)!r}: no <worldbody>")
 
-    # static geoms: the worldbody's own and those of joint-less bodies under it; free bodies apart
+    # the tree: static geoms (the world's and those of bodies welded to it) and moving bodies
     static_parts: list[_Part] = []
-    free: list[tuple[ET.Element, _Pose, str]] = []
-    reader.current = None
+    links: list[_Link] = []
     for wb in worldbodies:
-        for child in wb:
-            if child.tag == "body":
-                reader.check_attrs(child, _BODY_ATTRS, _BODY_IGNORED_ATTRS)
-                attrs = reader.attrs(child, "main")
-                joints = [j for j in child if j.tag in ("joint", "freejoint")]
-                kinds = ["free" if j.tag == "freejoint" else reader.attrs(j, "main").get("type", "hinge") for j in joints]
-                if kinds == ["free"]:
-                    free.append((child, reader.pose(child, attrs), attrs.get("childclass", "main")))
-                    continue
-                # a body without joints is welded to the world: its geoms are static (body_parts
-                # lists any joints it has as unsupported)
-                holder = ET.Element("worldbody")
-                holder.append(child)
-                reader.body_parts(holder, _Pose(), "main", False, static_parts)
-            elif child.tag == "geom":
-                holder = ET.Element("worldbody")
-                holder.append(child)
-                reader.body_parts(holder, _Pose(), "main", False, static_parts)
-            elif child.tag not in _BODY_IGNORED:
-                reader.skip_tree(child)
-
-    # each free body: its parts in its own frame
-    bodies = []
-    for body, pose, cls in free:
-        parts: list[_Part] = []
-        reader.current = body
-        reader.body_parts(body, _Pose(), cls, True, parts)
-        bodies.append((body, pose, parts))
+        for j, _, _ in reader.body_joints(wb, "main", _Pose()):
+            raise reader.error(j, "a joint on the world body (MuJoCo's world does not move; put it in a <body>)")
+        reader.walk(wb, _Pose(), "main", None, True, "world", static_parts, links)
+    plans = [reader.joint_plan(link) for link in links]
+    by_name = {p.name: p for p in plans if p is not None and p.name}
+    actuators = reader.read_actuators(by_name)
+    known = {"world"} | {p.body for p in static_parts if p.body} | {n for link in links for n in
+                                                                    (link.name, *link.welded) if n}
+    excludes = reader.read_excludes(known)
     if reader.unsupported:
         listed = "\n  ".join(reader.unsupported_list())
-        raise MJCFError(f"MJCF file {str(path)!r}: outside the subset signorini imports (free bodies and static "
-                        f"geoms; see signorini.mjcf):\n  {listed}")
+        raise MJCFError(f"MJCF file {str(path)!r}: outside the subset signorini imports (see signorini.mjcf):"
+                        f"\n  {listed}")
+    for link, plan in zip(links, plans):
+        if not link.parts:
+            raise reader.error(link.element, f"a {'free' if plan is None else 'jointed'} body needs at least one "
+                                             "geom (signorini derives mass and inertia from shapes)")
 
     world = World(**settings)
     names: list[str] = []
+    bodies: dict = {}
+    for part in static_parts:
+        try:
+            index = world.add_static(part.shape, position=part.pose.p, orientation=part.pose.q, friction=part.friction,
+                                     spinning_friction=part.spinning_friction)
+        except (TypeError, ValueError) as e:
+            raise reader.error(part.element, str(e)) from None
+        names.append(part.element.get("name") or f"static_{len(names)}")
+        bodies.setdefault("world", []).append(index)
+        if part.body and part.body != "world":
+            bodies.setdefault(part.body, []).append(index)
+    anchor = None
+    if any(link.parent is None and plan is not None for link, plan in zip(links, plans)):
+        # what bodies hinged to MuJoCo's world hang from: a static body that collides with nothing
+        anchor = world.add_static(Sphere(_ANCHOR_RADIUS), group=0, mask=0)
+        names.append("world")
+        bodies.setdefault("world", []).append(anchor)
+    index_of: list[int] = []
+    for link in links:
+        index = _add_moving_body(reader, world, link.element, link.pose, link.parts, mass_properties)
+        index_of.append(index)
+        names.append(link.name or f"body_{len(names)}")
+        for name in (link.name, *link.welded):
+            if name:
+                bodies[name] = [index]
+    joints: dict = {}
+    for link, plan, b in zip(links, plans, index_of):
+        if plan is None:
+            continue
+        a = anchor if link.parent is None else index_of[link.parent]
+        try:
+            if plan.kind == "ball":
+                description = Spherical(a, b, plan.anchor, name=plan.name)
+            else:
+                kind = Revolute if plan.kind == "hinge" else Prismatic
+                extra = {"friction": plan.frictionloss} if plan.frictionloss else {}
+                description = kind(a, b, anchor=plan.anchor, axis=plan.axis, limits=plan.limits, name=plan.name,
+                                   **extra)
+            index = world.add_joint(description)
+        except (TypeError, ValueError) as e:
+            raise reader.error(plan.element, str(e)) from None
+        lower, upper = plan.range if plan.range is not None else (math.nan, math.nan)
+        joints[plan.name or f"joint_{index}"] = MJCFJoint(plan.name or f"joint_{index}", plan.kind, index, b, a,
+                                                          plan.ref, lower, upper, plan.stiffness, plan.springref,
+                                                          plan.damping, plan.frictionloss)
+    loaded = [MJCFActuator(p.name, p.kind, p.joint, p.gear, p.kp, p.kv, p.ctrlrange, p.forcerange) for p in actuators]
+    scene = Scene(name=path.stem, world=world, dt=dt if dt is not None else 0.002, steps=500,
+                  description=f"imported from {path.name}", names=tuple(names))
+    model = MJCFModel(scene, bodies, joints, loaded, np.zeros(len(loaded)))
+    # the drives at control 0 (MuJoCo's start): passive springs and dampers, then the actuators
+    driven = {a.joint for a in loaded}
     try:
-        for part in static_parts:
-            try:
-                world.add_static(part.shape, position=part.pose.p, orientation=part.pose.q, friction=part.friction,
-                                 spinning_friction=part.spinning_friction)
-            except (TypeError, ValueError) as e:
-                raise reader.error(part.element, str(e)) from None
-            names.append(part.element.get("name") or f"static_{len(names)}")
-        for body, pose, parts in bodies:
-            _add_free_body(reader, world, body, pose, parts, mass_properties)
-            names.append(body.get("name") or f"body_{len(names)}")
-    except MJCFError:
-        raise
-    return Scene(name=path.stem, world=world, dt=dt if dt is not None else 0.002, steps=500,
-                 description=f"imported from {path.name}", names=tuple(names))
+        for joint in joints.values():
+            motor = _drive(joint, None, 0.0) if joint.type != "ball" and joint.name not in driven else None
+            if motor is not None:
+                world.set_joint_motor(joint.index, motor)
+        model.set_ctrl(np.zeros(len(loaded)))
+    except (TypeError, ValueError) as e:
+        raise MJCFError(f"MJCF file {str(path)!r}: {e}") from None
+    # collisions: MuJoCo's excluded pairs, and none at all when the contact flag is off
+    for el, b1, b2 in excludes:
+        for i in bodies.get(b1, []):
+            for j in bodies.get(b2, []):
+                if i != j:
+                    world.disable_collision(i, j)
+    if reader.contacts_off:
+        for i in range(world.num_bodies):
+            world.set_collision_filter(i, 0, 0)
+    return model
 
 
-def _add_free_body(reader: _Reader, world, body: ET.Element, pose: _Pose, parts: list, mass_properties) -> None:
-    """Adds one free body: its parts as one shape (a Compound unless a single geom sits at the
+def _add_moving_body(reader: _Reader, world, body: ET.Element, pose: _Pose, parts: list, mass_properties) -> int:
+    """Adds one moving body (free or jointed) and returns its index: its parts as one shape (a Compound unless a single geom sits at the
     body origin), with one density, and its centre of mass placed where MuJoCo puts it."""
     if not parts:
         raise reader.error(body, "a free body needs at least one geom (signorini derives mass and inertia "
@@ -721,8 +1183,8 @@ def _add_free_body(reader: _Reader, world, body: ET.Element, pose: _Pose, parts:
     position = pose.p + _qrot(pose.q) @ np.asarray(com)
     kwargs = {"mass": given_mass} if given_mass is not None else {"density": density}
     try:
-        world.add_body(shape, position=position, orientation=pose.q, friction=parts[0].friction,
-                       spinning_friction=parts[0].spinning_friction, **kwargs)
+        return world.add_body(shape, position=position, orientation=pose.q, friction=parts[0].friction,
+                              spinning_friction=parts[0].spinning_friction, **kwargs)
     except (TypeError, ValueError) as e:
         raise reader.error(body, str(e)) from None
 
