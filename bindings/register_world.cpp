@@ -7,6 +7,7 @@
 #include <pybind11/stl.h>
 
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -417,7 +418,8 @@ void register_world(py::module_& m) {
                            const Vec3& anchor_b, const Vec3& axis, bool has_limits, double lower, double upper,
                            bool motor, double motor_speed, double motor_max_force, double min_length,
                            double max_length, bool collide_connected, const std::string& name, double motor_position,
-                           double motor_stiffness, double motor_damping, double friction) {
+                           double motor_stiffness, double motor_damping, double friction, double break_force,
+                           double break_torque) {
              if (kind < 0 || kind > static_cast<int>(JointKind::Distance))
                throw std::invalid_argument("add_joint: unknown joint kind " + std::to_string(kind));
              JointDesc d;
@@ -428,6 +430,7 @@ void register_world(py::module_& m) {
              d.motor.enabled = motor, d.motor.speed = motor_speed, d.motor.max_force = motor_max_force;
              d.motor.position = motor_position, d.motor.stiffness = motor_stiffness, d.motor.damping = motor_damping;
              d.friction = friction;
+             d.break_force = break_force, d.break_torque = break_torque;
              d.min_length = min_length, d.max_length = max_length;
              d.collide_connected = collide_connected;
              d.name = name;
@@ -437,7 +440,29 @@ void register_world(py::module_& m) {
            py::arg("has_limits"), py::arg("lower"), py::arg("upper"), py::arg("motor"), py::arg("motor_speed"),
            py::arg("motor_max_force"), py::arg("min_length"), py::arg("max_length"), py::arg("collide_connected"),
            py::arg("name"), py::arg("motor_position") = 0.0, py::arg("motor_stiffness") = 0.0,
-           py::arg("motor_damping") = 0.0, py::arg("friction") = 0.0)
+           py::arg("motor_damping") = 0.0, py::arg("friction") = 0.0,
+           py::arg("break_force") = std::numeric_limits<double>::infinity(),
+           py::arg("break_torque") = std::numeric_limits<double>::infinity())
+      .def("set_joint_broken", &World::set_joint_broken, py::arg("j"), py::arg("broken"))
+      .def_property_readonly("joint_breaks", [](const World& w) {
+        const std::vector<World::JointBreak> breaks = w.joint_breaks();
+        const auto n = static_cast<py::ssize_t>(breaks.size());
+        py::array_t<std::int64_t> step(n), joint(n);
+        std::vector<Vec3> force, torque;
+        for (py::ssize_t i = 0; i < n; ++i) {
+          const World::JointBreak& b = breaks[static_cast<std::size_t>(i)];
+          step.mutable_at(i) = b.step;
+          joint.mutable_at(i) = b.joint;
+          force.push_back(b.force);
+          torque.push_back(b.torque);
+        }
+        py::dict d;
+        d["step"] = step;
+        d["joint"] = joint;
+        d["force"] = bindings::rows_of(force);
+        d["torque"] = bindings::rows_of(torque);
+        return d;
+      })
       .def("remove_joint", &World::remove_joint, py::arg("j"))
       .def("set_joint_motor", [](World& w, JointIndex j, bool enabled, double speed, double max_force, double position,
                                  double stiffness, double damping) {
@@ -466,6 +491,7 @@ void register_world(py::module_& m) {
         d["motor_position"] = x.motor.position, d["motor_stiffness"] = x.motor.stiffness;
         d["motor_damping"] = x.motor.damping;
         d["friction"] = x.friction;
+        d["break_force"] = x.break_force, d["break_torque"] = x.break_torque, d["broken"] = x.broken;
         d["min_length"] = x.min_length, d["max_length"] = x.max_length;
         d["collide_connected"] = x.collide_connected;
         d["name"] = x.name;

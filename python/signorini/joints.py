@@ -56,14 +56,20 @@ class Motor:
 
 
 class Joint:
-    """What every joint description has: two bodies, a name, and whether they collide."""
+    """What every joint description has: two bodies, a name, whether they collide, and when it
+    breaks: after a step whose last substep's force on B passed ``break_force`` (N) or its torque
+    about B's anchor ``break_torque`` (N m), both > 0, None: never (``World.joint_breaks``)."""
     kind = -1
 
-    def __init__(self, body_a: int, body_b: int, *, name: Optional[str] = None, collide_connected: bool = False):
+    def __init__(self, body_a: int, body_b: int, *, name: Optional[str] = None,
+                 break_force: Optional[float] = None, break_torque: Optional[float] = None,
+                 collide_connected: bool = False):
         self.body_a = body_a
         self.body_b = body_b
         self.name = name
         self.collide_connected = collide_connected
+        self.break_force = break_force
+        self.break_torque = break_torque
 
     def __repr__(self) -> str:
         fields = ", ".join(f"{k}={v!r}" for k, v in vars(self).items() if v is not None)
@@ -77,7 +83,14 @@ class Joint:
                     has_limits=False, lower=0.0, upper=0.0, motor=False, motor_speed=0.0, motor_max_force=0.0,
                     min_length=0.0, max_length=math.inf,
                     collide_connected=as_flag(self.collide_connected, who, "collide_connected"),
-                    name=as_name(self.name, who))
+                    name=as_name(self.name, who),
+                    break_force=_limit(self.break_force, who, "break_force"),
+                    break_torque=_limit(self.break_torque, who, "break_torque"))
+
+
+def _limit(x, who: str, what: str) -> float:
+    """A breaking limit: None is never (infinite)."""
+    return math.inf if x is None else as_number(x, who, what)
 
 
 def _limits(limits, who: str) -> dict:
@@ -101,8 +114,10 @@ class _Axial(Joint):
 
     def __init__(self, body_a: int, body_b: int, anchor=None, axis=(0.0, 0.0, 1.0), *, limits=None,
                  motor: Optional[Motor] = None, friction: float = 0.0, name: Optional[str] = None,
+                 break_force: Optional[float] = None, break_torque: Optional[float] = None,
                  collide_connected: bool = False):
-        super().__init__(body_a, body_b, name=name, collide_connected=collide_connected)
+        super().__init__(body_a, body_b, name=name, collide_connected=collide_connected,
+                         break_force=break_force, break_torque=break_torque)
         self.anchor = anchor
         self.axis = axis
         self.limits = limits
@@ -142,8 +157,10 @@ class Spherical(Joint):
     kind = SPHERICAL
 
     def __init__(self, body_a: int, body_b: int, anchor, *, name: Optional[str] = None,
+                 break_force: Optional[float] = None, break_torque: Optional[float] = None,
                  collide_connected: bool = False):
-        super().__init__(body_a, body_b, name=name, collide_connected=collide_connected)
+        super().__init__(body_a, body_b, name=name, collide_connected=collide_connected,
+                         break_force=break_force, break_torque=break_torque)
         self.anchor = anchor
 
     def _core_args(self, who: str, positions: np.ndarray) -> dict:
@@ -158,8 +175,10 @@ class Fixed(Spherical):
     kind = FIXED
 
     def __init__(self, body_a: int, body_b: int, anchor=None, *, name: Optional[str] = None,
+                 break_force: Optional[float] = None, break_torque: Optional[float] = None,
                  collide_connected: bool = False):
-        super().__init__(body_a, body_b, anchor, name=name, collide_connected=collide_connected)
+        super().__init__(body_a, body_b, anchor, name=name, collide_connected=collide_connected,
+                         break_force=break_force, break_torque=break_torque)
 
     def _core_args(self, who: str, positions: np.ndarray) -> dict:
         if self.anchor is None:
@@ -176,8 +195,11 @@ class Distance(Joint):
     kind = DISTANCE
 
     def __init__(self, body_a: int, body_b: int, anchor_a, anchor_b, min_length: Optional[float] = None,
-                 max_length: Optional[float] = None, *, name: Optional[str] = None, collide_connected: bool = False):
-        super().__init__(body_a, body_b, name=name, collide_connected=collide_connected)
+                 max_length: Optional[float] = None, *, name: Optional[str] = None,
+                 break_force: Optional[float] = None, break_torque: Optional[float] = None,
+                 collide_connected: bool = False):
+        super().__init__(body_a, body_b, name=name, collide_connected=collide_connected,
+                         break_force=break_force, break_torque=break_torque)
         self.anchor_a = anchor_a
         self.anchor_b = anchor_b
         self.min_length = min_length

@@ -120,6 +120,25 @@ class Contacts:
 
 
 @dataclass(frozen=True)
+class JointBreaks:
+    """The joints that broke in the last ``step`` call, one row each (n rows), by step then index.
+
+    step: (n,) int64, the step of the call after which it broke (0 .. steps - 1).
+    joint: (n,) int64 joint indices.
+    force, torque: (n, 3) what the joint transmitted to its body B in that step's last substep (N;
+        N m about B's anchor, world), past ``break_force`` or ``break_torque``.
+    """
+
+    step: np.ndarray
+    joint: np.ndarray
+    force: np.ndarray
+    torque: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.step)
+
+
+@dataclass(frozen=True)
 class ContactEventList:
     """One kind of contact event of the last ``step`` call, one row per event (n rows), in the
     order of the steps and, within a step, of the body pairs (body_a, then body_b): the same for
@@ -927,6 +946,21 @@ class World:
         if not isinstance(motor, Motor):
             raise TypeError(f"{who}: motor must be a signorini.Motor or None, got {motor!r}")
         self._core.set_joint_motor(j, True, **motor._core_args(who))
+
+    @_locked
+    def set_joint_broken(self, joint: int, broken: bool = True) -> None:
+        """Breaks ``joint`` (it makes no rows, transmits nothing, and its bodies collide unless
+        something else keeps them apart) or mends it (``broken=False``: its rows return at the
+        next step, at the bodies' poses then, from zero forces). Its bodies wake."""
+        j = self._joint_index(joint)
+        self._core.set_joint_broken(j, as_flag(broken, self._core.joint_label(j), "broken"))
+
+    @property
+    @_locked
+    def joint_breaks(self) -> JointBreaks:
+        """The joints that broke in the last ``step`` call (their ``break_force`` or
+        ``break_torque`` passed), in the order they broke; ``joint(j)["broken"]`` stays True."""
+        return JointBreaks(**self._core.joint_breaks)
 
     @property
     @_locked

@@ -194,3 +194,80 @@ def test_bad_friction_names_the_joint_and_adds_nothing(bad, error, message):
     with pytest.raises(error, match=message):
         w.add_joint(bad(0, body))
     assert w.num_joints == 1
+
+
+def hanging(break_force, solver="pgs"):
+    """A 2 kg ball hanging 1 m under a static anchor on a rod (a Distance joint), at rest: the rod
+    carries m g = 19.62 N."""
+    w = sg.World(gravity=(0.0, 0.0, -9.81), solver=solver, sleeping=False)
+    top = w.add_static(sg.Box((0.05, 0.05, 0.05)), position=(0.0, 0.0, 2.0))
+    ball = w.add_body(sg.Sphere(0.1), mass=2.0, position=(0.0, 0.0, 1.0))
+    j = w.add_joint(sg.Distance(top, ball, (0, 0, 2.0), (0, 0, 1.0), break_force=break_force))
+    return w, ball, j
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_a_rod_breaks_under_a_load_past_its_break_force_and_holds_below(solver):
+    dt = 1 / 240
+    w, ball, j = hanging(25.0, solver)  # above m g: it holds
+    w.step(dt, 120)
+    assert len(w.joint_breaks) == 0 and not w.joint(j)["broken"]
+    assert w.positions[ball][2] == pytest.approx(1.0, abs=1e-3)
+    assert np.linalg.norm(w.joint_forces[j]) == pytest.approx(2.0 * 9.81, rel=1e-3)
+    w, ball, j = hanging(15.0, solver)  # below m g: it breaks after the first step, then falls free
+    w.step(dt, 121)
+    breaks = w.joint_breaks
+    assert breaks.step.tolist() == [0] and breaks.joint.tolist() == [j]
+    assert np.linalg.norm(breaks.force[0]) > 15.0
+    assert w.joint(j)["broken"] and np.all(w.joint_forces[j] == 0.0)
+    # 120 steps of free fall after the breaking step: v = -g t (the first step held it)
+    assert w.velocities[ball][2] == pytest.approx(-9.81 * 120 * dt, rel=1e-9)
+    w.step(dt, 10)
+    assert len(w.joint_breaks) == 0  # each call lists its own
+
+
+def test_a_broken_joint_can_be_mended_and_its_bodies_collide_while_broken():
+    dt = 1 / 240
+    w = sg.World(gravity=(0.0, 0.0, -9.81), sleeping=False)
+    floor = w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
+    box = w.add_body(sg.Box((0.2, 0.2, 0.2)), mass=1.0, position=(0.0, 0.0, 0.5))
+    # welded to the floor through the floor: while welded they do not collide
+    j = w.add_joint(sg.Fixed(floor, box, anchor=(0.0, 0.0, 0.5)))
+    w.step(dt, 10)
+    assert len(w.contacts) == 0 and w.positions[box][2] == pytest.approx(0.5, abs=1e-6)
+    w.set_joint_broken(j)
+    w.step(dt, 240)
+    assert w.positions[box][2] == pytest.approx(0.2, abs=2e-3)  # fell onto the floor, resting
+    assert len(w.contacts) > 0 and len(w.joint_breaks) == 0  # broken by a call, not by a force
+    w.set_joint_broken(j, False)
+    w.step(dt)
+    assert len(w.contacts) == 0 and not w.joint(j)["broken"]
+
+
+def test_a_saved_state_keeps_a_broken_joint_broken():
+    import pickle
+    w, ball, j = hanging(15.0)
+    saved = w.save_state()
+    w.step(1 / 240, 5)
+    assert w.joint(j)["broken"]
+    copy = pickle.loads(pickle.dumps(w))
+    assert copy.joint(j)["broken"]
+    copy.step(1 / 240, 5)
+    w.step(1 / 240, 5)
+    assert np.array_equal(copy.positions, w.positions)
+    w.restore_state(saved)
+    assert not w.joint(j)["broken"]
+    w.step(1 / 240)
+    assert w.joint_breaks.joint.tolist() == [j]
+
+
+@pytest.mark.parametrize("value, error", [(0.0, ValueError), (-1.0, ValueError), (math.nan, ValueError),
+                                          ("big", TypeError)])
+def test_bad_break_limits_name_the_joint_and_add_nothing(value, error):
+    w = sg.World()
+    top = w.add_static(sg.Box((0.05, 0.05, 0.05)))
+    ball = w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.0, 0.0, -1.0))
+    for kw in ("break_force", "break_torque"):
+        with pytest.raises(error, match=kw):
+            w.add_joint(sg.Spherical(top, ball, (0, 0, 0), **{kw: value}))
+        assert w.num_joints == 0

@@ -59,6 +59,10 @@ struct JointDesc {
   double max_length = std::numeric_limits<double>::infinity();  ///< Distance (m, >= min_length, > 0)
   bool collide_connected = false;    ///< false: bodies A and B get no contacts with each other
   std::string name;                  ///< "" or unique among the world's joints
+  /// the joint breaks after a step whose last substep's force on B exceeded break_force (N), or its
+  /// torque about B's anchor break_torque (N m): both > 0 (infinite: never)
+  double break_force = std::numeric_limits<double>::infinity();
+  double break_torque = std::numeric_limits<double>::infinity();
 };
 
 /// Slots of a joint's warm-start forces (Joint::alpha): each row block keeps its own.
@@ -89,6 +93,11 @@ struct Joint {
   double min_length = 0.0, max_length = std::numeric_limits<double>::infinity();
   bool collide_connected = false;
   std::string name;
+  double break_force = std::numeric_limits<double>::infinity();   ///< N (JointDesc::break_force)
+  double break_torque = std::numeric_limits<double>::infinity();  ///< N m
+  /// broken (by a force past its limits, or World::set_joint_broken): it makes no rows, links no
+  /// island, transmits nothing, and its bodies collide unless something else keeps them apart
+  bool broken = false;
   /// the rows' forces of the last substep (N for linear rows, N m for angular ones), by JointSlot:
   /// the next substep's and step's warm start
   std::array<double, kJointSlots> alpha{};

@@ -188,6 +188,16 @@ class World {
   /// target speed (finite) and max_force (finite, >= 0), or disabled. Its bodies wake. Errors as
   /// add_joint's, naming the joint; nothing changes on error.
   void set_joint_motor(JointIndex j, const Motor& motor);
+  /// Breaks joint j (broken true) or mends it (false: its rows return from the next step, from
+  /// zero forces, at the bodies' poses then). Its bodies wake.
+  void set_joint_broken(JointIndex j, bool broken);
+  /// The joints that broke in the last call of step(), in the order they broke (by step, then index).
+  struct JointBreak {
+    int step = 0;             ///< the step of the call (0 .. steps - 1)
+    JointIndex joint = 0;
+    Vec3 force = Vec3::Zero(), torque = Vec3::Zero();  ///< what it transmitted to B when it broke (N, N m)
+  };
+  std::vector<JointBreak> joint_breaks() const;
   std::size_t num_joints() const;
   /// The joints as kept (body frames, warm-start forces, last forces); a copy.
   std::vector<Joint> joints() const;
@@ -400,6 +410,9 @@ class World {
   /// The step's events from the pairs touching before (touching_, from the last contacts when not
   /// known) and after it (the new contacts), appended to events_; touching_ becomes the new pairs.
   void record_events(const std::vector<Contact>& now);
+  /// After a kept step: every unbroken joint whose force or torque passed its limit breaks (and
+  /// is listed in breaks_, with step).
+  void break_joints(int step);
   /// model_.joined_pairs again from the joints (after they or the bodies change).
   void joints_changed();
 
@@ -415,6 +428,7 @@ class World {
   std::vector<std::shared_ptr<void>> retired_;  ///< outgrown state storage (see push_keeping)
   StepReport report_;
   ContactEvents events_;       ///< the last step() call's contact events
+  std::vector<JointBreak> breaks_;  ///< the joints the last step() call broke
   double hit_speed_ = 1.0;      ///< m/s: a beginning faster than this is a hit
   int event_step_ = 0;          ///< the step of the call the next events belong to
   std::vector<Touch> touching_, touching_next_;  ///< pairs touching after the last step, and scratch

@@ -303,6 +303,7 @@ void prepare_joints(const Model& model, const State& state, double h, bool soft,
   for (Joint& j : js.joints) {
     const bool a_moves = moves(model, state, j.a), b_moves = moves(model, state, j.b);
     if (!a_moves && !b_moves) continue;  // nothing to move (both asleep, static, kinematic or disabled)
+    if (j.broken) continue;
     const std::size_t first = js.blocks.size();
     const Pose A{state.p[j.a], state.R[j.a]}, B{state.p[j.b], state.R[j.b]};
     build_blocks(js, j, A, B, a_moves, b_moves, h);

@@ -62,6 +62,7 @@ bool Islands::mark_touched(const Model& model, const State& state, const std::ve
   }
   if (joints_ != nullptr)
     for (const Joint& j : *joints_) {
+      if (j.broken) continue;
       if (sleeping(model, state, j.a) && moves(j.b)) mark(state, j.a), any = true;
       if (sleeping(model, state, j.b) && moves(j.a)) mark(state, j.b), any = true;
     }
@@ -182,7 +183,8 @@ void Islands::link(const Model& model, const State& state, const std::vector<Con
     if (rb < ra) parent_[ra] = rb;  // the root is the island's smallest index
   }
   if (joints_ == nullptr) return;
-  for (const Joint& j : *joints_) {  // a joint links as a contact does
+  for (const Joint& j : *joints_) {  // a joint links as a contact does (a broken one not at all)
+    if (j.broken) continue;
     if (!awake_dynamic(model, state, j.a) || !awake_dynamic(model, state, j.b)) continue;
     const int ra = find(j.a), rb = find(j.b);
     if (ra < rb) parent_[rb] = ra;
@@ -212,6 +214,7 @@ void Islands::end_step(const Model& model, State& state, const SleepSettings& se
   }
   if (joints_ != nullptr)
     for (const Joint& j : *joints_) {
+      if (j.broken) continue;
       if (moving_kinematic(model, state, j.a) && awake_dynamic(model, state, j.b)) state.sleep_time[j.b] = 0.0;
       if (moving_kinematic(model, state, j.b) && awake_dynamic(model, state, j.a)) state.sleep_time[j.a] = 0.0;
     }

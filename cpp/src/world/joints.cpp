@@ -106,6 +106,8 @@ JointIndex World::add_joint(const JointDesc& desc) {
       fail("max_length must be >= min_length, got min " + num(desc.min_length) + ", max " + num(desc.max_length));
     if (!(desc.max_length > 0.0)) fail("max_length must be > 0, got " + num(desc.max_length));
   }
+  if (!(desc.break_force > 0.0)) fail("break_force must be > 0 (infinite: never), got " + num(desc.break_force));
+  if (!(desc.break_torque > 0.0)) fail("break_torque must be > 0 (infinite: never), got " + num(desc.break_torque));
   if (!desc.name.empty() && find_joint(desc.name) >= 0)
     fail("the name '" + desc.name + "' is taken by joint " + std::to_string(find_joint(desc.name)));
 
@@ -131,6 +133,8 @@ JointIndex World::add_joint(const JointDesc& desc) {
   x.upper = desc.upper;
   x.motor = desc.motor;
   x.friction = desc.friction;
+  x.break_force = desc.break_force;
+  x.break_torque = desc.break_torque;
   x.min_length = desc.min_length;
   x.max_length = desc.max_length;
   x.collide_connected = desc.collide_connected;
@@ -172,11 +176,47 @@ void World::set_joint_motor(JointIndex j, const Motor& motor) {
   wake(x.b);
 }
 
+void World::set_joint_broken(JointIndex j, bool broken) {
+  const Lock lock(mutex_);
+  if (j < 0 || static_cast<std::size_t>(j) >= joints_->joints.size())
+    throw std::out_of_range("joint index " + std::to_string(j) + " is out of range: the world has " +
+                            std::to_string(joints_->joints.size()) + " joints");
+  Joint& x = joints_->joints[static_cast<std::size_t>(j)];
+  if (x.broken == broken) return;
+  x.broken = broken;
+  x.alpha.fill(0.0);
+  x.force.setZero();
+  x.torque.setZero();
+  joints_changed();
+  wake(x.a);
+  wake(x.b);
+}
+
+void World::break_joints(int step) {
+  bool any = false;
+  for (std::size_t k = 0; k < joints_->joints.size(); ++k) {
+    Joint& x = joints_->joints[k];
+    if (x.broken || !(x.force.norm() > x.break_force || x.torque.norm() > x.break_torque)) continue;
+    breaks_.push_back({step, static_cast<JointIndex>(k), x.force, x.torque});
+    x.broken = true;
+    x.alpha.fill(0.0);
+    x.force.setZero();
+    x.torque.setZero();
+    any = true;
+  }
+  if (any) joints_changed();  // its bodies collide from the next step
+}
+
+std::vector<World::JointBreak> World::joint_breaks() const {
+  const Lock lock(mutex_);
+  return breaks_;
+}
+
 void World::joints_changed() {
   auto& pairs = model_.joined_pairs;
   pairs.clear();
   for (const Joint& x : joints_->joints)
-    if (!x.collide_connected) pairs.emplace_back(std::min(x.a, x.b), std::max(x.a, x.b));
+    if (!x.collide_connected && !x.broken) pairs.emplace_back(std::min(x.a, x.b), std::max(x.a, x.b));
   std::sort(pairs.begin(), pairs.end());
   joints_->blocks.clear();  // their alpha pointers may have moved
   joints_->kept.clear();

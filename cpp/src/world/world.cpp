@@ -117,6 +117,7 @@ void World::step(double dt, int steps) {
   events_.end.clear();
   events_.hits.clear();
   event_step_ = 0;
+  breaks_.clear();
   std::vector<solver::JointSet::Kept>& kept = joints_->kept;
   for (int s = 0; s < steps; ++s) {
     if (joints_->empty()) {
@@ -138,6 +139,7 @@ void World::step(double dt, int steps) {
       }
       throw;
     }
+    break_joints(s);
   }
 }
 

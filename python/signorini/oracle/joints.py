@@ -209,7 +209,7 @@ def prepare_joints(snapshot, joints, q_dot, h):
     blocks = []
     for joint in joints:
         a, b = joint["body_a"], joint["body_b"]
-        if not moves[a] and not moves[b]:
+        if (not moves[a] and not moves[b]) or joint.get("broken", False):
             continue
         here = build_blocks(joint, P[a], R[a], P[b], R[b], h)
         half = 0.5 * h
