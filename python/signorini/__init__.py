@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING
 
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 from .joints import Distance, Fixed, Motor, Prismatic, Revolute, Spherical
-from .world import (BodyIndexError, ContactEventList, ContactEvents, Contacts, SavedState, SolverStats, SolverWarning,
-                    World, mass_properties)
+from .world import (BodyIndexError, ContactEventList, ContactEvents, ContactPairs, Contacts, SavedState, SolverStats,
+                    SolverWarning, World, mass_properties)
 from .codec import shape_to_dict as shape_dict
 from .collision import Feature, collide, feature
 from .queries import BodyDistance, Hit, RayHits
@@ -57,7 +57,7 @@ def __dir__() -> list[str]:
 # checks it), the submodules meshes and meshfile included
 __all__ = ["World", "Hit", "RayHits", "BodyDistance", "Sphere", "Box", "Plane", "Mesh", "Capsule", "Cylinder",
            "ConvexHull", "TriangleMesh", "Compound", "mass_properties", "Revolute", "Prismatic", "Spherical", "Fixed",
-           "Distance", "Motor", "Batch", "Contacts", "ContactEvents", "ContactEventList", "SolverStats", "SavedState",
+           "Distance", "Motor", "Batch", "Contacts", "ContactEvents", "ContactEventList", "ContactPairs", "SolverStats", "SavedState",
            "BodyIndexError", "SolverWarning", "shape_dict", "collide", "feature", "Feature",
            "Record", "Recorder", "load_trajectory", "save_trajectory", "load_mesh", "save_mesh", "decompose",
            "MeshRepairWarning", "load_scene", "read_scene",

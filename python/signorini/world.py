@@ -139,6 +139,32 @@ class JointBreaks:
 
 
 @dataclass(frozen=True)
+class ContactPairs:
+    """The body pairs with contacts in the last step, one row per pair (P rows), in the contact
+    list's order (``World.contacts`` keeps a pair's contacts together).
+
+    body_a, body_b: (P,) int64 body indices (the normal points from A to B).
+    count: (P,) int64 the pair's contacts; first: (P,) int64 the row of its first one in ``contacts``.
+    force: (P, 3) the pair's summed contact force on B (N, world; A gets the opposite), of the
+        step's last substep, as ``Contacts.force``.
+    impulse: (P,) its summed normal impulse over the step (N s).
+    touching: (P,) bool, whether it touches (a contact pushed in the step or overlaps), as
+        ``World.events`` decides beginnings and ends.
+    """
+
+    body_a: np.ndarray
+    body_b: np.ndarray
+    count: np.ndarray
+    first: np.ndarray
+    force: np.ndarray
+    impulse: np.ndarray
+    touching: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.body_a)
+
+
+@dataclass(frozen=True)
 class ContactEventList:
     """One kind of contact event of the last ``step`` call, one row per event (n rows), in the
     order of the steps and, within a step, of the body pairs (body_a, then body_b): the same for
@@ -1236,6 +1262,25 @@ class World:
         unpickled world goes on giving the events the original would have."""
         e = self._core.events
         return ContactEvents(**{k: ContactEventList(**e[k]) for k in ("begin", "end", "hits")})
+
+    @property
+    @_locked
+    def contact_pairs(self) -> ContactPairs:
+        """The last step's contacts summed by body pair (force, normal impulse, count, whether it
+        touches): what a user asks of a pair ("how hard do these two press on each other")."""
+        c = self._core.contacts
+        a, b = np.asarray(c["body_a"], dtype=np.int64), np.asarray(c["body_b"], dtype=np.int64)
+        if len(a) == 0:
+            empty = np.zeros(0, dtype=np.int64)
+            return ContactPairs(empty, empty.copy(), empty.copy(), empty.copy(), np.zeros((0, 3)), np.zeros(0),
+                                np.zeros(0, dtype=bool))
+        first = np.flatnonzero(np.r_[True, (a[1:] != a[:-1]) | (b[1:] != b[:-1])])
+        impulse = np.asarray(c["impulse"], dtype=float)
+        touches = (impulse > 0.0) | (np.asarray(c["gap"], dtype=float) < 0.0)
+        return ContactPairs(body_a=a[first], body_b=b[first], count=np.diff(np.r_[first, len(a)]), first=first,
+                            force=np.add.reduceat(np.asarray(c["force"], dtype=float), first, axis=0),
+                            impulse=np.add.reduceat(impulse, first),
+                            touching=np.logical_or.reduceat(touches, first))
 
     @property
     @_locked

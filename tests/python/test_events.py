@@ -198,3 +198,30 @@ def test_hit_speed_refuses_what_is_not_a_speed_and_keeps_its_value(bad):
     with pytest.raises(TypeError, match="hit_speed"):
         w.hit_speed = None
     assert w.hit_speed == 2.5
+
+
+def test_contact_pairs_sum_each_pairs_contacts_and_carry_the_weight_above():
+    # a resting stack of three 2 kg boxes and a 1 kg ball: each pair's summed force on its upper
+    # body is the weight of what rests on it (Newton), to what the PGS's velocity tolerance leaves:
+    # tolerance * mass / dt of force
+    dt = 1 / 240
+    w = sg.World(sleeping=False)
+    w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
+    for k in range(3):
+        w.add_body(sg.Box((0.5, 0.5, 0.5)), mass=2.0, position=(0.0, 0.0, 0.5 + 1.0 * k))
+    w.add_body(sg.Sphere(0.2), mass=1.0, position=(3.0, 0.0, 0.2))
+    w.step(dt, 240)
+    p = w.contact_pairs
+    assert list(zip(p.body_a.tolist(), p.body_b.tolist())) == [(0, 1), (0, 4), (1, 2), (2, 3)]
+    assert p.count.tolist() == [4, 1, 4, 4] and p.touching.all()
+    slack = w.solver["tolerance"] * 7.0 / dt
+    np.testing.assert_allclose(p.force[:, 2], [6 * G, 1 * G, 4 * G, 2 * G], rtol=0, atol=slack)
+    assert np.abs(p.force[:, :2]).max() < slack
+    c = w.contacts
+    for k in range(len(p)):
+        rows = slice(p.first[k], p.first[k] + p.count[k])
+        # (summed in another order than numpy's sum: a rounding apart)
+        np.testing.assert_allclose(p.force[k], c.force[rows].sum(axis=0), rtol=0, atol=1e-14 * np.abs(p.force).max())
+        assert p.impulse[k] == pytest.approx(c.impulse[rows].sum(), rel=1e-15)
+    empty = sg.World().contact_pairs
+    assert len(empty) == 0 and empty.force.shape == (0, 3)
