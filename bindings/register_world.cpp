@@ -419,7 +419,7 @@ void register_world(py::module_& m) {
                            bool motor, double motor_speed, double motor_max_force, double min_length,
                            double max_length, bool collide_connected, const std::string& name, double motor_position,
                            double motor_stiffness, double motor_damping, double friction, double break_force,
-                           double break_torque) {
+                           double break_torque, double effort) {
              if (kind < 0 || kind > static_cast<int>(JointKind::Distance))
                throw std::invalid_argument("add_joint: unknown joint kind " + std::to_string(kind));
              JointDesc d;
@@ -430,6 +430,7 @@ void register_world(py::module_& m) {
              d.motor.enabled = motor, d.motor.speed = motor_speed, d.motor.max_force = motor_max_force;
              d.motor.position = motor_position, d.motor.stiffness = motor_stiffness, d.motor.damping = motor_damping;
              d.friction = friction;
+             d.effort = effort;
              d.break_force = break_force, d.break_torque = break_torque;
              d.min_length = min_length, d.max_length = max_length;
              d.collide_connected = collide_connected;
@@ -442,7 +443,8 @@ void register_world(py::module_& m) {
            py::arg("name"), py::arg("motor_position") = 0.0, py::arg("motor_stiffness") = 0.0,
            py::arg("motor_damping") = 0.0, py::arg("friction") = 0.0,
            py::arg("break_force") = std::numeric_limits<double>::infinity(),
-           py::arg("break_torque") = std::numeric_limits<double>::infinity())
+           py::arg("break_torque") = std::numeric_limits<double>::infinity(), py::arg("effort") = 0.0)
+      .def("set_joint_effort", &World::set_joint_effort, py::arg("j"), py::arg("effort"))
       .def("set_joint_broken", &World::set_joint_broken, py::arg("j"), py::arg("broken"))
       .def_property_readonly("joint_breaks", [](const World& w) {
         const std::vector<World::JointBreak> breaks = w.joint_breaks();
@@ -491,6 +493,7 @@ void register_world(py::module_& m) {
         d["motor_position"] = x.motor.position, d["motor_stiffness"] = x.motor.stiffness;
         d["motor_damping"] = x.motor.damping;
         d["friction"] = x.friction;
+        d["effort"] = x.effort;
         d["break_force"] = x.break_force, d["break_torque"] = x.break_torque, d["broken"] = x.broken;
         d["min_length"] = x.min_length, d["max_length"] = x.max_length;
         d["collide_connected"] = x.collide_connected;

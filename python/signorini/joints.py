@@ -113,7 +113,8 @@ class _Axial(Joint):
     """A one-degree-of-freedom joint about or along an axis (world, at creation)."""
 
     def __init__(self, body_a: int, body_b: int, anchor=None, axis=(0.0, 0.0, 1.0), *, limits=None,
-                 motor: Optional[Motor] = None, friction: float = 0.0, name: Optional[str] = None,
+                 motor: Optional[Motor] = None, friction: float = 0.0, effort: float = 0.0,
+                 name: Optional[str] = None,
                  break_force: Optional[float] = None, break_torque: Optional[float] = None,
                  collide_connected: bool = False):
         super().__init__(body_a, body_b, name=name, collide_connected=collide_connected,
@@ -123,6 +124,7 @@ class _Axial(Joint):
         self.limits = limits
         self.motor = motor
         self.friction = friction
+        self.effort = effort
 
     def _core_args(self, who: str, positions: np.ndarray) -> dict:
         d = super()._core_args(who, positions)
@@ -133,7 +135,7 @@ class _Axial(Joint):
             anchor = positions[d["body_b"]] if 0 <= d["body_b"] < len(positions) else np.zeros(3)
         d.update(anchor=as_vector(anchor, 3, who, "anchor"), axis=as_vector(self.axis, 3, who, "axis"),
                  **_limits(self.limits, who), **_motor(self.motor, who),
-                 friction=as_number(self.friction, who, "friction"))
+                 friction=as_number(self.friction, who, "friction"), effort=as_number(self.effort, who, "effort"))
         return d
 
 
@@ -141,14 +143,17 @@ class Revolute(_Axial):
     """A hinge: the bodies share the ``anchor`` point and B turns about ``axis`` only (world, at
     creation). ``limits=(lo, hi)`` (rad, in (-pi, pi); the angle is 0 at creation, positive when B
     turns counter-clockwise about the axis relative to A); ``motor=Motor(speed, max_torque)``;
-    ``friction`` (N m): Coulomb friction, the most torque the hinge resists turning with."""
+    ``friction`` (N m): Coulomb friction, the most torque the hinge resists turning with; ``effort``
+    (N m): a torque it applies about the axis, on B (-effort on A), every substep
+    (``World.set_joint_effort`` sets it per step: MuJoCo's motor actuator)."""
     kind = REVOLUTE
 
 
 class Prismatic(_Axial):
     """A slider: no relative turn, and B moves along ``axis`` (world, at creation) only. ``anchor``
     defaults to B's centre of mass; ``limits=(lo, hi)`` (m, the offset is 0 at creation);
-    ``motor=Motor(speed, max_force)``; ``friction`` (N): the most force it resists sliding with."""
+    ``motor=Motor(speed, max_force)``; ``friction`` (N): the most force it resists sliding with;
+    ``effort`` (N): a force it applies along the axis, on B (-effort on A)."""
     kind = PRISMATIC
 
 

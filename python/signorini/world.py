@@ -974,6 +974,15 @@ class World:
         self._core.set_joint_motor(j, True, **motor._core_args(who))
 
     @_locked
+    def set_joint_effort(self, joint: int, effort: float) -> None:
+        """The torque (N m, a hinge) or force (N, a slider) ``joint`` applies along its coordinate
+        from the next step on, on its body B (the opposite on A), every substep: a control set per
+        step (MuJoCo's motor actuator, a ROS effort command). Its bodies wake. A joint without one
+        degree of freedom, or a value that is not finite, raises naming the joint."""
+        j = self._joint_index(joint)
+        self._core.set_joint_effort(j, as_number(effort, self._core.joint_label(j), "effort"))
+
+    @_locked
     def set_joint_broken(self, joint: int, broken: bool = True) -> None:
         """Breaks ``joint`` (it makes no rows, transmits nothing, and its bodies collide unless
         something else keeps them apart) or mends it (``broken=False``: its rows return at the

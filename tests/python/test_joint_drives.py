@@ -271,3 +271,38 @@ def test_bad_break_limits_name_the_joint_and_add_nothing(value, error):
         with pytest.raises(error, match=kw):
             w.add_joint(sg.Spherical(top, ball, (0, 0, 0), **{kw: value}))
         assert w.num_joints == 0
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_an_effort_spins_a_rotor_up_at_tau_over_i_and_is_set_per_step(solver):
+    # a constant torque tau about the hinge: omega = tau t / I, exactly (tau h / I per substep)
+    dt, tau = 1 / 240, 0.3
+    w, body, j, I = rotor(solver, None, omega0=0.0)
+    w.set_joint_effort(j, tau)
+    w.step(dt, 120)
+    assert w.joint_velocities[j] == pytest.approx(tau / I * 120 * dt, rel=1e-12)
+    assert w.joint_torques[j][2] == pytest.approx(tau, rel=1e-12)  # what the joint transmits to B
+    w.set_joint_effort(j, -tau)  # a control changed between steps: back down to rest
+    w.step(dt, 120)
+    assert abs(w.joint_velocities[j]) < 1e-12
+    w.set_joint_effort(j, 0.0)
+    w.step(dt, 10)
+    assert abs(w.joint_velocities[j]) < 1e-12 and w.joint(j)["effort"] == 0.0
+
+
+def test_an_effort_pushes_a_slider_at_f_over_m_and_bad_efforts_are_refused():
+    dt, force = 1 / 240, 3.0
+    w = sg.World(gravity=(0.0, 0.0, 0.0), sleeping=False)
+    ground = w.add_static(sg.Box((0.1, 0.1, 0.1)))
+    block = w.add_body(sg.Box((0.1, 0.1, 0.1)), mass=2.0, position=(1.0, 0.0, 0.0))
+    j = w.add_joint(sg.Prismatic(ground, block, axis=(1, 0, 0), effort=force))
+    w.step(dt, 60)
+    assert w.joint_velocities[j] == pytest.approx(force / 2.0 * 60 * dt, rel=1e-12)
+    with pytest.raises(ValueError, match="joint 0.*effort must be finite"):
+        w.set_joint_effort(j, math.nan)
+    assert w.joint(j)["effort"] == force
+    ball = w.add_joint(sg.Spherical(ground, block, (0.5, 0, 0)))
+    with pytest.raises(ValueError, match="only Revolute and Prismatic joints take an effort"):
+        w.set_joint_effort(ball, 1.0)
+    with pytest.raises(TypeError, match="effort"):
+        w.set_joint_effort(j, None)

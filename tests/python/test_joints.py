@@ -529,7 +529,7 @@ def test_bad_input_more():
 
 def every_kind(solver="pgs"):
     """Short chains of each joint kind (a hinge with limits, one with a motor, a slider with limits
-    and a motor, a ball, a weld, a rope, a rod, a servo hinge, a damped slider, and a hinge and a slider with friction) hanging from the world and swinging onto a floor
+    and a motor, a ball, a weld, a rope, a rod, a servo hinge, a damped slider, and a hinge (with an effort) and a slider with friction) hanging from the world and swinging onto a floor
     with loose boxes: joints beside contacts."""
     w = world(solver)
     floor = w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
@@ -548,7 +548,8 @@ def every_kind(solver="pgs"):
         lambda a, b, x: sg.Prismatic(a, b, anchor=x, axis=(0, 0, 1), limits=(-0.05, 0.05),
                                      motor=sg.Motor(0.0, np.inf, damping=2.0)),
         # Coulomb friction: a hinge with a motor too, and a slider
-        lambda a, b, x: sg.Revolute(a, b, anchor=x, axis=(0, 1, 0), friction=0.004, motor=sg.Motor(1.0, 0.01)),
+        lambda a, b, x: sg.Revolute(a, b, anchor=x, axis=(0, 1, 0), friction=0.004, motor=sg.Motor(1.0, 0.01),
+                                    effort=0.003),
         lambda a, b, x: sg.Prismatic(a, b, anchor=x, axis=(0.6, 0, -0.8), limits=(-0.05, 0.1), friction=0.3),
     ]
     for c, spec in enumerate(specs):

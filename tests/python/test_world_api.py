@@ -924,7 +924,8 @@ def test_every_index_taking_core_method_is_listed():
               if not name.startswith("_") and first.startswith(integers)}
     counts = {"set_threads"}  # an integer that is a count, not a body index
     # a joint's kind or index, not a body index (test_joints.py checks them)
-    joints = {"add_joint", "remove_joint", "joint", "joint_label", "set_joint_motor", "set_joint_broken"}
+    joints = {"add_joint", "remove_joint", "joint", "joint_label", "set_joint_motor", "set_joint_broken",
+              "set_joint_effort"}
     assert taking - counts - joints == set(CORE_INDEX_CALLS)
 
 

@@ -55,6 +55,9 @@ struct JointDesc {
   /// Revolute, Prismatic: Coulomb friction, the most torque (N m) or force (N) the joint resists
   /// sliding with (>= 0, finite; 0: none): a row J q_dot = 0 with |alpha| <= friction
   double friction = 0.0;
+  /// Revolute, Prismatic: a torque (N m) or force (N) the joint applies along its coordinate every
+  /// substep, +effort on B and -effort on A (MuJoCo's motor actuator, a ROS effort command); finite
+  double effort = 0.0;
   double min_length = 0.0;           ///< Distance (m, >= 0)
   double max_length = std::numeric_limits<double>::infinity();  ///< Distance (m, >= min_length, > 0)
   bool collide_connected = false;    ///< false: bodies A and B get no contacts with each other
@@ -73,7 +76,8 @@ enum JointSlot : int {
   kSlotLinear = 3,     ///< point rows (3, world x y z) or a slider's two perpendicular rows (2)
   kSlotAngular = 6,    ///< angular rows: a hinge's two perpendicular rows, a weld's or slider's 3
   kSlotFriction = 9,   ///< friction row (1)
-  kJointSlots = 10,
+  kSlotEffort = 10,    ///< effort row (1): alpha = effort
+  kJointSlots = 11,
 };
 
 /// A joint as the World keeps it. Anchors are lever arms from each body's centre of mass in the
@@ -90,6 +94,7 @@ struct Joint {
   double lower = 0.0, upper = 0.0;
   Motor motor;
   double friction = 0.0;  ///< N m or N (JointDesc::friction)
+  double effort = 0.0;    ///< N m or N (JointDesc::effort)
   double min_length = 0.0, max_length = std::numeric_limits<double>::infinity();
   bool collide_connected = false;
   std::string name;

@@ -191,6 +191,9 @@ class World {
   /// Breaks joint j (broken true) or mends it (false: its rows return from the next step, from
   /// zero forces, at the bodies' poses then). Its bodies wake.
   void set_joint_broken(JointIndex j, bool broken);
+  /// The effort of one-dof joint j (N m or N, finite; JointDesc::effort) from the next step on: a
+  /// control set per step. Its bodies wake; errors name the joint, nothing changes on error.
+  void set_joint_effort(JointIndex j, double effort);
   /// The joints that broke in the last call of step(), in the order they broke (by step, then index).
   struct JointBreak {
     int step = 0;             ///< the step of the call (0 .. steps - 1)

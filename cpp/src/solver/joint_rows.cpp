@@ -180,6 +180,16 @@ void resist(JointBlock& b, double friction) {
   b.hi = friction;
 }
 
+/// The effort row b of joint j: bounds lo = hi = effort, so every sweep leaves alpha = effort, and
+/// its force is applied once per substep, by the warm start (the joint's alpha holds it), or by the
+/// first sweep without warm start.
+void push_with(JointBlock& b, Joint& j) {
+  b.target = 0.0;
+  b.gamma = 0.0;
+  b.lo = b.hi = j.effort;
+  *b.alpha = j.effort;
+}
+
 /// Appends the blocks of joint j with its bodies at poses A and B (Jacobians and C only; h: the
 /// substep, for a spring-damper drive).
 void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_moves, bool b_moves, double h) {
@@ -202,6 +212,11 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
           JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotFriction, a_moves, b_moves);
           angular_row(b, 0, axis);
           resist(b, j.friction);
+        }
+        if (j.effort != 0.0) {
+          JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotEffort, a_moves, b_moves);
+          angular_row(b, 0, axis);
+          push_with(b, j);
         }
         if (j.has_limits) {
           JointBlock& lo = add_block(js, j, JointBlock::Limit, 1, kSlotLower, a_moves, b_moves);
@@ -236,6 +251,11 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
           JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotFriction, a_moves, b_moves);
           linear_row(b, 0, axis, ra_lin, f.r_b);
           resist(b, j.friction);
+        }
+        if (j.effort != 0.0) {
+          JointBlock& b = add_block(js, j, JointBlock::Motor, 1, kSlotEffort, a_moves, b_moves);
+          linear_row(b, 0, axis, ra_lin, f.r_b);
+          push_with(b, j);
         }
         if (j.has_limits) {
           JointBlock& lo = add_block(js, j, JointBlock::Limit, 1, kSlotLower, a_moves, b_moves);

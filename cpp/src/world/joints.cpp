@@ -94,10 +94,12 @@ JointIndex World::add_joint(const JointDesc& desc) {
     if (desc.motor.enabled) check_motor(desc.motor, fail);
     if (!(std::isfinite(desc.friction) && desc.friction >= 0.0))
       fail("friction must be finite and >= 0, got " + num(desc.friction));
+    if (!std::isfinite(desc.effort)) fail("effort must be finite, got " + num(desc.effort));
   } else {
     if (desc.has_limits) fail("only Revolute and Prismatic joints take limits");
     if (desc.motor.enabled) fail("only Revolute and Prismatic joints take a motor");
     if (desc.friction != 0.0) fail("only Revolute and Prismatic joints take friction");
+    if (desc.effort != 0.0) fail("only Revolute and Prismatic joints take an effort");
   }
   if (desc.kind == JointKind::Distance) {
     if (!(std::isfinite(desc.min_length) && desc.min_length >= 0.0))
@@ -133,6 +135,7 @@ JointIndex World::add_joint(const JointDesc& desc) {
   x.upper = desc.upper;
   x.motor = desc.motor;
   x.friction = desc.friction;
+  x.effort = desc.effort;
   x.break_force = desc.break_force;
   x.break_torque = desc.break_torque;
   x.min_length = desc.min_length;
@@ -172,6 +175,20 @@ void World::set_joint_motor(JointIndex j, const Motor& motor) {
   // a motor switched on or off changes the joint's rows: its warm-start force starts from zero
   if (motor.enabled != x.motor.enabled) x.alpha[kSlotMotor] = 0.0;
   x.motor = motor;
+  wake(x.a);
+  wake(x.b);
+}
+
+void World::set_joint_effort(JointIndex j, double effort) {
+  const Lock lock(mutex_);
+  if (j < 0 || static_cast<std::size_t>(j) >= joints_->joints.size())
+    throw std::out_of_range("joint index " + std::to_string(j) + " is out of range: the world has " +
+                            std::to_string(joints_->joints.size()) + " joints");
+  Joint& x = joints_->joints[static_cast<std::size_t>(j)];
+  if (!x.one_dof()) throw std::invalid_argument(joint_label(j) + ": only Revolute and Prismatic joints take an effort");
+  if (!std::isfinite(effort)) throw std::invalid_argument(joint_label(j) + ": effort must be finite, got " + num(effort));
+  x.effort = effort;
+  if (effort == 0.0) x.alpha[kSlotEffort] = 0.0;
   wake(x.a);
   wake(x.b);
 }

@@ -7,7 +7,7 @@
 // per body awake, sleep timer and island label, then the sleeping islands' warm-start forces); the
 // joints (format 5: each joint whole, in its bodies' frames, with its warm-start forces and last
 // force and torque; format 6: the kept manifolds with their rows as found; format 7: each joint's
-// motor with its servo position, stiffness and damping, its friction and the friction row's force, its breaking limits and whether it broke). Formats 1 (no spin
+// motor with its servo position, stiffness and damping, its friction, effort and their rows' forces, its breaking limits and whether it broke). Formats 1 (no spin
 // torques), 2 (no contact memory), 3 (no islands: every body awake, timers zero), 4 (no kept
 // manifolds: every pair found anew, no pair counts; no joints: the world keeps its joints, their
 // warm start zeroed), 5 (kept manifolds without their rows: every pair found anew) and 6 (rigid
@@ -118,6 +118,7 @@ void save(serial::Writer& w, const Joint& j) {
   w.pod(j.motor.stiffness);
   w.pod(j.motor.damping);
   w.pod(j.friction);
+  w.pod(j.effort);
   w.pod(j.break_force);
   w.pod(j.break_torque);
   w.pod(static_cast<std::uint8_t>(j.broken));
@@ -155,6 +156,7 @@ Joint load_joint(serial::Reader& r, std::size_t n, char version) {
     j.motor.stiffness = r.pod<double>();
     j.motor.damping = r.pod<double>();
     j.friction = r.pod<double>();
+    j.effort = r.pod<double>();
     j.break_force = r.pod<double>();
     j.break_torque = r.pod<double>();
     j.broken = r.pod<std::uint8_t>() != 0;
@@ -176,7 +178,7 @@ Joint load_joint(serial::Reader& r, std::size_t n, char version) {
                 !std::isnan(j.max_length) && std::isfinite(j.motor.speed) && j.motor.max_force >= 0.0 &&
                 std::isfinite(j.motor.position) && std::isfinite(j.motor.stiffness) && j.motor.stiffness >= 0.0 &&
                 std::isfinite(j.motor.damping) && j.motor.damping >= 0.0 && std::isfinite(j.friction) &&
-                j.friction >= 0.0 && j.break_force > 0.0 && j.break_torque > 0.0;
+                j.friction >= 0.0 && std::isfinite(j.effort) && j.break_force > 0.0 && j.break_torque > 0.0;
   for (const double a : j.alpha) finite = finite && std::isfinite(a);
   if (!finite) throw std::invalid_argument(damaged);
   return j;

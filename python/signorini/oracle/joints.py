@@ -10,16 +10,16 @@ A joint (``snapshot["joints"]``, a list of dicts, as ``World.snapshot()`` writes
     axis_a, axis_b, ref_a, ref_b  (3,) unit, each body's frame (R_A axis_a = R_B axis_b at creation)
     R_rel       (3, 3) R_A^T R_B at creation
     has_limits, lower, upper    (rad or m);  motor, motor_speed, motor_max_force (and, for a
-    spring-damper motor, motor_position, motor_stiffness, motor_damping); friction (N m or N, 0: none)
+    spring-damper motor, motor_position, motor_stiffness, motor_damping); friction (N m or N, 0: none); effort (N m or N)
     min_length, max_length      (m; Distance)
     alpha       (9,) the rows' forces of the last substep by slot (N or N m): the warm start
-Slots: motor 0, lower 1, upper 2, linear 3..5, angular 6..8, friction 9.
+Slots: motor 0, lower 1, upper 2, linear 3..5, angular 6..8, friction 9, effort 10.
 """
 import numpy as np
 
 from .rigid import rodrigues
 
-SLOT_MOTOR, SLOT_LOWER, SLOT_UPPER, SLOT_LINEAR, SLOT_ANGULAR, SLOT_FRICTION = 0, 1, 2, 3, 6, 9
+SLOT_MOTOR, SLOT_LOWER, SLOT_UPPER, SLOT_LINEAR, SLOT_ANGULAR, SLOT_FRICTION, SLOT_EFFORT = 0, 1, 2, 3, 6, 9, 10
 SLOTS = 9
 EQUALITY, LIMIT, MOTOR = "equality", "limit", "motor"
 
@@ -82,9 +82,20 @@ def _drive(m, joint, x, h, angle):
     m["target"] = m["gamma"] * (k * error + c * joint["motor_speed"])
 
 
+def _effort(joint, row):
+    """The effort row of a joint: bounds lo = hi = effort, so every sweep leaves alpha = effort, and
+    the joint's alpha holds it now (applied once per substep by the warm start, or by the first
+    sweep without one). row(block) fills its Jacobian."""
+    e = _block(MOTOR, 1, joint, SLOT_EFFORT)
+    row(e)
+    e["lo"] = e["hi"] = joint["effort"]
+    joint["alpha"][SLOT_EFFORT] = joint["effort"]
+    return e
+
+
 def build_blocks(joint, pA, RA, pB, RB, h):
     """The blocks of one joint with its bodies at (pA, RA), (pB, RB), in the core's order: motor,
-    friction, lower limit, upper limit, then the equality blocks (h: the substep, for a
+    friction, effort, lower limit, upper limit, then the equality blocks (h: the substep, for a
     spring-damper motor); friction is a motor row of speed 0 bounded by the joint's friction."""
     r_a, r_b = RA @ joint["anchor_a"], RB @ joint["anchor_b"]
     d = (pB + r_b) - (pA + r_a)
@@ -102,6 +113,8 @@ def build_blocks(joint, pA, RA, pB, RB, h):
             _angular(f, 0, axis)
             f["lo"], f["hi"] = -joint["friction"], joint["friction"]
             out.append(f)
+        if joint.get("effort", 0.0) != 0.0:
+            out.append(_effort(joint, lambda e: _angular(e, 0, axis)))
         if joint["has_limits"]:
             lo, hi = _block(LIMIT, 1, joint, SLOT_LOWER), _block(LIMIT, 1, joint, SLOT_UPPER)
             _angular(lo, 0, axis)
@@ -134,6 +147,8 @@ def build_blocks(joint, pA, RA, pB, RB, h):
             _linear(f, 0, axis, ra_lin, r_b)
             f["lo"], f["hi"] = -joint["friction"], joint["friction"]
             out.append(f)
+        if joint.get("effort", 0.0) != 0.0:
+            out.append(_effort(joint, lambda e: _linear(e, 0, axis, ra_lin, r_b)))
         if joint["has_limits"]:
             lo, hi = _block(LIMIT, 1, joint, SLOT_LOWER), _block(LIMIT, 1, joint, SLOT_UPPER)
             _linear(lo, 0, axis, ra_lin, r_b)
