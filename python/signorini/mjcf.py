@@ -54,6 +54,8 @@ Joints (docs/conventions.md, "MJCF joints and actuators"):
   compiler's ``autolimits``) becomes the limits range - ref; ``stiffness`` (towards
   ``springref``) and ``damping`` are the joint's drive (``sg.Motor`` spring-damper, max force
   inf), ``frictionloss`` its ``friction``;
+- actuators ``motor`` on a hinge or slide: the joint's effort (``World.set_joint_effort``), gear
+  times the control clamped to ``forcerange``, beside the joint's spring and damper;
 - actuators ``position`` (kp, kv) and ``velocity`` (kv) on a hinge or slide, with ``gear``
   (first value), ``ctrlrange`` (controls are clamped to it) and a symmetric ``forcerange``: the
   joint's drive, summed with its spring and damper (``_drive``); controls start at 0 as in MuJoCo
@@ -67,8 +69,7 @@ alone, which no rigid body's mass matrix does), a body with several joints (each
 joins two bodies; the massless bodies between chained joints are not possible, a body needs a
 positive mass), a ball joint's range (a cone limit), stiffness, damping or frictionloss, a hinge
 range that minus ref reaches outside (-180, 180) degrees (signorini's hinge angle wraps there),
-the ``motor`` actuator (a direct torque: the core has no joint torque input) and every other
-actuator type, actuators on ball joints, an asymmetric ``forcerange``, a ``forcerange`` on a joint
+actuator types other than motor, position and velocity, actuators on ball joints, an asymmetric ``forcerange``, a ``forcerange`` on a joint
 with stiffness or damping (the one drive would bound their sum), two actuators on one joint,
 contact ``<pair>``s. Bad input (an error naming the line and element, before any body is added):
 a joint on the world body, a zero axis, a range or ctrlrange with lo > hi, an unknown joint type,
@@ -794,9 +795,8 @@ class _Reader:
         for top in self.root.findall("actuator"):
             self.check_attrs(top, set())
             for el in top:
-                if el.tag not in ("position", "velocity"):
-                    self.skip(el, "a direct joint torque, which the core has no input for" if el.tag == "motor" else
-                              f"{el.tag} actuator (position and velocity actuators are imported)")
+                if el.tag not in ("position", "velocity", "motor"):
+                    self.skip(el, f"{el.tag} actuator (motor, position and velocity actuators are imported)")
                     continue
                 attrs = self.attrs(el, "main")
                 known = _ACTUATOR_ATTRS | ({"kp"} if el.tag == "position" else set())
@@ -822,7 +822,9 @@ class _Reader:
                 force = self.limited(el, attrs, "forcelimited", "forcerange")
                 kp = self.nonnegative(el, attrs, "kp", 1.0) if el.tag == "position" else 0.0
                 kv = self.nonnegative(el, attrs, "kv", 1.0 if el.tag == "velocity" else 0.0)
-                if force is not None and force[0] != -force[1]:
+                if el.tag == "motor":
+                    pass  # its force is the joint's effort, clamped to forcerange, beside any drive
+                elif force is not None and force[0] != -force[1]:
                     self.skip(el, f"forcerange {attrs['forcerange']} is not symmetric about 0 (a joint drive's "
                                   "force bound is)")
                 elif force is not None and (plan.stiffness or plan.damping):
@@ -929,7 +931,7 @@ class MJCFJoint:
 
 @dataclass(frozen=True)
 class MJCFActuator:
-    """A ``position`` or ``velocity`` actuator (``type``) on the hinge or slide ``joint`` (its
+    """A ``motor``, ``position`` or ``velocity`` actuator (``type``) on the hinge or slide ``joint`` (its
     MJCFJoint's name): the first ``gear`` value, ``kp``, ``kv``, ``ctrlrange`` and ``forcerange``
     as (lo, hi), or None when not limited."""
     name: Optional[str]
@@ -961,7 +963,8 @@ def _drive(joint: MJCFJoint, actuator: Optional[MJCFActuator], u: float):
         return None
     position = (joint.stiffness * joint.springref + kp * g * u) / K - joint.ref if K > 0.0 else 0.0
     speed = kv * g * u / C if actuator is not None and actuator.type == "velocity" and C > 0.0 else 0.0
-    limit = math.inf if actuator is None or actuator.forcerange is None else abs(g) * actuator.forcerange[1]
+    limit = (math.inf if actuator is None or actuator.type == "motor" or actuator.forcerange is None
+             else abs(g) * actuator.forcerange[1])
     return Motor(speed, limit, position=position, stiffness=K, damping=C)
 
 
@@ -994,8 +997,10 @@ class MJCFModel:
         return np.array([positions[j.index] + j.ref for j in self.joints.values() if j.type != "ball"])
 
     def set_ctrl(self, ctrl) -> None:
-        """Sets MuJoCo's controls (nu,): each clamped to its actuator's ctrlrange and applied to its
-        joint's drive from the next step on (``World.set_joint_motor``)."""
+        """Sets MuJoCo's controls (nu,): each clamped to its actuator's ctrlrange and applied from
+        the next step on: a position or velocity actuator's to its joint's drive
+        (``World.set_joint_motor``), a motor's as its joint's effort g clamp(u, forcerange)
+        (``World.set_joint_effort``)."""
         values = np.array(ctrl, dtype=np.float64).reshape(-1)
         if values.shape != (len(self.actuators),) or not np.all(np.isfinite(values)):
             raise ValueError(f"set_ctrl: expected {len(self.actuators)} finite controls, got {ctrl!r}")
@@ -1005,6 +1010,9 @@ class MJCFModel:
         for a, u in zip(self.actuators, values):
             joint = self.joints[a.joint]
             self.world.set_joint_motor(joint.index, _drive(joint, a, float(u)))
+            if a.type == "motor":
+                force = float(u) if a.forcerange is None else min(max(float(u), a.forcerange[0]), a.forcerange[1])
+                self.world.set_joint_effort(joint.index, a.gear * force)
         self.ctrl = values
 
 

@@ -204,7 +204,7 @@ def test_everything_outside_the_subset_is_listed_in_one_error(tmp_path):
     </body>
     <body name="free"><freejoint/><geom type="sphere" size="0.1" hfield="x"/></body>
   </worldbody>
-  <actuator><motor joint="shoulder"/></actuator>
+  <actuator><general joint="shoulder"/></actuator>
   <tendon/>
   <equality/>
   <contact><exclude body1="arm" body2="free"/></contact>
@@ -213,8 +213,8 @@ def test_everything_outside_the_subset_is_listed_in_one_error(tmp_path):
         sg.load_mjcf(path)
     message = str(e.value)
     assert "bad.xml" in message
-    # the hinge, the slide and the exclude are imported now (test_mjcf_joints.py); a motor actuator is not
-    for needle in ("line 8 <geom> (attribute hfield)", "line 10 <motor> (a direct joint torque", "line 11 <tendon>",
+    # the hinge, the slide and the exclude are imported now (test_mjcf_joints.py); a general actuator is not
+    for needle in ("line 8 <geom> (attribute hfield)", "line 10 <general> (general actuator", "line 11 <tendon>",
                    "line 12 <equality>"):
         assert needle in message, (needle, message)
     assert "<joint" not in message and "<contact>" not in message and "<exclude" not in message
@@ -240,15 +240,15 @@ def test_unsupported_elements_inside_frames_are_listed_in_line_order(tmp_path):
     </body>
     <frame name="top"><body name="lid"><joint name="lid_slide" type="slide"/><geom size="0.1"/></body></frame>
   </worldbody>
-  <actuator><motor joint="left_hinge"/></actuator>
+  <actuator><general joint="left_hinge"/></actuator>
 </mujoco>""")
     with pytest.raises(sg.MJCFError) as e:
         sg.load_mjcf(path)
     listed = [line.strip() for line in str(e.value).split("\n")[1:]]
     assert [line.split(":")[0].split(" (")[0] for line in listed] == [
         "line 3 <geom>", "line 7 <joint name='left_hinge'>", "line 8 <body name='left_rear'>", "line 12 <replicate>",
-        "line 17 <motor>"], str(e.value)
-    assert "armature" in listed[1] and "2 joints on one body" in listed[2] and "direct joint torque" in listed[4]
+        "line 17 <general>"], str(e.value)
+    assert "armature" in listed[1] and "2 joints on one body" in listed[2] and "general actuator" in listed[4]
 
 
 @pytest.mark.parametrize("text, message", [

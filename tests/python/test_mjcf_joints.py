@@ -174,21 +174,27 @@ def test_actuators_drive_as_in_mujoco(tmp_path):
       <geom type="cylinder" size="0.2 0.05" zaxis="0 1 0"/></body>
     <body name="servoed" pos="1 0 1"><joint name="turn" axis="0 1 0" damping="0.3"/>
       <geom type="cylinder" size="0.2 0.05" zaxis="0 1 0"/></body>
+    <body name="pushed" pos="2 0 1"><joint name="push" axis="0 1 0" damping="0.1"/>
+      <geom type="cylinder" size="0.2 0.05" zaxis="0 1 0"/></body>
   </worldbody>
   <actuator>
     <velocity name="speed" joint="spin" kv="2" gear="2" ctrlrange="-1 1"/>
     <position name="angle" joint="turn" kp="4" kv="0.5" gear="0.5"/>
+    <motor name="torque" joint="push" gear="2" forcerange="-0.5 0.5"/>
   </actuator>
 </mujoco>""")
     m = mujoco.MjModel.from_xml_path(str(path))
     d = mujoco.MjData(m)
     model = import_mjcf(path)
     model.world.set_sleep(sleeping=False)
-    assert [a.name for a in model.actuators] == ["speed", "angle"]
-    ctrl = [3.0, 0.8]  # the first clamped to 1 by its ctrlrange
+    assert [a.name for a in model.actuators] == ["speed", "angle", "torque"]
+    # the first clamped to 1 by its ctrlrange; the motor's force to 0.5 by its forcerange, a torque
+    # of gear * 0.5 = 1 N m on its wheel (the joint's effort) against its damper
+    ctrl = [3.0, 0.8, 0.8]
     d.ctrl[:] = ctrl
     model.set_ctrl(ctrl)
-    assert model.ctrl.tolist() == [1.0, 0.8]
+    assert model.ctrl.tolist() == [1.0, 0.8, 0.8]
+    assert model.world.joint(2)["effort"] == 1.0
     for _ in range(1000):
         mujoco.mj_step(m, d)
         model.world.step(DT)
@@ -302,9 +308,9 @@ def test_what_stays_outside_is_listed_in_one_error(tmp_path):
     listed = [line.strip() for line in str(e.value).split("\n")[1:]]
     assert [line.split(" (")[0] for line in listed] == [
         "line 3 <body name='two'>", "line 4 <joint name='r'>", "line 5 <joint name='ball'>",
-        "line 7 <joint name='wide'>", "line 11 <motor>", "line 12 <general>", "line 13 <velocity>",
+        "line 7 <joint name='wide'>", "line 12 <general>", "line 13 <velocity>",
         "line 14 <velocity>", "line 15 <position>", "line 17 <pair>"], str(e.value)
     for needle in ("2 joints on one body", "armature", "a cone limit", "outside (-180, 180) degrees",
-                   "a direct joint torque", "general actuator", "stiffness or damping", "not symmetric",
+                   "general actuator", "stiffness or damping", "not symmetric",
                    "ball joint 'ball'", "contact pairs"):
         assert needle in str(e.value), needle
