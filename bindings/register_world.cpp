@@ -515,6 +515,15 @@ void register_world(py::module_& m) {
         return out;
       })
       .def_property_readonly("joint_forces", [](const World& w) { return bindings::rows_of(w.joint_forces()); })
+      // per joint, its rows' forces of the last substep by slot (J x kJointSlots; Joint::alpha)
+      .def_property_readonly("joint_row_forces", [](const World& w) {
+        const std::vector<Joint> all = w.joints();
+        py::array_t<double> out({static_cast<py::ssize_t>(all.size()), static_cast<py::ssize_t>(kJointSlots)});
+        auto o = out.mutable_unchecked<2>();
+        for (std::size_t j = 0; j < all.size(); ++j)
+          for (int k = 0; k < kJointSlots; ++k) o(static_cast<py::ssize_t>(j), k) = all[j].alpha[static_cast<std::size_t>(k)];
+        return out;
+      })
       .def_property_readonly("joint_torques", [](const World& w) { return bindings::rows_of(w.joint_torques()); })
       .def("kinetic_energy", &World::kinetic_energy)
       .def("potential_energy", &World::potential_energy);

@@ -700,6 +700,9 @@ class World:
     def joint_positions(self) -> numpy.typing.NDArray[numpy.float64]:
         ...
     @property
+    def joint_row_forces(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
     def joint_torques(self) -> numpy.typing.NDArray[numpy.float64]:
         ...
     @property

@@ -1031,6 +1031,35 @@ class World:
 
     @property
     @_locked
+    def joint_limit_forces(self) -> np.ndarray:
+        """(J,) what each joint's limit pushes with in the last substep (N m for a hinge, N for a
+        slider or a Distance joint's length): > 0 at the lower limit (a Distance joint at its
+        min_length), < 0 at the upper one (a rope taut at its max_length), 0 when no limit acts, so a
+        limit is active exactly when this is non-zero; for a rod (min_length = max_length) the rod's
+        push along its length (< 0: pulling). NaN-free; 0 for joints without limits."""
+        rows = self._core.joint_row_forces
+        return (rows[:, 1] - rows[:, 2]) if len(rows) else np.zeros(0)
+
+    @property
+    @_locked
+    def joint_motor_forces(self) -> np.ndarray:
+        """(J,) the torque (N m) or force (N) each joint's motor applied in the last substep, NaN
+        for a joint without a motor; at +-max_force the motor is saturated. Its friction and effort
+        rows are apart: ``joint_row_forces`` has every row."""
+        rows = self._core.joint_row_forces
+        has = np.array([bool(self._core.joint(j)["motor"]) for j in range(len(rows))], dtype=bool)
+        return np.where(has, rows[:, 0] if len(rows) else np.zeros(0), np.nan)
+
+    @property
+    @_locked
+    def joint_row_forces(self) -> np.ndarray:
+        """(J, 11) each joint's rows' forces of the last substep by slot (docs/conventions.md,
+        "Joints", warm start): motor, lower limit, upper limit, three linear, three angular,
+        friction, effort (N or N m; 0 for a row the joint does not have). A copy."""
+        return self._core.joint_row_forces
+
+    @property
+    @_locked
     def joint_forces(self) -> np.ndarray:
         """(J, 3) the force (N, world) each joint transmitted to its body B in the last substep (A
         got the opposite). A copy."""

@@ -306,3 +306,32 @@ def test_an_effort_pushes_a_slider_at_f_over_m_and_bad_efforts_are_refused():
         w.set_joint_effort(ball, 1.0)
     with pytest.raises(TypeError, match="effort"):
         w.set_joint_effort(j, None)
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_limit_and_motor_activity_read_as_arrays(solver):
+    # a 1 kg rod on a hinge resting on its lower limit under gravity (the limit carries m g L / 2
+    # about the hinge), a saturated motor on a free wheel, and a joint without either
+    dt = 1 / 240
+    w = sg.World(gravity=(0.0, 0.0, -9.81), solver=solver, sleeping=False)
+    ground = w.add_static(sg.Box((0.05, 0.05, 0.05)), position=(0.0, 0.0, 5.0))
+    rod = w.add_body(sg.Box((0.5, 0.02, 0.02)), mass=1.0, position=(0.5, 0.0, 5.0))
+    hinge = w.add_joint(sg.Revolute(ground, rod, anchor=(0, 0, 5.0), axis=(0, 1, 0), limits=(0.0, 0.5)))
+    wheel = w.add_body(sg.Sphere(0.1), mass=1.0, position=(3.0, 0.0, 5.0))
+    motor = w.add_joint(sg.Revolute(ground, wheel, anchor=(3.0, 0, 5.0), axis=(0, 0, 1),
+                                    motor=sg.Motor(100.0, max_torque=0.01)))
+    free = w.add_body(sg.Sphere(0.1), mass=1.0, position=(-3.0, 0.0, 5.0))
+    ball = w.add_joint(sg.Spherical(ground, free, (-3.0, 0.0, 5.0)))
+    w.step(dt, 480)
+    # the rod along +x turns about +y as it falls (x towards -z: a positive angle), swings down to
+    # its upper limit, 0.5 rad, and rests there: the limit pushes back (negative) with the weight's
+    # moment about the hinge, m g (L / 2) cos(0.5)
+    assert w.joint_positions[hinge] == pytest.approx(0.5, abs=1e-3)
+    limits = w.joint_limit_forces
+    # (at the angle it rests at: the soft step's limit is a stiff spring, a fraction of a mrad past)
+    assert limits[hinge] == pytest.approx(-9.81 * 0.5 * math.cos(w.joint_positions[hinge]), rel=1e-9)
+    assert limits[motor] == 0.0 and limits[ball] == 0.0
+    motors = w.joint_motor_forces
+    assert motors[motor] == pytest.approx(0.01, rel=1e-12)  # saturated at its max torque
+    assert math.isnan(motors[hinge]) and math.isnan(motors[ball])
+    assert w.joint_row_forces.shape == (3, 11)
