@@ -173,7 +173,7 @@ void register_world(py::module_& m) {
              std::optional<double> mass, std::optional<Mat3> inertia, const Vec3& position, const Quat4& orientation,
              const Vec3& velocity, const Vec3& angular_velocity, double friction, double restitution,
              double spinning_friction, const std::string& name, std::uint32_t group, std::uint32_t mask, bool enabled,
-             bool can_sleep) {
+             bool can_sleep, bool sensor) {
             BodyDesc d;
             d.shape = bindings::to_shape(shape, "body " + std::to_string(w.num_bodies()));
             d.is_static = is_static;
@@ -192,13 +192,14 @@ void register_world(py::module_& m) {
             d.filter = CollisionFilter{group, mask};
             d.enabled = enabled;
             d.can_sleep = can_sleep;
+            d.sensor = sensor;
             return w.add_body(d);
           },
           py::arg("shape"), py::arg("is_static"), py::arg("is_kinematic"), py::arg("density"), py::arg("mass"),
           py::arg("inertia"), py::arg("position"), py::arg("orientation"), py::arg("velocity"),
           py::arg("angular_velocity"), py::arg("friction"), py::arg("restitution"), py::arg("spinning_friction"),
           py::arg("name"),
-          py::arg("group"), py::arg("mask"), py::arg("enabled"), py::arg("can_sleep") = true)
+          py::arg("group"), py::arg("mask"), py::arg("enabled"), py::arg("can_sleep") = true, py::arg("sensor") = false)
       .def("remove_body", &World::remove_body, py::arg("i"))
       .def("remove_bodies", &World::remove_bodies, py::arg("indices"))
       .def("step", &World::step, py::arg("dt"), py::arg("steps") = 1, py::call_guard<py::gil_scoped_release>())
@@ -226,6 +227,7 @@ void register_world(py::module_& m) {
       .def("set_pair_collision", &World::set_pair_collision)
       .def("set_awake", &World::set_awake)
       .def("set_can_sleep", &World::set_can_sleep)
+      .def("set_sensor", &World::set_sensor, py::arg("i"), py::arg("sensor"))
       .def("set_sleep", [](World& w, const SleepSettings& sleep) {
         const auto held = w.lock();  // read, change, write as one call
         WorldSettings s = w.settings();
@@ -316,6 +318,9 @@ void register_world(py::module_& m) {
       .def_property_readonly("enabled", [](const World& w) {
         return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.enabled[i]; });
       })
+      .def_property_readonly("is_sensor", [](const World& w) {
+        return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.is_sensor[i]; });
+      })
       .def_property_readonly("can_sleep", [](const World& w) {
         return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.can_sleep[i]; });
       })
@@ -391,6 +396,8 @@ void register_world(py::module_& m) {
         d["begin"] = bindings::event_arrays(e.begin);
         d["end"] = bindings::event_arrays(e.end);
         d["hits"] = bindings::event_arrays(e.hits);
+        d["sensor_begin"] = bindings::event_arrays(e.sensor_begin);
+        d["sensor_end"] = bindings::event_arrays(e.sensor_end);
         return d;
       })
       .def_property("hit_speed", &World::hit_speed, &World::set_hit_speed)

@@ -196,14 +196,14 @@ class BodyArgs(NamedTuple):
 
 
 def body_models(world) -> list[dict]:
-    """Per body, what the world holds of its model: static, kinematic, enabled, can_sleep (bool),
+    """Per body, what the world holds of its model: static, kinematic, enabled, can_sleep, sensor (bool),
     mass (kg), inertia (3, 3), friction, restitution, spinning_friction, name, group, mask. Linear in N."""
     masses, inertias, statics, kinematic = world.masses, world.inertias, world.is_static, world.is_kinematic
-    can_sleep = world.can_sleep
+    can_sleep, sensor = world.can_sleep, world.is_sensor
     enabled, (groups, masks), names = world.enabled, world.collision_filters, world.names
     frictions, restitutions, spinning = world.frictions, world.restitutions, world.spinning_frictions
     return [{"static": bool(statics[i]), "kinematic": bool(kinematic[i]), "enabled": bool(enabled[i]),
-             "can_sleep": bool(can_sleep[i]),
+             "can_sleep": bool(can_sleep[i]), "sensor": bool(sensor[i]),
              "mass": float(masses[i]), "inertia": np.array(inertias[i]), "friction": float(frictions[i]),
              "restitution": float(restitutions[i]), "spinning_friction": float(spinning[i]), "name": names[i],
              "group": int(groups[i]), "mask": int(masks[i])} for i in range(world.num_bodies)]
@@ -293,6 +293,8 @@ def scene_bodies(world, mesh_file: Callable, names=None) -> list[dict]:
             table["enabled"] = False
         if not model["can_sleep"]:
             table["can_sleep"] = False
+        if model.get("sensor"):
+            table["sensor"] = True
         bodies.append(table)
     return bodies
 
@@ -320,10 +322,11 @@ def add_scene_body(world, table: dict, shape, material: dict) -> int:
         for key in ("velocity", "angular_velocity", "force", "torque"):
             if any(table[key]):
                 raise ValueError(f"{key}: a static body cannot have a {key.replace('_', ' ')}")
-        return world.add_static(shape, **common)
+        return world.add_static(shape, sensor=table.get("sensor", False), **common)
     i = world.add_body(shape, density=table.get("density"), mass=table.get("mass"), inertia=table.get("inertia"),
                        velocity=table["velocity"], angular_velocity=table["angular_velocity"],
-                       kinematic=table["kinematic"], can_sleep=table.get("can_sleep", True), **common)
+                       kinematic=table["kinematic"], can_sleep=table.get("can_sleep", True),
+                       sensor=table.get("sensor", False), **common)
     if any(force) or any(torque):
         try:
             world.set_external_wrench(i, force, torque)

@@ -308,6 +308,8 @@ class Body(_Table):
     mask: Bits = Field(0xFFFFFFFF, description="collision filter: the categories it collides with (32 bits)")
     enabled: Bool = Field(True, description="false: the body neither moves nor collides")
     can_sleep: Bool = Field(True, description="false: the body never sleeps, nor does any island it is in")
+    sensor: Bool = Field(False, description="true: the body collides with nothing and reports its overlaps as "
+                                            "sensor events")
 
 
 class WorldSettings(_Table):

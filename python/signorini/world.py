@@ -201,11 +201,16 @@ class ContactEvents:
     begin: pairs that touch after a step and did not before it.
     end: pairs that touched before a step and do not after it (or whose body was disabled).
     hits: the beginnings whose approach ``speed`` was above ``World.hit_speed``.
+    sensor_begin, sensor_end: a sensor body (body_a) and a body that is not one (body_b) began or
+        ended overlapping (docs/conventions.md, "Sensors"); point and normal (from the sensor) of
+        their deepest contact at the beginning, zero at the end; speed and impulse 0.
     """
 
     begin: ContactEventList
     end: ContactEventList
     hits: ContactEventList
+    sensor_begin: ContactEventList
+    sensor_end: ContactEventList
 
 
 @dataclass(frozen=True)
@@ -548,6 +553,20 @@ class World:
         i = self._index(i)
         self._core.set_awake(i, as_flag(awake, self.label(i), "awake"))
 
+    @property
+    @_locked
+    def is_sensor(self) -> np.ndarray:
+        """(N,) bool: True for sensor bodies (``add_body(..., sensor=True)``, ``set_sensor``)."""
+        return readonly(self._core.is_sensor)
+
+    @_locked
+    def set_sensor(self, i: int, sensor: bool) -> None:
+        """Makes body i a sensor (its overlaps with bodies that are not sensors are reported as
+        ``events.sensor_begin`` and ``sensor_end``; it never collides) or a body that collides
+        again. It wakes."""
+        i = self._index(i)
+        self._core.set_sensor(i, as_flag(sensor, self.label(i), "sensor"))
+
     @_locked
     def set_can_sleep(self, i: int, can_sleep: bool) -> None:
         """Whether body i may sleep; False wakes its island and keeps any island it is in awake."""
@@ -573,7 +592,8 @@ class World:
                  orientation=(1.0, 0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0),
                  angular_velocity=(0.0, 0.0, 0.0), friction: float = 0.5, restitution: float = 0.0,
                  spinning_friction: float = 0.0, kinematic: bool = False, name: str | None = None,
-                 group: int = 1, mask: int = ALL_BITS, enabled: bool = True, can_sleep: bool = True) -> int:
+                 group: int = 1, mask: int = ALL_BITS, enabled: bool = True, can_sleep: bool = True,
+                 sensor: bool = False) -> int:
         """Adds a dynamic (or kinematic) body and returns its index.
 
         Exactly one of ``density`` (kg/m^3) or ``mass`` (kg). ``position`` (3,) is where the
@@ -593,7 +613,8 @@ class World:
         optional (needed only to make it dynamic later). ``name``: unique in the world
         (``find``). ``group`` / ``mask``: collision filter bits (see ``set_collision_filter``).
         ``enabled=False`` adds it disabled (``set_enabled``). ``can_sleep=False``: it never sleeps,
-        nor does any island it is in (``set_can_sleep``).
+        nor does any island it is in (``set_can_sleep``). ``sensor=True``: it collides with nothing;
+        its overlaps with other bodies are ``events.sensor_begin`` / ``sensor_end`` (``set_sensor``).
 
         A non-convex ``Mesh`` without convex pieces is decomposed first (``sg.decompose`` with
         its defaults: cached, but the first time it can take minutes, with an estimate and a
@@ -604,20 +625,22 @@ class World:
         """
         return self._add(shape, False, kinematic, density, mass, inertia, position, orientation, velocity,
                          angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled,
-                         can_sleep)
+                         can_sleep, sensor)
 
     def add_static(self, shape, *, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0),
                    friction: float = 0.5, restitution: float = 0.0, spinning_friction: float = 0.0,
-                   name: str | None = None, group: int = 1, mask: int = ALL_BITS, enabled: bool = True) -> int:
+                   name: str | None = None, group: int = 1, mask: int = ALL_BITS, enabled: bool = True,
+                   sensor: bool = False) -> int:
         """Adds a static body (inverse mass and inertia zero: it never moves) and returns its index.
-        ``friction``, ``restitution``, ``spinning_friction``, ``name``, ``group``, ``mask`` and
-        ``enabled`` as for ``add_body``."""
+        ``friction``, ``restitution``, ``spinning_friction``, ``name``, ``group``, ``mask``,
+        ``enabled`` and ``sensor`` as for ``add_body``."""
         return self._add(shape, True, False, None, None, None, position, orientation, (0.0, 0.0, 0.0),
-                         (0.0, 0.0, 0.0), friction, restitution, spinning_friction, name, group, mask, enabled)
+                         (0.0, 0.0, 0.0), friction, restitution, spinning_friction, name, group, mask, enabled,
+                         True, sensor)
 
     def _add(self, shape, is_static, kinematic, density, mass, inertia, position, orientation, velocity,
              angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled,
-             can_sleep=True) -> int:
+             can_sleep=True, sensor=False) -> int:
         who = f"body {self.num_bodies} ({type(shape).__name__})"
         if not isinstance(shape, Shape):
             raise TypeError(f"{who}: shape must be a Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, "
@@ -636,7 +659,7 @@ class World:
                 as_number(friction, who, "friction"), as_number(restitution, who, "restitution"),
                 as_number(spinning_friction, who, "spinning_friction"), as_name(name, who),
                 as_bits(group, who, "group"), as_bits(mask, who, "mask"), as_flag(enabled, who, "enabled"),
-                as_flag(can_sleep, who, "can_sleep"))
+                as_flag(can_sleep, who, "can_sleep"), as_flag(sensor, who, "sensor"))
         if (not is_static and isinstance(shape, Mesh) and not shape.pieces and not shape.is_convex()
                 and _solid(shape)):
             # a dynamic non-convex mesh collides with other bodies through convex pieces
@@ -918,7 +941,7 @@ class World:
             c.add_body(b["shape"], b["static"], b["kinematic"], None, b["mass"] if has_mass else None,
                        b["inertia"] if has_mass else None, zero, unit, zero, zero, b["friction"],
                        b["restitution"], b.get("spinning_friction", 0.0), b["name"], b["group"], b["mask"], True,
-                       b.get("can_sleep", True))
+                       b.get("can_sleep", True), b.get("sensor", False))
         for i, j in d["excluded_pairs"]:
             c.set_pair_collision(i, j, False)
         self.restore_state(d["state"])
@@ -1299,7 +1322,7 @@ class World:
         touched before a step follows from the contacts reported then, so a restored state or an
         unpickled world goes on giving the events the original would have."""
         e = self._core.events
-        return ContactEvents(**{k: ContactEventList(**e[k]) for k in ("begin", "end", "hits")})
+        return ContactEvents(**{k: ContactEventList(**v) for k, v in e.items()})
 
     @property
     @_locked

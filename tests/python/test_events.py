@@ -225,3 +225,92 @@ def test_contact_pairs_sum_each_pairs_contacts_and_carry_the_weight_above():
         assert p.impulse[k] == pytest.approx(c.impulse[rows].sum(), rel=1e-15)
     empty = sg.World().contact_pairs
     assert len(empty) == 0 and empty.force.shape == (0, 3)
+
+
+def falling_through_a_sensor(threads=1, solver="pgs"):
+    """A 0.1 m ball dropped from 4 m through a static sensor box (half extent 0.5 m, centre at 2 m)
+    onto the floor."""
+    w = sg.World(gravity=(0.0, 0.0, -G), threads=threads, solver=solver, sleeping=False)
+    w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
+    sensor = w.add_static(sg.Box((0.5, 0.5, 0.5)), position=(0.0, 0.0, 2.0), sensor=True)
+    ball = w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.0, 0.0, 4.0))
+    return w, sensor, ball
+
+
+@pytest.mark.parametrize("solver", ["pgs", "soft"])
+def test_a_sensor_passed_by_a_ball_begins_and_ends_within_a_step_of_the_analytic_times(solver):
+    # the ball overlaps the box while its centre is below 2.5 + 0.1 m and above 1.5 - 0.1 m: from
+    # t1 = sqrt(2 (4 - 2.6) / g) to t2 = sqrt(2 (4 - 1.4) / g). Detection sees the step's start, so
+    # the event belongs to the first step that starts past the crossing, as the integrator has the
+    # ball there: its drop runs ahead of the exact one by less than g t dt (< one step's travel)
+    dt = 1 / 240
+    w, sensor, ball = falling_through_a_sensor(solver=solver)
+    events = {"sensor_begin": [], "sensor_end": []}
+    for k in range(int(0.8 / dt)):
+        w.step(dt)
+        e = w.events
+        for kind in events:
+            lst = getattr(e, kind)
+            events[kind] += [(k, int(lst.body_a[i]), int(lst.body_b[i]), lst.normal[i].copy()) for i in range(len(lst))]
+        # it passes through untouched: free fall, and no contact with the sensor is ever reported
+        assert not np.any((w.contacts.body_a == sensor) | (w.contacts.body_b == sensor))
+    assert w.velocities[ball][2] == pytest.approx(-G * int(0.8 / dt) * dt, rel=1e-12)
+    (k1, s1, b1, n1), = events["sensor_begin"]
+    (k2, s2, b2, _), = events["sensor_end"]
+    assert (s1, b1) == (s2, b2) == (sensor, ball)
+    t1, t2 = math.sqrt(2 * (4 - 2.6) / G), math.sqrt(2 * (4 - 1.4) / G)
+    assert abs(k1 * dt - t1) < dt and abs(k2 * dt - t2) < dt
+    np.testing.assert_allclose(n1, [0.0, 0.0, 1.0], atol=1e-12)  # from the sensor towards the ball
+    assert len(w.events.begin) == 0 or all(w.events.begin.body_a != sensor)
+
+
+def test_sensors_neither_collide_nor_sense_each_other_and_keep_a_sleeping_visitor():
+    w = sg.World(gravity=(0.0, 0.0, -G), sleeping=True)
+    floor = w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
+    zone = w.add_static(sg.Box((1.0, 1.0, 0.5)), position=(0.0, 0.0, 0.5), sensor=True)
+    box = w.add_body(sg.Box((0.2, 0.2, 0.2)), mass=1.0, position=(0.0, 0.0, 0.2))
+    # a moving sensor inside the zone: the two never sense each other; it falls through the floor
+    probe = w.add_body(sg.Sphere(0.1), mass=1.0, position=(0.5, 0.0, 0.6), sensor=True)
+    assert w.is_sensor.tolist() == [False, True, False, True]
+    w.step(1 / 60)
+    assert w.events.sensor_begin.body_a.tolist() == [zone] and w.events.sensor_begin.body_b.tolist() == [box]
+    w.step(1 / 60, 240)  # the box falls asleep in the zone; the probe passes through the floor
+    assert not w.awake[box]
+    e = w.events
+    # the floor is a half-space: once in it, the probe stays in it
+    assert e.sensor_begin.body_a.tolist() == [probe] and e.sensor_begin.body_b.tolist() == [floor]
+    assert len(e.sensor_end) == 0
+    assert w.positions[probe][2] < -1.0
+    # a sensor made a body again collides: the box rests on it from then on
+    w.set_sensor(zone, False)
+    w.step(1 / 60)
+    assert w.events.sensor_end.body_b.tolist() == [box]
+    assert np.any((w.contacts.body_a == zone) & (w.contacts.body_b == box))
+
+
+def test_sensor_events_are_the_same_for_every_thread_count_and_after_a_restore_or_a_pickle():
+    import pickle
+    def run(w, steps):
+        out = []
+        for _ in range(steps):
+            w.step(1 / 240)
+            e = w.events
+            out.append((e.sensor_begin.body_b.tolist(), e.sensor_end.body_b.tolist()))
+        return out
+    one, sensor, ball = falling_through_a_sensor(threads=1)
+    two, _, _ = falling_through_a_sensor(threads=2)
+    assert run(one, 140) == run(two, 140)  # the ball is inside the sensor now
+    saved = one.save_state()
+    copy = pickle.loads(pickle.dumps(one))
+    ahead = run(one, 60)
+    assert ([ball] not in [b for b, _ in ahead]) and any(e == [ball] for _, e in ahead)  # it ends, not begins
+    one.restore_state(saved)
+    assert run(one, 60) == ahead
+    assert run(copy, 60) == ahead
+
+
+def test_a_scene_file_keeps_a_sensor(tmp_path):
+    w, sensor, ball = falling_through_a_sensor()
+    w.save_scene(tmp_path / "sensor.toml")
+    again = sg.load_scene(tmp_path / "sensor.toml")
+    assert again.is_sensor.tolist() == w.is_sensor.tolist() == [False, True, False]

@@ -233,8 +233,9 @@ def test_a_damaged_crossing_memory_is_refused_and_changes_nothing():
     # as a mesh; after them come the kept manifolds (format 6: their count and their points' count,
     # none: a sphere's pairs are found anew every step), the islands (format 4: 13 bytes per body,
     # the sleeping islands' cache, here an empty one's count, 48 bytes per body of their forces and
-    # torques, and their contacts, none) and the joints (format 5: their count, here 0)
-    end = len(good.data) - (13 * w.num_bodies + 8 + 48 * w.num_bodies + 8 + 8) - 16
+    # torques, and their contacts, none), the joints (format 5: their count, here 0) and the sensors'
+    # overlaps (format 7: their count, here 0)
+    end = len(good.data) - (13 * w.num_bodies + 8 + 48 * w.num_bodies + 8 + 8 + 8) - 16
     head, islands = good.data[:end - 8], good.data[end:]
     for tail in (np.array([0, 5], np.int32), np.array([1, 0], np.int32)):
         bad = sg.SavedState(head + tail.tobytes() + islands, good.num_bodies, good.time)
@@ -830,6 +831,7 @@ INDEX_CALLS = {
     "enable_collision": lambda w, i: w.enable_collision(i, 0),
     "set_awake": lambda w, i: w.set_awake(i, True),
     "set_can_sleep": lambda w, i: w.set_can_sleep(i, False),
+    "set_sensor": lambda w, i: w.set_sensor(i, True),
     "distance": lambda w, i: w.distance(i, 0),
 }
 OUT_OF_RANGE = [-1, -2, 2, 7, np.int64(-1), np.int32(2), np.uint64(2), 2**31, -2**31 - 1, 2**40, -2**63]
@@ -893,6 +895,7 @@ CORE_INDEX_CALLS = {
     "set_angular_velocity": lambda c, i: c.set_angular_velocity(i, (0.0, 0.0, 0.0)),
     "set_awake": lambda c, i: c.set_awake(i, True),
     "set_can_sleep": lambda c, i: c.set_can_sleep(i, False),
+    "set_sensor": lambda c, i: c.set_sensor(i, True),
     "set_collision_filter": lambda c, i: c.set_collision_filter(i, 2, 2),
     "set_enabled": lambda c, i: c.set_enabled(i, False),
     "set_external_wrench": lambda c, i: c.set_external_wrench(i, (0.0, 0.0, 1.0), (0.0, 0.0, 0.0)),

@@ -52,6 +52,9 @@ struct Model {
   std::vector<bool> enabled;     ///< a disabled body neither moves nor collides
   /// false: the body never falls asleep, nor does any island it is in (docs/conventions.md, "Sleeping")
   std::vector<bool> can_sleep;
+  /// a sensor's contacts are found but never solved or reported: its overlaps with non-sensor
+  /// bodies are its sensor events (docs/conventions.md, "Sensors")
+  std::vector<bool> is_sensor;
   std::vector<CollisionFilter> filter;
   std::vector<std::string> name; ///< "" when unnamed; otherwise unique in the world
   /// pairs (i, j), i < j, that never collide whatever their filters say; sorted
@@ -67,7 +70,7 @@ struct Model {
   template <class F>
   void for_each_array(F&& f) {
     f(shape), f(is_static), f(mass), f(inv_mass), f(I_body), f(I_body_inv), f(rho), f(inner), f(material), f(is_kinematic),
-        f(enabled), f(can_sleep), f(filter), f(name);
+        f(enabled), f(can_sleep), f(is_sensor), f(filter), f(name);
   }
 
   /// true when bodies i and j may get contacts: both enabled, at least one of them moved by
@@ -88,6 +91,7 @@ struct Model {
     is_kinematic.push_back(false);
     enabled.push_back(true);
     can_sleep.push_back(true);
+    is_sensor.push_back(false);
     filter.push_back(CollisionFilter());
     name.emplace_back();
   }

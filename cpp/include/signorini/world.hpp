@@ -84,6 +84,7 @@ struct BodyDesc {
   Vec3 angular_velocity = Vec3::Zero();  ///< rad/s, world frame
   Material material;                     ///< friction >= 0, restitution in [0, 1], spinning_friction >= 0 (m)
   bool can_sleep = true;                 ///< false: never sleeps, and keeps every island it is in awake
+  bool sensor = false;                   ///< detects overlaps (sensor events) instead of colliding
 };
 
 /// Where the wall time of the last call of World::step went (ms, summed over its steps), stage by
@@ -136,6 +137,9 @@ struct ContactEvent {
 /// step, of the body pairs (body_a, then body_b): the same for every thread count.
 struct ContactEvents {
   std::vector<ContactEvent> begin, end, hits;
+  /// a sensor (body_a) and a non-sensor body (body_b) began or ended overlapping (docs "Sensors");
+  /// point and normal of their deepest contact at the beginning, speed and impulse 0
+  std::vector<ContactEvent> sensor_begin, sensor_end;
 };
 
 /// Threads: every public member function takes the world's lock, so calls from several threads on
@@ -262,6 +266,9 @@ class World {
   void set_awake(BodyIndex i, bool awake);
   /// Whether body i may sleep; false wakes its island (and keeps it awake while it touches i).
   void set_can_sleep(BodyIndex i, bool can_sleep);
+  /// Makes body i a sensor (its contacts are found, never solved or reported: its overlaps are
+  /// sensor events) or a body that collides again. Wakes it.
+  void set_sensor(BodyIndex i, bool sensor);
   /// Index of the body named `name`, or -1.
   BodyIndex find(const std::string& name) const;
   /// "body 3 'ball' (Sphere)", or "body 3 (Sphere)" for an unnamed body: how errors name body i.
@@ -413,6 +420,13 @@ class World {
   /// The step's events from the pairs touching before (touching_, from the last contacts when not
   /// known) and after it (the new contacts), appended to events_; touching_ becomes the new pairs.
   void record_events(const std::vector<Contact>& now);
+  /// Moves the contacts of sensor bodies out of `contacts` (stable): a pair of two sensors is
+  /// dropped, a (sensor, visitor) pair that overlaps (some gap < 0) goes to sensing_next_ with its
+  /// contacts in sensed_contacts_. Nothing when the world has no sensor.
+  void split_sensors(std::vector<Contact>& contacts) const;
+  /// The sensor events of a step: sensing_next_ against sensing_ (a pair whose visitor sleeps stays:
+  /// its contacts are not detected while it sleeps), appended to events_; sensing_ becomes the new pairs.
+  void record_sensor_events();
   /// After a kept step: every unbroken joint whose force or torque passed its limit breaks (and
   /// is listed in breaks_, with step).
   void break_joints(int step);
@@ -435,6 +449,12 @@ class World {
   double hit_speed_ = 1.0;      ///< m/s: a beginning faster than this is a hit
   int event_step_ = 0;          ///< the step of the call the next events belong to
   std::vector<Touch> touching_, touching_next_;  ///< pairs touching after the last step, and scratch
+  /// (sensor, visitor) pairs overlapping after the last step (Touch::first unused), and the last
+  /// detection's (first: the index of the deepest contact in sensed_contacts_)
+  std::vector<Touch> sensing_;
+  mutable std::vector<Touch> sensing_next_;
+  mutable std::vector<Contact> sensed_contacts_;
+  std::vector<Touch> sensing_merged_;  ///< scratch
   bool touching_known_ = false;  ///< touching_ matches the reported contacts (else taken from them)
   std::unique_ptr<collision::BroadPhase> broad_phase_;
   /// what contact detection remembers across steps (separating faces, the meshes' crossings)

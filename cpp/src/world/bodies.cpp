@@ -179,6 +179,7 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   model_.is_kinematic.push_back(false);
   model_.enabled.push_back(desc.enabled);
   model_.can_sleep.push_back(desc.can_sleep);
+  model_.is_sensor.push_back(desc.sensor);
   model_.filter.push_back(desc.filter);
   model_.name.push_back(desc.name);
   if (desc.is_kinematic) set_kinematic_flag(index, true);
@@ -268,6 +269,10 @@ void World::remove_bodies(const std::vector<BodyIndex>& indices) {
     for (auto& c : list) c.body_a = to[c.body_a], c.body_b = to[c.body_b];
   };
   renumber(solver_->cache);
+  // the sensors' overlaps: those of a removed body dropped, the rest renumbered
+  sensing_.erase(std::remove_if(sensing_.begin(), sensing_.end(), [&](const Touch& t) { return gone(t.a) || gone(t.b); }),
+                 sensing_.end());
+  for (Touch& t : sensing_) t.a = to[t.a], t.b = to[t.b];
   // joints: those of a removed body dropped, the rest renumbered
   auto& joints = joints_->joints;
   joints.erase(std::remove_if(joints.begin(), joints.end(), [&](const Joint& x) { return gone(x.a) || gone(x.b); }),

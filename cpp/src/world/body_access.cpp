@@ -260,6 +260,18 @@ void World::set_awake(BodyIndex i, bool awake) {
     throw std::invalid_argument(who + ": its island cannot sleep: " + label(blocker) + " has can_sleep false");
 }
 
+void World::set_sensor(BodyIndex i, bool sensor) {
+  const Lock lock(mutex_);
+  check_index(i);
+  if (model_.is_sensor[i] == sensor) return;
+  model_.is_sensor[i] = sensor;
+  // what rests on it falls through a new sensor; what sleeps in an old one wakes to collide with it
+  // (its overlaps end at the next step)
+  wake(i);
+  for (const Touch& t : sensing_)
+    if (t.a == i) wake(t.b);
+}
+
 void World::set_can_sleep(BodyIndex i, bool can_sleep) {
   const Lock lock(mutex_);
   check_index(i);

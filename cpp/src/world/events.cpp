@@ -84,7 +84,77 @@ void World::record_events(const std::vector<Contact>& now) {
   }
   touching_.swap(touching_next_);
   touching_known_ = true;
-  ++event_step_;
+}
+
+void World::split_sensors(std::vector<Contact>& contacts) const {
+  sensing_next_.clear();
+  sensed_contacts_.clear();
+  if (std::none_of(model_.is_sensor.begin(), model_.is_sensor.end(), [](bool x) { return x; })) return;
+  const std::size_t K = contacts.size();
+  std::size_t kept = 0;
+  for (std::size_t i = 0, j = 0; i < K; i = j) {
+    const BodyIndex a = contacts[i].body_a, b = contacts[i].body_b;
+    for (j = i; j < K && contacts[j].body_a == a && contacts[j].body_b == b; ++j) {}
+    const bool sensor_a = model_.is_sensor[a], sensor_b = model_.is_sensor[b];
+    if (!sensor_a && !sensor_b) {  // a pair that collides: kept, in order
+      for (std::size_t k = i; k < j; ++k, ++kept)
+        if (kept != k) contacts[kept] = std::move(contacts[k]);
+      continue;
+    }
+    if (sensor_a && sensor_b) continue;  // sensors do not sense each other
+    std::size_t deepest = i;
+    for (std::size_t k = i + 1; k < j; ++k)
+      if (contacts[k].gap < contacts[deepest].gap) deepest = k;
+    if (!(contacts[deepest].gap < 0.0)) continue;  // near, not overlapping
+    Contact c = contacts[deepest];
+    if (sensor_b) c.normal = -c.normal;  // from the sensor towards the visitor
+    sensed_contacts_.push_back(c);
+    sensing_next_.push_back({sensor_a ? a : b, sensor_a ? b : a, sensed_contacts_.size() - 1, 0.0});
+  }
+  contacts.resize(kept);
+  const auto by_pair = [](const Touch& x, const Touch& y) { return x.a < y.a || (x.a == y.a && x.b < y.b); };
+  if (!std::is_sorted(sensing_next_.begin(), sensing_next_.end(), by_pair))
+    std::sort(sensing_next_.begin(), sensing_next_.end(), by_pair);
+}
+
+void World::record_sensor_events() {
+  if (sensing_.empty() && sensing_next_.empty()) return;
+  const auto before = [](const Touch& x, const Touch& y) { return x.a < y.a || (x.a == y.a && x.b < y.b); };
+  // the pairs overlapping now: those detected, and those whose visitor sleeps (not detected)
+  sensing_merged_.clear();
+  std::size_t i = 0, j = 0;
+  const std::vector<Touch>& was = sensing_;
+  const std::vector<Touch>& is = sensing_next_;
+  constexpr std::size_t kCarried = static_cast<std::size_t>(-1);  // no contact of this step
+  while (i < was.size() || j < is.size()) {
+    if (j == is.size() || (i < was.size() && before(was[i], is[j]))) {
+      const Touch& t = was[i++];
+      if (state_.asleep(t.b) && model_.enabled[t.b] && model_.enabled[t.a] && model_.is_sensor[t.a]) {
+        sensing_merged_.push_back({t.a, t.b, kCarried, 0.0});
+      } else {
+        ContactEvent e;
+        e.step = event_step_;
+        e.body_a = t.a;
+        e.body_b = t.b;
+        events_.sensor_end.push_back(e);
+      }
+    } else if (i == was.size() || before(is[j], was[i])) {
+      const Touch& t = is[j++];
+      const Contact& c = sensed_contacts_[t.first];
+      ContactEvent e;
+      e.step = event_step_;
+      e.body_a = t.a;
+      e.body_b = t.b;
+      e.point = c.point;
+      e.normal = c.normal;
+      events_.sensor_begin.push_back(e);
+      sensing_merged_.push_back({t.a, t.b, kCarried, 0.0});
+    } else {
+      sensing_merged_.push_back({is[j].a, is[j].b, kCarried, 0.0});
+      ++i, ++j;
+    }
+  }
+  sensing_.swap(sensing_merged_);
 }
 
 ContactEvents World::events() const {

@@ -7,7 +7,7 @@
 // per body awake, sleep timer and island label, then the sleeping islands' warm-start forces); the
 // joints (format 5: each joint whole, in its bodies' frames, with its warm-start forces and last
 // force and torque; format 6: the kept manifolds with their rows as found; format 7: each joint's
-// motor with its servo position, stiffness and damping, its friction, effort and their rows' forces, its breaking limits and whether it broke). Formats 1 (no spin
+// motor with its servo position, stiffness and damping, its friction, effort and their rows' forces, its breaking limits and whether it broke; then the sensors' overlapping pairs). Formats 1 (no spin
 // torques), 2 (no contact memory), 3 (no islands: every body awake, timers zero), 4 (no kept
 // manifolds: every pair found anew, no pair counts; no joints: the world keeps its joints, their
 // warm start zeroed), 5 (kept manifolds without their rows: every pair found anew) and 6 (rigid
@@ -213,6 +213,11 @@ std::string World::save_state() const {
   for (const Contact& c : islands_->contacts()) save(w, c);
   w.pod(static_cast<std::uint64_t>(joints_->joints.size()));
   for (const Joint& j : joints_->joints) save(w, j);
+  w.pod(static_cast<std::uint64_t>(sensing_.size()));  // format 7: the sensors' overlaps
+  for (const Touch& t : sensing_) {
+    w.pod(static_cast<std::int32_t>(t.a));
+    w.pod(static_cast<std::int32_t>(t.b));
+  }
   return std::move(w.out);
 }
 
@@ -291,6 +296,19 @@ void World::restore_state(const std::string& saved) {
     joints = joints_->joints;
     for (Joint& j : joints) j.alpha.fill(0.0), j.force.setZero(), j.torque.setZero();
   }
+  // format 6 and before: no sensor overlaps (the next step begins those it finds)
+  std::vector<Touch> sensing;
+  if (version >= '7') {
+    sensing.resize(r.count(8));
+    for (Touch& t : sensing) {
+      t.a = r.pod<std::int32_t>();
+      t.b = r.pod<std::int32_t>();
+      t.first = 0;
+      t.impulse = 0.0;
+      if (t.a < 0 || t.b < 0 || static_cast<std::size_t>(t.a) >= n || static_cast<std::size_t>(t.b) >= n)
+        throw std::invalid_argument("restore_state: the saved state is damaged (a sensor's overlap)");
+    }
+  }
   if (r.at != saved.size()) throw std::invalid_argument("restore_state: the saved state has trailing bytes");
   const auto in_range = [n](BodyIndex k) { return k >= 0 && static_cast<std::size_t>(k) < n; };
   for (const CachedContact& c : solved.cache)
@@ -346,6 +364,7 @@ void World::restore_state(const std::string& saved) {
   memory_->manifolds.last_points = std::move(memory.manifolds.last_points);
   joints_->joints = std::move(joints);
   joints_changed();
+  sensing_ = std::move(sensing);
   bodies_changed(false);  // the contact forces and static poses changed outside a step
   if (!settings_.sleep.enabled) wake_all();  // a world with sleeping off keeps nothing asleep
 }

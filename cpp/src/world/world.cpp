@@ -116,6 +116,8 @@ void World::step(double dt, int steps) {
   events_.begin.clear();
   events_.end.clear();
   events_.hits.clear();
+  events_.sensor_begin.clear();
+  events_.sensor_end.clear();
   event_step_ = 0;
   breaks_.clear();
   std::vector<solver::JointSet::Kept>& kept = joints_->kept;
@@ -337,6 +339,8 @@ void World::commit_step(const SolverStats& solved) {
     islands_->add_forces(*solver_);
   }
   record_events(contacts);
+  record_sensor_events();
+  ++event_step_;
   stats_ = stats;
   // (a static body has no one-step force: apply_force refuses it)
   for (const BodyIndex i : moving_) {
@@ -359,6 +363,7 @@ void World::detect_contacts(double dt, std::vector<Contact>& out) const {
     throw std::invalid_argument("detect_contacts: dt must be positive and finite, got " + std::to_string(dt));
   collision::generate_contacts(model_, state_, dt, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
                                *scratch_, out, pool_.get(), &moving_, settings_.solver.recycle_distance);
+  split_sensors(out);  // sensors' contacts are never solved or reported
 }
 
 std::size_t World::num_bodies() const {
