@@ -29,9 +29,13 @@ What maps to what (docs/conventions.md, "URDF"):
   a free body; ``planar`` and unknown types are refused. A revolute or prismatic joint needs a
   <limit> (as in the URDF standard and pybullet). <limit effort velocity>: kept per joint,
   ``URDFRobot.motor`` makes a ``sg.Motor`` with max force = effort and the speed clamped to
-  +-velocity; no motor is set at load (the joints are limp). <dynamics damping friction>, <mimic>,
-  <calibration>, <safety_controller>, transmissions and gazebo tags are not imported (the joints
-  have no damping or friction yet).
+  +-velocity; no motor is set at load (the joints are limp). <dynamics damping friction> (with
+  ``dynamics=True``, the default): damping c (N m s/rad or N s/m) is the joint's drive
+  ``sg.Motor(0, inf, damping=c)``, friction f (N m or N) its Coulomb ``friction=f``; a velocity
+  motor set by ``URDFRobot.set_motor`` takes the damper's place while it is on, and removing it
+  (``set_motor(name, None)``) puts the damper back (``URDFRobot.motor``). ``dynamics=False`` loads
+  the joints limp and frictionless, as pybullet with its joint damping zeroed. <mimic>,
+  <calibration>, <safety_controller>, transmissions and gazebo tags are not imported.
 - inertials: a link without <inertial> gets mass 1 kg and inertia E kg m^2 at its origin, as
   pybullet does (a root link named ``world`` gets mass 0). A root link of mass 0 makes a static
   robot base, as pybullet's; ``fixed_base=True`` makes the root body static whatever its mass. A
@@ -49,9 +53,10 @@ What maps to what (docs/conventions.md, "URDF"):
 Bad input (a missing or malformed file, a link or joint without a name or named twice, a joint
 whose parent or child link does not exist, a loop or a link with two parents, an unknown joint
 type, a number that is malformed, NaN or infinite, a missing mesh file, a zero axis, a negative
-mass, a moving link without mass or inertia, a name already taken in the World) raises
-``URDFError`` (FileNotFoundError for the file itself) naming the file, the element (link or
-joint name, with its line) and the problem, before any body is added: the World is unchanged.
+mass, a negative <dynamics> damping or friction, a moving link without mass or inertia, a name
+already taken in the World) raises ``URDFError`` (FileNotFoundError for the file itself) naming
+the file, the element (link or joint name, with its line) and the problem, before any body is
+added: the World is unchanged.
 """
 from __future__ import annotations
 
@@ -91,7 +96,9 @@ class URDFError(ValueError):
 class URDFJoint:
     """One URDF joint as imported: ``index`` is the World's joint index (-1 for fixed joints, merged,
     and floating ones, free); lower/upper the limits applied (rad or m; NaN: none); effort (N m or
-    N) and velocity (rad/s or m/s) the <limit>'s motor bounds (inf when not given)."""
+    N) and velocity (rad/s or m/s) the <limit>'s motor bounds (inf when not given); damping (N m
+    s/rad or N s/m) and friction (N m or N) the <dynamics> applied (0 when not given, or loaded
+    with ``dynamics=False``)."""
     name: str
     type: str
     parent: str
@@ -101,6 +108,8 @@ class URDFJoint:
     upper: float
     effort: float
     velocity: float
+    damping: float = 0.0
+    friction: float = 0.0
 
 
 @dataclass
@@ -118,18 +127,29 @@ class URDFRobot:
         """The World joint indices of the movable joints, in file order."""
         return [j.index for j in self.joints.values() if j.index >= 0]
 
-    def motor(self, joint: str, speed: float) -> Motor:
-        """A velocity motor for URDF joint ``joint``: target ``speed`` clamped to +-<limit velocity>,
-        max force (torque) <limit effort>."""
+    def motor(self, joint: str, speed: Optional[float]) -> Optional[Motor]:
+        """The drive of URDF joint ``joint``: for a ``speed``, a rigid velocity motor with target
+        ``speed`` clamped to +-<limit velocity> and max force (torque) <limit effort>; for None, the
+        file's damper ``Motor(0, inf, damping=c)`` (None when the joint has no damping).
+
+        The velocity motor replaces the damper while it is on (a joint has one drive slot), as a
+        velocity controller is meant: the joint follows the command whenever the effort allows
+        (pybullet's VELOCITY_CONTROL, a ROS velocity controller). A damper in parallel would only
+        load the motor by c * speed, within its effort; what is lost is that share of the effort
+        while the motor is saturated. Folding c into the motor as its gain instead would make it
+        a soft servo lagging its command by load / c (2 rad/s under 1 N m with KUKA's c = 0.5)."""
         j = self.joints[joint]
         if j.index < 0:
             raise ValueError(f"URDF joint {joint!r} ({j.type}) has no motor: it is not a World joint")
+        if speed is None:
+            return Motor(0.0, math.inf, damping=j.damping) if j.damping > 0.0 else None
         return Motor(float(np.clip(speed, -j.velocity, j.velocity)), j.effort)
 
     def set_motor(self, joint: str, speed: Optional[float]) -> None:
-        """Sets (or with None removes) joint ``joint``'s motor in the World (``motor``'s limits)."""
+        """Sets joint ``joint``'s velocity motor in the World (``motor``'s limits), or with None
+        switches it off: the joint goes back to the file's damper (limp when it has none)."""
         j = self.joints[joint]
-        self.world.set_joint_motor(j.index, None if speed is None else self.motor(joint, speed))
+        self.world.set_joint_motor(j.index, self.motor(joint, speed))
 
 
 # the file ---------------------------------------------------------------------------------------
@@ -263,7 +283,7 @@ class _Group:
     static: bool = False
 
 
-def _plan(f: _File, base: np.ndarray, fixed_base: bool, package_dirs):
+def _plan(f: _File, base: np.ndarray, fixed_base: bool, package_dirs, dynamics: bool = True):
     robot = f.robot
     links = {link.name: link for link in robot.links}
     parent_of: dict = {}
@@ -370,7 +390,15 @@ def _plan(f: _File, base: np.ndarray, fixed_base: bool, package_dirs):
                         raise f.error("joint", j.name, f"limits [{lo:g}, {hi:g}] rad reach outside (-pi, pi), where "
                                                        "signorini's hinge angle wraps; not imported")
                     lower, upper = lo, hi
-        joint_plans.append((j, axis / n if n > 0 else axis, lower, upper, effort, velocity))
+        damping = friction = 0.0
+        if j.dynamics is not None and j.type in _MOVING:
+            damping = 0.0 if j.dynamics.damping is None else float(j.dynamics.damping)
+            friction = 0.0 if j.dynamics.friction is None else float(j.dynamics.friction)
+            if damping < 0 or friction < 0:
+                raise f.error("joint", j.name, f"<dynamics> damping {damping:g} and friction {friction:g} must be >= 0")
+            if not dynamics:
+                damping = friction = 0.0
+        joint_plans.append((j, axis / n if n > 0 else axis, lower, upper, effort, velocity, damping, friction))
     return order, links, T_link, group_of, groups, root, joint_plans
 
 
@@ -501,15 +529,18 @@ def _dae_vertices(path: Path) -> np.ndarray:
 
 # the World ---------------------------------------------------------------------------------------
 def add_urdf(world, path, fixed_base: bool = False, package_dirs=(), *, position=(0.0, 0.0, 0.0),
-             orientation=(1.0, 0.0, 0.0, 0.0), self_collision: bool = False, prefix: str = "") -> URDFRobot:
+             orientation=(1.0, 0.0, 0.0, 0.0), self_collision: bool = False, prefix: str = "",
+             dynamics: bool = True) -> URDFRobot:
     """Adds the robot of a URDF file to ``world`` and returns its URDFRobot (module doc).
 
     ``fixed_base``: the root link's body is static (also when the root link's mass is 0, as in
     pybullet). ``position`` (3,) m, ``orientation`` (w, x, y, z): the root link frame in the world.
     ``self_collision``: False (pybullet's default) keeps all the robot's bodies from colliding with
     each other; True only jointed pairs. ``prefix`` goes before every body and joint name (two
-    copies of a robot in one World). Raises FileNotFoundError, URDFError (naming the file, the
-    element and the problem) or ImportError (yourdfpy missing) before the World changes."""
+    copies of a robot in one World). ``dynamics``: the joints' <dynamics> damping (a damper in the
+    joint's motor slot) and friction are applied; False loads them limp and frictionless. Raises
+    FileNotFoundError, URDFError (naming the file, the element and the problem) or ImportError
+    (yourdfpy missing) before the World changes."""
     path = Path(path)
     package_dirs = [Path(d) for d in package_dirs]
     f = _File(path)
@@ -520,7 +551,8 @@ def add_urdf(world, path, fixed_base: bool = False, package_dirs=(), *, position
     if not np.all(np.isfinite(base)):
         raise URDFError(f"URDF file {str(path)!r}: the base pose must be finite and the orientation non-zero")
     try:
-        order, links, T_link, group_of, groups, root, joint_plans = _plan(f, base, fixed_base, package_dirs)
+        plan = _plan(f, base, fixed_base, package_dirs, bool(dynamics))
+        order, links, T_link, group_of, groups, root, joint_plans = plan
     except RecursionError as e:
         raise URDFError(f"URDF file {str(path)!r}: out of stack reading it ({type(e).__name__})") from None
 
@@ -557,18 +589,20 @@ def add_urdf(world, path, fixed_base: bool = False, package_dirs=(), *, position
         for j in f.robot.joints:
             if j.type == "fixed":
                 joints[j.name] = URDFJoint(j.name, j.type, j.parent, j.child, -1, math.nan, math.nan, math.inf, math.inf)
-        for j, axis, lower, upper, effort, velocity in joint_plans:
+        for j, axis, lower, upper, effort, velocity, damping, friction in joint_plans:
             a, b = body_of[j.parent], body_of[j.child]
             index = -1
             if j.type in _MOVING:
                 T = T_link[j.child]
                 limits = None if math.isnan(lower) else (lower, upper)
                 kind = Prismatic if j.type == "prismatic" else Revolute
+                damper = Motor(0.0, math.inf, damping=damping) if damping > 0.0 else None
                 index = world.add_joint(kind(a, b, anchor=T[:3, 3], axis=T[:3, :3] @ axis, limits=limits,
-                                             name=prefix + j.name))
+                                             motor=damper, friction=friction, name=prefix + j.name))
             else:  # floating: a free body
                 world.disable_collision(a, b)
-            joints[j.name] = URDFJoint(j.name, j.type, j.parent, j.child, index, lower, upper, effort, velocity)
+            joints[j.name] = URDFJoint(j.name, j.type, j.parent, j.child, index, lower, upper, effort, velocity,
+                                       damping, friction)
         if not self_collision:
             for k, a in enumerate(added):
                 for b in added[k + 1:]:
@@ -584,7 +618,7 @@ def add_urdf(world, path, fixed_base: bool = False, package_dirs=(), *, position
 
 def load_urdf(path, fixed_base: bool = False, package_dirs=(), *, world=None, **options):
     """The World of a URDF file (a new ``sg.World()``, or ``world`` with the robot added); the
-    options (``position``, ``orientation``, ``self_collision``, ``prefix``) and errors as
+    options (``position``, ``orientation``, ``self_collision``, ``prefix``, ``dynamics``) and errors as
     ``add_urdf``'s. The URDFRobot of the import: ``add_urdf``."""
     from .world import World
 
