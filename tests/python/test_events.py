@@ -314,3 +314,19 @@ def test_a_scene_file_keeps_a_sensor(tmp_path):
     w.save_scene(tmp_path / "sensor.toml")
     again = sg.load_scene(tmp_path / "sensor.toml")
     assert again.is_sensor.tolist() == w.is_sensor.tolist() == [False, True, False]
+
+
+def test_the_oracle_leaves_a_sensor_out_as_the_core_does():
+    # the oracle (never the core) finds the same contacts with a sensor in the world: none of it,
+    # and steps the same states to 1e-10
+    from signorini import compare, oracle
+    w = sg.World(sleeping=False, solver="pgs")
+    w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
+    w.add_static(sg.Box((0.5, 0.5, 0.5)), position=(0.0, 0.0, 0.4), sensor=True)
+    for k in range(3):
+        w.add_body(sg.Box((0.1, 0.1, 0.1)), mass=1.0, position=(0.3 * k - 0.3, 0.0, 0.1))
+    w.step(1 / 240, 10)
+    found = oracle.detect_contacts(w.snapshot(), 1 / 240)
+    assert not np.any((np.asarray(found["body_a"]) == 1) | (np.asarray(found["body_b"]) == 1))
+    report = compare.lockstep(w, 1 / 240, 5)
+    assert report.largest < 1e-10, "\n".join(report.lines())

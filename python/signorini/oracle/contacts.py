@@ -405,8 +405,9 @@ def pair_filter(snapshot):
     """A function (i, j) -> bool: may bodies i and j touch? Both enabled, not both of infinite
     mass (static or kinematic: inv_mass 0), their filter bits matching as in Box2D,
     (group_i & mask_j) and (group_j & mask_i) non-zero (defaults group 1, mask all bits), and the
-    pair not in ``snapshot["excluded_pairs"]`` nor held by a joint of ``snapshot["joints"]``
-    without ``collide_connected``."""
+    pair not in ``snapshot["excluded_pairs"]`` nor held by an unbroken joint of ``snapshot["joints"]``
+    without ``collide_connected``, and neither body a sensor (the core finds a sensor's contacts,
+    then takes them out of the step's: they are never solved)."""
     bodies = snapshot["bodies"]
     _, inv_mass, _, _ = body_arrays(snapshot)
     _, enabled = motion_flags(snapshot)
@@ -414,11 +415,13 @@ def pair_filter(snapshot):
     mask = [int(b.get("mask", 0xFFFFFFFF)) for b in bodies]
     excluded = {(min(i, j), max(i, j)) for i, j in snapshot.get("excluded_pairs", ())}
     excluded |= {(min(j["body_a"], j["body_b"]), max(j["body_a"], j["body_b"])) for j in snapshot.get("joints", ())
-                 if not j.get("collide_connected", False)}
+                 if not j.get("collide_connected", False) and not j.get("broken", False)}
+    sensor = [bool(b.get("sensor", False)) for b in bodies]
 
     def allowed(i, j):
-        return bool(enabled[i] and enabled[j] and (inv_mass[i] > 0 or inv_mass[j] > 0)
-                    and group[i] & mask[j] and group[j] & mask[i] and (min(i, j), max(i, j)) not in excluded)
+        return bool(enabled[i] and enabled[j] and (inv_mass[i] > 0 or inv_mass[j] > 0) and not sensor[i]
+                    and not sensor[j] and group[i] & mask[j] and group[j] & mask[i]
+                    and (min(i, j), max(i, j)) not in excluded)
     return allowed
 
 
