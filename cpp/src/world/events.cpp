@@ -16,6 +16,22 @@
 #include "world/step_guard.hpp"
 
 namespace signorini {
+namespace {
+
+/// An event of the pair (a, b) in the step, with contact c's point and normal when given (else zero).
+ContactEvent event_of(int step, BodyIndex a, BodyIndex b, const Contact* c) {
+  ContactEvent e;
+  e.step = step;
+  e.body_a = a;
+  e.body_b = b;
+  if (c != nullptr) {
+    e.point = c->point;
+    e.normal = c->normal;
+  }
+  return e;
+}
+
+}  // namespace
 
 void World::touching_pairs(const std::vector<Contact>& contacts, std::vector<Touch>& out) {
   out.clear();
@@ -50,25 +66,13 @@ void World::record_events(const std::vector<Contact>& now) {
     return speed;
   };
   const auto begin = [&](const Touch& t) {
-    const Contact& c = now[t.first];
-    ContactEvent e;
-    e.step = event_step_;
-    e.body_a = t.a;
-    e.body_b = t.b;
-    e.point = c.point;
-    e.normal = c.normal;
+    ContactEvent e = event_of(event_step_, t.a, t.b, &now[t.first]);
     e.speed = approach(t);
     e.impulse = t.impulse;
     events_.begin.push_back(e);
     if (e.speed > hit_speed_) events_.hits.push_back(e);
   };
-  const auto end = [&](const Touch& t) {
-    ContactEvent e;
-    e.step = event_step_;
-    e.body_a = t.a;
-    e.body_b = t.b;
-    events_.end.push_back(e);
-  };
+  const auto end = [&](const Touch& t) { events_.end.push_back(event_of(event_step_, t.a, t.b, nullptr)); };
   // both lists by pair: a merge
   std::size_t i = 0, j = 0;
   const std::vector<Touch>& was = touching_;
@@ -132,22 +136,11 @@ void World::record_sensor_events() {
       if (state_.asleep(t.b) && model_.enabled[t.b] && model_.enabled[t.a] && model_.is_sensor[t.a]) {
         sensing_merged_.push_back({t.a, t.b, kCarried, 0.0});
       } else {
-        ContactEvent e;
-        e.step = event_step_;
-        e.body_a = t.a;
-        e.body_b = t.b;
-        events_.sensor_end.push_back(e);
+        events_.sensor_end.push_back(event_of(event_step_, t.a, t.b, nullptr));
       }
     } else if (i == was.size() || before(is[j], was[i])) {
       const Touch& t = is[j++];
-      const Contact& c = sensed_contacts_[t.first];
-      ContactEvent e;
-      e.step = event_step_;
-      e.body_a = t.a;
-      e.body_b = t.b;
-      e.point = c.point;
-      e.normal = c.normal;
-      events_.sensor_begin.push_back(e);
+      events_.sensor_begin.push_back(event_of(event_step_, t.a, t.b, &sensed_contacts_[t.first]));
       sensing_merged_.push_back({t.a, t.b, kCarried, 0.0});
     } else {
       sensing_merged_.push_back({is[j].a, is[j].b, kCarried, 0.0});
