@@ -330,3 +330,25 @@ def test_the_oracle_leaves_a_sensor_out_as_the_core_does():
     assert not np.any((np.asarray(found["body_a"]) == 1) | (np.asarray(found["body_b"]) == 1))
     report = compare.lockstep(w, 1 / 240, 5)
     assert report.largest < 1e-10, "\n".join(report.lines())
+
+
+@pytest.mark.parametrize("solver", ["pgs", "soft"])
+def test_events_are_the_changes_of_the_touching_pairs_the_contacts_show(solver):
+    # the core reads compact copies of the contacts' touching flags (store's, summed over the
+    # substeps); the pairs the reported contacts show touching (contact_pairs, from the records)
+    # must change exactly by the events, step after step, substeps (dt 1/60) and sleep included
+    w = pile(1, solver)
+    w.set_sleep(sleeping=True)
+    before = set()
+    seen = 0
+    for _ in range(240):
+        w.step(1 / 60)
+        p = w.contact_pairs
+        now = {(int(a), int(b)) for a, b, t in zip(p.body_a, p.body_b, p.touching) if t}
+        e = w.events
+        began = set(zip(e.begin.body_a.tolist(), e.begin.body_b.tolist()))
+        ended = set(zip(e.end.body_a.tolist(), e.end.body_b.tolist()))
+        assert began == now - before and ended == before - now
+        seen += len(began) + len(ended)
+        before = now
+    assert seen > 40

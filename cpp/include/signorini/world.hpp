@@ -410,13 +410,16 @@ class World {
   /// the new rotations' quaternions; the one-step forces are spent.
   void commit_step(const SolverStats& stats);
   /// The touching pairs of a contact list (in its order, which lists a pair's contacts together):
-  /// body_a, body_b, the pair's first contact and its summed normal impulse.
+  /// body_a, body_b, the pair's first contact (impulse: unused, 0). With `bodies` (2 per contact)
+  /// and `touches` (1 per contact), the solver's compact copies of the list's bodies and touching
+  /// flags, those are read instead of the contact records.
   struct Touch {
     BodyIndex a, b;
     std::size_t first;
     double impulse;
   };
-  static void touching_pairs(const std::vector<Contact>& contacts, std::vector<Touch>& out);
+  static void touching_pairs(const std::vector<Contact>& contacts, std::vector<Touch>& out,
+                             const BodyIndex* bodies = nullptr, const char* touches = nullptr);
   /// The step's events from the pairs touching before (touching_, from the last contacts when not
   /// known) and after it (the new contacts), appended to events_; touching_ becomes the new pairs.
   void record_events(const std::vector<Contact>& now);

@@ -209,6 +209,9 @@ struct SolverData {
   /// do not read the contacts themselves again)
   std::vector<Vec3> contact_torque, contact_force;
   std::vector<BodyIndex> contact_body;
+  /// per contact (contact order): whether it touches, impulse > 0 or gap < 0 (store: what the
+  /// World's contact events read instead of the contact records)
+  std::vector<char> touches;
   std::vector<double> alpha_iter;   ///< per solve position: alpha_n after the iterate stage (N)
   // the soft step: per contact in solve order; per body the pose at the step's start and how far
   // it has moved and turned since (dp = p - p0, dR = R R0^T - I)

@@ -352,6 +352,7 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   d.contact_torque.resize(2 * K);  // every entry is written below, contact by contact
   d.contact_force.resize(K);
   d.contact_body.resize(2 * K);
+  d.touches.resize(K);
   // each contact's own outputs and the certificate's maxima (max: the same whatever the order the
   // parts are joined in), split over the threads; the bodies' sums below in contact order
   const SolverStats start = stats;
@@ -388,6 +389,7 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       d.contact_force[i] = c.force;
       d.contact_body[2 * i] = c.body_a;
       d.contact_body[2 * i + 1] = c.body_b;
+      d.touches[i] = c.impulse > 0.0 || c.gap < 0.0;
       // velocities after the solve: normal and slip
       const Vec3 dv = point_velocity(r, d.qd[r.a], d.qd[r.b]);
       const double vn = r.n.dot(dv);

@@ -13,6 +13,8 @@
 
 #include "signorini/world.hpp"
 #include "world/checks.hpp"
+#include "solver/contact_solver.hpp"
+#include "world/islands.hpp"
 #include "world/step_guard.hpp"
 
 namespace signorini {
@@ -33,18 +35,25 @@ ContactEvent event_of(int step, BodyIndex a, BodyIndex b, const Contact* c) {
 
 }  // namespace
 
-void World::touching_pairs(const std::vector<Contact>& contacts, std::vector<Touch>& out) {
+void World::touching_pairs(const std::vector<Contact>& contacts, std::vector<Touch>& out, const BodyIndex* bodies,
+                           const char* touches) {
   out.clear();
   const std::size_t K = contacts.size();
-  for (std::size_t i = 0, j = 0; i < K; i = j) {
-    const Contact& c = contacts[i];
-    bool touches = false;
-    double impulse = 0.0;
-    for (j = i; j < K && contacts[j].body_a == c.body_a && contacts[j].body_b == c.body_b; ++j) {
-      touches = touches || contacts[j].impulse > 0.0 || contacts[j].gap < 0.0;
-      impulse += contacts[j].impulse;
+  if (bodies != nullptr) {  // the compact copies: 9 bytes a contact instead of its record
+    for (std::size_t i = 0, j = 0; i < K; i = j) {
+      const BodyIndex a = bodies[2 * i], b = bodies[2 * i + 1];
+      bool touching = false;
+      for (j = i; j < K && bodies[2 * j] == a && bodies[2 * j + 1] == b; ++j) touching = touching || touches[j];
+      if (touching) out.push_back({a, b, i, 0.0});
     }
-    if (touches) out.push_back({c.body_a, c.body_b, i, impulse});
+  } else {
+    for (std::size_t i = 0, j = 0; i < K; i = j) {
+      const Contact& c = contacts[i];
+      bool touching = false;
+      for (j = i; j < K && contacts[j].body_a == c.body_a && contacts[j].body_b == c.body_b; ++j)
+        touching = touching || contacts[j].impulse > 0.0 || contacts[j].gap < 0.0;
+      if (touching) out.push_back({c.body_a, c.body_b, i, 0.0});
+    }
   }
   // by pair, as the merge in record_events walks them (the contact list usually is already: the
   // narrow phase lists pairs in order; sleeping islands' contacts are merged in)
@@ -53,7 +62,12 @@ void World::touching_pairs(const std::vector<Contact>& contacts, std::vector<Tou
 }
 
 void World::record_events(const std::vector<Contact>& now) {
-  touching_pairs(now, touching_next_);
+  // the solver's compact copies of the step's contacts when they are the reported ones (no
+  // sleeping island's contacts merged in)
+  const bool compact = islands_->contacts().empty() && solver_->touches.size() == now.size() &&
+                       solver_->contact_body.size() == 2 * now.size();
+  if (compact) touching_pairs(now, touching_next_, solver_->contact_body.data(), solver_->touches.data());
+  else touching_pairs(now, touching_next_);
   const State& start = guard_->start();  // the velocities the step started from
   const auto approach = [&](const Touch& t) {
     double speed = 0.0;
@@ -68,7 +82,8 @@ void World::record_events(const std::vector<Contact>& now) {
   const auto begin = [&](const Touch& t) {
     ContactEvent e = event_of(event_step_, t.a, t.b, &now[t.first]);
     e.speed = approach(t);
-    e.impulse = t.impulse;
+    for (std::size_t k = t.first; k < now.size() && now[k].body_a == t.a && now[k].body_b == t.b; ++k)
+      e.impulse += now[k].impulse;  // the pair's, summed in contact order
     events_.begin.push_back(e);
     if (e.speed > hit_speed_) events_.hits.push_back(e);
   };

@@ -299,9 +299,13 @@ void World::sum_impulses(int k) {
     if (impulse_sum_.capacity() < K) impulse_sum_.reserve(2 * K);
     impulse_sum_.assign(K, 0.0);
   }
+  // (and the solver's touching flags, which store set from this substep's impulse alone, from the
+  // sum: what the events read)
+  const bool flags = solver_->touches.size() == K;
   for (std::size_t i = 0; i < K; ++i) {
     impulse_sum_[i] += contacts_next_[i].impulse;
     contacts_next_[i].impulse = impulse_sum_[i];
+    if (flags) solver_->touches[i] = contacts_next_[i].impulse > 0.0 || contacts_next_[i].gap < 0.0;
   }
 }
 
