@@ -24,6 +24,11 @@ always a frame, so F = ceil(T / stride) + 1):
   (F + 1,) int64 (frame f owns rows offsets[f]:offsets[f + 1]), ``body_a``, ``body_b`` (C,) int64,
   ``point`` (C, 3) m world, ``normal`` (C, 3) unit A->B world, ``force`` (C, 3) N on B world (alpha
   n + friction), ``gap`` (C,) m;
+- ``events``, the world's contact events of every step (``World.events``), a dict of kind
+  (``EVENT_KINDS``: begin, end, hits, sensor_begin, sensor_end) -> dict of arrays, E rows each:
+  ``step`` (E,) int64, the step k (0-based: it ended at ``step_time[k]``), ``body_a``, ``body_b``
+  (E,) int64, ``point``, ``normal`` (E, 3), ``speed`` (E,) m/s, ``impulse`` (E,) N s; empty for a
+  world without events (and a file written before them);
 - ``scene`` (str), ``dt`` (s), ``stride`` (int), ``wall_time`` (s spent in ``World.step``).
 
 Size. A ``Recorder`` left to choose its stride (the default) keeps a frame every s steps so that the
@@ -74,6 +79,11 @@ TRAJECTORY_VERSION = 2  # 1: every frame of every body in float64 (still read)
 CONTACT_KEYS = ("body_a", "body_b", "point", "normal", "force", "gap")
 
 
+#: the kinds of contact events a record keeps (``World.events``) and their fields
+EVENT_KINDS = ("begin", "end", "hits", "sensor_begin", "sensor_end")
+EVENT_FIELDS = ("step", "body_a", "body_b", "point", "normal", "speed", "impulse")
+
+
 @dataclass
 class Record:
     """A recorded run and its scene; shapes and units in the module docstring."""
@@ -101,6 +111,7 @@ class Record:
     min_gap: np.ndarray
     solver: dict
     contacts: dict | None = None
+    events: dict = dataclasses.field(default_factory=lambda: _no_events())
 
     @property
     def steps(self) -> int:
@@ -376,6 +387,8 @@ class Recorder:
                                for k in CONTACT_KEYS}
         self._contact_chunk = {k: [] for k in CONTACT_KEYS}
         self._contact_counts = array("q", [0])
+        # the contact events of every step (World.events), as lists of arrays per kind and field
+        self._events = {kind: {k: [] for k in EVENT_FIELDS} for kind in EVENT_KINDS}
         self._pending = None  # contacts of the last step, kept until we know it is a frame
         self._frame()
 
@@ -470,6 +483,14 @@ class Recorder:
             self._solver = {k: array(code) for k, code in kinds.items()}
         for k, column in self._solver.items():
             column.append(values[k])
+        # the step's contact events (a world without them, duck-typed, has none)
+        events = getattr(w, "events", None)
+        for kind in EVENT_KINDS if events is not None else ():
+            lst = getattr(events, kind)
+            if len(lst):
+                for k in EVENT_FIELDS:
+                    v = np.asarray(getattr(lst, k))
+                    self._events[kind][k].append(np.full(len(v), self._steps - 1, np.int64) if k == "step" else v)
 
         # a frame every stride steps; the contacts are read only when they will be kept
         if self._steps % self.stride == 0:
@@ -560,6 +581,8 @@ class Recorder:
             min_gap=np.array(self._step["min_gap"], dtype=np.float64).reshape(steps),
             solver=solver,
             contacts=contacts,
+            events={kind: {k: (np.concatenate(parts) if parts else _no_events()[kind][k])
+                           for k, parts in fields.items()} for kind, fields in self._events.items()},
             **f,
         )
         if self.stride_auto:
@@ -675,6 +698,9 @@ def save_trajectory(path, record: Record) -> Path:
         small[f"still_{k}"] = np.asarray(getattr(record, k)[0])[still].astype(np.float64)
     for k, v in record.solver.items():
         small[f"solver_{k}"] = np.asarray(v)
+    for kind, fields in record.events.items():
+        for k, v in fields.items():
+            small[f"event_{kind}_{k}"] = np.asarray(v)
     with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED, allowZip64=True) as z:
         for name, value in small.items():
             _write_member(z, name, value, value.dtype)
@@ -800,6 +826,7 @@ def load_trajectory(path, *, max_bytes: int = MAX_TRAJECTORY_BYTES,
             shapes=_shapes(str(data["shapes"]), path), draw_meshes=draw,
             solver={k[len("solver_"):]: v for k, v in data.items() if k.startswith("solver_")},
             contacts=contacts, **{k: data[k] for k in _ARRAYS},
+            events=_events(data, path),
         )
         _check(record, path)
     except filecheck.FileLimitError as e:
@@ -928,6 +955,42 @@ def _check_values(data: dict, path) -> None:
                     raise bad(f"contact_{k}", f"names a body outside 0..{n - 1}")
             elif not np.all(np.isfinite(a)):
                 raise bad(f"contact_{k}", "holds a value that is not finite (NaN or infinity)")
+
+
+def _no_events() -> dict:
+    """No events of any kind: empty arrays of the fields' shapes."""
+    return {kind: {k: np.zeros((0, 3) if k in ("point", "normal") else 0,
+                               dtype=np.int64 if k in ("step", "body_a", "body_b") else np.float64)
+                   for k in EVENT_FIELDS} for kind in EVENT_KINDS}
+
+
+def _events(data: dict, path) -> dict:
+    """The file's events (``event_<kind>_<field>``; none in a file written before them), checked:
+    each kind's fields of one length, steps within the run, bodies that exist, finite numbers."""
+    out = _no_events()
+    steps = len(data["step_time"]) if data["step_time"].ndim == 1 else 0
+    n = len(data["names"]) if data["names"].ndim == 1 else 0
+    for kind in EVENT_KINDS:
+        keys = [f"event_{kind}_{k}" for k in EVENT_FIELDS]
+        present = [k in data for k in keys]
+        if not any(present):
+            continue
+        if not all(present):
+            raise ValueError(f"{path}: corrupt trajectory: event_{kind} is missing "
+                             f"{', '.join(k for k, p in zip(keys, present) if not p)}")
+        e = len(data[keys[0]]) if data[keys[0]].ndim == 1 else -1
+        for k, key in zip(EVENT_FIELDS, keys):
+            a = data[key]
+            if a.shape != ((e, 3) if k in ("point", "normal") else (e,)) or a.dtype.kind not in "iuf":
+                raise ValueError(f"{path}: corrupt trajectory: {key} must be {e} rows of numbers, got {a.shape} {a.dtype}")
+            if k == "step" and (np.any(a < 0) or np.any(a >= steps)):
+                raise ValueError(f"{path}: corrupt trajectory: {key} names a step outside 0..{steps - 1}")
+            if k in ("body_a", "body_b") and (np.any(a < 0) or np.any(a >= n)):
+                raise ValueError(f"{path}: corrupt trajectory: {key} names a body outside 0..{n - 1}")
+            if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+                raise ValueError(f"{path}: corrupt trajectory: {key} holds a value that is not finite")
+            out[kind][k] = a.astype(np.int64 if k in ("step", "body_a", "body_b") else np.float64)
+    return out
 
 
 def _check(r: Record, path) -> None:

@@ -25,8 +25,12 @@ def assert_records_equal(a, b):
         elif isinstance(x, dict):
             assert x.keys() == y.keys(), field.name
             for k in x:
-                np.testing.assert_array_equal(x[k], y[k], err_msg=f"{field.name}[{k}]")
-                assert np.asarray(x[k]).dtype == np.asarray(y[k]).dtype, f"{field.name}[{k}]"
+                # (events: a dict of kinds, each a dict of arrays)
+                pairs = ([(f"{k}.{f}", x[k][f], y[k][f]) for f in x[k]] if isinstance(x[k], dict)
+                         else [(k, x[k], y[k])])
+                for name, u, v in pairs:
+                    np.testing.assert_array_equal(u, v, err_msg=f"{field.name}[{name}]")
+                    assert np.asarray(u).dtype == np.asarray(v).dtype, f"{field.name}[{name}]"
         elif isinstance(x, np.ndarray):
             np.testing.assert_array_equal(x, y, err_msg=field.name)
             assert x.dtype == y.dtype, field.name
@@ -349,3 +353,44 @@ def test_the_recorder_holds_at_most_one_chunk_of_frames_in_memory():
     r = small.record()
     assert isinstance(r.positions, np.memmap) and isinstance(r.contacts["point"], np.memmap)
     assert_records_equal(dataclasses.replace(r, wall_time=0.0), dataclasses.replace(whole.record(), wall_time=0.0))
+
+
+def test_the_recorder_keeps_the_contact_events_and_the_file_carries_them(tmp_path):
+    # a bouncing ball: every begin, end and hit of the run, with the step it happened in, as
+    # World.events gave them step by step; saved and loaded exactly (float64 and int64)
+    w = sg.World(sleeping=False)
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    w.add_body(sg.Sphere(0.1), mass=1.0, position=(0, 0, 1.1), restitution=0.8)
+    twin = sg.World(sleeping=False)
+    twin.add_static(sg.Plane((0, 0, 1), 0.0))
+    twin.add_body(sg.Sphere(0.1), mass=1.0, position=(0, 0, 1.1), restitution=0.8)
+    rec = sg.Recorder(w, stride=7)
+    rec.step(1 / 240, 480)
+    r = rec.record()
+    steps = []
+    for k in range(480):
+        twin.step(1 / 240)
+        steps += [k] * len(twin.events.begin)
+    assert r.events["begin"]["step"].tolist() == steps and len(steps) >= 3
+    assert len(r.events["end"]["step"]) >= 2 and r.events["hits"]["speed"][0] > 4.0
+    back = sg.load_trajectory(r.save(tmp_path / "bounce.npz"))
+    for kind in r.events:
+        for k, v in r.events[kind].items():
+            np.testing.assert_array_equal(back.events[kind][k], v)
+            assert back.events[kind][k].dtype == v.dtype
+
+
+def test_a_file_with_damaged_events_is_refused_naming_them(tmp_path):
+    w = sg.World(sleeping=False)
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    w.add_body(sg.Sphere(0.1), mass=1.0, position=(0, 0, 0.5))
+    rec = sg.Recorder(w)
+    rec.step(1 / 240, 120)
+    path = rec.record().save(tmp_path / "drop.npz")
+    with np.load(path) as z:
+        data = dict(z)
+    data["event_begin_step"] = data["event_begin_step"] + 1000  # past the run's steps
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **data)
+    with pytest.raises(ValueError, match="event_begin_step names a step outside"):
+        sg.load_trajectory(bad)
