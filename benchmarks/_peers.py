@@ -70,6 +70,28 @@ def load_rapier():
     return rapier3d
 
 
+def table(rows, columns, left) -> str:
+    r"""One aligned table of rows (dicts), columns (header, width, key, format) and the keys
+    written flush left: '-' where a figure does not apply (None), "range" the row's q1-q3, a
+    format of None the value as it is. Cells are two spaces apart and hold no two spaces, so
+    ``re.split(r"\s{2,}")`` reads a line back."""
+    lines = ["  ".join(f"{h:<{w}s}" if k in left else f"{h:>{w}s}" for h, w, k, _ in columns)]
+    for row in rows:
+        cells = []
+        for _, width, key, fmt in columns:
+            if key == "range":
+                text = "-" if row.get("q1") is None else f"{row['q1']:.3f}-{row['q3']:.3f}"
+            elif row.get(key) is None:
+                text = "-"
+            elif fmt is None:
+                text = str(row[key])
+            else:
+                text = format(row[key], fmt)
+            cells.append(f"{text:<{width}s}" if key in left else f"{text:>{width}s}")
+        lines.append("  ".join(cells))
+    return "\n".join(lines)
+
+
 def chunk_lengths(steps: int, chunks: int) -> list[int]:
     """``steps`` cut into ``chunks`` nearly equal positive parts (fewer if steps < chunks)."""
     chunks = max(1, min(chunks, steps))

@@ -661,21 +661,7 @@ LEFT = ("scene", "engine", "threads2", "sleep")
 def format_table(rows) -> str:
     """One aligned table, a line per scene and engine; '-' where a figure does not apply. Cells are
     separated by two spaces and no cell holds two spaces, so ``re.split(r"\\s{2,}")`` reads it back."""
-    lines = ["  ".join(f"{h:<{w}s}" if k in LEFT else f"{h:>{w}s}" for h, w, k, _ in COLUMNS)]
-    for row in rows:
-        cells = []
-        for _, width, key, fmt in COLUMNS:
-            if key == "range":
-                text = "-" if row.get("q1") is None else f"{row['q1']:.3f}-{row['q3']:.3f}"
-            elif row.get(key) is None:
-                text = "-"
-            elif fmt is None:
-                text = str(row[key])
-            else:
-                text = format(row[key], fmt)
-            cells.append(f"{text:<{width}s}" if key in LEFT else f"{text:>{width}s}")
-        lines.append("  ".join(cells))
-    return "\n".join(lines)
+    return peers.table(rows, COLUMNS, LEFT)
 
 
 def main(argv: list[str] | None = None) -> list[dict]:

@@ -61,6 +61,21 @@ def check_size(path: Path, max_bytes: int) -> int:
     return size
 
 
+def read_limited(path: Path, max_bytes: int, what: str, error: type) -> bytes:
+    """The bytes of a file of at most max_bytes: FileNotFoundError when it does not exist, else
+    ``error`` (the reader's own exception class) for one over the limit or unreadable, each message
+    starting "{what} '{path}'" (what: "URDF file", "MJCF file", ...)."""
+    try:
+        check_size(path, max_bytes)
+        return Path(path).read_bytes()
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{what} {str(path)!r} does not exist") from None
+    except FileLimitError as e:
+        raise error(f"{what} {str(path)!r}: {e}") from None
+    except OSError as e:
+        raise error(f"{what} {str(path)!r}: unreadable: {e}") from None
+
+
 # strings and comments skipped, then the characters that open, close or separate. An unterminated
 # string runs to the end of its line (or of the text), so each quote starts one token ending where
 # a scan would: no match restarts inside a string (which made '"\"\"\"...' quadratic)

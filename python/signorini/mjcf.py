@@ -270,15 +270,7 @@ class _Reader:
         self.path = path
         self.package_dirs = [Path(d) for d in package_dirs]
         self.unsupported: list[tuple[float, str]] = []  # (line, what), listed in line order
-        try:
-            filecheck.check_size(path, MAX_MJCF_BYTES)
-            text = path.read_bytes()
-        except FileNotFoundError:
-            raise FileNotFoundError(f"MJCF file {str(path)!r} does not exist") from None
-        except filecheck.FileLimitError as e:
-            raise MJCFError(f"MJCF file {str(path)!r}: {e}") from None
-        except OSError as e:
-            raise MJCFError(f"MJCF file {str(path)!r}: unreadable: {e}") from None
+        text = filecheck.read_limited(path, MAX_MJCF_BYTES, "MJCF file", MJCFError)
         try:
             self.root, self.lines = _parse_with_lines(text)
         except expat.ExpatError as e:
@@ -788,9 +780,9 @@ class _Reader:
         return _JointPlan(el, kind, name, anchor, axis, ref, springref, rng, limits, **values)
 
     def read_actuators(self, plans: dict) -> list:
-        """The position and velocity actuators on hinge and slide joints (``plans``: joint name ->
+        """The motor, position and velocity actuators on hinge and slide joints (``plans``: joint name ->
         _JointPlan), checked; every other actuator is listed as unsupported."""
-        out: list[_ActuatorPlan] = []
+        out: list[MJCFActuator] = []
         driven: dict = {}
         for top in self.root.findall("actuator"):
             self.check_attrs(top, set())
@@ -833,7 +825,7 @@ class _Reader:
                 if joint in driven:
                     self.skip(el, f"a second actuator on joint {joint!r} (the first is at line {driven[joint]})")
                 driven[joint] = self.lines.get(id(el), "?")
-                out.append(_ActuatorPlan(el, el.tag, el.get("name"), joint, gear, kp, kv, ctrl, force))
+                out.append(MJCFActuator(el.get("name"), el.tag, joint, gear, kp, kv, ctrl, force))
         return out
 
     def read_excludes(self, known: Collection[str]) -> list:
@@ -891,19 +883,6 @@ class _JointPlan:
     damping: float
     frictionloss: float
     armature: float
-
-
-@dataclass
-class _ActuatorPlan:
-    element: ET.Element
-    kind: str
-    name: Optional[str]
-    joint: str
-    gear: float
-    kp: float
-    kv: float
-    ctrlrange: Optional[tuple]
-    forcerange: Optional[tuple]
 
 
 @dataclass(frozen=True)
@@ -1116,18 +1095,17 @@ def _read_mjcf(path: Path, package_dirs) -> MJCFModel:
         joints[plan.name or f"joint_{index}"] = MJCFJoint(plan.name or f"joint_{index}", plan.kind, index, b, a,
                                                           plan.ref, lower, upper, plan.stiffness, plan.springref,
                                                           plan.damping, plan.frictionloss)
-    loaded = [MJCFActuator(p.name, p.kind, p.joint, p.gear, p.kp, p.kv, p.ctrlrange, p.forcerange) for p in actuators]
     scene = Scene(name=path.stem, world=world, dt=dt if dt is not None else 0.002, steps=500,
                   description=f"imported from {path.name}", names=tuple(names))
-    model = MJCFModel(scene, bodies, joints, loaded, np.zeros(len(loaded)))
+    model = MJCFModel(scene, bodies, joints, actuators, np.zeros(len(actuators)))
     # the drives at control 0 (MuJoCo's start): passive springs and dampers, then the actuators
-    driven = {a.joint for a in loaded}
+    driven = {a.joint for a in actuators}
     try:
         for joint in joints.values():
             motor = _drive(joint, None, 0.0) if joint.type != "ball" and joint.name not in driven else None
             if motor is not None:
                 world.set_joint_motor(joint.index, motor)
-        model.set_ctrl(np.zeros(len(loaded)))
+        model.set_ctrl(np.zeros(len(actuators)))
     except (TypeError, ValueError) as e:
         raise MJCFError(f"MJCF file {str(path)!r}: {e}") from None
     # collisions: MuJoCo's excluded pairs, and none at all when the contact flag is off

@@ -158,15 +158,7 @@ class _File:
 
     def __init__(self, path: Path):
         self.path = path
-        try:
-            filecheck.check_size(path, MAX_URDF_BYTES)
-            text = path.read_bytes()
-        except FileNotFoundError:
-            raise FileNotFoundError(f"URDF file {str(path)!r} does not exist") from None
-        except filecheck.FileLimitError as e:
-            raise URDFError(f"URDF file {str(path)!r}: {e}") from None
-        except OSError as e:
-            raise URDFError(f"URDF file {str(path)!r}: unreadable: {e}") from None
+        text = filecheck.read_limited(path, MAX_URDF_BYTES, "URDF file", URDFError)
         # pybullet_data writes <?xml version="0.0" ?> (table.urdf), which libxml2 refuses: a
         # declaration of a version other than 1.x is dropped
         text = re.sub(rb'^\s*<\?xml[^>]*version\s*=\s*["\'](?!1\.)[^"\']*["\'][^>]*\?>', b"", text, count=1)
