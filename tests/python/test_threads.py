@@ -250,7 +250,9 @@ def test_the_cores_last_step_figures_read_during_another_threads_steps_are_those
     solver's arrays, read after its lock was released while the next step zeroed and re-summed them.
     The facade serialises its calls with its own lock, so the reader calls the core (``w._core``)."""
     out = run_child("""
-        core = build()._core
+        # sleeping off: a stack that falls asleep stops changing its figures, and a reader starved of
+        # the processor (another test process beside this one) could then meet only one of them
+        core = build(sleeping=False)._core
         core.step(DT, 1)
 
         def figures():
