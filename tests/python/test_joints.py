@@ -291,12 +291,16 @@ def test_hinge_limit_stops_the_swing(solver):
     assert abs(w.joint_velocities[j]) < 1e-2
 
 
-@pytest.mark.xfail(strict=True, reason="a limit row on a point-like bob (1 cm sphere on a 1 m arm) is solved block "
-                   "by block against the point rows, which take its turn back as spin: the PGS overshoots to "
-                   "0.60 rad, the soft step's limit force grows until the guard stops an explosion; a joint-wide "
-                   "block solve is left to do (docs/conventions.md, 'Joints')")
-@pytest.mark.parametrize("solver", SOLVERS)
+@pytest.mark.parametrize("solver", [
+    "pgs", pytest.param("soft", marks=pytest.mark.xfail(strict=True, reason=(
+        "the soft step solves the hinge's rows together too, but its equality rows are 60 Hz springs "
+        "(docs, 'In the soft step'): with m L^2 / I = 25,000 the limit's force (thousands of N m on an "
+        "inertia of 4e-4 kg m^2) and the point rows' answer to it do not cancel within a substep, and "
+        "the guard stops an energy explosion at the impact (t = 0.329 s)")))])
 def test_hinge_limit_stops_a_point_like_bob(solver):
+    # the PGS solves the hinge's limit with its point and tilt rows as one group (docs, "Joints"):
+    # measured, it passes the limit by 3e-8 degrees. Row by row it took the turn back as spin and
+    # overshot to 0.60 rad
     w = world(solver)
     ground = w.add_static(sg.Plane(normal=(0, 0, 1), offset=-100.0))
     bob = w.add_body(sg.Sphere(0.01), mass=10.0, position=(1.0, 0.0, 0.0))

@@ -154,6 +154,18 @@ struct Pose {
   Mat3 R;
 };
 
+/// The directions t1, t2 across a hinge's or slider's axis: the contacts' basis of A's axis in A's
+/// own frame, turned with A (R_A t_k). Chosen in the world at each pose, the basis would jump where
+/// the choice of the axis's smallest component changes (an axis along y turned a little): the rows'
+/// warm-started forces would then act along other directions, and the drift (the rows at the
+/// midpoint pose less the rows now) would be a 90-degree turn of the rows rather than h/2 of their rate.
+void turning_with_a(const Joint& j, const Mat3& RA, Vec3& t1, Vec3& t2) {
+  Vec3 u1, u2;
+  tangent_basis(j.axis_a, u1, u2);
+  t1 = RA * u1;
+  t2 = RA * u2;
+}
+
 /// The drive row b of a one-dof joint whose coordinate is x (rad or m): a rigid velocity motor, or
 /// a spring-damper F = k (position - x_new) + c (speed - x_dot_new) over a substep of h with
 /// x_new = x + h x_dot_new, i.e. x_dot_new = target - gamma F with gamma = 1 / (k h + c) and
@@ -231,7 +243,7 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
         p.C = f.d;
         JointBlock& w = add_block(js, j, JointBlock::Equality, 2, kSlotAngular, a_moves, b_moves);
         Vec3 t1, t2;
-        tangent_basis(axis, t1, t2);
+        turning_with_a(j, RA, t1, t2);
         const Vec3 tilt = axis.cross(RB * j.axis_b);  // B's axis turned off A's (sin of the angle)
         angular_row(w, 0, t1);
         angular_row(w, 1, t2);
@@ -266,7 +278,7 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
           hi.C[0] = j.upper - s;
         }
         Vec3 t1, t2;
-        tangent_basis(axis, t1, t2);
+        turning_with_a(j, RA, t1, t2);
         JointBlock& p = add_block(js, j, JointBlock::Equality, 2, kSlotLinear, a_moves, b_moves);
         linear_row(p, 0, t1, ra_lin, f.r_b);
         linear_row(p, 1, t2, ra_lin, f.r_b);
@@ -316,9 +328,98 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
     }
 }
 
+namespace {
+
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+
+/// (J W J^T) between row i of block x and row k of block y of one joint (both on bodies a, b).
+double row_K(const JointBlock& x, int i, const JointBlock& y, int k) {
+  return x.ang_a[i].dot(y.w_ang_a[k]) + y.w_lin_a * x.lin_a[i].dot(y.lin_a[k]) + x.ang_b[i].dot(y.w_ang_b[k]) +
+         y.w_lin_b * x.lin_b[i].dot(y.lin_b[k]);
+}
+
+/// The group of the joint whose blocks are js.blocks[first, end): K_EE over its equality rows (the
+/// Equality blocks' rows in order), its inverse when positive definite (Cholesky; else the blocks are
+/// solved one by one), and each bounded row's g = K_EE^-1 K_El and K_eff = K_ll - K_lE g.
+void group_joint(JointSet& js, Joint& joint, std::size_t first) {
+  JointGroup g;
+  g.joint = &joint;
+  g.first = first;
+  g.end = js.blocks.size();
+  std::array<std::pair<const JointBlock*, int>, 6> E;
+  for (std::size_t i = first; i < g.end; ++i)
+    if (js.blocks[i].kind == JointBlock::Equality)
+      for (int k = 0; k < js.blocks[i].n; ++k) E[static_cast<std::size_t>(g.n_e++)] = {&js.blocks[i], k};
+  if (g.n_e > 0) {
+    Mat6 K_EE = Mat6::Identity();  // padded with the identity past n_e, so that one 6 x 6 Cholesky serves
+    for (int r = 0; r < g.n_e; ++r)
+      for (int c = 0; c < g.n_e; ++c) K_EE(r, c) = row_K(*E[r].first, E[r].second, *E[c].first, E[c].second);
+    const Eigen::LLT<Mat6> llt(K_EE);
+    if (llt.info() == Eigen::Success) {
+      g.coupled = true;
+      g.K_EE_inv = llt.solve(Mat6::Identity());
+      g.K_EE_inv.bottomRows(6 - g.n_e).setZero();
+      g.K_EE_inv.rightCols(6 - g.n_e).setZero();
+    }
+  }
+  for (std::size_t i = first; i < g.end; ++i) {
+    JointBlock& l = js.blocks[i];
+    l.g.setZero();
+    l.K_eff = l.K(0, 0);
+    if (!g.coupled || l.kind == JointBlock::Equality) continue;
+    Vec6 K_El = Vec6::Zero();
+    for (int r = 0; r < g.n_e; ++r) K_El[r] = row_K(*E[r].first, E[r].second, l, 0);
+    l.g = g.K_EE_inv * K_El;
+    l.K_eff = l.K(0, 0) - K_El.dot(l.g);
+  }
+  js.groups.push_back(g);
+}
+
+}  // namespace
+
+namespace {
+
+/// Each row's drift h/2 (dJ/dt) q_dot from the velocities qd (motors: 0): the rows at the poses the
+/// bodies' velocities reach in h / 2 (J(x_{n+1/2}) q_dot - J(x_n) q_dot), half the rows' centripetal
+/// term over the substep, asked of the solve as a velocity bias: the solved velocity is then the one
+/// the rows allow at the substep's midpoint. Projected at x_n alone, a swing loses O((v h / L)^2) of
+/// its energy at every substep (the next substep's rows have turned by v h / L); at x_{n+1} it gains
+/// as much; at the midpoint the two cancel to that order (docs/conventions.md, "Joints").
+void predict_drift(JointSet& js, const State& state, const std::vector<BodyVelocity>& qd, double h) {
+  const double half = 0.5 * h;
+  for (const JointGroup& g : js.groups) {
+    Joint& j = *g.joint;
+    const BodyVelocity& va = qd[j.a];
+    const BodyVelocity& vb = qd[j.b];
+    const Pose A1{state.p[j.a] + half * va.v, math::rodrigues(va.omega, half) * state.R[j.a]};
+    const Pose B1{state.p[j.b] + half * vb.v, math::rodrigues(vb.omega, half) * state.R[j.b]};
+    const std::size_t n = g.end - g.first, there = js.blocks.size();
+    // the midpoint's blocks, made after the others and dropped (effort rows set the joint's alpha
+    // to its effort again, which it holds)
+    build_blocks(js, j, A1, B1, js.blocks[g.first].a_moves, js.blocks[g.first].b_moves, h);
+    for (std::size_t k = 0; k < n; ++k) {
+      JointBlock& b = js.blocks[g.first + k];
+      const JointBlock& b1 = js.blocks[there + k];
+      b.drift.setZero();
+      if (b.kind == JointBlock::Motor) continue;
+      for (int r = 0; r < b.n; ++r)
+        b.drift[r] = (b1.ang_a[r] - b.ang_a[r]).dot(va.omega) + (b1.lin_a[r] - b.lin_a[r]).dot(va.v) +
+                     (b1.ang_b[r] - b.ang_b[r]).dot(vb.omega) + (b1.lin_b[r] - b.lin_b[r]).dot(vb.v);
+    }
+    js.blocks.resize(there);
+  }
+}
+
+}  // namespace
+
 void prepare_joints(const Model& model, const State& state, double h, bool soft, bool predict, JointSet& js,
                     const SolverData& d) {
   js.blocks.clear();
+  js.groups.clear();
+  js.state = &state;
+  js.hard_sweeps = 0;
+  js.drift_after_first_sweep = predict && !soft;
   if (soft) soften(js, std::min(kJointHertz, 0.25 / h), kJointDampingRatio, h);
   for (Joint& j : js.joints) {
     const bool a_moves = moves(model, state, j.a), b_moves = moves(model, state, j.b);
@@ -337,84 +438,152 @@ void prepare_joints(const Model& model, const State& state, double h, bool soft,
       finish_K(b);
       b.drift.setZero();
     }
-    if (!predict) continue;
-    // the rows at the poses the bodies' velocities reach in h / 2: J(x_{n+1/2}) q_dot - J(x_n) q_dot
-    // is h/2 (dJ/dt) q_dot, half the rows' centripetal term over the substep, asked of the solve as a
-    // velocity bias: the solved velocity is then the one the rows allow at the substep's midpoint.
-    // Projected at x_n alone, a swing loses O((v h / L)^2) of its energy at every substep (the next
-    // substep's rows have turned by v h / L); at x_{n+1} it gains as much; at the midpoint the two
-    // cancel to that order (docs/conventions.md, "Joints")
-    const BodyVelocity& va = d.qd[j.a];
-    const BodyVelocity& vb = d.qd[j.b];
-    const double half = 0.5 * h;
-    const Pose A1{A.p + half * va.v, math::rodrigues(va.omega, half) * A.R};
-    const Pose B1{B.p + half * vb.v, math::rodrigues(vb.omega, half) * B.R};
-    const std::size_t n = js.blocks.size() - first;
-    build_blocks(js, j, A1, B1, a_moves, b_moves, h);
-    for (std::size_t k = 0; k < n; ++k) {
-      JointBlock& b = js.blocks[first + k];
-      const JointBlock& b1 = js.blocks[first + n + k];
-      if (b.kind == JointBlock::Motor) continue;
-      for (int r = 0; r < b.n; ++r)
-        b.drift[r] = (b1.ang_a[r] - b.ang_a[r]).dot(va.omega) + (b1.lin_a[r] - b.lin_a[r]).dot(va.v) +
-                     (b1.ang_b[r] - b.ang_b[r]).dot(vb.omega) + (b1.lin_b[r] - b.lin_b[r]).dot(vb.v);
-    }
-    js.blocks.resize(first + n);
+    group_joint(js, j, first);
   }
+  // the soft step: the drift of the velocities before the solve; the PGS: of those its first sweep
+  // leaves (sweep_joints), which the joints and contacts have already made consistent: the velocities
+  // before the solve may run into a contact or a limit, and their midpoint rows then ask the solve
+  // for velocities that are not there to keep (measured: 50 ragdolls in a pile gained 800 J in one
+  // step at one substep, and more with every extra sweep)
+  if (predict && soft) predict_drift(js, state, d.qd, h);
 }
 
 void warm_start_joints(const JointSet& js, SolverData& d) {
   for (const JointBlock& b : js.blocks) apply(b, Vec3(b.alpha[0], b.n > 1 ? b.alpha[1] : 0.0, b.n > 2 ? b.alpha[2] : 0.0), d.qd);
 }
 
+namespace {
+
+/// The new force of a bounded row (limit or motor) of velocity u (J q_dot with its drift) whose K is
+/// k (the row's own, or its group's effective one), in a sweep of `mode`:
+///   limit  C > 0: alpha - (u + C / h) / k (speculative: close the distance, no more); else
+///          alpha - (u + bias C) / k softened (the soft step's biased sweep) or alpha - u / k; >= 0
+///   motor  alpha - (u - target) / k (rigid) or alpha - (u + gamma alpha - target) / (k + gamma)
+///          (a spring-damper), in [lo, hi]
+double bounded_next(const JointBlock& b, const JointSet& js, double old, double u, double k, JointSweep mode,
+                    double inv_h) {
+  const double k_inv = k > 0.0 ? 1.0 / k : 0.0;
+  if (b.kind == JointBlock::Limit) {
+    const double C = b.C[0];
+    double next;
+    if (C > 0.0) {
+      next = old - k_inv * (u + C * inv_h);
+    } else if (mode == JointSweep::SoftBiased) {
+      next = old - js.mass_scale * k_inv * (u + js.bias_rate * C) - js.impulse_scale * old;
+    } else {
+      next = old - k_inv * u;
+    }
+    return std::max(next, 0.0);
+  }
+  return b.gamma == 0.0 ? std::clamp(old - k_inv * (u - b.target), b.lo, b.hi)
+                        : std::clamp(old - (u + b.gamma * old - b.target) / (k + b.gamma), b.lo, b.hi);
+}
+
+/// Block i alone in a sweep of `mode` on d.qd; returns its rows' largest velocity change.
+double solve_block(JointSet& js, std::size_t i, SolverData& d, JointSweep mode, double inv_h) {
+  JointBlock& b = js.blocks[i];
+  const Vec3 u = block_velocity(b, d.qd) + b.drift;
+  Vec3 d_alpha = Vec3::Zero();
+  if (b.kind == JointBlock::Equality) {
+    const Vec3 alpha(b.alpha[0], b.n > 1 ? b.alpha[1] : 0.0, b.n > 2 ? b.alpha[2] : 0.0);
+    if (mode == JointSweep::SoftBiased)
+      d_alpha = -js.mass_scale * (b.K_inv * (u + js.bias_rate * b.C)) - js.impulse_scale * alpha;
+    else
+      d_alpha = -(b.K_inv * u);
+    if (b.n < 3) d_alpha[2] = 0.0;
+    if (b.n < 2) d_alpha[1] = 0.0;
+    for (int k = 0; k < b.n; ++k) b.alpha[k] += d_alpha[k];
+  } else {
+    const double old = b.alpha[0];
+    b.alpha[0] = bounded_next(b, js, old, u[0], b.K(0, 0), mode, inv_h);
+    d_alpha[0] = b.alpha[0] - old;
+  }
+  apply(b, d_alpha, d.qd);
+  return change_of(b, d_alpha);
+}
+
+/// The equality rows of group g take the force changes d_E (n_e entries, in their blocks' order):
+/// added to alpha(i) of each Equality block i and applied to qd.
+template <class Alpha>
+void add_to_equalities(const JointSet& js, const JointGroup& g, const Vec6& d_E, std::vector<BodyVelocity>& qd,
+                       Alpha alpha) {
+  int r = 0;
+  for (std::size_t i = g.first; i < g.end; ++i) {
+    const JointBlock& b = js.blocks[i];
+    if (b.kind != JointBlock::Equality) continue;
+    const Vec3 part(d_E[r], b.n > 1 ? d_E[r + 1] : 0.0, b.n > 2 ? d_E[r + 2] : 0.0);
+    double* a = alpha(i);
+    for (int k = 0; k < b.n; ++k) a[k] += part[k];
+    apply(b, part, qd);
+    r += b.n;
+  }
+}
+
+/// One pass over a coupled group (JointGroup) on qd: the equality rows at once, d_alpha_E =
+/// -K_EE^-1 (J_E qd + bias_E) (rigid; soft: the soft step's biased sweep, mass_scale times that minus
+/// impulse_scale alpha_E); then each bounded row l that is `active`, its new force from
+/// next(l, alpha_l, J_l qd + bias_l, K_eff), the equality rows following it by -g_l d_alpha_l.
+/// bias(i): block i's velocity bias; alpha(i): where block i's forces accumulate. Returns the rows'
+/// largest velocity change (rigid equality rows: their residual |J_E qd + bias_E|).
+template <class Bias, class Alpha, class Active, class Next>
+double solve_group(const JointSet& js, const JointGroup& g, std::vector<BodyVelocity>& qd, Bias bias, Alpha alpha,
+                   Active active, Next next, bool soft = false) {
+  Vec6 u_E = Vec6::Zero(), alpha_E = Vec6::Zero();
+  int r = 0;
+  for (std::size_t i = g.first; i < g.end; ++i) {
+    const JointBlock& b = js.blocks[i];
+    if (b.kind != JointBlock::Equality) continue;
+    const Vec3 u = block_velocity(b, qd) + bias(i);
+    const double* a = alpha(i);
+    for (int k = 0; k < b.n; ++k, ++r) {
+      u_E[r] = u[k];
+      alpha_E[r] = a[k];
+    }
+  }
+  const Vec6 d_E = soft ? Vec6(-js.mass_scale * (g.K_EE_inv * u_E) - js.impulse_scale * alpha_E)
+                        : Vec6(-(g.K_EE_inv * u_E));
+  double change = soft ? 0.0 : u_E.cwiseAbs().maxCoeff();
+  add_to_equalities(js, g, d_E, qd, alpha);
+  for (std::size_t i = g.first; i < g.end; ++i) {
+    const JointBlock& l = js.blocks[i];
+    if (l.kind == JointBlock::Equality || !active(l)) continue;
+    double* a = alpha(i);
+    const double old = a[0];
+    a[0] = next(l, old, block_velocity(l, qd)[0] + bias(i)[0], l.K_eff);
+    const double d_l = a[0] - old;
+    if (d_l == 0.0) continue;
+    apply(l, Vec3(d_l, 0.0, 0.0), qd);
+    add_to_equalities(js, g, -d_l * l.g, qd, alpha);
+    change = std::max(change, std::abs(l.K_eff * d_l));
+  }
+  return change;
+}
+
+}  // namespace
+
 double sweep_joints(JointSet& js, SolverData& d, JointSweep mode, double h) {
   double change = 0.0;
   const double inv_h = 1.0 / h;
-  for (JointBlock& b : js.blocks) {
-    const Vec3 u = block_velocity(b, d.qd) + b.drift;
-    Vec3 d_alpha = Vec3::Zero();
-    switch (b.kind) {
-      case JointBlock::Equality: {
-        Vec3 alpha(b.alpha[0], b.n > 1 ? b.alpha[1] : 0.0, b.n > 2 ? b.alpha[2] : 0.0);
-        if (mode == JointSweep::SoftBiased) {
-          d_alpha = -js.mass_scale * (b.K_inv * (u + js.bias_rate * b.C)) - js.impulse_scale * alpha;
-        } else {
-          d_alpha = -(b.K_inv * u);
-        }
-        if (b.n < 3) d_alpha[2] = 0.0;
-        if (b.n < 2) d_alpha[1] = 0.0;
-        for (int k = 0; k < b.n; ++k) b.alpha[k] += d_alpha[k];
-        break;
-      }
-      case JointBlock::Limit: {
-        const double C = b.C[0];
-        const double old = b.alpha[0];
-        double next;
-        if (C > 0.0) {
-          next = old - b.K_inv(0, 0) * (u[0] + C * inv_h);  // speculative: close the distance, no more
-        } else if (mode == JointSweep::SoftBiased) {
-          next = old - js.mass_scale * b.K_inv(0, 0) * (u[0] + js.bias_rate * C) - js.impulse_scale * old;
-        } else {
-          next = old - b.K_inv(0, 0) * u[0];
-        }
-        next = std::max(next, 0.0);
-        d_alpha[0] = next - old;
-        b.alpha[0] = next;
-        break;
-      }
-      case JointBlock::Motor: {
-        const double old = b.alpha[0];
-        // a rigid motor: J q_dot = target; a spring-damper drive: J q_dot + gamma alpha = target
-        const double next = b.gamma == 0.0 ? std::clamp(old - b.K_inv(0, 0) * (u[0] - b.target), b.lo, b.hi)
-                                           : std::clamp(old - (u[0] + b.gamma * old - b.target) / (b.K(0, 0) + b.gamma),
-                                                        b.lo, b.hi);
-        d_alpha[0] = next - old;
-        b.alpha[0] = next;
-        break;
-      }
+  const bool biased = mode == JointSweep::SoftBiased;
+  // the velocity bias: the drift, and in the biased sweep the equality rows' spring on C
+  const auto drift = [&](std::size_t i) {
+    const JointBlock& b = js.blocks[i];
+    return biased && b.kind == JointBlock::Equality ? Vec3(b.drift + js.bias_rate * b.C) : b.drift;
+  };
+  const auto alpha = [&](std::size_t i) { return js.blocks[i].alpha; };
+  const auto every = [](const JointBlock&) { return true; };
+  const auto next = [&](const JointBlock& b, double old, double u, double k) {
+    return bounded_next(b, js, old, u, k, mode, inv_h);
+  };
+  if (mode == JointSweep::Hard && js.drift_after_first_sweep && ++js.hard_sweeps == 2) {
+    predict_drift(js, *js.state, d.qd, h);
+  }
+  for (const JointGroup& g : js.groups) {
+    if (g.coupled) {
+      change = std::max(change, solve_group(js, g, d.qd, drift, alpha, every, next, biased));
+    } else {
+      for (std::size_t i = g.first; i < g.end; ++i) change = std::max(change, solve_block(js, i, d, mode, inv_h));
     }
-    apply(b, d_alpha, d.qd);
-    change = std::max(change, change_of(b, d_alpha));
   }
   return change;
 }
@@ -423,37 +592,46 @@ int joint_position_pass(const SolverSettings& s, double h, JointSet& js, SolverD
   const std::size_t n = js.blocks.size();
   // every equality block takes part (one without an error holds while the others are corrected);
   // a limit only while it is violated; the pass runs when some block has an error
-  const auto active = [](const JointBlock& b) {
-    return b.kind == JointBlock::Equality || (b.kind == JointBlock::Limit && b.C[0] < 0.0);
-  };
+  const auto violated = [](const JointBlock& b) { return b.kind == JointBlock::Limit && b.C[0] < 0.0; };
+  const auto active = [&](const JointBlock& b) { return b.kind == JointBlock::Equality || violated(b); };
   bool any = false;
-  for (const JointBlock& b : js.blocks)
-    any = any || (b.kind == JointBlock::Equality ? !b.C.isZero(0.0) : b.kind == JointBlock::Limit && b.C[0] < 0.0);
+  for (const JointBlock& b : js.blocks) any = any || (b.kind == JointBlock::Equality ? !b.C.isZero(0.0) : violated(b));
   if (!any) return 0;
   js.beta.assign(n, {0.0, 0.0, 0.0});
   const double rate = s.erp / h;
+  const auto bias = [&](std::size_t i) { return Vec3(rate * js.blocks[i].C); };  // J q_p = -erp C / h
+  const auto beta = [&](std::size_t i) { return js.beta[i].data(); };
+  const auto next = [](const JointBlock&, double old, double u, double k) {
+    return std::max(old - (k > 0.0 ? 1.0 / k : 0.0) * u, 0.0);
+  };
   int sweeps = 0;
   bool converged = false;
   while (!converged && sweeps < s.max_iterations) {
     ++sweeps;
     double change = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const JointBlock& b = js.blocks[i];
-      if (!active(b)) continue;
-      const Vec3 u = block_velocity(b, d.qd_p) + rate * b.C;  // J q_p = -erp C / h
-      Vec3 d_beta = Vec3::Zero();
-      if (b.kind == JointBlock::Equality) {
-        d_beta = -(b.K_inv * u);
-        if (b.n < 3) d_beta[2] = 0.0;
-        if (b.n < 2) d_beta[1] = 0.0;
-        for (int k = 0; k < b.n; ++k) js.beta[i][k] += d_beta[k];
-      } else {
-        const double next = std::max(js.beta[i][0] - b.K_inv(0, 0) * u[0], 0.0);
-        d_beta[0] = next - js.beta[i][0];
-        js.beta[i][0] = next;
+    for (const JointGroup& g : js.groups) {
+      if (g.coupled) {
+        change = std::max(change, solve_group(js, g, d.qd_p, bias, beta, violated, next));
+        continue;
       }
-      apply(b, d_beta, d.qd_p);
-      change = std::max(change, change_of(b, d_beta));
+      for (std::size_t i = g.first; i < g.end; ++i) {
+        const JointBlock& b = js.blocks[i];
+        if (!active(b)) continue;
+        const Vec3 u = block_velocity(b, d.qd_p) + bias(i);
+        Vec3 d_beta = Vec3::Zero();
+        if (b.kind == JointBlock::Equality) {
+          d_beta = -(b.K_inv * u);
+          if (b.n < 3) d_beta[2] = 0.0;
+          if (b.n < 2) d_beta[1] = 0.0;
+          for (int k = 0; k < b.n; ++k) js.beta[i][k] += d_beta[k];
+        } else {
+          const double nxt = next(b, js.beta[i][0], u[0], b.K(0, 0));
+          d_beta[0] = nxt - js.beta[i][0];
+          js.beta[i][0] = nxt;
+        }
+        apply(b, d_beta, d.qd_p);
+        change = std::max(change, change_of(b, d_beta));
+      }
     }
     converged = s.tolerance > 0.0 && change <= s.tolerance;
   }

@@ -11,6 +11,11 @@
 // depend on the thread count). Equality blocks of 2 or 3 rows are solved together with K^-1,
 // K = J W J^T, W = diag(dt I_A^-1, dt/m_A, dt I_B^-1, dt/m_B) (s/kg); limit and motor rows are single
 // rows with bounds. A row's alpha is a force (N) or torque (N m), as a contact row's.
+// The PGS (its iterate and position pass) solves each joint as one group (JointGroup): all its
+// equality rows E at once with K_EE^-1, then each bounded row l of its free direction with the
+// effective K_l - K_lE K_EE^-1 K_El, the equality rows following it (d alpha_E = -K_EE^-1 K_El
+// d alpha_l) so that they stay satisfied. Row by row, a limit on a hinge whose load sits far out
+// (m L^2 / I = 150) would see only the load's spin about its own centre and take hundreds of sweeps.
 #pragma once
 
 #include <array>
@@ -59,12 +64,27 @@ struct JointBlock {
   /// minus J now, times the velocities at prepare; the iterate and biased sweeps ask J q_dot + drift = 0
   /// (0 for a motor, and when prepare was not asked to predict)
   Vec3 drift = Vec3::Zero();
+  /// In a coupled group (a bounded row only): K_EE^-1 K_El, the equality rows' forces that follow a
+  /// unit force of this row (n_E entries), and this row's effective K_l - K_lE K_EE^-1 K_El
+  Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+  double K_eff = 0.0;
+};
+
+/// One joint's blocks as the PGS solves them together (JointSet::groups).
+struct JointGroup {
+  Joint* joint = nullptr;          ///< its joint (in JointSet::joints)
+  std::size_t first = 0, end = 0;  ///< its blocks in JointSet::blocks, [first, end)
+  int n_e = 0;                     ///< its equality rows (0..6), its Equality blocks' rows in order
+  /// whether the equality rows are solved as one (K_EE positive definite; else block by block)
+  bool coupled = false;
+  Eigen::Matrix<double, 6, 6> K_EE_inv = Eigen::Matrix<double, 6, 6>::Zero();  ///< top-left n_e x n_e
 };
 
 /// The World's joints as the solver sees them (owned by the World; SolverData points here).
 struct JointSet {
   std::vector<Joint> joints;            ///< in index order; their alpha are the warm start
   std::vector<JointBlock> blocks;       ///< this substep's blocks, in joint order
+  std::vector<JointGroup> groups;       ///< the blocks of each joint, for the PGS (prepare_joints)
   std::vector<std::array<double, 3>> beta;  ///< the PGS position pass's pseudo-forces per block
   /// what a step changes in each joint (its alpha, force and torque), kept at the step's start so
   /// that a step the guard refuses leaves the joints as they were
@@ -73,6 +93,11 @@ struct JointSet {
     Vec3 force, torque;
   };
   std::vector<Kept> kept;
+  // prepare's poses for the PGS's drift, which its second sweep computes from the
+  // velocities the first left (predict_drift); the sweeps of this substep so far
+  const State* state = nullptr;
+  bool drift_after_first_sweep = false;
+  int hard_sweeps = 0;
   // the soft step's joint spring for the current substep (soften: bias_rate 1/s, the two scales)
   double bias_rate = 0.0, mass_scale = 1.0, impulse_scale = 0.0;
   bool empty() const { return joints.empty(); }
@@ -88,7 +113,9 @@ enum class JointSweep { Hard, SoftBiased, SoftRelax };
 
 /// Builds the blocks of every joint at the current poses.
 /// In: model, state (poses p, R of the substep; sleeping flags), h (s), soft: the soft step (the
-///     joint spring of h is made); predict: each row's drift from the poses d.qd reaches in h / 2;
+///     joint spring of h is made); predict: each row's drift from the poses the velocities reach in
+///     h / 2 (predict_drift): the soft step's from d.qd now, the PGS's from the velocities its first
+///     sweep leaves (computed at the second; zero in the first);
 ///     d.dI_inv (N, h I^-1 world), d.qd (N, the velocities before the joints' solve).
 /// Out: js.blocks (Jacobians, K, K^-1, C, drift), their alpha pointing into js.joints[j].alpha.
 void prepare_joints(const Model& model, const State& state, double h, bool soft, bool predict, JointSet& js,

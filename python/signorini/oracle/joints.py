@@ -1,7 +1,14 @@
 """Joint rows (docs/conventions.md, "Joints") for the PGS, in plain NumPy, re-derived from the
 conventions: each joint gives blocks of rows, Jacobian pairs J_A = (ang_a, lin_a), J_B = (ang_b,
-lin_b) in the lecture's (omega, p_dot) layout, solved block by block after each sweep of the
+lin_b) in the lecture's (omega, p_dot) layout, solved joint by joint after each sweep of the
 contact rows, then a position pass on the pseudo-velocities, then the forces on B.
+
+A joint is solved as one group: its equality rows E together, d alpha_E = -K_EE^-1 (J_E q_dot +
+bias_E), then each bounded row l (limits, motor, friction, effort: all along the joint's free
+direction) with its effective K_l - K_lE K_EE^-1 K_El, the equality rows following it by
+d alpha_E = -K_EE^-1 K_El d alpha_l so that they stay satisfied. (A limit solved alone would see a
+far-out load's spin about its own centre only, m L^2 / I times too light.) When K_EE is not
+positive definite (Cholesky fails) the joint's blocks are solved one by one.
 
 A joint (``snapshot["joints"]``, a list of dicts, as ``World.snapshot()`` writes them):
     kind        "Revolute" | "Prismatic" | "Spherical" | "Fixed" | "Distance"
@@ -44,6 +51,14 @@ def hinge_angle(joint, RA, RB):
     axis = RA @ joint["axis_a"]
     u_a, u_b = RA @ joint["ref_a"], RB @ joint["ref_b"]
     return float(np.arctan2(axis @ np.cross(u_a, u_b), u_a @ u_b))
+
+
+def turning_with_a(joint, RA):
+    """The directions across a hinge's or slider's axis: the contacts' basis of A's axis in A's frame,
+    turned with A (R_A t_k), so that they never jump as a basis chosen in the world would where the
+    axis's smallest component changes."""
+    u1, u2 = tangent_basis(np.asarray(joint["axis_a"], dtype=float))
+    return RA @ u1, RA @ u2
 
 
 def _block(kind, n, joint, slot):
@@ -127,7 +142,7 @@ def build_blocks(joint, pA, RA, pB, RB, h):
             _linear(p, k, np.eye(3)[k], r_a, r_b)
         p["C"] = d.copy()
         w = _block(EQUALITY, 2, joint, SLOT_ANGULAR)
-        t1, t2 = tangent_basis(axis)
+        t1, t2 = turning_with_a(joint, RA)
         tilt = np.cross(axis, RB @ joint["axis_b"])
         _angular(w, 0, t1)
         _angular(w, 1, t2)
@@ -156,7 +171,7 @@ def build_blocks(joint, pA, RA, pB, RB, h):
             _linear(hi, 0, -axis, ra_lin, r_b)
             hi["C"][0] = joint["upper"] - s
             out += [lo, hi]
-        t1, t2 = tangent_basis(axis)
+        t1, t2 = turning_with_a(joint, RA)
         p = _block(EQUALITY, 2, joint, SLOT_LINEAR)
         _linear(p, 0, t1, ra_lin, r_b)
         _linear(p, 1, t2, ra_lin, r_b)
@@ -211,11 +226,13 @@ def moving(snapshot):
 
 
 def prepare_joints(snapshot, joints, q_dot, h):
-    """Every joint's blocks at the snapshot's poses, with W, K = J W J^T, K^-1 and the drift
-    h/2 (dJ/dt) q_dot = J(poses after h/2 at q_dot) q_dot - J q_dot (0 for a motor).
+    """Every joint's blocks at the snapshot's poses, with W, K = J W J^T, K^-1, grouped by joint
+    (``_group``), and drift 0: the PGS asks for it from the velocities its first sweep leaves
+    (``predict_drift``, called by its second sweep).
 
     Inputs: snapshot (position, rotation, bodies), joints (list of dicts, alpha read and written
-            by the later stages), q_dot (N, 6) the velocities before the joints' solve, h s.
+            by the later stages), q_dot (N, 6) the velocities before the joints' solve (unused: kept
+            for the signature), h s.
     Output: list of blocks (dicts), in joint order.
     """
     P = np.asarray(snapshot["position"], dtype=float)
@@ -227,10 +244,7 @@ def prepare_joints(snapshot, joints, q_dot, h):
         if (not moves[a] and not moves[b]) or joint.get("broken", False):
             continue
         here = build_blocks(joint, P[a], R[a], P[b], R[b], h)
-        half = 0.5 * h
-        there = build_blocks(joint, P[a] + half * q_dot[a, 3:], rodrigues(q_dot[a, :3], half) @ R[a],
-                             P[b] + half * q_dot[b, 3:], rodrigues(q_dot[b, :3], half) @ R[b], h)
-        for blk, later in zip(here, there):
+        for blk in here:
             W_ang = {x: (h * R[i] @ np.asarray(snapshot["bodies"][i]["inv_inertia"], float) @ R[i].T if moves[i]
                          else np.zeros((3, 3))) for x, i in (("a", a), ("b", b))}
             blk["w_ang_a"] = blk["ang_a"] @ W_ang["a"].T
@@ -242,13 +256,106 @@ def prepare_joints(snapshot, joints, q_dot, h):
                  + blk["ang_b"] @ blk["w_ang_b"].T + blk["w_lin_b"] * blk["lin_b"] @ blk["lin_b"].T)
             blk["K"] = K
             blk["K_inv"] = np.linalg.inv(K) if np.linalg.det(K) > 0.0 else np.zeros_like(K)
+            blk["drift"] = np.zeros(blk["n"])
+        _group(here)
+        here[0]["group"]["poses"] = (P[a], R[a], P[b], R[b])
+        blocks += here
+    return blocks
+
+
+def predict_drift(blocks, q_dot, h):
+    """Each row's drift h/2 (dJ/dt) q_dot = J(poses after h/2 at q_dot) q_dot - J q_dot (0 for a
+    motor), from the velocities q_dot (N, 6): solving J q_dot + drift = 0 asks the rows of the
+    substep's midpoint, where a swing's energy loss to the rows' turning cancels to second order.
+    The PGS takes q_dot after its first sweep: the velocities before the solve may run into a contact
+    or a limit, and their midpoint rows would ask for velocities that are not there to keep."""
+    half = 0.5 * h
+    for group in _groups(blocks):
+        here = group["blocks"]
+        joint = here[0]["joint"]
+        a, b = joint["body_a"], joint["body_b"]
+        pA, RA, pB, RB = group["poses"]
+        there = build_blocks(joint, pA + half * q_dot[a, 3:], rodrigues(q_dot[a, :3], half) @ RA,
+                             pB + half * q_dot[b, 3:], rodrigues(q_dot[b, :3], half) @ RB, h)
+        for blk, later in zip(here, there):
             if blk["kind"] == MOTOR:
                 blk["drift"] = np.zeros(blk["n"])
             else:
                 blk["drift"] = ((later["ang_a"] - blk["ang_a"]) @ q_dot[a, :3] + (later["lin_a"] - blk["lin_a"]) @ q_dot[a, 3:]
                                 + (later["ang_b"] - blk["ang_b"]) @ q_dot[b, :3] + (later["lin_b"] - blk["lin_b"]) @ q_dot[b, 3:])
-        blocks += here
-    return blocks
+
+
+def _row_K(x, i, y, k):
+    """(J W J^T) between row i of block x and row k of block y of one joint."""
+    return (x["ang_a"][i] @ y["w_ang_a"][k] + y["w_lin_a"] * (x["lin_a"][i] @ y["lin_a"][k])
+            + x["ang_b"][i] @ y["w_ang_b"][k] + y["w_lin_b"] * (x["lin_b"][i] @ y["lin_b"][k]))
+
+
+def _group(blocks):
+    """One joint's blocks as a group (each block's ``group``): its equality rows E (the Equality
+    blocks' rows in order), K_EE^-1 when K_EE is positive definite (``coupled``), and for each
+    bounded row g = K_EE^-1 K_El and K_eff = K_ll - K_lE g."""
+    E = [(blk, k) for blk in blocks if blk["kind"] == EQUALITY for k in range(blk["n"])]
+    group = {"blocks": blocks, "n_e": len(E), "coupled": False}
+    if E:
+        K_EE = np.array([[_row_K(x, i, y, k) for (y, k) in E] for (x, i) in E])
+        try:
+            np.linalg.cholesky(K_EE)
+            group["coupled"] = True
+            group["K_EE_inv"] = np.linalg.inv(K_EE)
+        except np.linalg.LinAlgError:
+            pass
+    for blk in blocks:
+        blk["group"] = group
+        if group["coupled"] and blk["kind"] != EQUALITY:
+            K_El = np.array([_row_K(x, i, blk, 0) for (x, i) in E])
+            blk["g"] = group["K_EE_inv"] @ K_El
+            blk["K_eff"] = blk["K"][0, 0] - K_El @ blk["g"]
+
+
+def _groups(blocks):
+    """The joints' groups, in order."""
+    out = []
+    for blk in blocks:
+        if not out or out[-1] is not blk["group"]:
+            out.append(blk["group"])
+    return out
+
+
+def _add_to_equalities(group, d_E, q, alpha):
+    """The group's equality rows take the force changes d_E (n_e,): added to alpha(blk) and applied to q."""
+    r = 0
+    for blk in group["blocks"]:
+        if blk["kind"] != EQUALITY:
+            continue
+        part = d_E[r:r + blk["n"]]
+        alpha(blk)[:] += part
+        _apply(blk, part, q)
+        r += blk["n"]
+
+
+def _solve_group(group, q, bias, alpha, active, new_force):
+    """One pass over a coupled group on q (N, 6): the equality rows at once, then each active bounded
+    row l, alpha_l <- new_force(l, alpha_l, J_l q + bias_l, K_eff), the equality rows following it.
+    bias(blk), alpha(blk): the block's velocity bias and its force storage (a view). Returns the rows'
+    largest velocity change (the equality rows': their residual)."""
+    equal = [blk for blk in group["blocks"] if blk["kind"] == EQUALITY]
+    u_E = np.concatenate([_velocity(blk, q) + bias(blk) for blk in equal])
+    change = float(np.max(np.abs(u_E)))
+    _add_to_equalities(group, -(group["K_EE_inv"] @ u_E), q, alpha)
+    for blk in group["blocks"]:
+        if blk["kind"] == EQUALITY or not active(blk):
+            continue
+        a = alpha(blk)
+        old = a[0]
+        a[0] = new_force(blk, old, (_velocity(blk, q) + bias(blk))[0], blk["K_eff"])
+        d = a[0] - old
+        if d == 0.0:
+            continue
+        _apply(blk, np.array([d]), q)
+        _add_to_equalities(group, -d * blk["g"], q, alpha)
+        change = max(change, abs(blk["K_eff"] * d))
+    return change
 
 
 def _alpha(blk):
@@ -277,70 +384,91 @@ def warm_start_joints(blocks, q_dot):
         _apply(blk, np.array(_alpha(blk)), q_dot)
 
 
+def _bounded(blk, old, u, k, h):
+    """The iterate's new force of a bounded row of velocity u whose K is k:
+        limit     max(alpha - (u + max(C, 0) / h) / k, 0)
+        motor     clamp(alpha - (u - target) / k, -max_force, max_force) (rigid), or
+                  clamp(alpha - (u + gamma alpha - target) / (k + gamma), ...) (a spring-damper)"""
+    k_inv = 1.0 / k if k > 0.0 else 0.0
+    if blk["kind"] == LIMIT:
+        C = blk["C"][0]
+        return max(old - k_inv * (u + C / h) if C > 0.0 else old - k_inv * u, 0.0)
+    g = blk["gamma"]
+    new = old - k_inv * (u - blk["target"]) if g == 0.0 else old - (u + g * old - blk["target"]) / (k + g)
+    return min(max(new, blk["lo"]), blk["hi"])
+
+
 def sweep_joints(blocks, q_dot, h):
-    """One Gauss-Seidel sweep over the blocks (the PGS's iterate), q_dot (N, 6) in place:
-        equality  d_alpha = -K^-1 (J q_dot + drift)
-        limit     alpha <- max(alpha - (J q_dot + drift + max(C, 0) / h) / K, 0)
-        motor     alpha <- clamp(alpha - (J q_dot - target) / K, -max_force, max_force) (rigid), or
-                  clamp(alpha - (J q_dot + gamma alpha - target) / (K + gamma), ...) (a spring-damper)
-    Returns the largest |K d_alpha| (m/s or rad/s)."""
+    """One Gauss-Seidel sweep over the joints (the PGS's iterate), q_dot (N, 6) in place: each
+    coupled joint as its group (module docstring), with bias the rows' drift; the blocks of the
+    others one by one, equality d_alpha = -K^-1 (J q_dot + drift), bounded rows as ``_bounded`` with
+    their own K. Returns the largest row velocity change (m/s or rad/s)."""
     change = 0.0
-    for blk in blocks:
-        u = _velocity(blk, q_dot) + blk["drift"]
-        alpha = blk["joint"]["alpha"]
-        s = blk["slot"]
-        if blk["kind"] == EQUALITY:
-            d = -(blk["K_inv"] @ u)
-            alpha[s:s + blk["n"]] += d
-        else:
-            old, k_inv = alpha[s], blk["K_inv"][0, 0]
-            if blk["kind"] == LIMIT:
-                C = blk["C"][0]
-                new = old - k_inv * (u[0] + C / h) if C > 0.0 else old - k_inv * u[0]
-                new = max(new, 0.0)
+    for group in _groups(blocks):
+        if group["coupled"]:
+            change = max(change, _solve_group(group, q_dot, lambda blk: blk["drift"], _alpha, lambda blk: True,
+                                              lambda blk, old, u, k: _bounded(blk, old, u, k, h)))
+            continue
+        for blk in group["blocks"]:
+            u = _velocity(blk, q_dot) + blk["drift"]
+            alpha = blk["joint"]["alpha"]
+            s = blk["slot"]
+            if blk["kind"] == EQUALITY:
+                d = -(blk["K_inv"] @ u)
+                alpha[s:s + blk["n"]] += d
             else:
-                g = blk["gamma"]
-                new = (old - k_inv * (u[0] - blk["target"]) if g == 0.0
-                       else old - (u[0] + g * old - blk["target"]) / (blk["K"][0, 0] + g))
-                new = min(max(new, blk["lo"]), blk["hi"])
-            d = np.array([new - old])
-            alpha[s] = new
-        _apply(blk, d, q_dot)
-        change = max(change, float(np.max(np.abs(blk["K"] @ d))))
+                old = alpha[s]
+                alpha[s] = _bounded(blk, old, u[0], blk["K"][0, 0], h)
+                d = np.array([alpha[s] - old])
+            _apply(blk, d, q_dot)
+            change = max(change, float(np.max(np.abs(blk["K"] @ d))))
     return change
 
 
 def joint_position_pass(blocks, q_p, h, erp, tolerance, max_iterations):
-    """The joints' part of the position pass, after the contacts' (q_p (N, 6) in place): per block
-    the target J q_p = -erp C / h (every equality block, those without an error holding; limit rows
-    only while C < 0), pseudo-forces beta (>= 0 for a limit), swept to the tolerance; nothing when
-    no block has an error. Returns the sweeps used."""
-    def active(blk):  # every equality block takes part (holding where it has no error); a limit while violated
-        return blk["kind"] == EQUALITY or (blk["kind"] == LIMIT and blk["C"][0] < 0.0)
+    """The joints' part of the position pass, after the contacts' (q_p (N, 6) in place): the target
+    J q_p = -erp C / h for every equality row (those without an error holding) and for limit rows
+    only while C < 0, pseudo-forces beta (>= 0 for a limit), joint by joint as the iterate (coupled
+    groups together), swept to the tolerance; nothing when no block has an error. Returns the
+    sweeps used."""
+    def violated(blk):
+        return blk["kind"] == LIMIT and blk["C"][0] < 0.0
 
     def error(blk):
-        return np.any(blk["C"] != 0.0) if blk["kind"] == EQUALITY else blk["kind"] == LIMIT and blk["C"][0] < 0.0
+        return np.any(blk["C"] != 0.0) if blk["kind"] == EQUALITY else violated(blk)
 
     if not any(error(blk) for blk in blocks):
         return 0
-    beta = [np.zeros(blk["n"]) for blk in blocks]
+    beta = {id(blk): np.zeros(blk["n"]) for blk in blocks}
+
+    def bias(blk):
+        return (erp / h) * blk["C"][:blk["n"]]
+
+    def push(blk, old, u, k):
+        return max(old - (1.0 / k if k > 0.0 else 0.0) * u, 0.0)
+
     sweeps, converged = 0, False
     while not converged and sweeps < max_iterations:
         sweeps += 1
         change = 0.0
-        for i, blk in enumerate(blocks):
-            if not active(blk):
+        for group in _groups(blocks):
+            if group["coupled"]:
+                change = max(change, _solve_group(group, q_p, bias, lambda blk: beta[id(blk)], violated, push))
                 continue
-            u = _velocity(blk, q_p) + (erp / h) * blk["C"]
-            if blk["kind"] == EQUALITY:
-                d = -(blk["K_inv"] @ u)
-                beta[i] += d
-            else:
-                new = max(beta[i][0] - blk["K_inv"][0, 0] * u[0], 0.0)
-                d = np.array([new - beta[i][0]])
-                beta[i][0] = new
-            _apply(blk, d, q_p)
-            change = max(change, float(np.max(np.abs(blk["K"] @ d))))
+            for blk in group["blocks"]:
+                if not (blk["kind"] == EQUALITY or violated(blk)):
+                    continue
+                u = _velocity(blk, q_p) + bias(blk)
+                b = beta[id(blk)]
+                if blk["kind"] == EQUALITY:
+                    d = -(blk["K_inv"] @ u)
+                    b += d
+                else:
+                    new = push(blk, b[0], u[0], blk["K"][0, 0])
+                    d = np.array([new - b[0]])
+                    b[0] = new
+                _apply(blk, d, q_p)
+                change = max(change, float(np.max(np.abs(blk["K"] @ d))))
         converged = tolerance > 0.0 and change <= tolerance
     return sweeps
 

@@ -40,7 +40,7 @@ of a contact by one delta_t = max(delta_1, delta_2) instead of each by its own d
 
 import numpy as np
 
-from .joints import joint_position_pass, prepare_joints, store_joints, sweep_joints, warm_start_joints
+from .joints import joint_position_pass, predict_drift, prepare_joints, store_joints, sweep_joints, warm_start_joints
 
 from .rigid import GYROSCOPIC_DEFAULT, GYROSCOPIC_OPTIONS, body_arrays, inverse_mass_blocks, motion_flags
 
@@ -903,9 +903,16 @@ def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
         for joint in joints:
             joint["alpha"][:] = 0.0
     warm_start_joints(blocks, q_dot)
+    sweeps = [0]
+
+    def joint_sweep(q):  # the drift from the velocities the first sweep leaves (joints.predict_drift)
+        sweeps[0] += 1
+        if sweeps[0] == 2:
+            predict_drift(blocks, q, dt)
+        return sweep_joints(blocks, q, dt)
+
     iterations, converged = iterate(rows, alpha, q_dot, dt, s["tolerance"], s["max_iterations"],
-                                    s["friction_cone"], alpha_spin,
-                                    (lambda q: sweep_joints(blocks, q, dt)) if blocks else None)
+                                    s["friction_cone"], alpha_spin, joint_sweep if blocks else None)
     alpha_iter = alpha[0::3].copy()
     # the poses move with the velocities of c; d changes only the kept ones
     q_dot_pos = q_dot.copy()
