@@ -22,6 +22,11 @@ read-only views of arrays the core writes after every step and setter: reading t
 nothing. Per-world parameters are set from arrays whose first axis is the world: every array is
 checked whole before any world changes (a wrong shape or value raises naming the parameter and,
 for a value, the world and body, and nothing changes).
+
+Joints: ``set_joint_motor_speeds``, ``set_joint_max_forces``, ``set_joint_servo_positions`` and
+``set_joint_efforts`` set drive targets per world ((n,) or (n, K) for K chosen joints; default every
+joint with a motor, or every hinge and slider, for efforts), checked the same way and naming the
+joint; ``joint_positions`` and ``joint_velocities`` are (n, J) copies.
 """
 from __future__ import annotations
 
@@ -34,6 +39,7 @@ from typing import Callable, Optional, Sequence, Union
 import numpy as np
 
 from . import _core
+from .joints import Motor
 from .world import Contacts, SolverStats, World
 
 
@@ -235,16 +241,22 @@ class Batch:
             raise IndexError(f"{who}: body index out of range: the worlds have {self.num_bodies} bodies")
         return got.astype(np.int64)
 
-    def _per_body(self, values, bodies, who: str, name: str) -> np.ndarray:
-        """values (n,) (one per world, every listed body) or (n, B) as (n, B) floats."""
-        a = np.asarray(values, dtype=np.float64)
+    def _per_body(self, values, bodies, who: str, name: str, item: str = "body", finite: bool = True) -> np.ndarray:
+        """values (n,) (one per world, every listed body, or joint: ``item``) or (n, B) as (n, B)
+        floats; not NaN, and finite unless ``finite`` is False."""
+        try:
+            a = np.asarray(values, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise TypeError(f"{who}: {name} must be numbers of shape ({self.n},) or ({self.n}, {len(bodies)}), "
+                            f"got {values!r}") from None
         if a.shape == (self.n,):
             a = np.repeat(a[:, None], len(bodies), axis=1)
         if a.shape != (self.n, len(bodies)):
             raise ValueError(f"{who}: {name} must have shape ({self.n},) or ({self.n}, {len(bodies)}), got {a.shape}")
-        if not np.isfinite(a).all():
-            i, j = np.argwhere(~np.isfinite(a))[0]
-            raise ValueError(f"{who}: {name} of world {i}, body {bodies[j]} is not finite")
+        bad = np.isnan(a) | (np.isinf(a) if finite else False)
+        if bad.any():
+            i, j = np.argwhere(bad)[0]
+            raise ValueError(f"{who}: {name} of world {i}, {item} {bodies[j]} is not {'finite' if finite else 'a number'}")
         return a
 
     def _refresh(self, indices) -> None:
@@ -317,6 +329,95 @@ class Batch:
         for i, w in enumerate(self._worlds):
             for j in moving:
                 w.set_external_wrench(int(j), force=f[i, j], torque=t[i, j])
+
+    # ---- joints: per-world drive targets (World.set_joint_motor, set_joint_effort) --------------
+    @property
+    def num_joints(self) -> int:
+        """Joints per world (J); ValueError when the worlds have different counts."""
+        counts = {w.num_joints for w in self._worlds}
+        if len(counts) != 1:
+            raise ValueError(f"Batch: the worlds have different joint counts {sorted(counts)}: per-world joint "
+                             "arrays need the same count")
+        return counts.pop()
+
+    @property
+    def joint_positions(self) -> np.ndarray:
+        """(n, J) each world's ``World.joint_positions``: a hinge's angle (rad), a slider's offset
+        (m), NaN for joints that are not one-dof. A copy."""
+        return np.array([w.joint_positions for w in self._worlds]).reshape(self.n, self.num_joints)
+
+    @property
+    def joint_velocities(self) -> np.ndarray:
+        """(n, J) each world's ``World.joint_velocities`` (rad/s, m/s; NaN as joint_positions). A copy."""
+        return np.array([w.joint_velocities for w in self._worlds]).reshape(self.n, self.num_joints)
+
+    def _joints(self, joints, who: str, motor: bool) -> np.ndarray:
+        """The joint indices ``joints`` (1-D) or, for None, every joint with a motor (``motor``) or
+        every hinge and slider, each checked in every world: IndexError or ValueError naming the
+        parameter, the world and the joint."""
+        J = self.num_joints
+        rows = [[w.joint(j) for j in range(J)] for w in self._worlds]
+        if joints is None:
+            return np.array([j for j in range(J) if all(r[j]["motor"] if motor else
+                                                        r[j]["kind"] in ("Revolute", "Prismatic") for r in rows)],
+                            dtype=np.int64)
+        got = np.asarray(joints)
+        if got.ndim != 1 or (got.size and not np.issubdtype(got.dtype, np.integer)) or got.dtype == np.bool_:
+            raise ValueError(f"{who}: joints must be a 1-D list of joint indices, got {joints!r}")
+        if got.size and (got.min() < 0 or got.max() >= J):
+            raise IndexError(f"{who}: joint index {int(got[(got < 0) | (got >= J)][0])} is out of range: the worlds "
+                             f"have {J} joints")
+        for i, r in enumerate(rows):
+            for j in got:
+                if r[j]["kind"] not in ("Revolute", "Prismatic"):
+                    raise ValueError(f"{who}: joint {int(j)} of world {i} is a {r[j]['kind']} joint: only hinges and "
+                                     "sliders take one")
+                if motor and not r[j]["motor"]:
+                    raise ValueError(f"{who}: joint {int(j)} of world {i} has no motor (World.set_joint_motor gives one)")
+        return got.astype(np.int64)
+
+    def _set_motors(self, values, joints, who: str, name: str, field: str, at_least: Optional[float] = None,
+                    finite: bool = True) -> None:
+        """Sets the motor ``field`` (speed, max_force, position) of the ``joints`` of every world,
+        the motor's other values kept; checked whole first."""
+        js = self._joints(joints, who, motor=True)
+        a = self._per_body(values, js, who, name, item="joint", finite=finite)
+        if at_least is not None and (a < at_least).any():
+            i, j = np.argwhere(a < at_least)[0]
+            raise ValueError(f"{who}: {name} of world {i}, joint {js[j]} must be >= {at_least}, got {a[i, j]}")
+        for i, w in enumerate(self._worlds):
+            for k, j in enumerate(js):
+                d = w.joint(int(j))
+                motor = {key: d[f"motor_{key}"] for key in ("speed", "max_force", "position", "stiffness", "damping")}
+                motor[field] = float(a[i, k])
+                w.set_joint_motor(int(j), Motor(motor.pop("speed"), motor.pop("max_force"), **motor))
+
+    def set_joint_motor_speeds(self, values, joints=None) -> None:
+        """Motor target speeds (rad/s for a hinge, m/s for a slider): (n,) one per world for every
+        joint in ``joints`` (default: every joint with a motor), or (n, K) per joint; each motor's
+        other values are kept (``World.set_joint_motor``)."""
+        self._set_motors(values, joints, "set_joint_motor_speeds", "speeds", "speed")
+
+    def set_joint_max_forces(self, values, joints=None) -> None:
+        """Motors' largest torque (N m, a hinge) or force (N, a slider), >= 0 (may be inf): (n,) or
+        (n, K) as ``set_joint_motor_speeds``."""
+        self._set_motors(values, joints, "set_joint_max_forces", "max_forces", "max_force", at_least=0.0,
+                         finite=False)
+
+    def set_joint_servo_positions(self, values, joints=None) -> None:
+        """Servo targets (rad, m; as ``joint_positions``) of motors with a stiffness: (n,) or (n, K)
+        as ``set_joint_motor_speeds``."""
+        self._set_motors(values, joints, "set_joint_servo_positions", "positions", "position")
+
+    def set_joint_efforts(self, values, joints=None) -> None:
+        """Efforts (N m, a hinge; N, a slider) applied along each joint's coordinate every substep
+        (``World.set_joint_effort``): (n,) one per world for every joint in ``joints`` (default:
+        every hinge and slider), or (n, K)."""
+        js = self._joints(joints, "set_joint_efforts", motor=False)
+        a = self._per_body(values, js, "set_joint_efforts", "efforts", item="joint")
+        for i, w in enumerate(self._worlds):
+            for k, j in enumerate(js):
+                w.set_joint_effort(int(j), float(a[i, k]))
 
     def _rows(self, values, width: int, who: str, name: str, indices=None) -> np.ndarray:
         n = self.n if indices is None else len(indices)

@@ -195,6 +195,27 @@ class BodyArgs(NamedTuple):
     inertia: Optional[np.ndarray] = None  # (3, 3), given with mass
 
 
+class JointArgs(NamedTuple):
+    """What a joint was made from (World.joint_args): world coordinates at creation, and the poses
+    of its bodies then."""
+    anchor: np.ndarray      # (3,) m, the shared point (a Distance joint's point on A)
+    anchor_b: np.ndarray    # (3,) m, a Distance joint's point on B (unused by the others)
+    axis: np.ndarray        # (3,) a hinge's or slider's axis as given (the core normalises it)
+    positions: np.ndarray   # (2, 3) m, the centres of mass of body_a and body_b at creation
+    rotations: np.ndarray   # (2, 3, 3) their world-from-body rotation matrices at creation
+
+
+#: the body-frame values the core makes of a joint's description at its bodies' poses
+JOINT_FRAMES = ("anchor_a", "anchor_b", "axis_a", "axis_b", "ref_a", "ref_b", "R_rel")
+
+
+def joint_key(d: dict) -> bytes:
+    """A joint (``World.joint``'s dict) as bytes: its two bodies (16 bytes) and its body-frame
+    values, which never change while the joint lives (equal exactly when every bit is)."""
+    bodies = np.array([d["body_a"], d["body_b"]], dtype=np.int64)
+    return bodies.tobytes() + b"".join(np.ascontiguousarray(d[k], dtype=np.float64).tobytes() for k in JOINT_FRAMES)
+
+
 def body_models(world) -> list[dict]:
     """Per body, what the world holds of its model: static, kinematic, enabled, can_sleep, sensor (bool),
     mass (kg), inertia (3, 3), friction, restitution, spinning_friction, name, group, mask. Linear in N."""
@@ -367,7 +388,7 @@ class MeshFiles:
 
 def scene_document(world, path, info: Optional[dict] = None, names=None) -> dict:
     """A world as a scene file's document (format, [scene] info when given, [world], bodies,
-    disabled pairs); writes the mesh files next to ``path``."""
+    disabled pairs, joints); writes the mesh files next to ``path``."""
     settings = {"gravity": floats(world.gravity), "contact_margin": float(world.contact_margin), **world.solver,
                 **world.sleep}
     document: dict[str, Any] = {"format": SCENE_FORMAT}
@@ -378,7 +399,70 @@ def scene_document(world, path, info: Optional[dict] = None, names=None) -> dict
     pairs = [[int(i), int(j)] for i, j in world.disabled_pairs]
     if pairs:
         document["disabled_pairs"] = pairs
+    joints = scene_joints(world, document["bodies"])
+    if joints:
+        document["joints"] = joints
     return document
+
+
+def scene_joints(world, bodies: list[dict]) -> list[dict]:
+    """One scene-file table per joint (keys as ``scenefile``'s joint tables; defaults left out),
+    with the anchors and axis it was made from (``World.joint_args``), its bodies by the names in
+    ``bodies`` (their scene-file tables, ``scene_bodies``) when unique, else by index. A file makes
+    a joint after its bodies, at their poses in the file: a joint is written only when those are,
+    bit for bit, its bodies' poses when it was made, so that it loads bit for bit; otherwise (its
+    bodies have moved since, and its angle, offset or drift would be lost; or what it was made from
+    is unknown) ValueError naming it."""
+    names = [table.get("name", "") for table in bodies]
+    unique = {n for n in names if n and names.count(n) == 1}
+    tables = []
+    for j in range(world.num_joints):
+        d, given = world.joint(j), world.joint_args(j)
+        kind, a, b = d["kind"], d["body_a"], d["body_b"]
+        axial = kind in ("Revolute", "Prismatic")
+        # where the file puts its bodies: the position and the orientation's matrix the core makes
+        at = [(np.asarray(bodies[i]["position"]), quat_to_matrix(np.asarray(bodies[i].get("orientation",
+                                                                                        (1.0, 0.0, 0.0, 0.0)))))
+              for i in (a, b)]
+        if given is None or not all(np.array_equal(x, given.positions[k]) and np.array_equal(R, given.rotations[k])
+                                    for k, (x, R) in enumerate(at)):
+            why = "what it was made from is unknown (an old pickle)" if given is None else \
+                "its bodies have moved since it was made (its angle, offset or drift would be lost)"
+            raise ValueError(f"{world._core.joint_label(j)}: a scene file makes a joint from world coordinates at "
+                             f"its bodies' poses in the file, and {why}; write the world before stepping it, or "
+                             "keep it with save_state() or pickle")
+        ref = {i: (names[i] if names[i] in unique else int(i)) for i in (a, b)}
+        table: dict[str, Any] = {}
+        if d["name"]:
+            table["name"] = d["name"]
+        table.update(type=kind.lower(), body_a=ref[a], body_b=ref[b])
+        if kind == "Distance":
+            table.update(anchor_a=floats(given.anchor), anchor_b=floats(given.anchor_b),
+                         min_length=float(d["min_length"]))
+            if d["max_length"] != np.inf:
+                table["max_length"] = float(d["max_length"])
+        else:
+            table["anchor"] = floats(given.anchor)
+        if axial:
+            table["axis"] = floats(given.axis)
+            if d["has_limits"]:
+                table["limits"] = [float(d["lower"]), float(d["upper"])]
+            if d["motor"]:
+                table["motor"] = {k: float(d[f"motor_{k}"]) for k in ("speed", "max_force", "position", "stiffness",
+                                                                      "damping")
+                                  if k in ("speed", "max_force") or not is_zero(d[f"motor_{k}"])}
+            for key in ("friction", "effort"):
+                if not is_zero(d[key]):
+                    table[key] = float(d[key])
+        for key in ("break_force", "break_torque"):
+            if d[key] != np.inf:
+                table[key] = float(d[key])
+        if d["collide_connected"]:
+            table["collide_connected"] = True
+        if d["broken"]:
+            table["broken"] = True
+        tables.append(table)
+    return tables
 
 
 # an array of scalars that tomli-w spread over lines: "[\n    1.0,\n    2.0,\n]" (no brackets inside)
@@ -397,16 +481,12 @@ def write_scene(world, path, info: Optional[dict] = None, names=None,
                 check: Optional[Callable[[dict], Any]] = None) -> Path:
     """Writes a world to a TOML scene file (and its meshes to ``<stem>.meshes/``); returns the
     path. ``check(document)`` runs before the file is written (scenefile validates against its
-    model). ValueError for a name not ending in .toml or a body the format cannot hold."""
+    model). ValueError for a name not ending in .toml or a body or joint the format cannot hold."""
     import tomli_w
 
     path = Path(path)
     if path.suffix.lower() != ".toml":
         raise ValueError(f"scene file {str(path)!r}: a scene file's name must end in .toml")
-    if world.num_joints:
-        # a file without them would load as another world (issue 23: joints in scene files)
-        raise ValueError(f"scene file {str(path)!r}: the world has {world.num_joints} joints, which scene files "
-                         "do not carry yet; save_state() and pickle keep them")
     if names is None:
         names = world.names
     document = scene_document(world, path, info, names)

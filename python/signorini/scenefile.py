@@ -46,6 +46,22 @@ written. A file reads like this (every table and key optional unless marked)::
 
     disabled_pairs = [[0, 1]]    # top level: body indices that never collide (World.disable_collision)
 
+    [[joints]]                   # made after every body, in this order (joint indices); signorini.joints
+    name = "hinge"
+    type = "revolute"            # revolute, prismatic, spherical, fixed or distance
+    body_a = "ground"            # a body's name (or its index); a static body attaches to the world
+    body_b = "box"
+    anchor = [0.0, 0.0, 1.5]     # world, m, at the bodies' poses above (prismatic, fixed: default body_b's centre)
+    axis = [1.0, 0.0, 0.0]       # revolute, prismatic: world, at creation
+    limits = [-1.0, 1.0]         # rad or m, 0 at creation
+    motor = { speed = 2.0, max_torque = 5.0 }   # or max_force; position, stiffness, damping: a servo
+    friction = 0.1               # N m or N
+    effort = 0.0                 # N m or N, applied along the joint
+    break_force = 1000.0         # N (and break_torque, N m; absent: never)
+    collide_connected = false
+    broken = false
+    # distance: anchor_a, anchor_b (world points of body_a and body_b), min_length, max_length
+
 Shapes (``type``): ``sphere`` (radius), ``box`` (half_extents), ``capsule`` (radius, half_length),
 ``cylinder`` (radius, half_height), ``plane`` (normal, offset; static only), ``hull`` (points),
 ``mesh`` and ``trimesh`` (``file`` relative to the scene file's folder, with an optional ``scale``,
@@ -66,9 +82,13 @@ its current position and velocities (exact) and the quaternion of its rotation m
 bit or two). A compound part keeps its rotation matrix exactly (as ``rotation`` when its quaternion
 would not give it back). Kinematic and enabled flags, explicit mass and
 inertia, filter bits, disabled pairs, names, materials and persistent wrenches are kept, so a saved
-world with kinematic or filtered bodies steps bit for bit like the original too. What a file cannot
-hold (a pending impulse or a force for the next step only) is refused at save time with a
-ValueError naming the body, never dropped. The warm-start cache and the time are state, not scene:
+world with kinematic or filtered bodies steps bit for bit like the original too. Joints are written
+with the anchors and axis they were made from (``World.joint_args``) and their current limits,
+motor, friction, effort, breaking limits, flags and name; each is made once in the world the file's
+bodies load as, to check that the file makes it bit for bit. What a file cannot hold (a pending
+impulse or a force for the next step only; a joint whose bodies have moved since it was made, whose
+angle, offset or drift a file made at the written poses would lose) is refused at save time with a
+ValueError naming the body or joint, never dropped. The warm-start cache and the time are state, not scene:
 ``World.save_state`` keeps those. The conversions themselves are ``signorini.codec``'s.
 
 Limits (checked before the file is parsed, or as its values are read): the file is at most
@@ -83,7 +103,11 @@ with the same message whether or not that path exists.
 
 Errors: a missing or malformed file, an unknown key (every table forbids extra keys), a wrong type,
 an unknown material, a value the core rejects, a limit above or running out of memory or stack
-each raise ``SceneFileError`` (a ValueError) naming the file, the key (``bodies[3].shape.radius``), the body's name when it has one, and the problem.
+each raise ``SceneFileError`` (a ValueError) naming the file, the key (``bodies[3].shape.radius``,
+``joints[0].limits``), the body's or joint's name when it has one, and the problem. A joint's
+types, shapes, NaN, limits lo > hi, an unknown joint type or body, the same body twice and two
+static bodies are found before any world is built; the rest (a hinge's limits outside (-pi, pi),
+a zero axis, a name taken) by the core as the joint is added.
 No physics here: values are converted to the types the ``World`` facade takes; the core checks them.
 """
 from __future__ import annotations
@@ -94,9 +118,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Dict, List, Literal, Optional, Tuple, Union
 
+
 from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
 from . import codec, filecheck, meshfile
+from .joints import Distance, Fixed, Motor, Prismatic, Revolute, Spherical
 from .world import World
 
 if sys.version_info >= (3, 11):
@@ -312,6 +338,107 @@ class Body(_Table):
                                             "sensor events")
 
 
+# joints (docs/conventions.md, "Joints"; signorini.joints): what the Python API takes, in world
+# coordinates at creation; values the format can check (finite, ordered, non-negative) are checked
+# here, before any world is built, the rest by the core as the joint is added
+Finite = Annotated[float, Strict(), Field(allow_inf_nan=False)]
+FiniteVec3 = Tuple[Finite, Finite, Finite]
+NonNegative = Annotated[float, Strict(), Field(ge=0.0, allow_inf_nan=False)]
+# a bound that may be infinite (TOML's inf), never NaN
+Bound = Annotated[float, Strict(), Field(ge=0.0)]
+Positive = Annotated[float, Strict(), Field(gt=0.0)]
+BodyRef = Union[Str, Annotated[int, Strict(), Field(ge=0)]]
+JOINT_TYPES = ("revolute", "prismatic", "spherical", "fixed", "distance")
+
+
+class JointMotor(_Table):
+    """A hinge's or slider's drive (``signorini.Motor``): a velocity motor driving the joint
+    velocity to ``speed`` with at most ``max_force`` (or ``max_torque``, the same; exactly one), or
+    with ``stiffness`` or ``damping`` a spring-damper servo holding ``position``."""
+    speed: Finite = Field(0.0, description="rad/s (hinge) or m/s (slider), the target velocity")
+    max_force: Optional[Bound] = Field(None, description="N m (hinge) or N (slider), >= 0, may be inf")
+    max_torque: Optional[Bound] = Field(None, description="the same as max_force, by another name")
+    position: Finite = Field(0.0, description="rad or m, the servo's target (0 at creation)")
+    stiffness: NonNegative = Field(0.0, description="N m / rad or N / m")
+    damping: NonNegative = Field(0.0, description="N m s / rad or N s / m")
+
+    @model_validator(mode="after")
+    def _one_max(self):
+        if (self.max_force is None) == (self.max_torque is None):
+            raise ValueError("give max_force (or max_torque), once")
+        return self
+
+
+class _JointTable(_Table):
+    name: Optional[Str] = None
+    body_a: BodyRef = Field(description="a body's name in [[bodies]] (or its index); may be a static body")
+    body_b: BodyRef = Field(description="a body's name in [[bodies]] (or its index); may be a static body")
+    collide_connected: Bool = Field(False, description="true: the two bodies still collide with each other")
+    break_force: Optional[Positive] = Field(None, description="N: the joint breaks after a step that loads it more "
+                                                              "(absent: never)")
+    break_torque: Optional[Positive] = Field(None, description="N m: the same for its torque (absent: never)")
+    broken: Bool = Field(False, description="true: already broken (World.set_joint_broken)")
+
+
+class _AxialJointTable(_JointTable):
+    axis: FiniteVec3 = Field((0.0, 0.0, 1.0), description="world, at creation (normalised)")
+    limits: Optional[Tuple[Finite, Finite]] = Field(None, description="(lower, upper): rad (hinge, in (-pi, pi)) "
+                                                    "or m (slider), 0 at creation")
+    motor: Optional[JointMotor] = None
+    friction: NonNegative = Field(0.0, description="N m or N: Coulomb friction of the joint")
+    effort: Finite = Field(0.0, description="N m or N applied along the joint's coordinate, on body_b")
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        if self.limits is not None and self.limits[0] > self.limits[1]:
+            raise ValueError(f"limits need lower <= upper, got {list(self.limits)}")
+        return self
+
+
+class RevoluteJoint(_AxialJointTable):
+    """A hinge: the bodies share ``anchor`` and body_b turns about ``axis`` only (world, at creation)."""
+    type: Literal["revolute"]
+    anchor: FiniteVec3 = Field(description="world, m, at creation")
+
+
+class PrismaticJoint(_AxialJointTable):
+    """A slider along ``axis`` (world, at creation); ``anchor`` defaults to body_b's centre of mass."""
+    type: Literal["prismatic"]
+    anchor: Optional[FiniteVec3] = Field(None, description="world, m, at creation")
+
+
+class SphericalJoint(_JointTable):
+    """A ball joint: the bodies share ``anchor`` (world, at creation)."""
+    type: Literal["spherical"]
+    anchor: FiniteVec3 = Field(description="world, m, at creation")
+
+
+class FixedJoint(_JointTable):
+    """A weld; ``anchor`` (where its force is reported) defaults to body_b's centre of mass."""
+    type: Literal["fixed"]
+    anchor: Optional[FiniteVec3] = Field(None, description="world, m, at creation")
+
+
+class DistanceJoint(_JointTable):
+    """min_length <= |anchor_b - anchor_a| <= max_length for points on body_a and body_b (world, at
+    creation); both absent: a rod of the current length, only max_length: a rope."""
+    type: Literal["distance"]
+    anchor_a: FiniteVec3 = Field(description="world, m, a point of body_a at creation")
+    anchor_b: FiniteVec3 = Field(description="world, m, a point of body_b at creation")
+    min_length: Optional[NonNegative] = Field(None, description="m (absent: 0, or the current length)")
+    max_length: Optional[Bound] = Field(None, description="m, may be inf (absent: inf, or the current length)")
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        if self.min_length is not None and self.max_length is not None and self.min_length > self.max_length:
+            raise ValueError(f"min_length must be <= max_length, got {self.min_length} > {self.max_length}")
+        return self
+
+
+AnyJoint = Annotated[Union[RevoluteJoint, PrismaticJoint, SphericalJoint, FixedJoint, DistanceJoint],
+                     Field(discriminator="type")]
+
+
 class WorldSettings(_Table):
     """The ``World`` constructor's keywords (see ``signorini.World``)."""
     gravity: Vec3 = (0.0, 0.0, -9.81)
@@ -360,6 +487,8 @@ class SceneFile(_Table):
     bodies: List[Body] = []
     disabled_pairs: List[Tuple[Int, Int]] = Field([], description="pairs of body indices (in the order of "
                                                                   "[[bodies]]) that never collide")
+    joints: List[AnyJoint] = Field([], description="joints in the order of their indices, made after every body "
+                                                   "at the bodies' initial poses")
 
 
 def scene_schema() -> dict:
@@ -371,14 +500,16 @@ def scene_schema() -> dict:
 
 # reading ---------------------------------------------------------------------------------------
 def _key(loc) -> str:
-    """('bodies', 3, 'shape', 'sphere', 'radius') -> 'bodies[3].shape.radius' (pydantic's union
-    tags dropped)."""
+    """('bodies', 3, 'shape', 'sphere', 'radius') -> 'bodies[3].shape.radius', ('joints', 0, 'revolute',
+    'limits') -> 'joints[0].limits' (pydantic's union tags dropped)."""
     out = ""
     for part in loc:
         if isinstance(part, int):
             out += f"[{part}]"
         elif part in ("sphere", "box", "capsule", "cylinder", "plane", "hull", "mesh", "trimesh", "compound") \
                 and out.endswith("shape"):
+            continue
+        elif part in JOINT_TYPES and out.startswith("joints[") and out.endswith("]") and "." not in out:
             continue
         else:
             out += ("." if out else "") + str(part)
@@ -426,8 +557,8 @@ def _parse(path: Path, overrides: Optional[dict] = None) -> tuple[SceneFile, dic
 
 def apply_override(raw: dict, dotted: str, value, where: str) -> None:
     """Sets ``dotted`` (e.g. 'bodies.box.friction', 'world.gravity.2', 'materials.wood.friction',
-    'scene.dt') in a scene file's raw TOML dict to value. In ``bodies`` a body is named by its
-    ``name`` or its index; in other lists an index. The last key may be new (a body's friction the
+    'joints.elbow.motor.speed', 'scene.dt') in a scene file's raw TOML dict to value. In ``bodies``
+    and ``joints`` an entry is named by its ``name`` or its index; in other lists an index. The last key may be new (a body's friction the
     file left to its material); validation then checks it. SceneFileError naming the path and what
     is not there."""
     keys = dotted.split(".") if isinstance(dotted, str) else []
@@ -439,7 +570,7 @@ def apply_override(raw: dict, dotted: str, value, where: str) -> None:
         here = ".".join(keys[:depth + 1])
         if isinstance(node, list):
             index = None
-            if keys[depth - 1] == "bodies" and depth == 1:
+            if keys[0] in ("bodies", "joints") and depth == 1:
                 named = [i for i, b in enumerate(node) if isinstance(b, dict) and b.get("name") == key]
                 if named:
                     index = named[0]
@@ -447,7 +578,7 @@ def apply_override(raw: dict, dotted: str, value, where: str) -> None:
                 index = int(key)
             if index is None or not -len(node) <= index < len(node):
                 known = ", ".join(repr(b.get("name")) for b in node if isinstance(b, dict) and b.get("name")) \
-                    if depth == 1 and keys[0] == "bodies" else f"indices 0 to {len(node) - 1}"
+                    if depth == 1 and keys[0] in ("bodies", "joints") else f"indices 0 to {len(node) - 1}"
                 raise SceneFileError(f"{where}: parameter {dotted!r}: {here!r} is not there (known: {known or 'none'})")
             if last:
                 node[index] = value
@@ -466,14 +597,14 @@ def apply_override(raw: dict, dotted: str, value, where: str) -> None:
 
 
 def _body_name(raw: dict, loc) -> str:
-    """' (body "name")' for an error inside a named body, else ''."""
-    if len(loc) >= 2 and loc[0] == "bodies" and isinstance(loc[1], int):
+    """' (body "name")' for an error inside a named body (' (joint "name")' in a joint), else ''."""
+    if len(loc) >= 2 and loc[0] in ("bodies", "joints") and isinstance(loc[1], int):
         try:
-            name = raw["bodies"][loc[1]].get("name")
+            name = raw[loc[0]][loc[1]].get("name")
         except (KeyError, IndexError, AttributeError, TypeError):
             return ""
         if isinstance(name, str):
-            return f" (body {name!r})"
+            return f" ({'body' if loc[0] == 'bodies' else 'joint'} {name!r})"
     return ""
 
 
@@ -509,9 +640,72 @@ def read_scene(path, *, allow_paths=(), overrides: Optional[dict] = None):
         raise SceneFileError(f"{where_file}: out of memory or stack building it ({type(e).__name__})") from None
 
 
+def _joint_key(k: int, table) -> str:
+    return f"joints[{k}]" + (f" ({table.name!r})" if table.name else "")
+
+
+def _scene_joints(model: SceneFile, where_file: str) -> list:
+    """The file's joints as ``signorini.joints`` descriptions with their ``broken`` flags, their
+    bodies resolved from names (or indices) in [[bodies]]; SceneFileError naming the joint and the
+    key for an unknown body, the same body twice or two static bodies (before any world is built)."""
+    index = {}
+    for i, body in enumerate(model.bodies):
+        if body.name:
+            index.setdefault(body.name, i)
+    out = []
+    for k, t in enumerate(model.joints):
+        key = f"{where_file}: {_joint_key(k, t)}"
+        ends = []
+        for side in ("body_a", "body_b"):
+            ref = getattr(t, side)
+            i = index.get(ref) if isinstance(ref, str) else ref
+            if i is None or i >= len(model.bodies):
+                known = ", ".join(repr(n) for n in index) or "none"
+                what = f"unknown body {ref!r} (known: {known})" if isinstance(ref, str) else \
+                    f"body index {ref} is out of range: the file has {len(model.bodies)} bodies"
+                raise SceneFileError(f"{key}: {side}: {what}")
+            ends.append(i)
+        a, b = ends
+        if a == b:
+            raise SceneFileError(f"{key}: body_b: body_a and body_b are the same body ({t.body_a!r}); give two bodies")
+        if model.bodies[a].static and model.bodies[b].static:
+            raise SceneFileError(f"{key}: body_b: both bodies are static ({t.body_a!r}, {t.body_b!r}): a joint needs "
+                                 "one that moves")
+        common = dict(name=t.name, break_force=t.break_force, break_torque=t.break_torque,
+                      collide_connected=t.collide_connected)
+        if isinstance(t, (RevoluteJoint, PrismaticJoint)):
+            motor = None
+            if t.motor is not None:
+                m = t.motor
+                motor = Motor(m.speed, m.max_force if m.max_force is not None else m.max_torque, position=m.position,
+                              stiffness=m.stiffness, damping=m.damping)
+            kind = Revolute if isinstance(t, RevoluteJoint) else Prismatic
+            joint = kind(a, b, t.anchor, t.axis, limits=t.limits, motor=motor, friction=t.friction, effort=t.effort,
+                         **common)
+        elif isinstance(t, SphericalJoint):
+            joint = Spherical(a, b, t.anchor, **common)
+        elif isinstance(t, FixedJoint):
+            joint = Fixed(a, b, t.anchor, **common)
+        else:
+            joint = Distance(a, b, t.anchor_a, t.anchor_b, t.min_length, t.max_length, **common)
+        out.append((_joint_key(k, t), joint, t.broken))
+    return out
+
+
 def _read_scene(path: Path, allow_paths: list, where_file: str, overrides: Optional[dict] = None):
     model, _ = _parse(path, overrides)
-    base = path.parent
+    world, names = _build_world(model, path.parent, allow_paths, where_file)
+    info = model.scene
+    return Scene(
+        name=info.name or path.stem, world=world, dt=info.dt, steps=info.steps, description=info.description,
+        snapshot_times=tuple(info.snapshot_times) if info.snapshot_times is not None else None,
+        names=tuple(n or f"body_{i}" for i, n in enumerate(names)) if any(names) else None)
+
+
+def _build_world(model: SceneFile, base: Path, allow_paths: list, where_file: str) -> tuple:
+    """The World of a checked file (its bodies, disabled pairs and joints, in that order) and its
+    body names ("" for unnamed ones); SceneFileError naming the file, the key and the problem."""
+    joints = _scene_joints(model, where_file)
     try:
         world = World(**model.world.model_dump())
     except (TypeError, ValueError) as e:
@@ -535,11 +729,14 @@ def _read_scene(path: Path, allow_paths: list, where_file: str, overrides: Optio
             world.disable_collision(i, j)
         except (TypeError, ValueError) as e:
             raise SceneFileError(f"{where_file}: disabled_pairs[{k}]: {e}") from None
-    info = model.scene
-    return Scene(
-        name=info.name or path.stem, world=world, dt=info.dt, steps=info.steps, description=info.description,
-        snapshot_times=tuple(info.snapshot_times) if info.snapshot_times is not None else None,
-        names=tuple(n or f"body_{i}" for i, n in enumerate(names)) if any(names) else None)
+    for key, joint, broken in joints:
+        try:
+            j = world.add_joint(joint)
+        except (TypeError, ValueError, IndexError) as e:
+            raise SceneFileError(f"{where_file}: {key}: {e}") from None
+        if broken:
+            world.set_joint_broken(j, True)
+    return world, names
 
 
 def load_scene(path, *, allow_paths=()):

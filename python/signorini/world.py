@@ -473,6 +473,9 @@ class World:
         # what each body was added with, in index order (save_scene writes a body that has not
         # moved with these values, so a saved scene steps bit for bit like the original)
         self._args: list[Optional[codec.BodyArgs]] = []
+        # what each joint was made from (joint_args; save_scene writes it), by its bodies and the
+        # body-frame values the core made of it, which never change (renumbered with the bodies)
+        self._joint_args: dict[bytes, codec.JointArgs] = {}
         self._unconverged_substeps = 0  # flagged substeps so far (see warn_velocity)
         self._warned = False
 
@@ -688,8 +691,10 @@ class World:
         match the bodies: read them again. Costs O(N) (the broad phase is rebuilt); to remove many
         bodies, ``remove_bodies`` does it in one pass."""
         i = self._index(i)
+        joints = self._joints_before_removal()
         self._core.remove_body(i)
         del self._args[i]
+        self._renumber_joint_args(joints, [i])
 
     @_locked
     def remove_bodies(self, indices) -> None:
@@ -701,9 +706,28 @@ class World:
         beyond = ii[(ii < -2**31) | (ii >= 2**31)]  # not even a C int: the core could not name it
         if beyond.size:
             raise BodyIndexError(f"body index {beyond[0]} is out of range: the world has {self.num_bodies} bodies")
+        joints = self._joints_before_removal()
         self._core.remove_bodies(ii)
         for i in sorted(set(int(k) for k in ii), reverse=True):
             del self._args[i]
+        self._renumber_joint_args(joints, ii)
+
+    def _joints_before_removal(self) -> list:
+        """(joint dict, record) of each joint with a record, for _renumber_joint_args."""
+        joints = (self._core.joint(j) for j in range(self._core.num_joints))
+        return [(d, self._joint_args[codec.joint_key(d)]) for d in joints if codec.joint_key(d) in self._joint_args]
+
+    def _renumber_joint_args(self, joints: list, removed) -> None:
+        """The joint records after bodies ``removed`` went: theirs dropped, the others' bodies
+        renumbered as the core renumbers them (later bodies move down)."""
+        gone = np.unique(np.asarray(removed, dtype=np.int64))
+        kept = {}
+        for d, record in joints:
+            if d["body_a"] in gone or d["body_b"] in gone:
+                continue
+            moved = {k: int(d[k] - np.searchsorted(gone, d[k])) for k in ("body_a", "body_b")}
+            kept[codec.joint_key({**d, **moved})] = record
+        self._joint_args = kept
 
     def _index(self, i) -> int:
         """i as an int (the core checks the range and raises BodyIndexError naming the index and
@@ -915,7 +939,8 @@ class World:
         return {"version": 1, "gravity": np.array(c.gravity), "contact_margin": c.contact_margin,
                 "solver": self.solver, "sleep": self.sleep, "bodies": bodies, "excluded_pairs": list(c.excluded_pairs),
                 "state": self.save_state(), "given": [None if g is None else tuple(g) for g in self._args],
-                "threads": self._threads, "hit_speed": c.hit_speed}
+                "threads": self._threads, "hit_speed": c.hit_speed,
+                "joints_given": [None if g is None else tuple(g) for g in map(self.joint_args, range(c.num_joints))]}
 
     def __setstate__(self, d: dict) -> None:
         """Builds the pickled world in a new core, then (holding the lock) puts it in place of this
@@ -949,6 +974,9 @@ class World:
         given = d.get("given") or [None] * c.num_bodies
         self._args = [codec.BodyArgs(*g) if g is not None and len(g) == len(codec.BodyArgs._fields) else None
                       for g in given]
+        for j, g in enumerate(d.get("joints_given") or []):
+            if g is not None:
+                self._joint_args[codec.joint_key(c.joint(j))] = codec.JointArgs(*g)
 
     # joints (docs/conventions.md, "Joints") -----------------------------------------------------
     @_locked
@@ -966,7 +994,19 @@ class World:
         who = (f"joint {self._core.num_joints}" + (f" '{joint.name}'" if isinstance(joint.name, str) and joint.name
                                                    else "") + f" ({_JOINT_KINDS[joint.kind]})")
         args = joint._core_args(who, self.positions)
-        return self._core.add_joint(joint.kind, **args)
+        j = self._core.add_joint(joint.kind, **args)
+        ab = [args["body_a"], args["body_b"]]
+        self._joint_args[codec.joint_key(self._core.joint(j))] = codec.JointArgs(
+            *(readonly(np.array(args[k])) for k in ("anchor", "anchor_b", "axis")),
+            readonly(np.array(self.positions[ab])), readonly(np.array(self.rotations[ab])))
+        return j
+
+    @_locked
+    def joint_args(self, joint: int) -> Optional[codec.JointArgs]:
+        """What joint ``joint`` was made from (``codec.JointArgs``): its anchor, anchor_b and axis as
+        given (world, at creation; anchor_b is a Distance joint's) and its bodies' poses then, or
+        None when unknown (a world unpickled from an old pickle)."""
+        return self._joint_args.get(codec.joint_key(self._core.joint(self._joint_index(joint))))
 
     @_locked
     def remove_joint(self, joint: int) -> None:
