@@ -13,6 +13,13 @@
   }
   function f32(b64) { return new Float32Array(bytes(b64)); }
   function u32(b64) { return new Uint32Array(bytes(b64)); }
+  function u8(b64) { return new Uint8Array(bytes(b64)); }
+  // the first index of a sorted array whose value is >= x (the length when none is)
+  function lowerBound(a, x) {
+    var lo = 0, hi = a.length;
+    while (lo < hi) { var mid = (lo + hi) >> 1; if (a[mid] < x) lo = mid + 1; else hi = mid; }
+    return lo;
+  }
 
   var N = D.names.length, F = D.frames;
   var time = f32(D.time), pos = f32(D.pos), quat = f32(D.quat), vel = f32(D.vel);
@@ -21,6 +28,14 @@
   if (D.contacts) {
     contacts = { offsets: u32(D.contacts.offsets), point: f32(D.contacts.point),
                  normal: f32(D.contacts.normal), force: f32(D.contacts.force) };
+  }
+  // contact events of every kind, by step (so by frame too); none in records written before them
+  var events = null, E = 0;
+  if (D.events) {
+    events = { kind: u8(D.events.kind), step: u32(D.events.step), frame: u32(D.events.frame),
+               a: u32(D.events.a), b: u32(D.events.b), point: f32(D.events.point), normal: f32(D.events.normal),
+               speed: f32(D.events.speed), impulse: f32(D.events.impulse) };
+    E = events.kind.length;
   }
 
   // renderer, scene, camera, lights
@@ -83,17 +98,36 @@
   var heads = new THREE.LineSegments(buffer(4 * maxK), new THREE.LineBasicMaterial({ color: 0xd00000, depthTest: false }));
   [points, normals, forces, heads].forEach(function (o) { o.frustumCulled = false; o.renderOrder = 10; scene.add(o); });
 
+  // event markers: a cross of 3 strokes at each point and a hit's normal, 8 vertices an event,
+  // coloured by kind and faded towards the white background; the buffer grows to the most shown
+  function markBuffer(count) {
+    var g = buffer(8 * count);
+    g.addAttribute("color", new THREE.BufferAttribute(new Float32Array(24 * count), 3));
+    return g;
+  }
+  var marks = new THREE.LineSegments(markBuffer(1), new THREE.LineBasicMaterial({ vertexColors: THREE.VertexColors, depthTest: false }));
+  marks.frustumCulled = false; marks.renderOrder = 11; scene.add(marks);
+  var kindColours = events ? D.events.colours.map(function (c) { return new THREE.Color(c); }) : [];
+  function markRoom(count) {
+    if (marks.geometry.attributes.position.count >= 8 * count) return;
+    marks.geometry.dispose();
+    marks.geometry = markBuffer(count);
+  }
+
   // the user interface
   var ui = {
     play: document.getElementById("play"), timeline: document.getElementById("timeline"),
     clock: document.getElementById("clock"), speed: document.getElementById("speed"),
     contacts: document.getElementById("show-contacts"), normals: document.getElementById("show-normals"),
     forces: document.getElementById("show-forces"), follow: document.getElementById("follow"),
-    info: document.getElementById("info")
+    info: document.getElementById("info"), events: document.getElementById("show-events"),
+    eventList: document.getElementById("event-list"), ticks: document.getElementById("ticks")
   };
   ui.timeline.max = String(F - 1);
   ui.follow.checked = !!D.camera.follow;
-  var state = { frame: 0, playing: false, clock: time[0], last: null, dirty: true, selected: -1 };
+  // the event controls only for a record with events: one without plays as it always did
+  document.getElementById("events-toggle").hidden = ui.ticks.hidden = !events;
+  var state = { frame: 0, playing: false, clock: time[0], last: null, dirty: true, selected: -1, marks: [] };
 
   // orbit camera: spherical coordinates about the target, in a frame whose pole is 'up'
   var offset = new THREE.Vector3().fromArray(D.camera.offset);
@@ -129,6 +163,35 @@
     state.dirty = true;
   }
   window.addEventListener("resize", resize);
+
+  // the timeline's ticks: one per kind at each frame with events, in rows (hits on top, beginnings,
+  // ends), where the slider's thumb stands at that frame (the thumb's travel is inset by half its
+  // width, 8 px in Chromium); drawn again whenever the slider moved or changed width
+  var THUMB = 8, ROW = 4, ROWS = [1, 2, 0, 1, 2];
+  var ticks = { list: [], at: "" };
+  function drawTicks() {
+    if (!events) return;
+    var c = ui.ticks, r = c.getBoundingClientRect(), t = ui.timeline.getBoundingClientRect();
+    var at = [r.left, r.top, r.width, t.left, t.width].join();
+    if (at === ticks.at) return;
+    ticks.at = at;
+    ticks.list = [];
+    var ratio = window.devicePixelRatio || 1;
+    c.width = Math.round(r.width * ratio); c.height = Math.round(r.height * ratio);
+    var g = c.getContext("2d");
+    g.setTransform(ratio, 0, 0, ratio, 0, 0);
+    g.clearRect(0, 0, r.width, r.height);
+    var last = [-1, -1, -1, -1, -1];
+    for (var e = 0; e < E; e++) {
+      var k = events.kind[e], f = events.frame[e];
+      if (last[k] === f) continue;
+      last[k] = f;
+      var x = Math.round(t.left - r.left + THUMB + (t.width - 2 * THUMB) * (F > 1 ? f / (F - 1) : 0));
+      g.fillStyle = D.events.colours[k];
+      g.fillRect(x - 1, ROWS[k] * ROW, 2, ROW);
+      ticks.list.push({ frame: f, kind: D.events.kinds[k], x: r.left + x, y: r.top + (ROWS[k] + 0.5) * ROW });
+    }
+  }
 
   // pose the bodies and the contacts at frame f
   function show(f) {
@@ -175,6 +238,8 @@
     ui.timeline.value = String(f);
     ui.clock.textContent = "t = " + time[f].toFixed(3) + " s  (" + (f + 1) + "/" + F + ")";
     showInfo(f, K);
+    showEvents(f);
+    drawTicks();
   }
 
   function showInfo(f, K) {
@@ -187,6 +252,69 @@
       lines.push("v = " + [vel[p], vel[p + 1], vel[p + 2]].map(function (x) { return x.toFixed(4); }).join(", ") + " m/s");
     }
     ui.info.textContent = lines.join("\n");
+  }
+
+  // the events of frame f and of the frames event_fade s before it: their crosses, fading with
+  // the time since, and the list of frame f's own
+  function showEvents(f) {
+    state.marks = [];
+    var list = ui.eventList;
+    while (list.firstChild) list.removeChild(list.firstChild);
+    marks.visible = !!events && ui.events.checked;
+    if (!marks.visible) return;
+    var g = lowerBound(time, time[f] - D.event_fade);
+    while (g <= f && time[f] - time[g] >= D.event_fade) g++;
+    var lo = lowerBound(events.frame, g), hi = lowerBound(events.frame, f + 1);
+    markRoom(hi - lo);
+    var P = marks.geometry.attributes.position.array, C = marks.geometry.attributes.color.array;
+    var white = new THREE.Color(1, 1, 1);
+    for (var n = 0, e = lo; e < hi; n++, e++) {
+      var k = events.kind[e], hit = D.events.kinds[k] === "hit";
+      var at = new THREE.Vector3().fromArray(events.point, 3 * e), normal = new THREE.Vector3().fromArray(events.normal, 3 * e);
+      var alpha = 1 - (time[f] - time[events.frame[e]]) / D.event_fade;
+      var half = (hit ? 0.5 : 0.3) * D.normal_length;
+      // three strokes along the axes, then the normal (a point where there is none)
+      for (var a = 0; a < 3; a++) {
+        var stroke = new THREE.Vector3().setComponent(a, half);
+        at.clone().sub(stroke).toArray(P, 24 * n + 6 * a);
+        at.clone().add(stroke).toArray(P, 24 * n + 6 * a + 3);
+      }
+      at.toArray(P, 24 * n + 18);
+      at.clone().addScaledVector(normal, hit ? D.normal_length : 0).toArray(P, 24 * n + 21);
+      var colour = kindColours[k].clone().lerp(white, 1 - alpha);
+      for (var v = 0; v < 8; v++) colour.toArray(C, 24 * n + 3 * v);
+      state.marks.push({ index: e, kind: D.events.kinds[k], step: events.step[e], frame: events.frame[e],
+                         a: events.a[e], b: events.b[e], point: at.toArray(), alpha: alpha });
+    }
+    marks.geometry.setDrawRange(0, 8 * n);
+    marks.geometry.attributes.position.needsUpdate = marks.geometry.attributes.color.needsUpdate = true;
+
+    // the list: kind, the two bodies and a hit's speed and impulse, at most 8 lines
+    var first = lowerBound(events.frame, f);
+    for (e = first; e < Math.min(hi, first + 8); e++) {
+      k = events.kind[e];
+      var label = D.events.kinds[k], line = document.createElement("div"), swatch = document.createElement("span");
+      swatch.textContent = "\u25a0 ";
+      swatch.style.color = D.events.colours[k];
+      var text = (label + "            ").slice(0, 13) + D.names[events.a[e]] + " / " + D.names[events.b[e]];
+      if (label === "hit") text += "  " + events.speed[e].toFixed(2) + " m/s  " + events.impulse[e].toPrecision(3) + " N s";
+      line.appendChild(swatch);
+      line.appendChild(document.createTextNode(text));
+      list.appendChild(line);
+    }
+    if (hi - first > 8) {
+      var more = document.createElement("div");
+      more.textContent = "  and " + (hi - first - 8) + " more";
+      list.appendChild(more);
+    }
+  }
+
+  // the next (dir 1) or previous (dir -1) frame with events; this one when there is none
+  function eventFrame(dir) {
+    if (!E) return state.frame;
+    if (dir > 0) { var i = lowerBound(events.frame, state.frame + 1); return i < E ? events.frame[i] : state.frame; }
+    var j = lowerBound(events.frame, state.frame);
+    return j > 0 ? events.frame[j - 1] : state.frame;
   }
 
   function seek(f) {
@@ -203,7 +331,7 @@
 
   ui.play.addEventListener("click", function () { setPlaying(!state.playing); });
   ui.timeline.addEventListener("input", function () { setPlaying(false); seek(Number(ui.timeline.value)); });
-  [ui.contacts, ui.normals, ui.forces, ui.follow].forEach(function (el) {
+  [ui.contacts, ui.normals, ui.forces, ui.follow, ui.events].forEach(function (el) {
     el.addEventListener("change", function () { state.dirty = true; });
   });
   window.addEventListener("keydown", function (e) {
@@ -213,6 +341,8 @@
     else if (e.key === "ArrowLeft") { setPlaying(false); seek(state.frame - 1); e.preventDefault(); }
     else if (e.key === "Home") { setPlaying(false); seek(0); }
     else if (e.key === "End") { setPlaying(false); seek(F - 1); }
+    else if (e.key === "]" || e.key === "PageDown") { setPlaying(false); seek(eventFrame(1)); e.preventDefault(); }
+    else if (e.key === "[" || e.key === "PageUp") { setPlaying(false); seek(eventFrame(-1)); e.preventDefault(); }
   });
 
   // mouse: drag orbits, right or shift drag pans, wheel zooms, a click picks a body
@@ -258,6 +388,18 @@
     state.dirty = true;
   }
 
+  // the event markers drawn at the current frame, each with where its point is on the page (CSS pixels)
+  function markers() {
+    var rect = canvas.getBoundingClientRect();
+    return state.marks.map(function (m) {
+      var p = new THREE.Vector3().fromArray(m.point).project(camera), out = {};
+      for (var key in m) out[key] = m[key];
+      out.x = rect.left + (p.x + 1) / 2 * rect.width;
+      out.y = rect.top + (1 - p.y) / 2 * rect.height;
+      return out;
+    });
+  }
+
   // projected bounding rectangle of body i at the current frame, CSS pixels of the page
   function screenBox(i) {
     var b = bodies[i].geometry.boundingBox, rect = canvas.getBoundingClientRect();
@@ -299,7 +441,9 @@
     frames: F, rendered: 0, ready: false,
     seek: function (f) { setPlaying(false); seek(f); },
     play: function () { setPlaying(true); }, pause: function () { setPlaying(false); },
-    screenBox: screenBox,
+    screenBox: screenBox, events: E,
+    ticks: function () { return ticks.list.slice(); },
+    markers: markers,
     get frame() { return state.frame; }, get dirty() { return state.dirty; }
   };
   window.signoriniPlayer = api;
