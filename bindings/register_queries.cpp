@@ -103,6 +103,17 @@ void register_queries(py::module_& m) {
              return w.overlap_point(x, filter_of(group, mask, std::move(exclude)));
            },
            py::arg("point"), py::arg("group"), py::arg("mask"), py::arg("exclude"))
+      // (body, fraction, point (3,), normal (3,)) or None
+      .def("cast_shape",
+           [](const World& w, const py::object& shape, const Vec3& position, const Quat4& orientation,
+              const Vec3& translation, std::uint32_t group, std::uint32_t mask, std::vector<BodyIndex> exclude) {
+             const Shape s = bindings::to_shape(shape, "cast_shape: shape");
+             const std::optional<ShapeHit> h =
+                 w.cast_shape(s, position, orientation, translation, filter_of(group, mask, std::move(exclude)));
+             return h ? py::object(py::make_tuple(h->body, h->fraction, h->point, h->normal)) : py::object(py::none());
+           },
+           py::arg("shape"), py::arg("position"), py::arg("orientation"), py::arg("translation"), py::arg("group"),
+           py::arg("mask"), py::arg("exclude"))
       // (distance, point_a (3,), point_b (3,), normal (3,))
       .def("distance",
            [](const World& w, BodyIndex i, BodyIndex j) {

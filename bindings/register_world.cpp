@@ -91,21 +91,24 @@ void register_world(py::module_& m) {
       .def_readwrite("soft_iterations", &SolverSettings::soft_iterations)
       .def_readwrite("relax_iterations", &SolverSettings::relax_iterations)
       .def_readwrite("recycle_distance", &SolverSettings::recycle_distance)
+      .def_readwrite("continuous", &SolverSettings::continuous)
       .def(py::pickle(
           [](const SolverSettings& s) {
             return py::make_tuple(s.erp, s.tolerance, s.max_iterations, s.slop, s.max_push_velocity,
                                   s.restitution_threshold, s.friction_cone, s.gyroscopic, s.warm_start, s.substeps,
                                   s.warn_velocity, s.method, s.contact_hertz, s.damping_ratio, s.soft_iterations,
-                                  s.relax_iterations, s.recycle_distance);
+                                  s.relax_iterations, s.recycle_distance, s.continuous);
           },
           [](const py::tuple& t) {
             // 11 items: a pickle from before the soft step (its settings keep their defaults); 16:
-            // before contact recycling (it stays off, as it was)
-            if (t.size() != 17 && t.size() != 16 && t.size() != 11)
-              throw py::value_error(
-                  "SolverSettings: a pickled state has 17 items (16 before contact recycling, 11 before the soft step)");
+            // before contact recycling (it stays off, as it was); 17: before continuous collision
+            // (on, the default)
+            if (t.size() != 18 && t.size() != 17 && t.size() != 16 && t.size() != 11)
+              throw py::value_error("SolverSettings: a pickled state has 18 items (17 before continuous collision, 16 "
+                                    "before contact recycling, 11 before the soft step)");
             SolverSettings s;
-            s.recycle_distance = t.size() == 17 ? t[16].cast<double>() : 0.0;
+            s.recycle_distance = t.size() >= 17 ? t[16].cast<double>() : 0.0;
+            if (t.size() == 18) s.continuous = t[17].cast<bool>();
             s.erp = t[0].cast<double>();
             s.tolerance = t[1].cast<double>();
             s.max_iterations = t[2].cast<int>();
@@ -173,7 +176,7 @@ void register_world(py::module_& m) {
              std::optional<double> mass, std::optional<Mat3> inertia, const Vec3& position, const Quat4& orientation,
              const Vec3& velocity, const Vec3& angular_velocity, double friction, double restitution,
              double spinning_friction, const std::string& name, std::uint32_t group, std::uint32_t mask, bool enabled,
-             bool can_sleep, bool sensor) {
+             bool can_sleep, bool sensor, bool bullet) {
             BodyDesc d;
             d.shape = bindings::to_shape(shape, "body " + std::to_string(w.num_bodies()));
             d.is_static = is_static;
@@ -193,13 +196,15 @@ void register_world(py::module_& m) {
             d.enabled = enabled;
             d.can_sleep = can_sleep;
             d.sensor = sensor;
+            d.bullet = bullet;
             return w.add_body(d);
           },
           py::arg("shape"), py::arg("is_static"), py::arg("is_kinematic"), py::arg("density"), py::arg("mass"),
           py::arg("inertia"), py::arg("position"), py::arg("orientation"), py::arg("velocity"),
           py::arg("angular_velocity"), py::arg("friction"), py::arg("restitution"), py::arg("spinning_friction"),
           py::arg("name"),
-          py::arg("group"), py::arg("mask"), py::arg("enabled"), py::arg("can_sleep") = true, py::arg("sensor") = false)
+          py::arg("group"), py::arg("mask"), py::arg("enabled"), py::arg("can_sleep") = true, py::arg("sensor") = false,
+          py::arg("bullet") = false)
       .def("remove_body", &World::remove_body, py::arg("i"))
       .def("remove_bodies", &World::remove_bodies, py::arg("indices"))
       .def("step", &World::step, py::arg("dt"), py::arg("steps") = 1, py::call_guard<py::gil_scoped_release>())
@@ -228,6 +233,7 @@ void register_world(py::module_& m) {
       .def("set_awake", &World::set_awake)
       .def("set_can_sleep", &World::set_can_sleep)
       .def("set_sensor", &World::set_sensor, py::arg("i"), py::arg("sensor"))
+      .def("set_bullet", &World::set_bullet, py::arg("i"), py::arg("bullet"))
       .def("set_sleep", [](World& w, const SleepSettings& sleep) {
         const auto held = w.lock();  // read, change, write as one call
         WorldSettings s = w.settings();
@@ -318,6 +324,9 @@ void register_world(py::module_& m) {
       .def_property_readonly("enabled", [](const World& w) {
         return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.enabled[i]; });
       })
+      .def_property_readonly("is_bullet", [](const World& w) {
+        return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.bullet[i]; });
+      })
       .def_property_readonly("is_sensor", [](const World& w) {
         return per_body<bool>(w, [](const Model& m, std::size_t i) -> bool { return m.is_sensor[i]; });
       })
@@ -386,6 +395,7 @@ void register_world(py::module_& m) {
         py::dict d;
         d["steps"] = r.steps;
         d["flagged"] = r.flagged;
+        d["continuous"] = r.continuous;
         d["worst_penetration_velocity"] = r.worst_penetration_velocity;
         d["worst_time"] = r.worst_time;
         return d;
@@ -412,6 +422,7 @@ void register_world(py::module_& m) {
         d["integrate"] = t.integrate;
         d["relax"] = t.relax;
         d["store"] = t.store;
+        d["continuous"] = t.continuous;
         d["commit"] = t.commit;
         d["total"] = t.total;
         return d;

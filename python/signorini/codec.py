@@ -217,14 +217,14 @@ def joint_key(d: dict) -> bytes:
 
 
 def body_models(world) -> list[dict]:
-    """Per body, what the world holds of its model: static, kinematic, enabled, can_sleep, sensor (bool),
+    """Per body, what the world holds of its model: static, kinematic, enabled, can_sleep, sensor, bullet (bool),
     mass (kg), inertia (3, 3), friction, restitution, spinning_friction, name, group, mask. Linear in N."""
     masses, inertias, statics, kinematic = world.masses, world.inertias, world.is_static, world.is_kinematic
-    can_sleep, sensor = world.can_sleep, world.is_sensor
+    can_sleep, sensor, bullet = world.can_sleep, world.is_sensor, world.is_bullet
     enabled, (groups, masks), names = world.enabled, world.collision_filters, world.names
     frictions, restitutions, spinning = world.frictions, world.restitutions, world.spinning_frictions
     return [{"static": bool(statics[i]), "kinematic": bool(kinematic[i]), "enabled": bool(enabled[i]),
-             "can_sleep": bool(can_sleep[i]), "sensor": bool(sensor[i]),
+             "can_sleep": bool(can_sleep[i]), "sensor": bool(sensor[i]), "bullet": bool(bullet[i]),
              "mass": float(masses[i]), "inertia": np.array(inertias[i]), "friction": float(frictions[i]),
              "restitution": float(restitutions[i]), "spinning_friction": float(spinning[i]), "name": names[i],
              "group": int(groups[i]), "mask": int(masks[i])} for i in range(world.num_bodies)]
@@ -316,6 +316,8 @@ def scene_bodies(world, mesh_file: Callable, names=None) -> list[dict]:
             table["can_sleep"] = False
         if model.get("sensor"):
             table["sensor"] = True
+        if model.get("bullet"):
+            table["bullet"] = True
         bodies.append(table)
     return bodies
 
@@ -347,7 +349,7 @@ def add_scene_body(world, table: dict, shape, material: dict) -> int:
     i = world.add_body(shape, density=table.get("density"), mass=table.get("mass"), inertia=table.get("inertia"),
                        velocity=table["velocity"], angular_velocity=table["angular_velocity"],
                        kinematic=table["kinematic"], can_sleep=table.get("can_sleep", True),
-                       sensor=table.get("sensor", False), **common)
+                       sensor=table.get("sensor", False), bullet=table.get("bullet", False), **common)
     if any(force) or any(torque):
         try:
             world.set_external_wrench(i, force, torque)
@@ -391,6 +393,8 @@ def scene_document(world, path, info: Optional[dict] = None, names=None) -> dict
     disabled pairs, joints); writes the mesh files next to ``path``."""
     settings = {"gravity": floats(world.gravity), "contact_margin": float(world.contact_margin), **world.solver,
                 **world.sleep}
+    if settings["continuous"]:  # the default, as files written before continuous collision read
+        del settings["continuous"]
     document: dict[str, Any] = {"format": SCENE_FORMAT}
     if info:
         document["scene"] = info

@@ -31,6 +31,26 @@ class Hit:
 
 
 @dataclass(frozen=True)
+class ShapeHit:
+    """Where a swept shape first touches a body (``World.cast_shape``): ``body`` index, ``fraction``
+    of the translation in [0, 1] (0: it overlaps the body where it starts), ``point`` (3,) m world
+    where they touch, unit ``normal`` (3,) out of the body, against the sweep."""
+    body: int
+    fraction: float
+    point: np.ndarray
+    normal: np.ndarray
+
+
+def shape_hit(t) -> ShapeHit | None:
+    """A ShapeHit from the core's (body, fraction, point, normal), or None."""
+    if t is None:
+        return None
+    body, fraction, point, normal = t
+    return ShapeHit(int(body), float(fraction), readonly(np.array(point, dtype=float)),
+                    readonly(np.array(normal, dtype=float)))
+
+
+@dataclass(frozen=True)
 class RayHits:
     """Closest hits of n rays, row k for ray k: ``body`` (n,) int32, -1 where nothing is hit;
     ``point``, ``normal`` (n, 3) (zeros on a miss); ``distance`` (n,) m (inf on a miss);

@@ -336,6 +336,8 @@ class Body(_Table):
     can_sleep: Bool = Field(True, description="false: the body never sleeps, nor does any island it is in")
     sensor: Bool = Field(False, description="true: the body collides with nothing and reports its overlaps as "
                                             "sensor events")
+    bullet: Bool = Field(False, description="true: continuous collision against the static bodies after every "
+                                            "step, not only when the body moves fast")
 
 
 # joints (docs/conventions.md, "Joints"; signorini.joints): what the Python API takes, in world
@@ -462,6 +464,7 @@ class WorldSettings(_Table):
     # off when a file does not say (as sleeping): a scene file written before contact recycling
     # steps as it did; save_scene writes the world's value
     recycle_distance: Float = 0.0
+    continuous: Bool = True
     sleeping: Bool = False
     sleep_linear_velocity: Float = 0.05
     sleep_angular_velocity: Float = 0.05

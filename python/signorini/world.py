@@ -266,7 +266,7 @@ SOLVER_DEFAULTS = {
     "restitution_threshold": 0.5, "friction_cone": "pyramid", "gyroscopic": "midpoint",
     "warm_start": True, "substeps": 0, "warn_velocity": 1.0,
     "solver": "pgs", "contact_hertz": 30.0, "damping_ratio": 10.0, "soft_iterations": 1, "relax_iterations": 1,
-    "recycle_distance": None,
+    "recycle_distance": None, "continuous": True,
 }
 
 # recycle_distance when not given, by solver (m): the soft step keeps resting manifolds (Box3D's 5 cm:
@@ -329,9 +329,9 @@ def _solver_settings(who: str, current=None, **given):
             value = _setting(current, key) if current is not None else default
         if key in ("max_iterations", "substeps", "soft_iterations", "relax_iterations"):
             value = as_count(value, who, key)
-        elif key == "warm_start":
+        elif key in ("warm_start", "continuous"):
             if not isinstance(value, (bool, np.bool_)):
-                raise TypeError(f"{who}: warm_start must be True or False, got {value!r}")
+                raise TypeError(f"{who}: {key} must be True or False, got {value!r}")
             value = bool(value)
         elif key == "friction_cone":
             if value not in ("pyramid", "cone"):
@@ -433,6 +433,12 @@ class World:
         0.05 with ``solver="soft"`` (Box3D's choice; its tall stacks stand only with it), 0 with
         ``"pgs"`` (``RECYCLE_DEFAULTS``); 0 finds every pair anew every step (the narrow phase's
         exact contacts, as the oracle finds them).
+    continuous : continuous collision (docs/conventions.md, "Shape casts and continuous
+        collision"; default on): after each step, a dynamic body that moved more than half its
+        inner radius in it (or a ``bullet`` body) is swept from its start to its end position against
+        the static bodies; if its path went more than a quarter of its inner radius into one, it is
+        put back just before the touch (its velocity kept: the next step's contact stops it).
+        ``step_report["continuous"]`` counts the bodies put back.
 
     sleeping : bodies at rest fall asleep with their island (docs/conventions.md, "Sleeping"): a
         sleeping body keeps its pose bit for bit and costs no solver or broad-phase work until a
@@ -453,7 +459,7 @@ class World:
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
                  warn_velocity: float = 1.0, solver: str = "pgs", contact_hertz: float = 30.0,
                  damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1,
-                 recycle_distance: Optional[float] = None, sleeping: bool = True, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
+                 recycle_distance: Optional[float] = None, continuous: bool = True, sleeping: bool = True, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
                  time_to_sleep: float = 0.5, threads: Optional[int] = None):
         g = as_vector(gravity, 3, "World", "gravity")
         given_threads = _threads("World", threads)
@@ -462,7 +468,8 @@ class World:
             max_push_velocity=max_push_velocity, restitution_threshold=restitution_threshold,
             friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
             warn_velocity=warn_velocity, solver=solver, contact_hertz=contact_hertz, damping_ratio=damping_ratio,
-            soft_iterations=soft_iterations, relax_iterations=relax_iterations, recycle_distance=recycle_distance)
+            soft_iterations=soft_iterations, relax_iterations=relax_iterations, recycle_distance=recycle_distance,
+            continuous=continuous)
         sleep = _sleep_settings("World", sleeping=sleeping, sleep_linear_velocity=sleep_linear_velocity,
                                 sleep_angular_velocity=sleep_angular_velocity, time_to_sleep=time_to_sleep)
         self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), settings, sleep,
@@ -570,6 +577,20 @@ class World:
         i = self._index(i)
         self._core.set_sensor(i, as_flag(sensor, self.label(i), "sensor"))
 
+    @property
+    def is_bullet(self) -> np.ndarray:
+        """(N,) bool: True for bodies swept against the static ones after every step
+        (``add_body(..., bullet=True)``, ``set_bullet``)."""
+        return readonly(self._core.is_bullet)
+
+    @_locked
+    def set_bullet(self, i: int, bullet: bool) -> None:
+        """Makes dynamic body i a bullet (continuous collision against the static bodies after every
+        step, however slowly it moves; docs/conventions.md, "Shape casts and continuous collision")
+        or a body swept only when it moves fast. A static body is refused."""
+        i = self._index(i)
+        self._core.set_bullet(i, as_flag(bullet, self.label(i), "bullet"))
+
     @_locked
     def set_can_sleep(self, i: int, can_sleep: bool) -> None:
         """Whether body i may sleep; False wakes its island and keeps any island it is in awake."""
@@ -585,6 +606,15 @@ class World:
 
     @property
     @_locked
+    def step_report(self) -> dict:
+        """What the last ``step`` call did: ``steps`` (substeps counted), ``flagged`` (of them, ended
+        unconverged with a contact approaching faster than ``warn_velocity``), the worst such
+        ``worst_penetration_velocity`` (m/s) and its ``worst_time`` (s), and ``continuous``: the bodies
+        continuous collision put back (``set_solver(continuous=...)``)."""
+        return dict(self._core.step_report)
+
+    @property
+    @_locked
     def solver(self) -> dict:
         """The solver settings as a dict (the constructor's keywords)."""
         s = self._core.solver
@@ -596,7 +626,7 @@ class World:
                  angular_velocity=(0.0, 0.0, 0.0), friction: float = 0.5, restitution: float = 0.0,
                  spinning_friction: float = 0.0, kinematic: bool = False, name: str | None = None,
                  group: int = 1, mask: int = ALL_BITS, enabled: bool = True, can_sleep: bool = True,
-                 sensor: bool = False) -> int:
+                 sensor: bool = False, bullet: bool = False) -> int:
         """Adds a dynamic (or kinematic) body and returns its index.
 
         Exactly one of ``density`` (kg/m^3) or ``mass`` (kg). ``position`` (3,) is where the
@@ -618,6 +648,9 @@ class World:
         ``enabled=False`` adds it disabled (``set_enabled``). ``can_sleep=False``: it never sleeps,
         nor does any island it is in (``set_can_sleep``). ``sensor=True``: it collides with nothing;
         its overlaps with other bodies are ``events.sensor_begin`` / ``sensor_end`` (``set_sensor``).
+        ``bullet=True``: continuous collision against the static bodies after every step, however
+        slowly it moves (other bodies get it when they move more than half their inner radius in a
+        step; ``set_solver(continuous=False)`` turns it off; ``set_bullet``).
 
         A non-convex ``Mesh`` without convex pieces is decomposed first (``sg.decompose`` with
         its defaults: cached, but the first time it can take minutes, with an estimate and a
@@ -628,7 +661,7 @@ class World:
         """
         return self._add(shape, False, kinematic, density, mass, inertia, position, orientation, velocity,
                          angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled,
-                         can_sleep, sensor)
+                         can_sleep, sensor, bullet)
 
     def add_static(self, shape, *, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0),
                    friction: float = 0.5, restitution: float = 0.0, spinning_friction: float = 0.0,
@@ -643,7 +676,7 @@ class World:
 
     def _add(self, shape, is_static, kinematic, density, mass, inertia, position, orientation, velocity,
              angular_velocity, friction, restitution, spinning_friction, name, group, mask, enabled,
-             can_sleep=True, sensor=False) -> int:
+             can_sleep=True, sensor=False, bullet=False) -> int:
         who = f"body {self.num_bodies} ({type(shape).__name__})"
         if not isinstance(shape, Shape):
             raise TypeError(f"{who}: shape must be a Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, "
@@ -662,7 +695,7 @@ class World:
                 as_number(friction, who, "friction"), as_number(restitution, who, "restitution"),
                 as_number(spinning_friction, who, "spinning_friction"), as_name(name, who),
                 as_bits(group, who, "group"), as_bits(mask, who, "mask"), as_flag(enabled, who, "enabled"),
-                as_flag(can_sleep, who, "can_sleep"), as_flag(sensor, who, "sensor"))
+                as_flag(can_sleep, who, "can_sleep"), as_flag(sensor, who, "sensor"), as_flag(bullet, who, "bullet"))
         if (not is_static and isinstance(shape, Mesh) and not shape.pieces and not shape.is_convex()
                 and _solid(shape)):
             # a dynamic non-convex mesh collides with other bodies through convex pieces
@@ -966,7 +999,7 @@ class World:
             c.add_body(b["shape"], b["static"], b["kinematic"], None, b["mass"] if has_mass else None,
                        b["inertia"] if has_mass else None, zero, unit, zero, zero, b["friction"],
                        b["restitution"], b.get("spinning_friction", 0.0), b["name"], b["group"], b["mask"], True,
-                       b.get("can_sleep", True), b.get("sensor", False))
+                       b.get("can_sleep", True), b.get("sensor", False), b.get("bullet", False))
         for i, j in d["excluded_pairs"]:
             c.set_pair_collision(i, j, False)
         self.restore_state(d["state"])
@@ -1403,7 +1436,8 @@ class World:
         ``prepare`` (soft step: rows, colours, warm-start lookup), ``solve`` (per substep: gravity,
         warm start, sweeps; the PGS's whole solve), ``integrate`` (poses, finite check), ``relax``
         (soft step: relax sweeps, restitution), ``store`` (soft step: forces, cache, certificate),
-        ``commit`` (reported contacts, sleep timers, islands), and ``total``, which the stages add
+        ``continuous`` (fast bodies swept against the static ones), ``commit`` (reported contacts,
+        sleep timers, islands), and ``total``, which the stages add
         up to. For finding what a scene costs (docs/conventions.md, "Where a step's time goes");
         never part of a result, and as noisy as the machine."""
         return dict(self._core.step_profile)
@@ -1494,6 +1528,22 @@ class World:
         threads with the GIL released, with the same bits for any thread count."""
         o, d, m = queries.rays_args(origins, directions, max_distance)
         return queries.ray_hits(self._core.cast_rays(o, d, m, **queries.filter_args("cast_rays", group, mask, exclude)))
+
+    @_locked
+    def cast_shape(self, shape, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0),
+                   translation=(0.0, 0.0, 0.0), *, group=ALL_BITS, mask=ALL_BITS,
+                   exclude=()) -> Optional[queries.ShapeHit]:
+        """Sweeps a bounded ``shape`` from ``position`` (3,), unit quaternion ``orientation`` (w, x,
+        y, z), along ``translation`` (3,) m: the first body it touches as a ``ShapeHit`` (its
+        ``fraction`` of the translation, where and along which normal they touch), or None.
+        Conservative advancement on exact distances (docs/conventions.md, "Shape casts and
+        continuous collision"): the fraction is never past the touch and within 1e-12 of the
+        sweep's size before it; a triangle mesh is hit from its front only; a shape that overlaps a
+        body where it starts hits it at fraction 0. Bodies seen as for ``cast_ray``."""
+        who = "cast_shape"
+        return queries.shape_hit(self._core.cast_shape(
+            shape, as_vector(position, 3, who, "position"), as_vector(orientation, 4, who, "orientation"),
+            as_vector(translation, 3, who, "translation"), **queries.filter_args(who, group, mask, exclude)))
 
     @_locked
     def overlap(self, shape, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0), *, group=ALL_BITS,

@@ -7,7 +7,7 @@ import pytest
 
 import signorini as sg
 
-STAGES = ["guard", "detect", "wake", "prepare", "solve", "integrate", "relax", "store", "commit", "total"]
+STAGES = ["guard", "detect", "wake", "prepare", "solve", "integrate", "relax", "store", "continuous", "commit", "total"]
 
 
 def pile(solver):

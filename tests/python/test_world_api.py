@@ -832,6 +832,7 @@ INDEX_CALLS = {
     "set_awake": lambda w, i: w.set_awake(i, True),
     "set_can_sleep": lambda w, i: w.set_can_sleep(i, False),
     "set_sensor": lambda w, i: w.set_sensor(i, True),
+    "set_bullet": lambda w, i: w.set_bullet(i, True),
     "distance": lambda w, i: w.distance(i, 0),
 }
 OUT_OF_RANGE = [-1, -2, 2, 7, np.int64(-1), np.int32(2), np.uint64(2), 2**31, -2**31 - 1, 2**40, -2**63]
@@ -896,6 +897,7 @@ CORE_INDEX_CALLS = {
     "set_awake": lambda c, i: c.set_awake(i, True),
     "set_can_sleep": lambda c, i: c.set_can_sleep(i, False),
     "set_sensor": lambda c, i: c.set_sensor(i, True),
+    "set_bullet": lambda c, i: c.set_bullet(i, True),
     "set_collision_filter": lambda c, i: c.set_collision_filter(i, 2, 2),
     "set_enabled": lambda c, i: c.set_enabled(i, False),
     "set_external_wrench": lambda c, i: c.set_external_wrench(i, (0.0, 0.0, 1.0), (0.0, 0.0, 0.0)),

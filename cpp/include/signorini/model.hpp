@@ -55,6 +55,9 @@ struct Model {
   /// a sensor's contacts are found but never solved or reported: its overlaps with non-sensor
   /// bodies are its sensor events (docs/conventions.md, "Sensors")
   std::vector<bool> is_sensor;
+  /// swept against the static bodies after every step, however slowly it moves (docs/conventions.md,
+  /// "Shape casts and continuous collision"; other dynamic bodies only when fast)
+  std::vector<bool> bullet;
   std::vector<CollisionFilter> filter;
   std::vector<std::string> name; ///< "" when unnamed; otherwise unique in the world
   /// pairs (i, j), i < j, that never collide whatever their filters say; sorted
@@ -70,7 +73,7 @@ struct Model {
   template <class F>
   void for_each_array(F&& f) {
     f(shape), f(is_static), f(mass), f(inv_mass), f(I_body), f(I_body_inv), f(rho), f(inner), f(material), f(is_kinematic),
-        f(enabled), f(can_sleep), f(is_sensor), f(filter), f(name);
+        f(enabled), f(can_sleep), f(is_sensor), f(bullet), f(filter), f(name);
   }
 
   /// true when bodies i and j may get contacts: both enabled, at least one of them moved by
@@ -92,6 +95,7 @@ struct Model {
     enabled.push_back(true);
     can_sleep.push_back(true);
     is_sensor.push_back(false);
+    bullet.push_back(false);
     filter.push_back(CollisionFilter());
     name.emplace_back();
   }

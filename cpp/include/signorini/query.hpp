@@ -42,6 +42,14 @@ struct RayHit {
   FeatureId feature = 0;
 };
 
+/// A shape cast's first touch (World::cast_shape).
+struct ShapeHit {
+  BodyIndex body = -1;
+  double fraction = 1.0;       ///< of the translation, in [0, 1]
+  Vec3 point = Vec3::Zero();   ///< where they touch (m, world)
+  Vec3 normal = Vec3::Zero();  ///< unit, world: out of the hit body, against the sweep
+};
+
 /// Many rays' closest hits (World::cast_rays): row k is ray k. body[k] = -1 where ray k hits
 /// nothing, and then point, normal are 0, distance is +inf and feature 0.
 struct RayHits {

@@ -85,6 +85,11 @@ struct SolverSettings {
   /// recycling", what was measured), so it is for now a setting to opt into; 0.01 mm keeps the
   /// acceptance scenes within their marks but the soft 10-box stack's.
   double recycle_distance = 0.0;
+  /// Continuous collision (docs/conventions.md, "Shape casts and continuous collision"): after
+  /// each step, a dynamic body that moved more than kFastFraction of its inner radius in it (or any
+  /// `bullet` body) is swept from its start to its end position against the static bodies, and put
+  /// back where it first comes within kContinuousGap of one when its path went on past it.
+  bool continuous = true;
 
   // ---- the soft step (method = Soft; docs/conventions.md, "The soft step") ----
   /// Stiffness of a contact as the natural frequency of its spring (Hz, > 0), capped at a quarter

@@ -85,6 +85,7 @@ struct BodyDesc {
   Material material;                     ///< friction >= 0, restitution in [0, 1], spinning_friction >= 0 (m)
   bool can_sleep = true;                 ///< false: never sleeps, and keeps every island it is in awake
   bool sensor = false;                   ///< detects overlaps (sensor events) instead of colliding
+  bool bullet = false;                   ///< continuous collision every step, not only when fast
 };
 
 /// Where the wall time of the last call of World::step went (ms, summed over its steps), stage by
@@ -101,6 +102,7 @@ struct StepProfile {
   double integrate = 0.0;  ///< poses moved with the solved velocities, and the finite check, per substep
   double relax = 0.0;      ///< soft step: relax sweeps and restitution, per substep
   double store = 0.0;      ///< soft step: forces, the next warm-start cache and the certificate (once per step)
+  double continuous = 0.0; ///< fast bodies swept against the static ones (once per step)
   double guard = 0.0;      ///< the step's checkpoint (what an undo puts back), pending impulses, energy check
   double commit = 0.0;     ///< the reported contacts and forces, sleep timers and islands
   double total = 0.0;      ///< the whole step
@@ -113,6 +115,7 @@ struct StepReport {
                                    ///< max_penetration_velocity > warn_velocity
   double worst_penetration_velocity = 0.0;  ///< the largest such figure (m/s)
   double worst_time = 0.0;         ///< time at the start of that step (s)
+  int continuous = 0;              ///< bodies put back by continuous collision (SolverSettings::continuous)
   StepProfile time;                ///< where the call's wall time went
 };
 
@@ -269,6 +272,9 @@ class World {
   /// Makes body i a sensor (its contacts are found, never solved or reported: its overlaps are
   /// sensor events) or a body that collides again. Wakes it.
   void set_sensor(BodyIndex i, bool sensor);
+  /// Whether dynamic body i is swept against the static bodies after every step (continuous
+  /// collision), not only when it moves fast.
+  void set_bullet(BodyIndex i, bool bullet);
   /// Index of the body named `name`, or -1.
   BodyIndex find(const std::string& name) const;
   /// "body 3 'ball' (Sphere)", or "body 3 (Sphere)" for an unnamed body: how errors name body i.
@@ -354,6 +360,12 @@ class World {
   std::vector<BodyIndex> overlap_point(const Vec3& point, const QueryFilter& filter = QueryFilter()) const;
   /// Signed distance of bodies i and j (i != j, not both planes or triangle meshes), normal i -> j.
   BodyDistance distance(BodyIndex i, BodyIndex j) const;
+  /// A bounded shape at (position, orientation (w, x, y, z)) swept along `translation` (m, world):
+  /// the first body it touches (world/continuous.cpp; conservative advancement on exact distances,
+  /// the fraction to 1e-12 of the sweep's size; a triangle mesh from its front only), or none; a
+  /// shape that overlaps a body at the start hits it at fraction 0 (the lower index first).
+  std::optional<ShapeHit> cast_shape(const Shape& shape, const Vec3& position, const Quat4& orientation,
+                                     const Vec3& translation, const QueryFilter& filter = QueryFilter()) const;
   /// Counts of the last query call.
   QueryStats query_stats() const;
 
@@ -403,6 +415,9 @@ class World {
   void wake_touched(double dt);
   /// The islands stage, after a kept step of dt: timers, islands, sleep (Islands::end_step).
   void end_islands(double dt);
+  /// Continuous collision after the step's substeps (world/continuous.cpp): each fast or bullet
+  /// dynamic body swept from its pose at the step's start to its end against the static bodies.
+  void continuous();
   /// After bodies are added or removed, or a state restored: moving_ listed again (relist), and the
   /// stages' per-body scratch (and the guard's checkpoint) taken whole again at the next step.
   void bodies_changed(bool relist);

@@ -248,6 +248,8 @@ struct Scratch {
   std::vector<int> candidate_index;                    ///< finish_manifold's scratch
   std::vector<Item> items_a, items_b;                  ///< the pair's convex items
   std::vector<int> triangles, bvh_stack;               ///< candidate triangles; BVH traversal
+  std::vector<BodyIndex> swept;                        ///< bodies along a sweep (continuous collision)
+  std::vector<const void*> tree_stack;                 ///< the broad phase's walk for them
   Polytope triangle;                                   ///< the current triangle as a polytope
   SupportFeature feature_a, feature_b;                 ///< convex_by_support: both features
   std::vector<std::pair<Vec3, std::pair<FeatureId, FeatureId>>> clip, clip_next;  ///< and its clip
@@ -406,6 +408,33 @@ void convex_by_support(const Item& a, const Item& b, const Distance& dist, doubl
 /// back out along the face normal instead; past.found names that triangle.
 void trimesh_item(const TriangleMesh& a, const Pose& pa, const TriangleQuery& query, const Item& b,
                   double threshold, TrianglePast& past, Scratch& scratch, std::vector<Contact>& out);
+
+/// Triangle t of the mesh as a two-faced polytope in P (front loop 0 1 2, back 0 2 1; edges 0->1,
+/// 1->2, 2->0), mesh frame (trimesh_contacts.cpp).
+void triangle_polytope_of(const TriangleMesh& mesh, Eigen::Index t, Polytope& P);
+
+/// The first touch of a translational sweep (cast.cpp): t in [0, 1] (the fraction of the
+/// translation), the normal from the fixed shape to the moving one (unit, world) and a point
+/// between the two (world, m) at that t; hit false when the sweep never comes that close.
+struct CastHit {
+  bool hit = false;
+  double t = 1.0;
+  Vec3 normal = Vec3::Zero();
+  Vec3 point = Vec3::Zero();
+};
+
+/// The least t in [0, 1] at which convex item b, moved by t delta (world, m), comes within target
+/// (m) of item a: conservative advancement on gjk_epa's distances (Newton steps on the gap, which
+/// is convex in t, from below: never past the touch), to 1e-12 of (the items' radii + |delta|)
+/// above the target; t = 0 when they start within it.
+CastHit cast_item(const Item& a, const Item& b, const Vec3& delta, double target, EpaScratch& epa);
+
+/// Bounded shape `moving` at pose_b, translated by t delta, against shape `fixed` at pose_a (any
+/// kind: a plane exactly, a triangle mesh one-sided: each triangle whose front the item starts in
+/// front of and moves towards; triangles: its query, null: built here): the earliest hit over their
+/// convex item pairs (cast_item). Uses s.items_a, items_b, triangles, bvh_stack, triangle, epa.
+CastHit cast_shape(const Shape& fixed, const Pose& pose_a, const Shape& moving, const Pose& pose_b, const Vec3& delta,
+                   double target, const TriangleQuery* triangles, Scratch& s);
 
 /// Candidate pairs from bounding volumes. Holds FCL objects for the non-plane bodies: static ones in
 /// a DynamicAABBTree built once, awake dynamic ones in a second one refitted each step, sleeping ones

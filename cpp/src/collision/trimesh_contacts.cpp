@@ -14,11 +14,7 @@
 #include "collision/gjk_epa.hpp"
 
 namespace signorini::collision {
-namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-/// Triangle t of the mesh as a two-faced polytope (front loop 0 1 2, back 0 2 1; edges 0->1, 1->2, 2->0).
 void triangle_polytope_of(const TriangleMesh& mesh, Eigen::Index t, Polytope& P) {
   if (P.faces.empty()) {
     P.vertices.resize(3, 3);
@@ -36,6 +32,10 @@ void triangle_polytope_of(const TriangleMesh& mesh, Eigen::Index t, Polytope& P)
   P.offsets[1] = -P.offsets[0];
   P.centroid = (P.vertex(0) + P.vertex(1) + P.vertex(2)) / 3.0;
 }
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
 
 /// Whether a feature of a triangle, by region (-1 the face, 0..2 edge k from v_k to v_k+1, 3..5
 /// vertex k - 3), is where the mesh goes on flat or bends up: an inactive edge (flat or concave),

@@ -180,6 +180,7 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   model_.enabled.push_back(desc.enabled);
   model_.can_sleep.push_back(desc.can_sleep);
   model_.is_sensor.push_back(desc.sensor);
+  model_.bullet.push_back(desc.bullet);
   model_.filter.push_back(desc.filter);
   model_.name.push_back(desc.name);
   if (desc.is_kinematic) set_kinematic_flag(index, true);

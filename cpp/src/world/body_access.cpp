@@ -272,6 +272,14 @@ void World::set_sensor(BodyIndex i, bool sensor) {
     if (t.a == i) wake(t.b);
 }
 
+void World::set_bullet(BodyIndex i, bool bullet) {
+  const Lock lock(mutex_);
+  check_index(i);
+  if (bullet && model_.is_static[i])
+    throw std::invalid_argument("set_bullet: " + label(i) + " is static: it never moves, so it is never swept");
+  model_.bullet[i] = bullet;
+}
+
 void World::set_can_sleep(BodyIndex i, bool can_sleep) {
   const Lock lock(mutex_);
   check_index(i);

@@ -231,6 +231,8 @@ void World::step_once(double dt) {
     end_substep(stats, h);
     lap(t.integrate);
   }
+  continuous();                                        // fast bodies put back before the static ones they passed
+  lap(t.continuous);
   guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_, &moving_);  // checkpoint: no explosion
   lap(t.guard);
   commit_step(stats);
@@ -275,6 +277,8 @@ void World::soft_step_once(double dt) {
   end_substep_flags(stats, state_.time);
   solver_->cache.swap(solver_->cache_next);
   lap(t.store);
+  continuous();                                        // fast bodies put back before the static ones they passed
+  lap(t.continuous);
   guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_, &moving_);  // checkpoint: no explosion
   lap(t.guard);
   commit_step(stats);
