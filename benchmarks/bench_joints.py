@@ -1,7 +1,7 @@
-"""Joints benchmark of issue 23: Box3D's joint_grid and a pile of ragdolls, in signorini and pybullet (no asserts).
+"""Joints benchmark of issue 23: Box3D's joint_grid and a pile of ragdolls, in signorini, pybullet and MuJoCo (no asserts).
 
     python benchmarks/bench_joints.py [--scenes joint_grid,ragdolls] [--tiny] [--steps N] [--dt DT]
-        [--chunks 10] [--engines signorini,soft,pybullet] [--grid 100] [--ragdolls 50]
+        [--chunks 10] [--engines signorini,soft,pybullet,mujoco] [--grid 100] [--ragdolls 50]
 
 Scenes (z up, gravity 10 m/s^2, dt 1/60 as Box3D's benchmark app):
 - ``joint_grid``: Box3D's scene of that name (``shared/benchmarks.c``, erincatto/box3d), rebuilt:
@@ -26,15 +26,31 @@ Engines, in this process, with the same dt, their chunks interleaved:
   jointUpperLimit)``), its motors switched off and its damping 0: the same bodies, masses,
   inertias, frictions and joints, but a different method: its joints cannot separate, so its
   separation column is rounding, and the ms/step compares a reduced-coordinate solve with ours.
+- ``mujoco`` (joint_grid only): the grid as MJCF, built in memory from the signorini World
+  (``mujoco_grid_mjcf``). MuJoCo's bodies form a tree and a grid has loops, so the grid is a tree
+  plus loop closures: the static top row's spheres are geoms of the world body; the tree is found
+  breadth first from them over the joints (``mujoco_tree``), which makes each column a chain of
+  n - 1 nested bodies hanging from its static sphere, each attached to the one above by a ``ball``
+  joint at that joint's anchor (reduced coordinates: these n (n - 1) joints hold exactly); each of
+  the (n - 1)^2 sideways joints, the links that close the loops, is an ``<equality><connect>`` of
+  its two spheres at its anchor: 3 rows of MuJoCo's soft constraint with its default solref and
+  solimp (at dt 1/60 MuJoCo raises the 0.02 s time constant to 2 dt). Masses and diagonal inertias
+  are signorini's (``<inertial>``), the spheres are geoms that collide with nothing (contype =
+  conaffinity = 0; they never touch in signorini either), gravity and dt are the same, the
+  integrator MuJoCo's default (Euler), its default solver (Newton) with 10 iterations (pybullet's
+  count; MuJoCo's default is 100, each a Newton step with an early stop). Its ms/step is
+  ``mj_step`` alone and compares a reduced-coordinate tree, whose connect rows are dense over the
+  chains above both spheres, with our maximal coordinates. Compiling it (untimed) takes MuJoCo
+  minutes and about 1 GB at n = 100. Box3D's ragdolls are not modelled in MuJoCo here.
 
 Timing: the run is cut into ``--chunks`` chunks, every engine runs a chunk in turn; a chunk's
 ms/step is its stepping time alone over its length; the table gives the median over chunks and the
 25-75 % range, and "sg/this" is signorini's first row over this row.
 
 Quality, at the end: the largest joint separation |x_B - x_A| between the two bodies' anchor
-points (m), the kinetic energy (J); for signorini rows also the largest separation over the run and
-how far the total energy E = KE + sum m g z of the dynamic bodies ever rose above its start
-(J; <= 0: it never rose).
+points (m), the kinetic energy (J); for signorini and MuJoCo rows also the largest separation over
+the run and how far the total energy E = KE + sum m g z of the dynamic bodies ever rose above its
+start (J; <= 0: it never rose), each measured after every step, untimed.
 """
 from __future__ import annotations
 
@@ -50,6 +66,7 @@ from pathlib import Path
 import numpy as np
 
 import signorini as sg
+from signorini.fuzz import PARTS, RAGDOLL_JOINTS
 from signorini.oracle import matrix_to_quat, quat_to_matrix
 from signorini.scenes import axis_angle_quaternion
 
@@ -68,42 +85,13 @@ GRAVITY = (0.0, 0.0, -10.0)
 FRICTION = 0.6
 DT = 1.0 / 60.0
 PYBULLET_ITERATIONS = 10
-ENGINES = ("signorini", "soft", "pybullet")
+MUJOCO_ITERATIONS = 10
+ENGINES = ("signorini", "soft", "pybullet", "mujoco")
 ALL_BITS = 0xFFFFFFFF
 
 # --------------------------------------------------------------------------- the ragdoll
 
-# Parts of a standing ragdoll (z up, facing +x, feet at z = 0): name, radius r (m), half length
-# of the segment (m), centre (m), the segment's direction ("z" upright, "y" sideways). The pelvis
-# comes first (pybullet's base), and every part after its parent.
-PARTS = (
-    ("pelvis", 0.10, 0.06, (0.0, 0.0, 1.00), "y"),
-    ("torso", 0.11, 0.08, (0.0, 0.0, 1.29), "z"),
-    ("head", 0.10, 0.02, (0.0, 0.0, 1.62), "z"),
-    ("upper_arm_l", 0.05, 0.10, (0.0, 0.35, 1.42), "y"),
-    ("forearm_l", 0.045, 0.095, (0.0, 0.64, 1.42), "y"),
-    ("upper_arm_r", 0.05, 0.10, (0.0, -0.35, 1.42), "y"),
-    ("forearm_r", 0.045, 0.095, (0.0, -0.64, 1.42), "y"),
-    ("thigh_l", 0.07, 0.145, (0.0, 0.10, 0.735), "z"),
-    ("shin_l", 0.055, 0.175, (0.0, 0.10, 0.29), "z"),
-    ("thigh_r", 0.07, 0.145, (0.0, -0.10, 0.735), "z"),
-    ("shin_r", 0.055, 0.175, (0.0, -0.10, 0.29), "z"),
-)
-# Joints: name, parent, child, kind ("ball" or "hinge"), anchor (m), hinge axis, hinge limits
-# (rad; 0 is the standing pose, positive the way the joint bends: waist forward, elbows forward,
-# knees backward).
-RAGDOLL_JOINTS = (
-    ("waist", "pelvis", "torso", "hinge", (0.0, 0.0, 1.10), (0.0, 1.0, 0.0), (-0.4, 1.2)),
-    ("neck", "torso", "head", "ball", (0.0, 0.0, 1.50), None, None),
-    ("shoulder_l", "torso", "upper_arm_l", "ball", (0.0, 0.20, 1.42), None, None),
-    ("elbow_l", "upper_arm_l", "forearm_l", "hinge", (0.0, 0.50, 1.42), (0.0, 0.0, -1.0), (0.0, 2.5)),
-    ("shoulder_r", "torso", "upper_arm_r", "ball", (0.0, -0.20, 1.42), None, None),
-    ("elbow_r", "upper_arm_r", "forearm_r", "hinge", (0.0, -0.50, 1.42), (0.0, 0.0, 1.0), (0.0, 2.5)),
-    ("hip_l", "pelvis", "thigh_l", "ball", (0.0, 0.10, 0.95), None, None),
-    ("knee_l", "thigh_l", "shin_l", "hinge", (0.0, 0.10, 0.52), (0.0, 1.0, 0.0), (0.0, 2.5)),
-    ("hip_r", "pelvis", "thigh_r", "ball", (0.0, -0.10, 0.95), None, None),
-    ("knee_r", "thigh_r", "shin_r", "hinge", (0.0, -0.10, 0.52), (0.0, 1.0, 0.0), (0.0, 2.5)),
-)
+# the ragdoll's parts and joints (PARTS, RAGDOLL_JOINTS) are the fuzzer's, which builds them too
 SIDEWAYS = quat_to_matrix(axis_angle_quaternion((1.0, 0.0, 0.0), -0.5 * math.pi))  # body z -> world y
 
 
@@ -468,8 +456,186 @@ class PybulletRagdolls:
         self.pb.disconnect()
 
 
-def make_runs(name: str, args, mods) -> list[tuple[str, object]]:
-    """(row name, run) of every engine asked for, each on a freshly built scene."""
+def load_mujoco():
+    """The mujoco module, or None if it is not installed."""
+    try:
+        import mujoco
+    except ImportError:
+        return None
+    return mujoco
+
+
+def _numbers(values) -> str:
+    return " ".join(f"{float(x):.17g}" for x in values)
+
+
+def mujoco_tree(scene: JointScene) -> tuple[list, list]:
+    """The scene's joints split into MuJoCo's body tree and its loop closures, breadth first from
+    the static bodies: parent (N,) the joint index each dynamic body was first reached through (-1
+    for static bodies), and the indices of the other joints (the loop-closing links). ValueError if a
+    dynamic body hangs from no static body."""
+    world = scene.world
+    static = np.asarray(world.is_static)
+    parent = [-1] * world.num_bodies
+    reached = static.copy()
+    links = {}  # body -> the joints at it, in index order
+    for j, (a, b) in enumerate(scene.joint_bodies):
+        links.setdefault(int(a), []).append(j)
+        links.setdefault(int(b), []).append(j)
+    queue = [i for i in range(world.num_bodies) if static[i]]
+    tree = set()
+    for body in queue:  # the queue grows as bodies are reached
+        for j in links.get(body, []):
+            a, b = (int(x) for x in scene.joint_bodies[j])
+            other = b if a == body else a
+            if not reached[other]:
+                reached[other], parent[other] = True, j
+                tree.add(j)
+                queue.append(other)
+    if not reached.all():
+        raise ValueError(f"body {int(np.argmin(reached))} hangs from no static body: no MuJoCo tree for it")
+    return parent, [j for j in range(len(scene.joint_bodies)) if j not in tree]
+
+
+def mujoco_grid_mjcf(scene: JointScene) -> str:
+    """The MJCF text of a scene of spheres joined by ball joints (joint_grid), as described in the
+    module's doc: static spheres are geoms of the world body; dynamic body i is ``<body name="b{i}">``
+    with signorini's mass and diagonal inertia (``<inertial>``) and its sphere as a geom that
+    collides with nothing, nested in the body (or the world) it was reached from (``mujoco_tree``)
+    and attached to it by a ``ball`` joint at that joint's anchor; every other joint is an
+    ``<equality><connect>`` of B (body1) and A (body2) at B's anchor. dt, gravity, MuJoCo's default
+    (Newton) solver with MUJOCO_ITERATIONS iterations, its default soft-constraint parameters; the
+    arena (``<size memory>``) from the connect rows' Jacobian, dense over the ancestors' degrees of
+    freedom of both bodies."""
+    world = scene.world
+    static = np.asarray(world.is_static)
+    parent, loops = mujoco_tree(scene)
+    P = np.asarray(world.positions, dtype=float)
+    R = [quat_to_matrix(q) for q in world.orientations]
+    up = [-1] * world.num_bodies  # the parent body of each dynamic body (-1: the world)
+    children = {-1: []}
+    for i in range(world.num_bodies):
+        if static[i]:
+            continue
+        a, b = (int(x) for x in scene.joint_bodies[parent[i]])
+        up[i] = a if b == i else b
+        up[i] = -1 if static[up[i]] else up[i]
+        children.setdefault(up[i], []).append(i)
+    depth = [0] * world.num_bodies
+    for i in [i for i in children[-1]]:
+        stack = [(i, 1)]
+        while stack:
+            k, d = stack.pop()
+            depth[k] = d
+            stack += [(c, d + 1) for c in children.get(k, [])]
+
+    def sphere(i: int) -> str:
+        shape = world.shape(i)
+        if not isinstance(shape, sg.Sphere):
+            raise ValueError(f"body {i}: a {type(shape).__name__}; this MJCF twin has spheres only")
+        return f'size="{float(shape.radius):.17g}"'
+
+    lines = []
+    for i in np.nonzero(static)[0]:
+        lines.append(f'<geom type="sphere" {sphere(i)} pos="{_numbers(P[i])}" quat="{_numbers(world.orientations[i])}"/>')
+    stack = [("open", i) for i in reversed(children[-1])]
+    while stack:
+        what, i = stack.pop()
+        if what == "close":
+            lines.append("</body>")
+            continue
+        j = parent[i]
+        origin, turn = (np.zeros(3), np.eye(3)) if up[i] < 0 else (P[up[i]], R[up[i]])
+        side = 1 if int(scene.joint_bodies[j][1]) == i else 0
+        inertia = np.diag(np.asarray(world.inertias[i], dtype=float))
+        lines.append(f'<body name="b{i}" pos="{_numbers(turn.T @ (P[i] - origin))}" '
+                     f'quat="{_numbers(matrix_to_quat(turn.T @ R[i]))}">'
+                     f'<inertial pos="0 0 0" mass="{float(world.masses[i]):.17g}" diaginertia="{_numbers(inertia)}"/>'
+                     f'<joint type="ball" pos="{_numbers(scene.anchors[j][side])}"/><geom type="sphere" {sphere(i)}/>')
+        stack.append(("close", i))
+        stack += [("open", c) for c in reversed(children.get(i, []))]
+    connects = []
+    rows = 0
+    for j in loops:
+        a, b = (int(x) for x in scene.joint_bodies[j])
+        connects.append(f'<connect body1="b{b}" body2="{"world" if static[a] else f"b{a}"}" '
+                        f'anchor="{_numbers(scene.anchors[j][1])}"/>')
+        rows += 3 * 3 * (depth[a] + depth[b])
+    memory = (64 << 20) + 100 * rows  # about twice what MuJoCo 3 and 4 used for the grid
+    return (f'<mujoco model="{scene.name}"><size memory="{memory}"/>'
+            f'<option timestep="{scene.dt:.17g}" gravity="{_numbers(world.gravity)}" solver="Newton" '
+            f'iterations="{MUJOCO_ITERATIONS}"/><default><geom contype="0" conaffinity="0"/></default>'
+            f'<worldbody>{"".join(lines)}</worldbody><equality>{"".join(connects)}</equality></mujoco>')
+
+
+class MujocoGrid:
+    """The joint grid in MuJoCo (``mujoco_grid_mjcf``), stepped by ``mj_step``. After each step,
+    untimed: the poses (``mj_kinematics``: mj_step leaves them at the step's start), the total
+    energy (``mj_comPos``, ``mj_crb``, then ``mj_energyPos`` + ``mj_energyVel``: MuJoCo's potential
+    -sum m g . x is signorini's sum m g z) and the joints' separation, as SignoriniRun records them.
+    None of these calls changes the next step, which recomputes all from qpos and qvel. A step after
+    which MuJoCo reset its state (its bad-acceleration warning) stops the run."""
+
+    def __init__(self, scene: JointScene, mujoco):
+        self.scene, self.mj = scene, mujoco
+        self.model = mujoco.MjModel.from_xml_string(mujoco_grid_mjcf(scene))
+        self.data = mujoco.MjData(self.model)
+        world = scene.world
+        self.dynamic = np.nonzero(~np.asarray(world.is_static))[0]
+        self.ids = np.array([self.model.body(f"b{i}").id for i in self.dynamic], dtype=np.int64)
+        self.positions = np.array(world.positions, dtype=float)
+        self.rotations = np.array(world.rotations, dtype=float)
+        self._refresh()
+        self.energy0 = self.energy()
+        self.rise = -math.inf
+        self.max_separation = self.separation()
+        self.steps = 0
+        self.failed = None
+
+    def _refresh(self) -> None:
+        m, d = self.model, self.data
+        for stage in (self.mj.mj_kinematics, self.mj.mj_comPos, self.mj.mj_crb, self.mj.mj_energyPos,
+                      self.mj.mj_energyVel):
+            stage(m, d)
+        self.positions[self.dynamic] = d.xpos[self.ids]
+        self.rotations[self.dynamic] = d.xmat[self.ids].reshape(-1, 3, 3)
+
+    def energy(self) -> float:
+        return float(self.data.energy[0] + self.data.energy[1])
+
+    def separation(self) -> float:
+        s = separations(self.positions, self.rotations, self.scene.joint_bodies, self.scene.anchors)
+        return float(s.max()) if s.size else 0.0
+
+    def step(self) -> float | None:
+        if self.failed is not None:
+            return None
+        warning = self.data.warning[self.mj.mjtWarning.mjWARN_BADQACC]
+        resets = int(warning.number)
+        t0 = time.perf_counter()
+        self.mj.mj_step(self.model, self.data)
+        elapsed = time.perf_counter() - t0
+        if int(warning.number) > resets:
+            self.failed = f"step {self.steps + 1}: MuJoCo reset its state (bad acceleration)"
+            return None
+        self.steps += 1
+        self._refresh()
+        self.rise = max(self.rise, self.energy() - self.energy0)
+        self.max_separation = max(self.max_separation, self.separation())
+        return elapsed
+
+    def quality(self) -> dict:
+        return {"separation": self.separation(), "max_separation": self.max_separation,
+                "kinetic_energy": float(self.data.energy[1]), "energy0": self.energy0, "rise": self.rise,
+                "failed": self.failed, "stepped": self.steps}
+
+    def close(self) -> None:
+        pass
+
+
+def make_runs(name: str, args, mods, mujoco=None) -> list[tuple[str, object]]:
+    """(row name, run) of every engine asked for, each on a freshly built scene (MuJoCo: the grid
+    only)."""
     def scene() -> JointScene:
         size = {"joint_grid": args.grid, "ragdolls": args.ragdolls}[name]
         s = SCENES[name](tiny=args.tiny, **({"n": size} if name == "joint_grid" else {"count": size}))
@@ -485,6 +651,8 @@ def make_runs(name: str, args, mods) -> list[tuple[str, object]]:
     if "pybullet" in args.engines and mods is not None:
         twin = PybulletGrid if name == "joint_grid" else PybulletRagdolls
         runs.append(("pybullet", twin(scene(), mods)))
+    if "mujoco" in args.engines and mujoco is not None and name == "joint_grid":
+        runs.append(("mujoco", MujocoGrid(scene(), mujoco)))
     return runs
 
 
@@ -493,16 +661,16 @@ def _median(times):
     return float(median), float(q1), float(q3)
 
 
-def bench_scene(name: str, args, mods) -> list[dict]:
+def bench_scene(name: str, args, mods, mujoco=None) -> list[dict]:
     """Runs every engine on one scene, chunks interleaved; returns a row dict per engine: scene,
     engine, size, bodies (moving), joints, steps, dt, ms, q1, q3 (median and quartiles of the
     chunks' ms/step), ratio (signorini's first row's ms over this row's), separation (m, at the
-    end), kinetic_energy (J, at the end), and for signorini rows max_separation (m, over the run),
+    end), kinetic_energy (J, at the end), and for signorini and MuJoCo rows max_separation (m, over the run),
     energy0 (J) and rise (J: the most E ever exceeded E0 by)."""
     rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sg.SolverWarning)
-        runs = make_runs(name, args, mods)
+        runs = make_runs(name, args, mods, mujoco)
         try:
             if not runs:
                 return rows
@@ -577,12 +745,19 @@ def main(argv: list[str] | None = None) -> list[dict]:
         print("pybullet: skipped (--engines)")
     elif mods is None:
         print("pybullet: not installed (pip install pybullet)")
+    mujoco = load_mujoco() if "mujoco" in args.engines else None
+    if "mujoco" not in args.engines:
+        print("mujoco: skipped (--engines)")
+    elif mujoco is None:
+        print("mujoco: not installed (pip install mujoco)")
+    else:
+        print(f"mujoco {mujoco.__version__}: joint_grid only, Newton, {MUJOCO_ITERATIONS} iterations")
     print(f"gravity 10 m/s^2, friction {FRICTION:g}, restitution 0, sleeping off; pybullet {PYBULLET_ITERATIONS} "
           f"iterations; {args.chunks} chunk(s); ms/step = median over chunks")
     rows = []
     for name in names:
         t0 = time.perf_counter()
-        scene_rows = bench_scene(name, args, mods)
+        scene_rows = bench_scene(name, args, mods, mujoco)
         rows += scene_rows
         size = scene_rows[0]["size"] if scene_rows else "no engine ran"
         print(f"  {name}: {size}, dt {scene_rows[0]['dt'] if scene_rows else DT:.6g} s, "

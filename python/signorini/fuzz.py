@@ -31,7 +31,22 @@ Every step is checked (``run``). Failure classes, each with a one-line reproduce
   system under gravity, friction and restitution e <= 1 can only lose energy.
 - ``slow``: a step took more than ``SLOW_STEP`` (100 ms) of wall time.
 
-Measured and summarised, not failed: the deepest overlap of a detected contact relative to the
+Jointed structures (``structures``, from a third stream ``default_rng([SEED, INDEX, 2])``, so the
+free bodies are those drawn before; ``generate(..., joints=False)`` and ``--no-joints`` leave them
+out): 1 or 2 per scene, each a chain of 2 to 8 links (hinges with and without limits and joint
+friction, ball joints, distance rods and ropes) hanging from a small static box or free, or the
+ragdoll of ``PARTS`` and ``RAGDOLL_JOINTS`` scaled to the scene; no motors (they do work), so the
+energy target holds unchanged: joints do no work. Each starts in one rigid motion, which every
+joint allows.
+
+Measured and summarised, not failed: how far the joints open (``joint_errors``) relative to
+``joint_gap``, the opening a converged solve allows: the PGS's position pass takes back erp of a
+joint's error each substep h, so what a substep adds, h (tolerance + h spin^2 lever) (the solver's
+residual and the second-order turn of the anchor over the substep), stays below that over erp; the
+soft step's springs (JOINT_HERTZ, at most 0.25 / h) sag by the acceleration they carry, g + spin^2
+lever, over their omega^2. It is not yet a failure class: on a first sample the PGS ends its 30
+sweeps unconverged on jointed chains in contact and leaves errors of 1e-6 m at rest, 100 to 10,000
+times this bound. The deepest overlap of a detected contact relative to the
 smaller body's inner size (the radius of a ball it surely contains; a resting contact keeps the
 solver's slop, at most 1 mm and 0.2 of that size), the largest energy gain, the
 worst contact-point error and the slowest step, each with the scene it came from.
@@ -51,9 +66,11 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from . import codec
-from ._core import Compound, Mesh, Plane, TriangleMesh
+from ._core import Compound, Mesh, Plane, TriangleMesh, matrix_to_quat, quat_to_matrix
 from .collision import feature
+from .joints import Distance, Revolute, Spherical
 from .meshes import box_mesh, cylinder_mesh, icosphere
+from .scenes import axis_angle_quaternion
 from .world import SolverWarning, World
 
 DTS = (1.0 / 60.0, 1.0 / 240.0, 1.0 / 1000.0)
@@ -71,6 +88,12 @@ POINT_SLACK = 0.05      # of |gap|: clipped speculative points sit on a face's p
 # overlaps past this fraction of the smaller body's inner size are counted in the summary (issue 21's
 # target: none on 1,000 scenes)
 DEEP_OVERLAP = 0.5
+JOINT_HERTZ = 60.0      # the soft step's joint springs (docs/conventions.md, "Joints")
+JOINT_ROUNDING = 1e-12  # m (plus 1e-12 of the lever): anchors computed from poses of rounded floats
+STRUCTURES = ("hanging_chain", "free_chain", "ragdoll")
+MAX_STRUCTURES = 2
+MAX_LINKS = 8
+JOINT_KINDS = ("hinge", "ball", "distance")
 FAILURES = ("crash", "timeout", "exception", "nonfinite", "explosion", "tunnel", "off_shape", "energy", "slow")
 
 
@@ -169,8 +192,194 @@ def heightfield_mesh(hf: dict) -> tuple[np.ndarray, np.ndarray]:
     return vertices, faces
 
 
-def generate(seed: int, index: int) -> dict:
-    """Scene `index` of `seed` as plain data (JSON-ready): floor, dt, bodies."""
+def _place(rng, placed: list, rho: float, spread: float) -> np.ndarray:
+    """A centre (3,) for something of bounding radius rho (m) clear of ``placed`` ((centre, radius)
+    pairs, which it joins): 50 tries at a random spot, else on top of everything."""
+    for _attempt in range(50):
+        xy = rng.uniform(-spread, spread, size=2)
+        z = rng.uniform(0.0, 2.0) + 1.5 * rho + 0.02
+        c = np.array([xy[0], xy[1], z])
+        if all(np.linalg.norm(c - p) > rho + r + 1e-3 for p, r in placed):
+            break
+    else:
+        c[2] = max(p[2] + r for p, r in placed) + rho + 0.01
+    placed.append((c, rho))
+    return c
+
+
+# Parts of a standing ragdoll (z up, facing +x, feet at z = 0): name, radius r (m), half length
+# of the segment (m), centre (m), the segment's direction ("z" upright, "y" sideways). The pelvis
+# comes first (pybullet's base), and every part after its parent. benchmarks/bench_joints.py's
+# ragdoll is this one (its add_ragdoll), and the fuzzer's ragdolls are it scaled.
+PARTS = (
+    ("pelvis", 0.10, 0.06, (0.0, 0.0, 1.00), "y"),
+    ("torso", 0.11, 0.08, (0.0, 0.0, 1.29), "z"),
+    ("head", 0.10, 0.02, (0.0, 0.0, 1.62), "z"),
+    ("upper_arm_l", 0.05, 0.10, (0.0, 0.35, 1.42), "y"),
+    ("forearm_l", 0.045, 0.095, (0.0, 0.64, 1.42), "y"),
+    ("upper_arm_r", 0.05, 0.10, (0.0, -0.35, 1.42), "y"),
+    ("forearm_r", 0.045, 0.095, (0.0, -0.64, 1.42), "y"),
+    ("thigh_l", 0.07, 0.145, (0.0, 0.10, 0.735), "z"),
+    ("shin_l", 0.055, 0.175, (0.0, 0.10, 0.29), "z"),
+    ("thigh_r", 0.07, 0.145, (0.0, -0.10, 0.735), "z"),
+    ("shin_r", 0.055, 0.175, (0.0, -0.10, 0.29), "z"),
+)
+# Joints: name, parent, child, kind ("ball" or "hinge"), anchor (m), hinge axis, hinge limits
+# (rad; 0 is the standing pose, positive the way the joint bends: waist forward, elbows forward,
+# knees backward).
+RAGDOLL_JOINTS = (
+    ("waist", "pelvis", "torso", "hinge", (0.0, 0.0, 1.10), (0.0, 1.0, 0.0), (-0.4, 1.2)),
+    ("neck", "torso", "head", "ball", (0.0, 0.0, 1.50), None, None),
+    ("shoulder_l", "torso", "upper_arm_l", "ball", (0.0, 0.20, 1.42), None, None),
+    ("elbow_l", "upper_arm_l", "forearm_l", "hinge", (0.0, 0.50, 1.42), (0.0, 0.0, -1.0), (0.0, 2.5)),
+    ("shoulder_r", "torso", "upper_arm_r", "ball", (0.0, -0.20, 1.42), None, None),
+    ("elbow_r", "upper_arm_r", "forearm_r", "hinge", (0.0, -0.50, 1.42), (0.0, 0.0, 1.0), (0.0, 2.5)),
+    ("hip_l", "pelvis", "thigh_l", "ball", (0.0, 0.10, 0.95), None, None),
+    ("knee_l", "thigh_l", "shin_l", "hinge", (0.0, 0.10, 0.52), (0.0, 1.0, 0.0), (0.0, 2.5)),
+    ("hip_r", "pelvis", "thigh_r", "ball", (0.0, -0.10, 0.95), None, None),
+    ("knee_r", "thigh_r", "shin_r", "hinge", (0.0, -0.10, 0.52), (0.0, 1.0, 0.0), (0.0, 2.5)),
+)
+RAGDOLL_CENTRE = 0.87   # m: the standing ragdoll's mid-height
+RAGDOLL_RADIUS = 1.0    # m: every part lies within this of (0, 0, RAGDOLL_CENTRE)
+
+
+def _frame(rng, u) -> np.ndarray:
+    """A rotation (3, 3) whose z column is the unit vector u, turned about it at random."""
+    e = np.cross(u, rng.normal(size=3))
+    e /= np.linalg.norm(e)
+    return np.column_stack([e, np.cross(u, e), u])
+
+
+def _rigid_velocities(bodies: list, pivot, v, w) -> None:
+    """Gives every body dict the velocity of one rigid motion: v (3,) at ``pivot`` (3,), spin w (3,)."""
+    for b in bodies:
+        b["velocity"] = (np.asarray(v) + np.cross(w, np.asarray(b["position"]) - pivot)).tolist()
+        b["angular_velocity"] = np.asarray(w, dtype=float).tolist()
+
+
+def _material(rng) -> dict:
+    return {"friction": float(rng.uniform(0.0, 1.0)),
+            "restitution": float(rng.uniform(0.0, 0.5)) if rng.random() < 0.5 else 0.0, "spinning_friction": 0.0}
+
+
+def _chain(rng, kind: str, placed: list, size0: float, mass0: float, spread: float) -> dict:
+    """A chain of 2 to MAX_LINKS links (capsules, boxes or spheres along a random direction u, each
+    of length l, touching end to end, masses within 1:10), each joined to the next at their common
+    end by a hinge (a random axis; half of them with limits around 0, a quarter with joint
+    friction), a ball joint or a distance joint (between points l / 4 inside either link: a rod of
+    that length or a rope up to 30 % slack); a hanging chain's first link is so joined to a small
+    static box (the hook) at the chain's start. Velocities are one rigid motion (a spin about the
+    hook for a hanging chain, about the hook's axis if it is a hinge): consistent with every joint."""
+    links = int(rng.integers(2, MAX_LINKS + 1))
+    length = float(np.clip(size0 * 10.0 ** rng.uniform(-0.5, 0.5), 0.01, 10.0))
+    u = np.array(_direction(rng))
+    hanging = kind == "hanging_chain"
+    shape = ("capsule", "box", "sphere")[int(rng.integers(3))]
+    centre = _place(rng, placed, 0.5 * links * length + 0.5 * length, spread)
+    start = centre - 0.5 * links * length * u
+    mass = mass0 * 10.0 ** rng.uniform(0.0, 2.5)
+    material = _material(rng)
+    h = 0.5 * length
+    bodies = []
+    for k in range(links):
+        R = _frame(rng, u)
+        if shape == "capsule":
+            r = h * rng.uniform(0.2, 0.5)
+            d = {"type": "capsule", "radius": r, "half_length": h - r}
+        elif shape == "box":
+            d = {"type": "box", "half_extents": [h * rng.uniform(0.2, 0.6), h * rng.uniform(0.2, 0.6), h]}
+        else:
+            d = {"type": "sphere", "radius": h}
+        bodies.append({"shape": d, "mass": mass * 10.0 ** rng.uniform(-0.5, 0.5),
+                       "position": (start + (k + 0.5) * length * u).tolist(),
+                       "orientation": list(matrix_to_quat(R)), **material})
+    joints = []
+    for k in range(0 if hanging else 1, links):
+        point = start + k * length * u
+        a, b = k - 1, k  # -1: the hook
+        what = JOINT_KINDS[int(rng.integers(len(JOINT_KINDS)))]
+        if what == "hinge":
+            j = {"type": "hinge", "a": a, "b": b, "anchor": point.tolist(), "axis": _direction(rng), "limits": None,
+                 "friction": 0.0}
+            if rng.random() < 0.5:
+                j["limits"] = [float(rng.uniform(-2.5, 0.0)), float(rng.uniform(0.0, 2.5))]
+            if rng.random() < 0.25:
+                j["friction"] = float(rng.uniform(0.0, 1.0) * bodies[b]["mass"] * 9.81 * length)
+        elif what == "ball":
+            j = {"type": "ball", "a": a, "b": b, "anchor": point.tolist()}
+        else:
+            rod = 0.5 * length
+            j = {"type": "distance", "a": a, "b": b, "anchor_a": (point - 0.25 * length * u).tolist(),
+                 "anchor_b": (point + 0.25 * length * u).tolist(), "min_length": rod, "max_length": rod}
+            if rng.random() < 0.5:
+                j["min_length"], j["max_length"] = 0.0, rod * float(rng.uniform(1.0, 1.3))
+        joints.append(j)
+    speed, spin = _speed(rng, MAX_SPEED), _speed(rng, MAX_SPIN)
+    reach = links * length
+    spin = min(spin, MAX_SPEED / reach)  # no point faster than MAX_SPEED
+    if hanging:
+        w = np.array(joints[0]["axis"]) if joints[0]["type"] == "hinge" else np.array(_direction(rng))
+        _rigid_velocities(bodies, start, np.zeros(3), spin * w)
+    else:
+        _rigid_velocities(bodies, centre, speed * np.array(_direction(rng)), spin * np.array(_direction(rng)))
+    hook = None
+    if hanging:
+        hook = {"shape": {"type": "box", "half_extents": [0.25 * length] * 3}, "position": start.tolist(),
+                "orientation": [1.0, 0.0, 0.0, 0.0]}
+    return {"kind": kind, "hook": hook, "bodies": bodies, "joints": joints, "self_collision": True}
+
+
+def _ragdoll(rng, placed: list, size0: float, spread: float) -> dict:
+    """The ragdoll of PARTS and RAGDOLL_JOINTS scaled by s (the torso about the scene's typical
+    size; its smallest part 1 cm or more), of one density (100 to 10,000 kg/m^3), turned at random,
+    its own parts not colliding (as the benchmark's), with one rigid motion's velocities."""
+    s = float(np.clip(size0 / 0.4 * 10.0 ** rng.uniform(-0.3, 0.3), 0.04, 6.0))
+    density = 1000.0 * 10.0 ** rng.uniform(-1.0, 1.0)
+    R = np.asarray(quat_to_matrix(_quaternion(rng)))
+    centre = _place(rng, placed, RAGDOLL_RADIUS * s, spread)
+    t = centre - R @ np.array([0.0, 0.0, RAGDOLL_CENTRE * s])
+    sideways = np.asarray(quat_to_matrix(axis_angle_quaternion((1.0, 0.0, 0.0), -0.5 * math.pi)))  # z -> y
+    material = _material(rng)
+    index, bodies = {}, []
+    for part, radius, half_length, c, direction in PARTS:
+        r, hl = radius * s, half_length * s
+        index[part] = len(bodies)
+        turn = R @ sideways if direction == "y" else R
+        bodies.append({"shape": {"type": "capsule", "radius": r, "half_length": hl},
+                       "mass": density * math.pi * r * r * (2.0 * hl + 4.0 / 3.0 * r),
+                       "position": (R @ (s * np.asarray(c)) + t).tolist(),
+                       "orientation": list(matrix_to_quat(turn)), **material})
+    joints = []
+    for _, parent, child, kind, anchor, axis, limits in RAGDOLL_JOINTS:
+        y = (R @ (s * np.asarray(anchor)) + t).tolist()
+        if kind == "ball":
+            joints.append({"type": "ball", "a": index[parent], "b": index[child], "anchor": y})
+        else:
+            joints.append({"type": "hinge", "a": index[parent], "b": index[child], "anchor": y,
+                           "axis": (R @ np.asarray(axis)).tolist(), "limits": list(limits), "friction": 0.0})
+    speed, spin = _speed(rng, MAX_SPEED), _speed(rng, MAX_SPIN)
+    spin = min(spin, MAX_SPEED / (RAGDOLL_RADIUS * s))
+    _rigid_velocities(bodies, centre, speed * np.array(_direction(rng)), spin * np.array(_direction(rng)))
+    return {"kind": "ragdoll", "hook": None, "bodies": bodies, "joints": joints, "self_collision": False}
+
+
+def structures(seed: int, index: int, placed: list, size0: float, mass0: float, spread: float) -> list:
+    """The jointed structures of scene SEED:INDEX (1 to MAX_STRUCTURES of STRUCTURES), drawn from
+    a third stream ``default_rng([SEED, INDEX, 2])`` after the free bodies were placed (``placed``)."""
+    rng = np.random.default_rng([int(seed), int(index), 2])
+    out = []
+    for _ in range(int(rng.integers(1, MAX_STRUCTURES + 1))):
+        kind = STRUCTURES[int(rng.integers(len(STRUCTURES)))]
+        if kind == "ragdoll":
+            out.append(_ragdoll(rng, placed, size0, spread))
+        else:
+            out.append(_chain(rng, kind, placed, size0, mass0, spread))
+    return out
+
+
+def generate(seed: int, index: int, joints: bool = True) -> dict:
+    """Scene `index` of `seed` as plain data (JSON-ready): floor, dt, bodies and (``joints``)
+    structures; without them the scene is the one this fuzzer drew before it had joints."""
     rng = np.random.default_rng([int(seed), int(index)])
     spin_rng = np.random.default_rng([int(seed), int(index), 1])  # spinning friction (see above)
     floor = FLOORS[int(rng.integers(3))]
@@ -189,15 +398,7 @@ def generate(seed: int, index: int) -> dict:
         size = float(np.clip(size0 * 10.0 ** rng.uniform(-0.5, 0.5), 0.01, 10.0))
         shape = _primitive(rng, kind, size / 2.0)
         rho = size  # bounding radius bound: every part lies within h of its place, places within h
-        for _attempt in range(50):
-            xy = rng.uniform(-spread, spread, size=2)
-            z = rng.uniform(0.0, 2.0) + 1.5 * rho + 0.02
-            c = np.array([xy[0], xy[1], z])
-            if all(np.linalg.norm(c - p) > rho + r + 1e-3 for p, r in placed):
-                break
-        else:
-            c[2] = max(p[2] + r for p, r in placed) + rho + 0.01
-        placed.append((c, rho))
+        c = _place(rng, placed, rho, spread)
         speed, spin = _speed(rng, MAX_SPEED), _speed(rng, MAX_SPIN)
         bodies.append({
             "shape": shape, "mass": mass0 * 10.0 ** rng.uniform(0.0, 3.0),
@@ -211,6 +412,8 @@ def generate(seed: int, index: int) -> dict:
         mu_spin = spin_rng.uniform(0.0, 0.15)
         bodies[-1]["spinning_friction"] = float(mu_spin * bodies[-1]["friction"] * size) if spinning else 0.0
     scene["bodies"] = bodies
+    if joints:
+        scene["structures"] = structures(seed, index, placed, size0, mass0, spread)
     return scene
 
 
@@ -246,13 +449,77 @@ def build(scene: dict):
         world.add_static(Plane((0.0, 0.0, 1.0), floor["plane"]))
     # bodies start above the highest floor point under them
     top = 0.0 if floor["heightfield"] is None else float(floor["heightfield"][0][:, 2].max())
+    lift = np.array([0.0, 0.0, top])
+
+    def add(b) -> int:
+        return world.add_body(make_shape(b["shape"]), mass=b["mass"], position=np.array(b["position"]) + lift,
+                              orientation=b["orientation"], velocity=b["velocity"],
+                              angular_velocity=b["angular_velocity"], friction=b["friction"],
+                              restitution=b["restitution"], spinning_friction=b.get("spinning_friction", 0.0))
+
     for b in scene["bodies"]:
-        p = np.array(b["position"]) + (0.0, 0.0, top)
-        world.add_body(make_shape(b["shape"]), mass=b["mass"], position=p, orientation=b["orientation"],
-                       velocity=b["velocity"], angular_velocity=b["angular_velocity"],
-                       friction=b["friction"], restitution=b["restitution"],
-                       spinning_friction=b.get("spinning_friction", 0.0))
+        add(b)
+    for structure in scene.get("structures", []):
+        hook = structure["hook"]
+        index = {}
+        if hook is not None:
+            index[-1] = world.add_static(make_shape(hook["shape"]), position=np.array(hook["position"]) + lift,
+                                         orientation=hook["orientation"])
+        for k, b in enumerate(structure["bodies"]):
+            index[k] = add(b)
+        for j in structure["joints"]:
+            world.add_joint(_joint(j, index[j["a"]], index[j["b"]], lift))
+        if not structure["self_collision"]:
+            ids = [index[k] for k in range(len(structure["bodies"]))]
+            for k, i in enumerate(ids):
+                for other in ids[k + 1:]:
+                    world.disable_collision(i, other)
     return world, floor
+
+
+def _joint(j: dict, a: int, b: int, lift):
+    """The joint description of a structure's joint dict between world bodies a and b."""
+    if j["type"] == "hinge":
+        return Revolute(a, b, anchor=np.array(j["anchor"]) + lift, axis=j["axis"],
+                        limits=None if j["limits"] is None else tuple(j["limits"]), friction=j["friction"])
+    if j["type"] == "ball":
+        return Spherical(a, b, anchor=np.array(j["anchor"]) + lift)
+    return Distance(a, b, np.array(j["anchor_a"]) + lift, np.array(j["anchor_b"]) + lift, j["min_length"],
+                    j["max_length"])
+
+
+def joint_frames(world) -> dict:
+    """What ``joint_errors`` needs of every joint of ``world``, read once: bodies (J, 2), anchors
+    (J, 2, 3) in each body's frame (the core's), distance (J,) bool, min_length, max_length (J,)."""
+    joints = [world.joint(k) for k in range(world.num_joints)]
+    return {"bodies": np.array([[d["body_a"], d["body_b"]] for d in joints], dtype=np.int64).reshape(-1, 2),
+            "anchors": np.array([[d["anchor_a"], d["anchor_b"]] for d in joints], dtype=float).reshape(-1, 2, 3),
+            "distance": np.array([d["kind"] == "Distance" for d in joints], dtype=bool),
+            "min_length": np.array([d["min_length"] for d in joints], dtype=float),
+            "max_length": np.array([d["max_length"] for d in joints], dtype=float)}
+
+
+def joint_errors(world, frames: dict) -> np.ndarray:
+    """(J,) how far (m) each joint is from holding: a hinge's or ball joint's |x_B - x_A| between
+    its anchor points x_X = p_X + R_X anchor_X, a distance joint's length |x_B - x_A| outside
+    [min_length, max_length]. ``frames``: ``joint_frames(world)``."""
+    P, R = world.positions, world.rotations
+    a, b = frames["bodies"][:, 0], frames["bodies"][:, 1]
+    x_a = P[a] + np.einsum("jik,jk->ji", R[a], frames["anchors"][:, 0])
+    x_b = P[b] + np.einsum("jik,jk->ji", R[b], frames["anchors"][:, 1])
+    gap = np.linalg.norm(x_b - x_a, axis=1)
+    stretch = np.maximum(np.maximum(gap - frames["max_length"], frames["min_length"] - gap), 0.0)
+    return np.where(frames["distance"], stretch, gap)
+
+
+def joint_gap(h: float, settings: dict, spin, lever, g: float):
+    """How far (m) a joint may be open after a step (the ``joint`` target), per joint: spin (J,)
+    the faster of its bodies' angular speeds (rad/s), lever (J,) its longer lever arm |anchor_X|
+    (m), h the substep (s), g (m/s^2), settings ``World.solver``. See the module's doc."""
+    if settings["solver"] == "soft":
+        omega = 2.0 * math.pi * min(JOINT_HERTZ, 0.25 / h)
+        return (g + spin ** 2 * lever) / omega ** 2 + JOINT_ROUNDING * (1.0 + lever)
+    return h / settings["erp"] * (settings["tolerance"] + h * spin ** 2 * lever) + JOINT_ROUNDING * (1.0 + lever)
 
 
 # ------------------------------------------------------------------ distances from a point to a shape
@@ -426,6 +693,14 @@ def run(scene: dict, log=None) -> dict:
 
     E0 = energy()
     max_gain = 0.0
+    # joints: how far each may open (joint_gap), from the solver's substep and the bodies' spin
+    frames = joint_frames(world)
+    lever = np.linalg.norm(frames["anchors"], axis=2).max(axis=1) if world.num_joints else np.zeros(0)
+    settings = world.solver
+    soft = settings["solver"] == "soft"
+    h = dt / (settings["substeps"] or math.ceil((240.0 if soft else 960.0) * dt - 1e-9))
+    g = float(np.linalg.norm(world.gravity))
+    max_joint, joint_at = 0.0, ""
     max_overlap = 0.0
     overlap_at = ""
     max_point_error = 0.0
@@ -478,6 +753,18 @@ def run(scene: dict, log=None) -> dict:
         max_step = max(max_step, elapsed)
         if elapsed > SLOW_STEP:
             fail("slow", f"step {k} took {elapsed * 1e3:.0f} ms ({n} bodies, {len(c)} contacts)")
+        if world.num_joints:
+            a, b = frames["bodies"][:, 0], frames["bodies"][:, 1]
+            W = world.angular_velocities
+            spin = np.maximum(np.linalg.norm(W[a], axis=1), np.linalg.norm(W[b], axis=1))
+            error = joint_errors(world, frames)
+            ratio = error / joint_gap(h, settings, spin, lever, g)
+            j = int(np.argmax(ratio))
+            if ratio[j] > max_joint:
+                max_joint = float(ratio[j])
+                joint_at = (f"step {k} (t = {world.time:.4f} s): joint {j} ({world.joint(j)['kind']}, bodies {a[j]} - {b[j]}, "
+                            f"lever {lever[j]:.3g} m, spin {spin[j]:.3g} rad/s) {error[j]:.3g} m apart, "
+                            f"{ratio[j]:.3g} of its bound")
         E = energy()
         gain = (E - E0) / abs(E0) if E0 != 0 else 0.0
         if E - E0 > ENERGY_FLOOR:
@@ -494,6 +781,7 @@ def run(scene: dict, log=None) -> dict:
                            f"{h - P[i, 2]:.3g} m below the floor surface (speed {np.linalg.norm(world.velocities[i]):.3g} m/s)")
     return {"scene": name, "failures": failures, "steps": done, "max_step_ms": max_step * 1e3,
             "max_overlap": max_overlap, "overlap_at": overlap_at, "max_energy_gain": max_gain, "max_point_error": max_point_error,
+            "max_joint": max_joint, "joint_at": joint_at, "joints": world.num_joints,
             "wall": time.perf_counter() - start, "bodies": len(dynamic), "dt": dt, "floor": scene["floor"]}
 
 
@@ -523,13 +811,13 @@ def with_solver(scene: dict, solver: str | None) -> dict:
     return scene
 
 
-def run_isolated(seed: int, index: int, timeout: float, solver: str | None = None) -> dict:
+def run_isolated(seed: int, index: int, timeout: float, solver: str | None = None, joints: bool = True) -> dict:
     """Runs scene SEED:INDEX in a child process (crash isolation, timeout); its result dict."""
     name = f"{seed}:{index}"
     start = time.perf_counter()
     try:
         proc = subprocess.run([sys.executable, "-m", "signorini.fuzz", "--scene", name, "--json"] +
-                              (["--solver", solver] if solver else []),
+                              (["--solver", solver] if solver else []) + ([] if joints else ["--no-joints"]),
                               capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         return {"scene": name, "failures": {"timeout": f"no result after {timeout:g} s"},
@@ -545,14 +833,14 @@ def run_isolated(seed: int, index: int, timeout: float, solver: str | None = Non
 
 
 def run_many(count: int, seed: int, jobs: int = 1, timeout: float = 300.0, out=print,
-             solver: str | None = None) -> dict:
+             solver: str | None = None, joints: bool = True) -> dict:
     """Runs scenes 0..count-1 of seed, each in its own process, `jobs` at a time; prints one line per
     failure (with its reproducer) and the summary line; returns {"results": [...], "counts": {...},
     "summary": str}."""
     results = [None] * count
 
     def one(index):
-        results[index] = run_isolated(seed, index, timeout, solver)
+        results[index] = run_isolated(seed, index, timeout, solver, joints)
         for kind, message in results[index]["failures"].items():
             out(f"FAIL {kind} {results[index]['scene']}: {message}  | {reproducer(results[index]['scene'], solver)}")
         return results[index]
@@ -574,7 +862,9 @@ def run_many(count: int, seed: int, jobs: int = 1, timeout: float = 300.0, out=p
                f"; deepest overlap {worst('max_overlap', '.0%')} of inner size "
                f"({sum(r['max_overlap'] > DEEP_OVERLAP for r in got)} scenes past {DEEP_OVERLAP:.0%}), worst point off its shapes "
                f"{worst('max_point_error', '.2g')} m, largest energy gain {worst('max_energy_gain', '.2%')}, "
-               f"slowest step {worst('max_step_ms', '.1f')} ms, {np.mean([r['wall'] for r in results]):.2f} s per scene")
+               f"slowest step {worst('max_step_ms', '.1f')} ms, largest joint opening {worst('max_joint', '.3g')} of its "
+               f"bound ({sum(r.get('joints', 0) > 0 for r in got)} scenes with joints), "
+               f"{np.mean([r['wall'] for r in results]):.2f} s per scene")
     out(summary)
     return {"results": results, "counts": counts, "summary": summary}
 
@@ -587,6 +877,7 @@ def main(argv=None) -> int:
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per scene (default 300)")
     parser.add_argument("--scene", help="run scene SEED:INDEX in this process and report in detail")
     parser.add_argument("--json", action="store_true", help="with --scene: print the result as one JSON line")
+    parser.add_argument("--no-joints", action="store_true", help="the scenes without their jointed structures")
     parser.add_argument("--solver", choices=("pgs", "soft"), help="run every scene with this solver "
                         "(default: as generated, the World's default)")
     args = parser.parse_args(argv)
@@ -595,7 +886,7 @@ def main(argv=None) -> int:
             seed, index = (int(x) for x in args.scene.split(":"))
         except ValueError:
             parser.error(f"--scene takes SEED:INDEX, got {args.scene!r}")
-        scene = with_solver(generate(seed, index), args.solver)
+        scene = with_solver(generate(seed, index, joints=not args.no_joints), args.solver)
         if args.json:
             print(json.dumps(run(scene)))
             return 0
@@ -611,7 +902,7 @@ def main(argv=None) -> int:
         parser.error("give N SEED, or --scene SEED:INDEX")
     if args.count < 0 or args.jobs < 1:
         parser.error("N must be >= 0 and -j >= 1")
-    report = run_many(args.count, args.seed, args.jobs, args.timeout, solver=args.solver)
+    report = run_many(args.count, args.seed, args.jobs, args.timeout, solver=args.solver, joints=not args.no_joints)
     return 1 if any(report["counts"].values()) else 0
 
 
