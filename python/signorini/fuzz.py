@@ -11,7 +11,10 @@ plane, a triangle-mesh height field, or a height field with a plane below it; dt
 1/1000 and the scene runs ``DURATION`` seconds. Friction is 0 to 1, restitution 0 or up to 0.5,
 and half the bodies have spinning (torsional) friction, up to 0.15 mu times their size (a contact
 patch of a quarter of it), drawn from a second stream ``default_rng([SEED, INDEX, 1])`` so that
-the shapes, poses and velocities are those the first stream drew before spinning friction.
+the shapes, poses and velocities are those the first stream drew before spinning friction. Half
+the scenes also shoot 1 to 3 fast small bodies (1 to 2 cm, 20 to 200 m/s) down at the floor
+(``_projectiles``, a fourth stream ``default_rng([SEED, INDEX, 3])``, after the other bodies): what
+continuous collision is for.
 
 Every step is checked (``run``). Failure classes, each with a one-line reproducer:
 
@@ -377,9 +380,38 @@ def structures(seed: int, index: int, placed: list, size0: float, mass0: float, 
     return out
 
 
-def generate(seed: int, index: int, joints: bool = True) -> dict:
-    """Scene `index` of `seed` as plain data (JSON-ready): floor, dt, bodies and (``joints``)
-    structures; without them the scene is the one this fuzzer drew before it had joints."""
+def _projectiles(seed: int, index: int, spread: float, placed: list, mass0: float) -> list:
+    """Fast small bodies (issue 24, continuous collision), from a fourth stream
+    ``default_rng([SEED, INDEX, 3])`` (the other bodies stay as drawn): in half the scenes 1 to 3
+    spheres, capsules or boxes of 1 to 2 cm at 20 to 200 m/s (log-uniform), shot down at the floor
+    from 0.1 to 1 m above everything placed, at most 60 degrees off the vertical; their mass the
+    scene's least, mass0, so that its masses stay within 1000 of each other."""
+    above = max((float(c[2]) + r for c, r in placed), default=0.0)
+    rng = np.random.default_rng([int(seed), int(index), 3])
+    if rng.random() < 0.5:
+        return []
+    out = []
+    for _ in range(int(rng.integers(1, 4))):
+        kind = ("sphere", "capsule", "box")[int(rng.integers(3))]
+        size = _log_uniform(rng, 0.01, 0.02)
+        tilt, heading = math.radians(rng.uniform(0.0, 60.0)), rng.uniform(0.0, 2.0 * math.pi)
+        d = np.array([math.sin(tilt) * math.cos(heading), math.sin(tilt) * math.sin(heading), -math.cos(tilt)])
+        out.append({
+            "shape": _primitive(rng, kind, size / 2.0), "mass": mass0,
+            "position": [float(rng.uniform(-spread, spread) / 2), float(rng.uniform(-spread, spread) / 2),
+                         above + float(rng.uniform(0.1, 1.0))],
+            "orientation": _quaternion(rng),
+            "velocity": (_log_uniform(rng, 20.0, 200.0) * d).tolist(), "angular_velocity": [0.0, 0.0, 0.0],
+            "friction": float(rng.uniform(0.0, 1.0)), "restitution": 0.0,
+        })
+    return out
+
+
+def generate(seed: int, index: int, joints: bool = True, projectiles: bool | None = None) -> dict:
+    """Scene `index` of `seed` as plain data (JSON-ready): floor, dt, bodies (with ``projectiles``,
+    by default as ``joints``, the fast small bodies of ``_projectiles`` after the others) and
+    (``joints``) structures; without both the scene is the one this fuzzer drew before it had
+    joints."""
     rng = np.random.default_rng([int(seed), int(index)])
     spin_rng = np.random.default_rng([int(seed), int(index), 1])  # spinning friction (see above)
     floor = FLOORS[int(rng.integers(3))]
@@ -411,6 +443,8 @@ def generate(seed: int, index: int, joints: bool = True) -> dict:
         spinning = spin_rng.random() < 0.5
         mu_spin = spin_rng.uniform(0.0, 0.15)
         bodies[-1]["spinning_friction"] = float(mu_spin * bodies[-1]["friction"] * size) if spinning else 0.0
+    if joints if projectiles is None else projectiles:
+        bodies += _projectiles(seed, index, spread, placed, mass0)
     scene["bodies"] = bodies
     if joints:
         scene["structures"] = structures(seed, index, placed, size0, mass0, spread)
