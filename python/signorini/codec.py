@@ -458,6 +458,8 @@ def scene_joints(world, bodies: list[dict]) -> list[dict]:
             for key in ("friction", "effort"):
                 if not is_zero(d[key]):
                     table[key] = float(d[key])
+        elif kind == "Spherical" and d["has_limits"]:
+            table.update(axis=floats(given.axis), cone=float(d["upper"]))
         for key in ("break_force", "break_torque"):
             if d[key] != np.inf:
                 table[key] = float(d[key])

@@ -158,19 +158,31 @@ class Prismatic(_Axial):
 
 
 class Spherical(Joint):
-    """A ball joint: the bodies share the ``anchor`` point (world, at creation)."""
+    """A ball joint: the bodies share the ``anchor`` point (world, at creation). ``cone`` (rad, in
+    (0, pi)) with ``axis`` (world, at creation; fixed in each body from then on): a swing limit, B's
+    axis within ``cone`` of A's (a ragdoll's shoulder or hip), solved as a hinge's limit is (a
+    speculative row, restitution 0)."""
     kind = SPHERICAL
 
-    def __init__(self, body_a: int, body_b: int, anchor, *, name: Optional[str] = None,
-                 break_force: Optional[float] = None, break_torque: Optional[float] = None,
-                 collide_connected: bool = False):
+    def __init__(self, body_a: int, body_b: int, anchor, *, axis=None, cone: Optional[float] = None,
+                 name: Optional[str] = None, break_force: Optional[float] = None,
+                 break_torque: Optional[float] = None, collide_connected: bool = False):
         super().__init__(body_a, body_b, name=name, collide_connected=collide_connected,
                          break_force=break_force, break_torque=break_torque)
         self.anchor = anchor
+        self.axis = axis
+        self.cone = cone
 
     def _core_args(self, who: str, positions: np.ndarray) -> dict:
         d = super()._core_args(who, positions)
         d["anchor"] = as_vector(self.anchor, 3, who, "anchor")
+        if getattr(self, "cone", None) is not None:
+            if self.axis is None:
+                raise TypeError(f"{who}: a cone needs its axis (world, at creation), got axis=None")
+            d.update(has_limits=True, lower=0.0, upper=as_number(self.cone, who, "cone"),
+                     axis=as_vector(self.axis, 3, who, "axis"))
+        elif getattr(self, "axis", None) is not None:
+            raise TypeError(f"{who}: axis is the cone's axis: give cone=angle with it, or no axis")
         return d
 
 

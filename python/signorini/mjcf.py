@@ -67,7 +67,7 @@ Joints (docs/conventions.md, "MJCF joints and actuators"):
 Refused (listed in the one error below): ``armature`` (it adds inertia to the joint coordinate
 alone, which no rigid body's mass matrix does), a body with several joints (each signorini joint
 joins two bodies; the massless bodies between chained joints are not possible, a body needs a
-positive mass), a ball joint's range (a cone limit), stiffness, damping or frictionloss, a hinge
+positive mass), a ball joint's range (a limit on its whole rotation angle), stiffness, damping or frictionloss, a hinge
 range that minus ref reaches outside (-180, 180) degrees (signorini's hinge angle wraps there),
 actuator types other than motor, position and velocity, actuators on ball joints, an asymmetric ``forcerange``, a ``forcerange`` on a joint
 with stiffness or damping (the one drive would bound their sum), two actuators on one joint,
@@ -767,7 +767,8 @@ class _Reader:
                 if values[key]:
                     self.skip(el, f"{key} of a ball joint (signorini's ball joint has no drive or friction)")
             if rng is not None:
-                self.skip(el, "range of a ball joint (a cone limit, which signorini's ball joint does not have)")
+                self.skip(el, "range of a ball joint (MuJoCo limits the whole rotation angle, twist included; "
+                              "signorini's ball joint limits the swing of one axis, Spherical(cone=...))")
             rng = None
         limits = None
         if rng is not None:

@@ -410,9 +410,12 @@ class PrismaticJoint(_AxialJointTable):
 
 
 class SphericalJoint(_JointTable):
-    """A ball joint: the bodies share ``anchor`` (world, at creation)."""
+    """A ball joint: the bodies share ``anchor`` (world, at creation); ``cone`` (rad, in (0, pi)) with
+    ``axis`` (world, at creation): B's axis stays within that angle of A's."""
     type: Literal["spherical"]
     anchor: FiniteVec3 = Field(description="world, m, at creation")
+    axis: Optional[FiniteVec3] = Field(None, description="the cone's axis, world, at creation (with cone)")
+    cone: Optional[Finite] = Field(None, description="swing limit, rad, in (0, pi) (with axis)")
 
 
 class FixedJoint(_JointTable):
@@ -686,7 +689,7 @@ def _scene_joints(model: SceneFile, where_file: str) -> list:
             joint = kind(a, b, t.anchor, t.axis, limits=t.limits, motor=motor, friction=t.friction, effort=t.effort,
                          **common)
         elif isinstance(t, SphericalJoint):
-            joint = Spherical(a, b, t.anchor, **common)
+            joint = Spherical(a, b, t.anchor, axis=t.axis, cone=t.cone, **common)
         elif isinstance(t, FixedJoint):
             joint = Fixed(a, b, t.anchor, **common)
         else:

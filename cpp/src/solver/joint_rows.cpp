@@ -63,6 +63,14 @@ void linear_row(JointBlock& b, int k, const Vec3& e, const Vec3& ra_lin, const V
   b.lin_b[k] = e;
 }
 
+/// A unit vector normal to unit u (u x e_k for the axis e_k least along u).
+Vec3 perpendicular_to(const Vec3& u) {
+  int k = 0;
+  for (int i = 1; i < 3; ++i)
+    if (std::abs(u[i]) < std::abs(u[k])) k = i;
+  return u.cross(Vec3::Unit(k)).normalized();
+}
+
 /// Row k about the direction e: J_A = (-e, 0), J_B = (e, 0).
 void angular_row(JointBlock& b, int k, const Vec3& e) {
   b.ang_a[k] = -e;
@@ -289,6 +297,18 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
         break;
       }
       case JointKind::Spherical: {
+        if (j.has_limits) {
+          // the cone: the angle phi between the axes a_A = R_A axis_a and a_B = R_B axis_b at most
+          // upper; C = upper - phi, and dphi/dt = n . (omega_B - omega_A), n = unit(a_A x a_B) (any
+          // normal of a_A where the axes meet: C is then the whole cone, far from binding)
+          const Vec3 a_A = RA * j.axis_a, a_B = RB * j.axis_b;
+          const Vec3 c = a_A.cross(a_B);
+          const double s = c.norm();
+          const Vec3 n = s > 1e-12 ? Vec3(c / s) : perpendicular_to(a_A);
+          JointBlock& cone = add_block(js, j, JointBlock::Limit, 1, kSlotUpper, a_moves, b_moves);
+          angular_row(cone, 0, -n);
+          cone.C[0] = j.upper - std::atan2(s, a_A.dot(a_B));
+        }
         JointBlock& p = add_block(js, j, JointBlock::Equality, 3, kSlotLinear, a_moves, b_moves);
         for (int k = 0; k < 3; ++k) linear_row(p, k, Vec3::Unit(k), f.r_a, f.r_b);
         p.C = f.d;

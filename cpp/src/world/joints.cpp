@@ -96,7 +96,15 @@ JointIndex World::add_joint(const JointDesc& desc) {
       fail("friction must be finite and >= 0, got " + num(desc.friction));
     if (!std::isfinite(desc.effort)) fail("effort must be finite, got " + num(desc.effort));
   } else {
-    if (desc.has_limits) fail("only Revolute and Prismatic joints take limits");
+    if (desc.has_limits && desc.kind == JointKind::Spherical) {
+      // a ball joint's cone: B's axis within upper of A's (lower is 0)
+      if (!desc.axis.allFinite()) fail("axis must be finite, got " + vec(desc.axis));
+      if (!(desc.axis.norm() > 1e-12)) fail("axis must be a non-zero vector, got " + vec(desc.axis));
+      if (desc.lower != 0.0 || !(desc.upper > 0.0 && desc.upper < M_PI))
+        fail("a ball joint's cone angle must lie in (0, pi) rad, got " + num(desc.upper));
+    } else if (desc.has_limits) {
+      fail("only Revolute and Prismatic joints take limits, and Spherical ones a cone");
+    }
     if (desc.motor.enabled) fail("only Revolute and Prismatic joints take a motor");
     if (desc.friction != 0.0) fail("only Revolute and Prismatic joints take friction");
     if (desc.effort != 0.0) fail("only Revolute and Prismatic joints take an effort");
@@ -123,7 +131,8 @@ JointIndex World::add_joint(const JointDesc& desc) {
   const Vec3 at_b = desc.kind == JointKind::Distance ? desc.anchor_b : desc.anchor;
   x.anchor_a = RA.transpose() * (desc.anchor - state_.p[x.a]);
   x.anchor_b = RB.transpose() * (at_b - state_.p[x.b]);
-  const Vec3 axis = axial ? Vec3(desc.axis.normalized()) : Vec3(Vec3::UnitZ());
+  const bool coned = desc.kind == JointKind::Spherical && desc.has_limits;
+  const Vec3 axis = axial || coned ? Vec3(desc.axis.normalized()) : Vec3(Vec3::UnitZ());
   const Vec3 ref = perpendicular(axis);
   x.axis_a = RA.transpose() * axis;
   x.axis_b = RB.transpose() * axis;

@@ -182,6 +182,21 @@ def build_blocks(joint, pA, RA, pB, RB, h):
         w["C"] = axial(RB @ joint["R_rel"].T @ RA.T)
         out += [p, w]
     elif kind in ("Spherical", "Fixed"):
+        if kind == "Spherical" and joint.get("has_limits", False):
+            # the cone: phi = angle(a_A, a_B) <= upper; C = upper - phi, dphi/dt = n . (w_B - w_A)
+            a_A, a_B = RA @ joint["axis_a"], RB @ joint["axis_b"]
+            c = np.cross(a_A, a_B)
+            s = np.linalg.norm(c)
+            if s > 1e-12:
+                n = c / s
+            else:  # the axes meet: any normal of a_A (C is the whole cone, far from binding)
+                k = int(np.argmin(np.abs(a_A)))
+                n = np.cross(a_A, np.eye(3)[k])
+                n /= np.linalg.norm(n)
+            cone = _block(LIMIT, 1, joint, SLOT_UPPER)
+            _angular(cone, 0, -n)
+            cone["C"][0] = joint["upper"] - np.arctan2(s, a_A @ a_B)
+            out.append(cone)
         p = _block(EQUALITY, 3, joint, SLOT_LINEAR)
         for k in range(3):
             _linear(p, k, np.eye(3)[k], r_a, r_b)
