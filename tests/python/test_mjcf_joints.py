@@ -310,7 +310,7 @@ def test_what_stays_outside_is_listed_in_one_error(tmp_path):
         "line 3 <body name='two'>", "line 4 <joint name='r'>", "line 5 <joint name='ball'>",
         "line 7 <joint name='wide'>", "line 12 <general>", "line 13 <velocity>",
         "line 14 <velocity>", "line 15 <position>", "line 17 <pair>"], str(e.value)
-    for needle in ("2 joints on one body", "armature", "a cone limit", "outside (-180, 180) degrees",
+    for needle in ("2 joints on one body", "armature", "whole rotation angle", "outside (-180, 180) degrees",
                    "general actuator", "stiffness or damping", "not symmetric",
                    "ball joint 'ball'", "contact pairs"):
         assert needle in str(e.value), needle
