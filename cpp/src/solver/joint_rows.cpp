@@ -406,10 +406,21 @@ namespace {
 /// the rows allow at the substep's midpoint. Projected at x_n alone, a swing loses O((v h / L)^2) of
 /// its energy at every substep (the next substep's rows have turned by v h / L); at x_{n+1} it gains
 /// as much; at the midpoint the two cancel to that order (docs/conventions.md, "Joints").
-void predict_drift(JointSet& js, const State& state, const std::vector<BodyVelocity>& qd, double h) {
+/// rows: the PGS's contact rows; a joint one of whose moving bodies has a contact in them keeps drift
+/// 0 (null: every joint gets its drift).
+void predict_drift(JointSet& js, const State& state, const std::vector<BodyVelocity>& qd, double h,
+                   const std::vector<ContactRows>* rows = nullptr) {
   const double half = 0.5 * h;
+  if (rows) {
+    js.touching.assign(qd.size(), 0);
+    for (const ContactRows& r : *rows) {
+      if (r.a_moves) js.touching[static_cast<std::size_t>(r.a)] = 1;
+      if (r.b_moves) js.touching[static_cast<std::size_t>(r.b)] = 1;
+    }
+  }
   for (const JointGroup& g : js.groups) {
     Joint& j = *g.joint;
+    if (rows && (js.touching[static_cast<std::size_t>(j.a)] || js.touching[static_cast<std::size_t>(j.b)])) continue;
     const BodyVelocity& va = qd[j.a];
     const BodyVelocity& vb = qd[j.b];
     const Pose A1{state.p[j.a] + half * va.v, math::rodrigues(va.omega, half) * state.R[j.a]};
@@ -464,7 +475,9 @@ void prepare_joints(const Model& model, const State& state, double h, bool soft,
   // leaves (sweep_joints), which the joints and contacts have already made consistent: the velocities
   // before the solve may run into a contact or a limit, and their midpoint rows then ask the solve
   // for velocities that are not there to keep (measured: 50 ragdolls in a pile gained 800 J in one
-  // step at one substep, and more with every extra sweep)
+  // step at one substep, and more with every extra sweep); and none for a joint whose bodies touch
+  // something (a contact changes their velocities within the substep, so the midpoint is not where
+  // they go: small ragdolls spun to hundreds of rad/s in fuzzed piles exploded on it)
   if (predict && soft) predict_drift(js, state, d.qd, h);
 }
 
@@ -595,9 +608,8 @@ double sweep_joints(JointSet& js, SolverData& d, JointSweep mode, double h) {
   const auto next = [&](const JointBlock& b, double old, double u, double k) {
     return bounded_next(b, js, old, u, k, mode, inv_h);
   };
-  if (mode == JointSweep::Hard && js.drift_after_first_sweep && ++js.hard_sweeps == 2) {
-    predict_drift(js, *js.state, d.qd, h);
-  }
+  if (mode == JointSweep::Hard && js.drift_after_first_sweep && ++js.hard_sweeps == 2)
+    predict_drift(js, *js.state, d.qd, h, &d.rows);
   for (const JointGroup& g : js.groups) {
     if (g.coupled) {
       change = std::max(change, solve_group(js, g, d.qd, drift, alpha, every, next, biased));

@@ -97,6 +97,7 @@ struct JointSet {
   // velocities the first left (predict_drift); the sweeps of this substep so far
   const State* state = nullptr;
   bool drift_after_first_sweep = false;
+  std::vector<char> touching;  ///< per body: has a contact row this substep (the PGS's drift)
   int hard_sweeps = 0;
   // the soft step's joint spring for the current substep (soften: bias_rate 1/s, the two scales)
   double bias_rate = 0.0, mass_scale = 1.0, impulse_scale = 0.0;

@@ -278,17 +278,21 @@ def prepare_joints(snapshot, joints, q_dot, h):
     return blocks
 
 
-def predict_drift(blocks, q_dot, h):
+def predict_drift(blocks, q_dot, h, touching=None):
     """Each row's drift h/2 (dJ/dt) q_dot = J(poses after h/2 at q_dot) q_dot - J q_dot (0 for a
     motor), from the velocities q_dot (N, 6): solving J q_dot + drift = 0 asks the rows of the
     substep's midpoint, where a swing's energy loss to the rows' turning cancels to second order.
     The PGS takes q_dot after its first sweep: the velocities before the solve may run into a contact
-    or a limit, and their midpoint rows would ask for velocities that are not there to keep."""
+    or a limit, and their midpoint rows would ask for velocities that are not there to keep.
+    ``touching``: the moving bodies with a contact row this substep, whose joints keep drift 0 (a
+    contact changes their velocities within the substep; None: every joint gets its drift)."""
     half = 0.5 * h
     for group in _groups(blocks):
         here = group["blocks"]
         joint = here[0]["joint"]
         a, b = joint["body_a"], joint["body_b"]
+        if touching is not None and (a in touching or b in touching):
+            continue
         pA, RA, pB, RB = group["poses"]
         there = build_blocks(joint, pA + half * q_dot[a, 3:], rodrigues(q_dot[a, :3], half) @ RA,
                              pB + half * q_dot[b, 3:], rodrigues(q_dot[b, :3], half) @ RB, h)
