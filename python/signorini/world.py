@@ -435,9 +435,10 @@ class World:
         exact contacts, as the oracle finds them).
     continuous : continuous collision (docs/conventions.md, "Shape casts and continuous
         collision"; default on): after each step, a dynamic body that moved more than half its
-        inner radius in it (or a ``bullet`` body) is swept from its start to its end position against
-        the static bodies; if its path went more than a quarter of its inner radius into one, it is
-        put back just before the touch (its velocity kept: the next step's contact stops it).
+        inner radius in it (or a ``bullet`` body) has its centre's path from its start to its end
+        cast against the static bodies; if the centre crossed a surface, the body is put back along
+        its path just before its shape's first touch (its velocity kept: the next step's contact
+        stops it). Bodies with joints are left to their joints.
         ``step_report["continuous"]`` counts the bodies put back.
 
     sleeping : bodies at rest fall asleep with their island (docs/conventions.md, "Sleeping"): a

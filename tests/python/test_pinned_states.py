@@ -35,7 +35,10 @@ PINNED = {
     # fuzzer scene 1:103: 14 bodies of all 7 kinds on a triangle-mesh height field, its full 1.5 s
     # (re-pinned when a capsule got both segment ends and a cylinder its rim points in the floor
     # against mesh triangles, issue 21: its capsule and cylinders land differently)
-    "fuzz 1:103": "11c7c0c6b183a13e16d78a2c156ff9ef72fedf152699b8adee93960afc7178a9",
+    # (re-pinned when continuous collision came, issue 24: at step 149 a cylinder falling at 3.4 m/s
+    # would have ended with its centre 9 mm under the height field's surface; it is put back before
+    # it, once in the run; with set_solver(continuous=False) the old digest comes back, bit for bit)
+    "fuzz 1:103": "d9ccf7fa41b8a8480ca93e79963f95ff3c6afa7b0849aae37d7fdcb305f1bd1f",
 }
 
 
@@ -53,7 +56,7 @@ def run(name: str):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the pile's solver warning is not what is pinned here
         if name.startswith("fuzz"):
-            scene = fuzz.generate(1, 103)
+            scene = fuzz.generate(1, 103, joints=False)  # as pinned: without structures or projectiles
             world, _ = fuzz.build(scene)
             world.step(scene["dt"], int(round(scene["duration"] / scene["dt"])))
         else:

@@ -1,9 +1,10 @@
 // Shape casts and continuous collision (issue 24; docs/conventions.md, "Shape casts and
 // continuous collision"): a bounded shape swept along a straight line against the bodies the broad
 // phase finds along it, by collision::cast_shape (conservative advancement on exact distances).
-// The step uses the same sweep for its fast bodies, against the static ones, after its substeps:
-// speculative contacts stop most fast bodies, but a small body crossing a bumpy triangle mesh in
-// one step can find no contact in time and end behind it.
+// After its substeps the step checks its fast bodies: one whose centre's path crossed a static
+// body's surface is put back before its shape's first touch along the path. Speculative contacts
+// stop most fast bodies, but a small body crossing a bumpy triangle mesh in one step can find no
+// contact in time and end behind it.
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -25,10 +26,6 @@ using collision::Pose;
 /// A dynamic body is swept when it moved more than this fraction of its inner radius in the step
 /// (or is a bullet): slower, its speculative contacts have it covered.
 constexpr double kFastFraction = 0.5;
-/// A sweep counts only where the body's path goes deeper than this fraction of its inner radius
-/// into a static body: a path that ends on a surface (the solver stopped it there) or slides along
-/// one (a flat mesh's neighbouring triangles) is left alone.
-constexpr double kAllowFraction = 0.25;
 /// Where a swept body is put back: this fraction of its inner radius before the touch.
 constexpr double kBackFraction = 0.01;
 
@@ -82,6 +79,7 @@ std::optional<ShapeHit> World::cast_shape(const Shape& shape, const Vec3& positi
 void World::continuous() {
   if (!settings_.solver.continuous) return;
   const State& start = guard_->start();
+  std::vector<int>& stack = scratch_->bvh_stack;
   for (const BodyIndex i : moving_) {
     if (model_.is_kinematic[i] || !model_.enabled[i] || model_.is_sensor[i] || state_.asleep(i)) continue;
     const Vec3 delta = state_.p[i] - start.p[i];
@@ -93,25 +91,32 @@ void World::continuous() {
     const bool jointed = std::any_of(joints_->joints.begin(), joints_->joints.end(),
                                      [&](const Joint& j) { return !j.broken && (j.a == i || j.b == i); });
     if (jointed) continue;
-    // swept with its end orientation (a translation: the turn within one step is left to the
-    // speculative contacts), from where it started, as deep as the allowance
+    // went through: its centre's path from the step's start crosses a static body's surface (a body
+    // that slid over a bump or stopped on a surface keeps its centre in front; only a centre that
+    // starts outside counts)
     const Shape& shape = model_.shape[i];
     const Pose from{start.p[i], state_.R[i]};
-    const double allow = kAllowFraction * inner;
-    CastHit first;
+    collision::Ray ray{start.p[i], delta / travel, travel};
+    double crossed = 2.0;
+    BodyIndex wall = -1;
     for (const BodyIndex j : along(*broad_phase_, shape, from, delta, *scratch_)) {
       if (!model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j)) continue;
-      const CastHit h = collision::cast_shape(model_.shape[j], Pose{state_.p[j], state_.R[j]}, shape, from, delta,
-                                              -allow, broad_phase_->triangles(j), *scratch_);
-      if (h.hit && h.t > 0.0 && (!first.hit || h.t < first.t)) first = h;
+      collision::RayResult r;
+      const Pose at{state_.p[j], state_.R[j]};
+      if (!collision::ray_shape(model_.shape[j], at, ray, broad_phase_->triangles(j), stack, r) || r.inside) continue;
+      if (r.t / travel < crossed) crossed = r.t / travel, wall = j;
     }
-    if (!first.hit) continue;
-    // back along the path to kBackFraction of the inner radius before the touch, as the normal at
-    // the allowance's depth measures it (the gap closes at -delta . n per unit of the path)
-    const double closing = -delta.dot(first.normal);
-    if (!(closing > 0.0)) continue;
-    const double back = std::max(0.0, first.t - (allow + kBackFraction * inner) / closing);
-    state_.p[i] = start.p[i] + back * delta;
+    if (wall < 0) continue;
+    // put back before the first touch of its shape along the path (the sweep against that body), by
+    // kBackFraction of its inner radius as the touch's normal measures the gap; where the shape
+    // touched it at the start already, or the sweep finds no touch, its inner radius before the
+    // centre's crossing
+    const CastHit h = collision::cast_shape(model_.shape[wall], Pose{state_.p[wall], state_.R[wall]}, shape, from,
+                                            delta, 0.0, broad_phase_->triangles(wall), *scratch_);
+    const double closing = h.hit ? -delta.dot(h.normal) : 0.0;
+    const double back = h.hit && h.t > 0.0 && closing > 0.0 ? h.t - kBackFraction * inner / closing
+                                                           : crossed - inner / travel;
+    state_.p[i] = start.p[i] + std::max(0.0, std::min(back, crossed)) * delta;
     ++report_.continuous;
   }
 }
