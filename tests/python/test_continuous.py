@@ -267,3 +267,25 @@ def test_continuous_is_a_solver_setting():
     assert pickle.loads(pickle.dumps(w)).solver["continuous"] is False
     with pytest.raises(TypeError, match="continuous"):
         w.set_solver(continuous=1)
+
+
+@pytest.mark.parametrize("solver", ["pgs", "soft"])
+def test_a_small_capsule_at_6_m_s_stops_on_a_height_field(solver):
+    # the hidden fuzz sample of issue 24: a capsule of 1.4 cm (radius 4 mm, 3 mm half length) at
+    # 6 m/s, dt 1/60, ended 1.9 cm under a height field; 24 such shots at random attitudes and slants
+    # under gravity keep their centres on the front side every step (measured without continuous
+    # collision: 13 of the 24 pass through with the soft step, 2 with the PGS)
+    rng = np.random.default_rng(3)
+    for _ in range(24):
+        w = sg.World(solver=solver, sleeping=False)
+        surface = height_field(w)
+        q = rng.normal(size=4)
+        start = np.array([rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(0.1, 0.4)])
+        d = np.array([rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), -1.0])
+        b = w.add_body(sg.Capsule(0.004, 0.003), mass=0.01, position=start, orientation=q / np.linalg.norm(q),
+                       velocity=6.0 * d / np.linalg.norm(d))
+        for _ in range(60):
+            w.step(1 / 60)
+            x, y, z = w.positions[b]
+            if abs(x) < HALF and abs(y) < HALF:
+                assert z > surface(x, y), (solver, w.positions[b])
