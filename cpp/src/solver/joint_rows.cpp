@@ -475,10 +475,10 @@ void prepare_joints(const Model& model, const State& state, double h, bool soft,
   // leaves (sweep_joints), which the joints and contacts have already made consistent: the velocities
   // before the solve may run into a contact or a limit, and their midpoint rows then ask the solve
   // for velocities that are not there to keep (measured: 50 ragdolls in a pile gained 800 J in one
-  // step at one substep, and more with every extra sweep); and none for a joint whose bodies touch
-  // something (a contact changes their velocities within the substep, so the midpoint is not where
-  // they go: small ragdolls spun to hundreds of rad/s in fuzzed piles exploded on it)
-  if (predict && soft) predict_drift(js, state, d.qd, h);
+  // step at one substep, and more with every extra sweep); and, in both, none for a joint whose
+  // bodies touch something (a contact changes their velocities within the substep, so the midpoint
+  // is not where they go: small ragdolls spun to hundreds of rad/s in fuzzed piles exploded on it)
+  if (predict && soft) predict_drift(js, state, d.qd, h, &d.rows);
 }
 
 void warm_start_joints(const JointSet& js, SolverData& d) {
