@@ -408,8 +408,10 @@ namespace {
 /// as much; at the midpoint the two cancel to that order (docs/conventions.md, "Joints").
 /// rows: the contact rows; a joint one of whose moving bodies has a contact in them keeps drift 0
 /// (null: every joint gets its drift).
+/// turn: the most a joint's bodies may turn in h / 2 for its drift (rad; the soft step's kDriftTurn,
+/// the PGS none).
 void predict_drift(JointSet& js, const State& state, const std::vector<BodyVelocity>& qd, double h,
-                   const std::vector<ContactRows>* rows = nullptr) {
+                   const std::vector<ContactRows>* rows, double turn) {
   const double half = 0.5 * h;
   if (rows) {
     js.touching.assign(qd.size(), 0);
@@ -421,10 +423,10 @@ void predict_drift(JointSet& js, const State& state, const std::vector<BodyVeloc
   for (const JointGroup& g : js.groups) {
     Joint& j = *g.joint;
     if (rows && (js.touching[static_cast<std::size_t>(j.a)] || js.touching[static_cast<std::size_t>(j.b)])) continue;
-    // nor where a body turns more than kDriftTurn in h / 2: the rule is the first term of an expansion
-    // in that turn (a 1 cm capsule of a fuzzed chain, spun to 1,800 rad/s, turned 1.9 rad in h / 2 and
-    // gained energy without bound on it)
-    if (half * std::max(qd[j.a].omega.norm(), qd[j.b].omega.norm()) > kDriftTurn) continue;
+    // nor, in the soft step, where a body turns more than kDriftTurn in h / 2: the rule is the first
+    // term of an expansion in that turn (a 1 cm capsule of a fuzzed chain, spun to 1,800 rad/s, turned
+    // 1.9 rad in h / 2 and gained energy without bound on it)
+    if (half * std::max(qd[j.a].omega.norm(), qd[j.b].omega.norm()) > turn) continue;
     const BodyVelocity& va = qd[j.a];
     const BodyVelocity& vb = qd[j.b];
     const Pose A1{state.p[j.a] + half * va.v, math::rodrigues(va.omega, half) * state.R[j.a]};
@@ -482,7 +484,7 @@ void prepare_joints(const Model& model, const State& state, double h, bool soft,
   // step at one substep, and more with every extra sweep); and, in both, none for a joint whose
   // bodies touch something (a contact changes their velocities within the substep, so the midpoint
   // is not where they go: small ragdolls spun to hundreds of rad/s in fuzzed piles exploded on it)
-  if (predict && soft) predict_drift(js, state, d.qd, h, &d.rows);
+  if (predict && soft) predict_drift(js, state, d.qd, h, &d.rows, kDriftTurn);
 }
 
 void warm_start_joints(const JointSet& js, SolverData& d) {
@@ -613,7 +615,7 @@ double sweep_joints(JointSet& js, SolverData& d, JointSweep mode, double h) {
     return bounded_next(b, js, old, u, k, mode, inv_h);
   };
   if (mode == JointSweep::Hard && js.drift_after_first_sweep && ++js.hard_sweeps == 2)
-    predict_drift(js, *js.state, d.qd, h, &d.rows);
+    predict_drift(js, *js.state, d.qd, h, &d.rows, std::numeric_limits<double>::infinity());
   for (const JointGroup& g : js.groups) {
     if (g.coupled) {
       change = std::max(change, solve_group(js, g, d.qd, drift, alpha, every, next, biased));

@@ -35,8 +35,9 @@ struct SolverData;
 /// spring-damper of this frequency (Hz, capped at a quarter of the substep rate) and damping ratio
 /// in the biased sweeps, and rigid in the relax sweeps.
 constexpr double kJointHertz = 60.0;
-/// The midpoint rule's drift is asked of a joint only while its bodies turn at most this much (rad)
-/// in half a substep (joint_rows.cpp, predict_drift).
+/// The soft step asks the midpoint rule's drift of a joint only while its bodies turn at most this
+/// much (rad) in half a substep (joint_rows.cpp, predict_drift; the PGS of any joint: without it a
+/// fuzzed ragdoll pushed a part through a height field at dt 1/1000).
 constexpr double kDriftTurn = 0.1;
 constexpr double kJointDampingRatio = 2.0;
 

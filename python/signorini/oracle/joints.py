@@ -29,7 +29,6 @@ from .rigid import rodrigues
 SLOT_MOTOR, SLOT_LOWER, SLOT_UPPER, SLOT_LINEAR, SLOT_ANGULAR, SLOT_FRICTION, SLOT_EFFORT = 0, 1, 2, 3, 6, 9, 10
 SLOTS = 9
 EQUALITY, LIMIT, MOTOR = "equality", "limit", "motor"
-DRIFT_TURN = 0.1  # rad: the drift only while the joint's bodies turn at most this much in h / 2
 
 
 def tangent_basis(n):
@@ -293,10 +292,6 @@ def predict_drift(blocks, q_dot, h, touching=None):
         joint = here[0]["joint"]
         a, b = joint["body_a"], joint["body_b"]
         if touching is not None and (a in touching or b in touching):
-            continue
-        # nor where a body turns more than DRIFT_TURN in h / 2 (the rule is the first term of an
-        # expansion in that turn)
-        if half * max(np.linalg.norm(q_dot[a, :3]), np.linalg.norm(q_dot[b, :3])) > DRIFT_TURN:
             continue
         pA, RA, pB, RB = group["poses"]
         there = build_blocks(joint, pA + half * q_dot[a, 3:], rodrigues(q_dot[a, :3], half) @ RA,
