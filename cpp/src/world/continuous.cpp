@@ -1,8 +1,7 @@
-// Shape casts and continuous collision (issue 24; docs/conventions.md, "Shape casts and
-// continuous collision"): a bounded shape swept along a straight line against the bodies the broad
-// phase finds along it, by collision::cast_shape (conservative advancement on exact distances).
-// After its substeps the step checks its fast bodies: one whose centre's path crossed a static
-// body's surface is put back before its shape's first touch along the path. Speculative contacts
+// Continuous collision (issue 24; docs/conventions.md, "Shape casts and continuous collision"):
+// after its substeps the step checks its fast bodies: one whose centre's path crossed a static
+// body's surface is put back before its shape's first touch along the path (collision::cast_shape,
+// the sweep World::cast_shape in queries.cpp makes too). Speculative contacts
 // stop most fast bodies, but a small body crossing a bumpy triangle mesh in one step can find no
 // contact in time and end behind it.
 #include <algorithm>
@@ -11,9 +10,7 @@
 
 #include "collision/collision.hpp"
 #include "collision/ray.hpp"
-#include "signorini/rotation.hpp"
 #include "signorini/world.hpp"
-#include "world/checks.hpp"
 #include "solver/joint_rows.hpp"
 #include "world/step_guard.hpp"
 
@@ -45,36 +42,6 @@ const std::vector<BodyIndex>& along(const collision::BroadPhase& bp, const Shape
 }
 
 }  // namespace
-
-std::optional<ShapeHit> World::cast_shape(const Shape& shape, const Vec3& position, const Quat4& orientation,
-                                          const Vec3& translation, const QueryFilter& filter) const {
-  const Lock lock(mutex_);
-  const std::string who = "cast_shape";
-  if (static_only(shape))
-    throw std::invalid_argument(who + ": shape must be bounded (not a Plane or TriangleMesh), got a " +
-                                shape_name(shape));
-  checks::require_finite(who, "position", position);
-  checks::require_finite(who, "translation", translation);
-  const Quat4 q = checks::unit_quaternion(who + ": orientation", orientation);
-  for (const BodyIndex i : filter.exclude)
-    if (i < 0 || static_cast<std::size_t>(i) >= model_.size())
-      throw BodyIndexError(who + ": exclude: body index " + std::to_string(i) + " is out of range: the world has " +
-                           std::to_string(model_.size()) + " bodies");
-  broad_phase_->refresh(model_, state_);
-  const Pose pose{position, rotation_matrix(q)};
-  std::optional<ShapeHit> best;
-  query_stats_ = QueryStats{1, 0, 0};
-  for (const BodyIndex i : along(*broad_phase_, shape, pose, translation, *scratch_)) {
-    if (!model_.enabled[i] || !(model_.filter[i].group & filter.mask) || !(model_.filter[i].mask & filter.group) ||
-        std::find(filter.exclude.begin(), filter.exclude.end(), i) != filter.exclude.end())
-      continue;
-    ++query_stats_.body_tests;
-    const CastHit h = collision::cast_shape(model_.shape[i], Pose{state_.p[i], state_.R[i]}, shape, pose, translation,
-                                            0.0, broad_phase_->triangles(i), *scratch_);
-    if (h.hit && (!best || h.t < best->fraction)) best = ShapeHit{i, h.t, h.point, h.normal};
-  }
-  return best;
-}
 
 void World::continuous() {
   if (!settings_.solver.continuous) return;

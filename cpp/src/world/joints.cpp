@@ -15,6 +15,14 @@
 namespace signorini {
 namespace {
 
+/// Joint j of joints, or std::out_of_range naming the index and the count.
+Joint& checked(std::vector<Joint>& joints, JointIndex j) {
+  if (j < 0 || static_cast<std::size_t>(j) >= joints.size())
+    throw std::out_of_range("joint index " + std::to_string(j) + " is out of range: the world has " +
+                            std::to_string(joints.size()) + " joints");
+  return joints[static_cast<std::size_t>(j)];
+}
+
 const char* kind_name(JointKind k) {
   switch (k) {
     case JointKind::Revolute: return "Revolute";
@@ -160,10 +168,8 @@ JointIndex World::add_joint(const JointDesc& desc) {
 
 void World::remove_joint(JointIndex j) {
   const Lock lock(mutex_);
-  if (j < 0 || static_cast<std::size_t>(j) >= joints_->joints.size())
-    throw std::out_of_range("joint index " + std::to_string(j) + " is out of range: the world has " +
-                            std::to_string(joints_->joints.size()) + " joints");
-  const BodyIndex a = joints_->joints[static_cast<std::size_t>(j)].a, b = joints_->joints[static_cast<std::size_t>(j)].b;
+  const Joint& gone = checked(joints_->joints, j);
+  const BodyIndex a = gone.a, b = gone.b;
   joints_->joints.erase(joints_->joints.begin() + j);
   joints_changed();
   wake(a);
@@ -172,10 +178,7 @@ void World::remove_joint(JointIndex j) {
 
 void World::set_joint_motor(JointIndex j, const Motor& motor) {
   const Lock lock(mutex_);
-  if (j < 0 || static_cast<std::size_t>(j) >= joints_->joints.size())
-    throw std::out_of_range("joint index " + std::to_string(j) + " is out of range: the world has " +
-                            std::to_string(joints_->joints.size()) + " joints");
-  Joint& x = joints_->joints[static_cast<std::size_t>(j)];
+  Joint& x = checked(joints_->joints, j);
   const auto fail = [&](const std::string& why) { throw std::invalid_argument(joint_label(j) + ": " + why); };
   if (motor.enabled) {
     if (!x.one_dof()) fail("only Revolute and Prismatic joints take a motor");
@@ -190,10 +193,7 @@ void World::set_joint_motor(JointIndex j, const Motor& motor) {
 
 void World::set_joint_effort(JointIndex j, double effort) {
   const Lock lock(mutex_);
-  if (j < 0 || static_cast<std::size_t>(j) >= joints_->joints.size())
-    throw std::out_of_range("joint index " + std::to_string(j) + " is out of range: the world has " +
-                            std::to_string(joints_->joints.size()) + " joints");
-  Joint& x = joints_->joints[static_cast<std::size_t>(j)];
+  Joint& x = checked(joints_->joints, j);
   if (!x.one_dof()) throw std::invalid_argument(joint_label(j) + ": only Revolute and Prismatic joints take an effort");
   if (!std::isfinite(effort)) throw std::invalid_argument(joint_label(j) + ": effort must be finite, got " + num(effort));
   x.effort = effort;
@@ -204,10 +204,7 @@ void World::set_joint_effort(JointIndex j, double effort) {
 
 void World::set_joint_broken(JointIndex j, bool broken) {
   const Lock lock(mutex_);
-  if (j < 0 || static_cast<std::size_t>(j) >= joints_->joints.size())
-    throw std::out_of_range("joint index " + std::to_string(j) + " is out of range: the world has " +
-                            std::to_string(joints_->joints.size()) + " joints");
-  Joint& x = joints_->joints[static_cast<std::size_t>(j)];
+  Joint& x = checked(joints_->joints, j);
   if (x.broken == broken) return;
   x.broken = broken;
   x.alpha.fill(0.0);

@@ -272,6 +272,41 @@ std::vector<BodyIndex> World::overlap(const Shape& shape, const Vec3& position, 
                      query_stats_);
 }
 
+std::optional<ShapeHit> World::cast_shape(const Shape& shape, const Vec3& position, const Quat4& orientation,
+                                          const Vec3& translation, const QueryFilter& filter) const {
+  const Lock lock(mutex_);
+  const std::string who = "cast_shape";
+  if (static_only(shape))
+    throw std::invalid_argument(who + ": shape must be bounded (not a Plane or TriangleMesh), got a " +
+                                shape_name(shape));
+  checks::require_finite(who, "position", position);
+  checks::require_finite(who, "translation", translation);
+  const Quat4 q = checks::unit_quaternion(who + ": orientation", orientation);
+  const Seen seen = seen_by(model_, filter, who);
+  broad_phase_->refresh(model_, state_);
+  // the bodies whose boxes meet the box the shape sweeps, and the planes (collision::cast_shape on
+  // each: conservative advancement on exact distances)
+  const Pose pose{position, rotation_matrix(q)};
+  Vec3 lo, hi;
+  collision::shape_aabb(shape, pose, lo, hi);
+  std::vector<BodyIndex> candidates(broad_phase_->planes());
+  std::vector<const void*> stack;
+  query_stats_ = QueryStats{1, 0, 0};
+  broad_phase_->overlap_box(lo.cwiseMin(lo + translation), hi.cwiseMax(hi + translation), candidates, stack,
+                            query_stats_.nodes);
+  std::sort(candidates.begin(), candidates.end());
+  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+  std::optional<ShapeHit> best;
+  for (const BodyIndex i : candidates) {
+    if (!seen(i)) continue;
+    ++query_stats_.body_tests;
+    const collision::CastHit h = collision::cast_shape(model_.shape[i], Pose{state_.p[i], state_.R[i]}, shape, pose,
+                                                       translation, 0.0, broad_phase_->triangles(i), *scratch_);
+    if (h.hit && (!best || h.t < best->fraction)) best = ShapeHit{i, h.t, h.point, h.normal};
+  }
+  return best;
+}
+
 std::vector<BodyIndex> World::overlap_aabb(const Vec3& lo, const Vec3& hi, const QueryFilter& filter) const {
   const Lock lock(mutex_);
   const std::string who = "overlap_aabb";
