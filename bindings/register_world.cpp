@@ -437,7 +437,8 @@ void register_world(py::module_& m) {
                            bool motor, double motor_speed, double motor_max_force, double min_length,
                            double max_length, bool collide_connected, const std::string& name, double motor_position,
                            double motor_stiffness, double motor_damping, double friction, double break_force,
-                           double break_torque, double effort) {
+                           double break_torque, double effort, bool has_twist, double twist_lower,
+                           double twist_upper) {
              if (kind < 0 || kind > static_cast<int>(JointKind::Distance))
                throw std::invalid_argument("add_joint: unknown joint kind " + std::to_string(kind));
              JointDesc d;
@@ -445,6 +446,7 @@ void register_world(py::module_& m) {
              d.body_a = body_a, d.body_b = body_b;
              d.anchor = anchor, d.anchor_b = anchor_b, d.axis = axis;
              d.has_limits = has_limits, d.lower = lower, d.upper = upper;
+             d.has_twist = has_twist, d.twist_lower = twist_lower, d.twist_upper = twist_upper;
              d.motor.enabled = motor, d.motor.speed = motor_speed, d.motor.max_force = motor_max_force;
              d.motor.position = motor_position, d.motor.stiffness = motor_stiffness, d.motor.damping = motor_damping;
              d.friction = friction;
@@ -461,7 +463,8 @@ void register_world(py::module_& m) {
            py::arg("name"), py::arg("motor_position") = 0.0, py::arg("motor_stiffness") = 0.0,
            py::arg("motor_damping") = 0.0, py::arg("friction") = 0.0,
            py::arg("break_force") = std::numeric_limits<double>::infinity(),
-           py::arg("break_torque") = std::numeric_limits<double>::infinity(), py::arg("effort") = 0.0)
+           py::arg("break_torque") = std::numeric_limits<double>::infinity(), py::arg("effort") = 0.0,
+           py::arg("has_twist") = false, py::arg("twist_lower") = 0.0, py::arg("twist_upper") = 0.0)
       .def("set_joint_effort", &World::set_joint_effort, py::arg("j"), py::arg("effort"))
       .def("set_joint_broken", &World::set_joint_broken, py::arg("j"), py::arg("broken"))
       .def_property_readonly("joint_breaks", [](const World& w) {
@@ -507,6 +510,7 @@ void register_world(py::module_& m) {
         d["ref_a"] = x.ref_a, d["ref_b"] = x.ref_b;
         d["R_rel"] = Mat3(x.R_rel);
         d["has_limits"] = x.has_limits, d["lower"] = x.lower, d["upper"] = x.upper;
+        d["has_twist"] = x.has_twist, d["twist_lower"] = x.twist_lower, d["twist_upper"] = x.twist_upper;
         d["motor"] = x.motor.enabled, d["motor_speed"] = x.motor.speed, d["motor_max_force"] = x.motor.max_force;
         d["motor_position"] = x.motor.position, d["motor_stiffness"] = x.motor.stiffness;
         d["motor_damping"] = x.motor.damping;

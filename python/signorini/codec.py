@@ -458,8 +458,12 @@ def scene_joints(world, bodies: list[dict]) -> list[dict]:
             for key in ("friction", "effort"):
                 if not is_zero(d[key]):
                     table[key] = float(d[key])
-        elif kind == "Spherical" and d["has_limits"]:
-            table.update(axis=floats(given.axis), cone=float(d["upper"]))
+        elif kind == "Spherical" and (d["has_limits"] or d["has_twist"]):
+            table["axis"] = floats(given.axis)
+            if d["has_limits"]:
+                table["cone"] = float(d["upper"])
+            if d["has_twist"]:
+                table["twist"] = [float(d["twist_lower"]), float(d["twist_upper"])]
         for key in ("break_force", "break_torque"):
             if d[key] != np.inf:
                 table[key] = float(d[key])

@@ -93,12 +93,13 @@ def _limit(x, who: str, what: str) -> float:
     return math.inf if x is None else as_number(x, who, what)
 
 
-def _limits(limits, who: str) -> dict:
+def _limits(limits, who: str, what: str = "limits") -> dict:
     if limits is None:
         return dict(has_limits=False)
     if isinstance(limits, (str, bytes)) or not hasattr(limits, "__len__") or len(limits) != 2:
-        raise TypeError(f"{who}: limits must be (lower, upper), got {limits!r}")
-    return dict(has_limits=True, lower=as_number(limits[0], who, "limits[0]"), upper=as_number(limits[1], who, "limits[1]"))
+        raise TypeError(f"{who}: {what} must be (lower, upper), got {limits!r}")
+    return dict(has_limits=True, lower=as_number(limits[0], who, f"{what}[0]"),
+                upper=as_number(limits[1], who, f"{what}[1]"))
 
 
 def _motor(motor, who: str) -> dict:
@@ -158,31 +159,41 @@ class Prismatic(_Axial):
 
 
 class Spherical(Joint):
-    """A ball joint: the bodies share the ``anchor`` point (world, at creation). ``cone`` (rad, in
-    (0, pi)) with ``axis`` (world, at creation; fixed in each body from then on): a swing limit, B's
-    axis within ``cone`` of A's (a ragdoll's shoulder or hip), solved as a hinge's limit is (a
-    speculative row, restitution 0)."""
+    """A ball joint: the bodies share the ``anchor`` point (world, at creation). With ``axis`` (world,
+    at creation; fixed in each body from then on), a ragdoll's shoulder or hip:
+
+    - ``cone`` (rad, in (0, pi)): a swing limit, B's axis within ``cone`` of A's;
+    - ``twist=(lo, hi)`` (rad, in (-pi, pi)): B's turn about the axis relative to A, once the
+      swing is taken out (0 at creation), within [lo, hi].
+
+    Each is solved as a hinge's limit is (a speculative row, restitution 0)."""
     kind = SPHERICAL
 
     def __init__(self, body_a: int, body_b: int, anchor, *, axis=None, cone: Optional[float] = None,
-                 name: Optional[str] = None, break_force: Optional[float] = None,
+                 twist=None, name: Optional[str] = None, break_force: Optional[float] = None,
                  break_torque: Optional[float] = None, collide_connected: bool = False):
         super().__init__(body_a, body_b, name=name, collide_connected=collide_connected,
                          break_force=break_force, break_torque=break_torque)
         self.anchor = anchor
         self.axis = axis
         self.cone = cone
+        self.twist = twist
 
     def _core_args(self, who: str, positions: np.ndarray) -> dict:
         d = super()._core_args(who, positions)
         d["anchor"] = as_vector(self.anchor, 3, who, "anchor")
-        if getattr(self, "cone", None) is not None:
+        cone, twist = getattr(self, "cone", None), getattr(self, "twist", None)
+        if cone is not None or twist is not None:
             if self.axis is None:
-                raise TypeError(f"{who}: a cone needs its axis (world, at creation), got axis=None")
-            d.update(has_limits=True, lower=0.0, upper=as_number(self.cone, who, "cone"),
-                     axis=as_vector(self.axis, 3, who, "axis"))
+                raise TypeError(f"{who}: a cone or twist range needs its axis (world, at creation), got axis=None")
+            d["axis"] = as_vector(self.axis, 3, who, "axis")
         elif getattr(self, "axis", None) is not None:
-            raise TypeError(f"{who}: axis is the cone's axis: give cone=angle with it, or no axis")
+            raise TypeError(f"{who}: axis is the cone's and twist's axis: give cone= or twist= with it, or no axis")
+        if cone is not None:
+            d.update(has_limits=True, lower=0.0, upper=as_number(cone, who, "cone"))
+        if twist is not None:
+            limits = _limits(twist, who, "twist")
+            d.update(has_twist=True, twist_lower=limits["lower"], twist_upper=limits["upper"])
         return d
 
 

@@ -768,7 +768,8 @@ class _Reader:
                     self.skip(el, f"{key} of a ball joint (signorini's ball joint has no drive or friction)")
             if rng is not None:
                 self.skip(el, "range of a ball joint (MuJoCo limits the whole rotation angle, twist included; "
-                              "signorini's ball joint limits the swing of one axis, Spherical(cone=...))")
+                              "signorini's ball joint limits the swing of one axis and the twist about it, "
+                              "Spherical(cone=..., twist=...))")
             rng = None
         limits = None
         if rng is not None:

@@ -410,12 +410,14 @@ class PrismaticJoint(_AxialJointTable):
 
 
 class SphericalJoint(_JointTable):
-    """A ball joint: the bodies share ``anchor`` (world, at creation); ``cone`` (rad, in (0, pi)) with
-    ``axis`` (world, at creation): B's axis stays within that angle of A's."""
+    """A ball joint: the bodies share ``anchor`` (world, at creation); with ``axis`` (world, at
+    creation), ``cone`` (rad, in (0, pi)): B's axis stays within that angle of A's, and ``twist``
+    (rad, [lo, hi] in (-pi, pi)): B's turn about the axis relative to A, swing taken out."""
     type: Literal["spherical"]
     anchor: FiniteVec3 = Field(description="world, m, at creation")
-    axis: Optional[FiniteVec3] = Field(None, description="the cone's axis, world, at creation (with cone)")
+    axis: Optional[FiniteVec3] = Field(None, description="the cone's and twist's axis, world, at creation")
     cone: Optional[Finite] = Field(None, description="swing limit, rad, in (0, pi) (with axis)")
+    twist: Optional[Tuple[Finite, Finite]] = Field(None, description="twist limits [lo, hi], rad, in (-pi, pi) (with axis)")
 
 
 class FixedJoint(_JointTable):
@@ -689,7 +691,7 @@ def _scene_joints(model: SceneFile, where_file: str) -> list:
             joint = kind(a, b, t.anchor, t.axis, limits=t.limits, motor=motor, friction=t.friction, effort=t.effort,
                          **common)
         elif isinstance(t, SphericalJoint):
-            joint = Spherical(a, b, t.anchor, axis=t.axis, cone=t.cone, **common)
+            joint = Spherical(a, b, t.anchor, axis=t.axis, cone=t.cone, twist=t.twist, **common)
         elif isinstance(t, FixedJoint):
             joint = Fixed(a, b, t.anchor, **common)
         else:

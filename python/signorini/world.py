@@ -29,7 +29,7 @@ import numpy as np
 from . import _core, codec, queries
 from .arguments import (ALL_BITS, INT_MAX, as_bits, as_count, as_flag, as_indices, as_name, as_number, as_rows,
                         as_scalar, as_vector, readonly)
-from .joints import KINDS as _JOINT_KINDS, Joint, Motor
+from .joints import KINDS as _JOINT_KINDS, SPHERICAL, Joint, Motor
 from ._core import Box, Capsule, Compound, ConvexHull, Cylinder, Mesh, Plane, Sphere, TriangleMesh
 
 Shape = (Sphere, Box, Plane, Mesh, Capsule, Cylinder, ConvexHull, TriangleMesh, Compound)
@@ -1108,7 +1108,7 @@ class World:
     def joint(self, joint: int) -> dict:
         """Joint ``joint`` as the world keeps it: kind, bodies, anchors, axes and reference vectors
         in each body's frame, R_rel, limits, motor, lengths, name, its rows' warm-start forces
-        (``alpha``, 9 slots) and its last force and torque on B (signorini.oracle.joints)."""
+        (``alpha``, 11 slots) and its last force and torque on B (signorini.oracle.joints)."""
         d = self._core.joint(self._joint_index(joint))
         d["kind"] = _JOINT_KINDS[d["kind"]]
         return d
@@ -1133,9 +1133,13 @@ class World:
         slider or a Distance joint's length): > 0 at the lower limit (a Distance joint at its
         min_length), < 0 at the upper one (a rope taut at its max_length), 0 when no limit acts, so a
         limit is active exactly when this is non-zero; for a rod (min_length = max_length) the rod's
-        push along its length (< 0: pulling). NaN-free; 0 for joints without limits."""
+        push along its length (< 0: pulling). A ball joint's is its twist limits' (> 0 at the lower
+        one) less its cone's push. NaN-free; 0 for joints without limits."""
         rows = self._core.joint_row_forces
-        return (rows[:, 1] - rows[:, 2]) if len(rows) else np.zeros(0)
+        if not len(rows):
+            return np.zeros(0)
+        ball = np.array([self._core.joint(j)["kind"] == SPHERICAL for j in range(len(rows))], dtype=bool)
+        return np.where(ball, rows[:, 6] - rows[:, 7], rows[:, 1]) - rows[:, 2]
 
     @property
     @_locked
@@ -1151,8 +1155,9 @@ class World:
     @_locked
     def joint_row_forces(self) -> np.ndarray:
         """(J, 11) each joint's rows' forces of the last substep by slot (docs/conventions.md,
-        "Joints", warm start): motor, lower limit, upper limit, three linear, three angular,
-        friction, effort (N or N m; 0 for a row the joint does not have). A copy."""
+        "Joints", warm start): motor, lower limit, upper limit (a ball joint's cone), three linear,
+        three angular (a ball joint's twist lower and upper limits in the first two), friction,
+        effort (N or N m; 0 for a row the joint does not have). A copy."""
         return self._core.joint_row_forces
 
     @property

@@ -1,7 +1,8 @@
 // Joints on the core alone (docs/conventions.md, "Joints"): a simple pendulum on a hinge against
-// its small-angle period, in both solvers, and what add_joint refuses.
+// its small-angle period, in both solvers, a ball joint's twist limit, and what add_joint refuses.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -112,6 +113,79 @@ TEST(Joints, BadInputNamesTheJointAndChangesNothing) {
   d.lower = 1.0;
   d.upper = -1.0;
   EXPECT_THROW(w.add_joint(d), std::invalid_argument);
+  EXPECT_EQ(w.num_joints(), 1u);
+  EXPECT_EQ(w.save_state(), before);
+}
+
+class TwistOnTheCore : public ::testing::TestWithParam<SolverMethod> {};
+
+TEST_P(TwistOnTheCore, ASpunRodStopsAtItsTwistLimit) {
+  // a 1 kg rod hanging from a ball joint, spun at 2 rad/s about its own axis (-z, the joint's axis)
+  // with no torque on it: it twists freely, psi = 2 t, to the 0.4 rad limit and stops there (the
+  // PGS's rigid row within 1e-6 rad, the soft step's spring within 1 degree)
+  World w(settings(GetParam()));
+  BodyDesc ground;
+  ground.is_static = true;
+  ground.shape = Plane(Vec3(0, 0, 1), -100.0);
+  const BodyIndex g = w.add_body(ground);
+  BodyDesc rod;
+  rod.shape = Box(Vec3(0.05, 0.02, 0.5));
+  rod.mass = 1.0;
+  rod.position = Vec3(0, 0, -0.5);
+  rod.angular_velocity = Vec3(0, 0, -2.0);
+  const BodyIndex b = w.add_body(rod);
+  JointDesc ball;
+  ball.kind = JointKind::Spherical;
+  ball.body_a = g;
+  ball.body_b = b;
+  ball.axis = Vec3(0, 0, -1);
+  ball.has_twist = true;
+  ball.twist_lower = -0.3;
+  ball.twist_upper = 0.4;
+  w.add_joint(ball);
+  const double dt = 1.0 / 240.0, tolerance = GetParam() == SolverMethod::PGS ? 1e-6 : M_PI / 180.0;
+  double largest = 0.0;
+  for (int k = 1; k <= 480; ++k) {
+    w.step(dt);
+    // the rod turns about z only: psi is its turn about -z
+    const Mat3& R = w.state().R[b];
+    const double psi = -std::atan2(R(1, 0), R(0, 0));
+    if (2.0 * k * dt < 0.4 - 2.0 * dt) EXPECT_NEAR(psi, 2.0 * k * dt, 1e-9);
+    largest = std::max(largest, psi);
+  }
+  const double psi = -std::atan2(w.state().R[b](1, 0), w.state().R[b](0, 0));
+  EXPECT_LT(largest, 0.4 + tolerance);
+  EXPECT_NEAR(psi, 0.4, tolerance);
+  EXPECT_LT(std::abs(w.state().omega[b].z()), 1e-3);
+}
+
+INSTANTIATE_TEST_SUITE_P(Solvers, TwistOnTheCore, ::testing::Values(SolverMethod::PGS, SolverMethod::Soft));
+
+TEST(Joints, TwistLimitsOutsideTheirRangeAreRefused) {
+  World w(settings(SolverMethod::PGS));
+  pendulum(w, 0.0);
+  const std::string before = w.save_state();
+  JointDesc d;
+  d.kind = JointKind::Spherical;
+  d.body_a = 0;
+  d.body_b = 1;
+  d.axis = Vec3::UnitZ();
+  d.has_twist = true;
+  d.twist_lower = 0.5;
+  d.twist_upper = 0.4;
+  try {
+    w.add_joint(d);
+    FAIL() << "twist limits lower > upper were accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("joint 1 (Spherical): a ball joint's twist limits need lower <= upper"),
+              std::string::npos)
+        << e.what();
+  }
+  d.twist_lower = -M_PI;
+  EXPECT_THROW(w.add_joint(d), std::invalid_argument);
+  d.kind = JointKind::Revolute;
+  d.twist_lower = -0.3;
+  EXPECT_THROW(w.add_joint(d), std::invalid_argument);  // only a ball joint has a twist
   EXPECT_EQ(w.num_joints(), 1u);
   EXPECT_EQ(w.save_state(), before);
 }

@@ -271,9 +271,9 @@ def test_a_state_saved_before_spinning_friction_is_restored_and_steps_on():
     assert np.array_equal(c.alpha, old["contact_alpha"]) and np.array_equal(c.friction, old["contact_friction"])
     assert np.array_equal(cache["alpha"], old["cache_alpha"]) and np.array_equal(cache["friction"], old["cache_friction"])
     assert not c.spin_torque.any() and not cache["spin"].any()
-    # saved again, it is the current format (6); stepped on, it follows the old build (to rounding: another
+    # saved again, it is the current format (8); stepped on, it follows the old build (to rounding: another
     # compiler may round differently; the same build gives the same bits)
-    assert w.save_state().data[:8] == b"SGSTATE7"
+    assert w.save_state().data[:8] == b"SGSTATE8"
     w.step(1 / 240, 10)
     np.testing.assert_allclose(w.positions, old["position_after"], rtol=0, atol=1e-12)
     np.testing.assert_allclose(w.angular_velocities, old["angular_velocity_after"], rtol=0, atol=1e-12)

@@ -51,6 +51,10 @@ struct JointDesc {
   Vec3 axis = Vec3::UnitZ();         ///< Revolute, Prismatic: world direction, normalised (non-zero, finite)
   bool has_limits = false;           ///< Revolute (rad), Prismatic (m): lower <= coordinate <= upper
   double lower = 0.0, upper = 0.0;   ///< lower <= upper; the coordinate is 0 at creation
+  /// Spherical with an axis: twist_lower <= psi <= twist_upper, psi B's twist about the axis
+  /// relative to A once the swing is taken out (rad, 0 at creation; docs/conventions.md, "Joints")
+  bool has_twist = false;
+  double twist_lower = 0.0, twist_upper = 0.0;  ///< in (-pi, pi), twist_lower <= twist_upper
   Motor motor;                       ///< Revolute, Prismatic
   /// Revolute, Prismatic: Coulomb friction, the most torque (N m) or force (N) the joint resists
   /// sliding with (>= 0, finite; 0: none): a row J q_dot = 0 with |alpha| <= friction
@@ -77,6 +81,8 @@ enum JointSlot : int {
   kSlotAngular = 6,    ///< angular rows: a hinge's two perpendicular rows, a weld's or slider's 3
   kSlotFriction = 9,   ///< friction row (1)
   kSlotEffort = 10,    ///< effort row (1): alpha = effort
+  kSlotTwistLower = 6, ///< a ball joint's twist limits (1 each), in angular slots it has no rows for
+  kSlotTwistUpper = 7,
   kJointSlots = 11,
 };
 
@@ -92,6 +98,8 @@ struct Joint {
   Mat3 R_rel = Mat3::Identity();  ///< R_A^T R_B at creation: the relative rotation a weld or slider keeps
   bool has_limits = false;
   double lower = 0.0, upper = 0.0;
+  bool has_twist = false;                       ///< JointDesc::has_twist
+  double twist_lower = 0.0, twist_upper = 0.0;  ///< rad
   Motor motor;
   double friction = 0.0;  ///< N m or N (JointDesc::friction)
   double effort = 0.0;    ///< N m or N (JointDesc::effort)

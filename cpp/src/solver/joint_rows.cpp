@@ -36,6 +36,22 @@ double hinge_angle(const Joint& j, const Mat3& RA, const Mat3& RB) {
   return std::atan2(axis.dot(u_a.cross(u_b)), u_a.dot(u_b));
 }
 
+/// A ball joint's twist psi (rad, in (-pi, pi]) and its rate's direction t: with a_X = R_X axis_X,
+/// the swing S is the least turn taking a_B onto a_A (S x = (a_B . a_A) x + c x x + c (c . x) /
+/// (1 + a_B . a_A), c = a_B x a_A), and psi is the angle from R_A ref_a to S R_B ref_b about a_A.
+/// Then dpsi/dt = t . (omega_B - omega_A) exactly, t = (a_A + a_B) / (1 + a_A . a_B). False where
+/// the axes point apart (1 + a_A . a_B <= 1e-9: a swing of pi, where the twist is not defined).
+bool twist_angle(const Joint& j, const Mat3& RA, const Mat3& RB, double& psi, Vec3& t) {
+  const Vec3 a_A = RA * j.axis_a, a_B = RB * j.axis_b;
+  const double cos_swing = a_B.dot(a_A);
+  if (!(1.0 + cos_swing > 1e-9)) return false;
+  const Vec3 c = a_B.cross(a_A), u_a = RA * j.ref_a, u_b = RB * j.ref_b;
+  const Vec3 swung = cos_swing * u_b + c.cross(u_b) + (c.dot(u_b) / (1.0 + cos_swing)) * c;
+  psi = std::atan2(a_A.dot(u_a.cross(swung)), u_a.dot(swung));
+  t = (a_A + a_B) / (1.0 + cos_swing);
+  return true;
+}
+
 bool moves(const Model& model, const State& state, int i) {
   return !model.is_static[i] && !model.is_kinematic[i] && model.enabled[i] && !state.asleep(i);
 }
@@ -308,6 +324,16 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
           JointBlock& cone = add_block(js, j, JointBlock::Limit, 1, kSlotUpper, a_moves, b_moves);
           angular_row(cone, 0, -n);
           cone.C[0] = j.upper - std::atan2(s, a_A.dot(a_B));
+        }
+        double psi = 0.0;
+        Vec3 t;
+        if (j.has_twist && twist_angle(j, RA, RB, psi, t)) {  // as a hinge's limits, about t
+          JointBlock& lo = add_block(js, j, JointBlock::Limit, 1, kSlotTwistLower, a_moves, b_moves);
+          angular_row(lo, 0, t);
+          lo.C[0] = psi - j.twist_lower;
+          JointBlock& hi = add_block(js, j, JointBlock::Limit, 1, kSlotTwistUpper, a_moves, b_moves);
+          angular_row(hi, 0, -t);
+          hi.C[0] = j.twist_upper - psi;
         }
         JointBlock& p = add_block(js, j, JointBlock::Equality, 3, kSlotLinear, a_moves, b_moves);
         for (int k = 0; k < 3; ++k) linear_row(p, k, Vec3::Unit(k), f.r_a, f.r_b);

@@ -88,6 +88,7 @@ JointIndex World::add_joint(const JointDesc& desc) {
   if (desc.kind == JointKind::Distance && !desc.anchor_b.allFinite())
     fail("anchor_b must be finite, got " + vec(desc.anchor_b));
   const bool axial = desc.kind == JointKind::Revolute || desc.kind == JointKind::Prismatic;
+  if (desc.has_twist && desc.kind != JointKind::Spherical) fail("only Spherical joints take twist limits");
   if (axial) {
     if (!desc.axis.allFinite()) fail("axis must be finite, got " + vec(desc.axis));
     if (!(desc.axis.norm() > 1e-12)) fail("axis must be a non-zero vector, got " + vec(desc.axis));
@@ -104,12 +105,17 @@ JointIndex World::add_joint(const JointDesc& desc) {
       fail("friction must be finite and >= 0, got " + num(desc.friction));
     if (!std::isfinite(desc.effort)) fail("effort must be finite, got " + num(desc.effort));
   } else {
-    if (desc.has_limits && desc.kind == JointKind::Spherical) {
-      // a ball joint's cone: B's axis within upper of A's (lower is 0)
+    if ((desc.has_limits || desc.has_twist) && desc.kind == JointKind::Spherical) {
+      // a ball joint's cone (B's axis within upper of A's; lower is 0) and twist about the axis
       if (!desc.axis.allFinite()) fail("axis must be finite, got " + vec(desc.axis));
       if (!(desc.axis.norm() > 1e-12)) fail("axis must be a non-zero vector, got " + vec(desc.axis));
-      if (desc.lower != 0.0 || !(desc.upper > 0.0 && desc.upper < M_PI))
+      if (desc.has_limits && (desc.lower != 0.0 || !(desc.upper > 0.0 && desc.upper < M_PI)))
         fail("a ball joint's cone angle must lie in (0, pi) rad, got " + num(desc.upper));
+      const std::string twist = "(" + num(desc.twist_lower) + ", " + num(desc.twist_upper) + ")";
+      if (desc.has_twist && !(desc.twist_lower > -M_PI && desc.twist_upper < M_PI))
+        fail("a ball joint's twist limits must lie in (-pi, pi) rad, got " + twist);
+      if (desc.has_twist && !(desc.twist_lower <= desc.twist_upper))
+        fail("a ball joint's twist limits need lower <= upper, got " + twist);
     } else if (desc.has_limits) {
       fail("only Revolute and Prismatic joints take limits, and Spherical ones a cone");
     }
@@ -139,7 +145,7 @@ JointIndex World::add_joint(const JointDesc& desc) {
   const Vec3 at_b = desc.kind == JointKind::Distance ? desc.anchor_b : desc.anchor;
   x.anchor_a = RA.transpose() * (desc.anchor - state_.p[x.a]);
   x.anchor_b = RB.transpose() * (at_b - state_.p[x.b]);
-  const bool coned = desc.kind == JointKind::Spherical && desc.has_limits;
+  const bool coned = desc.kind == JointKind::Spherical && (desc.has_limits || desc.has_twist);
   const Vec3 axis = axial || coned ? Vec3(desc.axis.normalized()) : Vec3(Vec3::UnitZ());
   const Vec3 ref = perpendicular(axis);
   x.axis_a = RA.transpose() * axis;
@@ -150,6 +156,9 @@ JointIndex World::add_joint(const JointDesc& desc) {
   x.has_limits = desc.has_limits;
   x.lower = desc.lower;
   x.upper = desc.upper;
+  x.has_twist = desc.has_twist;
+  x.twist_lower = desc.twist_lower;
+  x.twist_upper = desc.twist_upper;
   x.motor = desc.motor;
   x.friction = desc.friction;
   x.effort = desc.effort;

@@ -28,7 +28,7 @@
 namespace signorini {
 namespace {
 
-constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '7'};
+constexpr char kStateMagic[8] = {'S', 'G', 'S', 'T', 'A', 'T', 'E', '8'};
 constexpr std::size_t kStateVersionAt = 7;  ///< the format digit's position in the magic
 
 void save(serial::Writer& w, const State& s) {
@@ -111,6 +111,9 @@ void save(serial::Writer& w, const Joint& j) {
   w.pod(static_cast<std::uint8_t>(j.has_limits));
   w.pod(j.lower);
   w.pod(j.upper);
+  w.pod(static_cast<std::uint8_t>(j.has_twist));
+  w.pod(j.twist_lower);
+  w.pod(j.twist_upper);
   w.pod(static_cast<std::uint8_t>(j.motor.enabled));
   w.pod(j.motor.speed);
   w.pod(j.motor.max_force);
@@ -148,6 +151,11 @@ Joint load_joint(serial::Reader& r, std::size_t n, char version) {
   j.has_limits = r.pod<std::uint8_t>() != 0;
   j.lower = r.pod<double>();
   j.upper = r.pod<double>();
+  if (version >= '8') {  // format 7 and before: no twist limits
+    j.has_twist = r.pod<std::uint8_t>() != 0;
+    j.twist_lower = r.pod<double>();
+    j.twist_upper = r.pod<double>();
+  }
   j.motor.enabled = r.pod<std::uint8_t>() != 0;
   j.motor.speed = r.pod<double>();
   j.motor.max_force = r.pod<double>();
@@ -174,7 +182,8 @@ Joint load_joint(serial::Reader& r, std::size_t n, char version) {
   r.mat(j.torque);
   bool finite = j.anchor_a.allFinite() && j.anchor_b.allFinite() && j.axis_a.allFinite() && j.axis_b.allFinite() &&
                 j.ref_a.allFinite() && j.ref_b.allFinite() && j.R_rel.allFinite() && j.force.allFinite() &&
-                j.torque.allFinite() && !std::isnan(j.lower) && !std::isnan(j.upper) && std::isfinite(j.min_length) &&
+                j.torque.allFinite() && !std::isnan(j.lower) && !std::isnan(j.upper) && std::isfinite(j.twist_lower) &&
+                std::isfinite(j.twist_upper) && std::isfinite(j.min_length) &&
                 !std::isnan(j.max_length) && std::isfinite(j.motor.speed) && j.motor.max_force >= 0.0 &&
                 std::isfinite(j.motor.position) && std::isfinite(j.motor.stiffness) && j.motor.stiffness >= 0.0 &&
                 std::isfinite(j.motor.damping) && j.motor.damping >= 0.0 && std::isfinite(j.friction) &&
@@ -229,9 +238,9 @@ void World::restore_state(const std::string& saved) {
   if (saved.size() < sizeof kStateMagic || std::memcmp(saved.data(), kStateMagic, kStateVersionAt) != 0)
     throw std::invalid_argument("restore_state: not a saved state (no header)");
   const char version = saved[kStateVersionAt];
-  if (version < '1' || version > '7')
+  if (version < '1' || version > '8')
     throw std::invalid_argument(std::string("restore_state: a saved state of format '") + version +
-                                "', which this signorini does not read (it reads formats 1 to 6)");
+                                "', which this signorini does not read (it reads formats 1 to 8)");
   r.at = sizeof kStateMagic;
   const std::size_t n = r.pod<std::uint64_t>();
   if (n != model_.size())

@@ -16,17 +16,20 @@ A joint (``snapshot["joints"]``, a list of dicts, as ``World.snapshot()`` writes
     anchor_a, anchor_b  (3,) m, lever arms from each body's centre of mass in its own frame
     axis_a, axis_b, ref_a, ref_b  (3,) unit, each body's frame (R_A axis_a = R_B axis_b at creation)
     R_rel       (3, 3) R_A^T R_B at creation
-    has_limits, lower, upper    (rad or m);  motor, motor_speed, motor_max_force (and, for a
+    has_limits, lower, upper    (rad or m; a Spherical joint's cone is upper);  has_twist,
+    twist_lower, twist_upper    (rad; Spherical);  motor, motor_speed, motor_max_force (and, for a
     spring-damper motor, motor_position, motor_stiffness, motor_damping); friction (N m or N, 0: none); effort (N m or N)
     min_length, max_length      (m; Distance)
-    alpha       (9,) the rows' forces of the last substep by slot (N or N m): the warm start
-Slots: motor 0, lower 1, upper 2, linear 3..5, angular 6..8, friction 9, effort 10.
+    alpha       (11,) the rows' forces of the last substep by slot (N or N m): the warm start
+Slots: motor 0, lower 1, upper 2 (a ball joint's cone), linear 3..5, angular 6..8 (a ball joint's
+twist lower and upper limits at 6 and 7), friction 9, effort 10.
 """
 import numpy as np
 
 from .rigid import rodrigues
 
 SLOT_MOTOR, SLOT_LOWER, SLOT_UPPER, SLOT_LINEAR, SLOT_ANGULAR, SLOT_FRICTION, SLOT_EFFORT = 0, 1, 2, 3, 6, 9, 10
+SLOT_TWIST_LOWER, SLOT_TWIST_UPPER = 6, 7  # a ball joint's twist limits, in angular slots it has no rows for
 SLOTS = 9
 EQUALITY, LIMIT, MOTOR = "equality", "limit", "motor"
 
@@ -51,6 +54,23 @@ def hinge_angle(joint, RA, RB):
     axis = RA @ joint["axis_a"]
     u_a, u_b = RA @ joint["ref_a"], RB @ joint["ref_b"]
     return float(np.arctan2(axis @ np.cross(u_a, u_b), u_a @ u_b))
+
+
+def twist_angle(joint, RA, RB):
+    """A ball joint's twist psi (rad, in (-pi, pi]) and its rate's direction t, or None where the
+    axes point apart (1 + a_A . a_B <= 1e-9). With a_X = R_X axis_X, the swing S is the least turn
+    taking a_B onto a_A, S x = (a_B . a_A) x + c x x + c (c . x) / (1 + a_B . a_A), c = a_B x a_A;
+    psi is the angle from R_A ref_a to S R_B ref_b about a_A, and dpsi/dt = t . (w_B - w_A)
+    exactly, t = (a_A + a_B) / (1 + a_A . a_B)."""
+    a_A, a_B = RA @ joint["axis_a"], RB @ joint["axis_b"]
+    cos_swing = a_B @ a_A
+    if not 1.0 + cos_swing > 1e-9:
+        return None
+    c = np.cross(a_B, a_A)
+    u_a, u_b = RA @ joint["ref_a"], RB @ joint["ref_b"]
+    swung = cos_swing * u_b + np.cross(c, u_b) + ((c @ u_b) / (1.0 + cos_swing)) * c
+    psi = float(np.arctan2(a_A @ np.cross(u_a, swung), u_a @ swung))
+    return psi, (a_A + a_B) / (1.0 + cos_swing)
 
 
 def turning_with_a(joint, RA):
@@ -197,6 +217,15 @@ def build_blocks(joint, pA, RA, pB, RB, h):
             _angular(cone, 0, -n)
             cone["C"][0] = joint["upper"] - np.arctan2(s, a_A @ a_B)
             out.append(cone)
+        twist = twist_angle(joint, RA, RB) if kind == "Spherical" and joint.get("has_twist", False) else None
+        if twist is not None:  # as a hinge's limits, about t
+            psi, t = twist
+            lo, hi = _block(LIMIT, 1, joint, SLOT_TWIST_LOWER), _block(LIMIT, 1, joint, SLOT_TWIST_UPPER)
+            _angular(lo, 0, t)
+            lo["C"][0] = psi - joint["twist_lower"]
+            _angular(hi, 0, -t)
+            hi["C"][0] = joint["twist_upper"] - psi
+            out += [lo, hi]
         p = _block(EQUALITY, 3, joint, SLOT_LINEAR)
         for k in range(3):
             _linear(p, k, np.eye(3)[k], r_a, r_b)

@@ -1,0 +1,154 @@
+"""A ball joint's twist limits (issue 23; docs/conventions.md, "Joints"): B's turn about the joint's
+axis relative to A, once the swing is taken out, stays within [lo, hi], alone or with a cone, in
+both solvers and in the oracle. The twist is measured here independently of the core: the twist
+part of the relative rotation q = swing * twist, 2 atan2(q_v . a, q_w)."""
+import math
+import pickle
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import signorini as sg
+
+DT = 1.0 / 240.0
+LO, HI = -0.3, 0.4  # rad
+AXIS = np.array([0.0, 0.0, -1.0])  # the joint's axis: straight down along the hanging rod
+
+
+def twist_of(R):
+    """The twist (rad, in (-pi, pi]) about AXIS of a rod whose rotation is R (A is the static ground,
+    at the identity; the rod starts at the identity)."""
+    x, y, z, w = Rotation.from_matrix(R).as_quat()
+    psi = 2.0 * math.atan2(np.dot((x, y, z), AXIS), w)
+    return (psi + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def hanging_rod(solver, spin, swing=0.0, cone=None, twist=(LO, HI)):
+    """A 1 kg rod of 1 m (a thin box along z) hanging from a ball joint at the origin, spun about
+    its own axis at `spin` rad/s (positive: psi grows) and kicked sideways at `swing` rad/s.
+    Returns (world, rod, joint)."""
+    w = sg.World(solver=solver, sleeping=False)
+    ground = w.add_static(sg.Plane(normal=(0, 0, 1), offset=-100.0))
+    rod = w.add_body(sg.Box((0.05, 0.02, 0.5)), mass=1.0, position=(0, 0, -0.5))
+    limited = cone is not None or twist is not None
+    j = w.add_joint(sg.Spherical(ground, rod, anchor=(0, 0, 0), axis=AXIS if limited else None, cone=cone, twist=twist))
+    omega = spin * AXIS + np.array([swing, 0.0, 0.0])
+    w.set_angular_velocity(rod, omega)
+    w.set_velocity(rod, np.cross(omega, (0, 0, -0.5)))
+    return w, rod, j
+
+
+def twists(w, rod, steps=480, forces=None):
+    """The rod's twist after each step (and, into `forces`, its joint's limit force)."""
+    out = []
+    for _ in range(steps):
+        w.step(DT)
+        out.append(twist_of(w.rotations[rod]))
+        if forces is not None:
+            forces.append(w.joint_limit_forces[0])
+    return np.array(out)
+
+
+@pytest.mark.parametrize("solver, overshoot", [("pgs", 1e-6), ("soft", math.radians(1.0))])
+@pytest.mark.parametrize("spin", [2.0, -2.0])
+def test_a_spun_rod_twists_freely_to_its_limit_and_stops_there(solver, overshoot, spin):
+    # hanging straight, the rod spins about a principal axis with no torque on it: psi = spin t
+    # exactly until the limit (0.2 s or 0.15 s away); restitution 0, so it stays there (the PGS's
+    # rigid row: within rounding and a substep's drift; the soft step's 60 Hz spring: within 1 degree)
+    w, rod, j = hanging_rod(solver, spin)
+    forces = []
+    psi = twists(w, rod, forces=forces)
+    limit = HI if spin > 0 else LO
+    free = np.arange(1, len(psi) + 1) * DT * spin
+    before = np.abs(free) < abs(limit) - abs(spin) * DT  # a whole step before the limit
+    np.testing.assert_allclose(psi[before], free[before], rtol=0, atol=1e-9)
+    if spin > 0:
+        assert psi.max() < HI + overshoot and psi[-120:].min() > HI - overshoot
+    else:
+        assert psi.min() > LO - overshoot and psi[-120:].max() < LO + overshoot
+    # the rod has stopped turning about its axis; the limit pushed to stop it (> 0 at the lower
+    # one), never the other way, and nothing pushes it once it rests there
+    assert abs(np.dot(w.angular_velocities[rod], AXIS)) < 1e-3
+    forces = np.array(forces) * math.copysign(1.0, -spin)
+    assert forces.max() > 0.0 and forces.min() >= 0.0
+    assert abs(forces[-1]) < 1e-6
+
+
+@pytest.mark.parametrize("solver, overshoot", [("pgs", 1e-3), ("soft", math.radians(1.0))])
+def test_twist_limits_hold_while_the_rod_swings_against_a_cone(solver, overshoot):
+    # spun and kicked at once: the rod swings past 90 degrees without a cone; with a 0.5 rad cone
+    # and the twist limits, both hold together, the twist measured with the swing taken out
+    w, rod, _ = hanging_rod(solver, spin=3.0, swing=6.0, cone=0.5)
+    psi, swing = [], []
+    for _ in range(480):
+        w.step(DT)
+        R = w.rotations[rod]
+        psi.append(twist_of(R))
+        swing.append(math.acos(np.clip(np.dot(R @ AXIS, AXIS), -1.0, 1.0)))
+    assert max(psi) > HI - 0.02 and max(psi) < HI + overshoot and min(psi) > LO - overshoot
+    assert max(swing) > 0.48 and max(swing) < 0.5 + overshoot
+
+
+def test_inside_its_range_the_joint_is_a_plain_ball_joint():
+    # a small twist (amplitude 0.05 rad) never reaches the limits: bit for bit the free ball joint
+    def run(twist):
+        w, rod, _ = hanging_rod("pgs", 0.0, twist=twist)
+        w.set_angular_velocity(rod, (0.4, 0.2, 0.3))
+        w.step(DT, 240)
+        return np.concatenate([w.positions.ravel(), w.velocities.ravel(), w.angular_velocities.ravel()])
+    np.testing.assert_array_equal(run((LO, HI)), run(None))
+
+
+def test_the_oracle_matches_a_twist_at_its_limit_step_by_step():
+    from signorini import compare
+    w, rod, _ = hanging_rod("pgs", 3.0, swing=2.0, cone=0.5)
+    w.step(DT, 40)  # at the twist limit by now (0.4 rad at 3 rad/s: 32 steps)
+    assert w.joint_limit_forces[0] != 0.0
+    report = compare.lockstep(w, DT, 20)
+    assert report.largest < 1e-10, "\n".join(report.lines())
+    assert report.stat_mismatches == 0, report.first_stat_mismatch
+
+
+def test_twist_limits_survive_pickling_saved_states_and_scene_files(tmp_path):
+    w, rod, _ = hanging_rod("pgs", 3.0, swing=1.0, cone=0.5)
+    w.step(DT, 30)
+    copy = pickle.loads(pickle.dumps(w))
+    saved = w.save_state()
+    assert saved.data[:8] == b"SGSTATE8"
+    w.step(DT, 60)
+    copy.step(DT, 60)
+    np.testing.assert_array_equal(w.positions, copy.positions)
+    after = w.positions.copy()
+    w.restore_state(saved)
+    w.step(DT, 60)
+    np.testing.assert_array_equal(w.positions, after)
+    assert w.joint(0)["has_twist"] and (w.joint(0)["twist_lower"], w.joint(0)["twist_upper"]) == (LO, HI)
+    fresh, rod, _ = hanging_rod("pgs", 3.0)
+    path = tmp_path / "twist.toml"
+    fresh.save_scene(path)
+    assert "twist = [" in path.read_text()
+    again = sg.load_scene(path)
+    np.testing.assert_array_equal(twists(fresh, rod, 120), twists(again, rod, 120))
+
+
+@pytest.mark.parametrize("kw, words", [
+    (dict(twist=(LO, HI)), ["axis"]),
+    (dict(axis=(0, 0, 0), twist=(LO, HI)), ["axis", "non-zero"]),
+    (dict(axis=(0, 0, 1), twist=(0.5, 0.4)), ["twist", "lower <= upper"]),
+    (dict(axis=(0, 0, 1), twist=(-4.0, 0.4)), ["twist", "(-pi, pi)"]),
+    (dict(axis=(0, 0, 1), twist=(-0.3, math.pi)), ["twist", "(-pi, pi)"]),
+    (dict(axis=(0, 0, 1), twist=(math.nan, 0.4)), ["twist"]),
+    (dict(axis=(0, 0, 1), twist=0.4), ["twist", "(lower, upper)"]),
+])
+def test_bad_twist_limits_are_refused_naming_the_joint(kw, words):
+    w = sg.World()
+    ground = w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
+    rod = w.add_body(sg.Box((0.02, 0.02, 0.5)), mass=1.0, position=(0, 0, 1.0))
+    before = w.save_state().data
+    with pytest.raises((TypeError, ValueError)) as e:
+        w.add_joint(sg.Spherical(ground, rod, anchor=(0, 0, 1.5), **kw))
+    assert "joint 0" in str(e.value)
+    for word in words:
+        assert word in str(e.value)
+    assert w.num_joints == 0 and w.save_state().data == before
