@@ -127,7 +127,8 @@ def add_ragdoll(world, rotation=np.eye(3), position=(0.0, 0.0, 0.0), *, density:
         y = R @ np.asarray(anchor) + t
         label = f"{name}{joint}" if name else None
         if kind == "ball":
-            desc = sg.Spherical(a, b, anchor=y, name=label)
+            cone, twist = limits
+            desc = sg.Spherical(a, b, anchor=y, axis=R @ np.asarray(axis), cone=cone, twist=twist, name=label)
         else:
             desc = sg.Revolute(a, b, anchor=y, axis=R @ np.asarray(axis), limits=limits, name=label)
         joints.append(world.add_joint(desc))

@@ -227,19 +227,21 @@ PARTS = (
     ("thigh_r", 0.07, 0.145, (0.0, -0.10, 0.735), "z"),
     ("shin_r", 0.055, 0.175, (0.0, -0.10, 0.29), "z"),
 )
-# Joints: name, parent, child, kind ("ball" or "hinge"), anchor (m), hinge axis, hinge limits
-# (rad; 0 is the standing pose, positive the way the joint bends: waist forward, elbows forward,
-# knees backward).
+# Joints: name, parent, child, kind ("ball" or "hinge"), anchor (m), axis, limits. A hinge's axis
+# and limits (rad; 0 is the standing pose, positive the way the joint bends: waist forward, elbows
+# forward, knees backward); a ball joint's axis (along the child limb, out of the joint) and limits
+# (cone, (twist lower, twist upper)) in rad: the child's axis within the cone of where it stands,
+# its turn about that axis within the twist range.
 RAGDOLL_JOINTS = (
     ("waist", "pelvis", "torso", "hinge", (0.0, 0.0, 1.10), (0.0, 1.0, 0.0), (-0.4, 1.2)),
-    ("neck", "torso", "head", "ball", (0.0, 0.0, 1.50), None, None),
-    ("shoulder_l", "torso", "upper_arm_l", "ball", (0.0, 0.20, 1.42), None, None),
+    ("neck", "torso", "head", "ball", (0.0, 0.0, 1.50), (0.0, 0.0, 1.0), (0.6, (-0.8, 0.8))),
+    ("shoulder_l", "torso", "upper_arm_l", "ball", (0.0, 0.20, 1.42), (0.0, 1.0, 0.0), (1.5, (-1.0, 1.0))),
     ("elbow_l", "upper_arm_l", "forearm_l", "hinge", (0.0, 0.50, 1.42), (0.0, 0.0, -1.0), (0.0, 2.5)),
-    ("shoulder_r", "torso", "upper_arm_r", "ball", (0.0, -0.20, 1.42), None, None),
+    ("shoulder_r", "torso", "upper_arm_r", "ball", (0.0, -0.20, 1.42), (0.0, -1.0, 0.0), (1.5, (-1.0, 1.0))),
     ("elbow_r", "upper_arm_r", "forearm_r", "hinge", (0.0, -0.50, 1.42), (0.0, 0.0, 1.0), (0.0, 2.5)),
-    ("hip_l", "pelvis", "thigh_l", "ball", (0.0, 0.10, 0.95), None, None),
+    ("hip_l", "pelvis", "thigh_l", "ball", (0.0, 0.10, 0.95), (0.0, 0.0, -1.0), (1.2, (-0.6, 0.6))),
     ("knee_l", "thigh_l", "shin_l", "hinge", (0.0, 0.10, 0.52), (0.0, 1.0, 0.0), (0.0, 2.5)),
-    ("hip_r", "pelvis", "thigh_r", "ball", (0.0, -0.10, 0.95), None, None),
+    ("hip_r", "pelvis", "thigh_r", "ball", (0.0, -0.10, 0.95), (0.0, 0.0, -1.0), (1.2, (-0.6, 0.6))),
     ("knee_r", "thigh_r", "shin_r", "hinge", (0.0, -0.10, 0.52), (0.0, 1.0, 0.0), (0.0, 2.5)),
 )
 RAGDOLL_CENTRE = 0.87   # m: the standing ragdoll's mid-height
@@ -359,7 +361,9 @@ def _ragdoll(rng, placed: list, size0: float, spread: float) -> dict:
     for _, parent, child, kind, anchor, axis, limits in RAGDOLL_JOINTS:
         y = (R @ (s * np.asarray(anchor)) + t).tolist()
         if kind == "ball":
-            joints.append({"type": "ball", "a": index[parent], "b": index[child], "anchor": y})
+            cone, twist = limits
+            joints.append({"type": "ball", "a": index[parent], "b": index[child], "anchor": y,
+                           "axis": (R @ np.asarray(axis)).tolist(), "cone": cone, "twist": list(twist)})
         else:
             joints.append({"type": "hinge", "a": index[parent], "b": index[child], "anchor": y,
                            "axis": (R @ np.asarray(axis)).tolist(), "limits": list(limits), "friction": 0.0})
@@ -519,8 +523,10 @@ def _joint(j: dict, a: int, b: int, lift):
     if j["type"] == "hinge":
         return Revolute(a, b, anchor=np.array(j["anchor"]) + lift, axis=j["axis"],
                         limits=None if j["limits"] is None else tuple(j["limits"]), friction=j["friction"])
-    if j["type"] == "ball":
-        return Spherical(a, b, anchor=np.array(j["anchor"]) + lift)
+    if j["type"] == "ball":  # a chain's ball joints are free; a ragdoll's have a cone and a twist range
+        limited = j.get("cone") is not None
+        return Spherical(a, b, anchor=np.array(j["anchor"]) + lift, axis=j["axis"] if limited else None,
+                         cone=j.get("cone"), twist=tuple(j["twist"]) if limited else None)
     return Distance(a, b, np.array(j["anchor_a"]) + lift, np.array(j["anchor_b"]) + lift, j["min_length"],
                     j["max_length"])
 

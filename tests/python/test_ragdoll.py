@@ -1,5 +1,5 @@
-"""Issue 23's ragdoll acceptance: a ragdoll (11 capsules; ball joints at the neck, shoulders and
-hips, hinges with limits at the waist, elbows and knees: benchmarks/bench_joints.py's
+"""Issue 23's ragdoll acceptance: a ragdoll (11 capsules; ball joints with cone and twist limits at
+the neck, shoulders and hips, hinges with limits at the waist, elbows and knees: benchmarks/bench_joints.py's
 ``add_ragdoll``) dropped onto a pile of boxes (4 x 4 and 3 x 3). Over the run the total energy
 E = KE + sum m g z of the dynamic bodies (boxes included) never rises above its start, and at rest
 no joint's two anchor points are more than 1 mm apart.
@@ -72,10 +72,24 @@ def run(solver: str) -> dict:
             w.step(DT)
             energies.append(energy())
     separation = bench.separations(w.positions, w.rotations, bodies, anchors)
+    # each ball joint's swing (the angle between its axes in the two bodies) and twist, at the end
+    from signorini.oracle.joints import twist_angle
+    swings, twists = [], []
+    for j in doll.joints:
+        joint = w.joint(j)
+        if joint["kind"] != "Spherical":
+            swings.append(math.nan)
+            twists.append(math.nan)
+            continue
+        RA, RB = w.rotations[joint["body_a"]], w.rotations[joint["body_b"]]
+        a_A, a_B = RA @ joint["axis_a"], RB @ joint["axis_b"]
+        swings.append(math.atan2(np.linalg.norm(np.cross(a_A, a_B)), a_A @ a_B))
+        twists.append(twist_angle(joint, RA, RB)[0])
     speed = float(np.linalg.norm(np.asarray(w.velocities)[dynamic], axis=1).max())
     return {"e0": e0, "scale": scale, "energies": np.array(energies), "speed": speed,
             "doll_mass": float(np.asarray(w.masses)[doll.bodies].sum()), "separation": float(separation.max()),
-            "joint_positions": w.joint_positions[doll.joints], "doll_z": float(np.asarray(w.positions)[doll.bodies, 2].min())}
+            "joint_positions": w.joint_positions[doll.joints], "swings": swings, "twists": twists,
+            "doll_z": float(np.asarray(w.positions)[doll.bodies, 2].min())}
 
 
 SOLVERS = ["pgs", "soft"]
@@ -103,7 +117,12 @@ def test_joints_hold_within_a_millimetre_at_rest(runs, solver):
     assert r["speed"] < REST_SPEED, (solver, r["speed"])
     assert r["doll_z"] > 0.0  # on the pile or the ground, not through it
     assert r["separation"] < SEPARATION, (solver, r["separation"])
-    # the hinges rest inside their limits (limit rows are speculative and may close them, no more)
-    for (name, _, _, kind, _, _, limits), q in zip(bench.RAGDOLL_JOINTS, r["joint_positions"]):
+    # the hinges rest inside their limits, the ball joints inside their cones and twist ranges (limit
+    # rows are speculative and may close them, no more)
+    for (name, _, _, kind, _, _, limits), q, swing, twist in zip(bench.RAGDOLL_JOINTS, r["joint_positions"],
+                                                                r["swings"], r["twists"]):
         if kind == "hinge":
             assert limits[0] - 0.02 <= q <= limits[1] + 0.02, (solver, name, q)
+        else:
+            cone, (lo, hi) = limits
+            assert swing <= cone + 0.02 and lo - 0.02 <= twist <= hi + 0.02, (solver, name, swing, twist)
