@@ -110,7 +110,7 @@ def test_energy_never_rises_above_its_start(runs, solver):
 
 
 @pytest.mark.parametrize("solver", ["pgs", pytest.param("soft", marks=pytest.mark.xfail(
-    strict=True, reason="the soft step's ragdoll is not at rest after 4 s: a limb still moves at 0.1 m/s (its "
+    strict=True, reason="the soft step's ragdoll is not at rest after 4 s: a limb still moves at 0.036 m/s (its "
     "joints hold: 0.4 mm apart at most; measured, see docs/conventions.md 'Joints')"))])
 def test_joints_hold_within_a_millimetre_at_rest(runs, solver):
     r = runs[solver]
