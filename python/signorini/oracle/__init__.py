@@ -16,8 +16,8 @@ Modules, in the order of a step:
               restitution, position pass (split impulse), store, and the Signorini certificate;
               materials and the warm-start cache
     soft      the soft step (settings["solver"] = "soft"): Catto's soft-constraint substepping on
-              the same rows: softness, the gap carried with the bodies, biased and relax sweeps,
-              restitution and store at the end
+              the same rows: softness, the gap carried with the bodies, biased and relax sweeps
+              (each followed by the joints': springs, then rigid), restitution and store at the end
     pgs       the lecture's frictionless projected Gauss-Seidel (cold start, erp bias)
     lcp       the frictionless problem as an LCP, solved exactly by enumeration (small K)
     rays      ray casts by brute force (containment tests, sampling and bisection; triangles by

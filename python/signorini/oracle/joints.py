@@ -23,6 +23,18 @@ A joint (``snapshot["joints"]``, a list of dicts, as ``World.snapshot()`` writes
     alpha       (11,) the rows' forces of the last substep by slot (N or N m): the warm start
 Slots: motor 0, lower 1, upper 2 (a ball joint's cone), linear 3..5, angular 6..8 (a ball joint's
 twist lower and upper limits at 6 and 7), friction 9, effort 10.
+
+The soft step (``soft.soft_step``) solves the same blocks with two more sweep modes
+(``sweep_joints``): SOFT_BIASED after each biased contact sweep, a spring-damper of JOINT_HERTZ
+(capped at a quarter of the substep rate) and JOINT_DAMPING_RATIO on the position error C,
+    equality rows  d_alpha = -mass_scale K^-1 (J q_dot + drift + bias_rate C) - impulse_scale alpha
+    limit, C <= 0  alpha <- max(alpha - mass_scale (J q_dot + drift + bias_rate C) / K
+                                - impulse_scale alpha, 0)
+(a coupled joint with K_EE^-1 and K_eff in place of K; a limit with C > 0 speculative as in the
+PGS, motors as in the PGS), and SOFT_RELAX after each relax contact sweep: the PGS's rigid rule on
+the same blocks, drift included. Its drift is predicted from the velocities before the joints'
+solve (the PGS's: after its first sweep), and not for a joint whose bodies turn more than
+DRIFT_TURN in h / 2.
 """
 import numpy as np
 
@@ -32,6 +44,14 @@ SLOT_MOTOR, SLOT_LOWER, SLOT_UPPER, SLOT_LINEAR, SLOT_ANGULAR, SLOT_FRICTION, SL
 SLOT_TWIST_LOWER, SLOT_TWIST_UPPER = 6, 7  # a ball joint's twist limits, in angular slots it has no rows for
 SLOTS = 9
 EQUALITY, LIMIT, MOTOR = "equality", "limit", "motor"
+# sweep modes: the PGS's iterate, the soft step's biased sweep (the joint spring on C) and its relax
+# sweep (rigid)
+HARD, SOFT_BIASED, SOFT_RELAX = "hard", "soft biased", "soft relax"
+# the soft step's joint spring: natural frequency (Hz; at most a quarter of the substep rate 1 / h)
+# and damping ratio
+JOINT_HERTZ, JOINT_DAMPING_RATIO = 60.0, 2.0
+# the soft step predicts a joint's drift only while its bodies turn at most this much (rad) in h / 2
+DRIFT_TURN = 0.1
 
 
 def tangent_basis(n):
@@ -269,18 +289,22 @@ def moving(snapshot):
                      and (awake is None or bool(awake[i])) for i, b in enumerate(bodies)], dtype=bool)
 
 
-def prepare_joints(snapshot, joints, q_dot, h):
+def prepare_joints(snapshot, joints, q_dot, h, inertia_rotation=None):
     """Every joint's blocks at the snapshot's poses, with W, K = J W J^T, K^-1, grouped by joint
     (``_group``), and drift 0: the PGS asks for it from the velocities its first sweep leaves
-    (``predict_drift``, called by its second sweep).
+    (``predict_drift``, called by its second sweep), the soft step from those before the joints'
+    solve.
 
     Inputs: snapshot (position, rotation, bodies), joints (list of dicts, alpha read and written
             by the later stages), q_dot (N, 6) the velocities before the joints' solve (unused: kept
-            for the signature), h s.
+            for the signature), h s, inertia_rotation (N, 3, 3) the rotations at which W takes each
+            body's inverse inertia h R I^-1 R^T (the soft step's: the step's start, where its rows
+            are made once; None: the snapshot's).
     Output: list of blocks (dicts), in joint order.
     """
     P = np.asarray(snapshot["position"], dtype=float)
     R = np.asarray(snapshot["rotation"], dtype=float)
+    R_W = R if inertia_rotation is None else np.asarray(inertia_rotation, dtype=float)
     moves = moving(snapshot)
     blocks = []
     for joint in joints:
@@ -289,7 +313,7 @@ def prepare_joints(snapshot, joints, q_dot, h):
             continue
         here = build_blocks(joint, P[a], R[a], P[b], R[b], h)
         for blk in here:
-            W_ang = {x: (h * R[i] @ np.asarray(snapshot["bodies"][i]["inv_inertia"], float) @ R[i].T if moves[i]
+            W_ang = {x: (h * R_W[i] @ np.asarray(snapshot["bodies"][i]["inv_inertia"], float) @ R_W[i].T if moves[i]
                          else np.zeros((3, 3))) for x, i in (("a", a), ("b", b))}
             blk["w_ang_a"] = blk["ang_a"] @ W_ang["a"].T
             blk["w_ang_b"] = blk["ang_b"] @ W_ang["b"].T
@@ -307,20 +331,32 @@ def prepare_joints(snapshot, joints, q_dot, h):
     return blocks
 
 
-def predict_drift(blocks, q_dot, h, touching=None):
+def touching_bodies(snapshot, rows):
+    """The moving bodies (``moving``) with a contact row (rows: ``solver.prepare_rows``), a set:
+    their joints keep drift 0 (``predict_drift``)."""
+    moves = moving(snapshot)
+    return {int(i) for i in np.concatenate([rows["a"], rows["b"]]) if moves[int(i)]}
+
+
+def predict_drift(blocks, q_dot, h, touching=None, turn=np.inf):
     """Each row's drift h/2 (dJ/dt) q_dot = J(poses after h/2 at q_dot) q_dot - J q_dot (0 for a
     motor), from the velocities q_dot (N, 6): solving J q_dot + drift = 0 asks the rows of the
     substep's midpoint, where a swing's energy loss to the rows' turning cancels to second order.
     The PGS takes q_dot after its first sweep: the velocities before the solve may run into a contact
     or a limit, and their midpoint rows would ask for velocities that are not there to keep.
     ``touching``: the moving bodies with a contact row this substep, whose joints keep drift 0 (a
-    contact changes their velocities within the substep; None: every joint gets its drift)."""
+    contact changes their velocities within the substep; None: every joint gets its drift).
+    ``turn`` (rad): a joint whose bodies turn more than this in h / 2 (h/2 max(|omega_A|, |omega_B|))
+    keeps its drift too (the soft step's DRIFT_TURN: the rule is the first term of an expansion in
+    that turn; the PGS's none)."""
     half = 0.5 * h
     for group in _groups(blocks):
         here = group["blocks"]
         joint = here[0]["joint"]
         a, b = joint["body_a"], joint["body_b"]
         if touching is not None and (a in touching or b in touching):
+            continue
+        if half * max(np.sqrt(q_dot[a, :3] @ q_dot[a, :3]), np.sqrt(q_dot[b, :3] @ q_dot[b, :3])) > turn:
             continue
         pA, RA, pB, RB = group["poses"]
         there = build_blocks(joint, pA + half * q_dot[a, 3:], rodrigues(q_dot[a, :3], half) @ RA,
@@ -382,15 +418,25 @@ def _add_to_equalities(group, d_E, q, alpha):
         r += blk["n"]
 
 
-def _solve_group(group, q, bias, alpha, active, new_force):
-    """One pass over a coupled group on q (N, 6): the equality rows at once, then each active bounded
-    row l, alpha_l <- new_force(l, alpha_l, J_l q + bias_l, K_eff), the equality rows following it.
-    bias(blk), alpha(blk): the block's velocity bias and its force storage (a view). Returns the rows'
-    largest velocity change (the equality rows': their residual)."""
+def _solve_group(group, q, bias, alpha, active, new_force, spring=None):
+    """One pass over a coupled group on q (N, 6): the equality rows at once, d_alpha_E =
+    -K_EE^-1 u_E with u_E = J_E q + bias_E (rigid), or with ``spring`` = (bias_rate, mass_scale,
+    impulse_scale) the soft step's biased rule -mass_scale K_EE^-1 u_E - impulse_scale alpha_E;
+    then each active bounded row l, alpha_l <- new_force(l, alpha_l, J_l q + bias_l, K_eff), the
+    equality rows following it. bias(blk), alpha(blk): the block's velocity bias and its force
+    storage (a view). Returns the rows' largest velocity change (rigid equality rows: their
+    residual)."""
     equal = [blk for blk in group["blocks"] if blk["kind"] == EQUALITY]
     u_E = np.concatenate([_velocity(blk, q) + bias(blk) for blk in equal])
-    change = float(np.max(np.abs(u_E)))
-    _add_to_equalities(group, -(group["K_EE_inv"] @ u_E), q, alpha)
+    if spring is None:
+        change = float(np.max(np.abs(u_E)))
+        d_E = -(group["K_EE_inv"] @ u_E)
+    else:
+        _, mass_scale, impulse_scale = spring
+        alpha_E = np.concatenate([np.array(alpha(blk)) for blk in equal])
+        change = 0.0
+        d_E = -mass_scale * (group["K_EE_inv"] @ u_E) - impulse_scale * alpha_E
+    _add_to_equalities(group, d_E, q, alpha)
     for blk in group["blocks"]:
         if blk["kind"] == EQUALITY or not active(blk):
             continue
@@ -432,41 +478,64 @@ def warm_start_joints(blocks, q_dot):
         _apply(blk, np.array(_alpha(blk)), q_dot)
 
 
-def _bounded(blk, old, u, k, h):
-    """The iterate's new force of a bounded row of velocity u whose K is k:
-        limit     max(alpha - (u + max(C, 0) / h) / k, 0)
+def _bounded(blk, old, u, k, h, mode=HARD, spring=None):
+    """The new force of a bounded row of velocity u (J q_dot with its drift) whose K is k, in a sweep
+    of ``mode`` (spring: (bias_rate, mass_scale, impulse_scale), for SOFT_BIASED):
+        limit     C > 0: max(alpha - (u + C / h) / k, 0) (speculative: close the distance, no more);
+                  else max(alpha - u / k, 0), or in SOFT_BIASED
+                  max(alpha - mass_scale (u + bias_rate C) / k - impulse_scale alpha, 0)
         motor     clamp(alpha - (u - target) / k, -max_force, max_force) (rigid), or
                   clamp(alpha - (u + gamma alpha - target) / (k + gamma), ...) (a spring-damper)"""
     k_inv = 1.0 / k if k > 0.0 else 0.0
     if blk["kind"] == LIMIT:
         C = blk["C"][0]
-        return max(old - k_inv * (u + C / h) if C > 0.0 else old - k_inv * u, 0.0)
+        if C > 0.0:
+            return max(old - k_inv * (u + C / h), 0.0)
+        if mode == SOFT_BIASED:
+            bias_rate, mass_scale, impulse_scale = spring
+            return max(old - mass_scale * k_inv * (u + bias_rate * C) - impulse_scale * old, 0.0)
+        return max(old - k_inv * u, 0.0)
     g = blk["gamma"]
     new = old - k_inv * (u - blk["target"]) if g == 0.0 else old - (u + g * old - blk["target"]) / (k + g)
     return min(max(new, blk["lo"]), blk["hi"])
 
 
-def sweep_joints(blocks, q_dot, h):
-    """One Gauss-Seidel sweep over the joints (the PGS's iterate), q_dot (N, 6) in place: each
-    coupled joint as its group (module docstring), with bias the rows' drift; the blocks of the
-    others one by one, equality d_alpha = -K^-1 (J q_dot + drift), bounded rows as ``_bounded`` with
-    their own K. Returns the largest row velocity change (m/s or rad/s)."""
+def sweep_joints(blocks, q_dot, h, mode=HARD, spring=None):
+    """One Gauss-Seidel sweep over the joints, q_dot (N, 6) in place, in ``mode``: HARD (the PGS's
+    iterate) and SOFT_RELAX (the soft step's relax sweep) rigid, SOFT_BIASED (its biased sweep) with
+    the joint spring ``spring`` = (bias_rate 1/s, mass_scale, impulse_scale) (``soft.joint_spring``).
+    Each coupled joint as its group (module docstring), with bias the rows' drift (SOFT_BIASED: the
+    equality rows' drift + bias_rate C); the blocks of the others one by one, equality d_alpha =
+    -K^-1 (J q_dot + drift) (SOFT_BIASED: -mass_scale K^-1 (J q_dot + drift + bias_rate C) -
+    impulse_scale alpha), bounded rows as ``_bounded`` with their own K. Returns the largest row
+    velocity change (m/s or rad/s; the soft step does not read it)."""
     change = 0.0
+    biased = mode == SOFT_BIASED
+
+    def bias(blk):  # the velocity bias: the drift, and in the biased sweep the equality rows' spring on C
+        return blk["drift"] + spring[0] * blk["C"] if biased and blk["kind"] == EQUALITY else blk["drift"]
+
     for group in _groups(blocks):
         if group["coupled"]:
-            change = max(change, _solve_group(group, q_dot, lambda blk: blk["drift"], _alpha, lambda blk: True,
-                                              lambda blk, old, u, k: _bounded(blk, old, u, k, h)))
+            change = max(change, _solve_group(group, q_dot, bias, _alpha, lambda blk: True,
+                                              lambda blk, old, u, k: _bounded(blk, old, u, k, h, mode, spring),
+                                              spring if biased else None))
             continue
         for blk in group["blocks"]:
             u = _velocity(blk, q_dot) + blk["drift"]
             alpha = blk["joint"]["alpha"]
             s = blk["slot"]
             if blk["kind"] == EQUALITY:
-                d = -(blk["K_inv"] @ u)
+                if biased:
+                    bias_rate, mass_scale, impulse_scale = spring
+                    d = (-mass_scale * (blk["K_inv"] @ (u + bias_rate * blk["C"]))
+                         - impulse_scale * alpha[s:s + blk["n"]])
+                else:
+                    d = -(blk["K_inv"] @ u)
                 alpha[s:s + blk["n"]] += d
             else:
                 old = alpha[s]
-                alpha[s] = _bounded(blk, old, u[0], blk["K"][0, 0], h)
+                alpha[s] = _bounded(blk, old, u[0], blk["K"][0, 0], h, mode, spring)
                 d = np.array([alpha[s] - old])
             _apply(blk, d, q_dot)
             change = max(change, float(np.max(np.abs(blk["K"] @ d))))
@@ -523,15 +592,42 @@ def joint_position_pass(blocks, q_p, h, erp, tolerance, max_iterations):
 
 def store_joints(snapshot, joints, blocks):
     """Each joint's force on B (N) and torque about B's anchor (N m), world, (J, 3) each:
-    F = sum alpha_r lin_b,r, tau = sum alpha_r ang_b,r - (R_B anchor_b) x F."""
+    F = sum alpha_r lin_b,r, tau = sum alpha_r ang_b,r - (R_B anchor_b) x F, also written to each
+    joint's ``force`` and ``torque``; a joint without blocks (broken, or its bodies asleep or
+    immovable) keeps the ``force`` and ``torque`` it has (zero when it has none)."""
     R = np.asarray(snapshot["rotation"], dtype=float)
     force, torque = np.zeros((len(joints), 3)), np.zeros((len(joints), 3))
     index = {id(j): k for k, j in enumerate(joints)}
+    solved = set()
     for blk in blocks:
         k = index[id(blk["joint"])]
+        solved.add(k)
         a = np.array(_alpha(blk))
         force[k] += a @ blk["lin_b"]
         torque[k] += a @ blk["ang_b"]
     for k, joint in enumerate(joints):
+        if k not in solved:
+            force[k] = np.asarray(joint.get("force", np.zeros(3)), dtype=float)
+            torque[k] = np.asarray(joint.get("torque", np.zeros(3)), dtype=float)
+            continue
         torque[k] -= np.cross(R[joint["body_b"]] @ joint["anchor_b"], force[k])
+        joint["force"], joint["torque"] = force[k].copy(), torque[k].copy()
     return force, torque
+
+
+def break_joints(joints):
+    """After a step: each unbroken joint whose force or torque (``store_joints``) is larger than its
+    break_force (N) or break_torque (N m) breaks: broken, its alpha, force and torque zero (its
+    bodies collide from the next step unless excluded). In place; returns the indices broken."""
+    broken = []
+    for k, joint in enumerate(joints):
+        if joint.get("broken", False):
+            continue
+        f = np.linalg.norm(np.asarray(joint.get("force", np.zeros(3)), dtype=float))
+        t = np.linalg.norm(np.asarray(joint.get("torque", np.zeros(3)), dtype=float))
+        if f > joint.get("break_force", np.inf) or t > joint.get("break_torque", np.inf):
+            joint["broken"] = True
+            joint["alpha"] = np.zeros_like(np.asarray(joint["alpha"], dtype=float))
+            joint["force"], joint["torque"] = np.zeros(3), np.zeros(3)
+            broken.append(k)
+    return broken

@@ -22,7 +22,16 @@ most 1/240 s each when automatic):
                  n^T (v_B - v_A) >= -e u, so that the rebound starts within h of the impact
     end        store (the last substep's forces, the next cache of its forces before restitution),
                the step's whole normal impulse sum_k h alpha_k, the certificate against the rigid
-               targets
+               targets; each joint's force and torque on B from its last substep's rows
+
+The joints (``joints``) are mirrored too: in each substep's solve, after the contacts' forces are
+applied, the joints' blocks are made at the substep's poses (W of the step's start inertia, as the
+contact rows'), each row's drift predicted from the velocities then (``joints.predict_drift``: not
+for a joint whose moving bodies have a contact row, nor one whose bodies turn more than DRIFT_TURN
+in h / 2), their forces applied (the warm start); one joint sweep follows each contact sweep, the
+biased sweeps' with the joint spring (``joint_spring``: JOINT_HERTZ, at most a quarter of 1 / h,
+damping ratio JOINT_DAMPING_RATIO; a limit with C > 0 speculative), the relax sweeps' rigid, on
+the same blocks (made at the substep's start poses, drift included).
 
 The normal row of contact i (its force alpha >= 0, N) is updated in a sweep by
     alpha <- max(alpha - (mass_scale J q_dot + b) / delta - impulse_scale alpha, 0)
@@ -48,6 +57,19 @@ that overlap for good (tests/python/test_oracle_soft.py checks it, and the core)
 
 import numpy as np
 
+from .joints import (
+    DRIFT_TURN,
+    JOINT_DAMPING_RATIO,
+    JOINT_HERTZ,
+    SOFT_BIASED,
+    SOFT_RELAX,
+    predict_drift,
+    prepare_joints,
+    store_joints,
+    sweep_joints,
+    touching_bodies,
+    warm_start_joints,
+)
 from .rigid import body_arrays, integrate, motion_flags, unconstrained_velocity
 from .solver import (
     RowSweep,
@@ -57,6 +79,7 @@ from .solver import (
     friction_rows,
     prepare_rows,
     read_cache,
+    read_joints,
     recall_forces,
     restitution,
     solve_order,
@@ -84,6 +107,14 @@ def softness(hertz, zeta, h):
     a1 = 2.0 * np.asarray(zeta, dtype=float) + h * omega
     a2 = h * omega * a1
     return omega / a1, a2 / (1.0 + a2), 1.0 / (1.0 + a2)
+
+
+def joint_spring(h):
+    """The joints' spring in the soft step's biased sweeps over a substep h (s): ``softness`` of
+    min(JOINT_HERTZ, MAX_HERTZ_PER_RATE / h) Hz and damping ratio JOINT_DAMPING_RATIO, the same for
+    every joint (moving or static partner). Output (bias_rate 1/s, mass_scale, impulse_scale)."""
+    bias_rate, mass_scale, impulse_scale = softness(min(JOINT_HERTZ, MAX_HERTZ_PER_RATE / h), JOINT_DAMPING_RATIO, h)
+    return float(bias_rate), float(mass_scale), float(impulse_scale)
 
 
 def contact_softness(snapshot, contacts, settings, h):
@@ -244,7 +275,10 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
             and the soft step's own: gap_end (K,) m, alpha_max (K,) N (the largest normal force
             after a substep), restitutive (K,) bool (bounced in the last substep), bounced (K,)
             bool (in some substep), hertz, zeta (K,), substeps n; tied: the contacts (sorted list)
-            whose gap was zero to rounding (``gap_rounding``) in a biased sweep of some substep.
+            whose gap was zero to rounding (``gap_rounding``) in a biased sweep of some substep;
+            joints (the snapshot's joints with their new alpha, force and torque; also in
+            new_snapshot when there are any), joint_force, joint_torque (J, 3) N, N m on B
+            (``joints.store_joints``, at the step's end poses).
     """
     s = solver_settings(snapshot)
     h = dt / n
@@ -266,6 +300,12 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
     restitutive, bounced = np.zeros(K, dtype=bool), np.zeros(K, dtype=bool)
     restitution_iterations = 0
 
+    # the joints: their spring, and the bodies whose joints keep drift 0 (they have contact rows)
+    joints = read_joints(start)
+    spring = joint_spring(h)
+    touching = touching_bodies(start, rows) if joints else set()
+    blocks = []
+
     state = start
     x, tau = alpha.tolist(), alpha_spin.tolist()
     tied = set()
@@ -276,17 +316,27 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
         # solve: the current forces as the first guess, the soft sweeps at the current gaps; the
         # approach of a contact that has not pushed yet is kept for its restitution
         apply_forces(rows, np.asarray(x), q_dot, h, np.asarray(tau), sweep)
+        if joints:  # the joints' blocks at these poses, their drift from these velocities, warm started
+            blocks = prepare_joints(state, joints, q_dot, h, inertia_rotation=start["rotation"])
+            predict_drift(blocks, q_dot, h, touching, DRIFT_TURN)
+            if s["warm_start"]:
+                warm_start_joints(blocks, q_dot)
+            else:
+                for joint in joints:
+                    joint["alpha"][:] = 0.0
         gap, band = carried_gaps(contacts, start, state), gap_rounding(contacts, start, state)
         u_before = np.where(alpha_max == 0.0, normal_velocities(rows, q_dot), u_before)
         for _ in range(s["soft_iterations"]):
             soft_sweep(sweep, rows, soft, gap, x, tau, q_dot, h, True, s["max_push_velocity"], s["friction_cone"],
                        band, ties, tied)
+            sweep_joints(blocks, q_dot, h, SOFT_BIASED, spring)
         # the poses move with the solved velocities
         state = _moved(state, q_dot, h)
-        # relax: rigid sweeps at the new gaps; their velocities are kept
+        # relax: rigid sweeps at the new gaps (the joints' on the same blocks); their velocities are kept
         gap = carried_gaps(contacts, start, state)
         for _ in range(s["relax_iterations"]):
             soft_sweep(sweep, rows, soft, gap, x, tau, q_dot, h, False, s["max_push_velocity"], s["friction_cone"])
+            sweep_joints(blocks, q_dot, h, SOFT_RELAX)
         # restitution on the contacts that push for the first time, e > 0, that approached faster
         # than the threshold: n^T (v_B - v_A) >= -e u_before (the cache keeps the forces before it)
         alpha = np.asarray(x, dtype=float)
@@ -321,8 +371,14 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
         "hertz": soft["hertz"], "zeta": soft["zeta"], "substeps": n, "tied": sorted(tied),
     })
 
+    # the joints' forces and torques on B, from the last substep's blocks, about B's anchor at the end
+    out["joints"] = joints
+    out["joint_force"], out["joint_torque"] = store_joints(state, joints, blocks)
+
     new = dict(state)
     new["velocity"], new["angular_velocity"] = q_dot[:, 3:].copy(), q_dot[:, :3].copy()
     new["cache"] = out.pop("cache")
+    if joints:
+        new["joints"] = joints
     info = {"contacts": contacts, **out}
     return new, info

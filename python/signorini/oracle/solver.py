@@ -40,8 +40,8 @@ of a contact by one delta_t = max(delta_1, delta_2) instead of each by its own d
 
 import numpy as np
 
-from .joints import (joint_position_pass, moving, predict_drift, prepare_joints, store_joints, sweep_joints,
-                     warm_start_joints)
+from .joints import (joint_position_pass, predict_drift, prepare_joints, store_joints, sweep_joints,
+                     touching_bodies, warm_start_joints)
 
 from .rigid import GYROSCOPIC_DEFAULT, GYROSCOPIC_OPTIONS, body_arrays, inverse_mass_blocks, motion_flags
 
@@ -909,9 +909,7 @@ def solve_contacts(snapshot, contacts, v_star, omega_star, dt):
     def joint_sweep(q):  # the drift from the velocities the first sweep leaves (joints.predict_drift)
         sweeps[0] += 1
         if sweeps[0] == 2:
-            moves = moving(snapshot)
-            touching = {int(i) for i in np.concatenate([rows["a"], rows["b"]]) if moves[int(i)]}
-            predict_drift(blocks, q, dt, touching)
+            predict_drift(blocks, q, dt, touching_bodies(snapshot, rows))
         return sweep_joints(blocks, q, dt)
 
     iterations, converged = iterate(rows, alpha, q_dot, dt, s["tolerance"], s["max_iterations"],

@@ -7,7 +7,9 @@
 with 1 once per step and 2-4 in n substeps of dt / n (``substeps``, or automatic: the fewest of
 at most 1/960 s), each on the step's contacts carried along by the motion (carry_contacts).
 With ``settings["solver"] == "soft"`` the step is the soft step (``soft.soft_step``): 0 and 1 as
-above, then substeps of at most 1/240 s when automatic, each solve -> integrate -> relax.
+above, then substeps of at most 1/240 s when automatic, each solve -> integrate -> relax (the
+joints' rows in both schedules). After the step, joints pulled past their break_force or
+break_torque break (``joints.break_joints``).
 """
 
 import copy
@@ -15,6 +17,7 @@ import copy
 import numpy as np
 
 from .contacts import detect_contacts
+from .joints import break_joints
 from .rigid import apply_impulses, integrate, unconstrained_velocity
 from .soft import soft_step
 from .solver import solve_contacts, solver_settings, substep_count
@@ -137,7 +140,10 @@ def step(snapshot, dt, contacts=None, ties=None):
               max_alpha_negative, max_penetration_velocity, max_complementarity,
               max_cone_violation, max_dissipation_violation, max_overlap; flagged: how many of
               the substeps ended unconverged with max_penetration_velocity > warn_velocity (the
-              Python layer's SolverWarning).
+              Python layer's SolverWarning); with joints: joint_force, joint_torque (J, 3) N, N m
+              on B (the last substep's; zero for a joint that broke after the step) and
+              joint_breaks (the indices of the joints that broke after it), and new_snapshot's
+              joints with their alpha, force, torque and broken.
     """
     settings = solver_settings(snapshot)
     n = substep_count(settings, dt)
@@ -145,8 +151,6 @@ def step(snapshot, dt, contacts=None, ties=None):
     snapshot = apply_impulses(snapshot)
     if contacts is None:
         contacts = detect_contacts(snapshot, dt)
-    if settings["solver"] == "soft" and snapshot.get("joints"):
-        raise ValueError("the oracle's soft step has no joint rows yet (docs/conventions.md, 'Joints')")
     if settings["solver"] == "soft":
         # the soft step: its substeps share one set of rows; flagged once, at its end
         state, info = soft_step(snapshot, contacts, dt, n, ties)
@@ -160,6 +164,11 @@ def step(snapshot, dt, contacts=None, ties=None):
             flagged += (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
         info["impulse"] = impulse
     info["flagged"] = int(flagged)
+    # joints pulled harder than they bear break, after the whole step (World::break_joints)
+    if state.get("joints"):
+        info["joint_breaks"] = break_joints(state["joints"])
+        for k in info["joint_breaks"]:
+            info["joint_force"][k], info["joint_torque"][k] = 0.0, 0.0
     # the one-step force and torque are spent
     for key in ("step_force", "step_torque"):
         if key in state:
