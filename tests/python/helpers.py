@@ -450,3 +450,65 @@ def load_benchmark(name: str):
     sys.modules[spec.name] = module
     spec.loader.exec_module(module)
     return module
+
+
+# ---- joints (tests/python/test_joints.py, test_joint_twist.py, test_oracle_soft_joints.py) ----
+
+LO, HI = -0.3, 0.4  # rad: hanging_rod's twist limits
+AXIS = np.array([0.0, 0.0, -1.0])  # hanging_rod's joint axis: straight down along the rod
+
+
+def hanging_rod(solver, spin, swing=0.0, cone=None, twist=(LO, HI)):
+    """A 1 kg rod of 1 m (a thin box along z) hanging from a ball joint at the origin, spun about
+    its own axis at `spin` rad/s (positive: psi grows) and kicked sideways at `swing` rad/s.
+    Returns (world, rod, joint)."""
+    w = sg.World(solver=solver, sleeping=False)
+    ground = w.add_static(sg.Plane(normal=(0, 0, 1), offset=-100.0))
+    rod = w.add_body(sg.Box((0.05, 0.02, 0.5)), mass=1.0, position=(0, 0, -0.5))
+    limited = cone is not None or twist is not None
+    j = w.add_joint(sg.Spherical(ground, rod, anchor=(0, 0, 0), axis=AXIS if limited else None, cone=cone, twist=twist))
+    omega = spin * AXIS + np.array([swing, 0.0, 0.0])
+    w.set_angular_velocity(rod, omega)
+    w.set_velocity(rod, np.cross(omega, (0, 0, -0.5)))
+    return w, rod, j
+
+
+def every_kind(solver="pgs"):
+    """Short chains of each joint kind (a hinge with limits, one with a motor, a slider with limits
+    and a motor, a ball, a weld, a rope, a rod, a servo hinge, a damped slider, a hinge (with an
+    effort) and a slider with friction, and a ball with a cone and twist limits) hanging from the
+    world and swinging onto a floor with loose boxes: joints beside contacts (tests/python/test_joints.py
+    and test_oracle_soft_joints.py)."""
+    w = sg.World(solver=solver, sleeping=False, gravity=(0.0, 0.0, -9.81))
+    floor = w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
+    specs = [
+        lambda a, b, x: sg.Revolute(a, b, anchor=x, axis=(0, 1, 0), limits=(-0.4, 0.6)),
+        lambda a, b, x: sg.Revolute(a, b, anchor=x, axis=(0, 0.6, 0.8), motor=sg.Motor(2.0, max_torque=0.05)),
+        lambda a, b, x: sg.Prismatic(a, b, anchor=x, axis=(0.6, 0, -0.8), limits=(-0.05, 0.1),
+                                     motor=sg.Motor(-0.3, 2.0)),
+        lambda a, b, x: sg.Spherical(a, b, anchor=x),
+        lambda a, b, x: sg.Fixed(a, b, anchor=x),
+        lambda a, b, x: sg.Distance(a, b, x, x + np.array([0.05, 0.0, 0.0]), 0.0, 0.08),
+        lambda a, b, x: sg.Distance(a, b, x, x + np.array([0.05, 0.0, 0.0])),
+        # spring-damper motors: a servo hinge, and a damped slider
+        lambda a, b, x: sg.Revolute(a, b, anchor=x, axis=(1, 0, 0),
+                                    motor=sg.Motor(0.2, max_torque=0.02, position=0.3, stiffness=0.5, damping=0.01)),
+        lambda a, b, x: sg.Prismatic(a, b, anchor=x, axis=(0, 0, 1), limits=(-0.05, 0.05),
+                                     motor=sg.Motor(0.0, np.inf, damping=2.0)),
+        # Coulomb friction: a hinge with a motor too, and a slider
+        lambda a, b, x: sg.Revolute(a, b, anchor=x, axis=(0, 1, 0), friction=0.004, motor=sg.Motor(1.0, 0.01),
+                                    effort=0.003),
+        lambda a, b, x: sg.Prismatic(a, b, anchor=x, axis=(0.6, 0, -0.8), limits=(-0.05, 0.1), friction=0.3),
+        # a ball joint with a cone and a twist range
+        lambda a, b, x: sg.Spherical(a, b, anchor=x, axis=(1, 0, 0), cone=0.4, twist=(-0.2, 0.2)),
+    ]
+    for c, spec in enumerate(specs):
+        prev = floor
+        for k in range(3):
+            b = w.add_body(sg.Box((0.1, 0.03, 0.03)), density=500.0, position=(0.1 + 0.2 * k, 0.3 * c, 0.35),
+                           angular_velocity=(0.3 * c, 0.5, 0.2 * k))
+            w.add_joint(spec(prev, b, np.array([0.2 * k, 0.3 * c, 0.35])))
+            prev = b
+    for k in range(6):
+        w.add_body(sg.Box((0.05, 0.05, 0.05)), density=500.0, position=(0.2 * k, 0.15 + 0.3 * (k % 3), 0.06))
+    return w

@@ -12,6 +12,7 @@ import pickle
 
 import numpy as np
 import pytest
+from helpers import every_kind
 from scipy.special import ellipk
 
 import signorini as sg
@@ -531,43 +532,6 @@ def test_bad_input_more():
 
 # --------------------------------------------------------------------------- the oracle
 
-def every_kind(solver="pgs"):
-    """Short chains of each joint kind (a hinge with limits, one with a motor, a slider with limits
-    and a motor, a ball, a weld, a rope, a rod, a servo hinge, a damped slider, and a hinge (with an effort) and a slider with friction) hanging from the world and swinging onto a floor
-    with loose boxes: joints beside contacts."""
-    w = world(solver)
-    floor = w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
-    specs = [
-        lambda a, b, x: sg.Revolute(a, b, anchor=x, axis=(0, 1, 0), limits=(-0.4, 0.6)),
-        lambda a, b, x: sg.Revolute(a, b, anchor=x, axis=(0, 0.6, 0.8), motor=sg.Motor(2.0, max_torque=0.05)),
-        lambda a, b, x: sg.Prismatic(a, b, anchor=x, axis=(0.6, 0, -0.8), limits=(-0.05, 0.1),
-                                     motor=sg.Motor(-0.3, 2.0)),
-        lambda a, b, x: sg.Spherical(a, b, anchor=x),
-        lambda a, b, x: sg.Fixed(a, b, anchor=x),
-        lambda a, b, x: sg.Distance(a, b, x, x + np.array([0.05, 0.0, 0.0]), 0.0, 0.08),
-        lambda a, b, x: sg.Distance(a, b, x, x + np.array([0.05, 0.0, 0.0])),
-        # spring-damper motors: a servo hinge, and a damped slider
-        lambda a, b, x: sg.Revolute(a, b, anchor=x, axis=(1, 0, 0),
-                                    motor=sg.Motor(0.2, max_torque=0.02, position=0.3, stiffness=0.5, damping=0.01)),
-        lambda a, b, x: sg.Prismatic(a, b, anchor=x, axis=(0, 0, 1), limits=(-0.05, 0.05),
-                                     motor=sg.Motor(0.0, np.inf, damping=2.0)),
-        # Coulomb friction: a hinge with a motor too, and a slider
-        lambda a, b, x: sg.Revolute(a, b, anchor=x, axis=(0, 1, 0), friction=0.004, motor=sg.Motor(1.0, 0.01),
-                                    effort=0.003),
-        lambda a, b, x: sg.Prismatic(a, b, anchor=x, axis=(0.6, 0, -0.8), limits=(-0.05, 0.1), friction=0.3),
-    ]
-    for c, spec in enumerate(specs):
-        prev = floor
-        for k in range(3):
-            b = w.add_body(sg.Box((0.1, 0.03, 0.03)), density=500.0, position=(0.1 + 0.2 * k, 0.3 * c, 0.35),
-                           angular_velocity=(0.3 * c, 0.5, 0.2 * k))
-            w.add_joint(spec(prev, b, np.array([0.2 * k, 0.3 * c, 0.35])))
-            prev = b
-    for k in range(6):
-        w.add_body(sg.Box((0.05, 0.05, 0.05)), density=500.0, position=(0.2 * k, 0.15 + 0.3 * (k % 3), 0.06))
-    return w
-
-
 def test_oracle_matches_pgs_steps_of_a_jointed_scene():
     # the NumPy oracle (signorini.oracle.joints, never the core) repeats each step of the core from
     # the same state and contacts: every state to 1e-10 (the crosscheck's tolerance: the same
@@ -581,7 +545,7 @@ def test_oracle_matches_pgs_steps_of_a_jointed_scene():
     assert report.stat_mismatches == 0, report.first_stat_mismatch
     assert w.solver_stats.contacts > 0
     before = w.snapshot()
-    assert len(before["joints"]) == 33
+    assert len(before["joints"]) == 36
     detected = w.detect_contacts(DT).as_dict()
     contacts = {key: detected[key] for key in ("body_a", "body_b", "point", "normal", "gap", "feature_a", "feature_b")}
     w.step(DT)

@@ -9,14 +9,13 @@ the largest velocity or force, measured 1e-14 here), and any real difference of 
 bias, a sweep out of order) shows at the size of the quantity it changes, far above 1e-10.
 """
 import numpy as np
-from helpers import load_benchmark
-from test_joint_twist import hanging_rod
-from test_joints import DT, every_kind
+from helpers import every_kind, hanging_rod, load_benchmark
 
 import signorini as sg
 from signorini import compare, oracle
 from signorini.oracle.joints import DRIFT_TURN
 
+DT = 1.0 / 240.0
 LOCKSTEP = 1e-10
 
 

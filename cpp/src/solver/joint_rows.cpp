@@ -325,15 +325,20 @@ void build_blocks(JointSet& js, Joint& j, const Pose& A, const Pose& B, bool a_m
           angular_row(cone, 0, -n);
           cone.C[0] = j.upper - std::atan2(s, a_A.dot(a_B));
         }
-        double psi = 0.0;
-        Vec3 t;
-        if (j.has_twist && twist_angle(j, RA, RB, psi, t)) {  // as a hinge's limits, about t
+        if (j.has_twist) {  // as a hinge's limits, about t
+          double psi = 0.0;
+          Vec3 t;
+          // where the twist is not defined (a swing of pi) the rows stay, far open (C = 2 pi: a
+          // speculative row that cannot push), so a joint has the same rows at every pose (the
+          // drift pairs the blocks at the substep's start and midpoint one to one)
+          const bool defined = twist_angle(j, RA, RB, psi, t);
+          if (!defined) t = RA * j.axis_a;
           JointBlock& lo = add_block(js, j, JointBlock::Limit, 1, kSlotTwistLower, a_moves, b_moves);
           angular_row(lo, 0, t);
-          lo.C[0] = psi - j.twist_lower;
+          lo.C[0] = defined ? psi - j.twist_lower : 2.0 * M_PI;
           JointBlock& hi = add_block(js, j, JointBlock::Limit, 1, kSlotTwistUpper, a_moves, b_moves);
           angular_row(hi, 0, -t);
-          hi.C[0] = j.twist_upper - psi;
+          hi.C[0] = defined ? j.twist_upper - psi : 2.0 * M_PI;
         }
         JointBlock& p = add_block(js, j, JointBlock::Equality, 3, kSlotLinear, a_moves, b_moves);
         for (int k = 0; k < 3; ++k) linear_row(p, k, Vec3::Unit(k), f.r_a, f.r_b);

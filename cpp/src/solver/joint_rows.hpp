@@ -6,7 +6,8 @@
 //     pseudo-velocities (erp of the position error C per substep, never kept as velocity) -> store;
 //   the soft step (soft_step.cpp): per substep prepare at the substep's poses -> warm start -> a
 //     joint sweep after each biased contact sweep (a spring-damper of kJointHertz on C) -> poses
-//     move -> prepare again at the new poses -> a rigid joint sweep after each relax sweep -> store.
+//     move -> a rigid joint sweep after each relax sweep, on the same blocks (Jacobians, C and drift
+//     of the substep's start) -> store.
 // Blocks are solved in joint order on the calling thread (a few per joint: the results do not
 // depend on the thread count). Equality blocks of 2 or 3 rows are solved together with K^-1,
 // K = J W J^T, W = diag(dt I_A^-1, dt/m_A, dt I_B^-1, dt/m_B) (s/kg); limit and motor rows are single

@@ -237,14 +237,16 @@ def build_blocks(joint, pA, RA, pB, RB, h):
             _angular(cone, 0, -n)
             cone["C"][0] = joint["upper"] - np.arctan2(s, a_A @ a_B)
             out.append(cone)
-        twist = twist_angle(joint, RA, RB) if kind == "Spherical" and joint.get("has_twist", False) else None
-        if twist is not None:  # as a hinge's limits, about t
-            psi, t = twist
+        if kind == "Spherical" and joint.get("has_twist", False):  # as a hinge's limits, about t
+            # where the twist is not defined (a swing of pi) the rows stay, far open (C = 2 pi: a
+            # speculative row that cannot push): a joint has the same rows at every pose
+            twist = twist_angle(joint, RA, RB)
+            psi, t = twist if twist is not None else (None, RA @ joint["axis_a"])
             lo, hi = _block(LIMIT, 1, joint, SLOT_TWIST_LOWER), _block(LIMIT, 1, joint, SLOT_TWIST_UPPER)
             _angular(lo, 0, t)
-            lo["C"][0] = psi - joint["twist_lower"]
+            lo["C"][0] = psi - joint["twist_lower"] if twist is not None else 2.0 * np.pi
             _angular(hi, 0, -t)
-            hi["C"][0] = joint["twist_upper"] - psi
+            hi["C"][0] = joint["twist_upper"] - psi if twist is not None else 2.0 * np.pi
             out += [lo, hi]
         p = _block(EQUALITY, 3, joint, SLOT_LINEAR)
         for k in range(3):
