@@ -29,6 +29,7 @@ Tolerances (m):
 import importlib.util
 import math
 import os
+import pickle
 import sys
 from pathlib import Path
 
@@ -453,6 +454,19 @@ def load_benchmark(name: str):
 
 
 # ---- joints (tests/python/test_joints.py, test_joint_twist.py, test_oracle_soft_joints.py) ----
+
+def assert_pickle_and_saved_state_continue(w: sg.World, dt: float, steps: int = 60) -> None:
+    """A pickled copy of ``w`` and ``w`` restored from its saved state each go on bit for bit as
+    ``w`` does over ``steps`` steps of ``dt`` (``w`` ends stepped by them, from where it was)."""
+    copy = pickle.loads(pickle.dumps(w))
+    saved = w.save_state()
+    w.step(dt, steps)
+    copy.step(dt, steps)
+    np.testing.assert_array_equal(w.positions, copy.positions)
+    after = w.positions.copy()
+    w.restore_state(saved)
+    w.step(dt, steps)
+    np.testing.assert_array_equal(w.positions, after)
 
 LO, HI = -0.3, 0.4  # rad: hanging_rod's twist limits
 AXIS = np.array([0.0, 0.0, -1.0])  # hanging_rod's joint axis: straight down along the rod

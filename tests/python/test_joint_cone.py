@@ -1,10 +1,10 @@
 """A ball joint's cone (swing) limit (issue 23; docs/conventions.md, "Joints"): B's axis stays
 within the cone angle of A's, whichever way it swings, in both solvers and in the oracle."""
 import math
-import pickle
 
 import numpy as np
 import pytest
+from helpers import assert_pickle_and_saved_state_continue
 
 import signorini as sg
 
@@ -86,15 +86,7 @@ def test_the_oracle_matches_a_cone_at_its_limit_step_by_step():
 def test_a_cone_survives_pickling_and_saved_states():
     w, rod, _ = rod_on_a_ball("pgs", 0.3)
     w.step(DT, 30)
-    copy = pickle.loads(pickle.dumps(w))
-    saved = w.save_state()
-    w.step(DT, 60)
-    copy.step(DT, 60)
-    np.testing.assert_array_equal(w.positions, copy.positions)
-    after = w.positions.copy()
-    w.restore_state(saved)
-    w.step(DT, 60)
-    np.testing.assert_array_equal(w.positions, after)
+    assert_pickle_and_saved_state_continue(w, DT)
 
 
 @pytest.mark.parametrize("kw, words", [
