@@ -3,13 +3,17 @@
 // body's surface is put back before its shape's first touch along the path (collision::cast_shape,
 // the sweep World::cast_shape in queries.cpp makes too). Speculative contacts
 // stop most fast bodies, but a small body crossing a bumpy triangle mesh in one step can find no
-// contact in time and end behind it.
+// contact in time and end behind it. A body fast by its turn (issue 21: a thin hull spun to
+// hundreds of rad/s by its landing turns a vertex its contacts did not have into the floor) that
+// ends deep in a static body is put back along its path (travel and turn) to where it was not.
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <string>
 
 #include "collision/collision.hpp"
 #include "collision/ray.hpp"
+#include "math/rotation.hpp"
 #include "signorini/world.hpp"
 #include "solver/joint_rows.hpp"
 #include "world/step_guard.hpp"
@@ -25,6 +29,31 @@ using collision::Pose;
 constexpr double kFastFraction = 0.5;
 /// Where a swept body is put back: this fraction of its inner radius before the touch.
 constexpr double kBackFraction = 0.01;
+/// A body fast by its turn is put back when it ends deeper in a static body than it started by more
+/// than this fraction of its inner radius (speculative contacts keep shallower overlaps in hand);
+/// where along its path: by this many halvings of the step.
+constexpr double kDeepFraction = 0.25;
+constexpr int kBisections = 20;
+
+/// How much deeper shape (bounded, at pose) is in the static bodies `walls` than `start_depth` says
+/// it was in each (m, the largest; 0 when it is in none deeper): each depth is -(the least gap of
+/// the narrow phase's manifold with gap < 0).
+double deeper(const Model& model, const State& state, const collision::BroadPhase& bp, const Shape& shape,
+              const Pose& pose, const std::vector<BodyIndex>& walls, const std::vector<double>& start_depth,
+              collision::Scratch& s, std::vector<Contact>& contacts, std::vector<double>* depth = nullptr) {
+  double most = 0.0;
+  for (std::size_t k = 0; k < walls.size(); ++k) {
+    const BodyIndex j = walls[k];
+    contacts.clear();
+    collision::collide(model.shape[j], Pose{state.p[j], state.R[j]}, shape, pose, 0.0, {bp.triangles(j), nullptr, &s},
+                       contacts);
+    double d = 0.0;
+    for (const Contact& c : contacts) d = std::max(d, -c.gap);
+    if (depth) (*depth)[k] = d;
+    if (!start_depth.empty()) most = std::max(most, d - start_depth[k]);
+  }
+  return most;
+}
 
 /// The bodies whose broad-phase boxes meet the box that shape covers from pose to pose + delta,
 /// and every plane, ascending, each once: written into s.swept (allocates nothing once it has grown).
@@ -47,43 +76,91 @@ void World::continuous() {
   if (!settings_.solver.continuous) return;
   const State& start = guard_->start();
   std::vector<int>& stack = scratch_->bvh_stack;
+  std::vector<Contact> contacts;
+  std::vector<BodyIndex> walls;
+  std::vector<double> start_depth;
   for (const BodyIndex i : moving_) {
     if (model_.is_kinematic[i] || !model_.enabled[i] || model_.is_sensor[i] || state_.asleep(i)) continue;
     const Vec3 delta = state_.p[i] - start.p[i];
     const double travel = delta.norm();
     const double inner = model_.inner[i];
-    if (!(travel > 0.0) || (!model_.bullet[i] && travel <= kFastFraction * inner)) continue;
+    const Eigen::AngleAxisd turn(Mat3(state_.R[i] * start.R[i].transpose()));
+    const bool travelled = travel > 0.0 && (model_.bullet[i] || travel > kFastFraction * inner);
+    const bool turned = turn.angle() * model_.rho[i] > kFastFraction * inner;
+    if (!travelled && !turned) continue;
     // a jointed body is not moved alone: putting it back without its partners would open its joints
     // (its joints' rows and speculative contacts hold it instead)
     const bool jointed = std::any_of(joints_->joints.begin(), joints_->joints.end(),
                                      [&](const Joint& j) { return !j.broken && (j.a == i || j.b == i); });
     if (jointed) continue;
+    const Shape& shape = model_.shape[i];
+    const Pose from{start.p[i], state_.R[i]};
     // went through: its centre's path from the step's start crosses a static body's surface (a body
     // that slid over a bump or stopped on a surface keeps its centre in front; only a centre that
     // starts outside counts)
-    const Shape& shape = model_.shape[i];
-    const Pose from{start.p[i], state_.R[i]};
-    collision::Ray ray{start.p[i], delta / travel, travel};
     double crossed = 2.0;
     BodyIndex wall = -1;
-    for (const BodyIndex j : along(*broad_phase_, shape, from, delta, *scratch_)) {
-      if (!model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j)) continue;
-      collision::RayResult r;
-      const Pose at{state_.p[j], state_.R[j]};
-      if (!collision::ray_shape(model_.shape[j], at, ray, broad_phase_->triangles(j), stack, r) || r.inside) continue;
-      if (r.t / travel < crossed) crossed = r.t / travel, wall = j;
+    if (travelled) {
+      collision::Ray ray{start.p[i], delta / travel, travel};
+      for (const BodyIndex j : along(*broad_phase_, shape, from, delta, *scratch_)) {
+        if (!model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j)) continue;
+        collision::RayResult r;
+        const Pose at{state_.p[j], state_.R[j]};
+        if (!collision::ray_shape(model_.shape[j], at, ray, broad_phase_->triangles(j), stack, r) || r.inside) continue;
+        if (r.t / travel < crossed) crossed = r.t / travel, wall = j;
+      }
     }
-    if (wall < 0) continue;
-    // put back before the first touch of its shape along the path (the sweep against that body), by
-    // kBackFraction of its inner radius as the touch's normal measures the gap; where the shape
-    // touched it at the start already, or the sweep finds no touch, its inner radius before the
-    // centre's crossing
-    const CastHit h = collision::cast_shape(model_.shape[wall], Pose{state_.p[wall], state_.R[wall]}, shape, from,
-                                            delta, 0.0, broad_phase_->triangles(wall), *scratch_);
-    const double closing = h.hit ? -delta.dot(h.normal) : 0.0;
-    const double back = h.hit && h.t > 0.0 && closing > 0.0 ? h.t - kBackFraction * inner / closing
-                                                           : crossed - inner / travel;
-    state_.p[i] = start.p[i] + std::max(0.0, std::min(back, crossed)) * delta;
+    if (wall >= 0) {
+      // put back before the first touch of its shape along the path (the sweep against that body),
+      // by kBackFraction of its inner radius as the touch's normal measures the gap; where the shape
+      // touched it at the start already, or the sweep finds no touch, its inner radius before the
+      // centre's crossing
+      const CastHit h = collision::cast_shape(model_.shape[wall], Pose{state_.p[wall], state_.R[wall]}, shape, from,
+                                              delta, 0.0, broad_phase_->triangles(wall), *scratch_);
+      const double closing = h.hit ? -delta.dot(h.normal) : 0.0;
+      const double back = h.hit && h.t > 0.0 && closing > 0.0 ? h.t - kBackFraction * inner / closing
+                                                             : crossed - inner / travel;
+      state_.p[i] = start.p[i] + std::max(0.0, std::min(back, crossed)) * delta;
+      ++report_.continuous;
+    }
+    if (!turned) continue;
+    // turned in: the path's poses (straight travel to where it is now, put back or not, and a
+    // steady turn about the step's turn axis), the static bodies its ball sweeps; when it ends
+    // deeper in one than it started by more than kDeepFraction of its inner radius, put back to the
+    // last pose found (by halving) that is no deeper than the start by more than kBackFraction of it
+    const Vec3 phi = turn.angle() * turn.axis();
+    const Vec3 moved = state_.p[i] - start.p[i];
+    const auto pose_at = [&](double t) {
+      return Pose{Vec3(start.p[i] + t * moved), Mat3(math::orthonormalize(math::rodrigues(phi, t) * start.R[i]))};
+    };
+    const Vec3 reach = Vec3::Constant(model_.rho[i]);
+    walls.clear();
+    std::int64_t nodes = 0;
+    walls.assign(broad_phase_->planes().begin(), broad_phase_->planes().end());
+    broad_phase_->overlap_box(start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach, walls,
+                              scratch_->tree_stack, nodes);
+    std::sort(walls.begin(), walls.end());
+    walls.erase(std::unique(walls.begin(), walls.end()), walls.end());
+    walls.erase(std::remove_if(walls.begin(), walls.end(),
+                               [&](BodyIndex j) { return !model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j); }),
+                walls.end());
+    if (walls.empty()) continue;
+    start_depth.assign(walls.size(), 0.0);
+    const std::vector<double> none;
+    deeper(model_, state_, *broad_phase_, shape, pose_at(0.0), walls, none, *scratch_, contacts, &start_depth);
+    const Pose end{state_.p[i], state_.R[i]};
+    if (deeper(model_, state_, *broad_phase_, shape, end, walls, start_depth, *scratch_, contacts) <= kDeepFraction * inner)
+      continue;
+    double lo = 0.0, hi = 1.0;
+    for (int k = 0; k < kBisections; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      const bool clear = deeper(model_, state_, *broad_phase_, shape, pose_at(mid), walls, start_depth, *scratch_,
+                                contacts) <= kBackFraction * inner;
+      (clear ? lo : hi) = mid;
+    }
+    const Pose back = pose_at(lo);
+    state_.p[i] = back.p;
+    state_.R[i] = back.R;
     ++report_.continuous;
   }
 }
