@@ -88,7 +88,9 @@ struct SolverSettings {
   /// Continuous collision (docs/conventions.md, "Shape casts and continuous collision"): after
   /// each step, a dynamic body that moved more than kFastFraction of its inner radius in it (or any
   /// `bullet` body) is swept from its start to its end position against the static bodies, and put
-  /// back where it first comes within kContinuousGap of one when its path went on past it.
+  /// back just before its first touch of one when its centre's path went on past it; one that turned
+  /// fast and ended deeper in a static body than it started is put back along its travel and turn to
+  /// where it was not.
   bool continuous = true;
 
   // ---- the soft step (method = Soft; docs/conventions.md, "The soft step") ----
