@@ -121,47 +121,52 @@ void World::continuous() {
       const double back = h.hit && h.t > 0.0 && closing > 0.0 ? h.t - kBackFraction * inner / closing
                                                              : crossed - inner / travel;
       state_.p[i] = start.p[i] + std::max(0.0, std::min(back, crossed)) * delta;
-      ++report_.continuous;
     }
-    if (!turned) continue;
     // turned in: the path's poses (straight travel to where it is now, put back or not, and a
     // steady turn about the step's turn axis), the static bodies its ball sweeps; when it ends
     // deeper in one than it started by more than kDeepFraction of its inner radius, put back to the
     // last pose found (by halving) that is no deeper than the start by more than kBackFraction of it
-    const Vec3 phi = turn.angle() * turn.axis();
-    const Vec3 moved = state_.p[i] - start.p[i];
-    const auto pose_at = [&](double t) {
-      return Pose{Vec3(start.p[i] + t * moved), Mat3(math::orthonormalize(math::rodrigues(phi, t) * start.R[i]))};
+    const auto turned_back = [&]() {
+      const Vec3 phi = turn.angle() * turn.axis();
+      const Vec3 moved = state_.p[i] - start.p[i];
+      const auto pose_at = [&](double t) {
+        return Pose{Vec3(start.p[i] + t * moved), Mat3(math::orthonormalize(math::rodrigues(phi, t) * start.R[i]))};
+      };
+      const Vec3 reach = Vec3::Constant(model_.rho[i]);
+      std::int64_t nodes = 0;
+      walls.assign(broad_phase_->planes().begin(), broad_phase_->planes().end());
+      broad_phase_->overlap_box(start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach,
+                                walls, scratch_->tree_stack, nodes);
+      std::sort(walls.begin(), walls.end());
+      walls.erase(std::unique(walls.begin(), walls.end()), walls.end());
+      walls.erase(std::remove_if(walls.begin(), walls.end(),
+                                 [&](BodyIndex j) {
+                                   return !model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j);
+                                 }),
+                  walls.end());
+      if (walls.empty()) return false;
+      start_depth.assign(walls.size(), 0.0);
+      const std::vector<double> none;
+      deeper(model_, state_, *broad_phase_, shape, pose_at(0.0), walls, none, *scratch_, contacts, &start_depth);
+      const Pose end{state_.p[i], state_.R[i]};
+      if (deeper(model_, state_, *broad_phase_, shape, end, walls, start_depth, *scratch_, contacts) <=
+          kDeepFraction * inner)
+        return false;
+      double lo = 0.0, hi = 1.0;
+      for (int k = 0; k < kBisections; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        const bool clear = deeper(model_, state_, *broad_phase_, shape, pose_at(mid), walls, start_depth, *scratch_,
+                                  contacts) <= kBackFraction * inner;
+        (clear ? lo : hi) = mid;
+      }
+      const Pose back = pose_at(lo);
+      state_.p[i] = back.p;
+      state_.R[i] = back.R;
+      return true;
     };
-    const Vec3 reach = Vec3::Constant(model_.rho[i]);
-    walls.clear();
-    std::int64_t nodes = 0;
-    walls.assign(broad_phase_->planes().begin(), broad_phase_->planes().end());
-    broad_phase_->overlap_box(start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach, walls,
-                              scratch_->tree_stack, nodes);
-    std::sort(walls.begin(), walls.end());
-    walls.erase(std::unique(walls.begin(), walls.end()), walls.end());
-    walls.erase(std::remove_if(walls.begin(), walls.end(),
-                               [&](BodyIndex j) { return !model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j); }),
-                walls.end());
-    if (walls.empty()) continue;
-    start_depth.assign(walls.size(), 0.0);
-    const std::vector<double> none;
-    deeper(model_, state_, *broad_phase_, shape, pose_at(0.0), walls, none, *scratch_, contacts, &start_depth);
-    const Pose end{state_.p[i], state_.R[i]};
-    if (deeper(model_, state_, *broad_phase_, shape, end, walls, start_depth, *scratch_, contacts) <= kDeepFraction * inner)
-      continue;
-    double lo = 0.0, hi = 1.0;
-    for (int k = 0; k < kBisections; ++k) {
-      const double mid = 0.5 * (lo + hi);
-      const bool clear = deeper(model_, state_, *broad_phase_, shape, pose_at(mid), walls, start_depth, *scratch_,
-                                contacts) <= kBackFraction * inner;
-      (clear ? lo : hi) = mid;
-    }
-    const Pose back = pose_at(lo);
-    state_.p[i] = back.p;
-    state_.R[i] = back.R;
-    ++report_.continuous;
+    // each body put back counts once (the crossing, the turn or both)
+    const bool put_back = wall >= 0;
+    if ((turned && turned_back()) || put_back) ++report_.continuous;
   }
 }
 
