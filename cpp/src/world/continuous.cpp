@@ -55,19 +55,25 @@ double deeper(const Model& model, const State& state, const collision::BroadPhas
   return most;
 }
 
-/// The bodies whose broad-phase boxes meet the box that shape covers from pose to pose + delta,
-/// and every plane, ascending, each once: written into s.swept (allocates nothing once it has grown).
+/// The bodies whose broad-phase boxes meet the box [lo, hi] (world, m), and every plane,
+/// ascending, each once: written into s.swept (allocates nothing once it has grown).
+const std::vector<BodyIndex>& in_box(const collision::BroadPhase& bp, const Vec3& lo, const Vec3& hi,
+                                     collision::Scratch& s) {
+  std::vector<BodyIndex>& out = s.swept;
+  out.assign(bp.planes().begin(), bp.planes().end());
+  std::int64_t nodes = 0;
+  bp.overlap_box(lo, hi, out, s.tree_stack, nodes);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+/// in_box of the box that shape covers from pose to pose + delta.
 const std::vector<BodyIndex>& along(const collision::BroadPhase& bp, const Shape& shape, const Pose& pose,
                                     const Vec3& delta, collision::Scratch& s) {
   Vec3 lo, hi;
   collision::shape_aabb(shape, pose, lo, hi);
-  std::vector<BodyIndex>& out = s.swept;
-  out.assign(bp.planes().begin(), bp.planes().end());
-  std::int64_t nodes = 0;
-  bp.overlap_box(lo.cwiseMin(lo + delta), hi.cwiseMax(hi + delta), out, s.tree_stack, nodes);
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
-  return out;
+  return in_box(bp, lo.cwiseMin(lo + delta), hi.cwiseMax(hi + delta), s);
 }
 
 }  // namespace
@@ -84,9 +90,11 @@ void World::continuous() {
     const Vec3 delta = state_.p[i] - start.p[i];
     const double travel = delta.norm();
     const double inner = model_.inner[i];
-    const Eigen::AngleAxisd turn(Mat3(state_.R[i] * start.R[i].transpose()));
     const bool travelled = travel > 0.0 && (model_.bullet[i] || travel > kFastFraction * inner);
-    const bool turned = turn.angle() * model_.rho[i] > kFastFraction * inner;
+    // the turn's angle from the trace of R R0^T (the elementwise sum of R .* R0), no more per body;
+    // its axis only for a body that turned fast
+    const double cos_turn = std::clamp(0.5 * (state_.R[i].cwiseProduct(start.R[i]).sum() - 1.0), -1.0, 1.0);
+    const bool turned = std::acos(cos_turn) * model_.rho[i] > kFastFraction * inner;
     if (!travelled && !turned) continue;
     // a jointed body is not moved alone: putting it back without its partners would open its joints
     // (its joints' rows and speculative contacts hold it instead)
@@ -127,18 +135,15 @@ void World::continuous() {
     // deeper in one than it started by more than kDeepFraction of its inner radius, put back to the
     // last pose found (by halving) that is no deeper than the start by more than kBackFraction of it
     const auto turned_back = [&]() {
+      const Eigen::AngleAxisd turn(Mat3(state_.R[i] * start.R[i].transpose()));
       const Vec3 phi = turn.angle() * turn.axis();
       const Vec3 moved = state_.p[i] - start.p[i];
       const auto pose_at = [&](double t) {
         return Pose{Vec3(start.p[i] + t * moved), Mat3(math::orthonormalize(math::rodrigues(phi, t) * start.R[i]))};
       };
       const Vec3 reach = Vec3::Constant(model_.rho[i]);
-      std::int64_t nodes = 0;
-      walls.assign(broad_phase_->planes().begin(), broad_phase_->planes().end());
-      broad_phase_->overlap_box(start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach,
-                                walls, scratch_->tree_stack, nodes);
-      std::sort(walls.begin(), walls.end());
-      walls.erase(std::unique(walls.begin(), walls.end()), walls.end());
+      walls = in_box(*broad_phase_, start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach,
+                     *scratch_);
       walls.erase(std::remove_if(walls.begin(), walls.end(),
                                  [&](BodyIndex j) {
                                    return !model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j);

@@ -230,18 +230,25 @@ RayHits World::cast_rays(const Points& origins, const Points& directions, const 
 
 namespace {
 
-/// The bodies overlapping a bounded shape at pose (sorted), by the narrow phase with threshold 0.
-std::vector<BodyIndex> overlapping(const Model& model, const State& state, BroadPhase& broad_phase,
-                                   collision::Scratch& scratch, const Seen& seen, const Shape& shape, const Pose& pose,
-                                   QueryStats& stats) {
-  Vec3 lo, hi;
-  collision::shape_aabb(shape, pose, lo, hi);
+/// The planes and the bodies whose broad-phase boxes meet [lo, hi] (world, m), ascending, each
+/// once: a query's candidates; stats restarts as one query with the tree nodes it visited.
+std::vector<BodyIndex> candidates_in(const BroadPhase& broad_phase, const Vec3& lo, const Vec3& hi, QueryStats& stats) {
   std::vector<BodyIndex> candidates(broad_phase.planes());
   std::vector<const void*> stack;
   stats = QueryStats{1, 0, 0};
   broad_phase.overlap_box(lo, hi, candidates, stack, stats.nodes);
   std::sort(candidates.begin(), candidates.end());
   candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+  return candidates;
+}
+
+/// The bodies overlapping a bounded shape at pose (sorted), by the narrow phase with threshold 0.
+std::vector<BodyIndex> overlapping(const Model& model, const State& state, BroadPhase& broad_phase,
+                                   collision::Scratch& scratch, const Seen& seen, const Shape& shape, const Pose& pose,
+                                   QueryStats& stats) {
+  Vec3 lo, hi;
+  collision::shape_aabb(shape, pose, lo, hi);
+  const std::vector<BodyIndex> candidates = candidates_in(broad_phase, lo, hi, stats);
   std::vector<BodyIndex> out;
   std::vector<Contact> contacts;
   for (const BodyIndex i : candidates) {
@@ -255,16 +262,22 @@ std::vector<BodyIndex> overlapping(const Model& model, const State& state, Broad
   return out;
 }
 
+/// A query shape and its position (overlap, cast_shape): bounded, and finite; else invalid_argument
+/// naming the query.
+void check_swept(const std::string& who, const Shape& shape, const Vec3& position) {
+  if (static_only(shape))
+    throw std::invalid_argument(who + ": shape must be bounded (not a Plane or TriangleMesh), got a " +
+                                shape_name(shape));
+  checks::require_finite(who, "position", position);
+}
+
 }  // namespace
 
 std::vector<BodyIndex> World::overlap(const Shape& shape, const Vec3& position, const Quat4& orientation,
                                       const QueryFilter& filter) const {
   const Lock lock(mutex_);
   const std::string who = "overlap";
-  if (static_only(shape))
-    throw std::invalid_argument(who + ": shape must be bounded (not a Plane or TriangleMesh), got a " +
-                                shape_name(shape));
-  checks::require_finite(who, "position", position);
+  check_swept(who, shape, position);
   const Quat4 q = checks::unit_quaternion(who + ": orientation", orientation);
   const Seen seen = seen_by(model_, filter, who);
   broad_phase_->refresh(model_, state_);
@@ -276,10 +289,7 @@ std::optional<ShapeHit> World::cast_shape(const Shape& shape, const Vec3& positi
                                           const Vec3& translation, const QueryFilter& filter) const {
   const Lock lock(mutex_);
   const std::string who = "cast_shape";
-  if (static_only(shape))
-    throw std::invalid_argument(who + ": shape must be bounded (not a Plane or TriangleMesh), got a " +
-                                shape_name(shape));
-  checks::require_finite(who, "position", position);
+  check_swept(who, shape, position);
   checks::require_finite(who, "translation", translation);
   const Quat4 q = checks::unit_quaternion(who + ": orientation", orientation);
   const Seen seen = seen_by(model_, filter, who);
@@ -289,13 +299,8 @@ std::optional<ShapeHit> World::cast_shape(const Shape& shape, const Vec3& positi
   const Pose pose{position, rotation_matrix(q)};
   Vec3 lo, hi;
   collision::shape_aabb(shape, pose, lo, hi);
-  std::vector<BodyIndex> candidates(broad_phase_->planes());
-  std::vector<const void*> stack;
-  query_stats_ = QueryStats{1, 0, 0};
-  broad_phase_->overlap_box(lo.cwiseMin(lo + translation), hi.cwiseMax(hi + translation), candidates, stack,
-                            query_stats_.nodes);
-  std::sort(candidates.begin(), candidates.end());
-  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+  const std::vector<BodyIndex> candidates =
+      candidates_in(*broad_phase_, lo.cwiseMin(lo + translation), hi.cwiseMax(hi + translation), query_stats_);
   std::optional<ShapeHit> best;
   for (const BodyIndex i : candidates) {
     if (!seen(i)) continue;
@@ -330,12 +335,7 @@ std::vector<BodyIndex> World::overlap_point(const Vec3& point, const QueryFilter
   checks::require_finite(who, "point", point);
   const Seen seen = seen_by(model_, filter, who);
   broad_phase_->refresh(model_, state_);
-  std::vector<BodyIndex> candidates(broad_phase_->planes());
-  std::vector<const void*> stack;
-  query_stats_ = QueryStats{1, 0, 0};
-  broad_phase_->overlap_box(point, point, candidates, stack, query_stats_.nodes);
-  std::sort(candidates.begin(), candidates.end());
-  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+  const std::vector<BodyIndex> candidates = candidates_in(*broad_phase_, point, point, query_stats_);
   std::vector<BodyIndex> out;
   for (const BodyIndex i : candidates) {
     if (!seen(i)) continue;
