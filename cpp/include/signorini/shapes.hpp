@@ -115,6 +115,9 @@ struct TriangleMesh {
   /// per face and side k (edge v_k -> v_k+1): true when that edge can produce edge contacts, that is
   /// it is a boundary edge or its dihedral angle with the neighbour is convex by more than 1e-6 rad.
   std::vector<std::array<bool, 3>> active_edge;
+  /// per face and side k: true when that edge is the mesh's rim (no other face uses it), where a
+  /// body can come round from beside the mesh to behind it without passing through any face.
+  std::vector<std::array<bool, 3>> boundary_edge;
   std::vector<Vec3> normals;  ///< unit face normals (body frame)
   Vec3 vertex(Eigen::Index i) const { return vertices.row(i).transpose(); }
 };

@@ -107,27 +107,47 @@ void triangle_sphere(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, c
 
 /// Whether an item whose centre is c_l (mesh frame) and whose surface lies within r of it has
 /// crossed triangle t: its centre is behind the triangle's plane and inside the triangle's prism
-/// (its projection onto the plane lies in the triangle), and either it, or its body (centre body_l,
-/// radius body_r), is behind by less than its radius (it still reaches the front side), or the
-/// body's centre was in front of the plane at the start of the previous step (body_l - travel_l: it
-/// went through in one step), or it was pushed back through this triangle last step (remembered)
-/// and is not out yet. A body resting on a one-sided mesh never has
-/// its centre behind the face it rests on; one that does has gone through it (a fast or fast-turning
-/// body), and the mesh keeps pushing until it is back in front.
+/// (its projection onto the plane lies in the triangle), and
+/// - it was pushed back through this triangle last step (remembered) and is not out yet; or
+/// - the body's centre (body_l, bounding radius body_r; a compound's parts cross as one body) was in
+///   front of the plane at the start of the previous step (body_l - travel_l) and met the plane
+///   where t has no rim: it went through in one step; or
+/// - it, or its body, is behind by less than its radius (it still reaches the front side), and the
+///   body is being pushed back through another of the mesh's triangles (pushed: it slid from under
+///   that one to under this one), or its travel is unknown (no memory, or just placed). A body
+///   behind the plane a step ago that nothing pushed never came through the front.
+/// A body resting on a one-sided mesh never has its centre behind the face it rests on; one that
+/// does has gone through it (a fast or fast-turning body), and the mesh keeps pushing until it is
+/// back in front. A body that came round the mesh's rim (beyond a boundary edge, from beside an
+/// open mesh to under it, through no face) is behind a one-sided face and left alone.
 bool crossed_triangle(const TriangleMesh& mesh, Eigen::Index t, const Vec3& c_l, double r, const Vec3& travel_l,
-                      bool remembered, const Vec3& body_l, double body_r) {
+                      bool remembered, bool pushed, const Vec3& body_l, double body_r) {
   const Vec3 v[3] = {mesh.vertex(mesh.faces(t, 0)), mesh.vertex(mesh.faces(t, 1)), mesh.vertex(mesh.faces(t, 2))};
   const Vec3& n = mesh.normals[t];
   const double height = n.dot(c_l - v[0]);
   if (!(height < 0.0)) return false;
-  // the whole body (a compound's parts together) may still straddle the face, and it is the body
-  // whose centre was in front at the start of the previous step
-  const double body_height = n.dot(body_l - v[0]);
-  const bool straddles = height > -r || (body_height < 0.0 && body_height > -body_r);
-  if (!(straddles || remembered || n.dot(body_l - travel_l - v[0]) >= 0.0)) return false;
+  const auto beyond = [&](int k, const Vec3& x) { return (v[(k + 1) % 3] - v[k]).cross(n).dot(x - v[k]) > 0.0; };
   for (int k = 0; k < 3; ++k)
-    if ((v[(k + 1) % 3] - v[k]).cross(n).dot(c_l - v[k]) > 0.0) return false;  // outside edge k
-  return true;
+    if (beyond(k, c_l)) return false;  // outside the prism
+  if (remembered) return true;
+  const double body_height = n.dot(body_l - v[0]);
+  const Vec3 body_before = body_l - travel_l;
+  const double height_before = n.dot(body_before - v[0]);
+  const auto beyond_rim = [&](const Vec3& x) {
+    for (int k = 0; k < 3; ++k)
+      if (mesh.boundary_edge[static_cast<std::size_t>(t)][static_cast<std::size_t>(k)] && beyond(k, x)) return true;
+    return false;
+  };
+  if (height_before >= 0.0) {
+    // where the body's centre met the plane (where it was, if it has not met it)
+    const Vec3 met = height_before > body_height
+                         ? Vec3(body_before + height_before / (height_before - body_height) * travel_l)
+                         : body_before;
+    return !beyond_rim(met);
+  }
+  const bool straddles = height > -r || (body_height < 0.0 && body_height > -body_r);
+  if (!straddles) return false;
+  return pushed || travel_l.squaredNorm() == 0.0;
 }
 
 /// Largest distance of a triangle's vertices from its first (m): a scale for its tolerances.
@@ -235,16 +255,21 @@ void face_contact(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, cons
 /// from triangle t: if one is a ghost (ghost_of_inactive_edge, its witness y - gap/2 n), the ghosts
 /// and the face-normal points give way to the face's own contact, made by face_only(out); a point on
 /// an active edge stays. A polytope needs it too: its test offers only the triangle's active edges,
-/// but B's own faces as references.
+/// but B's own faces as references. For B whose centre (centre_l, mesh frame) is behind the
+/// triangle's plane, only a ghost pushing out of the front side counts: one pointing behind is
+/// dropped (keep_front) and never becomes a face contact pushing B up through the one-sided mesh
+/// (a body come round an open rim, under it).
 template <class FaceOnly>
-void without_ghosts(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, std::size_t first,
+void without_ghosts(const TriangleMesh& mesh, Eigen::Index t, const Pose& pa, const Vec3& centre_l, std::size_t first,
                     std::vector<Contact>& out, FaceOnly face_only) {
+  const Vec3 n_t = pa.R * mesh.normals[t];
+  const bool in_front = mesh.normals[t].dot(centre_l - mesh.vertex(mesh.faces(t, 0))) >= 0.0;
   const auto ghost = [&](const Contact& c) {
-    return ghost_of_inactive_edge(mesh, t, pa, c.normal, c.point - 0.5 * c.gap * c.normal);
+    return (in_front || c.normal.dot(n_t) > 0.0) &&
+           ghost_of_inactive_edge(mesh, t, pa, c.normal, c.point - 0.5 * c.gap * c.normal);
   };
   const auto begin = out.begin() + static_cast<std::ptrdiff_t>(first);
   if (std::none_of(begin, out.end(), ghost)) return;
-  const Vec3 n_t = pa.R * mesh.normals[t];
   const auto replaced = [&](const Contact& c) { return ghost(c) || c.normal.dot(n_t) >= 1.0 - 1e-12; };
   out.erase(std::remove_if(begin, out.end(), replaced), out.end());
   face_only(out);
@@ -282,7 +307,8 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
     triangles.push_back(past.remembered);
   for (int t : triangles) {
     const auto index = static_cast<std::uint32_t>(t);
-    if (crossed_triangle(mesh, t, centre, radius, travel, t == past.remembered, body, body_radius)) {
+    if (crossed_triangle(mesh, t, centre, radius, travel, t == past.remembered, past.remembered >= 0, body,
+                         body_radius)) {
       // gone through: pushed back out along the face normal, and remembered until it is out
       crossed_contacts(mesh, t, pa, b, out);
       if (past.found < 0 || t == past.remembered) past.found = t;
@@ -294,7 +320,7 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       auto contacts_at = [&](const Pose& pose) {
         triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, pose, b.part, threshold,
                           *scratch.polytope, out);
-        without_ghosts(mesh, t, pa, first, out, [&](std::vector<Contact>& o) {
+        without_ghosts(mesh, t, pa, centre, first, out, [&](std::vector<Contact>& o) {
           triangle_polytope(tri, mesh.active_edge[t], pa, index, *b.polytope, pose, b.part, threshold,
                             *scratch.polytope, o, true);
         });
@@ -324,7 +350,7 @@ void trimesh_item(const TriangleMesh& mesh, const Pose& pa, const TriangleQuery&
       triangle_polytope_of(mesh, t, tri);
       const std::size_t first = out.size();
       polytope_capsule(tri, pa, index, *cap, b.pose, b.part, threshold, out);
-      without_ghosts(mesh, t, pa, first, out,
+      without_ghosts(mesh, t, pa, centre, first, out,
                      [&](std::vector<Contact>& o) { face_contact(mesh, t, pa, b, threshold, scratch, o); });
       keep_front(mesh, t, pa, first, out);
       // both ends of the segment, each as a ball against the triangle (as against a plane): a

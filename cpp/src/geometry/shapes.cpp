@@ -160,10 +160,12 @@ TriangleMesh::TriangleMesh(Points v, Triangles f) : vertices(std::move(v)), face
   // side s of face k (v_s -> v_s+1) is active when a boundary edge, a non-manifold one, or a fold
   // atan2(-n . w, (e x n) . w) > 1e-6 rad, w = o - v_s (docs/conventions.md, "Contacts")
   active_edge.assign(static_cast<std::size_t>(F), {true, true, true});
+  boundary_edge.assign(static_cast<std::size_t>(F), {false, false, false});
   for (Eigen::Index k = 0; k < F; ++k)
     for (int s = 0; s < 3; ++s) {
       const std::int64_t i0 = faces(k, s), i1 = faces(k, (s + 1) % 3);
       const auto& around = users.at(std::minmax(i0, i1));
+      boundary_edge[static_cast<std::size_t>(k)][static_cast<std::size_t>(s)] = around.size() == 1;
       if (around.size() != 2) continue;  // boundary or non-manifold: active
       const Eigen::Index g = around[0].first == k ? around[1].first : around[0].first;
       std::int64_t o = -1;
