@@ -45,6 +45,13 @@ struct Kernel {
     return {(m[0] * x.x + m[3] * x.y) + m[6] * x.z, (m[1] * x.x + m[4] * x.y) + m[7] * x.z,
             m[2] * x.x + (m[5] * x.y + m[8] * x.z)};
   }
+  /// The same, m's entries read from a group's lanes h .. h + L - 1 as they are used (from L1:
+  /// cheaper than holding 9 registers that spill)
+  static V3 mul(const double (&m)[9][kLanes], std::size_t h, const V3& x) {
+    return {(load(m[0] + h) * x.x + load(m[3] + h) * x.y) + load(m[6] + h) * x.z,
+            (load(m[1] + h) * x.x + load(m[4] + h) * x.y) + load(m[7] + h) * x.z,
+            load(m[2] + h) * x.x + (load(m[5] + h) * x.y + load(m[8] + h) * x.z)};
+  }
   static V3 select3(const Mask& c, const V3& a, const V3& b) {
     return {xsimd::select(c, a.x, b.x), xsimd::select(c, a.y, b.y), xsimd::select(c, a.z, b.z)};
   }
@@ -75,22 +82,21 @@ struct Kernel {
     return gather([&](std::size_t l) { return static_cast<double>(i[l]); });
   }
 
-  /// Lanes h .. h + L - 1 of a group: their pairs' bodies' velocities (omega, v of A and of B)
-  /// and inverse inertias, read once for all the pairs' points.
+  /// Lanes h .. h + L - 1 of a group: their pairs' bodies' velocities (omega, v of A and of B),
+  /// read once for all the pairs' points, and where their inverse inertias are (read as used).
+  /// Filled in place (load_pairs): returned by value, the compiler copied it twice per group.
   struct Pairs {
     V3 wa, va, wb, vb;
-    B dIa[9], dIb[9];
+    const WideGroup* g;
+    std::size_t h;
     Mask a_moves, b_moves;  // a body that does not move keeps its velocity (static: zero; kinematic: its own)
   };
-  static Pairs load_pairs(const Lanes& d, const WideGroup& g, std::size_t h) {
-    Pairs q;
+  static void load_pairs(const Lanes& d, const WideGroup& g, std::size_t h, Pairs& q) {
     B qa[6], qb[6];
     gather_n<6>(d.qd, 6, g.a + h, qa);
     gather_n<6>(d.qd, 6, g.b + h, qb);
-    for (int i = 0; i < 9; ++i) {
-      q.dIa[i] = load(g.dI_a[i] + h);
-      q.dIb[i] = load(g.dI_b[i] + h);
-    }
+    q.g = &g;
+    q.h = h;
     q.wa = {qa[0], qa[1], qa[2]};
     q.va = {qa[3], qa[4], qa[5]};
     q.wb = {qb[0], qb[1], qb[2]};
@@ -98,7 +104,6 @@ struct Kernel {
     const B zero(0.0);
     q.a_moves = gather([&](std::size_t l) { return g.a_moves[h + l] ? 1.0 : 0.0; }) != zero;
     q.b_moves = gather([&](std::size_t l) { return g.b_moves[h + l] ? 1.0 : 0.0; }) != zero;
-    return q;
   }
   /// The velocities back, for the bodies that move.
   static void store_pairs(const Lanes& d, const WideGroup& g, std::size_t h, const Pairs& q) {
@@ -123,9 +128,9 @@ struct Kernel {
   static void push(Pairs& q, const Mask& where, const V3& r_a, const V3& r_b, const V3& P, const B& dinv_mass_a,
                    const B& dinv_mass_b) {
     const Mask on_a = where && q.a_moves, on_b = where && q.b_moves;
-    q.wa = select3(on_a, sub(q.wa, mul(q.dIa, cross(r_a, P))), q.wa);
+    q.wa = select3(on_a, sub(q.wa, mul(q.g->dI_a, q.h, cross(r_a, P))), q.wa);
     q.va = select3(on_a, sub(q.va, scale(dinv_mass_a, P)), q.va);
-    q.wb = select3(on_b, add(q.wb, mul(q.dIb, cross(r_b, P))), q.wb);
+    q.wb = select3(on_b, add(q.wb, mul(q.g->dI_b, q.h, cross(r_b, P))), q.wb);
     q.vb = select3(on_b, add(q.vb, scale(dinv_mass_b, P)), q.vb);
   }
 
@@ -136,7 +141,8 @@ struct Kernel {
     for (std::size_t gi = group; gi < group + groups; ++gi) {
       const WideGroup& g = d.groups[gi];
       for (std::size_t h = 0; h < kLanes; h += L) {
-        Pairs q = load_pairs(d, g, h);
+        Pairs q;
+        load_pairs(d, g, h, q);
         const B dinv_mass_a = load(g.dinv_mass_a + h), dinv_mass_b = load(g.dinv_mass_b + h);
         const B count = as_doubles(g.count + h);
         const V3 n = load3(g.n, h), t1 = load3(g.t1, h), t2 = load3(g.t2, h);
@@ -161,7 +167,8 @@ struct Kernel {
       WideGroup& g = d.groups[gi];
       for (std::size_t h = 0; h < kLanes; h += L) {
         // the pairs: bodies, their velocities and inverse inertias (and how far they have moved)
-        Pairs q = load_pairs(d, g, h);
+        Pairs q;
+        load_pairs(d, g, h, q);
         B dRa[9], dRb[9], dpa[3], dpb[3];
         if constexpr (kGap) {
           gather_n<9>(d.dR, 9, g.a + h, dRa);
