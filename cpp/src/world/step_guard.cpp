@@ -64,9 +64,16 @@ void StepGuard::begin(const State& state, const solver::SolverData& solver, cons
   }
 }
 
-void StepGuard::measure_start(const Model& model, const State& state, const std::vector<BodyIndex>* bodies) {
+void StepGuard::measure_start(const Model& model, const State& state, const std::vector<BodyIndex>* bodies,
+                              const parallel::Pool* pool) {
+  const std::size_t n = bodies ? bodies->size() : model.size();
+  kinetic_.resize(n);
+  parallel::for_ranges(pool, n, 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t k = first; k < end; ++k)
+      kinetic_[k] = body_kinetic_energy(model, state, bodies ? static_cast<std::size_t>((*bodies)[k]) : k);
+  });
   T0_ = 0.0;
-  parallel::each_body(bodies, model.size(), [&](std::size_t i) { T0_ += body_kinetic_energy(model, state, i); });
+  for (std::size_t k = 0; k < n; ++k) T0_ += kinetic_[k];
 }
 
 void StepGuard::undo(State& state, solver::SolverData& solver) {
@@ -108,7 +115,8 @@ void StepGuard::check_finite(const Model& model, State& state, solver::SolverDat
 }
 
 void StepGuard::check_energy(const Model& model, const Vec3& gravity, double dt, State& state,
-                             solver::SolverData& solver, const std::vector<BodyIndex>* bodies) {
+                             solver::SolverData& solver, const std::vector<BodyIndex>* bodies,
+                             const parallel::Pool* pool) {
   const std::size_t n = bodies ? bodies->size() : model.size();
   const auto body = [&](std::size_t k) { return bodies ? static_cast<std::size_t>((*bodies)[k]) : k; };
   // a moving kinematic body is a source of energy the balance cannot bound
@@ -119,14 +127,25 @@ void StepGuard::check_energy(const Model& model, const Vec3& gravity, double dt,
   }
   // W counted only where positive: the position pass lifts bodies without giving them kinetic
   // energy, and a heavy body lifted out of an overlap must not hide another's fall
+  // each body's terms over the threads (a body the sums skip gives 0, which adds nothing), summed
+  // in body order
+  kinetic_.resize(n);
+  work_.resize(n);
+  parallel::for_ranges(pool, n, 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t k = first; k < end; ++k) {
+      const std::size_t i = body(k);
+      kinetic_[k] = work_[k] = 0.0;
+      if (model.is_static[i] || model.is_kinematic[i] || !model.enabled[i]) continue;
+      kinetic_[k] = body_kinetic_energy(model, state, i);
+      const Vec3 f = model.mass[i] * gravity + before_.f_ext[i] + before_.f_step[i];
+      const Vec3 tau = before_.tau_ext[i] + before_.tau_step[i];
+      work_[k] = std::max(0.0, f.dot(state.p[i] - before_.p[i]) + tau.dot(before_.omega[i] + state.omega[i]) * 0.5 * dt);
+    }
+  });
   double T1 = 0.0, W = 0.0;
   for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t i = body(k);
-    if (model.is_static[i] || model.is_kinematic[i] || !model.enabled[i]) continue;
-    T1 += body_kinetic_energy(model, state, i);
-    const Vec3 f = model.mass[i] * gravity + before_.f_ext[i] + before_.f_step[i];
-    const Vec3 tau = before_.tau_ext[i] + before_.tau_step[i];
-    W += std::max(0.0, f.dot(state.p[i] - before_.p[i]) + tau.dot(before_.omega[i] + state.omega[i]) * 0.5 * dt);
+    T1 += kinetic_[k];
+    W += work_[k];
   }
   const double budget = T0_ + W;
   if (!(T1 > World::kExplosionFactor * budget && T1 - budget > World::kExplosionFloor)) return;

@@ -30,8 +30,11 @@ class StepGuard {
              const parallel::Pool* pool = nullptr);
   /// The next begin() copies the whole state (a static body's state changed, or the body count).
   void invalidate() { whole_ = true; }
-  /// The kinetic energy T_0 the step answers to, measured after the pending impulses.
-  void measure_start(const Model& model, const State& state, const std::vector<BodyIndex>* bodies = nullptr);
+  /// The kinetic energy T_0 the step answers to, measured after the pending impulses. Each body's
+  /// term on pool's threads (null: the calling thread alone), summed in body order on the calling
+  /// thread: the same bits for every thread count.
+  void measure_start(const Model& model, const State& state, const std::vector<BodyIndex>* bodies = nullptr,
+                     const parallel::Pool* pool = nullptr);
   /// Checkpoint after each substep: a non-finite position, rotation or velocity undoes the step and
   /// throws, naming the first such body (of `bodies`: those the step moves; null: all).
   void check_finite(const Model& model, State& state, solver::SolverData& solver,
@@ -41,9 +44,10 @@ class StepGuard {
   /// (docs/conventions.md, "One step"). T_1 above both kExplosionFactor (T_0 + W) and
   /// kExplosionFloor + T_0 + W undoes the step and throws, naming the bodies that gained most.
   /// Steps with a moving kinematic body are not checked: it can give any energy. Sums over
-  /// `bodies` (null: all; a static body adds nothing).
+  /// `bodies` (null: all; a static body adds nothing); the terms on pool's threads, summed in body
+  /// order as measure_start's.
   void check_energy(const Model& model, const Vec3& gravity, double dt, State& state, solver::SolverData& solver,
-                    const std::vector<BodyIndex>* bodies = nullptr);
+                    const std::vector<BodyIndex>* bodies = nullptr, const parallel::Pool* pool = nullptr);
   /// The state at the start of the step (before its impulses).
   const State& start() const { return before_; }
 
@@ -60,6 +64,8 @@ class StepGuard {
   std::vector<int> forced_before_;
   bool whole_forces_ = true;
   double T0_ = 0.0;
+  /// per entry of the body list: its kinetic energy and its positive work (scratch of the sums)
+  std::vector<double> kinetic_, work_;
 };
 
 /// Kinetic energy of body i in state s, 1/2 (m v.v + omega . I_w omega) (J); 0 for a static,

@@ -211,7 +211,7 @@ void World::step_once(double dt) {
   Laps lap(t);
   guard_->begin(state_, *solver_, &moving_, pool_.get());  // checkpoint: what an undo puts back
   dynamics::apply_impulses(model_, state_, &moving_);  // pending impulses change v and omega
-  guard_->measure_start(model_, state_, &moving_);     // the kinetic energy the step answers to
+  guard_->measure_start(model_, state_, &moving_, pool_.get());  // the kinetic energy the step answers to
   lap(t.guard);
   detect_contacts(dt, contacts_base_);                 // once, as far as the whole step reaches
   lap(t.detect);
@@ -233,7 +233,7 @@ void World::step_once(double dt) {
   }
   continuous();                                        // fast bodies put back before the static ones they passed
   lap(t.continuous);
-  guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_, &moving_);  // checkpoint: no explosion
+  guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_, &moving_, pool_.get());  // checkpoint: no explosion
   lap(t.guard);
   commit_step(stats);
   end_islands(dt);                                     // sleep timers; islands at rest fall asleep
@@ -249,7 +249,7 @@ void World::soft_step_once(double dt) {
   Laps lap(t);
   guard_->begin(state_, *solver_, &moving_, pool_.get());  // checkpoint: what an undo puts back
   dynamics::apply_impulses(model_, state_, &moving_);  // pending impulses change v and omega
-  guard_->measure_start(model_, state_, &moving_);     // the kinetic energy the step answers to
+  guard_->measure_start(model_, state_, &moving_, pool_.get());  // the kinetic energy the step answers to
   lap(t.guard);
   detect_contacts(dt, contacts_base_);                 // once, as far as the whole step reaches
   lap(t.detect);
@@ -279,7 +279,7 @@ void World::soft_step_once(double dt) {
   lap(t.store);
   continuous();                                        // fast bodies put back before the static ones they passed
   lap(t.continuous);
-  guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_, &moving_);  // checkpoint: no explosion
+  guard_->check_energy(model_, settings_.gravity, dt, state_, *solver_, &moving_, pool_.get());  // checkpoint: no explosion
   lap(t.guard);
   commit_step(stats);
   end_islands(dt);                                     // sleep timers; islands at rest fall asleep
@@ -351,11 +351,11 @@ void World::commit_step(const SolverStats& solved) {
   ++event_step_;
   stats_ = stats;
   // (a static body has no one-step force: apply_force refuses it)
-  for (const BodyIndex i : moving_) {
+  parallel::for_bodies(pool_.get(), &moving_, model_.size(), 1024, [&](std::size_t i) {
     if (model_.enabled[i] && !state_.asleep(i)) state_.q[i] = math::matrix_to_quat(state_.R[i]);
     state_.f_step[i].setZero();
     state_.tau_step[i].setZero();
-  }
+  });
 }
 
 std::vector<Contact> World::detect_contacts(double dt) const {
