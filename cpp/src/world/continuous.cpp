@@ -5,7 +5,9 @@
 // stop most fast bodies, but a small body crossing a bumpy triangle mesh in one step can find no
 // contact in time and end behind it. A body fast by its turn (issue 21: a thin hull spun to
 // hundreds of rad/s by its landing turns a vertex its contacts did not have into the floor) that
-// ends deep in a static body is put back along its path (travel and turn) to where it was not.
+// ends deep in a static body is put back along its path (travel and turn) to where it was not. A
+// jointed body takes its mechanism with it: every body its joints link it to is wound back by the
+// same fraction of its own path, so that the joints stay as they were along the way.
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -85,6 +87,17 @@ void World::continuous() {
   std::vector<Contact> contacts;
   std::vector<BodyIndex> walls;
   std::vector<double> start_depth;
+  std::vector<BodyIndex> mechanism;  // a jointed body and those its joints link it to (it first)
+  // body k of a mechanism wound back to fraction t of its path over the step: its centre along its
+  // travel, and (turning) its rotation by t of its turn about the turn's axis, as the body put back
+  // (a kinematic or sleeping body does not move)
+  const auto wind_back = [&](BodyIndex k, double t, bool turning) {
+    if (model_.is_kinematic[k] || !model_.enabled[k] || state_.asleep(k)) return;
+    state_.p[k] = start.p[k] + t * (state_.p[k] - start.p[k]);
+    if (!turning) return;
+    const Eigen::AngleAxisd turn(Mat3(state_.R[k] * start.R[k].transpose()));
+    state_.R[k] = math::orthonormalize(math::rodrigues(Vec3(turn.angle() * turn.axis()), t) * start.R[k]);
+  };
   for (const BodyIndex i : moving_) {
     if (model_.is_kinematic[i] || !model_.enabled[i] || model_.is_sensor[i] || state_.asleep(i)) continue;
     const Vec3 delta = state_.p[i] - start.p[i];
@@ -96,11 +109,19 @@ void World::continuous() {
     const double cos_turn = std::clamp(0.5 * (state_.R[i].cwiseProduct(start.R[i]).sum() - 1.0), -1.0, 1.0);
     const bool turned = std::acos(cos_turn) * model_.rho[i] > kFastFraction * inner;
     if (!travelled && !turned) continue;
-    // a jointed body is not moved alone: putting it back without its partners would open its joints
-    // (its joints' rows and speculative contacts hold it instead)
-    const bool jointed = std::any_of(joints_->joints.begin(), joints_->joints.end(),
-                                     [&](const Joint& j) { return !j.broken && (j.a == i || j.b == i); });
-    if (jointed) continue;
+    // a jointed body is not moved alone: putting it back without its partners would open its joints.
+    // Its mechanism (the bodies its unbroken joints link it to, through any number of joints) is
+    // wound back with it instead, each body by the same fraction of its own path (mechanism below)
+    mechanism.assign(1, i);
+    for (std::size_t k = 0; k < mechanism.size(); ++k) {
+      const BodyIndex x = mechanism[k];
+      for (const Joint& j : joints_->joints) {
+        if (j.broken || (j.a != x && j.b != x)) continue;
+        const BodyIndex y = j.a == x ? j.b : j.a;
+        if (model_.is_static[y] || std::find(mechanism.begin(), mechanism.end(), y) != mechanism.end()) continue;
+        mechanism.push_back(y);
+      }
+    }
     const Shape& shape = model_.shape[i];
     const Pose from{start.p[i], state_.R[i]};
     // went through: its centre's path from the step's start crosses a static body's surface (a body
@@ -128,7 +149,9 @@ void World::continuous() {
       const double closing = h.hit ? -delta.dot(h.normal) : 0.0;
       const double back = h.hit && h.t > 0.0 && closing > 0.0 ? h.t - kBackFraction * inner / closing
                                                              : crossed - inner / travel;
-      state_.p[i] = start.p[i] + std::max(0.0, std::min(back, crossed)) * delta;
+      const double t = std::max(0.0, std::min(back, crossed));
+      state_.p[i] = start.p[i] + t * delta;
+      for (std::size_t k = 1; k < mechanism.size(); ++k) wind_back(mechanism[k], t, false);
     }
     // turned in: the path's poses (straight travel to where it is now, put back or not, and a
     // steady turn about the step's turn axis), the static bodies its ball sweeps; when it ends
@@ -167,6 +190,7 @@ void World::continuous() {
       const Pose back = pose_at(lo);
       state_.p[i] = back.p;
       state_.R[i] = back.R;
+      for (std::size_t k = 1; k < mechanism.size(); ++k) wind_back(mechanism[k], lo, true);
       return true;
     };
     // each body put back counts once (the crossing, the turn or both)
