@@ -87,7 +87,8 @@ void World::continuous() {
   std::vector<Contact> contacts;
   std::vector<BodyIndex> walls;
   std::vector<double> start_depth;
-  std::vector<BodyIndex> mechanism;  // a jointed body and those its joints link it to (it first)
+  // a body and those its joints link it to (it first), in storage kept from step to step
+  std::vector<BodyIndex>& mechanism = scratch_->mechanism;
   // body k of a mechanism wound back to fraction t of its path over the step: its centre along its
   // travel, and (turning) its rotation by t of its turn about the turn's axis, as the body put back
   // (a kinematic or sleeping body does not move)
