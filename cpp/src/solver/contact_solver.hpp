@@ -117,6 +117,9 @@ struct alignas(32) WideGroup {
     double W_1n[kLanes], W_2n[kLanes], W_21[kLanes];
     double gap0[kLanes], s[kLanes];  ///< the gap at detection and now (m): SoftPoint's
     double alpha[3][kLanes];         ///< the forces of the normal, t1 and t2 rows (N): d.alpha's
+    /// the step's normal impulse so far and largest normal force (N s, N): SoftPoint's impulse and
+    /// alpha_max while wide_accumulate keeps them here (no restitution in the step)
+    double impulse[kLanes], alpha_max[kLanes];
   };
   Point point[kManifoldPoints];
   double n[3][kLanes], t1[3][kLanes], t2[3][kLanes];  ///< the rows' directions, per pair

@@ -178,7 +178,11 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
   // grouped ones as their forces leave the groups, the others in order
   d.alpha_iter.resize(K);
   d.restitutive.resize(K);
-  std::atomic<bool> bounces{d.lanes && wide_settle(settings, d)};
+  // without restitution the grouped contacts only add up their impulses, in the groups, until
+  // soft_end hands them out (wide_accumulate)
+  const bool deferred = d.lanes && !d.bouncy;
+  if (deferred) wide_accumulate(d);
+  std::atomic<bool> bounces{d.lanes && !deferred && wide_settle(settings, d)};
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
     bool any = false;
     for (std::size_t k = first; k < end; ++k)  // in solve order, as the points and flags are stored
@@ -209,6 +213,7 @@ SolverStats soft_end(const Model& model, const State& state, const SolverSetting
     d.alpha_iter.assign(K, 0.0);
     d.restitutive.assign(K, char(0));
   }
+  if (d.lanes && !d.bouncy) wide_settle_out(d);  // their forces and impulses, kept in the groups
   if (d.lanes) wide_gaps_out(d);  // the grouped contacts' gaps, from the lanes' groups
   // the certificate's targets: the rigid contact at its end gap (speculative: close it, no more),
   // or e u for a contact that bounced in the last substep; each contact's impulse: its substeps'

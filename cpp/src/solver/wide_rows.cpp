@@ -180,6 +180,8 @@ void widen(const SolverSettings& s, SolverData& d) {
           p.gap0[l] = soft.gap0;
           p.s[l] = soft.s;
           for (int i = 0; i < 3; ++i) p.alpha[i][l] = d.alpha[3 * k + static_cast<std::size_t>(i)];
+          p.impulse[l] = soft.impulse;
+          p.alpha_max[l] = soft.alpha_max;
           // the lanes assume the rows the scalar sweep solves in full (contact_rows' first
           // branches), and one normal (so one tangent basis) and one spring per pair, to the bit
           const bool same = std::memcmp(r.n.data(), pair.n.data(), sizeof(Vec3)) == 0 &&
@@ -224,6 +226,40 @@ bool wide_settle(const SolverSettings& s, SolverData& d) {
     if (any) bounces.store(true, std::memory_order_relaxed);
   });
   return bounces.load(std::memory_order_relaxed);
+}
+
+void wide_accumulate(SolverData& d) {
+  const double h = d.h;
+  rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
+    for (std::size_t gi = from; gi < to; ++gi) {
+      WideGroup& g = d.wide[gi];
+      if (g.one_by_one) continue;  // settled one by one
+      // every slot (a lane past its last point adds to its unused slot, never read)
+      for (int j = 0; j < g.points; ++j) {
+        WideGroup::Point& p = g.point[j];
+        for (std::size_t l = 0; l < kLanes; ++l) {
+          p.impulse[l] += h * p.alpha[0][l];
+          p.alpha_max[l] = std::max(p.alpha_max[l], p.alpha[0][l]);
+        }
+      }
+    }
+  });
+}
+
+void wide_settle_out(SolverData& d) {
+  rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
+    for (std::size_t gi = from; gi < to; ++gi) {
+      const WideGroup& g = d.wide[gi];
+      if (g.one_by_one) continue;
+      each_point(g, [&](const WideGroup::Point& p, std::size_t l, std::size_t k) {
+        for (std::size_t i = 0; i < 3; ++i) d.alpha[3 * k + i] = p.alpha[i][l];
+        d.alpha_iter[k] = p.alpha[0][l];
+        d.restitutive[k] = 0;
+        d.soft[k].impulse = p.impulse[l];
+        d.soft[k].alpha_max = p.alpha_max[l];
+      });
+    }
+  });
 }
 
 void wide_alpha_in(SolverData& d) {

@@ -67,6 +67,15 @@ void wide_gaps_in(SolverData& d);
 bool wide_settle(const SolverSettings& s, SolverData& d);
 void wide_alpha_in(SolverData& d);
 
+/// Without restitution anywhere (!d.bouncy no contact can bounce), settling a grouped contact is
+/// only bookkeeping: its impulse grows by h alpha_n, its largest force is kept, and its last forces
+/// are the step's. wide_accumulate does the first two in the groups after each substep's relax
+/// sweeps (contiguous, no per-contact scatter), and wide_settle_out hands all of it to d.alpha,
+/// d.alpha_iter, d.restitutive and the soft points once, at the step's end: the same bits as
+/// wide_settle after every substep (the same additions in the same order, the same max).
+void wide_accumulate(SolverData& d);
+void wide_settle_out(SolverData& d);
+
 /// The soft step's sweep over solve positions [first, end) (one by_colour block, or everything):
 /// each group's pairs in lanes, the other contacts one by one, colour by colour (all one by one
 /// without lanes, d.lanes). The rows have no spin rows when d.lanes.
