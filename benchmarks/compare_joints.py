@@ -10,7 +10,7 @@ each signorini solver (``pgs``, the default, and ``soft`` with the settings the 
   planar arm; no contacts), imported by ``signorini.mjcf.import_mjcf``, sleeping off: the joint
   angles after 1 s of a limp fall at dt 1/1000 against MuJoCo's (RK4, the reference), both wrapped
   into [-pi, pi) (rad; the test's bound 1e-2); and the joint-space mass matrix at the start, built
-  from signorini's bodies and joints (``mass_matrix``, the test's), against MuJoCo's ``mj_fullM``,
+  from signorini's bodies and joints (``MJCFModel.mass_matrix``), against MuJoCo's ``mj_fullM``,
   relative to its largest entry (bound 1e-9).
 - URDF kuka_iiwa of pybullet_data, ``sg.add_urdf`` with the base fixed: link masses (relative),
   inertias about the centre of mass in the link frame (relative to the link's largest entry),
@@ -27,7 +27,6 @@ test's bound; each such figure is listed again under the table, on a line starti
 from __future__ import annotations
 
 import importlib.metadata
-import importlib.util
 import math
 import os
 import sys
@@ -38,18 +37,10 @@ import numpy as np
 
 import signorini as sg
 from signorini.mjcf import import_mjcf
-from signorini.oracle import quat_to_matrix
 
 
-def _load_peers():
-    """benchmarks/_peers.py, loaded by path (the benchmarks folder is not a package)."""
-    spec = importlib.util.spec_from_file_location("_peers", Path(__file__).resolve().parent / "_peers.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-peers = _load_peers()
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # benchmarks/_peers.py (not a package)
+import _peers as peers  # noqa: E402
 
 MJCF_DATA = Path(__file__).resolve().parents[1] / "tests" / "python" / "data" / "mjcf_joints"
 MJCF_MODELS = ["pendulum", "double_pendulum", "arm7"]
@@ -68,35 +59,6 @@ def wrapped(angle):
     return (np.asarray(angle) + math.pi) % (2 * math.pi) - math.pi
 
 
-def mass_matrix(model) -> np.ndarray:
-    """signorini's joint-space mass matrix (n, n) of a tree of hinges and slides (test_mjcf_joints'):
-    M = sum_b J_b^T diag(m_b E, I_b) J_b, J_b (6, n) the joint rates to body b's centre-of-mass
-    velocity and angular velocity (world)."""
-    w = model.world
-    joints = list(model.joints.values())
-    parent_joint = {j.body: k for k, j in enumerate(joints)}
-    M = np.zeros((len(joints), len(joints)))
-    for b, joint in parent_joint.items():
-        c, m = w.positions[b], w.masses[b]
-        R = quat_to_matrix(w.orientations[b])
-        I_world = R @ w.inertias[b] @ R.T
-        J = np.zeros((6, len(joints)))
-        k = joint
-        while k is not None:
-            j = joints[k]
-            frame = w.joint(j.index)
-            Rb = quat_to_matrix(w.orientations[j.body])
-            y = w.positions[j.body] + Rb @ frame["anchor_b"]
-            a = Rb @ frame["axis_b"]
-            if j.type == "hinge":
-                J[:3, k], J[3:, k] = np.cross(a, c - y), a
-            else:
-                J[:3, k] = a
-            k = parent_joint.get(j.parent)
-        M += m * J[:3].T @ J[:3] + J[3:].T @ I_world @ J[3:]
-    return M
-
-
 def mjcf_figures(mujoco, name, settings):
     """(max |q - q_mujoco| after 1 s (rad), mass matrix relative difference, max |q_mujoco|)."""
     path = MJCF_DATA / f"{name}.xml"
@@ -111,7 +73,7 @@ def mjcf_figures(mujoco, name, settings):
     model = import_mjcf(path)
     model.world.set_solver(**settings)
     model.world.set_sleep(sleeping=False)
-    relative = np.abs(mass_matrix(model) - expected).max() / np.abs(expected).max()
+    relative = np.abs(model.mass_matrix() - expected).max() / np.abs(expected).max()
     m.opt.timestep = MJCF_DT
     d = mujoco.MjData(m)
     for _ in range(MJCF_STEPS):

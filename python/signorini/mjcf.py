@@ -977,6 +977,41 @@ class MJCFModel:
         positions = self.world.joint_positions
         return np.array([positions[j.index] + j.ref for j in self.joints.values() if j.type != "ball"])
 
+    def mass_matrix(self) -> np.ndarray:
+        """(n, n) the joint-space mass matrix at the World's current poses, in ``qpos``'s order (kg,
+        kg m, kg m^2), as MuJoCo's ``mj_fullM`` gives it for the same file: M = sum_b J_b^T diag(m_b E,
+        I_b) J_b over the moving bodies b, J_b (6, n) mapping the joint rates to b's centre-of-mass
+        velocity and angular velocity (world), column k nonzero for joint k on b's path to the
+        world: a_k x (c_b - y_k) and a_k for a hinge about a_k through y_k, a_k and 0 for a slide.
+        A model with a ball joint (three coordinates in MuJoCo's) is refused with ValueError."""
+        joints = list(self.joints.values())
+        balls = [name for name, j in self.joints.items() if j.type not in ("hinge", "slide")]
+        if balls:
+            raise ValueError(f"mass_matrix: hinge and slide joints only; {', '.join(balls)} "
+                             f"{'is a ball joint' if len(balls) == 1 else 'are ball joints'}")
+        w = self.world
+        positions, rotations, masses, inertias = w.positions, w.rotations, w.masses, w.inertias
+        parent_joint = {j.body: k for k, j in enumerate(joints)}
+        M = np.zeros((len(joints), len(joints)))
+        for b, joint in parent_joint.items():
+            c, R = positions[b], rotations[b]
+            I_world = R @ inertias[b] @ R.T
+            J = np.zeros((6, len(joints)))
+            k = joint
+            while k is not None:
+                j = joints[k]
+                frame = w.joint(j.index)
+                Rb = rotations[j.body]
+                y = positions[j.body] + Rb @ frame["anchor_b"]
+                a = Rb @ frame["axis_b"]
+                if j.type == "hinge":
+                    J[:3, k], J[3:, k] = np.cross(a, c - y), a
+                else:
+                    J[:3, k] = a
+                k = parent_joint.get(j.parent)
+            M += masses[b] * J[:3].T @ J[:3] + J[3:].T @ I_world @ J[3:]
+        return M
+
     def set_ctrl(self, ctrl) -> None:
         """Sets MuJoCo's controls (nu,): each clamped to its actuator's ctrlrange and applied from
         the next step on: a position or velocity actuator's to its joint's drive

@@ -39,36 +39,6 @@ def rotation(q) -> np.ndarray:
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
-def mass_matrix(model) -> np.ndarray:
-    """signorini's joint-space mass matrix (n, n) of a tree of hinges and slides, at the World's
-    current poses: M = sum_b J_b^T diag(m_b E, I_b) J_b, J_b (6, n) mapping the joint rates to body b's
-    centre-of-mass velocity and angular velocity (world), column k nonzero for joint k on b's path to
-    the world: a_k x (c_b - y_k) and a_k for a hinge about a_k through y_k, a_k and 0 for a slide."""
-    w = model.world
-    joints = list(model.joints.values())
-    parent_joint = {j.body: k for k, j in enumerate(joints)}
-    M = np.zeros((len(joints), len(joints)))
-    for b, joint in parent_joint.items():
-        c, m = w.positions[b], w.masses[b]
-        R = rotation(w.orientations[b])
-        I_world = R @ w.inertias[b] @ R.T
-        J = np.zeros((6, len(joints)))
-        k = joint
-        while k is not None:
-            j = joints[k]
-            frame = w.joint(j.index)
-            Rb = rotation(w.orientations[j.body])
-            y = w.positions[j.body] + Rb @ frame["anchor_b"]
-            a = Rb @ frame["axis_b"]
-            if j.type == "hinge":
-                J[:3, k], J[3:, k] = np.cross(a, c - y), a
-            else:
-                J[:3, k] = a
-            k = parent_joint.get(j.parent)
-        M += m * J[:3].T @ J[:3] + J[3:].T @ I_world @ J[3:]
-    return M
-
-
 def run_both(path, steps, **solver):
     """MuJoCo (RK4, its file's options) and signorini (``solver`` settings, sleeping off) stepped
     ``steps`` times at DT from the file's pose: (MuJoCo's qpos, signorini's) after."""
@@ -114,7 +84,7 @@ def test_mass_matrix_at_the_start_equals_mujocos(name):
         mujoco.mj_fullM(m, expected, d.qM)
     else:
         mujoco.mj_fullM(m, d, expected)
-    M = mass_matrix(import_mjcf(DATA / f"{name}.xml"))
+    M = import_mjcf(DATA / f"{name}.xml").mass_matrix()
     relative = np.abs(M - expected).max() / np.abs(expected).max()
     print(f"{name}: mass matrix relative difference {relative:.1e}")
     assert relative < 1e-9
@@ -162,6 +132,10 @@ def test_joints_map_onto_the_world(tmp_path):
     np.testing.assert_allclose(model.qpos(), [0.1, 0.25])
     # jointed pairs do not collide; the world's other bodies (the floor) do, as in MuJoCo
     assert w.disabled_pairs == []
+    # the joint-space mass matrix is the hinges' and slides': a ball joint (3 of MuJoCo's
+    # coordinates) is refused by name
+    with pytest.raises(ValueError, match="ball is a ball joint"):
+        model.mass_matrix()
 
 
 def test_actuators_drive_as_in_mujoco(tmp_path):
