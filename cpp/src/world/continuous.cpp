@@ -87,17 +87,32 @@ void World::continuous() {
   std::vector<Contact> contacts;
   std::vector<BodyIndex> walls;
   std::vector<double> start_depth;
-  // a body and those its joints link it to (it first), in storage kept from step to step
+  // A body i put back to fraction t of its path takes its mechanism with it: the bodies its
+  // unbroken joints link it to, through any number of joints (found only now, in storage kept from
+  // step to step), each wound back to fraction t of its own path over the step: its centre along
+  // its travel, and (turning) its rotation by t of its turn about the turn's axis, as i's (a
+  // kinematic or sleeping body does not move)
   std::vector<BodyIndex>& mechanism = scratch_->mechanism;
-  // body k of a mechanism wound back to fraction t of its path over the step: its centre along its
-  // travel, and (turning) its rotation by t of its turn about the turn's axis, as the body put back
-  // (a kinematic or sleeping body does not move)
-  const auto wind_back = [&](BodyIndex k, double t, bool turning) {
-    if (model_.is_kinematic[k] || !model_.enabled[k] || state_.asleep(k)) return;
-    state_.p[k] = start.p[k] + t * (state_.p[k] - start.p[k]);
-    if (!turning) return;
-    const Eigen::AngleAxisd turn(Mat3(state_.R[k] * start.R[k].transpose()));
-    state_.R[k] = math::orthonormalize(math::rodrigues(Vec3(turn.angle() * turn.axis()), t) * start.R[k]);
+  const auto wind_back_with = [&](BodyIndex i, double t, bool turning) {
+    if (joints_->joints.empty()) return;
+    mechanism.assign(1, i);
+    for (std::size_t k = 0; k < mechanism.size(); ++k) {
+      const BodyIndex x = mechanism[k];
+      for (const Joint& j : joints_->joints) {
+        if (j.broken || (j.a != x && j.b != x)) continue;
+        const BodyIndex y = j.a == x ? j.b : j.a;
+        if (model_.is_static[y] || std::find(mechanism.begin(), mechanism.end(), y) != mechanism.end()) continue;
+        mechanism.push_back(y);
+      }
+    }
+    for (std::size_t n = 1; n < mechanism.size(); ++n) {
+      const BodyIndex k = mechanism[n];
+      if (model_.is_kinematic[k] || !model_.enabled[k] || state_.asleep(k)) continue;
+      state_.p[k] = start.p[k] + t * (state_.p[k] - start.p[k]);
+      if (!turning) continue;
+      const Eigen::AngleAxisd turn(Mat3(state_.R[k] * start.R[k].transpose()));
+      state_.R[k] = math::orthonormalize(math::rodrigues(Vec3(turn.angle() * turn.axis()), t) * start.R[k]);
+    }
   };
   for (const BodyIndex i : moving_) {
     if (model_.is_kinematic[i] || !model_.enabled[i] || model_.is_sensor[i] || state_.asleep(i)) continue;
@@ -110,19 +125,8 @@ void World::continuous() {
     const double cos_turn = std::clamp(0.5 * (state_.R[i].cwiseProduct(start.R[i]).sum() - 1.0), -1.0, 1.0);
     const bool turned = std::acos(cos_turn) * model_.rho[i] > kFastFraction * inner;
     if (!travelled && !turned) continue;
-    // a jointed body is not moved alone: putting it back without its partners would open its joints.
-    // Its mechanism (the bodies its unbroken joints link it to, through any number of joints) is
-    // wound back with it instead, each body by the same fraction of its own path (mechanism below)
-    mechanism.assign(1, i);
-    for (std::size_t k = 0; k < mechanism.size(); ++k) {
-      const BodyIndex x = mechanism[k];
-      for (const Joint& j : joints_->joints) {
-        if (j.broken || (j.a != x && j.b != x)) continue;
-        const BodyIndex y = j.a == x ? j.b : j.a;
-        if (model_.is_static[y] || std::find(mechanism.begin(), mechanism.end(), y) != mechanism.end()) continue;
-        mechanism.push_back(y);
-      }
-    }
+    // a jointed body is not moved alone: putting it back without its partners would open its
+    // joints, so its mechanism goes with it (wind_back_with)
     const Shape& shape = model_.shape[i];
     const Pose from{start.p[i], state_.R[i]};
     // went through: its centre's path from the step's start crosses a static body's surface (a body
@@ -152,7 +156,7 @@ void World::continuous() {
                                                              : crossed - inner / travel;
       const double t = std::max(0.0, std::min(back, crossed));
       state_.p[i] = start.p[i] + t * delta;
-      for (std::size_t k = 1; k < mechanism.size(); ++k) wind_back(mechanism[k], t, false);
+      wind_back_with(i, t, false);
     }
     // turned in: the path's poses (straight travel to where it is now, put back or not, and a
     // steady turn about the step's turn axis), the static bodies its ball sweeps; when it ends
@@ -191,7 +195,7 @@ void World::continuous() {
       const Pose back = pose_at(lo);
       state_.p[i] = back.p;
       state_.R[i] = back.R;
-      for (std::size_t k = 1; k < mechanism.size(); ++k) wind_back(mechanism[k], lo, true);
+      wind_back_with(i, lo, true);
       return true;
     };
     // each body put back counts once (the crossing, the turn or both)
