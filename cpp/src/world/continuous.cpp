@@ -70,6 +70,18 @@ const std::vector<BodyIndex>& in_box(const collision::BroadPhase& bp, const Vec3
   return out;
 }
 
+/// A body's path over the step, as continuous collision takes it: its centre's straight travel
+/// from p0 and a steady turn phi (angle-axis of R R0^T) from R0; at(t), its pose at fraction t.
+struct Path {
+  Vec3 p0, moved, phi;
+  Mat3 R0;
+  Path(const Vec3& p0_, const Mat3& R0_, const Vec3& p, const Mat3& R) : p0(p0_), moved(p - p0_), R0(R0_) {
+    const Eigen::AngleAxisd turn(Mat3(R * R0_.transpose()));
+    phi = turn.angle() * turn.axis();
+  }
+  Pose at(double t) const { return Pose{Vec3(p0 + t * moved), Mat3(math::orthonormalize(math::rodrigues(phi, t) * R0))}; }
+};
+
 /// in_box of the box that shape covers from pose to pose + delta.
 const std::vector<BodyIndex>& along(const collision::BroadPhase& bp, const Shape& shape, const Pose& pose,
                                     const Vec3& delta, collision::Scratch& s) {
@@ -108,10 +120,13 @@ void World::continuous() {
     for (std::size_t n = 1; n < mechanism.size(); ++n) {
       const BodyIndex k = mechanism[n];
       if (model_.is_kinematic[k] || !model_.enabled[k] || state_.asleep(k)) continue;
-      state_.p[k] = start.p[k] + t * (state_.p[k] - start.p[k]);
-      if (!turning) continue;
-      const Eigen::AngleAxisd turn(Mat3(state_.R[k] * start.R[k].transpose()));
-      state_.R[k] = math::orthonormalize(math::rodrigues(Vec3(turn.angle() * turn.axis()), t) * start.R[k]);
+      if (!turning) {
+        state_.p[k] = start.p[k] + t * (state_.p[k] - start.p[k]);
+        continue;
+      }
+      const Pose back = Path(start.p[k], start.R[k], state_.p[k], state_.R[k]).at(t);
+      state_.p[k] = back.p;
+      state_.R[k] = back.R;
     }
   };
   for (const BodyIndex i : moving_) {
@@ -163,12 +178,7 @@ void World::continuous() {
     // deeper in one than it started by more than kDeepFraction of its inner radius, put back to the
     // last pose found (by halving) that is no deeper than the start by more than kBackFraction of it
     const auto turned_back = [&]() {
-      const Eigen::AngleAxisd turn(Mat3(state_.R[i] * start.R[i].transpose()));
-      const Vec3 phi = turn.angle() * turn.axis();
-      const Vec3 moved = state_.p[i] - start.p[i];
-      const auto pose_at = [&](double t) {
-        return Pose{Vec3(start.p[i] + t * moved), Mat3(math::orthonormalize(math::rodrigues(phi, t) * start.R[i]))};
-      };
+      const Path path(start.p[i], start.R[i], state_.p[i], state_.R[i]);
       const Vec3 reach = Vec3::Constant(model_.rho[i]);
       walls = in_box(*broad_phase_, start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach,
                      *scratch_);
@@ -180,7 +190,7 @@ void World::continuous() {
       if (walls.empty()) return false;
       start_depth.assign(walls.size(), 0.0);
       const std::vector<double> none;
-      deeper(model_, state_, *broad_phase_, shape, pose_at(0.0), walls, none, *scratch_, contacts, &start_depth);
+      deeper(model_, state_, *broad_phase_, shape, path.at(0.0), walls, none, *scratch_, contacts, &start_depth);
       const Pose end{state_.p[i], state_.R[i]};
       if (deeper(model_, state_, *broad_phase_, shape, end, walls, start_depth, *scratch_, contacts) <=
           kDeepFraction * inner)
@@ -188,11 +198,11 @@ void World::continuous() {
       double lo = 0.0, hi = 1.0;
       for (int k = 0; k < kBisections; ++k) {
         const double mid = 0.5 * (lo + hi);
-        const bool clear = deeper(model_, state_, *broad_phase_, shape, pose_at(mid), walls, start_depth, *scratch_,
+        const bool clear = deeper(model_, state_, *broad_phase_, shape, path.at(mid), walls, start_depth, *scratch_,
                                   contacts) <= kBackFraction * inner;
         (clear ? lo : hi) = mid;
       }
-      const Pose back = pose_at(lo);
+      const Pose back = path.at(lo);
       state_.p[i] = back.p;
       state_.R[i] = back.R;
       wind_back_with(i, lo, true);

@@ -154,7 +154,7 @@ void StepGuard::check_energy(const Model& model, const Vec3& gravity, double dt,
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t i = body(k);
     if (model.is_static[i]) continue;
-    const double gained = body_kinetic_energy(model, state, i) - body_kinetic_energy(model, before_, i);
+    const double gained = kinetic_[k] - body_kinetic_energy(model, before_, i);  // kinetic_: the sums' T_1 terms
     for (std::size_t k = 0; k < worst.size(); ++k)
       if (gained > worst[k].first) {
         for (std::size_t m = worst.size() - 1; m > k; --m) worst[m] = worst[m - 1];
