@@ -307,7 +307,10 @@ double pair_scale(const Shape& a, const Shape& b);
 /// Candidates -> manifold (docs/conventions.md, "Manifolds"): drops gap >= threshold, sorts by
 /// (feature_a, feature_b), drops duplicates within 1e-9 L, reduces more than 4 to 4 by area,
 /// ranking the points by the gap they close to in the step (PairMotion::end_gap; collide() gives
-/// the motion against a plane only) or, without a motion, by their gaps. The result is appended to out; index is scratch (the candidates' indices
+/// the motion against a plane only) or, without a motion, by their gaps; the touching points, from
+/// which the rules take p2 to p4 first, end within max(e_1, min(0, n . k + kTouchInnerFraction
+/// inner)) of the plane, e_1 the deepest end gap and k = dt^2 g_rel gravity's kick (with no
+/// motion: max(e_1, 0)). The result is appended to out; index is scratch (the candidates' indices
 /// while the rules run).
 void finish_manifold(std::vector<Contact>& candidates, double threshold, double L, std::vector<Contact>& out,
                      std::vector<int>& index, const PairMotion* motion = nullptr);
@@ -526,7 +529,14 @@ struct PairMotion {
   Vec3 g_rel = Vec3::Zero();  ///< g_B - g_A (m/s^2)
   double turning = 0.0;  ///< (|omega_A|^2 rho_A + |omega_B|^2 rho_B) / 2 (m/s^2)
   double dt = 0.0, margin = 0.0;
+  double inner = 0.0;  ///< the smaller inner radius of the pair's bodies (m; a plane's is infinite)
 };
+
+/// The manifold's touching tolerance counts gravity's kick dt^2 g over the step (PairMotion::end_gap)
+/// up to this fraction of the pair's smaller inner radius (finish_manifold; docs/conventions.md,
+/// "Manifolds"): at dt 1/60 the kick is 2.7 mm, and a body thinner than that, resting, had every
+/// vertex touching.
+constexpr double kTouchInnerFraction = 0.2;
 
 /// Speculative reach of body b towards a plane of world normal n: only the approach speed counts,
 /// dt (max(0, -n . v) + dt max(0, -n . g) + |omega| rho) (m), so a body sliding along a plane does

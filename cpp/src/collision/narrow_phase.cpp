@@ -369,7 +369,7 @@ void speculative_reach(const Model& model, const State& state, double dt, const 
 PairMotion::PairMotion(const Model& model, const State& state, BodyIndex a, BodyIndex b, double dt_,
                        const Vec3& gravity, double margin_)
     : p_a(state.p[a]), v_a(state.v[a]), omega_a(state.omega[a]), p_b(state.p[b]), v_b(state.v[b]),
-      omega_b(state.omega[b]), dt(dt_), margin(margin_) {
+      omega_b(state.omega[b]), dt(dt_), margin(margin_), inner(std::min(model.inner[a], model.inner[b])) {
   auto moved_by_gravity = [&](BodyIndex i) { return !model.is_static[i] && !model.is_kinematic[i]; };
   auto turn = [&](BodyIndex i) { return model.is_static[i] ? 0.0 : state.omega[i].squaredNorm() * model.rho[i]; };
   g_rel = (moved_by_gravity(b) ? gravity : Vec3::Zero()) - (moved_by_gravity(a) ? gravity : Vec3::Zero());

@@ -153,6 +153,14 @@ def end_gap(snapshot, dt, a, b, y, n, gap):
     return np.asarray(gap, dtype=float) + dt * np.einsum("kj,kj->k", n, relative + dt * g_rel)
 
 
+def gravity_kick(snapshot, dt, a, b):
+    """Gravity's kick in the end gaps of the pair (a, b), dt^2 (g_b - g_a), (3,) m, with g_i =
+    gravity for a body gravity moves, else 0: the same for every point of the pair, so the
+    manifold's touching rule leaves it out (``manifold.reduce_manifold``)."""
+    _, g_rel = _relative_motion(snapshot, a, b, np.zeros((0, 3)))
+    return dt * dt * g_rel
+
+
 def box_corners(half_extents):
     """The 8 corners of a box in body axes, (8, 3), corner order of the conventions:
     corner_k = (sx a, sy b, sz c), sx = +1 if k & 1 else -1, sy by k & 2, sz by k & 4."""
@@ -491,9 +499,12 @@ def detect_contacts(snapshot, dt):
             # L: the pair's length scale, the sum of its bounded shapes' bounding radii; against a
             # plane the points are ranked by the gaps they close to in the step, else by their gaps
             L = sum(r for r in map(bounding_radius, (shape_a, shape_b)) if np.isfinite(r))
-            ranking = end_gap(snapshot, dt, a, b, y, n, gap) if kinds[0] == "plane" else None
+            plane = kinds[0] == "plane"
+            ranking = end_gap(snapshot, dt, a, b, y, n, gap) if plane else None
+            kick = gravity_kick(snapshot, dt, a, b) if plane else None
+            inner = min(float(snapshot["bodies"][x].get("inner_radius", np.inf)) for x in (a, b))
             y, n, gap, feature_a, feature_b = select_manifold(y, n, gap, feature_a, feature_b, threshold, L,
-                                                              ranking)
+                                                              ranking, kick, inner)
             out["body_a"] += [a] * len(gap)
             out["body_b"] += [b] * len(gap)
             out["point"].append(y)

@@ -137,6 +137,11 @@ def polytope_to_world(polytope, p, R):
 
 # --------------------------------------------------------------------------- manifold selection
 
+# the manifold's touching tolerance counts gravity's kick up to this fraction of the pair's smaller
+# inner radius (the core's kTouchInnerFraction)
+TOUCH_INNER_FRACTION = 0.2
+
+
 def _first_within(values, best, tol, largest):
     """Index of the first entry within tol of the extreme value ``best`` (ties go to the first)."""
     ok = values >= best - tol if largest else values <= best + tol
@@ -149,16 +154,20 @@ def signed_area(a, b, q, n):
     return np.cross(b - a, q - a) @ n / 2.0
 
 
-def reduce_manifold(y, gap, n, L, end_gap=None):
+def reduce_manifold(y, gap, n, L, end_gap=None, kick=None, inner=np.inf):
     """Choose at most 4 of K > 4 candidate points of one manifold (docs, "Manifolds").
 
     Inputs: y (K, 3) world points in id order, gap (K,) m, n (K, 3) their normals (A to B),
             L m the pair's length scale, end_gap (K,) m the gaps the points close to in the step
-            (``end_gap`` in contacts.py; None: gap, as without a motion).
+            (``end_gap`` in contacts.py; None: gap, as without a motion), kick (3,) m gravity's
+            kick in them, dt^2 (g_B - g_A) (``gravity_kick`` in contacts.py; None: none, as
+            without a motion), inner m the smaller inner radius of the pair's bodies.
     Output: the indices (ascending, i.e. id order) of the kept points, 2 to 4 of them.
     The points are ranked by e = end_gap. A tie (within 1e-9 L for lengths, 1e-9 L^2 for areas,
     of the extreme value) goes to the first candidate in id order. p2 to p4 are chosen among the
-    touching points (e <= max(e of p1, 0) + 1e-9 L) while the best of them scores above the
+    touching points (e <= max(e of p1, min(0, n . kick + TOUCH_INNER_FRACTION inner)) + 1e-9 L,
+    n the normal at p1, or e <= max(e of p1, 0) + 1e-9 L without a kick: those that end the step
+    on the plane, gravity's kick counted up to a fraction of the inner radius) while the best of them scores above the
     tolerance, else among all:
         p1 the deepest (least e); p2 the farthest from p1;
         p3 the largest |area(p1, p2, q)| with n = the normal at p1; if that is <= 1e-9 L^2 (all
@@ -176,7 +185,12 @@ def reduce_manifold(y, gap, n, L, end_gap=None):
     taken[p1] = True
     n = np.asarray(n, dtype=float).reshape(-1, 3)[p1]
     # the touching points, from which 2. to 4. choose while they offer one above the tolerance
-    touching = e <= max(e[p1], 0.0) + tol_length
+    # (gravity's kick moves every point alike and a supported body does not fall it: counted whole,
+    # at dt 1/60 every vertex of a small resting body within dt^2 g = 2.7 mm touched)
+    touch = 0.0
+    if kick is not None:
+        touch = min(0.0, float(n @ np.asarray(kick, dtype=float)) + TOUCH_INNER_FRACTION * inner)
+    touching = e <= max(e[p1], touch) + tol_length
 
     def choose(score, tol):
         among = np.where(touching, score, -np.inf)
@@ -207,12 +221,13 @@ def reduce_manifold(y, gap, n, L, end_gap=None):
     return np.array(sorted(kept), dtype=np.int64)
 
 
-def select_manifold(y, n, gap, feature_a, feature_b, threshold, L, end_gap=None):
+def select_manifold(y, n, gap, feature_a, feature_b, threshold, L, end_gap=None, kick=None, inner=np.inf):
     """The contact points of one body pair from its candidates (docs, "Manifolds").
 
     Inputs: y (K, 3) m, n (K, 3), gap (K,) m, feature_a, feature_b (K,) ids, all world frame;
             threshold m (margin + speculative reach); L m (sum of the bounding radii of the
-            pair's bounded shapes); end_gap (K,) m or None, the ranking of ``reduce_manifold``.
+            pair's bounded shapes); end_gap (K,) m or None, the ranking of ``reduce_manifold``,
+            and kick (3,) m and inner m as ``reduce_manifold`` takes them.
     Output: (y, n, gap, feature_a, feature_b) of the kept points, at most 4, in increasing
             (feature_a, feature_b) order: candidates with gap < threshold, exact duplicates (y
             within 1e-9 L of an earlier candidate in id order) dropped, more than 4 reduced by
@@ -239,7 +254,7 @@ def select_manifold(y, n, gap, feature_a, feature_b, threshold, L, end_gap=None)
 
     # more than 4: reduce
     if len(gap) > 4:
-        kept = reduce_manifold(y, gap, n, L, e)
+        kept = reduce_manifold(y, gap, n, L, e, kick, inner)
         y, n, gap, feature_a, feature_b = (x[kept] for x in (y, n, gap, feature_a, feature_b))
     return y, n, gap, feature_a, feature_b
 
