@@ -36,14 +36,21 @@ constexpr double kBackFraction = 0.01;
 /// where along its path: by this many halvings of the step.
 constexpr double kDeepFraction = 0.25;
 constexpr int kBisections = 20;
+/// It is put back too when it ends deeper than it started by any more than kBackFraction and past
+/// this fraction of its inner radius deep (issue 21's overlap target): a small body tumbling on a
+/// bumpy mesh went 0.25 of its inner radius deeper step after step, each step's contacts carried
+/// from its start to first order in the turn, until it was 64 % deep (fuzz 1:286)
+constexpr double kOverlapFraction = 0.5;
 
 /// How much deeper shape (bounded, at pose) is in the static bodies `walls` than `start_depth` says
 /// it was in each (m, the largest; 0 when it is in none deeper): each depth is -(the least gap of
-/// the narrow phase's manifold with gap < 0).
+/// the narrow phase's manifold with gap < 0). depth: each wall's depth; deepest: the largest of them.
 double deeper(const Model& model, const State& state, const collision::BroadPhase& bp, const Shape& shape,
               const Pose& pose, const std::vector<BodyIndex>& walls, const std::vector<double>& start_depth,
-              collision::Scratch& s, std::vector<Contact>& contacts, std::vector<double>* depth = nullptr) {
+              collision::Scratch& s, std::vector<Contact>& contacts, std::vector<double>* depth = nullptr,
+              double* deepest = nullptr) {
   double most = 0.0;
+  if (deepest) *deepest = 0.0;
   for (std::size_t k = 0; k < walls.size(); ++k) {
     const BodyIndex j = walls[k];
     contacts.clear();
@@ -52,6 +59,7 @@ double deeper(const Model& model, const State& state, const collision::BroadPhas
     double d = 0.0;
     for (const Contact& c : contacts) d = std::max(d, -c.gap);
     if (depth) (*depth)[k] = d;
+    if (deepest) *deepest = std::max(*deepest, d);
     if (!start_depth.empty()) most = std::max(most, d - start_depth[k]);
   }
   return most;
@@ -175,7 +183,8 @@ void World::continuous() {
     }
     // turned in: the path's poses (straight travel to where it is now, put back or not, and a
     // steady turn about the step's turn axis), the static bodies its ball sweeps; when it ends
-    // deeper in one than it started by more than kDeepFraction of its inner radius, put back to the
+    // deeper in one than it started by more than kDeepFraction of its inner radius (or by more than
+    // kBackFraction of it, past kOverlapFraction of it deep), put back to the
     // last pose found (by halving) that is no deeper than the start by more than kBackFraction of it
     const auto turned_back = [&]() {
       const Path path(start.p[i], start.R[i], state_.p[i], state_.R[i]);
@@ -192,8 +201,10 @@ void World::continuous() {
       const std::vector<double> none;
       deeper(model_, state_, *broad_phase_, shape, path.at(0.0), walls, none, *scratch_, contacts, &start_depth);
       const Pose end{state_.p[i], state_.R[i]};
-      if (deeper(model_, state_, *broad_phase_, shape, end, walls, start_depth, *scratch_, contacts) <=
-          kDeepFraction * inner)
+      double deepest = 0.0;
+      const double rise = deeper(model_, state_, *broad_phase_, shape, end, walls, start_depth, *scratch_, contacts,
+                                 nullptr, &deepest);
+      if (rise <= kDeepFraction * inner && (deepest <= kOverlapFraction * inner || rise <= kBackFraction * inner))
         return false;
       double lo = 0.0, hi = 1.0;
       for (int k = 0; k < kBisections; ++k) {
