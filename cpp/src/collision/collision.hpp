@@ -250,6 +250,7 @@ struct Scratch {
   std::vector<int> triangles, bvh_stack;               ///< candidate triangles; BVH traversal
   std::vector<BodyIndex> swept;                        ///< bodies along a sweep (continuous collision)
   std::vector<BodyIndex> mechanism;                    ///< a body put back and those its joints link it to (continuous collision)
+  std::vector<char> on_static;  ///< by body: the step's contacts have it against a static body (continuous collision)
   std::vector<const void*> tree_stack;                 ///< the broad phase's walk for them
   Polytope triangle;                                   ///< the current triangle as a polytope
   SupportFeature feature_a, feature_b;                 ///< convex_by_support: both features

@@ -106,7 +106,7 @@ void World::continuous() {
   std::vector<int>& stack = scratch_->bvh_stack;
   std::vector<Contact> contacts;
   std::vector<BodyIndex> walls;
-  std::vector<double> start_depth;
+  std::vector<double> start_depth, end_depth;
   // A body i put back to fraction t of its path takes its mechanism with it: the bodies its
   // unbroken joints link it to, through any number of joints (found only now, in storage kept from
   // step to step), each wound back to fraction t of its own path over the step: its centre along
@@ -137,6 +137,14 @@ void World::continuous() {
       state_.R[k] = back.R;
     }
   };
+  // the bodies the step's contacts hold against a static body: the ones a travel with no crossing
+  // can have ended deep in one (the others had none within their reach at the step's start)
+  std::vector<char>& on_static = scratch_->on_static;
+  on_static.assign(model_.size(), char(0));
+  for (const Contact& c : contacts_base_) {
+    if (model_.is_static[c.body_a]) on_static[static_cast<std::size_t>(c.body_b)] = 1;
+    if (model_.is_static[c.body_b]) on_static[static_cast<std::size_t>(c.body_a)] = 1;
+  }
   for (const BodyIndex i : moving_) {
     if (model_.is_kinematic[i] || !model_.enabled[i] || model_.is_sensor[i] || state_.asleep(i)) continue;
     const Vec3 delta = state_.p[i] - start.p[i];
@@ -187,7 +195,6 @@ void World::continuous() {
     // kBackFraction of it, past kOverlapFraction of it deep), put back to the
     // last pose found (by halving) that is no deeper than the start by more than kBackFraction of it
     const auto turned_back = [&]() {
-      const Path path(start.p[i], start.R[i], state_.p[i], state_.R[i]);
       const Vec3 reach = Vec3::Constant(model_.rho[i]);
       walls = in_box(*broad_phase_, start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach,
                      *scratch_);
@@ -197,13 +204,19 @@ void World::continuous() {
                                  }),
                   walls.end());
       if (walls.empty()) return false;
-      start_depth.assign(walls.size(), 0.0);
+      // the end first: each rule needs it deeper than the start by more than kBackFraction of the
+      // inner radius, so deeper than that (most bodies are not, and their start is never looked at)
       const std::vector<double> none;
-      deeper(model_, state_, *broad_phase_, shape, path.at(0.0), walls, none, *scratch_, contacts, &start_depth);
       const Pose end{state_.p[i], state_.R[i]};
       double deepest = 0.0;
-      const double rise = deeper(model_, state_, *broad_phase_, shape, end, walls, start_depth, *scratch_, contacts,
-                                 nullptr, &deepest);
+      end_depth.assign(walls.size(), 0.0);
+      deeper(model_, state_, *broad_phase_, shape, end, walls, none, *scratch_, contacts, &end_depth, &deepest);
+      if (deepest <= kBackFraction * inner) return false;
+      const Path path(start.p[i], start.R[i], state_.p[i], state_.R[i]);
+      start_depth.assign(walls.size(), 0.0);
+      deeper(model_, state_, *broad_phase_, shape, path.at(0.0), walls, none, *scratch_, contacts, &start_depth);
+      double rise = 0.0;
+      for (std::size_t k = 0; k < walls.size(); ++k) rise = std::max(rise, end_depth[k] - start_depth[k]);
       if (rise <= kDeepFraction * inner && (deepest <= kOverlapFraction * inner || rise <= kBackFraction * inner))
         return false;
       double lo = 0.0, hi = 1.0;
@@ -219,9 +232,12 @@ void World::continuous() {
       wind_back_with(i, lo, true);
       return true;
     };
-    // each body put back counts once (the crossing, the turn or both)
+    // each body put back counts once (the crossing, the turn or both). A body fast by its travel
+    // alone is checked along its path too when it started the step against a static body: one
+    // skidding along the floor at speed crosses no surface with its centre, and can end deep on
+    // its contacts from the step's start (fuzz 1:29, 1:113)
     const bool put_back = wall >= 0;
-    if ((turned && turned_back()) || put_back) ++report_.continuous;
+    if (((turned || on_static[static_cast<std::size_t>(i)]) && turned_back()) || put_back) ++report_.continuous;
   }
 }
 
