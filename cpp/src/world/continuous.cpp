@@ -5,7 +5,8 @@
 // stop most fast bodies, but a small body crossing a bumpy triangle mesh in one step can find no
 // contact in time and end behind it. A body fast by its turn (issue 21: a thin hull spun to
 // hundreds of rad/s by its landing turns a vertex its contacts did not have into the floor) that
-// ends deep in a static body is put back along its path (travel and turn) to where it was not. A
+// ends deep in a static body is put back along its path (travel and turn) to where it was not, and
+// so is a body fast by its travel alone that started the step against a static body. A
 // jointed body takes its mechanism with it: every body its joints link it to is wound back by the
 // same fraction of its own path, so that the joints stay as they were along the way.
 #include <Eigen/Geometry>
