@@ -251,6 +251,9 @@ struct Scratch {
   std::vector<BodyIndex> swept;                        ///< bodies along a sweep (continuous collision)
   std::vector<BodyIndex> mechanism;                    ///< a body put back and those its joints link it to (continuous collision)
   std::vector<char> on_static;  ///< by body: the step's contacts have it against a static body (continuous collision)
+  std::vector<BodyIndex> walls;               ///< continuous collision: the static bodies a body's path meets
+  std::vector<double> start_depth, end_depth; ///< continuous collision: its depth in each at its path's ends (m)
+  std::vector<Contact> wall_contacts;         ///< continuous collision: one wall's manifold (scratch)
   std::vector<const void*> tree_stack;                 ///< the broad phase's walk for them
   Polytope triangle;                                   ///< the current triangle as a polytope
   SupportFeature feature_a, feature_b;                 ///< convex_by_support: both features

@@ -6,7 +6,7 @@
 // contact in time and end behind it. A body fast by its turn (issue 21: a thin hull spun to
 // hundreds of rad/s by its landing turns a vertex its contacts did not have into the floor) that
 // ends deep in a static body is put back along its path (travel and turn) to where it was not, and
-// so is a body fast by its travel alone that started the step against a static body. A
+// so is any other body that started the step against a static body. A
 // jointed body takes its mechanism with it: every body its joints link it to is wound back by the
 // same fraction of its own path, so that the joints stay as they were along the way.
 #include <Eigen/Geometry>
@@ -105,9 +105,11 @@ void World::continuous() {
   if (!settings_.solver.continuous) return;
   const State& start = guard_->start();
   std::vector<int>& stack = scratch_->bvh_stack;
-  std::vector<Contact> contacts;
-  std::vector<BodyIndex> walls;
-  std::vector<double> start_depth, end_depth;
+  // kept from step to step (a step allocates nothing once they have grown)
+  std::vector<Contact>& contacts = scratch_->wall_contacts;
+  std::vector<BodyIndex>& walls = scratch_->walls;
+  std::vector<double>& start_depth = scratch_->start_depth;
+  std::vector<double>& end_depth = scratch_->end_depth;
   // A body i put back to fraction t of its path takes its mechanism with it: the bodies its
   // unbroken joints link it to, through any number of joints (found only now, in storage kept from
   // step to step), each wound back to fraction t of its own path over the step: its centre along
@@ -138,8 +140,10 @@ void World::continuous() {
       state_.R[k] = back.R;
     }
   };
-  // the bodies the step's contacts hold against a static body: the ones a travel with no crossing
-  // can have ended deep in one (the others had none within their reach at the step's start)
+  // the bodies the step's contacts hold against a static body: the ones that can have ended deep in
+  // one without a fast travel or turn (an impact at one end spins a body within the step, and its
+  // far end, beyond its reach at the step's start, swings into the mesh: fuzz 1:65), or with a
+  // travel whose centre crossed no surface (the others had none within their reach at the start)
   std::vector<char>& on_static = scratch_->on_static;
   on_static.assign(model_.size(), char(0));
   for (const Contact& c : contacts_base_) {
@@ -156,7 +160,7 @@ void World::continuous() {
     // its axis only for a body that turned fast
     const double cos_turn = std::clamp(0.5 * (state_.R[i].cwiseProduct(start.R[i]).sum() - 1.0), -1.0, 1.0);
     const bool turned = std::acos(cos_turn) * model_.rho[i] > kFastFraction * inner;
-    if (!travelled && !turned) continue;
+    if (!travelled && !turned && !on_static[static_cast<std::size_t>(i)]) continue;  // nothing to check
     // a jointed body is not moved alone: putting it back without its partners would open its
     // joints, so its mechanism goes with it (wind_back_with)
     const Shape& shape = model_.shape[i];
@@ -233,8 +237,8 @@ void World::continuous() {
       wind_back_with(i, lo, true);
       return true;
     };
-    // each body put back counts once (the crossing, the turn or both). A body fast by its travel
-    // alone is checked along its path too when it started the step against a static body: one
+    // each body put back counts once (the crossing, the turn or both). A body that is not fast by
+    // its turn is checked along its path too when it started the step against a static body: one
     // skidding along the floor at speed crosses no surface with its centre, and can end deep on
     // its contacts from the step's start (fuzz 1:29, 1:113)
     const bool put_back = wall >= 0;
