@@ -28,7 +28,8 @@ std::vector<std::string> isas() {
 
 /// A busy scene for the lanes: 300 boxes in stacks of 3 on the ground (thousands of contacts:
 /// full groups, colours whose pairs do not fill their last group), spheres that bounce
-/// (restitution; pairs of one point beside pairs of four in a group) and a kinematic paddle
+/// (restitution; pairs of one point beside pairs of four in a group), spinning capsules and balls
+/// rolling (round sides, whose gaps carry their cores) and a kinematic paddle
 /// sweeping through a row of them (a body that does not move in the lanes but has a velocity).
 /// The state after `steps` steps as bytes. relax_iterations 0: the gaps are brought up to date in a
 /// pass of their own rather than in the first relax sweep.
@@ -60,6 +61,16 @@ std::vector<double> busy_scene(int threads, int steps, int relax_iterations = 1)
     s.mass = 1.0 + i;
     s.position = Vec3(-2.0, 0.5 * i, 0.5 + 0.3 * i);
     s.material.restitution = 0.6;
+    world.add_body(s);
+  }
+  for (int i = 0; i < 8; ++i) {
+    BodyDesc s;
+    s.shape = i % 2 ? Shape(Capsule(0.1, 0.3)) : Shape(Sphere(0.15));
+    s.mass = 0.5 + i;
+    s.position = Vec3(-5.0, 0.6 * i, 0.3);
+    s.orientation = Quat4(1.0, 1.0, 0.0, 0.1 * i);  // a capsule lies on its side
+    s.velocity = Vec3(1.0 + 0.5 * i, 0.0, 0.0);
+    s.angular_velocity = Vec3(0.0, 40.0 + 10.0 * i, 0.0);
     world.add_body(s);
   }
   BodyDesc paddle;

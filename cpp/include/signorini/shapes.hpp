@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <type_traits>
@@ -168,6 +169,14 @@ double bounding_radius(const Shape& shape);
 /// mesh with no piece whose vertex mean lies inside every face plane (no ball is known). The
 /// solver scales a contact's slop by it (SolverSettings::slop_inner_fraction).
 double inner_radius(const Shape& shape);
+
+/// The radius (m) by which the shape, or a compound's part `part`, rounds a core: a contact's
+/// witness point on it is its core point (a sphere's centre, the nearest point of a capsule's
+/// segment) moved by this radius against the contact normal, whichever way the body has turned,
+/// so that a rolling ball's witness stays at its bottom. Sphere and Capsule: their radius; a
+/// compound: its part's (0 for a part index it does not have); every other shape 0 (its witness
+/// points are points of the body: vertices, edges, faces).
+double rounding_radius(const Shape& shape, std::uint32_t part = 0);
 
 /// true for shapes that can only be static (Plane, TriangleMesh).
 bool static_only(const Shape& shape);

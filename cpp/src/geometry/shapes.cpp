@@ -6,6 +6,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 #include <utility>
 
 #include <Eigen/Geometry>
@@ -277,6 +278,18 @@ double polytope_inner(const Polytope& p) {
 }
 
 }  // namespace
+
+double rounding_radius(const Shape& shape, std::uint32_t part) {
+  const auto primitive = [](const auto& s) -> double {
+    using T = std::decay_t<decltype(s)>;
+    if constexpr (std::is_same_v<T, Sphere> || std::is_same_v<T, Capsule>) return s.radius;
+    else return 0.0;
+  };
+  if (const auto* c = std::get_if<Compound>(&shape))
+    return part < c->parts.size() ? std::visit(primitive, c->parts[part].shape) : 0.0;
+  if (std::holds_alternative<Sphere>(shape) || std::holds_alternative<Capsule>(shape)) return std::visit(primitive, shape);
+  return 0.0;
+}
 
 double inner_radius(const Shape& shape) {
   constexpr double inf = std::numeric_limits<double>::infinity();

@@ -85,6 +85,10 @@ Softness soften(double hertz, double zeta, double h);
 struct SoftPoint {
   double gap0 = 0.0;         ///< the gap at detection (m)
   double s = 0.0;            ///< the gap now: gap0 + n . (y_B(t) - y_A(t)), y_X carried with body X (m)
+  /// where the carried points y_A, y_B lie from the contact point, along -n and +n (m): on a round
+  /// side (rounding_radius rho > 0) its core point, gap0 / 2 + rho from the contact point, so that a
+  /// ball turning on the ground keeps its gap; 0 on any other side (the contact point itself)
+  double sigma_a = 0.0, sigma_b = 0.0;
   double bias_rate = 0.0;    ///< omega / (2 zeta + h omega) (1/s)
   double mass_scale = 1.0;   ///< h omega (2 zeta + h omega) / (1 + h omega (2 zeta + h omega))
   double impulse_scale = 0.0;///< 1 / (1 + h omega (2 zeta + h omega))
@@ -120,6 +124,7 @@ struct alignas(32) WideGroup {
     /// the step's normal impulse so far and largest normal force (N s, N): SoftPoint's impulse and
     /// alpha_max while wide_accumulate keeps them here (no restitution in the step)
     double impulse[kLanes], alpha_max[kLanes];
+    double sigma_a[kLanes], sigma_b[kLanes];  ///< SoftPoint's (read only in a group with `round`)
   };
   Point point[kManifoldPoints];
   double n[3][kLanes], t1[3][kLanes], t2[3][kLanes];  ///< the rows' directions, per pair
@@ -133,6 +138,7 @@ struct alignas(32) WideGroup {
   int first[kLanes], count[kLanes];  ///< each lane's solve positions [first, first + count)
   bool a_moves[kLanes], b_moves[kLanes];
   int points = 0;           ///< the largest count
+  bool round = false;       ///< some point has a round side (a sigma != 0)
   /// solved by the scalar code: a contact whose normal or first friction row has delta <= 0 (both
   /// bodies static: never made by the narrow phase), or a pair whose points differ in normal or spring
   bool one_by_one = false;

@@ -13,11 +13,18 @@ namespace signorini::solver {
 
 /// Contact k's gap now, s = gap0 + n . ((dp_B + dR_B r_B) - (dp_A + dR_A r_A)): its point carried
 /// with each body from the step's start (r_X the lever arm then, world; dR_X r_X = (R R0^T - I) r_X
-/// how far the body's turn has moved the point), exactly gap0 until a body moves. Needs d.dp, d.dR.
+/// how far the body's turn has moved the point), exactly gap0 until a body moves; on a round side
+/// the point carried is its core (SoftPoint::sigma_a, sigma_b), whose witness stays where the
+/// normal says however the body turns. Needs d.dp, d.dR.
 inline double gap_now(const SolverData& d, const ContactRows& r, const SoftPoint& p) {
   const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * r.r_b;
   const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * r.r_a;
-  return p.gap0 + r.n.dot(moved_b - moved_a);
+  const double s = p.gap0 + r.n.dot(moved_b - moved_a);
+  if (p.sigma_a == 0.0 && p.sigma_b == 0.0) return s;
+  // a round side's point is its core, sigma along n from the contact point: y_B = r_B + sigma_B n,
+  // y_A = r_A - sigma_A n (the lanes add the same terms in the same order)
+  const Vec3 dR_b_n = d.dR[r.b] * r.n, dR_a_n = d.dR[r.a] * r.n;
+  return s + (p.sigma_b * r.n.dot(dR_b_n) + p.sigma_a * r.n.dot(dR_a_n));
 }
 
 /// The contact at solve position k in a sweep: the normal row by the soft rule (biased: the spring

@@ -133,9 +133,15 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
     for (std::size_t k = first; k < end; ++k) {  // in solve order, as the rows and points are stored
       if (k + kAhead < end) prefetch_read(&contacts[static_cast<std::size_t>(d.order[k + kAhead])].gap, sizeof(double));
       const ContactRows& r = d.rows[k];
+      const Contact& c = contacts[static_cast<std::size_t>(d.order[k])];
       SoftPoint& p = d.soft[k];
       p = r.a_moves && r.b_moves ? between : against;
-      p.gap0 = p.s = contacts[static_cast<std::size_t>(d.order[k])].gap;
+      p.gap0 = p.s = c.gap;
+      // a round side's carried point: its core, gap0 / 2 + rho along n from the contact point
+      const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(r.a)], feature_part(c.feature_a));
+      const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(r.b)], feature_part(c.feature_b));
+      if (rho_a > 0.0) p.sigma_a = 0.5 * c.gap + rho_a;
+      if (rho_b > 0.0) p.sigma_b = 0.5 * c.gap + rho_b;
     }
   });
   // whether any contact has restitution (without, no contact's approach is ever read)

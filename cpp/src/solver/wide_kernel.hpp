@@ -179,6 +179,14 @@ struct Kernel {
         const B dinv_mass_a = load(g.dinv_mass_a + h), dinv_mass_b = load(g.dinv_mass_b + h), mu = load(g.mu + h);
         const B count = as_doubles(g.count + h);
         const V3 n = load3(g.n, h), t1 = load3(g.t1, h), t2 = load3(g.t2, h);
+        // a round side's carried point is its core (gap_now): n . dR n of each pair's bodies
+        B n_dRa_n = zero, n_dRb_n = zero;
+        if constexpr (kGap) {
+          if (g.round) {
+            n_dRb_n = dot(n, mul(dRb, n));
+            n_dRa_n = dot(n, mul(dRa, n));
+          }
+        }
         B ms = one, rate = zero, is = zero;  // the pairs' springs
         if (x.biased) {
           ms = load(g.mass_scale + h);
@@ -197,6 +205,7 @@ struct Kernel {
             const V3 moved_b = add({dpb[0], dpb[1], dpb[2]}, mul(dRb, r_b));
             const V3 moved_a = add({dpa[0], dpa[1], dpa[2]}, mul(dRa, r_a));
             s = load(pt.gap0 + h) + dot(n, sub(moved_b, moved_a));
+            if (g.round) s = s + (load(pt.sigma_b + h) * n_dRb_n + load(pt.sigma_a + h) * n_dRa_n);
             s.store_aligned(pt.s + h);  // (a lane past its last point writes its own unused slot)
           } else {
             s = load(pt.s + h);

@@ -136,6 +136,7 @@ void widen(const SolverSettings& s, SolverData& d) {
     for (std::size_t gi = from; gi < to; ++gi) {
       WideGroup& g = d.wide[gi];
       g.one_by_one = false;
+      g.round = false;
       g.points = 0;
       for (std::size_t l = 0; l < kLanes; ++l) {
         const std::size_t k0 = static_cast<std::size_t>(g.first[l]);
@@ -182,6 +183,9 @@ void widen(const SolverSettings& s, SolverData& d) {
           for (int i = 0; i < 3; ++i) p.alpha[i][l] = d.alpha[3 * k + static_cast<std::size_t>(i)];
           p.impulse[l] = soft.impulse;
           p.alpha_max[l] = soft.alpha_max;
+          p.sigma_a[l] = soft.sigma_a;
+          p.sigma_b[l] = soft.sigma_b;
+          if (soft.sigma_a != 0.0 || soft.sigma_b != 0.0) g.round = true;
           // the lanes assume the rows the scalar sweep solves in full (contact_rows' first
           // branches), and one normal (so one tangent basis) and one spring per pair, to the bit
           const bool same = std::memcmp(r.n.data(), pair.n.data(), sizeof(Vec3)) == 0 &&

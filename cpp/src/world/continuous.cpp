@@ -11,12 +11,15 @@
 // same fraction of its own path, so that the joints stay as they were along the way.
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <memory>
 #include <string>
 
 #include "collision/collision.hpp"
 #include "collision/ray.hpp"
 #include "math/rotation.hpp"
+#include "parallel/pool.hpp"
 #include "signorini/world.hpp"
 #include "solver/joint_rows.hpp"
 #include "world/step_guard.hpp"
@@ -45,13 +48,11 @@ constexpr double kOverlapFraction = 0.5;
 
 /// How much deeper shape (bounded, at pose) is in the static bodies `walls` than `start_depth` says
 /// it was in each (m, the largest; 0 when it is in none deeper): each depth is -(the least gap of
-/// the narrow phase's manifold with gap < 0). depth: each wall's depth; deepest: the largest of them.
+/// the narrow phase's manifold with gap < 0). depth: each wall's depth.
 double deeper(const Model& model, const State& state, const collision::BroadPhase& bp, const Shape& shape,
               const Pose& pose, const std::vector<BodyIndex>& walls, const std::vector<double>& start_depth,
-              collision::Scratch& s, std::vector<Contact>& contacts, std::vector<double>* depth = nullptr,
-              double* deepest = nullptr) {
+              collision::Scratch& s, std::vector<Contact>& contacts, std::vector<double>* depth = nullptr) {
   double most = 0.0;
-  if (deepest) *deepest = 0.0;
   for (std::size_t k = 0; k < walls.size(); ++k) {
     const BodyIndex j = walls[k];
     contacts.clear();
@@ -60,7 +61,6 @@ double deeper(const Model& model, const State& state, const collision::BroadPhas
     double d = 0.0;
     for (const Contact& c : contacts) d = std::max(d, -c.gap);
     if (depth) (*depth)[k] = d;
-    if (deepest) *deepest = std::max(*deepest, d);
     if (!start_depth.empty()) most = std::max(most, d - start_depth[k]);
   }
   return most;
@@ -104,12 +104,6 @@ const std::vector<BodyIndex>& along(const collision::BroadPhase& bp, const Shape
 void World::continuous() {
   if (!settings_.solver.continuous) return;
   const State& start = guard_->start();
-  std::vector<int>& stack = scratch_->bvh_stack;
-  // kept from step to step (a step allocates nothing once they have grown)
-  std::vector<Contact>& contacts = scratch_->wall_contacts;
-  std::vector<BodyIndex>& walls = scratch_->walls;
-  std::vector<double>& start_depth = scratch_->start_depth;
-  std::vector<double>& end_depth = scratch_->end_depth;
   // A body i put back to fraction t of its path takes its mechanism with it: the bodies its
   // unbroken joints link it to, through any number of joints (found only now, in storage kept from
   // step to step), each wound back to fraction t of its own path over the step: its centre along
@@ -143,15 +137,20 @@ void World::continuous() {
   // the bodies the step's contacts hold against a static body: the ones that can have ended deep in
   // one without a fast travel or turn (an impact at one end spins a body within the step, and its
   // far end, beyond its reach at the step's start, swings into the mesh: fuzz 1:65), or with a
-  // travel whose centre crossed no surface (the others had none within their reach at the start)
+  // travel whose centre crossed no surface (the others had none within their reach at the start).
+  // (contacts_next_: the contacts the step solved, in both steps; the soft step moved the detected
+  // list there, and contacts_base_ then holds an older step's)
   std::vector<char>& on_static = scratch_->on_static;
   on_static.assign(model_.size(), char(0));
-  for (const Contact& c : contacts_base_) {
+  for (const Contact& c : contacts_next_) {
     if (model_.is_static[c.body_a]) on_static[static_cast<std::size_t>(c.body_b)] = 1;
     if (model_.is_static[c.body_b]) on_static[static_cast<std::size_t>(c.body_a)] = 1;
   }
-  for (const BodyIndex i : moving_) {
-    if (model_.is_kinematic[i] || !model_.enabled[i] || model_.is_sensor[i] || state_.asleep(i)) continue;
+  // body i checked, with buffers s (kept from step to step: a step allocates nothing once they have
+  // grown); true when it was put back. It reads the static bodies and its own state and writes its
+  // own pose (and, through wind_back_with, its mechanism's)
+  const auto check = [&](BodyIndex i, collision::Scratch& s) -> bool {
+    if (model_.is_kinematic[i] || !model_.enabled[i] || model_.is_sensor[i] || state_.asleep(i)) return false;
     const Vec3 delta = state_.p[i] - start.p[i];
     const double travel = delta.norm();
     const double inner = model_.inner[i];
@@ -160,7 +159,8 @@ void World::continuous() {
     // its axis only for a body that turned fast
     const double cos_turn = std::clamp(0.5 * (state_.R[i].cwiseProduct(start.R[i]).sum() - 1.0), -1.0, 1.0);
     const bool turned = std::acos(cos_turn) * model_.rho[i] > kFastFraction * inner;
-    if (!travelled && !turned && !on_static[static_cast<std::size_t>(i)]) continue;  // nothing to check
+    const bool held = on_static[static_cast<std::size_t>(i)] != 0;
+    if (!travelled && !turned && !held) return false;  // nothing to check
     // a jointed body is not moved alone: putting it back without its partners would open its
     // joints, so its mechanism goes with it (wind_back_with)
     const Shape& shape = model_.shape[i];
@@ -172,11 +172,12 @@ void World::continuous() {
     BodyIndex wall = -1;
     if (travelled) {
       collision::Ray ray{start.p[i], delta / travel, travel};
-      for (const BodyIndex j : along(*broad_phase_, shape, from, delta, *scratch_)) {
+      for (const BodyIndex j : along(*broad_phase_, shape, from, delta, s)) {
         if (!model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j)) continue;
         collision::RayResult r;
         const Pose at{state_.p[j], state_.R[j]};
-        if (!collision::ray_shape(model_.shape[j], at, ray, broad_phase_->triangles(j), stack, r) || r.inside) continue;
+        if (!collision::ray_shape(model_.shape[j], at, ray, broad_phase_->triangles(j), s.bvh_stack, r) || r.inside)
+          continue;
         if (r.t / travel < crossed) crossed = r.t / travel, wall = j;
       }
     }
@@ -186,7 +187,7 @@ void World::continuous() {
       // touched it at the start already, or the sweep finds no touch, its inner radius before the
       // centre's crossing
       const CastHit h = collision::cast_shape(model_.shape[wall], Pose{state_.p[wall], state_.R[wall]}, shape, from,
-                                              delta, 0.0, broad_phase_->triangles(wall), *scratch_);
+                                              delta, 0.0, broad_phase_->triangles(wall), s);
       const double closing = h.hit ? -delta.dot(h.normal) : 0.0;
       const double back = h.hit && h.t > 0.0 && closing > 0.0 ? h.t - kBackFraction * inner / closing
                                                              : crossed - inner / travel;
@@ -194,56 +195,72 @@ void World::continuous() {
       state_.p[i] = start.p[i] + t * delta;
       wind_back_with(i, t, false);
     }
-    // turned in: the path's poses (straight travel to where it is now, put back or not, and a
-    // steady turn about the step's turn axis), the static bodies its ball sweeps; when it ends
-    // deeper in one than it started by more than kDeepFraction of its inner radius (or by more than
-    // kBackFraction of it, past kOverlapFraction of it deep), put back to the
-    // last pose found (by halving) that is no deeper than the start by more than kBackFraction of it
-    const auto turned_back = [&]() {
-      const Vec3 reach = Vec3::Constant(model_.rho[i]);
-      walls = in_box(*broad_phase_, start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach,
-                     *scratch_);
-      walls.erase(std::remove_if(walls.begin(), walls.end(),
-                                 [&](BodyIndex j) {
-                                   return !model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j);
-                                 }),
-                  walls.end());
-      if (walls.empty()) return false;
-      // the end first: each rule needs it deeper than the start by more than kBackFraction of the
-      // inner radius, so deeper than that (most bodies are not, and their start is never looked at)
-      const std::vector<double> none;
-      const Pose end{state_.p[i], state_.R[i]};
-      double deepest = 0.0;
-      end_depth.assign(walls.size(), 0.0);
-      deeper(model_, state_, *broad_phase_, shape, end, walls, none, *scratch_, contacts, &end_depth, &deepest);
-      if (deepest <= kBackFraction * inner) return false;
-      const Path path(start.p[i], start.R[i], state_.p[i], state_.R[i]);
-      start_depth.assign(walls.size(), 0.0);
-      deeper(model_, state_, *broad_phase_, shape, path.at(0.0), walls, none, *scratch_, contacts, &start_depth);
-      double rise = 0.0;
-      for (std::size_t k = 0; k < walls.size(); ++k) rise = std::max(rise, end_depth[k] - start_depth[k]);
-      if (rise <= kDeepFraction * inner && (deepest <= kOverlapFraction * inner || rise <= kBackFraction * inner))
-        return false;
-      double lo = 0.0, hi = 1.0;
-      for (int k = 0; k < kBisections; ++k) {
-        const double mid = 0.5 * (lo + hi);
-        const bool clear = deeper(model_, state_, *broad_phase_, shape, path.at(mid), walls, start_depth, *scratch_,
-                                  contacts) <= kBackFraction * inner;
-        (clear ? lo : hi) = mid;
-      }
-      const Pose back = path.at(lo);
-      state_.p[i] = back.p;
-      state_.R[i] = back.R;
-      wind_back_with(i, lo, true);
-      return true;
-    };
-    // each body put back counts once (the crossing, the turn or both). A body that is not fast by
+    // each body put back counts once (the crossing, the path or both). A body that is not fast by
     // its turn is checked along its path too when it started the step against a static body: one
     // skidding along the floor at speed crosses no surface with its centre, and can end deep on
     // its contacts from the step's start (fuzz 1:29, 1:113)
-    const bool put_back = wall >= 0;
-    if (((turned || on_static[static_cast<std::size_t>(i)]) && turned_back()) || put_back) ++report_.continuous;
+    if (!turned && !held) return wall >= 0;
+    // along its path: the path's poses (straight travel to where it is now, put back or not, and a
+    // steady turn about the step's turn axis), the static bodies its ball sweeps; when it ends
+    // deeper in one than it started by more than kDeepFraction of its inner radius (or by more than
+    // kBackFraction of it, past kOverlapFraction of it deep), put back to the last pose found (by
+    // halving) that is no deeper than the start by more than kBackFraction of it
+    std::vector<BodyIndex>& walls = s.walls;
+    const Vec3 reach = Vec3::Constant(model_.rho[i]);
+    walls = in_box(*broad_phase_, start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach, s);
+    walls.erase(std::remove_if(walls.begin(), walls.end(),
+                               [&](BodyIndex j) {
+                                 return !model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j);
+                               }),
+                walls.end());
+    if (walls.empty()) return wall >= 0;
+    // the end first: each rule needs it deeper than the start by more than kBackFraction of the
+    // inner radius, so deeper than that (most bodies are not, and their start is never looked at)
+    const std::vector<double> none;
+    const Pose end{state_.p[i], state_.R[i]};
+    s.end_depth.assign(walls.size(), 0.0);
+    deeper(model_, state_, *broad_phase_, shape, end, walls, none, s, s.wall_contacts, &s.end_depth);
+    const double deepest = *std::max_element(s.end_depth.begin(), s.end_depth.end());
+    if (deepest <= kBackFraction * inner) return wall >= 0;
+    const Path path(start.p[i], start.R[i], state_.p[i], state_.R[i]);
+    s.start_depth.assign(walls.size(), 0.0);
+    deeper(model_, state_, *broad_phase_, shape, path.at(0.0), walls, none, s, s.wall_contacts, &s.start_depth);
+    double rise = 0.0;
+    for (std::size_t k = 0; k < walls.size(); ++k) rise = std::max(rise, s.end_depth[k] - s.start_depth[k]);
+    if (rise <= kDeepFraction * inner && (deepest <= kOverlapFraction * inner || rise <= kBackFraction * inner))
+      return wall >= 0;
+    double lo = 0.0, hi = 1.0;
+    for (int k = 0; k < kBisections; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      const bool clear = deeper(model_, state_, *broad_phase_, shape, path.at(mid), walls, s.start_depth, s,
+                                s.wall_contacts) <= kBackFraction * inner;
+      (clear ? lo : hi) = mid;
+    }
+    const Pose back = path.at(lo);
+    state_.p[i] = back.p;
+    state_.R[i] = back.R;
+    wind_back_with(i, lo, true);
+    return true;
+  };
+  // Without joints each check touches only its own body (the static ones are only read), so the
+  // bodies are checked over the threads, each with its thread's buffers, and every thread count
+  // gives the same poses. A joint's mechanism is wound back with its body, which a later check
+  // reads: with joints, the bodies go one after the other, in order, on the calling thread
+  if (!joints_->joints.empty() || !pool_ || pool_->threads() == 1) {
+    for (const BodyIndex i : moving_) report_.continuous += check(i, *scratch_) ? 1 : 0;
+    return;
   }
+  std::vector<std::unique_ptr<collision::Scratch>>& workers = scratch_->workers;
+  const std::size_t threads = static_cast<std::size_t>(pool_->threads());
+  while (workers.size() < threads) workers.push_back(std::make_unique<collision::Scratch>());
+  std::atomic<int> put_back{0};
+  pool_->for_ranges(moving_.size(), 32, [&](std::size_t first, std::size_t end) {
+    collision::Scratch& s = *workers[static_cast<std::size_t>(parallel::Pool::thread_index()) % threads];
+    int n = 0;
+    for (std::size_t k = first; k < end; ++k) n += check(moving_[k], s) ? 1 : 0;
+    if (n > 0) put_back.fetch_add(n, std::memory_order_relaxed);
+  });
+  report_.continuous += put_back.load();
 }
 
 }  // namespace signorini

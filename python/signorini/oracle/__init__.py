@@ -130,7 +130,7 @@ from .solver import (
     tangent_basis,
     warm_start,
 )
-from .soft import carried_gaps, contact_softness, gap_rounding, soft_step, soft_sweep, softness
+from .soft import carried_gaps, contact_softness, core_offsets, gap_rounding, rounding_radius, soft_step, soft_sweep, softness
 from .step import carry_contacts, copy_snapshot, rollout, step, step_once
 from .support import (
     fibonacci_sphere,
@@ -162,6 +162,7 @@ __all__ = [
     "carry_contacts", "step", "step_once", "store", "support_box", "support_capsule", "support_cylinder",
     "support_hull", "support_of", "support_separation", "support_sphere", "tangent_basis",
     "unconstrained_velocity", "velocities_from_alpha", "warm_start", "world_inertia",
-    "apply_forces", "carried_gaps", "contact_softness", "friction_rows", "gap_rounding", "recall_forces",
+    "apply_forces", "carried_gaps", "contact_softness", "core_offsets", "friction_rows", "gap_rounding",
+    "recall_forces", "rounding_radius",
     "soft_step", "soft_sweep", "softness",
 ]

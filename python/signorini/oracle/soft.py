@@ -141,24 +141,65 @@ def contact_softness(snapshot, contacts, settings, h):
             "hertz": f, "zeta": zeta}
 
 
-def carried_gaps(contacts, start, now):
+def rounding_radius(shape, part=0):
+    """The radius (m) by which a shape dict, or a compound's part ``part``, rounds a core: a
+    contact's witness point on it is its core point (a sphere's centre, the nearest point of a
+    capsule's segment) moved by this radius against the normal, however the body has turned.
+    Sphere and capsule: their radius; a compound: its part's (0 for a part it does not have);
+    every other shape 0 (its witness points are points of the body)."""
+    kind = shape["type"]
+    if kind in ("sphere", "capsule"):
+        return float(shape["radius"])
+    if kind == "compound":
+        parts = shape["parts"]
+        return rounding_radius(parts[part][0]) if part < len(parts) else 0.0
+    return 0.0
+
+
+def core_offsets(snapshot, contacts):
+    """Where each contact's carried points lie from its point (m, (K,) each, along -n for A and
+    +n for B): a round side's core (``rounding_radius`` rho > 0) at gap / 2 + rho, the witness
+    gap / 2 from the contact point and the core rho beyond it; 0 on any other side. The part of a
+    feature id is its high 32 bits (docs/conventions.md, "Feature ids").
+
+    Inputs: snapshot (bodies with their shape dicts), contacts dict (K; body_a, body_b, gap,
+            feature_a, feature_b). Output: (sigma_a, sigma_b)."""
+    bodies = snapshot["bodies"]
+    gap = np.asarray(contacts["gap"], dtype=float).reshape(-1)
+
+    def side(body_key, feature_key):
+        X = np.asarray(contacts[body_key], dtype=np.int64).reshape(-1)
+        F = np.asarray(contacts[feature_key], dtype=np.uint64).reshape(-1)
+        rho = np.array([rounding_radius(bodies[x]["shape"], int(f) >> 32) for x, f in zip(X, F)], dtype=float)
+        return np.where(rho > 0.0, 0.5 * gap + rho, 0.0)
+
+    return side("body_a", "feature_a"), side("body_b", "feature_b")
+
+
+def carried_gaps(contacts, start, now, sigma=None):
     """Each contact's gap with its point carried rigidly by each of its two bodies from the step's
     start to now: the point y moves with body X to y_X = p_X + R_X l_X, l_X = R_X0^T (y - p_X0) its
     lever arm in X's frame, so with dp_X = p_X - p_X0,
         s = gap + n . ((dp_B + (R_B - R_B0) l_B) - (dp_A + (R_A - R_A0) l_A)),
     exactly gap until a body moves. The normal stays as detected. With anchor_a, anchor_b (a
     recycled contact's: its rows' lever arms as its manifold was found) the point carried with X is
-    anchor_X, as the rows' lever arms say (``contact_anchors``).
+    anchor_X, as the rows' lever arms say (``contact_anchors``). With sigma = (sigma_a, sigma_b)
+    (``core_offsets``) the point carried with A is y - sigma_a n and with B y + sigma_b n: a round
+    side's core, whose witness stays where the normal says whichever way the body turns (a ball
+    rolling on the ground keeps its gap).
 
     Inputs: contacts dict (K; body_a, body_b, point, normal, gap as detected at ``start``; optional
             anchor_a, anchor_b (K, 3)), two snapshots (position (N, 3), rotation (N, 3, 3)): the
-            step's start and now.
+            step's start and now; sigma: None or two (K,) arrays, m.
     Output: s (K,) m.
     """
     A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
     B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
     n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
     y_A, y_B = contact_anchors(contacts)
+    if sigma is not None:
+        y_A = y_A - sigma[0][:, None] * n
+        y_B = y_B + sigma[1][:, None] * n
     gap = np.asarray(contacts["gap"], dtype=float).reshape(-1)
     p0, p = np.asarray(start["position"], dtype=float), np.asarray(now["position"], dtype=float)
     R0, R = np.asarray(start["rotation"], dtype=float), np.asarray(now["rotation"], dtype=float)
@@ -291,6 +332,7 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
     rows["order"] = solve_order(start, contacts, by_pair=True)  # a body pair's contacts together
     K = len(rows["mu"])
     soft = contact_softness(start, contacts, s, h)
+    sigma = core_offsets(start, contacts)  # a round side carries its core
     sweep = RowSweep(rows, h)
     alpha_spin = np.zeros(K)
     alpha = (recall_forces(rows, contacts, read_cache(start), s["friction_cone"], alpha_spin)
@@ -324,7 +366,7 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
             else:
                 for joint in joints:
                     joint["alpha"][:] = 0.0
-        gap, band = carried_gaps(contacts, start, state), gap_rounding(contacts, start, state)
+        gap, band = carried_gaps(contacts, start, state, sigma), gap_rounding(contacts, start, state)
         u_before = np.where(alpha_max == 0.0, normal_velocities(rows, q_dot), u_before)
         for _ in range(s["soft_iterations"]):
             soft_sweep(sweep, rows, soft, gap, x, tau, q_dot, h, True, s["max_push_velocity"], s["friction_cone"],
@@ -333,7 +375,7 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
         # the poses move with the solved velocities
         state = _moved(state, q_dot, h)
         # relax: rigid sweeps at the new gaps (the joints' on the same blocks); their velocities are kept
-        gap = carried_gaps(contacts, start, state)
+        gap = carried_gaps(contacts, start, state, sigma)
         for _ in range(s["relax_iterations"]):
             soft_sweep(sweep, rows, soft, gap, x, tau, q_dot, h, False, s["max_push_velocity"], s["friction_cone"])
             sweep_joints(blocks, q_dot, h, SOFT_RELAX)
