@@ -484,7 +484,13 @@ Contact recycled_contact(const State& state, BodyIndex a, BodyIndex b, const Kep
   const Vec3 w_b = state.R[b] * q.on_b + state.p[b];
   c.normal = state.R[a] * q.normal;
   c.gap = c.normal.dot(w_b - w_a);
-  c.point = 0.5 * (w_a + w_b);
+  // the point half the gap from a vertex's witness along the normal: a vertex is a point of its
+  // body and its gap to the other's face is exact however far the pair has slid, while the face's
+  // material witness has slid with it, so the midpoint of the two would leave both surfaces by
+  // half the slide (docs/conventions.md, "Contact recycling"); otherwise that midpoint
+  if (feature_kind(q.feature_b) == FeatureKind::Vertex) c.point = w_b - 0.5 * c.gap * c.normal;
+  else if (feature_kind(q.feature_a) == FeatureKind::Vertex) c.point = w_a + 0.5 * c.gap * c.normal;
+  else c.point = 0.5 * (w_a + w_b);
   c.feature_a = q.feature_a;
   c.feature_b = q.feature_b;
   c.kept = true;
