@@ -129,17 +129,19 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   soften(between, hertz, settings.damping_ratio, h);
   soften(against, 2.0 * hertz, 0.5 * settings.damping_ratio, h);
   d.soft.resize(K);
+  const auto moves = [&](int x) { return !model.is_static[x] && !model.is_kinematic[x]; };
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    for (std::size_t k = first; k < end; ++k) {  // in solve order, as the rows and points are stored
-      if (k + kAhead < end) prefetch_read(&contacts[static_cast<std::size_t>(d.order[k + kAhead])].gap, sizeof(double));
-      const ContactRows& r = d.rows[k];
-      const Contact& c = contacts[static_cast<std::size_t>(d.order[k])];
-      SoftPoint& p = d.soft[k];
-      p = r.a_moves && r.b_moves ? between : against;
+    // in contact order, reading the contacts in turn and writing each point where it is solved (a
+    // write does not wait; reading the contacts in solve order did, half the loop's time)
+    for (std::size_t i = first; i < end; ++i) {
+      if (i + kAhead < end) prefetch_write(&d.soft[static_cast<std::size_t>(d.slot[i + kAhead])], sizeof(SoftPoint));
+      const Contact& c = contacts[i];
+      SoftPoint& p = d.soft[static_cast<std::size_t>(d.slot[i])];
+      p = moves(c.body_a) && moves(c.body_b) ? between : against;
       p.gap0 = p.s = c.gap;
       // a round side's carried point: its core, gap0 / 2 + rho along n from the contact point
-      const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(r.a)], feature_part(c.feature_a));
-      const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(r.b)], feature_part(c.feature_b));
+      const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(c.body_a)], feature_part(c.feature_a));
+      const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(c.body_b)], feature_part(c.feature_b));
       if (rho_a > 0.0) p.sigma_a = 0.5 * c.gap + rho_a;
       if (rho_b > 0.0) p.sigma_b = 0.5 * c.gap + rho_b;
     }

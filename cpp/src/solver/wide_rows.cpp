@@ -183,8 +183,6 @@ void widen(const SolverSettings& s, SolverData& d) {
           for (int i = 0; i < 3; ++i) p.alpha[i][l] = d.alpha[3 * k + static_cast<std::size_t>(i)];
           p.impulse[l] = soft.impulse;
           p.alpha_max[l] = soft.alpha_max;
-          p.sigma_a[l] = soft.sigma_a;
-          p.sigma_b[l] = soft.sigma_b;
           if (soft.sigma_a != 0.0 || soft.sigma_b != 0.0) g.round = true;
           // the lanes assume the rows the scalar sweep solves in full (contact_rows' first
           // branches), and one normal (so one tangent basis) and one spring per pair, to the bit
@@ -196,6 +194,15 @@ void widen(const SolverSettings& s, SolverData& d) {
           if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0) || !same) g.one_by_one = true;
         }
       }
+      // the round sides' core offsets, read only in a group that has one (a group of boxes is
+      // spared writing them: the groups are written whole every step)
+      if (g.round)
+        for (std::size_t l = 0; l < kLanes; ++l)
+          for (std::size_t j = 0; j < kManifoldPoints; ++j) {
+            const SoftPoint& soft = d.soft[point_position(g, l, j)];
+            g.point[j].sigma_a[l] = soft.sigma_a;
+            g.point[j].sigma_b[l] = soft.sigma_b;
+          }
       if (!g.one_by_one) each_point(g, [&](const WideGroup::Point&, std::size_t, std::size_t k) { d.in_lanes[k] = 1; });
     }
   });
