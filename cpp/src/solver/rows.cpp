@@ -167,10 +167,22 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
 /// Rows (normal, t1, t2 per contact, stored in solve order), pair materials, u_i = J_n q_dot*
 /// (before the solve), and the spin rows (a contact alone in its body pair, with
 /// mu_spin = max(mu_spin_A, mu_spin_B) > 0, in solve order).
+namespace {
+bool find_recalled(const std::vector<Contact>& contacts, SolverData& d);
+inline void recall_force(const SolverSettings& s, SolverData& d, std::size_t i, std::size_t position, const Vec3& t1,
+                         const Vec3& t2, double mu);
+void recall_spin(const std::vector<Contact>& contacts, SolverData& d);
+}  // namespace
+
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
-             const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d, Order order) {
+             const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d, Order order,
+             const SolverSettings* recall) {
   const std::size_t K = contacts.size();
   solve_order(model, contacts, order, d);
+  // the warm start's entries first, when asked for: each contact's forces are then written as its
+  // rows are made (the tangents and mu in hand), not in a pass of their own that reaches the rows
+  // out of order
+  const bool recalled = recall != nullptr && find_recalled(contacts, d);
   d.rows.resize(K);
   assign_n(d.alpha, 3 * K, 0.0);
   d.u.resize(K);
@@ -205,6 +217,7 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       r.mu = mu;
       d.u[k] = normal_velocity(r, d.qd);
       d.e[k] = std::max(ma.restitution, mb.restitution);
+      if (recalled && d.recalled[i] >= 0) recall_force(*recall, d, i, k, r.t1, r.t2, r.mu);
       if (ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0) spinning.store(true, std::memory_order_relaxed);
     }
   });
@@ -232,12 +245,15 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
     d.spin_rows.push_back(q);
   }
   assign_n(d.spin_alpha, d.spin_rows.size(), 0.0);
+  if (recalled) recall_spin(contacts, d);
 }
 
 // ---- b. warm start ------------------------------------------------------------------------------
-/// Forces of the previous step for contacts with the same key, clamped to the friction set (a spin
-/// row's torque to [-mu_spin alpha_n, mu_spin alpha_n]).
-bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts, SolverData& d) {
+namespace {
+
+/// d.recalled: each contact's cache entry with its key (-1: none; an entry goes to the first contact
+/// in contact order with its key). Returns whether any contact found one.
+bool find_recalled(const std::vector<Contact>& contacts, SolverData& d) {
   if (d.cache.empty()) return false;
   const std::size_t K = contacts.size();
   assign_n(d.recalled, K, -1);
@@ -276,6 +292,50 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
       found = true;
     }
   }
+  return found;
+}
+
+/// Contact i's recalled forces (d.recalled[i] >= 0) at its solve position, clamped to the friction
+/// set of its rows' tangents t1, t2 and friction coefficient mu.
+inline void recall_force(const SolverSettings& s, SolverData& d, std::size_t i, std::size_t position, const Vec3& t1,
+                         const Vec3& t2, double mu) {
+  const CachedContact& entry = d.cache[static_cast<std::size_t>(d.recalled[i])];
+  const double alpha_n = entry.alpha;
+  double a1 = entry.friction.dot(t1), a2 = entry.friction.dot(t2);
+  const double bound = mu * alpha_n;
+  if (s.friction_cone == FrictionCone::Cone) {
+    clamp_to_disk(a1, a2, bound);
+  } else {
+    a1 = std::clamp(a1, -bound, bound);
+    a2 = std::clamp(a2, -bound, bound);
+  }
+  double* alpha = &d.alpha[3 * position];
+  alpha[0] = alpha_n;
+  alpha[1] = a1;
+  alpha[2] = a2;
+}
+
+/// The recalled spin torques of the spin rows, clamped to [-mu_spin alpha_n, mu_spin alpha_n].
+void recall_spin(const std::vector<Contact>& contacts, SolverData& d) {
+  if (d.spin_rows.empty()) return;
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    if (d.recalled[i] < 0) continue;
+    const std::size_t position = static_cast<std::size_t>(d.slot[i]);
+    if (d.spin_slot[position] < 0) continue;
+    const CachedContact& entry = d.cache[static_cast<std::size_t>(d.recalled[i])];
+    const std::size_t j = static_cast<std::size_t>(d.spin_slot[position]);
+    const double spin_bound = d.spin_rows[j].mu_spin * entry.alpha;
+    d.spin_alpha[j] = std::clamp(entry.spin, -spin_bound, spin_bound);
+  }
+}
+
+}  // namespace
+
+/// Forces of the previous step for contacts with the same key, clamped to the friction set (a spin
+/// row's torque to [-mu_spin alpha_n, mu_spin alpha_n]).
+bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts, SolverData& d) {
+  if (!find_recalled(contacts, d)) return false;
+  const std::size_t K = contacts.size();
   // the forces, clamped to the friction set, over the threads (each contact writes its own rows),
   // in contact order, as the cache is sorted: the rows are reached out of order, asked for early
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
@@ -288,29 +348,12 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
       }
       if (d.recalled[i] < 0) continue;
       const std::size_t position = static_cast<std::size_t>(d.slot[i]);
-      const CachedContact& entry = d.cache[static_cast<std::size_t>(d.recalled[i])];
-      const std::size_t k = 3 * position;
       const ContactRows& r = d.rows[position];
-      const double alpha_n = entry.alpha;
-      double a1 = entry.friction.dot(r.t1), a2 = entry.friction.dot(r.t2);
-      const double bound = r.mu * alpha_n;
-      if (s.friction_cone == FrictionCone::Cone) {
-        clamp_to_disk(a1, a2, bound);
-      } else {
-        a1 = std::clamp(a1, -bound, bound);
-        a2 = std::clamp(a2, -bound, bound);
-      }
-      d.alpha[k] = alpha_n;
-      d.alpha[k + 1] = a1;
-      d.alpha[k + 2] = a2;
-      if (!d.spin_rows.empty() && d.spin_slot[position] >= 0) {
-        const std::size_t j = static_cast<std::size_t>(d.spin_slot[position]);
-        const double spin_bound = d.spin_rows[j].mu_spin * alpha_n;
-        d.spin_alpha[j] = std::clamp(entry.spin, -spin_bound, spin_bound);
-      }
+      recall_force(s, d, i, position, r.t1, r.t2, r.mu);
     }
   });
-  return found;
+  recall_spin(contacts, d);
+  return true;
 }
 
 void apply_forces(SolverData& d) {

@@ -119,7 +119,8 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
     d.R0[i] = state.R[i];
   });
   load(state.v, state.omega, d);
-  prepare(model, state, h, contacts, nullptr, nullptr, d, Order::ByPair);  // a pair's points together, for the lanes
+  // a pair's points together, for the lanes; the warm start's forces recalled as the rows are made
+  prepare(model, state, h, contacts, nullptr, nullptr, d, Order::ByPair, settings.warm_start ? &settings : nullptr);
   d.restitution_sweeps = 0;
   d.alpha_iter.clear();
   const double hertz = std::min(settings.contact_hertz, kMaxHertzPerRate / h);
@@ -148,7 +149,6 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   });
   // whether any contact has restitution (without, no contact's approach is ever read)
   d.bouncy = std::any_of(d.e.begin(), d.e.begin() + static_cast<std::ptrdiff_t>(K), [](double e) { return e > 0.0; });
-  if (settings.warm_start) recall_forces(settings, contacts, d);
   widen(settings, d);  // the groups take the warm-start forces too
 }
 
