@@ -140,12 +140,17 @@ void World::continuous() {
   // travel whose centre crossed no surface (the others had none within their reach at the start).
   // (contacts_next_: the contacts the step solved, in both steps; the soft step moved the detected
   // list there, and contacts_base_ then holds an older step's)
+  // Over the threads: two contacts may flag the same body, so the flags are stored atomically (the
+  // same value whoever stores it; relaxed: the pool's join orders them before the checks read them)
   std::vector<char>& on_static = scratch_->on_static;
   on_static.assign(model_.size(), char(0));
-  for (const Contact& c : contacts_next_) {
-    if (model_.is_static[c.body_a]) on_static[static_cast<std::size_t>(c.body_b)] = 1;
-    if (model_.is_static[c.body_b]) on_static[static_cast<std::size_t>(c.body_a)] = 1;
-  }
+  parallel::for_ranges(pool_.get(), contacts_next_.size(), 4096, [&](std::size_t first, std::size_t end) {
+    for (std::size_t k = first; k < end; ++k) {
+      const Contact& c = contacts_next_[k];
+      if (model_.is_static[c.body_a]) __atomic_store_n(&on_static[static_cast<std::size_t>(c.body_b)], char(1), __ATOMIC_RELAXED);
+      if (model_.is_static[c.body_b]) __atomic_store_n(&on_static[static_cast<std::size_t>(c.body_a)], char(1), __ATOMIC_RELAXED);
+    }
+  });
   // body i checked, with buffers s (kept from step to step: a step allocates nothing once they have
   // grown); true when it was put back. It reads the static bodies and its own state and writes its
   // own pose (and, through wind_back_with, its mechanism's)
