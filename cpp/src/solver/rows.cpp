@@ -176,7 +176,7 @@ void recall_spin(const std::vector<Contact>& contacts, SolverData& d);
 
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
              const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d, Order order,
-             const SolverSettings* recall) {
+             const SolverSettings* recall, const SoftPoint* springs) {
   const std::size_t K = contacts.size();
   solve_order(model, contacts, order, d);
   // the warm start's entries first, when asked for: each contact's forces are then written as its
@@ -187,6 +187,7 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
   assign_n(d.alpha, 3 * K, 0.0);
   d.u.resize(K);
   d.e.resize(K);
+  if (springs) d.soft.resize(K);
   std::atomic<bool> spinning{false};  // some contact's pair has spinning friction
   // each contact writes only its own rows, u_i and e_i: split over the threads
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
@@ -218,6 +219,16 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       d.u[k] = normal_velocity(r, d.qd);
       d.e[k] = std::max(ma.restitution, mb.restitution);
       if (recalled && d.recalled[i] >= 0) recall_force(*recall, d, i, k, r.t1, r.t2, r.mu);
+      if (springs) {  // the soft step's point: its spring, its gap, a round side's core offset
+        SoftPoint& p = d.soft[k];
+        p = springs[r.a_moves && r.b_moves ? 0 : 1];
+        p.gap0 = p.s = c.gap;
+        // a round side's carried point: its core, gap0 / 2 + rho along n from the contact point
+        const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(a)], feature_part(c.feature_a));
+        const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(b)], feature_part(c.feature_b));
+        if (rho_a > 0.0) p.sigma_a = 0.5 * c.gap + rho_a;
+        if (rho_b > 0.0) p.sigma_b = 0.5 * c.gap + rho_b;
+      }
       if (ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0) spinning.store(true, std::memory_order_relaxed);
     }
   });

@@ -272,10 +272,14 @@ struct SoftNormal {
 /// e_i, and the spin rows. A normal row's bias is max(gap, 0) / dt (a speculative contact closes its gap, no
 /// more). d.dI_inv must hold dt I_X^-1 per body.
 /// With `recall` (the soft step's warm start), d.alpha and d.spin_alpha also take the recalled
-/// forces (recall_forces, the same bits) as each contact's rows are made, in the same pass.
+/// forces (recall_forces, the same bits) as each contact's rows are made, in the same pass. With
+/// `springs` (the soft step: springs[0] between two moving bodies, springs[1] against one that does
+/// not move), d.soft takes each contact's soft point there too: its spring, its gap and a round
+/// side's core offset (SoftPoint).
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
              const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d,
-             Order order = Order::ByContact, const SolverSettings* recall = nullptr);
+             Order order = Order::ByContact, const SolverSettings* recall = nullptr,
+             const SoftPoint* springs = nullptr);
 
 /// d.alpha (and d.spin_alpha) from the previous step's cache d.cache, matched by key and clamped
 /// to the friction set. Returns whether any contact found its entry.

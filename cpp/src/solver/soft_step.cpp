@@ -119,34 +119,18 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
     d.R0[i] = state.R[i];
   });
   load(state.v, state.omega, d);
-  // a pair's points together, for the lanes; the warm start's forces recalled as the rows are made
-  prepare(model, state, h, contacts, nullptr, nullptr, d, Order::ByPair, settings.warm_start ? &settings : nullptr);
-  d.restitution_sweeps = 0;
-  d.alpha_iter.clear();
   const double hertz = std::min(settings.contact_hertz, kMaxHertzPerRate / h);
   // the two springs: between two bodies that move, and against one that does not (twice as stiff
   // and half as damped: it carries the load alone; Box2D v3)
-  SoftPoint between, against;
-  soften(between, hertz, settings.damping_ratio, h);
-  soften(against, 2.0 * hertz, 0.5 * settings.damping_ratio, h);
-  d.soft.resize(K);
-  const auto moves = [&](int x) { return !model.is_static[x] && !model.is_kinematic[x]; };
-  for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
-    // in contact order, reading the contacts in turn and writing each point where it is solved (a
-    // write does not wait; reading the contacts in solve order did, half the loop's time)
-    for (std::size_t i = first; i < end; ++i) {
-      if (i + kAhead < end) prefetch_write(&d.soft[static_cast<std::size_t>(d.slot[i + kAhead])], sizeof(SoftPoint));
-      const Contact& c = contacts[i];
-      SoftPoint& p = d.soft[static_cast<std::size_t>(d.slot[i])];
-      p = moves(c.body_a) && moves(c.body_b) ? between : against;
-      p.gap0 = p.s = c.gap;
-      // a round side's carried point: its core, gap0 / 2 + rho along n from the contact point
-      const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(c.body_a)], feature_part(c.feature_a));
-      const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(c.body_b)], feature_part(c.feature_b));
-      if (rho_a > 0.0) p.sigma_a = 0.5 * c.gap + rho_a;
-      if (rho_b > 0.0) p.sigma_b = 0.5 * c.gap + rho_b;
-    }
-  });
+  SoftPoint springs[2];
+  soften(springs[0], hertz, settings.damping_ratio, h);
+  soften(springs[1], 2.0 * hertz, 0.5 * settings.damping_ratio, h);
+  // a pair's points together, for the lanes; the warm start's forces recalled and the soft points
+  // made as the rows are made, in one pass over the contacts
+  prepare(model, state, h, contacts, nullptr, nullptr, d, Order::ByPair, settings.warm_start ? &settings : nullptr,
+          springs);
+  d.restitution_sweeps = 0;
+  d.alpha_iter.clear();
   // whether any contact has restitution (without, no contact's approach is ever read)
   d.bouncy = std::any_of(d.e.begin(), d.e.begin() + static_cast<std::ptrdiff_t>(K), [](double e) { return e > 0.0; });
   widen(settings, d);  // the groups take the warm-start forces too
