@@ -147,8 +147,11 @@ void World::continuous() {
   parallel::for_ranges(pool_.get(), contacts_next_.size(), 4096, [&](std::size_t first, std::size_t end) {
     for (std::size_t k = first; k < end; ++k) {
       const Contact& c = contacts_next_[k];
-      if (model_.is_static[c.body_a]) __atomic_store_n(&on_static[static_cast<std::size_t>(c.body_b)], char(1), __ATOMIC_RELAXED);
-      if (model_.is_static[c.body_b]) __atomic_store_n(&on_static[static_cast<std::size_t>(c.body_a)], char(1), __ATOMIC_RELAXED);
+      const auto flag = [&](BodyIndex x) {
+        __atomic_store_n(&on_static[static_cast<std::size_t>(x)], char(1), __ATOMIC_RELAXED);
+      };
+      if (model_.is_static[c.body_a]) flag(c.body_b);
+      if (model_.is_static[c.body_b]) flag(c.body_a);
     }
   });
   // body i checked, with buffers s (kept from step to step: a step allocates nothing once they have
@@ -212,7 +215,8 @@ void World::continuous() {
     // halving) that is no deeper than the start by more than kBackFraction of it
     std::vector<BodyIndex>& walls = s.walls;
     const Vec3 reach = Vec3::Constant(model_.rho[i]);
-    walls = in_box(*broad_phase_, start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach, s);
+    walls = in_box(*broad_phase_, start.p[i].cwiseMin(state_.p[i]) - reach, start.p[i].cwiseMax(state_.p[i]) + reach,
+                   s);
     walls.erase(std::remove_if(walls.begin(), walls.end(),
                                [&](BodyIndex j) {
                                  return !model_.is_static[j] || model_.is_sensor[j] || !model_.can_collide(i, j);
