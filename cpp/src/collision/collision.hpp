@@ -284,6 +284,11 @@ struct Scratch {
   std::vector<std::unique_ptr<Scratch>> workers;
 };
 
+/// s.workers grown to `threads` scratches (kept from step to step), for work split over a pool of
+/// that many threads; worker_scratch: the calling thread's (by its slot in the pool's arena).
+void grow_workers(Scratch& s, std::size_t threads);
+Scratch& worker_scratch(Scratch& s, std::size_t threads);
+
 /// What a narrow-phase query may use besides the two shapes: the triangle queries of static
 /// triangle meshes (null: built on the spot) and scratch buffers (null: made for the query).
 struct Services {

@@ -185,6 +185,14 @@ void add_primitive(const Primitive& p, const Pose& pose, std::uint32_t part, std
 
 Scratch::Scratch() : polytope(new_polytope_scratch()), epa(new_epa_scratch()) {}
 
+void grow_workers(Scratch& s, std::size_t threads) {
+  while (s.workers.size() < threads) s.workers.push_back(std::make_unique<Scratch>());
+}
+
+Scratch& worker_scratch(Scratch& s, std::size_t threads) {
+  return *s.workers[static_cast<std::size_t>(parallel::Pool::thread_index()) % threads];
+}
+
 const char* item_kind_name(ItemKind kind) {
   switch (kind) {
     case ItemKind::Sphere: return "Sphere";
@@ -648,10 +656,10 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
     if (scratch.chunks.size() < chunks) scratch.chunks.resize(std::max(chunks, 2 * scratch.chunks.size()));
     if (scratch.places.size() < P) scratch.places.resize(std::max(P, 2 * scratch.places.size()));
     const std::size_t workers = static_cast<std::size_t>(pool->threads());
-    while (scratch.workers.size() < workers) scratch.workers.push_back(std::make_unique<Scratch>());
+    grow_workers(scratch, workers);
     const auto pairs_of = [&](std::size_t c) { return std::make_pair(c * kPairsPerChunk, std::min(P, (c + 1) * kPairsPerChunk)); };
     pool->for_ranges(chunks, 1, [&](std::size_t first, std::size_t end) {
-      Scratch& buffers = *scratch.workers[static_cast<std::size_t>(parallel::Pool::thread_index()) % workers];
+      Scratch& buffers = worker_scratch(scratch, workers);
       for (std::size_t c = first; c < end; ++c) {
         Scratch::PairChunk& chunk = scratch.chunks[c];
         chunk.contacts.clear();

@@ -287,9 +287,7 @@ double rounding_radius(const Shape& shape, std::uint32_t part) {
   };
   if (const auto* c = std::get_if<Compound>(&shape))
     return part < c->parts.size() ? std::visit(primitive, c->parts[part].shape) : 0.0;
-  if (std::holds_alternative<Sphere>(shape) || std::holds_alternative<Capsule>(shape))
-    return std::visit(primitive, shape);
-  return 0.0;
+  return std::visit(primitive, shape);
 }
 
 double inner_radius(const Shape& shape) {

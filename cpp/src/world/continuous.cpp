@@ -13,7 +13,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <memory>
 #include <string>
 
 #include "collision/collision.hpp"
@@ -144,12 +143,12 @@ void World::continuous() {
   // same value whoever stores it; relaxed: the pool's join orders them before the checks read them)
   std::vector<char>& on_static = scratch_->on_static;
   on_static.assign(model_.size(), char(0));
+  const auto flag = [&](BodyIndex x) {
+    __atomic_store_n(&on_static[static_cast<std::size_t>(x)], char(1), __ATOMIC_RELAXED);
+  };
   parallel::for_ranges(pool_.get(), contacts_next_.size(), 4096, [&](std::size_t first, std::size_t end) {
     for (std::size_t k = first; k < end; ++k) {
       const Contact& c = contacts_next_[k];
-      const auto flag = [&](BodyIndex x) {
-        __atomic_store_n(&on_static[static_cast<std::size_t>(x)], char(1), __ATOMIC_RELAXED);
-      };
       if (model_.is_static[c.body_a]) flag(c.body_b);
       if (model_.is_static[c.body_b]) flag(c.body_a);
     }
@@ -259,12 +258,11 @@ void World::continuous() {
     for (const BodyIndex i : moving_) report_.continuous += check(i, *scratch_) ? 1 : 0;
     return;
   }
-  std::vector<std::unique_ptr<collision::Scratch>>& workers = scratch_->workers;
   const std::size_t threads = static_cast<std::size_t>(pool_->threads());
-  while (workers.size() < threads) workers.push_back(std::make_unique<collision::Scratch>());
+  collision::grow_workers(*scratch_, threads);
   std::atomic<int> put_back{0};
   pool_->for_ranges(moving_.size(), 32, [&](std::size_t first, std::size_t end) {
-    collision::Scratch& s = *workers[static_cast<std::size_t>(parallel::Pool::thread_index()) % threads];
+    collision::Scratch& s = collision::worker_scratch(*scratch_, threads);
     int n = 0;
     for (std::size_t k = first; k < end; ++k) n += check(moving_[k], s) ? 1 : 0;
     if (n > 0) put_back.fetch_add(n, std::memory_order_relaxed);
