@@ -561,8 +561,16 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 /// (a rolling ball keeps its gap; the turn's second-order lift of its material point would open a
 /// false gap). The normal stays; the lever arms stay as detected: anchor_X = y + dp_X, where the
 /// solver applies the force on X (K, world, m); y <- (anchor_a + anchor_b) / 2. Written into out.
-void carry_contacts(const std::vector<Contact>& at_detection, const State& detected, const State& now,
-                    std::vector<Contact>& out, std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b);
+/// But on a side that follows its core (core_off_centre, in a contact not kept; docs/conventions.md,
+/// "Round sides follow their core"), the force acts where the core goes over the coming substep h
+/// (s): anchor_X = p_X + math::chord_offset(R_X R_X0^T, omega_X, h, c_X) -/+ sigma_X n, c_X =
+/// y -/+ sigma_X n - p_X0 the core, sigma_X = gap/2 + rho_X, omega_X the body's angular velocity
+/// in `now`. first: the substep right after detection (now == detected): the contacts are copied
+/// and, only when some side follows its core, the anchors written. Returns whether the anchors
+/// were written (always when !first).
+bool carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
+                    const State& now, double h, bool first, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,
+                    std::vector<Vec3>& anchor_b);
 
 /// Contact generation: all contacts for the current state, in the order of docs/conventions.md,
 /// written into out (cleared first), using and growing the scratch buffers. Only pairs that
