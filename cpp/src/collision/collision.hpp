@@ -557,9 +557,11 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 /// (a substep, docs/conventions.md "One step"), to first order, as the velocity constraint
 /// linearises it: with each body's displacement dp = p - p_0 and turn dtheta = vee of the skew part
 /// of R R_0^T, and the witness points w_A = y - gap/2 n, w_B = y + gap/2 n,
-/// gap <- gap + n . ((dp_B + dtheta_B x (w_B - p_B0)) - (dp_A + dtheta_A x (w_A - p_A0)))
-/// (a rolling ball keeps its gap; the turn's second-order lift of its material point would open a
-/// false gap). The normal stays; the lever arms stay as detected: anchor_X = y + dp_X, where the
+/// gap <- gap + n . ((dp_B + dtheta_B x (w_B - p_B0)) - (dp_A + dtheta_A x (w_A - p_A0))),
+/// but a round side (rounding_radius rho > 0) carries its core c_B = w_B + rho_B n (c_A = w_A -
+/// rho_A n) with the whole turn, dp + (R R_0^T - I) (c - p_0), since its witness stays under the
+/// core however the body turns (a rolling ball keeps its gap, a spinning top's core circles). The
+/// normal stays; the lever arms stay as detected: anchor_X = y + dp_X, where the
 /// solver applies the force on X (K, world, m); y <- (anchor_a + anchor_b) / 2. Written into out.
 /// But on a side that follows its core (core_off_centre, in a contact not kept; docs/conventions.md,
 /// "Round sides follow their core"), the force acts where the core goes over the coming substep h
