@@ -134,7 +134,6 @@ def lockstep(world: World, dt: float, steps: int) -> Report:
             p = before["position"]
             contacts["anchor_a"] = np.where(kept, p[detected["body_a"]] + detected["arm_a"], detected["point"])
             contacts["anchor_b"] = np.where(kept, p[detected["body_b"]] + detected["arm_b"], detected["point"])
-            contacts["kept"] = detected["kept"]  # (and a kept round side does not follow its core)
         world.step(dt)
         core = _state(world.snapshot())
         expected, info = oracle.step(before, dt, contacts=contacts)

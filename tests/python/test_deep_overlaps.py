@@ -168,15 +168,17 @@ def top_overlap(solver, dt, spin):
 @pytest.mark.parametrize("solver", ["pgs", "soft"])
 @pytest.mark.parametrize("dt", [1 / 240, 1 / 60])
 @pytest.mark.parametrize("spin", [100.0, 200.0])
+@pytest.mark.xfail(strict=True, reason="issue 21, not met yet: the rows' lever arms stay as detected while a spun "
+                   "capsule's core circles the axis of omega (docs/conventions.md, \"Deep overlaps\": tops); arms "
+                   "that followed the core fixed it but made a capsule rolling at 1,000 rad/s wobble and gain energy")
 def test_a_capsule_spinning_like_a_top_sinks_no_further_than_its_contact_force_presses_it(solver, dt, spin):
     # A spun capsule's end cap touches the floor below its core, a point on its axis 20 mm from its
     # centre, which circles the axis of omega (tilted from the capsule's) at the full spin: 0.4 to
-    # 3 rad in a substep. The rows' lever arms now follow the core to where it goes in the substep
-    # (docs/conventions.md, "Round sides follow their core"); kept as detected they aimed the
-    # velocity constraint at where the core had been, and it sank: 27 to 59 % of its radius in the
-    # PGS, 47 to 62 % in the soft step (fuzzer scenes by the dozen). The precessing top presses on
-    # the floor with up to 6 times its weight (the PGS's largest normal force, measured), so
-    # - the soft step's spring (2 pi * 60 Hz against the floor) gives way by at most 10 g / omega^2;
+    # 3 rad in a substep. With the rows' lever arms kept as detected the velocity constraint aims at
+    # where the core was, and it sinks: 22 to 46 % of its radius in the PGS, 18 to 62 % in the
+    # soft step. The precessing top presses on the floor with up to 6 times its weight (the PGS's
+    # largest normal force, measured with arms that followed the core), so
+    # - the soft step's spring (2 pi * 60 Hz against the floor) should give way by at most 10 g / omega^2;
     # - the PGS's rigid contact by at most its slop, 0.2 of the inner radius (1 mm).
     deepest = top_overlap(solver, dt, spin)
     if solver == "soft":

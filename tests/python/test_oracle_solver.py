@@ -661,6 +661,22 @@ def test_carried_contacts_follow_their_bodies():
     np.testing.assert_allclose(tilted["gap"] - corners["gap"], y * np.sin(0.01), rtol=0, atol=1e-15)
 
 
+def test_a_capsule_s_end_cap_carried_through_a_large_turn_keeps_the_gap_of_its_core():
+    # a capsule standing on its end cap (radius 0.1, segment half 0.3), turned by 0.8 rad about x
+    # through its centre: the cap's witness stays under the segment's lower end (its core), which
+    # the turn lifts to height z_c = 0.4 - 0.3 cos 0.8, so the carried gap is exactly z_c - 0.1
+    # (the narrow phase's at the new pose). Carried to first order, the witness point 0.4 below the
+    # centre moves by dtheta x r, along y: the gap stayed 0 while the cap rose 91 mm (and a turn
+    # that lowers a tilted top's core went unseen the same way)
+    capsule = make_snapshot([plane(), make_body({"type": "capsule", "radius": 0.1, "half_length": 0.3})],
+                            [[0, 0, 0], [0, 0, 0.4]])
+    contacts = o.detect_contacts(capsule, 0.01)
+    assert len(contacts["gap"]) == 1 and contacts["gap"][0] == pytest.approx(0.0, abs=1e-15)
+    turn = {**capsule, "rotation": np.stack([np.eye(3), o.quat_to_matrix(np.array([np.cos(0.4), np.sin(0.4), 0, 0]))])}
+    carried = o.carry_contacts(contacts, capsule, turn)
+    assert carried["gap"][0] == pytest.approx(0.4 - 0.3 * np.cos(0.8) - 0.1, abs=1e-15)
+
+
 def test_contacts_without_feature_ids():
     # hand-made contacts without ids solve, but leave no cache (they cannot be recognised next
     # step); with a cache to match, the warm start needs the ids and says so

@@ -178,12 +178,6 @@ double inner_radius(const Shape& shape);
 /// points are points of the body: vertices, edges, faces).
 double rounding_radius(const Shape& shape, std::uint32_t part = 0);
 
-/// Whether the shape (or a compound's part `part`) rounds a core that is not the body's centre: a
-/// round side (rounding_radius > 0) of any shape but a Sphere, whose core is its centre. A contact's
-/// lever arm on such a side follows the core from substep to substep (docs/conventions.md, "Round
-/// sides follow their core").
-bool core_off_centre(const Shape& shape, std::uint32_t part = 0);
-
 /// true for shapes that can only be static (Plane, TriangleMesh).
 bool static_only(const Shape& shape);
 

@@ -401,10 +401,8 @@ class World {
   /// step_once with the soft step (SolverMethod::Soft): contacts once, then per substep
   /// unconstrained velocity -> solve -> poses -> relax, then restitution and store (soft_step.hpp).
   void soft_step_once(double dt);
-  /// The step's contacts carried to substep k of h (s) into contacts_next_ (k = 0: as detected),
-  /// their anchors into anchor_a_, anchor_b_; returns whether the rows take those anchors (k > 0,
-  /// or a side that follows its core: collision::carry_contacts).
-  bool carry_contacts(int k, double h);
+  /// The step's contacts carried to substep k into contacts_next_ (k = 0: as detected).
+  void carry_contacts(int k);
   /// After substep k's solve: each contact's impulse becomes the sum over the substeps so far
   /// (Contacts.impulse is the step's whole normal impulse).
   void sum_impulses(int k);

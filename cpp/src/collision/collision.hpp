@@ -560,18 +560,11 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 /// gap <- gap + n . ((dp_B + dtheta_B x (w_B - p_B0)) - (dp_A + dtheta_A x (w_A - p_A0))),
 /// but a round side (rounding_radius rho > 0) carries its core c_B = w_B + rho_B n (c_A = w_A -
 /// rho_A n) with the whole turn, dp + (R R_0^T - I) (c - p_0), since its witness stays under the
-/// core however the body turns (a rolling ball keeps its gap, a spinning top's core circles). The
-/// normal stays; the lever arms stay as detected: anchor_X = y + dp_X, where the
+/// core however the body turns (a rolling ball keeps its gap; a spinning capsule's end cap follows
+/// its core). The normal stays; the lever arms stay as detected: anchor_X = y + dp_X, where the
 /// solver applies the force on X (K, world, m); y <- (anchor_a + anchor_b) / 2. Written into out.
-/// But on a side that follows its core (core_off_centre, in a contact not kept; docs/conventions.md,
-/// "Round sides follow their core"), the force acts where the core goes over the coming substep h
-/// (s): anchor_X = p_X + math::chord_offset(R_X R_X0^T, omega_X, h, c_X) -/+ sigma_X n, c_X =
-/// y -/+ sigma_X n - p_X0 the core, sigma_X = gap/2 + rho_X, omega_X the body's angular velocity
-/// in `now`. first: the substep right after detection (now == detected): the contacts are copied
-/// and, only when some side follows its core, the anchors written. Returns whether the anchors
-/// were written (always when !first).
-bool carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
-                    const State& now, double h, bool first, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,
+void carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
+                    const State& now, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,
                     std::vector<Vec3>& anchor_b);
 
 /// Contact generation: all contacts for the current state, in the order of docs/conventions.md,

@@ -415,26 +415,11 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
                state.omega[b].norm() * model.rho[b]);
 }
 
-bool carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
-                    const State& now, double h, bool first, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,
+void carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
+                    const State& now, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,
                     std::vector<Vec3>& anchor_b) {
   if (out.capacity() < at_detection.size()) out.reserve(2 * at_detection.size());  // no exact-size copy
   out = at_detection;
-  // the sides that follow their core: a contact's (sigma_X along -n on A, +n on B from its point;
-  // 0 on a side that does not follow)
-  const auto sigma_of = [&](const Contact& c, int x, FeatureId feature) {
-    if (c.kept || !core_off_centre(model.shape[static_cast<std::size_t>(x)], feature_part(feature))) return 0.0;
-    return 0.5 * c.gap + rounding_radius(model.shape[static_cast<std::size_t>(x)], feature_part(feature));
-  };
-  bool follows = false;
-  if (first) {
-    for (const Contact& c : at_detection)
-      if (sigma_of(c, c.body_a, c.feature_a) != 0.0 || sigma_of(c, c.body_b, c.feature_b) != 0.0) {
-        follows = true;
-        break;
-      }
-    if (!follows) return false;  // the rows' lever arms are the contacts' points (or kept arms)
-  }
   anchor_a.resize(out.size());
   anchor_b.resize(out.size());
   // the first-order motion of the point x of body i since detection: dp + dtheta x (x - p_0)
@@ -443,32 +428,23 @@ bool carry_contacts(const Model& model, const std::vector<Contact>& at_detection
     const Vec3 dtheta(0.5 * (turn(2, 1) - turn(1, 2)), 0.5 * (turn(0, 2) - turn(2, 0)), 0.5 * (turn(1, 0) - turn(0, 1)));
     return (now.p[i] - detected.p[i]) + dtheta.cross(x - detected.p[i]);
   };
-  // how far the core x of body i has moved since detection: dp + (R R_0^T - I) (x - p_0)
-  auto core_moved = [&](int i, const Vec3& x) -> Vec3 {
+  // how far the point x of body i has moved since detection with the body's whole turn:
+  // dp + (R R_0^T - I) (x - p_0)
+  auto turned = [&](int i, const Vec3& x) -> Vec3 {
     const Vec3 r = x - detected.p[i];
     return (now.p[i] - detected.p[i]) + (now.R[i] * (detected.R[i].transpose() * r) - r);
   };
-  // where the force acts on body i's side that follows its core (the core c = y + sign sigma n,
-  // carried over the coming substep by math::chord_offset, then sigma back along the normal)
-  auto followed = [&](int i, const Vec3& y, const Vec3& n, double signed_sigma) -> Vec3 {
-    const Vec3 c = y + signed_sigma * n - detected.p[i];
-    return now.p[i] + math::chord_offset(now.R[i] * detected.R[i].transpose(), now.omega[i], h, c) - signed_sigma * n;
-  };
   for (std::size_t k = 0; k < out.size(); ++k) {
     Contact& c = out[k];
-    const Contact& found = at_detection[k];
+    const Vec3 half = 0.5 * c.gap * c.normal;
     const int a = c.body_a, b = c.body_b;
-    if (!first) {
-      // a round side carries its core, rho beyond its witness, with the body's whole turn (its
-      // witness stays under the core however the body turns); any other side its witness point,
-      // to first order
-      const Vec3 half = 0.5 * c.gap * c.normal;
-      const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(a)], feature_part(c.feature_a));
-      const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(b)], feature_part(c.feature_b));
-      const Vec3 moved_b = rho_b > 0.0 ? core_moved(b, c.point + half + rho_b * c.normal) : moved(b, c.point + half);
-      const Vec3 moved_a = rho_a > 0.0 ? core_moved(a, c.point - half - rho_a * c.normal) : moved(a, c.point - half);
-      c.gap += c.normal.dot(moved_b - moved_a);
-    }
+    // a round side carries its core, rho beyond its witness, with the whole turn (the witness stays
+    // under the core however the body turns); any other side its witness point, to first order
+    const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(a)], feature_part(c.feature_a));
+    const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(b)], feature_part(c.feature_b));
+    const Vec3 moved_b = rho_b > 0.0 ? turned(b, c.point + half + rho_b * c.normal) : moved(b, c.point + half);
+    const Vec3 moved_a = rho_a > 0.0 ? turned(a, c.point - half - rho_a * c.normal) : moved(a, c.point - half);
+    c.gap += c.normal.dot(moved_b - moved_a);
     anchor_a[k] = c.point + (now.p[a] - detected.p[a]);
     anchor_b[k] = c.point + (now.p[b] - detected.p[b]);
     c.point = 0.5 * (anchor_a[k] + anchor_b[k]);
@@ -476,11 +452,7 @@ bool carry_contacts(const Model& model, const std::vector<Contact>& at_detection
       anchor_a[k] = now.p[a] + c.arm_a;
       anchor_b[k] = now.p[b] + c.arm_b;
     }
-    const double sigma_a = sigma_of(found, a, found.feature_a), sigma_b = sigma_of(found, b, found.feature_b);
-    if (sigma_a != 0.0) anchor_a[k] = followed(a, found.point, found.normal, -sigma_a);
-    if (sigma_b != 0.0) anchor_b[k] = followed(b, found.point, found.normal, sigma_b);
   }
-  return true;
 }
 
 /// Pairs per chunk of a detection split over threads (about the cost of a task's scheduling).

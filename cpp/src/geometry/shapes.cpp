@@ -290,10 +290,6 @@ double rounding_radius(const Shape& shape, std::uint32_t part) {
   return std::visit(primitive, shape);
 }
 
-bool core_off_centre(const Shape& shape, std::uint32_t part) {
-  return !std::holds_alternative<Sphere>(shape) && rounding_radius(shape, part) > 0.0;
-}
-
 double inner_radius(const Shape& shape) {
   constexpr double inf = std::numeric_limits<double>::infinity();
   struct Inner {

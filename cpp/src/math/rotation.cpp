@@ -34,12 +34,6 @@ Mat3 rodrigues(const Vec3& omega, double dt) {
   return Mat3::Identity() + A * K + B * (K * K);
 }
 
-Vec3 chord_offset(const Mat3& turn, const Vec3& omega, double h, const Vec3& c) {
-  const double half = 0.5 * h * omega.norm();
-  const double shorten = half < 1e-4 ? 1.0 - half * half / 6.0 : std::sin(half) / half;
-  return shorten * (rodrigues(omega, 0.5 * h) * (turn * c));
-}
-
 Mat3 orthonormalize(const Mat3& R) {
   return 1.5 * R - 0.5 * R * (R.transpose() * R);
 }

@@ -13,13 +13,6 @@ Mat3 skew(const Vec3& x);
 /// below 1e-20). omega in rad/s (world), dt in s.
 Mat3 rodrigues(const Vec3& omega, double dt);
 
-/// Where a body that has turned by `turn` (R R_0^T) since c was measured, turning at omega (rad/s,
-/// world) now, carries the offset c (m, world, from its centre) over a coming substep h (s), to
-/// first order in the velocity: s exp([omega]_x h/2) turn c, s = sin(theta/2) / (theta/2),
-/// theta = |omega| h. For a body turning at omega throughout, omega x (that) h is the chord of the
-/// point's arc over the substep, exactly (docs/conventions.md, "Round sides follow their core").
-Vec3 chord_offset(const Mat3& turn, const Vec3& omega, double h, const Vec3& c);
-
 /// One Newton step of the polar decomposition, R <- 1.5 R - 0.5 R R^T R: pulls a nearly orthonormal
 /// R back to the rotation group (error e -> O(e^2)).
 Mat3 orthonormalize(const Mat3& R);

@@ -97,17 +97,6 @@ struct SoftPoint {
   double u_before = 0.0;     ///< J_n q_dot before the last biased sweep, while it has not pushed (m/s)
 };
 
-/// A contact of the soft step with a round side whose core is not its body's centre (a capsule, a
-/// compound's round part; kept contacts excepted): its rows' lever arms follow the core from
-/// substep to substep (rows::follow_cores). The carried points' offsets from the bodies' centres
-/// at the step's start (m, world): c_X = r_X0 - sigma_A n on A, r_X0 + sigma_B n on B (the core),
-/// or r_X0 on a side that does not follow (r_X0 the rows' lever arm as made by prepare).
-struct FollowedCore {
-  std::size_t k = 0;        ///< solve position
-  Vec3 c_a, c_b;
-  bool a = false, b = false;  ///< which sides follow their core
-};
-
 /// Units (body pairs) a WideGroup solves at once, one per SIMD lane (solver/wide_rows.hpp).
 constexpr std::size_t kLanes = 4;
 /// The most contacts of a pair a lane takes (a pair with more is solved one contact at a time).
@@ -236,12 +225,6 @@ struct SolverData {
   // the soft step: per contact in solve order; per body the pose at the step's start and how far
   // it has moved and turned since (dp = p - p0, dR = R R0^T - I)
   std::vector<SoftPoint> soft;
-  /// the soft step's contacts whose rows follow a round side's core from substep to substep
-  /// (docs/conventions.md, "The soft step"; rows::follow_cores), and per solve position its entry
-  /// in that list (-1: none; core_slot is empty when no contact of the step has one)
-  std::vector<FollowedCore> cores;
-  std::vector<int> core_slot;
-  std::vector<char> follows;  ///< prepare's per solve position: which sides follow (1: A, 2: B)
   double h = 0.0;  ///< the substep (s)
   bool bouncy = false;  ///< some contact of the step has restitution e > 0
   int restitution_sweeps = 0;  ///< restitution sweeps over the step's substeps

@@ -2,12 +2,9 @@
 
 #include <array>
 #include <atomic>
-#include <cmath>
 #include <cstring>
 #include <limits>
 #include <mutex>
-
-#include "math/rotation.hpp"
 
 namespace signorini::solver::rows {
 
@@ -167,57 +164,6 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
   d.block_start.push_back(static_cast<int>(K));
 }
 
-namespace {
-
-/// d.cores and d.core_slot from d.follows (set by prepare's pass; any: some contact follows), in
-/// solve order: each such contact's carried points as offsets from its bodies' centres.
-void list_cores(bool any, SolverData& d) {
-  d.cores.clear();
-  d.core_slot.clear();
-  if (!any) return;
-  const std::size_t K = d.rows.size();
-  d.core_slot.assign(K, -1);
-  for (std::size_t k = 0; k < K; ++k) {
-    if (!d.follows[k]) continue;
-    const ContactRows& r = d.rows[k];
-    const SoftPoint& p = d.soft[k];
-    FollowedCore f;
-    f.k = k;
-    f.c_a = r.r_a - p.sigma_a * r.n;
-    f.c_b = r.r_b + p.sigma_b * r.n;
-    f.a = (d.follows[k] & 1) != 0;
-    f.b = (d.follows[k] & 2) != 0;
-    d.core_slot[k] = static_cast<int>(d.cores.size());
-    d.cores.push_back(f);
-  }
-}
-
-}  // namespace
-
-void follow_cores(const Model& model, const State& state, SolverData& d) {
-  const double h = d.h;
-  // where body x carries the offset c over the coming substep (math::chord_offset)
-  const auto carried = [&](int x, const Vec3& c) -> Vec3 {
-    const std::size_t i = static_cast<std::size_t>(x);
-    return math::chord_offset(state.R[i] * d.R0[i].transpose(), state.omega[i], h, c);
-  };
-  for_ranges(d, d.cores.size(), 256, [&](std::size_t first, std::size_t end) {
-    for (std::size_t i = first; i < end; ++i) {
-      const FollowedCore& f = d.cores[i];
-      ContactRows& r = d.rows[f.k];
-      const SoftPoint& p = d.soft[f.k];
-      // the force acts at the contact point's level: the core less sigma along the normal
-      const Vec3 r_a = f.a ? Vec3(carried(r.a, f.c_a) + p.sigma_a * r.n) : r.r_a;
-      const Vec3 r_b = f.b ? Vec3(carried(r.b, f.c_b) - p.sigma_b * r.n) : r.r_b;
-      const Vec3 dir[3] = {r.n, r.t1, r.t2};
-      const double bias = r.bias, mu = r.mu;
-      make_rows(model, d.dI_inv, r.a, r.b, r_a, r_b, dir, h, r);
-      r.bias = bias;
-      r.mu = mu;
-    }
-  });
-}
-
 /// Rows (normal, t1, t2 per contact, stored in solve order), pair materials, u_i = J_n q_dot*
 /// (before the solve), and the spin rows (a contact alone in its body pair, with
 /// mu_spin = max(mu_spin_A, mu_spin_B) > 0, in solve order).
@@ -241,12 +187,8 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
   assign_n(d.alpha, 3 * K, 0.0);
   d.u.resize(K);
   d.e.resize(K);
-  if (springs) {
-    d.soft.resize(K);
-    assign_n(d.follows, K, char(0));
-  }
+  if (springs) d.soft.resize(K);
   std::atomic<bool> spinning{false};  // some contact's pair has spinning friction
-  std::atomic<bool> following{false};  // some contact's rows follow a core (the soft step)
   // each contact writes only its own rows, u_i and e_i: split over the threads
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
     Vec3 dir[3];  // the last contact's normal and tangents
@@ -282,25 +224,14 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
         p = springs[r.a_moves && r.b_moves ? 0 : 1];
         p.gap0 = p.s = c.gap;
         // a round side's carried point: its core, gap0 / 2 + rho along n from the contact point
-        const Shape& shape_a = model.shape[static_cast<std::size_t>(a)];
-        const Shape& shape_b = model.shape[static_cast<std::size_t>(b)];
-        const double rho_a = rounding_radius(shape_a, feature_part(c.feature_a));
-        const double rho_b = rounding_radius(shape_b, feature_part(c.feature_b));
+        const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(a)], feature_part(c.feature_a));
+        const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(b)], feature_part(c.feature_b));
         if (rho_a > 0.0) p.sigma_a = 0.5 * c.gap + rho_a;
         if (rho_b > 0.0) p.sigma_b = 0.5 * c.gap + rho_b;
-        // a round side whose core is not its body's centre (a ball's is) follows it, unless the
-        // contact keeps the lever arms it was found with
-        const char follows =
-            c.kept ? char(0)
-                   : static_cast<char>((rho_a > 0.0 && core_off_centre(shape_a, feature_part(c.feature_a)) ? 1 : 0) |
-                                       (rho_b > 0.0 && core_off_centre(shape_b, feature_part(c.feature_b)) ? 2 : 0));
-        d.follows[k] = follows;
-        if (follows) following.store(true, std::memory_order_relaxed);
       }
       if (ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0) spinning.store(true, std::memory_order_relaxed);
     }
   });
-  list_cores(following.load(), d);
   const bool any_spin = spinning.load();
   // spin rows: J_A = (-n, 0), J_B = (n, 0), delta = dt (n . I_A^-1 n + n . I_B^-1 n); none, and
   // nothing more to do, when no pair has spinning friction

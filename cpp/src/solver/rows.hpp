@@ -275,19 +275,11 @@ struct SoftNormal {
 /// forces (recall_forces, the same bits) as each contact's rows are made, in the same pass. With
 /// `springs` (the soft step: springs[0] between two moving bodies, springs[1] against one that does
 /// not move), d.soft takes each contact's soft point there too: its spring, its gap and a round
-/// side's core offset (SoftPoint), and d.cores the contacts whose rows follow a core (follow_cores).
+/// side's core offset (SoftPoint).
 void prepare(const Model& model, const State& state, double dt, const std::vector<Contact>& contacts,
              const std::vector<Vec3>* anchor_a, const std::vector<Vec3>* anchor_b, SolverData& d,
              Order order = Order::ByContact, const SolverSettings* recall = nullptr,
              const SoftPoint* springs = nullptr);
-
-/// The soft step, at a substep's start (state: its poses and angular velocities; d.R0 the poses
-/// at the step's start, d.h the substep): the rows of each contact of d.cores remade with the
-/// lever arm of each side that follows its core, r_A = s E_A c_A + sigma_A n and
-/// r_B = s E_B c_B - sigma_B n, E_X = exp(h/2 [omega_X]x) R_X R_X0^T, s = sin(theta/2) / (theta/2),
-/// theta = |omega_X| h (docs/conventions.md, "The soft step"); their normal, tangents, bias and mu
-/// stay. The lanes never hold these contacts (widen solves their groups one by one).
-void follow_cores(const Model& model, const State& state, SolverData& d);
 
 /// d.alpha (and d.spin_alpha) from the previous step's cache d.cache, matched by key and clamped
 /// to the friction set. Returns whether any contact found its entry.

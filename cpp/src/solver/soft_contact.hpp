@@ -27,18 +27,6 @@ inline double gap_now(const SolverData& d, const ContactRows& r, const SoftPoint
   return s + (p.sigma_b * r.n.dot(dR_b_n) + p.sigma_a * r.n.dot(dR_a_n));
 }
 
-/// gap_now of the contact at solve position k; for one whose rows follow a core (d.cores), whose
-/// lever arms are no longer those of the step's start, from the carried points' offsets it keeps:
-/// s = gap0 + n . ((dp_B + dR_B c_B) - (dp_A + dR_A c_A)).
-inline double gap_at(const SolverData& d, std::size_t k) {
-  const ContactRows& r = d.rows[k];
-  if (d.core_slot.empty() || d.core_slot[k] < 0) return gap_now(d, r, d.soft[k]);
-  const FollowedCore& f = d.cores[static_cast<std::size_t>(d.core_slot[k])];
-  const Vec3 moved_b = d.dp[r.b] + d.dR[r.b] * f.c_b;
-  const Vec3 moved_a = d.dp[r.a] + d.dR[r.a] * f.c_a;
-  return d.soft[k].gap0 + r.n.dot(moved_b - moved_a);
-}
-
 /// The contact at solve position k in a sweep: the normal row by the soft rule (biased: the spring
 /// while the contact overlaps; not biased: rigid), then its friction rows and its spin row. A
 /// contact with a positive gap is rigid with the speculative bias gap / h either way. kGap: its
@@ -50,7 +38,7 @@ template <bool kSpin, bool kGap>
   const ContactRows& r = d.rows[k];
   double* alpha = &d.alpha[3 * k];
   SoftPoint& p = d.soft[k];
-  if constexpr (kGap) p.s = gap_at(d, k);
+  if constexpr (kGap) p.s = gap_now(d, r, p);
   rows::SoftNormal normal;
   if (p.s > 0.0) {
     normal.bias = p.s * x.inv_h;

@@ -82,7 +82,7 @@ void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool
   const bool spin = !d.spin_rows.empty();
   if (update_gaps && count == 0) {
     for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
-      for (std::size_t k = first; k < end; ++k) d.soft[k].s = gap_at(d, k);
+      for (std::size_t k = first; k < end; ++k) d.soft[k].s = gap_now(d, d.rows[k], d.soft[k]);
     });
     if (d.lanes) wide_gaps_in(d);  // the groups' copies of the gaps
   }
@@ -139,8 +139,6 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
 void soft_solve(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
                 std::vector<Vec3>& omega, SolverData& d) {
   load(v, omega, d);
-  // a round side's lever arm follows its core: where it goes over this substep
-  if (!d.cores.empty()) follow_cores(model, state, d);
   wide_warm_start(d);  // the last substep's forces (the cache's in the first) as this one's first guess
   if (JointSet* joints = joints_of(d)) {  // the joints' rows at these poses, warm started
     prepare_joints(model, state, d.h, true, true, *joints, d);

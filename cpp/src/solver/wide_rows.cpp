@@ -192,8 +192,6 @@ void widen(const SolverSettings& s, SolverData& d) {
                             soft.bias_rate == spring.bias_rate && soft.mass_scale == spring.mass_scale &&
                             soft.impulse_scale == spring.impulse_scale;
           if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0) || !same) g.one_by_one = true;
-          // rows remade every substep (follow_cores) are solved one by one
-          if (!d.core_slot.empty() && d.core_slot[k] >= 0) g.one_by_one = true;
         }
       }
       // the round sides' core offsets, read only in a group that has one (a group of boxes is

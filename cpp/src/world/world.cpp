@@ -219,11 +219,11 @@ void World::step_once(double dt) {
   lap(t.wake);
   SolverStats stats;
   for (int k = 0; k < n; ++k) {
-    const bool anchored = carry_contacts(k, h);        // the step's contacts moved to this substep
+    carry_contacts(k);                                 // the step's contacts moved to this substep
     dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, settings_.solver.gyroscopic, v_, omega_,
                                      pool_.get(), &moving_);
     stats = solver::solve_contacts(model_, state_, h, settings_.solver, contacts_next_, v_, omega_, *solver_,
-                                   anchored ? &anchor_a_ : nullptr, anchored ? &anchor_b_ : nullptr);
+                                   k == 0 ? nullptr : &anchor_a_, k == 0 ? nullptr : &anchor_b_);
     sum_impulses(k);                                   // Contacts.impulse: the whole step's
     lap(t.solve);
     dynamics::advance(model_, state_, solver_->v_move, solver_->omega_move, v_, omega_, h, pool_.get(), &moving_);
@@ -287,10 +287,14 @@ void World::soft_step_once(double dt) {
   lap.done();
 }
 
-bool World::carry_contacts(int k, double h) {
-  // copied into kept storage, grown geometrically (a copy assignment allocates the exact size)
-  return collision::carry_contacts(model_, contacts_base_, guard_->start(), state_, h, k == 0, contacts_next_,
-                                   anchor_a_, anchor_b_);
+void World::carry_contacts(int k) {
+  if (k == 0) {
+    // copied into kept storage, grown geometrically (a copy assignment allocates the exact size)
+    if (contacts_next_.capacity() < contacts_base_.size()) contacts_next_.reserve(2 * contacts_base_.size());
+    contacts_next_ = contacts_base_;
+  } else {
+    collision::carry_contacts(model_, contacts_base_, guard_->start(), state_, contacts_next_, anchor_a_, anchor_b_);
+  }
 }
 
 void World::sum_impulses(int k) {

@@ -70,7 +70,7 @@ from .joints import (
     touching_bodies,
     warm_start_joints,
 )
-from .rigid import body_arrays, integrate, motion_flags, rodrigues, unconstrained_velocity
+from .rigid import body_arrays, integrate, motion_flags, unconstrained_velocity
 from .solver import (
     RowSweep,
     apply_forces,
@@ -174,95 +174,6 @@ def core_offsets(snapshot, contacts):
         return np.where(rho > 0.0, 0.5 * gap + rho, 0.0)
 
     return side("body_a", "feature_a"), side("body_b", "feature_b")
-
-
-def following_sides(snapshot, contacts):
-    """Which sides of each contact follow their core (two (K,) bool arrays, A's and B's): a round
-    side (``rounding_radius`` > 0) of a body that is not a ball (a ball's core is its centre), of a
-    contact that does not keep the lever arms it was found with (``kept``, a recycled contact's)."""
-    bodies = snapshot["bodies"]
-    K = len(np.asarray(contacts["gap"]).reshape(-1))
-    kept = np.asarray(contacts.get("kept", np.zeros(K, dtype=bool)), dtype=bool).reshape(-1)
-
-    def side(body_key, feature_key):
-        X = np.asarray(contacts[body_key], dtype=np.int64).reshape(-1)
-        F = np.asarray(contacts.get(feature_key, np.zeros(len(X))), dtype=np.uint64).reshape(-1)  # hand-made: part 0
-        return np.array([bodies[x]["shape"]["type"] != "sphere" and rounding_radius(bodies[x]["shape"], int(f) >> 32) > 0.0
-                         for x, f in zip(X, F)], dtype=bool) & ~kept
-
-    return side("body_a", "feature_a"), side("body_b", "feature_b")
-
-
-def followed_anchors(contacts, start, now, sigma, follows, h):
-    """Where each contact's force acts on A and on B (K, 3) each, for rows made at the poses and
-    angular velocities of ``now`` (a substep's start) that the substep's motion carries: on a side
-    that follows its core (``following_sides``), its core c_X = y -/+ sigma_X n carried with the
-    body from ``start``, turned on by exp(h/2 [omega_X]x) and shortened by sin(theta/2) / (theta/2),
-    theta = |omega_X| h, then sigma_X back along the normal:
-        anchor_X = p_X + s exp(h/2 [omega_X]x) R_X R_X0^T (c_X - p_X0) +/- sigma_X n,
-    so that J q_dot h is the core's chord over the substep for a body turning at omega_X
-    throughout (omega x exp(theta/2 u) r = the chord of exp(theta u) r / h, but for s); on any other
-    side the contact's anchor carried as now (y + dp_X, ``contact_anchors``).
-
-    Inputs: contacts dict (K, as detected at ``start``), two snapshots (position, rotation,
-            angular_velocity): the step's start and now; sigma (``core_offsets``), follows
-            (``following_sides``), h s.  Output: (anchor_a, anchor_b).
-    """
-    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
-    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
-    n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
-    y_A, y_B = contact_anchors(contacts)
-    p0, p = np.asarray(start["position"], dtype=float), np.asarray(now["position"], dtype=float)
-    R0, R = np.asarray(start["rotation"], dtype=float), np.asarray(now["rotation"], dtype=float)
-    omega = np.asarray(now["angular_velocity"], dtype=float).reshape(-1, 3)
-
-    def side(X, y, signed_sigma, follow):
-        out = y + (p[X] - p0[X])
-        for i in np.flatnonzero(follow):
-            x = X[i]
-            core = y[i] + signed_sigma[i] * n[i] - p0[x]
-            half = 0.5 * h * np.linalg.norm(omega[x])
-            shorten = 1.0 - half * half / 6.0 if half < 1e-4 else np.sin(half) / half
-            out[i] = p[x] + shorten * (rodrigues(omega[x], 0.5 * h) @ (R[x] @ (R0[x].T @ core))) - signed_sigma[i] * n[i]
-        return out
-
-    return side(A, y_A, -sigma[0], follows[0]), side(B, y_B, sigma[1], follows[1])
-
-
-def follow_rows(rows, contacts, start, now, sigma, follows, q_dot, h):
-    """rows (``prepare_rows``'s, at the step's start) with the rows of each contact that has a side
-    following its core made again at the lever arms of ``followed_anchors`` (the bodies' inverse
-    inertias still the step's start's); the others', and every contact's u, bias and materials,
-    stay. Returns (rows, acting): acting the contacts with anchor_a, anchor_b where the rows'
-    forces act, relative to the step's start poses (what ``store`` reads); the contacts themselves
-    when no side follows."""
-    armed = np.flatnonzero(follows[0] | follows[1])
-    if not len(armed):
-        return rows, contacts
-    anchor_a, anchor_b = followed_anchors(contacts, start, now, sigma, follows, h)
-    K = len(follows[0])
-    some = {}
-    for key, value in contacts.items():  # the contacts with such a side, alone
-        value = np.asarray(value)
-        if value.ndim >= 1 and len(value) == K:
-            some[key] = value[armed]
-    some["anchor_a"], some["anchor_b"] = anchor_a[armed], anchor_b[armed]
-    made = prepare_rows(dict(start, position=now["position"]), some, q_dot, h)
-    out = dict(rows)
-    at = (3 * armed[:, None] + np.arange(3)).reshape(-1)
-    for key in ("J_A", "J_B", "MJ_A", "MJ_B", "delta"):
-        out[key] = np.array(rows[key], copy=True)
-        out[key][at] = made[key]
-    # where the forces act, as store reads them (anchor - p at the step's start poses): the same
-    # lever arms, anchor_X - p_X now
-    p0, p = np.asarray(start["position"], dtype=float), np.asarray(now["position"], dtype=float)
-    A = np.asarray(contacts["body_a"], dtype=np.int64).reshape(-1)
-    B = np.asarray(contacts["body_b"], dtype=np.int64).reshape(-1)
-    y_A, y_B = contact_anchors(contacts)
-    acting = dict(contacts)
-    acting["anchor_a"] = np.where(follows[0][:, None], p0[A] + (anchor_a - p[A]), y_A)
-    acting["anchor_b"] = np.where(follows[1][:, None], p0[B] + (anchor_b - p[B]), y_B)
-    return out, acting
 
 
 def carried_gaps(contacts, start, now, sigma=None):
@@ -422,8 +333,6 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
     K = len(rows["mu"])
     soft = contact_softness(start, contacts, s, h)
     sigma = core_offsets(start, contacts)  # a round side carries its core
-    follows = following_sides(start, contacts)  # and, off its body's centre, its rows follow it
-    rows_start, acting = rows, contacts
     sweep = RowSweep(rows, h)
     alpha_spin = np.zeros(K)
     alpha = (recall_forces(rows, contacts, read_cache(start), s["friction_cone"], alpha_spin)
@@ -446,10 +355,6 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
         # the unconstrained velocity of the current state
         v_star, omega_star = unconstrained_velocity(state, h)
         q_dot = np.hstack([omega_star, v_star])
-        # the rows whose lever arms follow a core: where it goes over this substep
-        if np.any(follows[0] | follows[1]):
-            rows, acting = follow_rows(rows_start, contacts, start, state, sigma, follows, q_dot, h)
-            sweep = RowSweep(rows, h)
         # solve: the current forces as the first guess, the soft sweeps at the current gaps; the
         # approach of a contact that has not pushed yet is kept for its restitution
         apply_forces(rows, np.asarray(x), q_dot, h, np.asarray(tau), sweep)
@@ -495,7 +400,7 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
     # end: store the last substep's forces, the whole impulse, the certificate against the rigid
     # contact at its end gap (or e u for a contact that bounced in the last substep)
     rows = dict(rows, u=u)
-    out = store(rows, acting, start, alpha, alpha_iter, q_dot, h, alpha_spin)
+    out = store(rows, contacts, start, alpha, alpha_iter, q_dot, h, alpha_spin)
     out["impulse"] = impulse
     rigid = dict(rows, bias=np.maximum(gap, 0.0) / h)
     out.update(certificate(rigid, alpha, q_dot, restitutive, out["friction"], out["slip"],

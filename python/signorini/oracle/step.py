@@ -19,7 +19,7 @@ import numpy as np
 from .contacts import detect_contacts
 from .joints import break_joints
 from .rigid import apply_impulses, integrate, unconstrained_velocity
-from .soft import core_offsets, followed_anchors, following_sides, soft_step
+from .soft import core_offsets, soft_step
 from .solver import solve_contacts, solver_settings, substep_count
 
 # the per-contact and per-step figures of the solve that ``step`` reports in its info
@@ -76,23 +76,6 @@ def step_once(snapshot, dt, contacts=None):
     return new, info
 
 
-def follow_cores(contacts, out, detected, now, h):
-    """out (a substep's contacts, ``carry_contacts``'s, or the detected ones in the first) with the
-    anchors of the sides that follow their core (``soft.following_sides``) where the core goes over
-    the coming substep h (``soft.followed_anchors``), the same rule as the soft step's rows. Returns
-    out unchanged when no side follows; else a new dict with anchor_a, anchor_b (K, 3)."""
-    follows = following_sides(detected, contacts)
-    if not np.any(follows[0] | follows[1]):
-        return out
-    followed_a, followed_b = followed_anchors(contacts, detected, now, core_offsets(detected, contacts), follows, h)
-    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
-    out = dict(out)
-    for key, followed, side in (("anchor_a", followed_a, follows[0]), ("anchor_b", followed_b, follows[1])):
-        anchor = np.asarray(out.get(key, y), dtype=float).reshape(-1, 3)
-        out[key] = np.where(side[:, None], followed, anchor)
-    return out
-
-
 def carry_contacts(contacts, detected, now):
     """The contacts detected at snapshot ``detected`` carried to snapshot ``now`` by the motion of
     their bodies (a substep), to first order, as the velocity constraint linearises it: with each
@@ -100,11 +83,10 @@ def carry_contacts(contacts, detected, now):
     witness points w_A = y - gap/2 n, w_B = y + gap/2 n,
     gap <- gap + n . ((dp_B + dtheta_B x (w_B - p_B0)) - (dp_A + dtheta_A x (w_A - p_A0))),
     but on a round side (``soft.core_offsets``: sigma_X = gap/2 + rho_X) the core c_B = y + sigma_B n
-    (c_A = y - sigma_A n) moved with the body's whole turn, dp_X + (R_X R_X0^T - I) (c_X - p_X0) in
-    place of its term (a spinning or rolling body's witness stays under its core). The normal
-    stays; the lever arms stay as detected: anchor_X = y + dp_X (or, when the contacts carry
-    anchor_X, anchor_X + dp_X), where the solver applies the force on X (``follow_cores`` then
-    moves those of the sides that follow their core); y <- (anchor_a + anchor_b) / 2.
+    (c_A = y - sigma_A n) moved with the body's whole turn, dp_X + (R_X R_X0^T - I) (c_X - p_X0), in
+    place of its term (a spinning body's witness stays under its core). The normal stays; the lever arms stay as detected: anchor_X = y + dp_X (or, when the contacts
+    carry anchor_X, anchor_X + dp_X), where the solver applies the force on X; y <- (anchor_a +
+    anchor_b) / 2.
 
     Inputs: contacts dict (K contacts), two snapshots (position (N, 3), rotation (N, 3, 3); the
             first with its bodies).
@@ -126,16 +108,15 @@ def carry_contacts(contacts, detected, now):
     def moved(i, x):  # the first-order motion of the point x of body i since detection
         return dp[i] + np.cross(dtheta[i], x - p0[i])
 
-    def core_moved(i, x):  # the motion of the point x of body i with its whole turn
+    def turned(i, x):  # the motion of the point x of body i with its whole turn
         r = x - p0[i]
         return dp[i] + np.einsum("kij,kj->ki", turn[i], r) - r
 
     # a round side carries its core (rho beyond its witness, sigma = gap / 2 + rho from the point)
     # with the body's whole turn, so its witness stays under the core however the body turns
     sigma_a, sigma_b = core_offsets(detected, contacts)
-    round_a, round_b = (sigma_a != 0.0)[:, None], (sigma_b != 0.0)[:, None]
-    moved_b = np.where(round_b, core_moved(b, point + sigma_b[:, None] * n), moved(b, point + half))
-    moved_a = np.where(round_a, core_moved(a, point - sigma_a[:, None] * n), moved(a, point - half))
+    moved_b = np.where((sigma_b != 0.0)[:, None], turned(b, point + sigma_b[:, None] * n), moved(b, point + half))
+    moved_a = np.where((sigma_a != 0.0)[:, None], turned(a, point - sigma_a[:, None] * n), moved(a, point - half))
     out = dict(contacts)
     out["gap"] = gap + np.einsum("ki,ki->k", n, moved_b - moved_a)
     out["anchor_a"], out["anchor_b"] = point + dp[a], point + dp[b]
@@ -189,9 +170,7 @@ def step(snapshot, dt, contacts=None, ties=None):
     else:
         state, info, flagged, impulse = snapshot, None, 0, 0.0
         for k in range(n):
-            carried = contacts if k == 0 else carry_contacts(contacts, snapshot, state)
-            # a round side off its body's centre: its anchor where its core goes over the substep
-            state, info = step_once(state, dt / n, follow_cores(contacts, carried, snapshot, state, dt / n))
+            state, info = step_once(state, dt / n, contacts if k == 0 else carry_contacts(contacts, snapshot, state))
             impulse = impulse + np.asarray(info["impulse"], dtype=float)  # the step's: summed over its substeps
             # the substeps the Python layer warns about: unconverged and approaching too fast
             flagged += (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
