@@ -156,24 +156,29 @@ def rounding_radius(shape, part=0):
     return 0.0
 
 
-def core_offsets(snapshot, contacts):
-    """Where each contact's carried points lie from its point (m, (K,) each, along -n for A and
-    +n for B): a round side's core (``rounding_radius`` rho > 0) at gap / 2 + rho, the witness
-    gap / 2 from the contact point and the core rho beyond it; 0 on any other side. The part of a
-    feature id is its high 32 bits (docs/conventions.md, "Feature ids").
-
-    Inputs: snapshot (bodies with their shape dicts), contacts dict (K; body_a, body_b, gap,
-            feature_a, feature_b). Output: (sigma_a, sigma_b)."""
+def contact_rounding(snapshot, contacts):
+    """Each contact's rounding radii (``rounding_radius``, m, (K,) each) on A and on B. The part of
+    a feature id is its high 32 bits (docs/conventions.md, "Feature ids"); contacts made by hand,
+    without feature ids, count as part 0."""
     bodies = snapshot["bodies"]
-    gap = np.asarray(contacts["gap"], dtype=float).reshape(-1)
 
     def side(body_key, feature_key):
         X = np.asarray(contacts[body_key], dtype=np.int64).reshape(-1)
-        F = np.asarray(contacts.get(feature_key, np.zeros(len(X))), dtype=np.uint64).reshape(-1)  # hand-made: part 0
-        rho = np.array([rounding_radius(bodies[x]["shape"], int(f) >> 32) for x, f in zip(X, F)], dtype=float)
-        return np.where(rho > 0.0, 0.5 * gap + rho, 0.0)
+        F = np.asarray(contacts.get(feature_key, np.zeros(len(X))), dtype=np.uint64).reshape(-1)
+        return np.array([rounding_radius(bodies[x]["shape"], int(f) >> 32) for x, f in zip(X, F)], dtype=float)
 
     return side("body_a", "feature_a"), side("body_b", "feature_b")
+
+
+def core_offsets(snapshot, contacts):
+    """Where each contact's carried points lie from its point (m, (K,) each, along -n for A and
+    +n for B): a round side's core (``rounding_radius`` rho > 0) at gap / 2 + rho, the witness
+    gap / 2 from the contact point and the core rho beyond it; 0 on any other side.
+
+    Inputs: snapshot (bodies with their shape dicts), contacts dict (K; body_a, body_b, gap,
+            feature_a, feature_b). Output: (sigma_a, sigma_b)."""
+    gap = np.asarray(contacts["gap"], dtype=float).reshape(-1)
+    return tuple(np.where(rho > 0.0, 0.5 * gap + rho, 0.0) for rho in contact_rounding(snapshot, contacts))
 
 
 def carried_gaps(contacts, start, now, sigma=None):

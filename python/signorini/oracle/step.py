@@ -19,7 +19,7 @@ import numpy as np
 from .contacts import detect_contacts
 from .joints import break_joints
 from .rigid import apply_impulses, integrate, unconstrained_velocity
-from .soft import core_offsets, soft_step
+from .soft import contact_rounding, soft_step
 from .solver import solve_contacts, solver_settings, substep_count
 
 # the per-contact and per-step figures of the solve that ``step`` reports in its info
@@ -82,11 +82,11 @@ def carry_contacts(contacts, detected, now):
     body's displacement dp = p - p_0 and turn dtheta = vee of the skew part of R R_0^T, and the
     witness points w_A = y - gap/2 n, w_B = y + gap/2 n,
     gap <- gap + n . ((dp_B + dtheta_B x (w_B - p_B0)) - (dp_A + dtheta_A x (w_A - p_A0))),
-    but on a round side (``soft.core_offsets``: sigma_X = gap/2 + rho_X) the core c_B = y + sigma_B n
-    (c_A = y - sigma_A n) moved with the body's whole turn, dp_X + (R_X R_X0^T - I) (c_X - p_X0), in
-    place of its term (a spinning body's witness stays under its core). The normal stays; the lever arms stay as detected: anchor_X = y + dp_X (or, when the contacts
-    carry anchor_X, anchor_X + dp_X), where the solver applies the force on X; y <- (anchor_a +
-    anchor_b) / 2.
+    but on a round side (``soft.contact_rounding``: rho_X > 0) the core c_B = w_B + rho_B n (c_A =
+    w_A - rho_A n) moved with the body's whole turn, dp_X + (R_X R_X0^T - I) (c_X - p_X0), in place
+    of its term (a spinning body's witness stays under its core). The normal stays; the lever arms
+    stay as detected: anchor_X = y + dp_X (or, when the contacts carry anchor_X, anchor_X + dp_X),
+    where the solver applies the force on X; y <- (anchor_a + anchor_b) / 2.
 
     Inputs: contacts dict (K contacts), two snapshots (position (N, 3), rotation (N, 3, 3); the
             first with its bodies).
@@ -112,11 +112,11 @@ def carry_contacts(contacts, detected, now):
         r = x - p0[i]
         return dp[i] + np.einsum("kij,kj->ki", turn[i], r) - r
 
-    # a round side carries its core (rho beyond its witness, sigma = gap / 2 + rho from the point)
-    # with the body's whole turn, so its witness stays under the core however the body turns
-    sigma_a, sigma_b = core_offsets(detected, contacts)
-    moved_b = np.where((sigma_b != 0.0)[:, None], turned(b, point + sigma_b[:, None] * n), moved(b, point + half))
-    moved_a = np.where((sigma_a != 0.0)[:, None], turned(a, point - sigma_a[:, None] * n), moved(a, point - half))
+    # a round side carries its core, rho beyond its witness, with the body's whole turn, so its
+    # witness stays under the core however the body turns
+    rho_a, rho_b = contact_rounding(detected, contacts)
+    moved_b = np.where((rho_b > 0.0)[:, None], turned(b, point + half + rho_b[:, None] * n), moved(b, point + half))
+    moved_a = np.where((rho_a > 0.0)[:, None], turned(a, point - half - rho_a[:, None] * n), moved(a, point - half))
     out = dict(contacts)
     out["gap"] = gap + np.einsum("ki,ki->k", n, moved_b - moved_a)
     out["anchor_a"], out["anchor_b"] = point + dp[a], point + dp[b]
