@@ -173,8 +173,8 @@ def top_overlap(solver, dt, spin):
                    "that followed the core fixed it but made a capsule rolling at 1,000 rad/s wobble and gain energy")
 def test_a_capsule_spinning_like_a_top_sinks_no_further_than_its_contact_force_presses_it(solver, dt, spin):
     # A spun capsule's end cap touches the floor below its core, a point on its axis 20 mm from its
-    # centre, which circles the axis of omega (tilted from the capsule's) at the full spin: 0.4 to
-    # 3 rad in a substep. With the rows' lever arms kept as detected the velocity constraint aims at
+    # centre, which circles the axis of omega (tilted from the capsule's) at the full spin: 0.1 to
+    # 0.8 rad in a substep here (the PGS's 1/960 s, the soft step's 1/240 s). With the rows' lever arms kept as detected the velocity constraint aims at
     # where the core was, and it sinks: 22 to 46 % of its radius in the PGS, 18 to 62 % in the
     # soft step. The precessing top presses on the floor with up to 6 times its weight (the PGS's
     # largest normal force, measured with arms that followed the core), so
