@@ -47,7 +47,7 @@ MJCF_MODELS = ["pendulum", "double_pendulum", "arm7"]
 MJCF_DT, MJCF_STEPS = 1e-3, 1000
 URDF_DT, URDF_STEPS = 1.0 / 240.0, 120
 POSES = {"horizontal": (1.0, 0.0, 0.0), "tilted": (0.6, 0.8, 0.0)}
-# test_mjcf_joints.SOLVERS: the soft step's joints are 60 Hz springs, the arm's light links need sweeps
+# test_mjcf_joints.SOLVERS: the soft step's joints are springs (joint_hertz), the arm's light links need sweeps
 SOLVERS = {
     "pgs": dict(solver="pgs"),
     "soft": dict(solver="soft", substeps=32, soft_iterations=4, relax_iterations=4),

@@ -92,23 +92,30 @@ void register_world(py::module_& m) {
       .def_readwrite("relax_iterations", &SolverSettings::relax_iterations)
       .def_readwrite("recycle_distance", &SolverSettings::recycle_distance)
       .def_readwrite("continuous", &SolverSettings::continuous)
+      .def_readwrite("joint_hertz", &SolverSettings::joint_hertz)
+      .def_readwrite("joint_damping_ratio", &SolverSettings::joint_damping_ratio)
       .def(py::pickle(
           [](const SolverSettings& s) {
             return py::make_tuple(s.erp, s.tolerance, s.max_iterations, s.slop, s.max_push_velocity,
                                   s.restitution_threshold, s.friction_cone, s.gyroscopic, s.warm_start, s.substeps,
                                   s.warn_velocity, s.method, s.contact_hertz, s.damping_ratio, s.soft_iterations,
-                                  s.relax_iterations, s.recycle_distance, s.continuous);
+                                  s.relax_iterations, s.recycle_distance, s.continuous, s.joint_hertz,
+                                  s.joint_damping_ratio);
           },
           [](const py::tuple& t) {
             // 11 items: a pickle from before the soft step (its settings keep their defaults); 16:
             // before contact recycling (it stays off, as it was); 17: before continuous collision
-            // (on, the default)
-            if (t.size() != 18 && t.size() != 17 && t.size() != 16 && t.size() != 11)
-              throw py::value_error("SolverSettings: a pickled state has 18 items (17 before continuous collision, 16 "
-                                    "before contact recycling, 11 before the soft step)");
+            // (on, the default); 18: before the joints' softness settings (60 Hz and 2, as it was)
+            const std::size_t n = t.size();
+            if (n != 20 && n != 18 && n != 17 && n != 16 && n != 11)
+              throw py::value_error("SolverSettings: a pickled state has 20 items (18 before the joints' softness "
+                                    "settings, 17 before continuous collision, 16 before contact recycling, 11 "
+                                    "before the soft step)");
             SolverSettings s;
-            s.recycle_distance = t.size() >= 17 ? t[16].cast<double>() : 0.0;
-            if (t.size() == 18) s.continuous = t[17].cast<bool>();
+            s.recycle_distance = n >= 17 ? t[16].cast<double>() : 0.0;
+            if (n >= 18) s.continuous = t[17].cast<bool>();
+            s.joint_hertz = n >= 20 ? t[18].cast<double>() : 60.0;
+            s.joint_damping_ratio = n >= 20 ? t[19].cast<double>() : 2.0;
             s.erp = t[0].cast<double>();
             s.tolerance = t[1].cast<double>();
             s.max_iterations = t[2].cast<int>();
@@ -208,6 +215,7 @@ void register_world(py::module_& m) {
       .def("remove_body", &World::remove_body, py::arg("i"))
       .def("remove_bodies", &World::remove_bodies, py::arg("indices"))
       .def("step", &World::step, py::arg("dt"), py::arg("steps") = 1, py::call_guard<py::gil_scoped_release>())
+      .def("substep_count", &World::substep_count, py::arg("dt"))
       .def("set_position", &World::set_position)
       .def("set_orientation", &World::set_orientation)
       .def("set_velocity", &World::set_velocity)

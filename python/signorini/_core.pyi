@@ -388,7 +388,7 @@ class SolverSettings:
     gyroscopic: Gyroscopic
     method: SolverMethod
     warm_start: bool
-    def __getstate__(self) -> tuple[float, float, int, float, float, float, FrictionCone, Gyroscopic, bool, int, float, SolverMethod, float, float, int, int, float, bool]:
+    def __getstate__(self) -> tuple[float, float, int, float, float, float, FrictionCone, Gyroscopic, bool, int, float, SolverMethod, float, float, int, int, float, bool, float, float]:
         ...
     def __init__(self) -> None:
         ...
@@ -415,6 +415,18 @@ class SolverSettings:
         ...
     @erp.setter
     def erp(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def joint_damping_ratio(self) -> float:
+        ...
+    @joint_damping_ratio.setter
+    def joint_damping_ratio(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def joint_hertz(self) -> float:
+        ...
+    @joint_hertz.setter
+    def joint_hertz(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
     def max_iterations(self) -> int:
@@ -624,6 +636,8 @@ class World:
     def shape(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> typing.Any:
         ...
     def step(self, dt: typing.SupportsFloat | typing.SupportsIndex, steps: typing.SupportsInt | typing.SupportsIndex = 1) -> None:
+        ...
+    def substep_count(self, dt: typing.SupportsFloat | typing.SupportsIndex) -> int:
         ...
     @property
     def angular_impulses(self) -> numpy.ndarray:

@@ -48,7 +48,7 @@ Measured and summarised, not failed: how far the joints open (``joint_errors``) 
 ``joint_gap``, the opening a converged solve allows: the PGS's position pass takes back erp of a
 joint's error each substep h, so what a substep adds, h (tolerance + h spin^2 lever) (the solver's
 residual and the second-order turn of the anchor over the substep), stays below that over erp; the
-soft step's springs (JOINT_HERTZ, at most 0.25 / h) sag by the acceleration they carry, g + spin^2
+soft step's springs (``joint_hertz``, at most 0.25 / h) sag by the acceleration they carry, g + spin^2
 lever, over their omega^2. It is not yet a failure class: on a first sample the PGS ends its 30
 sweeps unconverged on jointed chains in contact and leaves errors of 1e-6 m at rest, 100 to 10,000
 times this bound. The deepest overlap of a detected contact relative to the
@@ -93,7 +93,6 @@ POINT_SLACK = 0.05      # of |gap|: clipped speculative points sit on a face's p
 # overlaps past this fraction of the smaller body's inner size are counted in the summary (issue 21's
 # target: none on 1,000 scenes)
 DEEP_OVERLAP = 0.5
-JOINT_HERTZ = 60.0      # the soft step's joint springs (docs/conventions.md, "Joints")
 JOINT_ROUNDING = 1e-12  # m (plus 1e-12 of the lever): anchors computed from poses of rounded floats
 STRUCTURES = ("hanging_chain", "free_chain", "ragdoll")
 MAX_STRUCTURES = 2
@@ -562,7 +561,7 @@ def joint_gap(h: float, settings: dict, spin, lever, g: float):
     the faster of its bodies' angular speeds (rad/s), lever (J,) its longer lever arm |anchor_X|
     (m), h the substep (s), g (m/s^2), settings ``World.solver``. See the module's doc."""
     if settings["solver"] == "soft":
-        omega = 2.0 * math.pi * min(JOINT_HERTZ, 0.25 / h)
+        omega = 2.0 * math.pi * min(settings["joint_hertz"], 0.25 / h)
         return (g + spin ** 2 * lever) / omega ** 2 + JOINT_ROUNDING * (1.0 + lever)
     return h / settings["erp"] * (settings["tolerance"] + h * spin ** 2 * lever) + JOINT_ROUNDING * (1.0 + lever)
 
@@ -742,8 +741,7 @@ def run(scene: dict, log=None) -> dict:
     frames = joint_frames(world)
     lever = np.linalg.norm(frames["anchors"], axis=2).max(axis=1) if world.num_joints else np.zeros(0)
     settings = world.solver
-    soft = settings["solver"] == "soft"
-    h = dt / (settings["substeps"] or math.ceil((240.0 if soft else 960.0) * dt - 1e-9))
+    h = dt / world.substep_count(dt)
     g = float(np.linalg.norm(world.gravity))
     max_joint, joint_at = 0.0, ""
     max_overlap = 0.0

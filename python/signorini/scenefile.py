@@ -470,6 +470,8 @@ class WorldSettings(_Table):
     # steps as it did; save_scene writes the world's value
     recycle_distance: Float = 0.0
     continuous: Bool = True
+    joint_hertz: Float = 240.0
+    joint_damping_ratio: Float = 2.0
     sleeping: Bool = False
     sleep_linear_velocity: Float = 0.05
     sleep_angular_velocity: Float = 0.05

@@ -266,7 +266,7 @@ SOLVER_DEFAULTS = {
     "restitution_threshold": 0.5, "friction_cone": "pyramid", "gyroscopic": "midpoint",
     "warm_start": True, "substeps": 0, "warn_velocity": 1.0,
     "solver": "pgs", "contact_hertz": 30.0, "damping_ratio": 10.0, "soft_iterations": 1, "relax_iterations": 1,
-    "recycle_distance": None, "continuous": True,
+    "recycle_distance": None, "continuous": True, "joint_hertz": 240.0, "joint_damping_ratio": 2.0,
 }
 
 # recycle_distance when not given, by solver (m): the soft step keeps resting manifolds (Box3D's 5 cm:
@@ -424,6 +424,12 @@ class World:
         kinematic body).
     soft_iterations, relax_iterations : soft step: sweeps per substep with the soft bias (>= 1) and
         rigid sweeps after the poses move (>= 0).
+    joint_hertz : soft step: a joint's stiffness as its rows' spring frequency (Hz, > 0), at most a
+        quarter of the substep rate. A world with joints runs its automatic substeps at most
+        0.25 / joint_hertz long (1/960 s at the default 240 Hz: 4 at dt = 1/240, 16 at dt = 1/60);
+        60 Hz (Box2D v3's) keeps the contacts' 1/240 s and lets a joint stretch 16 times as far
+        under a load (by load / (m_eff (2 pi f)^2)).
+    joint_damping_ratio : soft step: the joint spring's damping ratio (>= 0).
     recycle_distance : contact recycling (m, >= 0; docs/conventions.md, "Contact recycling"): a
         pair of bodies other than spheres, planes and triangle meshes keeps the manifold it was last
         found with while it has drifted by at most this (and by 10% of the smaller body's inner
@@ -460,8 +466,9 @@ class World:
                  gyroscopic: str = "midpoint", warm_start: bool = True, substeps: int = 0,
                  warn_velocity: float = 1.0, solver: str = "pgs", contact_hertz: float = 30.0,
                  damping_ratio: float = 10.0, soft_iterations: int = 1, relax_iterations: int = 1,
-                 recycle_distance: Optional[float] = None, continuous: bool = True, sleeping: bool = True, sleep_linear_velocity: float = 0.05, sleep_angular_velocity: float = 0.05,
-                 time_to_sleep: float = 0.5, threads: Optional[int] = None):
+                 recycle_distance: Optional[float] = None, continuous: bool = True, joint_hertz: float = 240.0,
+                 joint_damping_ratio: float = 2.0, sleeping: bool = True, sleep_linear_velocity: float = 0.05,
+                 sleep_angular_velocity: float = 0.05, time_to_sleep: float = 0.5, threads: Optional[int] = None):
         g = as_vector(gravity, 3, "World", "gravity")
         given_threads = _threads("World", threads)
         settings = _solver_settings(
@@ -470,7 +477,7 @@ class World:
             friction_cone=friction_cone, gyroscopic=gyroscopic, warm_start=warm_start, substeps=substeps,
             warn_velocity=warn_velocity, solver=solver, contact_hertz=contact_hertz, damping_ratio=damping_ratio,
             soft_iterations=soft_iterations, relax_iterations=relax_iterations, recycle_distance=recycle_distance,
-            continuous=continuous)
+            continuous=continuous, joint_hertz=joint_hertz, joint_damping_ratio=joint_damping_ratio)
         sleep = _sleep_settings("World", sleeping=sleeping, sleep_linear_velocity=sleep_linear_velocity,
                                 sleep_angular_velocity=sleep_angular_velocity, time_to_sleep=time_to_sleep)
         self._core = _core.World(g, as_scalar(contact_margin, "World", "contact_margin"), settings, sleep,
@@ -1197,6 +1204,17 @@ class World:
                 "(until set_solver); World.unconverged_substeps counts every such substep; "
                 "warnings.filterwarnings('ignore', category=signorini.SolverWarning) silences it",
                 SolverWarning, stacklevel=user_stacklevel())
+
+    @_locked
+    def substep_count(self, dt: float) -> int:
+        """The substeps a step of ``dt`` s (> 0, finite) runs with the current settings and joints:
+        ``substeps`` when set, else the fewest of at most 1/960 s (the PGS) or 1/240 s (the soft
+        step; with a joint that is not broken, at most 0.25 / ``joint_hertz``: 1/960 s at the
+        default)."""
+        dt = as_number(dt, "substep_count", "dt")
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise ValueError(f"substep_count: dt must be positive and finite, got {dt}")
+        return int(self._core.substep_count(dt))
 
     # state: read-only views of the core's arrays, (N, 3) / (N, 4) / (N, 3, 3) ------------------
     # They share memory with the world (np.shares_memory holds across reads), show every later

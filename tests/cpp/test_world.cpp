@@ -128,13 +128,16 @@ TEST(World, SoftStepRestsABoxOnFourSpringsAtTheClosedFormOverlap) {
 
 TEST(World, SoftStepSettingsOutOfRangeAreRefusedAndTheWorldIsUnchanged) {
   World world;
-  for (int k = 0; k < 4; ++k) {
+  for (int k = 0; k < 7; ++k) {
     WorldSettings bad;
     bad.solver.method = SolverMethod::Soft;
     if (k == 0) bad.solver.contact_hertz = 0.0;
     if (k == 1) bad.solver.damping_ratio = std::nan("");
     if (k == 2) bad.solver.soft_iterations = 0;
     if (k == 3) bad.solver.relax_iterations = -1;
+    if (k == 4) bad.solver.joint_hertz = -60.0;
+    if (k == 5) bad.solver.joint_hertz = std::numeric_limits<double>::infinity();
+    if (k == 6) bad.solver.joint_damping_ratio = -1.0;
     EXPECT_THROW(world.set_settings(bad), std::invalid_argument) << k;
     EXPECT_EQ(world.settings().solver.method, SolverMethod::PGS);
   }

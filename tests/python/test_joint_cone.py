@@ -42,7 +42,7 @@ def swing(w, rod):
 @pytest.mark.parametrize("heading", [0.0, 0.7, 2.0, -2.6])
 def test_a_kicked_rod_swings_to_its_cone_and_no_further(solver, overshoot, heading):
     # without the cone it swings past 90 degrees (checked below); with it, it reaches the cone angle within the overshoot (the PGS's rigid row: rounding
-    # and a substep's drift; the soft step's 60 Hz spring: under 1 degree) and never passes it
+    # and a substep's drift; the soft step's spring of joint_hertz: under 1 degree) and never passes it
     w, rod, _ = rod_on_a_ball(solver, heading)
     angles = swing(w, rod)
     assert angles.max() > CONE - 0.02  # it did reach the cone

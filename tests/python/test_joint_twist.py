@@ -38,7 +38,7 @@ def twists(w, rod, steps=480, forces=None):
 def test_a_spun_rod_twists_freely_to_its_limit_and_stops_there(solver, overshoot, spin):
     # hanging straight, the rod spins about a principal axis with no torque on it: psi = spin t
     # exactly until the limit (0.2 s or 0.15 s away); restitution 0, so it stays there (the PGS's
-    # rigid row: within rounding and a substep's drift; the soft step's 60 Hz spring: within 1 degree)
+    # rigid row: within rounding and a substep's drift; the soft step's spring of joint_hertz: within 1 degree)
     w, rod, j = hanging_rod(solver, spin)
     forces = []
     psi = twists(w, rod, forces=forces)

@@ -20,12 +20,12 @@ import signorini as sg
 G = 9.81
 DT = 1.0 / 240.0
 SOLVERS = ["pgs", "soft"]
-# the substep of each solver at dt = 1/240 (the PGS's automatic substeps are at most 1/960 s, the
-# soft step's 1/240 s): the semi-implicit Euler step falls a t (t + h) / 2 in time t, not a t^2 / 2
-SUBSTEP = {"pgs": DT / 4, "soft": DT}
-# the soft step's joints are springs of 60 Hz: a point held by one is off by up to ~1e-4 m here
-# (g / omega^2 = 0.07 mm under its own weight, more while it swings), the PGS's by ~1e-6 m
-JOINT_ERROR = {"pgs": 1e-5, "soft": 2e-4}
+# the semi-implicit Euler step falls a t (t + h) / 2 in time t, not a t^2 / 2, h the substep
+# (World.substep_count: 1/960 s for both solvers in a world with joints, at the defaults)
+# the soft step's joints are springs of joint_hertz = 240 Hz: a point held by one is off by up to
+# ~1e-5 m here (g / omega^2 = 4.3e-3 mm under its own weight, more while it swings; at 60 Hz, 16
+# times as far: the bound was 2e-4 m then), the PGS's by ~1e-6 m
+JOINT_ERROR = {"pgs": 1e-5, "soft": 1.25e-5}
 
 
 def world(solver, **kw):
@@ -96,8 +96,9 @@ def test_pendulum_joint_force_and_reading(solver):
     np.testing.assert_allclose(w.joint_forces[j], [0, 0, G], atol=1e-6)
     np.testing.assert_allclose(w.joint_torques[j], 0.0, atol=1e-6)
     assert abs(w.joint_positions[j]) < 1e-9 and abs(w.joint_velocities[j]) < 1e-9
-    # the soft step's joint is a spring of 60 Hz: it sags by g / omega^2 = 0.069 mm under the weight
-    sag = G / (2 * math.pi * 60.0) ** 2 if solver == "soft" else 0.0
+    # the soft step's joint is a spring of joint_hertz (240 Hz): it sags by g / omega^2 = 4.3e-3 mm
+    # under the weight
+    sag = G / (2 * math.pi * w.solver["joint_hertz"]) ** 2 if solver == "soft" else 0.0
     np.testing.assert_allclose(w.positions[bob], [0, 0, -1 - sag], atol=1e-5)
 
 
@@ -183,7 +184,7 @@ def test_prismatic_slides_along_tilted_axis(solver):
     box = w.add_body(sg.Box((0.2, 0.1, 0.1)), density=500.0, position=(0, 0, 0))
     j = w.add_joint(sg.Prismatic(ground, box, anchor=(0, 0, 0), axis=axis))
     w.step(DT, 240)
-    t, h, a = w.time, SUBSTEP[solver], G * math.sin(theta)
+    t, h, a = w.time, DT / w.substep_count(DT), G * math.sin(theta)
     assert w.joint_positions[j] == pytest.approx(0.5 * a * t * (t + h), rel=1e-6)
     assert w.joint_velocities[j] == pytest.approx(a * t, rel=1e-6)
     p = w.positions[box]
@@ -217,7 +218,7 @@ def test_fixed_joint_keeps_two_boxes_rigid(solver):
         assert np.linalg.norm(rel - rel0) < 1e-4
         assert np.linalg.norm(w.rotations[a].T @ w.rotations[b] - Rrel0) < 1e-4
     com = (m[a] * w.positions[a] + m[b] * w.positions[b]) / (m[a] + m[b])
-    t, h = w.time, SUBSTEP[solver]
+    t, h = w.time, DT / w.substep_count(DT)
     expected = com0 + v_com * t + 0.5 * np.array([0, 0, -G]) * t * (t + h)
     # the joint's forces are equal and opposite, so the centre of mass falls freely to rounding
     # (the position pass moves the pair by pseudo-velocities of zero sum as well)
@@ -248,7 +249,7 @@ def test_distance_rope_is_slack_then_taut(solver):
     j = w.add_joint(sg.Distance(ground, bob, (0, 0, 0), (0, 0, -0.5), min_length=0.0, max_length=1.0))
     t_free = math.sqrt(2 * 0.5 / G)
     w.step(DT, int(t_free / DT) - 2)  # still slack: free fall
-    t, h = w.time, SUBSTEP[solver]
+    t, h = w.time, DT / w.substep_count(DT)
     assert w.positions[bob][2] == pytest.approx(-0.5 - 0.5 * G * t * (t + h), abs=1e-9)
     np.testing.assert_allclose(w.joint_forces[j], 0.0, atol=1e-12)
     longest = 0.0
@@ -294,8 +295,9 @@ def test_hinge_limit_stops_the_swing(solver):
 
 @pytest.mark.parametrize("solver", [
     "pgs", pytest.param("soft", marks=pytest.mark.xfail(strict=True, reason=(
-        "the soft step solves the hinge's rows together too, but its equality rows are 60 Hz springs "
-        "(docs, 'In the soft step'): with m L^2 / I = 25,000 the limit's force (thousands of N m on an "
+        "the soft step solves the hinge's rows together too, but its equality rows are springs of joint_hertz "
+        "(240 Hz in substeps of 1/960 s; docs, 'In the soft step'): with m L^2 / I = 25,000 the limit's force "
+        "(thousands of N m on an "
         "inertia of 4e-4 kg m^2) and the point rows' answer to it do not cancel within a substep, and "
         "the guard stops an energy explosion at the impact (t = 0.329 s)")))])
 def test_hinge_limit_stops_a_point_like_bob(solver):

@@ -17,6 +17,8 @@ The closed forms are derived in their tests; eps = 2.2e-16 is the unit roundoff.
 built with sleeping off whatever the default: the oracle does not sleep, and the closed forms of
 resting follow a slow creep that sleeping would stop.
 """
+import math
+
 import numpy as np
 import pytest
 
@@ -132,7 +134,7 @@ def test_the_soft_settings_reach_the_oracle_and_choose_its_substeps():
         ("soft", 45.0, 2.0, 2, 3)
     assert oracle.solver_settings({})["solver"] == "pgs"
     for bad in ({"solver": "tgs"}, {"contact_hertz": 0.0}, {"damping_ratio": -1.0}, {"soft_iterations": 0},
-                {"relax_iterations": -1}):
+                {"relax_iterations": -1}, {"joint_hertz": 0.0}, {"joint_hertz": np.inf}, {"joint_damping_ratio": -1.0}):
         with pytest.raises(ValueError):
             oracle.solver_settings({"settings": bad})
     # automatic substeps: at most 1/240 s for the soft step, 1/960 s for the PGS
@@ -140,6 +142,22 @@ def test_the_soft_settings_reach_the_oracle_and_choose_its_substeps():
     soft_s, pgs_s = oracle.solver_settings(w.snapshot()), oracle.solver_settings({})
     assert [substep_count(soft_s, dt) for dt in (1 / 240, 1 / 60, 1 / 30)] == [1, 4, 8]
     assert [substep_count(pgs_s, dt) for dt in (1 / 240, 1 / 60)] == [4, 16]
+    # with joints, the soft step's substeps are at most 0.25 / joint_hertz (1/960 s at 240 Hz), and
+    # the core counts them the same (World.substep_count)
+    assert [substep_count(soft_s, dt, joints=True) for dt in (1 / 1000, 1 / 240, 1 / 60)] == [1, 4, 16]
+    assert [substep_count(dict(soft_s, joint_hertz=60.0), dt, joints=True) for dt in (1 / 240, 1 / 60)] == [1, 4]
+    assert [substep_count(pgs_s, dt, joints=True) for dt in (1 / 240, 1 / 60)] == [4, 16]
+    for hertz in (240.0, 60.0, 1000.0, 7.5):
+        w.set_solver(joint_hertz=hertz)
+        a, b = w.add_body(sg.Sphere(0.1), mass=1.0), w.add_body(sg.Sphere(0.1), mass=1.0, position=(0, 0, 1))
+        assert w.substep_count(1 / 60) == 4  # no joint yet
+        j = w.add_joint(sg.Spherical(a, b, anchor=(0, 0, 0.5)))
+        s = oracle.solver_settings(w.snapshot())
+        for dt in (1 / 1000, 1 / 240, 1 / 60, 1 / 30):
+            assert w.substep_count(dt) == substep_count(s, dt, joints=True) == max(1, math.ceil(dt * max(240.0, 4 * hertz) - 1e-9))
+        w.set_joint_broken(j, True)  # a broken joint makes no rows: the contacts' substeps again
+        assert w.substep_count(1 / 60) == 4
+        w.remove_body(b), w.remove_body(a)
 
 
 def test_softness_is_cattos_spring_damper():

@@ -77,6 +77,20 @@ def test_solver_settings_keep_every_field():
     assert out.split() == ["7", "3", "True", "True"]
 
 
+def test_solver_settings_pickled_before_the_joint_softness_settings_keep_their_60_hz_joints():
+    # a pickle of 18 items (before joint_hertz and joint_damping_ratio) steps as it did: the soft
+    # step's joints were springs of 60 Hz and damping ratio 2 then
+    out = run_child("""
+        settings.joint_hertz, settings.joint_damping_ratio = 90.0, 0.5
+        cls, args, state = settings.__reduce__()
+        assert len(state) == 20 and state[18:] == (90.0, 0.5)
+        old = cls(*args)
+        old.__setstate__(state[:18])
+        print(old.joint_hertz, old.joint_damping_ratio, old.relax_iterations, old.continuous == settings.continuous)
+    """)
+    assert out.split() == ["60.0", "2.0", "2", "True"]
+
+
 @pytest.mark.parametrize("name", REFUSED)
 def test_core_class_without_pickling_refuses_at_every_protocol(name):
     out = run_child(f"""

@@ -109,9 +109,7 @@ def test_energy_never_rises_above_its_start(runs, solver):
     assert r["energies"][-1] < r["e0"] - 0.5 * r["doll_mass"] * G * 0.3
 
 
-@pytest.mark.parametrize("solver", ["pgs", pytest.param("soft", marks=pytest.mark.xfail(
-    strict=True, reason="the soft step's ragdoll is not at rest after 4 s: a limb still moves at 0.036 m/s (its "
-    "joints hold: 0.4 mm apart at most; measured, see docs/conventions.md 'Joints')"))])
+@pytest.mark.parametrize("solver", ["pgs", "soft"])
 def test_joints_hold_within_a_millimetre_at_rest(runs, solver):
     r = runs[solver]
     assert r["speed"] < REST_SPEED, (solver, r["speed"])

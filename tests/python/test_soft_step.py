@@ -164,6 +164,10 @@ def test_restoring_a_saved_state_continues_bit_for_bit():
                                           ({"damping_ratio": float("inf")}, "damping_ratio"),
                                           ({"soft_iterations": 0}, "soft_iterations"),
                                           ({"relax_iterations": -1}, "relax_iterations"),
+                                          ({"joint_hertz": 0.0}, "joint_hertz"),
+                                          ({"joint_hertz": float("inf")}, "joint_hertz"),
+                                          ({"joint_damping_ratio": -0.5}, "joint_damping_ratio"),
+                                          ({"joint_damping_ratio": float("nan")}, "joint_damping_ratio"),
                                           ({"solver": "tgs"}, "solver")])
 def test_bad_soft_settings_name_the_setting_and_change_nothing(kwargs, name):
     with pytest.raises(ValueError, match=name):
@@ -184,10 +188,12 @@ def test_soft_iteration_counts_must_be_integers():
 
 def test_settings_round_trip_through_a_scene_file_and_a_pickle(tmp_path):
     import pickle
-    w = sg.World(solver="soft", contact_hertz=45.0, damping_ratio=3.0, soft_iterations=2, relax_iterations=0)
+    w = sg.World(solver="soft", contact_hertz=45.0, damping_ratio=3.0, soft_iterations=2, relax_iterations=0,
+                 joint_hertz=90.0, joint_damping_ratio=0.7)
     w.add_static(sg.Plane(normal=(0, 0, 1), offset=0.0))
     expected = w.solver
-    assert (expected["solver"], expected["contact_hertz"], expected["relax_iterations"]) == ("soft", 45.0, 0)
+    assert (expected["solver"], expected["contact_hertz"], expected["relax_iterations"], expected["joint_hertz"],
+            expected["joint_damping_ratio"]) == ("soft", 45.0, 0, 90.0, 0.7)
     assert pickle.loads(pickle.dumps(w)).solver == expected
     path = sg.save_scene(w, tmp_path / "soft.toml")
     assert sg.read_scene(path).world.solver == expected

@@ -64,10 +64,11 @@ struct SolverSettings {
   /// second do not depend on dt.
   static constexpr double auto_substep = 1.0 / 960.0;
   /// The longest automatic substep of the soft step (s): 1 at dt = 1/240, 4 at dt = 1/60 (Box2D
-  /// v3's default of 4 substeps at 60 Hz).
+  /// v3's default of 4 substeps at 60 Hz); in a world with joints at most 0.25 / joint_hertz, so
+  /// that the joints' springs are as stiff as asked (1/960 s at the default 240 Hz).
   static constexpr double soft_auto_substep = 1.0 / 240.0;
-  /// The number of substeps a step of dt runs.
-  int substep_count(double dt) const;
+  /// The number of substeps a step of dt runs; joints: the world has a joint that is not broken.
+  int substep_count(double dt, bool joints = false) const;
   /// A step that ends unconverged with max_penetration_velocity above this (m/s) is counted in
   /// World::step_report() (the Python layer warns). 1 m/s: approaching that fast, a contact sinks
   /// through the 1 mm slop within one default substep (1/960 s); slower leftovers of an unconverged
@@ -100,6 +101,13 @@ struct SolverSettings {
   /// Damping ratio of a contact's spring (>= 0; 1 is critical); a contact with a static or
   /// kinematic body gets half this.
   double damping_ratio = 10.0;
+  /// Stiffness of a joint's rows in the soft step as the natural frequency of their spring (Hz,
+  /// > 0), capped at a quarter of the substep rate; the automatic substeps of a world with joints
+  /// are short enough for it. 240 Hz: a joint stretches by its load / (m_eff omega^2), a chain of
+  /// 21 rods sags within 0.2 % of its catenary (60 Hz, Box2D v3's choice: 2.1 %).
+  double joint_hertz = 240.0;
+  /// Damping ratio of a joint's spring (>= 0).
+  double joint_damping_ratio = 2.0;
   /// Sweeps with the soft bias per substep (>= 1).
   int soft_iterations = 1;
   /// Sweeps without bias per substep, after the poses move (>= 0): they take back the bias's

@@ -120,7 +120,7 @@ SolverStats solve_contacts(const Model& model, const State& state, double dt, co
   if (settings.warm_start && recall_forces(settings, contacts, data)) apply_forces(data);
   JointSet* joints = joints_of(data);
   if (joints) {  // the joints' rows at this substep's poses, warm started from their last forces
-    prepare_joints(model, state, dt, false, true, *joints, data);
+    prepare_joints(model, state, dt, nullptr, true, *joints, data);
     if (settings.warm_start) warm_start_joints(*joints, data);
     else for (Joint& j : joints->joints) j.alpha.fill(0.0);
   }

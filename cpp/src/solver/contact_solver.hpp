@@ -80,6 +80,11 @@ struct Softness {
 };
 Softness soften(double hertz, double zeta, double h);
 
+/// A spring (a contact's or a joint's) is at most this fraction of the substep rate (Hz per 1/h):
+/// stiffer springs than the substep can resolve only add energy (Catto, "Solver2D"; Box2D v3 uses
+/// 0.25).
+constexpr double kMaxHertzPerRate = 0.25;
+
 /// A contact as the soft step carries it through its substeps (docs/conventions.md, "The soft
 /// step"), in solve order beside its rows.
 struct SoftPoint {

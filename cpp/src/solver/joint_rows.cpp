@@ -481,14 +481,14 @@ void predict_drift(JointSet& js, const State& state, const std::vector<BodyVeloc
 
 }  // namespace
 
-void prepare_joints(const Model& model, const State& state, double h, bool soft, bool predict, JointSet& js,
+void prepare_joints(const Model& model, const State& state, double h, const SolverSettings* soft, bool predict, JointSet& js,
                     const SolverData& d) {
   js.blocks.clear();
   js.groups.clear();
   js.state = &state;
   js.hard_sweeps = 0;
   js.drift_after_first_sweep = predict && !soft;
-  if (soft) soften(js, std::min(kJointHertz, 0.25 / h), kJointDampingRatio, h);
+  if (soft) soften(js, std::min(soft->joint_hertz, kMaxHertzPerRate / h), soft->joint_damping_ratio, h);
   for (Joint& j : js.joints) {
     const bool a_moves = moves(model, state, j.a), b_moves = moves(model, state, j.b);
     if (!a_moves && !b_moves) continue;  // nothing to move (both asleep, static, kinematic or disabled)

@@ -5,7 +5,7 @@
 //     (equality rows unbiased: drift is left to the position pass) -> position pass on the
 //     pseudo-velocities (erp of the position error C per substep, never kept as velocity) -> store;
 //   the soft step (soft_step.cpp): per substep prepare at the substep's poses -> warm start -> a
-//     joint sweep after each biased contact sweep (a spring-damper of kJointHertz on C) -> poses
+//     joint sweep after each biased contact sweep (a spring-damper of joint_hertz on C) -> poses
 //     move -> a rigid joint sweep after each relax sweep, on the same blocks (Jacobians, C and drift
 //     of the substep's start) -> store.
 // Blocks are solved in joint order on the calling thread (a few per joint: the results do not
@@ -33,14 +33,12 @@ namespace signorini::solver {
 struct SolverData;
 
 /// Joint springs of the soft step (Catto, "Soft constraints"): a joint's position error C is a
-/// spring-damper of this frequency (Hz, capped at a quarter of the substep rate) and damping ratio
-/// in the biased sweeps, and rigid in the relax sweeps.
-constexpr double kJointHertz = 60.0;
+/// spring-damper of SolverSettings::joint_hertz (capped at a quarter of the substep rate) and
+/// joint_damping_ratio in the biased sweeps, and rigid in the relax sweeps.
 /// The soft step asks the midpoint rule's drift of a joint only while its bodies turn at most this
 /// much (rad) in half a substep (joint_rows.cpp, predict_drift; the PGS of any joint: without it a
 /// fuzzed ragdoll pushed a part through a height field at dt 1/1000).
 constexpr double kDriftTurn = 0.1;
-constexpr double kJointDampingRatio = 2.0;
 
 /// One block of a joint's rows (1 to 3 rows of one kind), as a sweep reads it.
 struct JointBlock {
@@ -118,13 +116,15 @@ JointSet* joints_of(const SolverData& d, bool with_blocks = false);
 enum class JointSweep { Hard, SoftBiased, SoftRelax };
 
 /// Builds the blocks of every joint at the current poses.
-/// In: model, state (poses p, R of the substep; sleeping flags), h (s), soft: the soft step (the
-///     joint spring of h is made); predict: each row's drift from the poses the velocities reach in
+/// In: model, state (poses p, R of the substep; sleeping flags), h (s), soft: the soft step's
+///     settings (the joint spring of joint_hertz and joint_damping_ratio over h is made), nullptr
+///     for the PGS; predict: each row's drift from the poses the velocities reach in
 ///     h / 2 (predict_drift): the soft step's from d.qd now, the PGS's from the velocities its first
 ///     sweep leaves (computed at the second; zero in the first);
 ///     d.dI_inv (N, h I^-1 world), d.qd (N, the velocities before the joints' solve).
 /// Out: js.blocks (Jacobians, K, K^-1, C, drift), their alpha pointing into js.joints[j].alpha.
-void prepare_joints(const Model& model, const State& state, double h, bool soft, bool predict, JointSet& js,
+void prepare_joints(const Model& model, const State& state, double h, const SolverSettings* soft, bool predict,
+                    JointSet& js,
                     const SolverData& d);
 
 /// Applies every block's alpha (the warm start) to d.qd.

@@ -15,10 +15,6 @@ namespace {
 
 using namespace rows;
 
-/// A contact's spring is at most this fraction of the substep rate (Hz per 1/h): stiffer springs
-/// than the substep can resolve only add energy (Catto, "Solver2D"; Box2D v3 uses 0.25).
-constexpr double kMaxHertzPerRate = 0.25;
-
 /// p's spring (soften) of `hertz` and damping ratio zeta over h.
 void soften(SoftPoint& p, double hertz, double zeta, double h) {
   const Softness k = solver::soften(hertz, zeta, h);
@@ -141,7 +137,7 @@ void soft_solve(const Model& model, const State& state, const SolverSettings& se
   load(v, omega, d);
   wide_warm_start(d);  // the last substep's forces (the cache's in the first) as this one's first guess
   if (JointSet* joints = joints_of(d)) {  // the joints' rows at these poses, warm started
-    prepare_joints(model, state, d.h, true, true, *joints, d);
+    prepare_joints(model, state, d.h, &settings, true, *joints, d);
     if (settings.warm_start) warm_start_joints(*joints, d);
     else for (Joint& j : joints->joints) j.alpha.fill(0.0);
   }

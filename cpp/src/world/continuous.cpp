@@ -7,8 +7,9 @@
 // hundreds of rad/s by its landing turns a vertex its contacts did not have into the floor) that
 // ends deep in a static body is put back along its path (travel and turn) to where it was not, and
 // so is any other body that started the step against a static body. A
-// jointed body takes its mechanism with it: every body its joints link it to is wound back by the
-// same fraction of its own path, so that the joints stay as they were along the way.
+// jointed body takes its mechanism with it: the bodies welded to it move with it rigidly, and every
+// other body its joints link it to is wound back by the same fraction of its own path, so that the
+// joints stay as they were along the way.
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <atomic>
@@ -103,34 +104,48 @@ const std::vector<BodyIndex>& along(const collision::BroadPhase& bp, const Shape
 void World::continuous() {
   if (!settings_.solver.continuous) return;
   const State& start = guard_->start();
-  // A body i put back to fraction t of its path takes its mechanism with it: the bodies its
-  // unbroken joints link it to, through any number of joints (found only now, in storage kept from
-  // step to step), each wound back to fraction t of its own path over the step: its centre along
-  // its travel, and (turning) its rotation by t of its turn about the turn's axis, as i's (a
-  // kinematic or sleeping body does not move)
+  // A body i put back from its end pose `from` to fraction t of its path takes its mechanism with
+  // it: the bodies its unbroken joints link it to, through any number of joints (found only now,
+  // in storage kept from step to step; a kinematic or sleeping body does not move). Those welded
+  // to it (through Fixed joints only) are part of its rigid body: they move by i's rigid motion
+  // from `from` to where i is now, so the welds stay as the solve left them (each wound back
+  // along its own path, its centre on the chord of its arc, a pair welded side by side and spun
+  // at 170 rad/s opened 2.6 cm: tests/python/test_continuous.py). The others are each wound back
+  // to fraction t of their own path over the step, their centre along their travel and (turning)
+  // their rotation by t of their turn, as i's: every linked body moved rigidly with i put bodies
+  // of the seeded fuzz scenes 1:253, 1:286 and 2026:11 deep into the floor
   std::vector<BodyIndex>& mechanism = scratch_->mechanism;
-  const auto wind_back_with = [&](BodyIndex i, double t, bool turning) {
+  const auto wind_back_with = [&](BodyIndex i, const Pose& from, double t, bool turning) {
     if (joints_->joints.empty()) return;
     mechanism.assign(1, i);
-    for (std::size_t k = 0; k < mechanism.size(); ++k) {
-      const BodyIndex x = mechanism[k];
-      for (const Joint& j : joints_->joints) {
-        if (j.broken || (j.a != x && j.b != x)) continue;
-        const BodyIndex y = j.a == x ? j.b : j.a;
-        if (model_.is_static[y] || std::find(mechanism.begin(), mechanism.end(), y) != mechanism.end()) continue;
-        mechanism.push_back(y);
+    const auto link = [&](bool welds_only) {  // every body linked to those listed, appended
+      for (std::size_t k = 0; k < mechanism.size(); ++k) {
+        const BodyIndex x = mechanism[k];
+        for (const Joint& j : joints_->joints) {
+          if (j.broken || (j.a != x && j.b != x) || (welds_only && j.kind != JointKind::Fixed)) continue;
+          const BodyIndex y = j.a == x ? j.b : j.a;
+          if (model_.is_static[y] || std::find(mechanism.begin(), mechanism.end(), y) != mechanism.end()) continue;
+          mechanism.push_back(y);
+        }
       }
-    }
+    };
+    link(true);
+    const std::size_t welded = mechanism.size();  // i and the bodies welded to it, first
+    link(false);
+    const Mat3 turn = state_.R[i] * from.R.transpose();  // i's rigid motion: x -> p_i + turn (x - from.p)
     for (std::size_t n = 1; n < mechanism.size(); ++n) {
       const BodyIndex k = mechanism[n];
       if (model_.is_kinematic[k] || !model_.enabled[k] || state_.asleep(k)) continue;
-      if (!turning) {
+      if (n < welded) {
+        state_.p[k] = state_.p[i] + turn * (state_.p[k] - from.p);
+        state_.R[k] = math::orthonormalize(turn * state_.R[k]);
+      } else if (!turning) {
         state_.p[k] = start.p[k] + t * (state_.p[k] - start.p[k]);
-        continue;
+      } else {
+        const Pose back = Path(start.p[k], start.R[k], state_.p[k], state_.R[k]).at(t);
+        state_.p[k] = back.p;
+        state_.R[k] = back.R;
       }
-      const Pose back = Path(start.p[k], start.R[k], state_.p[k], state_.R[k]).at(t);
-      state_.p[k] = back.p;
-      state_.R[k] = back.R;
     }
   };
   // the bodies the step's contacts hold against a static body: the ones that can have ended deep in
@@ -199,8 +214,9 @@ void World::continuous() {
       const double back = h.hit && h.t > 0.0 && closing > 0.0 ? h.t - kBackFraction * inner / closing
                                                              : crossed - inner / travel;
       const double t = std::max(0.0, std::min(back, crossed));
+      const Pose end{state_.p[i], state_.R[i]};
       state_.p[i] = start.p[i] + t * delta;
-      wind_back_with(i, t, false);
+      wind_back_with(i, end, t, false);
     }
     // each body put back counts once (the crossing, the path or both). A body that is not fast by
     // its turn is checked along its path too when it started the step against a static body: one
@@ -247,7 +263,7 @@ void World::continuous() {
     const Pose back = path.at(lo);
     state_.p[i] = back.p;
     state_.R[i] = back.R;
-    wind_back_with(i, lo, true);
+    wind_back_with(i, end, lo, true);
     return true;
   };
   // Without joints each check touches only its own body (the static ones are only read), so the

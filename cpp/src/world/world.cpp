@@ -85,6 +85,10 @@ void World::set_settings(const WorldSettings& s) {
           "contact_hertz must be finite and > 0, got " + std::to_string(q.contact_hertz));
   checks::require(std::isfinite(q.damping_ratio) && q.damping_ratio >= 0.0,
           "damping_ratio must be finite and >= 0, got " + std::to_string(q.damping_ratio));
+  checks::require(std::isfinite(q.joint_hertz) && q.joint_hertz > 0.0,
+          "joint_hertz must be finite and > 0, got " + std::to_string(q.joint_hertz));
+  checks::require(std::isfinite(q.joint_damping_ratio) && q.joint_damping_ratio >= 0.0,
+          "joint_damping_ratio must be finite and >= 0, got " + std::to_string(q.joint_damping_ratio));
   checks::require(q.soft_iterations >= 1, "soft_iterations must be >= 1, got " + std::to_string(q.soft_iterations));
   checks::require(q.relax_iterations >= 0, "relax_iterations must be >= 0, got " + std::to_string(q.relax_iterations));
   checks::require(s.threads >= 0, "threads must be >= 1 (or 0 for the machine's cores), got " + std::to_string(s.threads));
@@ -191,10 +195,12 @@ void World::bodies_changed(bool relist) {
   scratch_->reach.clear();
 }
 
-int SolverSettings::substep_count(double dt) const {
+int SolverSettings::substep_count(double dt, bool joints) const {
   if (substeps >= 1) return substeps;
   // 1e-9: dt = k / 960 gives k substeps despite its rounding; capped so that a huge dt stays an int
-  const double longest = method == SolverMethod::Soft ? soft_auto_substep : auto_substep;
+  double longest = method == SolverMethod::Soft ? soft_auto_substep : auto_substep;
+  // the soft step's joint springs hold only at most a quarter of the substep rate (joint_hertz)
+  if (method == SolverMethod::Soft && joints) longest = std::min(longest, solver::kMaxHertzPerRate / joint_hertz);
   return static_cast<int>(std::clamp(std::ceil(dt / longest - 1e-9), 1.0, 1e6));
 }
 
@@ -205,7 +211,7 @@ std::vector<Contact>& World::own_contacts() {
 
 void World::step_once(double dt) {
   if (settings_.solver.method == SolverMethod::Soft) return soft_step_once(dt);
-  const int n = settings_.solver.substep_count(dt);
+  const int n = substep_count(dt);
   const double h = dt / n;
   StepProfile& t = report_.time;
   Laps lap(t);
@@ -241,8 +247,14 @@ void World::step_once(double dt) {
   lap.done();
 }
 
+int World::substep_count(double dt) const {
+  // a joint's spring asks for substeps short enough for its joint_hertz
+  const auto& joints = joints_->joints;
+  return settings_.solver.substep_count(dt, std::any_of(joints.begin(), joints.end(), [](const Joint& j) { return !j.broken; }));
+}
+
 void World::soft_step_once(double dt) {
-  const int n = settings_.solver.substep_count(dt);
+  const int n = substep_count(dt);
   const double h = dt / n;
   const SolverSettings& q = settings_.solver;
   StepProfile& t = report_.time;

@@ -25,8 +25,8 @@ Slots: motor 0, lower 1, upper 2 (a ball joint's cone), linear 3..5, angular 6..
 twist lower and upper limits at 6 and 7), friction 9, effort 10.
 
 The soft step (``soft.soft_step``) solves the same blocks with two more sweep modes
-(``sweep_joints``): SOFT_BIASED after each biased contact sweep, a spring-damper of JOINT_HERTZ
-(capped at a quarter of the substep rate) and JOINT_DAMPING_RATIO on the position error C,
+(``sweep_joints``): SOFT_BIASED after each biased contact sweep, a spring-damper of the settings'
+joint_hertz (capped at a quarter of the substep rate) and joint_damping_ratio on the position error C,
     equality rows  d_alpha = -mass_scale K^-1 (J q_dot + drift + bias_rate C) - impulse_scale alpha
     limit, C <= 0  alpha <- max(alpha - mass_scale (J q_dot + drift + bias_rate C) / K
                                 - impulse_scale alpha, 0)
@@ -47,9 +47,6 @@ EQUALITY, LIMIT, MOTOR = "equality", "limit", "motor"
 # sweep modes: the PGS's iterate, the soft step's biased sweep (the joint spring on C) and its relax
 # sweep (rigid)
 HARD, SOFT_BIASED, SOFT_RELAX = "hard", "soft biased", "soft relax"
-# the soft step's joint spring: natural frequency (Hz; at most a quarter of the substep rate 1 / h)
-# and damping ratio
-JOINT_HERTZ, JOINT_DAMPING_RATIO = 60.0, 2.0
 # the soft step predicts a joint's drift only while its bodies turn at most this much (rad) in h / 2
 DRIFT_TURN = 0.1
 

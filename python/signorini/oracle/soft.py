@@ -29,8 +29,8 @@ applied, the joints' blocks are made at the substep's poses (W of the step's sta
 contact rows'), each row's drift predicted from the velocities then (``joints.predict_drift``: not
 for a joint whose moving bodies have a contact row, nor one whose bodies turn more than DRIFT_TURN
 in h / 2), their forces applied (the warm start); one joint sweep follows each contact sweep, the
-biased sweeps' with the joint spring (``joint_spring``: JOINT_HERTZ, at most a quarter of 1 / h,
-damping ratio JOINT_DAMPING_RATIO; a limit with C > 0 speculative), the relax sweeps' rigid, on
+biased sweeps' with the joint spring (``joint_spring``: the settings' joint_hertz, at most a quarter
+of 1 / h, and joint_damping_ratio; a limit with C > 0 speculative), the relax sweeps' rigid, on
 the same blocks (made at the substep's start poses, drift included).
 
 The normal row of contact i (its force alpha >= 0, N) is updated in a sweep by
@@ -59,8 +59,6 @@ import numpy as np
 
 from .joints import (
     DRIFT_TURN,
-    JOINT_DAMPING_RATIO,
-    JOINT_HERTZ,
     SOFT_BIASED,
     SOFT_RELAX,
     predict_drift,
@@ -72,6 +70,7 @@ from .joints import (
 )
 from .rigid import body_arrays, integrate, motion_flags, unconstrained_velocity
 from .solver import (
+    MAX_HERTZ_PER_RATE,
     RowSweep,
     apply_forces,
     certificate,
@@ -87,9 +86,6 @@ from .solver import (
     store,
 )
 
-# a contact's spring is at most this fraction of the substep rate 1 / h (Hz per Hz): stiffer
-# springs than the substep can resolve only add energy (Catto, "Solver2D"; Box2D v3 uses 0.25)
-MAX_HERTZ_PER_RATE = 0.25
 # the carried gap s is a sum of terms as large as the detected gap, the lever arms and the
 # displacements, each a few roundings deep (R0^T r, (R - R0) l, the sums): two evaluations
 # of it in another order differ by a few ulps of the largest; within this many ulps of
@@ -109,11 +105,13 @@ def softness(hertz, zeta, h):
     return omega / a1, a2 / (1.0 + a2), 1.0 / (1.0 + a2)
 
 
-def joint_spring(h):
+def joint_spring(settings, h):
     """The joints' spring in the soft step's biased sweeps over a substep h (s): ``softness`` of
-    min(JOINT_HERTZ, MAX_HERTZ_PER_RATE / h) Hz and damping ratio JOINT_DAMPING_RATIO, the same for
-    every joint (moving or static partner). Output (bias_rate 1/s, mass_scale, impulse_scale)."""
-    bias_rate, mass_scale, impulse_scale = softness(min(JOINT_HERTZ, MAX_HERTZ_PER_RATE / h), JOINT_DAMPING_RATIO, h)
+    min(settings["joint_hertz"], MAX_HERTZ_PER_RATE / h) Hz and damping ratio
+    settings["joint_damping_ratio"], the same for every joint (moving or static partner).
+    Output (bias_rate 1/s, mass_scale, impulse_scale)."""
+    hertz = min(settings["joint_hertz"], MAX_HERTZ_PER_RATE / h)
+    bias_rate, mass_scale, impulse_scale = softness(hertz, settings["joint_damping_ratio"], h)
     return float(bias_rate), float(mass_scale), float(impulse_scale)
 
 
@@ -349,7 +347,7 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
 
     # the joints: their spring, and the bodies whose joints keep drift 0 (they have contact rows)
     joints = read_joints(start)
-    spring = joint_spring(h)
+    spring = joint_spring(s, h)
     touching = touching_bodies(start, rows) if joints else set()
     blocks = []
 

@@ -66,12 +66,18 @@ DEFAULT_SETTINGS = {
     "damping_ratio": 10.0,          # the spring's damping ratio zeta
     "soft_iterations": 1,           # sweeps with the soft bias per substep
     "relax_iterations": 1,          # rigid sweeps per substep, after the poses move
+    "joint_hertz": 240.0,           # Hz, a joint spring's natural frequency (the soft step)
+    "joint_damping_ratio": 2.0,     # its damping ratio
 }
 # a contact's slop is at most this fraction of the smaller inner radius of its bodies (a ball each
 # body's shape contains, "inner_radius" of the snapshot's body dicts; infinity when absent)
 SLOP_INNER_FRACTION = 0.2
 AUTO_SUBSTEP = 1.0 / 960.0         # s, the longest automatic substep of the PGS
 SOFT_AUTO_SUBSTEP = 1.0 / 240.0    # s, the longest automatic substep of the soft step
+# a spring (a contact's or a joint's) is at most this fraction of the substep rate 1 / h (Hz per
+# Hz): stiffer springs than the substep can resolve only add energy (Catto, "Solver2D"; Box2D v3
+# uses 0.25)
+MAX_HERTZ_PER_RATE = 0.25
 SOLVERS = ("pgs", "soft")
 FRICTION_CONES = ("pyramid", "cone")
 DEFAULT_FRICTION = 0.5
@@ -89,13 +95,14 @@ def solver_settings(snapshot):
 
     Output: dict with every key of ``DEFAULT_SETTINGS``, numbers as float / int / bool.
     Raises ValueError for an unknown friction_cone, gyroscopic or solver, substeps < 0, and for
-    the soft step's settings out of range (contact_hertz > 0, damping_ratio >= 0,
-    soft_iterations >= 1, relax_iterations >= 0).
+    the soft step's settings out of range (contact_hertz > 0, damping_ratio >= 0, joint_hertz > 0,
+    joint_damping_ratio >= 0, soft_iterations >= 1, relax_iterations >= 0).
     """
     given = snapshot.get("settings") or {}
     s = {key: given.get(key, default) for key, default in DEFAULT_SETTINGS.items()}
     for key in ("contact_margin", "erp", "tolerance", "slop", "max_push_velocity",
-                "restitution_threshold", "warn_velocity", "contact_hertz", "damping_ratio"):
+                "restitution_threshold", "warn_velocity", "contact_hertz", "damping_ratio", "joint_hertz",
+                "joint_damping_ratio"):
         s[key] = float(s[key])
     for key in ("max_iterations", "substeps", "soft_iterations", "relax_iterations"):
         s[key] = int(s[key])
@@ -106,6 +113,10 @@ def solver_settings(snapshot):
         raise ValueError(f"contact_hertz must be finite and > 0, got {s['contact_hertz']}")
     if not (np.isfinite(s["damping_ratio"]) and s["damping_ratio"] >= 0.0):
         raise ValueError(f"damping_ratio must be finite and >= 0, got {s['damping_ratio']}")
+    if not (np.isfinite(s["joint_hertz"]) and s["joint_hertz"] > 0.0):
+        raise ValueError(f"joint_hertz must be finite and > 0, got {s['joint_hertz']}")
+    if not (np.isfinite(s["joint_damping_ratio"]) and s["joint_damping_ratio"] >= 0.0):
+        raise ValueError(f"joint_damping_ratio must be finite and >= 0, got {s['joint_damping_ratio']}")
     if s["soft_iterations"] < 1:
         raise ValueError(f"soft_iterations must be >= 1, got {s['soft_iterations']}")
     if s["relax_iterations"] < 0:
@@ -119,13 +130,16 @@ def solver_settings(snapshot):
     return s
 
 
-def substep_count(settings, dt):
+def substep_count(settings, dt, joints=False):
     """Substeps of a step of dt s: settings["substeps"] when >= 1, else the fewest that keep each
-    at most AUTO_SUBSTEP (PGS) or SOFT_AUTO_SUBSTEP (the soft step); 1e-9 absorbs the rounding of
-    dt = k / 960 or k / 240."""
+    at most AUTO_SUBSTEP (PGS) or SOFT_AUTO_SUBSTEP (the soft step; with joints, True when the
+    world has a joint that is not broken, also at most MAX_HERTZ_PER_RATE / joint_hertz, so that
+    the joints' springs are as stiff as asked); 1e-9 absorbs the rounding of dt = k / 960 or k / 240."""
     if settings["substeps"] >= 1:
         return settings["substeps"]
     longest = SOFT_AUTO_SUBSTEP if settings["solver"] == "soft" else AUTO_SUBSTEP
+    if settings["solver"] == "soft" and joints:
+        longest = min(longest, MAX_HERTZ_PER_RATE / settings["joint_hertz"])
     return int(min(max(np.ceil(dt / longest - 1e-9), 1), 10**6))
 
 

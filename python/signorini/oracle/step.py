@@ -158,7 +158,7 @@ def step(snapshot, dt, contacts=None, ties=None):
               joints with their alpha, force, torque and broken.
     """
     settings = solver_settings(snapshot)
-    n = substep_count(settings, dt)
+    n = substep_count(settings, dt, any(not j.get("broken", False) for j in snapshot.get("joints", ())))
     # 0. pending impulses change the velocities first (before the contacts look ahead)
     snapshot = apply_impulses(snapshot)
     if contacts is None:
