@@ -30,8 +30,9 @@ joint_hertz (capped at a quarter of the substep rate) and joint_damping_ratio on
     equality rows  d_alpha = -mass_scale K^-1 (J q_dot + drift + bias_rate C) - impulse_scale alpha
     limit, C <= 0  alpha <- max(alpha - mass_scale (J q_dot + drift + bias_rate C) / K
                                 - impulse_scale alpha, 0)
-(a coupled joint with K_EE^-1 and K_eff in place of K; a limit with C > 0 speculative as in the
-PGS, motors as in the PGS), and SOFT_RELAX after each relax contact sweep: the PGS's rigid rule on
+(a limit with C > 0 speculative as in the PGS, motors as in the PGS; a coupled joint as one:
+its equality rows and its limits with C <= 0 take mass_scale times the rigid group's answer to the
+velocity without their forces, ``_solve_group_soft``), and SOFT_RELAX after each relax contact sweep: the PGS's rigid rule on
 the same blocks, drift included. Its drift is predicted from the velocities before the joints'
 solve (the PGS's: after its first sweep), and not for a joint whose bodies turn more than
 DRIFT_TURN in h / 2.
@@ -417,25 +418,19 @@ def _add_to_equalities(group, d_E, q, alpha):
         r += blk["n"]
 
 
-def _solve_group(group, q, bias, alpha, active, new_force, spring=None):
+def _solve_group(group, q, bias, alpha, active, new_force, equalities=True):
     """One pass over a coupled group on q (N, 6): the equality rows at once, d_alpha_E =
-    -K_EE^-1 u_E with u_E = J_E q + bias_E (rigid), or with ``spring`` = (bias_rate, mass_scale,
-    impulse_scale) the soft step's biased rule -mass_scale K_EE^-1 u_E - impulse_scale alpha_E;
-    then each active bounded row l, alpha_l <- new_force(l, alpha_l, J_l q + bias_l, K_eff), the
-    equality rows following it. bias(blk), alpha(blk): the block's velocity bias and its force
-    storage (a view). Returns the rows' largest velocity change (rigid equality rows: their
+    -K_EE^-1 u_E with u_E = J_E q + bias_E (unless ``equalities`` is False: then they only
+    follow); then each active bounded row l, alpha_l <- new_force(l, alpha_l, J_l q + bias_l,
+    K_eff), the equality rows following it. bias(blk), alpha(blk): the block's velocity bias and its
+    force storage (a view). Returns the rows' largest velocity change (the equality rows: their
     residual)."""
-    equal = [blk for blk in group["blocks"] if blk["kind"] == EQUALITY]
-    u_E = np.concatenate([_velocity(blk, q) + bias(blk) for blk in equal])
-    if spring is None:
+    change = 0.0
+    if equalities:
+        equal = [blk for blk in group["blocks"] if blk["kind"] == EQUALITY]
+        u_E = np.concatenate([_velocity(blk, q) + bias(blk) for blk in equal])
         change = float(np.max(np.abs(u_E)))
-        d_E = -(group["K_EE_inv"] @ u_E)
-    else:
-        _, mass_scale, impulse_scale = spring
-        alpha_E = np.concatenate([np.array(alpha(blk)) for blk in equal])
-        change = 0.0
-        d_E = -mass_scale * (group["K_EE_inv"] @ u_E) - impulse_scale * alpha_E
-    _add_to_equalities(group, d_E, q, alpha)
+        _add_to_equalities(group, -(group["K_EE_inv"] @ u_E), q, alpha)
     for blk in group["blocks"]:
         if blk["kind"] == EQUALITY or not active(blk):
             continue
@@ -449,6 +444,40 @@ def _solve_group(group, q, bias, alpha, active, new_force, spring=None):
         _add_to_equalities(group, -d * blk["g"], q, alpha)
         change = max(change, abs(blk["K_eff"] * d))
     return change
+
+
+def _solve_group_soft(group, q, bias, h, spring):
+    """The soft step's biased pass over a coupled group on q (N, 6), spring = (bias_rate,
+    mass_scale, impulse_scale). A soft row's new force is mass_scale times the rigid force the
+    velocity without it asks (the soft rule, as 1 - impulse_scale = mass_scale), K the matrix of
+    the group's equality rows and its limits with C <= 0 together: their forces (and the
+    speculative limits', C > 0) are given back, the group solved rigidly from zero (the equality
+    rows at once, then those limits max(-(u + bias_rate C) / K_eff, 0), the equality rows
+    following), (1 - mass_scale) of that taken back; then the other bounded rows as ``_bounded``
+    in SOFT_BIASED (motors from their force, speculative limits from zero), the equality rows
+    following each in full."""
+    bias_rate, mass_scale, _ = spring
+
+    def soft_row(blk):
+        return blk["kind"] == EQUALITY or (blk["kind"] == LIMIT and blk["C"][0] <= 0.0)
+
+    def scale(s, speculative_too):
+        for blk in group["blocks"]:
+            if not (soft_row(blk) or (speculative_too and blk["kind"] == LIMIT)):
+                continue
+            a = _alpha(blk)
+            d = (s - 1.0) * np.array(a)
+            a[:] += d
+            _apply(blk, d, q)
+
+    def pushing(blk, old, u, k):
+        return max(old - (1.0 / k if k > 0.0 else 0.0) * (u + bias_rate * blk["C"][0]), 0.0)
+
+    scale(0.0, True)
+    _solve_group(group, q, bias, _alpha, lambda blk: blk["kind"] == LIMIT and soft_row(blk), pushing)
+    scale(mass_scale, False)
+    _solve_group(group, q, bias, _alpha, lambda blk: not soft_row(blk),
+                 lambda blk, old, u, k: _bounded(blk, old, u, k, h, SOFT_BIASED, spring), equalities=False)
 
 
 def _alpha(blk):
@@ -515,10 +544,12 @@ def sweep_joints(blocks, q_dot, h, mode=HARD, spring=None):
         return blk["drift"] + spring[0] * blk["C"] if biased and blk["kind"] == EQUALITY else blk["drift"]
 
     for group in _groups(blocks):
+        if group["coupled"] and biased:
+            _solve_group_soft(group, q_dot, bias, h, spring)
+            continue
         if group["coupled"]:
             change = max(change, _solve_group(group, q_dot, bias, _alpha, lambda blk: True,
-                                              lambda blk, old, u, k: _bounded(blk, old, u, k, h, mode, spring),
-                                              spring if biased else None))
+                                              lambda blk, old, u, k: _bounded(blk, old, u, k, h, mode, spring)))
             continue
         for blk in group["blocks"]:
             u = _velocity(blk, q_dot) + blk["drift"]
