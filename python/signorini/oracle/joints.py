@@ -338,7 +338,7 @@ def touching_bodies(snapshot, rows):
     return {int(i) for i in np.concatenate([rows["a"], rows["b"]]) if moves[int(i)]}
 
 
-def predict_drift(blocks, q_dot, h, touching=None, turn=np.inf):
+def predict_drift(blocks, q_dot, h, touching=None, turn=np.inf, limits=True):
     """Each row's drift h/2 (dJ/dt) q_dot = J(poses after h/2 at q_dot) q_dot - J q_dot (0 for a
     motor), from the velocities q_dot (N, 6): solving J q_dot + drift = 0 asks the rows of the
     substep's midpoint, where a swing's energy loss to the rows' turning cancels to second order.
@@ -348,7 +348,9 @@ def predict_drift(blocks, q_dot, h, touching=None, turn=np.inf):
     contact changes their velocities within the substep; None: every joint gets its drift).
     ``turn`` (rad): a joint whose bodies turn more than this in h / 2 (h/2 max(|omega_A|, |omega_B|))
     keeps its drift too (the soft step's DRIFT_TURN: the rule is the first term of an expansion in
-    that turn; the PGS's none)."""
+    that turn; the PGS's none). ``limits``: whether limit rows get theirs (the PGS's do, the soft
+    step's not: the cancellation holds for a row that holds through the substep, and a limit that
+    lets go keeps the separating velocity its drift asked for)."""
     half = 0.5 * h
     for group in _groups(blocks):
         here = group["blocks"]
@@ -362,7 +364,7 @@ def predict_drift(blocks, q_dot, h, touching=None, turn=np.inf):
         there = build_blocks(joint, pA + half * q_dot[a, 3:], rodrigues(q_dot[a, :3], half) @ RA,
                              pB + half * q_dot[b, 3:], rodrigues(q_dot[b, :3], half) @ RB, h)
         for blk, later in zip(here, there):
-            if blk["kind"] == MOTOR:
+            if blk["kind"] == MOTOR or (not limits and blk["kind"] == LIMIT):
                 blk["drift"] = np.zeros(blk["n"])
             else:
                 blk["drift"] = ((later["ang_a"] - blk["ang_a"]) @ q_dot[a, :3] + (later["lin_a"] - blk["lin_a"]) @ q_dot[a, 3:]

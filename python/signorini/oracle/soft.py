@@ -363,7 +363,7 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
         apply_forces(rows, np.asarray(x), q_dot, h, np.asarray(tau), sweep)
         if joints:  # the joints' blocks at these poses, their drift from these velocities, warm started
             blocks = prepare_joints(state, joints, q_dot, h, inertia_rotation=start["rotation"])
-            predict_drift(blocks, q_dot, h, touching, DRIFT_TURN)
+            predict_drift(blocks, q_dot, h, touching, DRIFT_TURN, limits=False)
             if s["warm_start"]:
                 warm_start_joints(blocks, q_dot)
             else:
