@@ -17,7 +17,9 @@ Scenes (z up, gravity 10 m/s^2, dt 1/60 as Box3D's benchmark app):
   pybullet's ragdolls); sleeping off; 300 steps (5 s).
 
 Engines, in this process, with the same dt, their chunks interleaved:
-- ``signorini``: its defaults (the PGS); ``soft``: ``set_solver(solver="soft")``;
+- ``signorini``: its defaults (the PGS); ``soft``: ``set_solver(solver="soft")`` (joints of 240 Hz
+  in substeps of 1/960 s); ``soft60``: the same with ``joint_hertz=60`` (Box2D v3's joints, in
+  the contacts' substeps of 1/240 s);
 - ``pybullet``: DIRECT, 10 solver iterations, one solve per step (as bench_scale). The grid is
   mirrored body for body (``_peers.PybulletTwin``, maximal coordinates) with a ``createConstraint``
   JOINT_POINT2POINT per ball joint, its maxForce raised from pybullet's 500 N to 1e30 (comparable).
@@ -86,7 +88,7 @@ FRICTION = 0.6
 DT = 1.0 / 60.0
 PYBULLET_ITERATIONS = 10
 MUJOCO_ITERATIONS = 10
-ENGINES = ("signorini", "soft", "pybullet", "mujoco")
+ENGINES = ("signorini", "soft", "soft60", "pybullet", "mujoco")
 ALL_BITS = 0xFFFFFFFF
 
 # --------------------------------------------------------------------------- the ragdoll
@@ -649,6 +651,8 @@ def make_runs(name: str, args, mods, mujoco=None) -> list[tuple[str, object]]:
         runs.append(("signorini", SignoriniRun(scene(), {})))
     if "soft" in args.engines:
         runs.append(("signorini soft", SignoriniRun(scene(), {"solver": "soft"})))
+    if "soft60" in args.engines:
+        runs.append(("signorini soft60", SignoriniRun(scene(), {"solver": "soft", "joint_hertz": 60.0})))
     if "pybullet" in args.engines and mods is not None:
         twin = PybulletGrid if name == "joint_grid" else PybulletRagdolls
         runs.append(("pybullet", twin(scene(), mods)))

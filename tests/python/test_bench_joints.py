@@ -28,7 +28,7 @@ def test_tiny_run_prints_its_table():
     header = next(i for i, line in enumerate(lines) if line.startswith("scene"))
     columns = re.split(r"\s{2,}", lines[header].strip())
     assert columns[:8] == ["scene", "engine", "bodies", "joints", "steps", "ms/step", "25-75 %", "sg/this"]
-    engines = ["signorini", "signorini soft"]
+    engines = ["signorini", "signorini soft", "signorini soft60"]
     if importlib.util.find_spec("pybullet") is not None:
         engines.append("pybullet")
     mujoco = ["mujoco"] if importlib.util.find_spec("mujoco") is not None else []

@@ -51,6 +51,13 @@ def test_shipped_scene_files_are_what_their_generators_build(name):
         [type(shipped.world.shape(i)) for i in range(shipped.world.num_bodies)]
 
 
+def test_the_generators_write_the_shipped_files_again(tmp_path):
+    # python -m signorini.scenes writes the shipped files from the generators: they come out the
+    # same, sleeping off as shipped (the generators' worlds sleep by default)
+    for path in scenes.write_scene_files(tmp_path, names=["boxes", "pile", "shapes"]):
+        assert path.read_text() == scenes.SCENES[path.stem].read_text(), path.stem
+
+
 def test_schema_file_is_generated_from_the_model():
     assert scenefile.SCHEMA_PATH.read_text() == scenefile.schema_text(), \
         "run python -m signorini.scenes to write signorini/data/scene.schema.json again"
