@@ -179,3 +179,33 @@ TEST_P(TwistOnTheCore, ASpunRodStopsAtItsTwistLimit) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Solvers, TwistOnTheCore, ::testing::Values(SolverMethod::PGS, SolverMethod::Soft));
+
+TEST(JointSubsteps, TheSoftStepRunsAWorldWithAJointInSubstepsForItsJointHertz) {
+  // the soft step's contacts take substeps of at most 1/240 s; a joint's spring holds only up to a
+  // quarter of the substep rate, so a world with an unbroken joint takes at most 0.25 / joint_hertz
+  // (1/960 s at the default 240 Hz); the PGS's 1/960 s are the same with or without joints
+  World w(settings(SolverMethod::Soft));
+  BodyDesc ground;
+  ground.is_static = true;
+  ground.shape = Plane(Vec3(0, 0, 1), -100.0);
+  w.add_body(ground);
+  EXPECT_EQ(w.substep_count(1.0 / 60.0), 4);
+  pendulum(w, 0.0);
+  EXPECT_EQ(w.substep_count(1.0 / 60.0), 16);
+  EXPECT_EQ(w.substep_count(1.0 / 240.0), 4);
+  EXPECT_EQ(w.substep_count(1.0 / 1000.0), 1);
+  WorldSettings s = w.settings();
+  s.solver.joint_hertz = 60.0;
+  w.set_settings(s);
+  EXPECT_EQ(w.substep_count(1.0 / 60.0), 4);
+  s.solver.joint_hertz = 480.0;
+  w.set_settings(s);
+  EXPECT_EQ(w.substep_count(1.0 / 60.0), 32);
+  w.set_joint_broken(0, true);  // a broken joint makes no rows: the contacts' substeps again
+  EXPECT_EQ(w.substep_count(1.0 / 60.0), 4);
+  s.solver.method = SolverMethod::PGS;
+  w.set_settings(s);
+  EXPECT_EQ(w.substep_count(1.0 / 60.0), 16);
+  EXPECT_THROW(w.substep_count(0.0), std::invalid_argument);
+  EXPECT_THROW(w.substep_count(std::nan("")), std::invalid_argument);
+}

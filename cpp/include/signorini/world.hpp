@@ -224,8 +224,9 @@ class World {
 
   /// Advances `steps` steps of dt seconds. dt must be positive and finite.
   void step(double dt, int steps = 1);
-  /// The substeps a step of dt (s) runs now (SolverSettings::substep_count; the soft step's
-  /// shorter ones while the world has a joint that is not broken).
+  /// The substeps a step of dt (s, positive and finite, else std::invalid_argument) runs now
+  /// (SolverSettings::substep_count; the soft step's shorter ones while the world has a joint that
+  /// is not broken).
   int substep_count(double dt) const;
 
   // state setters: validated, the body named on error, nothing changed on error

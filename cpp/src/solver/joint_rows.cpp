@@ -644,7 +644,7 @@ double solve_group(const JointSet& js, const JointGroup& g, std::vector<BodyVelo
 /// speculative limits from zero (close the distance, no more), the equality rows following each in
 /// full. A speculative limit kept its force through the equality rows' solve, and softening their
 /// answer to it exploded the bob at rest (the limit's C passing through 0 substep by substep); one
-/// softened with them let a welded load past its limit by 2.9 degrees at 60 Hz (1.18 before).
+/// softened with them made the arm with a welded load bounce off its limit and explode at rest.
 /// The change reported is 0: the soft step runs a fixed number of sweeps.
 template <class Bias>
 void solve_group_soft(const JointSet& js, const JointGroup& g, std::vector<BodyVelocity>& qd, Bias bias,

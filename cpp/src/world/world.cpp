@@ -248,6 +248,8 @@ void World::step_once(double dt) {
 }
 
 int World::substep_count(double dt) const {
+  if (!(std::isfinite(dt) && dt > 0.0))
+    throw std::invalid_argument("substep_count: dt must be positive and finite, got " + std::to_string(dt));
   // a joint's spring asks for substeps short enough for its joint_hertz
   const auto& joints = joints_->joints;
   return settings_.solver.substep_count(dt, std::any_of(joints.begin(), joints.end(), [](const Joint& j) { return !j.broken; }));
