@@ -1212,10 +1212,7 @@ class World:
         ``substeps`` when set, else the fewest of at most 1/960 s (the PGS) or 1/240 s (the soft
         step; with a joint that is not broken, at most 0.25 / ``joint_hertz``: 1/960 s at the
         default)."""
-        dt = as_number(dt, "substep_count", "dt")
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"substep_count: dt must be positive and finite, got {dt}")
-        return int(self._core.substep_count(dt))
+        return int(self._core.substep_count(as_number(dt, "substep_count", "dt")))  # the core checks its range
 
     # state: read-only views of the core's arrays, (N, 3) / (N, 4) / (N, 3, 3) ------------------
     # They share memory with the world (np.shares_memory holds across reads), show every later

@@ -179,6 +179,16 @@ def test_bad_soft_settings_name_the_setting_and_change_nothing(kwargs, name):
     assert w.solver == before
 
 
+def test_substep_count_refuses_a_dt_that_is_not_positive_and_finite():
+    w = sg.World(solver="soft")
+    for bad in (0.0, -1 / 60, math.nan, math.inf):
+        with pytest.raises(ValueError, match="substep_count: dt must be positive and finite"):
+            w.substep_count(bad)
+    with pytest.raises(TypeError, match="substep_count: dt must be a number"):
+        w.substep_count("1/60")
+    assert w.substep_count(1 / 60) == 4
+
+
 def test_soft_iteration_counts_must_be_integers():
     with pytest.raises(TypeError, match="soft_iterations"):
         sg.World(soft_iterations=1.5)
