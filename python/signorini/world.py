@@ -1210,8 +1210,8 @@ class World:
     def substep_count(self, dt: float) -> int:
         """The substeps a step of ``dt`` s (> 0, finite) runs with the current settings and joints:
         ``substeps`` when set, else the fewest of at most 1/960 s (the PGS) or 1/240 s (the soft
-        step; with a joint that is not broken, at most 0.25 / ``joint_hertz``: 1/960 s at the
-        default)."""
+        step; with a joint that is not broken and has a body awake, at most 0.25 / ``joint_hertz``:
+        1/960 s at the default)."""
         return int(self._core.substep_count(as_number(dt, "substep_count", "dt")))  # the core checks its range
 
     # state: read-only views of the core's arrays, (N, 3) / (N, 4) / (N, 3, 3) ------------------

@@ -397,3 +397,28 @@ def test_removing_a_body_wakes_its_island_and_the_other_islands_keep_sleeping_re
         other.step(DT)
         again.append(other.positions.tobytes() + other.awake.tobytes())
     assert again == trace
+
+
+def test_a_jointed_pair_asleep_drops_the_joints_substeps_and_takes_them_again_when_it_wakes():
+    # the soft step's joints ask for substeps of 0.25 / joint_hertz (1/960 s) while a body of theirs
+    # moves; a joint links its bodies' island, so asleep they sleep together and the step keeps only
+    # the contacts' substeps (1/240 s), and waking the island brings the joints' back
+    dt = 1 / 60
+    w = cube_stacks("soft", height=1, time_to_sleep=0.25)
+    w.add_body(sg.Box((0.1, 0.1, 0.1)), density=1000.0, position=(0.2, 0.0, 0.1))
+    w.add_joint(sg.Spherical(1, 2, anchor=(0.1, 0.0, 0.1)))
+    joints_n, contacts_n = round(4 * 240.0 * dt), round(240 * dt)
+    assert w.substep_count(dt) == joints_n
+    for _ in range(sleep_step(dt, 0.25) + 60):
+        w.step(dt)
+        if not w.awake[1]:
+            break
+    assert not w.awake[1] and not w.awake[2]  # asleep together
+    assert w.substep_count(dt) == contacts_n
+    before = pose_bytes(w, 1) + pose_bytes(w, 2)
+    w.step(dt, 30)
+    assert pose_bytes(w, 1) + pose_bytes(w, 2) == before
+    w.set_awake(2, True)
+    assert w.awake[1] and w.substep_count(dt) == joints_n
+    w.set_joint_broken(0)  # a broken joint asks for none, awake or not
+    assert w.substep_count(dt) == contacts_n

@@ -226,7 +226,7 @@ class World {
   void step(double dt, int steps = 1);
   /// The substeps a step of dt (s, positive and finite, else std::invalid_argument) runs now
   /// (SolverSettings::substep_count; the soft step's shorter ones while the world has a joint that
-  /// is not broken).
+  /// is not broken and has a body awake).
   int substep_count(double dt) const;
 
   // state setters: validated, the body named on error, nothing changed on error

@@ -250,14 +250,19 @@ void World::step_once(double dt) {
 int World::substep_count(double dt) const {
   if (!(std::isfinite(dt) && dt > 0.0))
     throw std::invalid_argument("substep_count: dt must be positive and finite, got " + std::to_string(dt));
-  // a joint's spring asks for substeps short enough for its joint_hertz
+  // a joint's spring asks for substeps short enough for its joint_hertz, while it holds and one
+  // of its bodies moves (a joint links its bodies' island: asleep, they sleep together, and a
+  // settled jointed pile no longer pays the joints' substeps; one body waking wakes the island)
   const auto& joints = joints_->joints;
-  return settings_.solver.substep_count(dt, std::any_of(joints.begin(), joints.end(), [](const Joint& j) { return !j.broken; }));
+  const auto moves = [&](BodyIndex i) {
+    const std::size_t k = static_cast<std::size_t>(i);
+    return !model_.is_static[k] && !state_.asleep(k);
+  };
+  return settings_.solver.substep_count(
+      dt, std::any_of(joints.begin(), joints.end(), [&](const Joint& j) { return !j.broken && (moves(j.a) || moves(j.b)); }));
 }
 
 void World::soft_step_once(double dt) {
-  const int n = substep_count(dt);
-  const double h = dt / n;
   const SolverSettings& q = settings_.solver;
   StepProfile& t = report_.time;
   Laps lap(t);
@@ -269,6 +274,8 @@ void World::soft_step_once(double dt) {
   lap(t.detect);
   wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
   lap(t.wake);
+  const int n = substep_count(dt);                     // (after the wake: a joint that woke asks for its substeps)
+  const double h = dt / n;
   // the step's contacts, to be written by the solver: moved, not copied (the soft step never
   // reads them as detected again; the next step detects into the other list)
   contacts_next_.swap(contacts_base_);
