@@ -50,7 +50,9 @@ spike hits all; each step is timed alone (releases, certificate and state reads 
 chunk's ms/step is its total over its length. ms/step is the median over the chunks of all
 ``--repeats`` runs, with the 25-75 % range. "sg/this" is signorini's first row (its defaults, else the soft step) over the row's.
 ``--box3d PATH`` also runs Box3D's own benchmark app on the matching scene (1 thread, its own
-scene at its own size and sleeping, in a child process after ours) and prints its ms/step.
+scene at its own size and sleeping, in child processes just before and just after ours, so that a
+load change on the machine during our run weighs on both sides) and prints its ms/step, the median
+over both sets of runs.
 ``--box3d-sag PATH`` runs ``benchmarks/box3d/pyramid_sag.c`` (built against a Box3D checkout, see
 its header) for large_pyramid over the same simulated time and dt, 4 substeps, and prints Box3D's
 largest box displacement in the box3d app row's "max disp m", judged by the same 1 cm rule.
@@ -624,7 +626,17 @@ def run_box3d(path: str, name: str, repeats: int, timeout: float = 1800.0) -> di
         return {"error": f"exit {done.returncode}: {(done.stdout + done.stderr)[-300:]}"}
     per_step = [t / max(steps - 1, 1) for t in totals]
     ms, q1, q3 = _median(per_step)
-    return {"ms": ms, "q1": q1, "q3": q3, "steps": steps, "runs": len(totals)}
+    return {"ms": ms, "q1": q1, "q3": q3, "steps": steps, "runs": len(totals), "per_step": per_step}
+
+
+def merge_box3d(before: dict, after: dict) -> dict:
+    """The app's runs before and after ours as one result (median and quartiles over all runs);
+    either alone when the other failed."""
+    if "error" in before or "error" in after:
+        return after if "error" in before else before
+    per_step = before["per_step"] + after["per_step"]
+    ms, q1, q3 = _median(per_step)
+    return {"ms": ms, "q1": q1, "q3": q3, "steps": after["steps"], "runs": len(per_step), "per_step": per_step}
 
 
 BOX3D_SAG = re.compile(r"^result steps=(\d+) max_disp=([0-9.eE+-]+) top_dz=([0-9.eE+-]+) boxes_over_1cm=(\d+)")
@@ -714,14 +726,16 @@ def main(argv: list[str] | None = None) -> list[dict]:
           f"ms/step = median over chunks")
     rows, box3d = [], {}
     for name in names:
+        target = {"sleep": None}.get(name, name)
+        box3d_before = (run_box3d(args.box3d, target, max(2, args.repeats))
+                        if args.box3d and target and not args.tiny else None)
         t0 = time.perf_counter()
         scene_rows = bench_scene(name, args, available)
         rows += scene_rows
         size = scene_rows[0]["size"] if scene_rows else "no engine ran"
         print(f"  {name}: {size}, done in {time.perf_counter() - t0:.0f} s wall", flush=True)
-        target = {"sleep": None}.get(name, name)
-        if args.box3d and target and not args.tiny:
-            result = run_box3d(args.box3d, target, max(2, args.repeats))
+        if box3d_before is not None:
+            result = merge_box3d(box3d_before, run_box3d(args.box3d, target, max(2, args.repeats)))
             box3d[name] = result
             if "error" in result:
                 print(f"  {name}: Box3D app failed: {result['error']}")
@@ -761,7 +775,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
             print(f"{row['scene']}, {row['engine']}: {verdict} (largest box displacement "
                   f"{row['displacement'] * 1000:.2f} mm; 1 cm allowed)")
     if box3d:
-        print("box3d app: its own scene (its size, sleeping and 4 substeps), 1 thread, child process after ours; "
+        print("box3d app: its own scene (its size, sleeping and 4 substeps), 1 thread, child processes before and after ours; "
               "large_world at Box3D's 1000 x 1000; rain with its ragdolls and meshes")
     sys.stdout.flush()
     return rows
