@@ -34,8 +34,8 @@ std::vector<std::string> isas() {
 /// The state after `steps` steps as bytes, with every contact's outputs and the certificate.
 /// relax_iterations 0: the gaps are brought up to date in a pass of their own rather than in the
 /// first relax sweep. bouncy false: the spheres do not bounce (no restitution anywhere), so the
-/// grouped contacts' rows live in their groups alone (SolverData::lanes_only) and store reads them
-/// there.
+/// grouped contacts keep their impulse sums in the groups until the step's end (wide_accumulate,
+/// wide_settle_out) rather than settling after every substep.
 std::vector<double> busy_scene(int threads, int steps, int relax_iterations = 1, bool bouncy = true) {
   WorldSettings settings;
   settings.solver.method = SolverMethod::Soft;
@@ -118,7 +118,7 @@ TEST(WideRows, EveryIsaGivesTheBitsOfTheScalarSweepAtEveryThreadCount) {
   }
 }
 
-TEST(WideRows, WithoutRestitutionTheRowsLiveInTheGroupsAloneWithTheSameBits) {
+TEST(WideRows, WithoutRestitutionTheGroupsKeepTheirImpulsesWithTheSameBits) {
   KeepSimd keep;
   set_simd("scalar");
   const std::vector<double> scalar = busy_scene(1, 40, 1, false);
