@@ -82,7 +82,7 @@ void unconstrained_velocity(const Model& model, const State& state, const Vec3& 
       // the same inertia about every axis (a sphere, a cube): omega x (I omega) = 0, so every
       // gyroscopic rule keeps omega, and I_w^-1 = I_body^-1 in any frame. Exactly so here, rather
       // than through the body frame and back (whose rounding turned omega by about 1e-16 a
-      // substep) and the midpoint rule's Newton iterations (a tenth of the pyramid's solve stage)
+      // substep) and the midpoint rule's Newton iterations (a fifth of the pyramid's solve stage)
       omega_star[i] = state.omega[i] + dt * (model.I_body_inv[i](0, 0) * tau);
       return;
     }
