@@ -418,7 +418,7 @@ class World:
         split-impulse position pass) or "soft" (the soft step of docs/conventions.md: per substep
         one warm start, ``soft_iterations`` sweeps on soft contacts, the poses, ``relax_iterations``
         rigid sweeps; restitution last; ``substeps`` 0 then runs substeps of at most 1/240 s, and
-        with a joint at most 0.25 / ``joint_hertz``).
+        with a joint whose bodies are awake at most 0.25 / ``joint_hertz``).
     contact_hertz : soft step: a contact's stiffness as its spring's frequency (Hz, > 0), at most a
         quarter of the substep rate; twice this against a static or kinematic body.
     damping_ratio : soft step: the spring's damping ratio (>= 0; half this against a static or
