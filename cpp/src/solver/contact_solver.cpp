@@ -174,7 +174,9 @@ void clear_body_forces(SolverData& d, std::size_t n) {
 void forget_bodies(SolverData& d) {
   // cleared, not freed: the next step sizes them to N again (zero) within their capacity
   d.qd.clear(), d.qd_p.clear(), d.dI_inv.clear(), d.v_pos.clear(), d.omega_pos.clear(), d.v_move.clear(),
-      d.omega_move.clear(), d.colours_used.clear(), d.p0.clear(), d.R0.clear(), d.dp.clear(), d.dR.clear();
+      d.omega_move.clear(), d.colours_used.clear(), d.p0.clear(), d.R0.clear(), d.dp.clear(), d.dR.clear(),
+      d.kick.clear();
+  d.kick_ready = false;
   d.is_forced.clear();  // every entry of body_force may be non-zero: the next clear zeroes all
   d.forced.clear();
 }

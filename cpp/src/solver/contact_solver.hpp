@@ -204,6 +204,12 @@ struct SolverData {
   // pseudo-velocities of the position pass, the velocities after iterate (v_pos, omega_pos), and
   // what the solve hands back to move the poses with: v_move = v_pos + v_p (likewise omega)
   std::vector<BodyVelocity> qd, qd_p;
+  /// the soft step, per body: the next substep's warm start (each contact's forces applied as
+  /// rows::apply_force applies them, summed from zero) gathered in a substep's last relax sweep
+  /// while its rows are read anyway (SoftSweep::kick), so that the next substep adds it per body
+  /// instead of reading every row again; kick_ready: it holds that warm start now
+  std::vector<BodyVelocity> kick;
+  bool kick_ready = false;
   std::vector<Mat3> dI_inv;  ///< per body: dt times the world inverse inertia R I_body^-1 R^T at the step's start
   std::vector<Vec3> v_pos, omega_pos;
   std::vector<Vec3> v_move, omega_move;

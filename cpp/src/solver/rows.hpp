@@ -289,17 +289,19 @@ bool recall_forces(const SolverSettings& s, const std::vector<Contact>& contacts
 void apply_forces(SolverData& d);
 
 /// apply_forces for the contact at solve position k: its three forces as one impulse, then its
-/// spin torque. dI holds dt I_X^-1 per body.
-inline void apply_force(SolverData& d, const Mat3* dI, std::size_t k) {
+/// spin torque, added to the velocities qd (d.qd, or d.kick: the next substep's warm start, summed
+/// in the last relax sweep). dI holds dt I_X^-1 per body.
+inline void apply_force(SolverData& d, const Mat3* dI, std::size_t k, Velocities& qd) {
   const ContactRows& c = d.rows[k];
   const double* alpha = &d.alpha[3 * k];
   if (alpha[0] != 0.0 || alpha[1] != 0.0 || alpha[2] != 0.0)
-    push(c, dI, alpha[0] * c.n + alpha[1] * c.t1 + alpha[2] * c.t2, d.qd[c.a], d.qd[c.b]);
+    push(c, dI, alpha[0] * c.n + alpha[1] * c.t1 + alpha[2] * c.t2, qd[c.a], qd[c.b]);
   if (!d.spin_rows.empty() && d.spin_slot[k] >= 0) {
     const std::size_t j = static_cast<std::size_t>(d.spin_slot[k]);
-    if (d.spin_alpha[j] != 0.0) apply_spin(d.spin_rows[j], c, d.spin_alpha[j], d.qd[c.a], d.qd[c.b]);
+    if (d.spin_alpha[j] != 0.0) apply_spin(d.spin_rows[j], c, d.spin_alpha[j], qd[c.a], qd[c.b]);
   }
 }
+inline void apply_force(SolverData& d, const Mat3* dI, std::size_t k) { apply_force(d, dI, k, d.qd); }
 
 /// Newton's law on the contacts flagged in d.restitutive (by solve position):
 /// n^T (v_B - v_A) >= -e u, by sweeps over d.qd up to the tolerance. Returns the sweeps used.

@@ -31,7 +31,8 @@ inline double gap_now(const SolverData& d, const ContactRows& r, const SoftPoint
 /// while the contact overlaps; not biased: rigid), then its friction rows and its spin row. A
 /// contact with a positive gap is rigid with the speculative bias gap / h either way. kGap: its
 /// gap is brought up to date first (gap_now: the poses have moved since the last sweep), in the
-/// same pass, so the rows are read once.
+/// same pass, so the rows are read once. With x.kick, its forces as they leave the sweep are also
+/// added to its bodies' d.kick.
 template <bool kSpin, bool kGap>
 [[gnu::always_inline]] inline void soft_contact(const SolverSettings& s, const SoftSweep& x, SolverData& d,
                                                 std::size_t k) {
@@ -52,6 +53,8 @@ template <bool kSpin, bool kGap>
   double change = 0.0;  // not used: the soft step runs a fixed number of sweeps
   rows::contact_rows(s, r, d.dI_inv.data(), alpha, A, B, change, normal);
   rows::finish_contact<kSpin>(d, k, r, alpha, A, B, change);
+  // the next substep's warm start of this contact, as its forces leave the sweep (SoftSweep::kick)
+  if (x.kick) rows::apply_force(d, d.dI_inv.data(), k, d.kick);
 }
 
 /// The impulse and largest normal force so far of the contact at solve position k, with this

@@ -56,9 +56,10 @@ void body_motion(const Model& model, const State& state, SolverData& d) {
 /// One sweep over every contact in solve order (soft_contact), colour by colour over the threads;
 /// four body pairs at a time (wide_sweep) when the lanes run (d.lanes).
 template <bool kSpin, bool kGap>
-void sweep(const SolverSettings& s, SolverData& d, bool biased) {
+void sweep(const SolverSettings& s, SolverData& d, bool biased, bool kick) {
   SoftSweep x;
   x.biased = biased;
+  x.kick = kick;
   x.update_gaps = kGap;
   x.inv_h = 1.0 / d.h;
   x.max_push_velocity = s.max_push_velocity;
@@ -73,8 +74,8 @@ void sweep(const SolverSettings& s, SolverData& d, bool biased) {
 }
 
 /// count sweeps; update_gaps: the first brings every contact's gap up to date (with count 0, a
-/// pass of its own does).
-void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool update_gaps) {
+/// pass of its own does); kick: the last also gathers the next substep's warm start (SoftSweep::kick).
+void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool update_gaps, bool kick = false) {
   const bool spin = !d.spin_rows.empty();
   if (update_gaps && count == 0) {
     for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
@@ -84,10 +85,11 @@ void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool
   }
   JointSet* joints = joints_of(d, true);
   for (int i = 0; i < count; ++i) {
+    const bool last_kick = kick && i + 1 == count;
     if (i == 0 && update_gaps)
-      spin ? sweep<true, true>(s, d, biased) : sweep<false, true>(s, d, biased);
+      spin ? sweep<true, true>(s, d, biased, last_kick) : sweep<false, true>(s, d, biased, last_kick);
     else
-      spin ? sweep<true, false>(s, d, biased) : sweep<false, false>(s, d, biased);
+      spin ? sweep<true, false>(s, d, biased, last_kick) : sweep<false, false>(s, d, biased, last_kick);
     if (joints) sweep_joints(*joints, d, biased ? JointSweep::SoftBiased : JointSweep::SoftRelax, d.h);
   }
 }
@@ -109,11 +111,14 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   parallel::fit(d.dI_inv, N, Mat3(Mat3::Zero()));
   parallel::fit(d.p0, N, Vec3(Vec3::Zero()));
   parallel::fit(d.R0, N, Mat3(Mat3::Zero()));
+  parallel::fit(d.kick, N, BodyVelocity());
   parallel::for_bodies(d.pool, d.bodies, N, 1024, [&](std::size_t i) {
     d.dI_inv[i] = h * dynamics::inverse_inertia_world(model, state, i);
     d.p0[i] = state.p[i];
     d.R0[i] = state.R[i];
+    d.kick[i] = BodyVelocity();  // (zero after every use; a step cut short may have left one)
   });
+  d.kick_ready = false;
   load(state.v, state.omega, d);
   const double hertz = std::min(settings.contact_hertz, kMaxHertzPerRate / h);
   // the two springs: between two bodies that move, and against one that does not (twice as stiff
@@ -135,7 +140,19 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
 void soft_solve(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
                 std::vector<Vec3>& omega, SolverData& d) {
   load(v, omega, d);
-  wide_warm_start(d);  // the last substep's forces (the cache's in the first) as this one's first guess
+  // the last substep's forces (the cache's in the first) as this one's first guess: gathered per
+  // body by the last substep's relax sweep where it could (SoftSweep::kick), else applied row by row
+  if (d.kick_ready) {
+    parallel::for_bodies(d.pool, d.bodies, v.size(), 1024, [&](std::size_t i) {
+      if (model.is_kinematic[i]) return;  // (its entry stays zero: its velocity is its own)
+      d.qd[i].omega += d.kick[i].omega;
+      d.qd[i].v += d.kick[i].v;
+      d.kick[i] = BodyVelocity();
+    });
+    d.kick_ready = false;
+  } else {
+    wide_warm_start(d);
+  }
   if (JointSet* joints = joints_of(d)) {  // the joints' rows at these poses, warm started
     prepare_joints(model, state, d.h, &settings, true, *joints, d);
     if (settings.warm_start) warm_start_joints(*joints, d);
@@ -157,11 +174,15 @@ void soft_solve(const Model& model, const State& state, const SolverSettings& se
 }
 
 void soft_relax(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
-                std::vector<Vec3>& omega, SolverData& d) {
+                std::vector<Vec3>& omega, SolverData& d, bool another) {
   const std::size_t K = d.soft.size();
   load(v, omega, d);
   body_motion(model, state, d);  // the poses have moved: each contact's gap with the first relax sweep
-  sweeps(settings, d, false, settings.relax_iterations, true);
+  // the next substep's warm start gathered by the last sweep, unless restitution may still change
+  // forces after it (no contact has restitution: !d.bouncy)
+  const bool kick = another && !d.bouncy && settings.relax_iterations >= 1;
+  sweeps(settings, d, false, settings.relax_iterations, true, kick);
+  d.kick_ready = kick;
   // each contact settled (settle: its force for the cache, whether it bounces, its impulse); the
   // grouped ones as their forces leave the groups, the others in order
   d.alpha_iter.resize(K);

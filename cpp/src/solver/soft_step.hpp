@@ -33,8 +33,10 @@ void soft_solve(const Model& model, const State& state, const SolverSettings& se
 /// with rigid contacts (speculative ones still close their gap) on the velocities of solve; then
 /// restitution on the contacts that pushed for the first time in this substep, with e > 0 and an
 /// approach u (their J_n q_dot before the biased sweep) faster than the threshold: n^T (v_B - v_A) >= -e u.
+/// another: a substep follows, whose warm start the last sweep then gathers per body (d.kick),
+/// when no contact has restitution.
 void soft_relax(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,
-                std::vector<Vec3>& omega, SolverData& d);
+                std::vector<Vec3>& omega, SolverData& d, bool another = false);
 
 /// Ends the step. In: v, omega (N) = the last substep's velocities.
 /// Out: contacts[i].alpha, friction, force, spin_torque (the last substep's, N and N m), impulse

@@ -91,10 +91,12 @@ struct Kernel {
     std::size_t h;
     Mask a_moves, b_moves;  // a body that does not move keeps its velocity (static: zero; kinematic: its own)
   };
-  static void load_pairs(const Lanes& d, const WideGroup& g, std::size_t h, Pairs& q) {
+  static void load_pairs(const Lanes& d, const WideGroup& g, std::size_t h, Pairs& q) { load_pairs(d.qd, g, h, q); }
+  /// The same from `from` (d.qd, or d.kick).
+  static void load_pairs(const double* from, const WideGroup& g, std::size_t h, Pairs& q) {
     B qa[6], qb[6];
-    gather_n<6>(d.qd, 6, g.a + h, qa);
-    gather_n<6>(d.qd, 6, g.b + h, qb);
+    gather_n<6>(from, 6, g.a + h, qa);
+    gather_n<6>(from, 6, g.b + h, qb);
     q.g = &g;
     q.h = h;
     q.wa = {qa[0], qa[1], qa[2]};
@@ -105,23 +107,24 @@ struct Kernel {
     q.a_moves = gather([&](std::size_t l) { return g.a_moves[h + l] ? 1.0 : 0.0; }) != zero;
     q.b_moves = gather([&](std::size_t l) { return g.b_moves[h + l] ? 1.0 : 0.0; }) != zero;
   }
-  /// The velocities back, for the bodies that move.
-  static void store_pairs(const Lanes& d, const WideGroup& g, std::size_t h, const Pairs& q) {
+  /// The velocities back (into `to`: d.qd, or d.kick), for the bodies that move.
+  static void store_pairs(double* to, const WideGroup& g, std::size_t h, const Pairs& q) {
     alignas(64) double out[12][L];
     const B* parts[12] = {&q.wa.x, &q.wa.y, &q.wa.z, &q.va.x, &q.va.y, &q.va.z,
                           &q.wb.x, &q.wb.y, &q.wb.z, &q.vb.x, &q.vb.y, &q.vb.z};
     for (int i = 0; i < 12; ++i) parts[i]->store_aligned(out[i]);
     for (std::size_t l = 0; l < L; ++l) {
       if (g.a_moves[h + l]) {
-        double* v = d.qd + 6 * static_cast<std::size_t>(g.a[h + l]);
+        double* v = to + 6 * static_cast<std::size_t>(g.a[h + l]);
         for (int i = 0; i < 6; ++i) v[i] = out[i][l];
       }
       if (g.b_moves[h + l]) {
-        double* v = d.qd + 6 * static_cast<std::size_t>(g.b[h + l]);
+        double* v = to + 6 * static_cast<std::size_t>(g.b[h + l]);
         for (int i = 0; i < 6; ++i) v[i] = out[6 + i][l];
       }
     }
   }
+  static void store_pairs(const Lanes& d, const WideGroup& g, std::size_t h, const Pairs& q) { store_pairs(d.qd, g, h, q); }
   /// q_dot += the force P (N: the rows' forces summed along their directions; dt is folded into
   /// dI and dinv_mass) on B at r_b and -P on A at r_a, in the lanes where `where` holds and for the
   /// bodies that move (rows.hpp, push).
@@ -160,15 +163,19 @@ struct Kernel {
 
   /// One sweep over the groups: each lane's pair, point after point in solve order, its two bodies'
   /// velocities kept in registers from the first point to the last.
-  template <bool kGap>
+  /// kKick (SoftSweep::kick): each point's forces as it leaves the sweep are also added, as the
+  /// warm start would apply them, to its bodies' entries of d.kick, point after point (the same
+  /// sums in the same order as the scalar code's rows::apply_force on d.kick).
+  template <bool kGap, bool kKick>
   static void run(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups) {
     const B zero(0.0), one(1.0), inv_h(x.inv_h), max_push(-x.max_push_velocity);
     for (std::size_t gi = group; gi < group + groups; ++gi) {
       WideGroup& g = d.groups[gi];
       for (std::size_t h = 0; h < kLanes; h += L) {
         // the pairs: bodies, their velocities and inverse inertias (and how far they have moved)
-        Pairs q;
+        Pairs q, kick;
         load_pairs(d, g, h, q);
+        if constexpr (kKick) load_pairs(d.kick, g, h, kick);
         B dRa[9], dRb[9], dpa[3], dpb[3];
         if constexpr (kGap) {
           gather_n<9>(d.dR, 9, g.a + h, dRa);
@@ -242,11 +249,18 @@ struct Kernel {
           const V3 P = add(add(scale(d0, n), scale(d1, t1)), scale(d2, t2));
           push(q, moved, r_a, r_b, P, dinv_mass_a, dinv_mass_b);
           // the point's forces (a lane past its last point keeps its unused slot as it was)
-          xsimd::select(active, a0, a_n).store_aligned(pt.alpha[0] + h);
-          xsimd::select(active, a1, a_1).store_aligned(pt.alpha[1] + h);
-          xsimd::select(active, a2, a_2).store_aligned(pt.alpha[2] + h);
+          const B f0 = xsimd::select(active, a0, a_n), f1 = xsimd::select(active, a1, a_1),
+                  f2 = xsimd::select(active, a2, a_2);
+          f0.store_aligned(pt.alpha[0] + h);
+          f1.store_aligned(pt.alpha[1] + h);
+          f2.store_aligned(pt.alpha[2] + h);
+          if constexpr (kKick) {  // the next substep's warm start of this point (warm_start's sums)
+            const Mask any = ((f0 != zero) || (f1 != zero) || (f2 != zero)) && active;
+            push(kick, any, r_a, r_b, add(add(scale(f0, n), scale(f1, t1)), scale(f2, t2)), dinv_mass_a, dinv_mass_b);
+          }
         }
         store_pairs(d, g, h, q);
+        if constexpr (kKick) store_pairs(d.kick, g, h, kick);
       }
     }
   }

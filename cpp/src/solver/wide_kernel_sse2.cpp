@@ -4,8 +4,9 @@
 namespace signorini::solver::wide {
 
 void sweep_sse2(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups) {
-  if (x.update_gaps) Kernel<xsimd::sse2>::run<true>(x, d, group, groups);
-  else Kernel<xsimd::sse2>::run<false>(x, d, group, groups);
+  using K = Kernel<xsimd::sse2>;
+  if (x.kick) x.update_gaps ? K::run<true, true>(x, d, group, groups) : K::run<false, true>(x, d, group, groups);
+  else x.update_gaps ? K::run<true, false>(x, d, group, groups) : K::run<false, false>(x, d, group, groups);
 }
 
 void warm_start_sse2(const Lanes& d, std::size_t group, std::size_t groups) {

@@ -285,7 +285,8 @@ wide::Lanes raw_lanes(SolverData& d) {
   return wide::Lanes{d.wide.data(),
                      d.qd.empty() ? nullptr : d.qd[0].omega.data(),
                      d.dp.empty() ? nullptr : d.dp[0].data(),
-                     d.dR.empty() ? nullptr : d.dR[0].data()};
+                     d.dR.empty() ? nullptr : d.dR[0].data(),
+                     d.kick.empty() ? nullptr : d.kick[0].omega.data()};
 }
 
 /// Solve positions [first, end) colour by colour from the colour of `first` on: lanes(group,

@@ -28,6 +28,10 @@ struct SoftSweep {
   bool update_gaps = false; ///< each contact's gap is brought up to date first (gap_now)
   double inv_h = 0.0;       ///< 1 / h (1/s)
   double max_push_velocity = 0.0;  ///< the spring's bias is at least -this (m/s)
+  /// the last relax sweep of a substep that another follows: each contact's forces as they leave
+  /// the sweep are also summed, as the warm start applies them, into its bodies' d.kick (the next
+  /// substep's warm start, gathered while the rows are at hand: SolverData::kick)
+  bool kick = false;
 };
 
 /// Which code runs the groups: the best the CPU has (Auto), or one forced, for tests that compare
@@ -94,6 +98,7 @@ struct Lanes {
   double* qd;               ///< d.qd: per body omega (3) then v (3)
   const double* dp;         ///< d.dp: per body (3)
   const double* dR;         ///< d.dR: per body (3 x 3, column-major)
+  double* kick;             ///< d.kick: per body omega (3) then v (3) (written with SoftSweep::kick)
 };
 
 /// The groups [group, group + groups) (none flagged one_by_one) in the lanes of one ISA

@@ -288,7 +288,7 @@ void World::soft_step_once(double dt) {
     lap(t.solve);
     dynamics::advance(model_, state_, v_, omega_, v_, omega_, h, pool_.get(), &moving_);  // the poses move with the solved velocities
     lap(t.integrate);
-    solver::soft_relax(model_, state_, q, state_.v, state_.omega, *solver_);
+    solver::soft_relax(model_, state_, q, state_.v, state_.omega, *solver_, k + 1 < n);
     lap(t.relax);
     guard_->check_finite(model_, state_, *solver_, &moving_);  // checkpoint: nothing non-finite is kept
     ++report_.steps;
