@@ -2,6 +2,7 @@
 (scripts/test.sh) add the test tools, and both lists are the pyproject's (no drift); an install is
 skipped when the installed package matches the checkout, and the wheel of a state of the sources is
 built once and reused."""
+import json
 import os
 import re
 import shutil
@@ -107,6 +108,17 @@ def warm_build_dir() -> bool:
     return any(d.is_dir() and any(d.glob("_core*.so")) for d in (ROOT / "build").glob("cp*"))
 
 
+def installed_editable() -> bool:
+    """Whether signorini is installed editable (pip's direct_url.json says so): scikit-build-core's
+    import hook then comes before PYTHONPATH on every import of it, in any process."""
+    from importlib import metadata
+    try:
+        info = json.loads(metadata.distribution("signorini").read_text("direct_url.json") or "{}")
+    except metadata.PackageNotFoundError:
+        return False
+    return bool(info.get("dir_info", {}).get("editable"))
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not warm_build_dir(), reason="no finished build in build/<wheel tag> (scripts/install.sh makes "
                                                  "one); a cold wheel build compiles the whole core")
@@ -137,7 +149,11 @@ def test_the_wheel_is_built_once_and_reused(tmp_path):
     assert "signorini/__init__.py" in names and any(re.fullmatch(r"signorini/_core\..*\.so", n) for n in names)
     assert "signorini/data/scenes/torus.toml" in names and "signorini/_core.pyi" in names
 
-    # installed (into a folder of its own), it is what python3 imports, and install.sh's check agrees
+    # installed (into a folder of its own), it is what python3 imports, and install.sh's check agrees;
+    # not checkable beside an editable install (scripts/test.sh --editable), whose hook shadows PYTHONPATH
+    if installed_editable():
+        pytest.skip("signorini is installed editable: its import hook comes before PYTHONPATH, so the wheel "
+                    "installed into a folder cannot be imported from it (the build and reuse were checked)")
     site = tmp_path / "site"
     subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(site), str(first)],
                    check=True, capture_output=True, timeout=300)
