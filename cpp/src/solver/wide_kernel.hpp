@@ -91,18 +91,20 @@ struct Kernel {
     std::size_t h;
     Mask a_moves, b_moves;  // a body that does not move keeps its velocity (static: zero; kinematic: its own)
   };
-  static void load_pairs(const Lanes& d, const WideGroup& g, std::size_t h, Pairs& q) { load_pairs(d.qd, g, h, q); }
-  /// The same from `from` (d.qd, or d.kick).
-  static void load_pairs(const double* from, const WideGroup& g, std::size_t h, Pairs& q) {
+  /// The pairs' bodies' per-body entries (omega, v) of lanes h .. h + L - 1 from `from` (d.qd, or d.kick).
+  static void load_velocities(const double* from, const WideGroup& g, std::size_t h, Pairs& q) {
     B qa[6], qb[6];
     gather_n<6>(from, 6, g.a + h, qa);
     gather_n<6>(from, 6, g.b + h, qb);
-    q.g = &g;
-    q.h = h;
     q.wa = {qa[0], qa[1], qa[2]};
     q.va = {qa[3], qa[4], qa[5]};
     q.wb = {qb[0], qb[1], qb[2]};
     q.vb = {qb[3], qb[4], qb[5]};
+  }
+  static void load_pairs(const Lanes& d, const WideGroup& g, std::size_t h, Pairs& q) {
+    load_velocities(d.qd, g, h, q);
+    q.g = &g;
+    q.h = h;
     const B zero(0.0);
     q.a_moves = gather([&](std::size_t l) { return g.a_moves[h + l] ? 1.0 : 0.0; }) != zero;
     q.b_moves = gather([&](std::size_t l) { return g.b_moves[h + l] ? 1.0 : 0.0; }) != zero;
@@ -175,7 +177,10 @@ struct Kernel {
         // the pairs: bodies, their velocities and inverse inertias (and how far they have moved)
         Pairs q, kick;
         load_pairs(d, g, h, q);
-        if constexpr (kKick) load_pairs(d.kick, g, h, kick);
+        if constexpr (kKick) {  // the same pairs and masks, the bodies' entries of d.kick
+          kick = q;
+          load_velocities(d.kick, g, h, kick);
+        }
         B dRa[9], dRb[9], dpa[3], dpb[3];
         if constexpr (kGap) {
           gather_n<9>(d.dR, 9, g.a + h, dRa);
