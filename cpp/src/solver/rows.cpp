@@ -30,19 +30,58 @@ bool alone_in_pair(const std::vector<Contact>& contacts, std::size_t i) {
   return (i == 0 || !same_pair(i - 1)) && (i + 1 == contacts.size() || !same_pair(i + 1));
 }
 
-/// The rows of one contact between bodies a and b, acting at lever arms r_a = y_a - p_a on A and
-/// r_b = y_b - p_b on B, along the directions d[0..2] (unit, world; normal, t1, t2):
+/// What a contact's rows need of its body pair (and the soft step of its sides' rounding), the
+/// same for every point of the pair: found once per pair, as the narrow phase lists a pair's
+/// points one after the other. Static and kinematic bodies have infinite mass here: contacts never
+/// change their velocities.
+struct PairFacts {
+  int a = -1, b = -1;
+  bool a_moves = false, b_moves = false;
+  double dinv_mass_a = 0.0, dinv_mass_b = 0.0;  ///< dt / m_X (s/kg; 0 for a body that does not move)
+  double mu = 0.0, e = 0.0;                     ///< friction sqrt(mu_A mu_B), restitution max(e_A, e_B)
+  bool spinning = false;                        ///< either side has spinning friction
+  /// the rounding radius of the part of A (of B) the last point came from, and that part
+  std::uint32_t part_a = 0, part_b = 0;
+  double rho_a = -1.0, rho_b = -1.0;            ///< -1: not looked up yet
+
+  /// Facts of the pair (a, b) for a step of dt.
+  PairFacts(const Model& model, int a, int b, double dt) : a(a), b(b) {
+    a_moves = !model.is_static[a] && !model.is_kinematic[a];
+    b_moves = !model.is_static[b] && !model.is_kinematic[b];
+    dinv_mass_a = a_moves ? dt * model.inv_mass[a] : 0.0;
+    dinv_mass_b = b_moves ? dt * model.inv_mass[b] : 0.0;
+    const Material& ma = model.material[a];
+    const Material& mb = model.material[b];
+    mu = std::sqrt(ma.friction * mb.friction);
+    e = std::max(ma.restitution, mb.restitution);
+    spinning = ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0;
+  }
+  PairFacts() = default;
+
+  /// rounding_radius of part `part` of body x's shape (x: a or b), looked up once per part.
+  double rounding(const Model& model, bool on_a, std::uint32_t part) {
+    double& rho = on_a ? rho_a : rho_b;
+    std::uint32_t& known = on_a ? part_a : part_b;
+    if (rho < 0.0 || known != part) {
+      rho = rounding_radius(model.shape[static_cast<std::size_t>(on_a ? a : b)], part);
+      known = part;
+    }
+    return rho;
+  }
+};
+
+/// The rows of one contact of the pair f (bodies a and b), acting at lever arms r_a = y_a - p_a on
+/// A and r_b = y_b - p_b on B, along the directions d[0..2] (unit, world; normal, t1, t2):
 /// J_A,k = -(r_a x d_k, d_k), J_B,k = (r_b x d_k, d_k), delta_k = dt (J_A,k M_A^-1 J_A,k + J_B,k M_B^-1 J_B,k),
 /// and the friction rows' couplings W_jk = dt J_j M^-1 J_k^T. dI_inv holds dt I_X^-1 per body (world).
-void make_rows(const Model& model, const std::vector<Mat3>& dI_inv, int a, int b, const Vec3& r_a, const Vec3& r_b,
-               const Vec3* d, double dt, ContactRows& c) {
-  // static and kinematic bodies have infinite mass here: contacts never change their velocities
-  c.a = a;
-  c.b = b;
-  c.a_moves = !model.is_static[a] && !model.is_kinematic[a];
-  c.b_moves = !model.is_static[b] && !model.is_kinematic[b];
-  c.dinv_mass_a = c.a_moves ? dt * model.inv_mass[a] : 0.0;
-  c.dinv_mass_b = c.b_moves ? dt * model.inv_mass[b] : 0.0;
+void make_rows(const PairFacts& f, const std::vector<Mat3>& dI_inv, const Vec3& r_a, const Vec3& r_b, const Vec3* d,
+               ContactRows& c) {
+  c.a = f.a;
+  c.b = f.b;
+  c.a_moves = f.a_moves;
+  c.b_moves = f.b_moves;
+  c.dinv_mass_a = f.dinv_mass_a;
+  c.dinv_mass_b = f.dinv_mass_b;
   c.n = d[0];
   c.t1 = d[1];
   c.t2 = d[2];
@@ -53,8 +92,8 @@ void make_rows(const Model& model, const std::vector<Mat3>& dI_inv, int a, int b
   for (int k = 0; k < 3; ++k) {
     JA[k] = -r_a.cross(d[k]);
     JB[k] = r_b.cross(d[k]);
-    MJA[k] = c.a_moves ? Vec3(dI_inv[a] * JA[k]) : Vec3::Zero();
-    MJB[k] = c.b_moves ? Vec3(dI_inv[b] * JB[k]) : Vec3::Zero();
+    MJA[k] = c.a_moves ? Vec3(dI_inv[f.a] * JA[k]) : Vec3::Zero();
+    MJB[k] = c.b_moves ? Vec3(dI_inv[f.b] * JB[k]) : Vec3::Zero();
   }
   const double dinv_mass = c.dinv_mass_a + c.dinv_mass_b;
   const auto W = [&](int j, int k) { return JB[j].dot(MJB[k]) + JA[j].dot(MJA[k]) + dinv_mass * d[j].dot(d[k]); };
@@ -66,7 +105,7 @@ void make_rows(const Model& model, const std::vector<Mat3>& dI_inv, int a, int b
   c.W_2n = W(2, 0);
   c.W_21 = W(2, 1);
   c.bias = 0.0;
-  c.mu = 0.0;
+  c.mu = f.mu;
 }
 
 }  // namespace
@@ -192,13 +231,16 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
   // each contact writes only its own rows, u_i and e_i: split over the threads
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
     Vec3 dir[3];  // the last contact's normal and tangents
+    PairFacts f;  // the last contact's pair
+    bool spins = false;
     for (std::size_t i = first; i < end; ++i) {
       if (i + kAhead < end) prefetch_write(&d.rows[d.slot[i + kAhead]], sizeof(ContactRows));
       const Contact& c = contacts[i];
       const int a = c.body_a, b = c.body_b;
-      const Material& ma = model.material[a];
-      const Material& mb = model.material[b];
-      const double mu = std::sqrt(ma.friction * mb.friction);
+      if (a != f.a || b != f.b) {
+        f = PairFacts(model, a, b, dt);
+        spins = spins || f.spinning;
+      }
       // the tangents are a function of the normal's bits alone: a manifold's points, which share
       // it, find them once (the range's first contact finds its own)
       if (i == first || std::memcmp(c.normal.data(), dir[0].data(), sizeof(Vec3)) != 0) {
@@ -212,25 +254,26 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       // a kept contact's lever arms are those it was found with (docs/conventions.md, "Contact recycling")
       const Vec3 r_a = anchor_a ? Vec3((*anchor_a)[i] - state.p[a]) : c.kept ? c.arm_a : Vec3(c.point - state.p[a]);
       const Vec3 r_b = anchor_b ? Vec3((*anchor_b)[i] - state.p[b]) : c.kept ? c.arm_b : Vec3(c.point - state.p[b]);
-      make_rows(model, d.dI_inv, a, b, r_a, r_b, dir, dt, r);
+      make_rows(f, d.dI_inv, r_a, r_b, dir, r);
       // a speculative contact may close its gap, no more; an overlap is left to the position pass
       r.bias = std::max(c.gap, 0.0) / dt;
-      r.mu = mu;
-      d.u[k] = normal_velocity(r, d.qd);
-      d.e[k] = std::max(ma.restitution, mb.restitution);
+      d.e[k] = f.e;
+      // the approach is read only by a contact that can bounce (restitution, the certificate's
+      // target of a restitutive contact): the others skip gathering their bodies' velocities
+      d.u[k] = f.e > 0.0 ? normal_velocity(r, d.qd) : 0.0;
       if (recalled && d.recalled[i] >= 0) recall_force(*recall, d, i, k, r.t1, r.t2, r.mu);
       if (springs) {  // the soft step's point: its spring, its gap, a round side's core offset
         SoftPoint& p = d.soft[k];
         p = springs[r.a_moves && r.b_moves ? 0 : 1];
         p.gap0 = p.s = c.gap;
         // a round side's carried point: its core, gap0 / 2 + rho along n from the contact point
-        const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(a)], feature_part(c.feature_a));
-        const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(b)], feature_part(c.feature_b));
+        const double rho_a = f.rounding(model, true, feature_part(c.feature_a));
+        const double rho_b = f.rounding(model, false, feature_part(c.feature_b));
         if (rho_a > 0.0) p.sigma_a = 0.5 * c.gap + rho_a;
         if (rho_b > 0.0) p.sigma_b = 0.5 * c.gap + rho_b;
       }
-      if (ma.spinning_friction > 0.0 || mb.spinning_friction > 0.0) spinning.store(true, std::memory_order_relaxed);
     }
+    if (spins) spinning.store(true, std::memory_order_relaxed);
   });
   const bool any_spin = spinning.load();
   // spin rows: J_A = (-n, 0), J_B = (n, 0), delta = dt (n . I_A^-1 n + n . I_B^-1 n); none, and
