@@ -454,19 +454,21 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   // parts are joined in), split over the threads; the bodies' sums below in contact order
   const SolverStats start = stats;
   std::mutex joined;
-  // in solve order, as the rows and forces are stored: the contacts are then the ones reached out
-  // of order (their fields are written more than read, and a write does not wait)
+  // in contact order, as the contacts, the cache and the per-contact sums are written (four
+  // arrays in turn), reaching the rows, forces and soft points by solve position, asked for early
+  // (in solve order, the four written arrays were the ones reached out of order: 15 % slower on
+  // the 5,050-cube pyramid)
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
     SolverStats part = start;
-    for (std::size_t k = first; k < end; ++k) {
-      if (k + kAhead < end) {
-        const std::size_t j = static_cast<std::size_t>(d.order[k + kAhead]);
-        prefetch_write(&contacts[j], sizeof(Contact));
-        prefetch_write(&d.cache_next[j], sizeof(CachedContact));
-        prefetch_write(&d.contact_torque[2 * j], 2 * sizeof(Vec3));
-        prefetch_write(&d.contact_force[j], sizeof(Vec3));
+    for (std::size_t i = first; i < end; ++i) {
+      if (i + kAhead < end) {
+        const std::size_t j = static_cast<std::size_t>(d.slot[i + kAhead]);
+        prefetch_read(&d.rows[j], sizeof(ContactRows));
+        prefetch_read(&d.alpha[3 * j], 3 * sizeof(double));
+        prefetch_read(&d.alpha_iter[j], sizeof(double));
+        if (soft) prefetch_read(&(*soft)[j], sizeof(SoftPoint));
       }
-      const std::size_t i = static_cast<std::size_t>(d.order[k]);
+      const std::size_t k = static_cast<std::size_t>(d.slot[i]);
       Contact& c = contacts[i];
       const ContactRows& r = d.rows[k];
       const double* alpha = &d.alpha[3 * k];
