@@ -222,8 +222,9 @@ SolverStats soft_end(const Model& model, const State& state, const SolverSetting
     d.alpha_iter.assign(K, 0.0);
     d.restitutive.assign(K, char(0));
   }
-  if (d.lanes && !d.bouncy) wide_settle_out(d);  // their forces and impulses, kept in the groups
-  if (d.lanes) wide_gaps_out(d);  // the grouped contacts' gaps, from the lanes' groups
+  // the grouped contacts' forces, impulses and gaps, kept in the groups
+  if (d.lanes && !d.bouncy) wide_settle_out(d);
+  else if (d.lanes) wide_gaps_out(d);
   // the certificate's targets: the rigid contact at its end gap (speculative: close it, no more),
   // or e u for a contact that bounced in the last substep; each contact's impulse: its substeps'
   // summed (store reads both from the soft points)

@@ -266,8 +266,10 @@ void wide_settle_out(SolverData& d) {
         for (std::size_t i = 0; i < 3; ++i) d.alpha[3 * k + i] = p.alpha[i][l];
         d.alpha_iter[k] = p.alpha[0][l];
         d.restitutive[k] = 0;
-        d.soft[k].impulse = p.impulse[l];
-        d.soft[k].alpha_max = p.alpha_max[l];
+        SoftPoint& soft = d.soft[k];
+        soft.impulse = p.impulse[l];
+        soft.alpha_max = p.alpha_max[l];
+        soft.s = p.s[l];  // (wide_gaps_out's, in the same pass)
       });
     }
   });

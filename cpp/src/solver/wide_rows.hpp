@@ -77,6 +77,7 @@ void wide_alpha_in(SolverData& d);
 /// sweeps (contiguous, no per-contact scatter), and wide_settle_out hands all of it to d.alpha,
 /// d.alpha_iter, d.restitutive and the soft points once, at the step's end: the same bits as
 /// wide_settle after every substep (the same additions in the same order, the same max).
+/// wide_settle_out also gives the soft points their gaps (wide_gaps_out) in the same pass.
 void wide_accumulate(SolverData& d);
 void wide_settle_out(SolverData& d);
 
