@@ -471,13 +471,28 @@ bool recycles(const Shape& a, const Shape& b) {
 
 namespace {
 
-/// Pair (a, b)'s manifold of the last detection (memory.last, sorted), or null.
-const KeptManifold* kept_manifold(const ManifoldCache& memory, BodyIndex a, BodyIndex b) {
+/// Pair (a, b)'s manifold of the last detection (memory.last, sorted), or null. hint: where the
+/// caller's last search ended (0 at first), updated: the pairs come in nearly sorted order (by body
+/// indices, a static-only shape put first), so the search walks on from there a few entries before
+/// it falls back to a binary search; the same entry as std::lower_bound, without its 14 scattered
+/// reads per pair on a 15,000-pair pile.
+const KeptManifold* kept_manifold(const ManifoldCache& memory, BodyIndex a, BodyIndex b, std::size_t& hint) {
+  constexpr std::size_t kWalk = 8;
   KeptManifold key;
   key.body_a = a;
   key.body_b = b;
-  const auto it = std::lower_bound(memory.last.begin(), memory.last.end(), key);
-  return it != memory.last.end() && it->body_a == a && it->body_b == b ? &*it : nullptr;
+  const std::vector<KeptManifold>& last = memory.last;
+  const std::size_t n = last.size();
+  std::size_t j = std::min(hint, n);
+  if (j > 0 && !(last[j - 1] < key)) {  // at or before the hint: searched for below it
+    j = static_cast<std::size_t>(std::lower_bound(last.begin(), last.begin() + static_cast<std::ptrdiff_t>(j), key) - last.begin());
+  } else {  // after it: last[j - 1] < key
+    for (std::size_t steps = 0; j < n && last[j] < key && steps < kWalk; ++steps) ++j;
+    if (j < n && last[j] < key)
+      j = static_cast<std::size_t>(std::lower_bound(last.begin() + static_cast<std::ptrdiff_t>(j), last.end(), key) - last.begin());
+  }
+  hint = j;
+  return j < n && last[j].body_a == a && last[j].body_b == b ? &last[j] : nullptr;
 }
 
 /// How far the kept rows may be from the bodies now (m), at most, counting the step of dt at the
@@ -596,9 +611,9 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   const auto keeps = [&](BodyIndex a, BodyIndex b) { return recycle > 0.0 && recycles(model.shape[a], model.shape[b]); };
   // the last detection's manifold of (a, b) when the pair keeps it this step (it has hardly moved
   // since), else null
-  const auto kept_for = [&](BodyIndex a, BodyIndex b) -> const KeptManifold* {
+  const auto kept_for = [&](BodyIndex a, BodyIndex b, std::size_t& hint) -> const KeptManifold* {
     if (!keeps(a, b)) return nullptr;
-    const KeptManifold* last = kept_manifold(manifolds, a, b);
+    const KeptManifold* last = kept_manifold(manifolds, a, b, hint);
     const double tolerance = std::min(recycle, kRecycleInnerFraction * std::min(model.inner[a], model.inner[b]));
     return last && pair_drift(model, state, a, b, *last, dt) <= tolerance ? last : nullptr;
   };
@@ -641,9 +656,10 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   const std::size_t P = pairs.size();
   int recycled = 0;
   if (!chunked) {
+    std::size_t hint = 0;  // where the last search of the memory ended
     for (const auto& [i, j] : pairs) {
       const auto [a, b] = ordered(i, j);
-      if (const KeptManifold* last = kept_for(a, b)) {
+      if (const KeptManifold* last = kept_for(a, b, hint)) {
         for (std::uint32_t k = last->first; k < last->first + last->count; ++k)
           contacts.push_back(recycled_contact(state, a, b, manifolds.last_points[k]));
         KeptManifold m = *last;  // found where it was: its drift is still measured from there
@@ -682,10 +698,11 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
         chunk.kept_points.clear();
         chunk.recycled = 0;
         const auto [from, to] = pairs_of(c);
+        std::size_t hint = 0;  // where the chunk's last search of the memory ended
         for (std::size_t k = from; k < to; ++k) {
           const auto [a, b] = ordered(pairs[k].first, pairs[k].second);
           Scratch::PairPlace& place = scratch.places[k];
-          if (const KeptManifold* last = kept_for(a, b)) {
+          if (const KeptManifold* last = kept_for(a, b, hint)) {
             place.last = static_cast<int>(last - manifolds.last.data());
             place.count = place.points = last->count;
             place.points_from = last->first;
