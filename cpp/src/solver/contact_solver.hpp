@@ -196,8 +196,9 @@ struct SolverData {
   std::vector<SpinRow> spin_rows;
   std::vector<double> spin_alpha;
   // per solve position (as the rows are stored, so that the passes over them read in order): the
-  // pre-solve normal velocity u_i (m/s), restitution e_i, whether stage d applies; per contact
-  // (cold): position-pass target b_pos (m/s) and pseudo-force beta (N)
+  // pre-solve normal velocity u_i (m/s; 0 where e_i = 0: only restitution reads it), restitution
+  // e_i, whether stage d applies; per contact (cold): position-pass target b_pos (m/s) and
+  // pseudo-force beta (N)
   std::vector<double> u, e, b_pos, beta;
   std::vector<char> restitutive;
   // per body: the velocities being solved (copied in and out of the caller's v, omega), the

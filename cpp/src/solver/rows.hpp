@@ -268,9 +268,10 @@ struct SoftNormal {
 };
 
 /// The solve order and the rows: d.order, d.slot, d.rows (a contact's normal, t1 and t2 rows,
-/// in solve order, dt folded in), d.alpha zeroed, by solve position u_i = J_n q_dot (from d.qd) and
-/// e_i, and the spin rows. A normal row's bias is max(gap, 0) / dt (a speculative contact closes its gap, no
-/// more). d.dI_inv must hold dt I_X^-1 per body.
+/// in solve order, dt folded in), d.alpha zeroed, by solve position u_i = J_n q_dot (from d.qd;
+/// 0 for a contact with e_i = 0, which never reads it) and e_i, and the spin rows. A normal row's
+/// bias is max(gap, 0) / dt (a speculative contact closes its gap, no more). d.dI_inv must hold
+/// dt I_X^-1 per body.
 /// With `recall` (the soft step's warm start), d.alpha and d.spin_alpha also take the recalled
 /// forces (recall_forces, the same bits) as each contact's rows are made, in the same pass. With
 /// `springs` (the soft step: springs[0] between two moving bodies, springs[1] against one that does
