@@ -405,8 +405,22 @@ class World {
   /// step_once with the soft step (SolverMethod::Soft): contacts once, then per substep
   /// unconstrained velocity -> solve -> poses -> relax, then restitution and store (soft_step.hpp).
   void soft_step_once(double dt);
-  /// The step's contacts carried to substep k into contacts_next_ (k = 0: as detected).
-  void carry_contacts(int k);
+  /// The step's contacts carried to substep k into contacts_next_ (k = 0: as detected); from k = 1
+  /// on, the pairs whose bodies' turns since the step's detection moved their points too far
+  /// (collision::turned_far) collided again (collision::redetect_turned, for the `rest` of the
+  /// step, s), and the step's impulse sums then matched to the new list by contact key.
+  void carry_contacts(int k, double rest);
+  /// turned_ (N): how far each awake, non-spherical body's turn since the step began has moved
+  /// its points, at most (m; 0 for the others: a sphere's contacts do not follow its turn).
+  void find_turned();
+  /// The substeps `span` seconds take for the fast-turning bodies of `contacts` at their present
+  /// angular velocities: so many that each turns a pair by at most collision::kTurnReach of its
+  /// smaller inner radius (1 when none turns; at most 1e6). A step with automatic substeps takes
+  /// at least this many for its contacts as detected, and when a substep has set bodies turning
+  /// faster, the rest of the step is split again for the substep's contacts, at most
+  /// max(collision::kTurnSubsteps, collision::kTurnSubstepFactor times its own rule's count)
+  /// substeps in all.
+  int turn_substeps(const std::vector<Contact>& contacts, double span) const;
   /// After substep k's solve: each contact's impulse becomes the sum over the substeps so far
   /// (Contacts.impulse is the step's whole normal impulse).
   void sum_impulses(int k);
@@ -494,6 +508,11 @@ class World {
   std::vector<Vec3> anchor_a_, anchor_b_;///< a carried contact's point moved with A and with B
   std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
   std::vector<double> impulse_sum_;      ///< per contact: its normal impulse over the substeps so far (N s)
+  std::vector<double> turned_;           ///< per body: how far its turn since the step's detection moved it (m)
+  std::vector<Contact> contacts_prev_;   ///< the last substep's contacts, while a substep detects again
+  std::vector<Contact> redetected_list_; ///< a substep's contacts with the turned bodies' pairs found again
+  std::vector<Vec3> redetected_a_, redetected_b_;  ///< their anchors
+  bool redetected_ = false;              ///< the last substep's contacts were not only carried
   /// the non-static bodies, ascending: the only ones a step moves, so the only ones its per-body
   /// stages visit (a step's cost grows with them and the contacts, not with static bodies)
   std::vector<BodyIndex> moving_;

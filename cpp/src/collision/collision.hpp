@@ -548,7 +548,7 @@ struct PairMotion {
 constexpr double kTouchInnerFraction = 0.2;
 
 /// Speculative reach of body b towards a plane of world normal n: only the approach speed counts,
-/// dt (max(0, -n . v) + dt max(0, -n . g) + |omega| rho) (m), so a body sliding along a plane does
+/// dt (max(0, -n . v) + dt max(0, -n . g) + turn_speed) (m), so a body sliding along a plane does
 /// not gather contacts it cannot reach.
 double plane_reach(const Model& model, const State& state, BodyIndex b, const Vec3& n, double dt,
                    const Vec3& gravity);
@@ -566,6 +566,52 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 void carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
                     const State& now, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,
                     std::vector<Vec3>& anchor_b);
+
+/// A pair of the PGS step is collided again in a substep once its bodies' turns since the step's
+/// detection have moved their points more than this fraction of its smaller inner radius
+/// (turned_far, redetect_turned): contacts carried along stop describing a turning corner long
+/// before it has turned through a face (docs/conventions.md, "Deep overlaps"). A step whose
+/// contacts turn faster takes substeps short enough that each turns a pair by at most as much
+/// (World::turn_substeps), at most kTurnSubsteps of them or kTurnSubstepFactor times the count
+/// its own rule gives, whichever is more: 16 at dt 1/1000 and 1/240, 64 at 1/60.
+constexpr double kTurnReach = 0.25;
+constexpr int kTurnSubsteps = 16;
+constexpr int kTurnSubstepFactor = 4;
+
+/// True when candidate pair (a, b) has turned far: turned[a] + turned[b] > kTurnReach min(inner_a,
+/// inner_b), turned (N) how far each body's turn has moved its points (m).
+inline bool turned_far(const Model& model, BodyIndex a, BodyIndex b, const std::vector<double>& turned) {
+  return turned[a] + turned[b] > kTurnReach * std::min(model.inner[a], model.inner[b]);
+}
+
+/// True when some candidate pair of `pairs` has turned far (turned_far).
+bool any_turned(const Model& model, const std::vector<std::pair<BodyIndex, BodyIndex>>& pairs,
+                const std::vector<double>& turned);
+
+/// The step's contacts in a substep after some pairs have turned far since the detection
+/// (turned_far; docs/conventions.md, "Deep overlaps": a body's rows aim where its contacts were
+/// found, and a turn moves a corner's contact off its face): the pairs of the step's candidate
+/// list scratch.pairs (as the last generate_contacts left it) that have turned far are collided
+/// again at `now`, as a detection at `now` for a step of dt would (dt: what is left of the
+/// step; speculative reach from now's velocities: body_reach; no memory written), their contacts'
+/// anchors at their points; the other pairs' carried contacts and anchors (carried, carried_a,
+/// carried_b: carry_contacts's, in pair order) are copied. Written into out, anchor_a, anchor_b,
+/// in pair order. turned (N): how far each body's turn has moved its points (m).
+void redetect_turned(const Model& model, const State& now, double dt, const Vec3& gravity, double margin,
+                     const BroadPhase& broad_phase, const ContactMemory& memory, Scratch& scratch,
+                     const std::vector<double>& turned, const std::vector<Contact>& carried,
+                     const std::vector<Vec3>& carried_a, const std::vector<Vec3>& carried_b, std::vector<Contact>& out,
+                     std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b);
+
+/// The speed (m/s) at which a body turning at |omega| (rad/s) can move its surface over a step of
+/// dt towards another, with bounding radius rho (m): |omega| rho, but a turn moves no point
+/// further than 2 rho, so at most 2 rho / dt (a capsule spun at 1,000 rad/s reaches 2 rho in a
+/// step, not 17 rho at dt 1/60).
+inline double turn_speed(double omega, double rho, double dt) { return std::min(omega * rho, 2.0 * rho / dt); }
+
+/// How far body i's surface can travel in a step of dt (m): dt (|v| + dt |g| + turn_speed), 0
+/// for a static or sleeping body.
+double body_reach(const Model& model, const State& state, BodyIndex i, double dt, const Vec3& gravity);
 
 /// Contact generation: all contacts for the current state, in the order of docs/conventions.md,
 /// written into out (cleared first), using and growing the scratch buffers. Only pairs that

@@ -367,11 +367,15 @@ void speculative_reach(const Model& model, const State& state, double dt, const 
   if (bodies == nullptr) reach.assign(model.size(), 0.0);
   parallel::fit(reach, model.size(), 0.0);
   parallel::each_body(bodies, model.size(), [&](std::size_t i) {
-    // a static or sleeping body does not move
-    reach[i] = model.is_static[i] || state.asleep(i)
-                   ? 0.0
-                   : dt * (state.v[i].norm() + dt * gravity.norm() + state.omega[i].norm() * model.rho[i]);
+    reach[i] = body_reach(model, state, static_cast<BodyIndex>(i), dt, gravity);
   });
+}
+
+double body_reach(const Model& model, const State& state, BodyIndex i, double dt, const Vec3& gravity) {
+  // a static or sleeping body does not move
+  return model.is_static[i] || state.asleep(i)
+             ? 0.0
+             : dt * (state.v[i].norm() + dt * gravity.norm() + turn_speed(state.omega[i].norm(), model.rho[i], dt));
 }
 
 PairMotion::PairMotion(const Model& model, const State& state, BodyIndex a, BodyIndex b, double dt_,
@@ -412,7 +416,7 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
                    const Vec3& gravity) {
   if (model.is_static[b]) return 0.0;
   return dt * (std::max(0.0, -n.dot(state.v[b])) + dt * std::max(0.0, -n.dot(gravity)) +
-               state.omega[b].norm() * model.rho[b]);
+               turn_speed(state.omega[b].norm(), model.rho[b], dt));
 }
 
 void carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
@@ -564,6 +568,47 @@ void keep_manifold(const State& state, BodyIndex a, BodyIndex b, const std::vect
   kept.push_back(m);
 }
 
+/// Candidate pair (i, j) as collide() takes it: a static-only shape (plane, triangle mesh) is A.
+std::pair<BodyIndex, BodyIndex> collided_order(const Model& model, BodyIndex i, BodyIndex j) {
+  const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
+  return swap ? std::make_pair(j, i) : std::make_pair(i, j);
+}
+
+/// Pair (a, b), in collided order, collided at `state`: its contacts appended to out, with their
+/// bodies and lever arms (y - p_X). threshold: margin + reach_a + reach_b (m), or, against a
+/// plane, margin + plane_reach. A triangle mesh A gets B's past from memory (past: its crossing
+/// found); separating: the separating-face cache (last, next), or nulls for none.
+void collide_pair(const Model& model, const State& state, BodyIndex a, BodyIndex b, double reach_a, double reach_b,
+                  double dt, const Vec3& gravity, double margin, const BroadPhase& broad_phase,
+                  const ContactMemory& memory, Scratch& buffers, std::vector<Contact>& out, TrianglePast& past,
+                  const std::vector<SeparatingFace>* separating_last, std::vector<SeparatingFace>* separating_next) {
+  double threshold = margin + reach_a + reach_b;
+  if (const auto* plane = std::get_if<Plane>(&model.shape[a]))
+    threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
+  const std::size_t first = out.size();
+  // a triangle mesh remembers which side of it the body belongs on (trimesh_item)
+  if (std::holds_alternative<TriangleMesh>(model.shape[a])) {
+    if (memory.previous_p.size() == model.size()) {
+      past.travel = state.p[b] - memory.previous_p[b];
+      if (memory.crossing[b].mesh == a) past.remembered = memory.crossing[b].triangle;
+    }
+    past.body_centre = state.p[b];
+    past.body_radius = model.rho[b];
+  }
+  const PairMotion motion(model, state, a, b, dt, gravity, margin);
+  PairContext context{a, b, &motion, &past};
+  context.separating_last = separating_last;
+  context.separating_next = separating_next;
+  collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
+          {broad_phase.triangles(a), broad_phase.triangles(b), &buffers}, out, context);
+  for (std::size_t k = first; k < out.size(); ++k) {
+    out[k].body_a = a;
+    out[k].body_b = b;
+    out[k].arm_a = out[k].point - state.p[a];
+    out[k].arm_b = out[k].point - state.p[b];
+  }
+}
+
 }  // namespace
 
 void generate_contacts(const Model& model, const State& state, double dt, const Vec3& gravity, double margin,
@@ -573,7 +618,6 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   if (bodies == nullptr) memory.crossing_next.assign(model.size(), Crossing());
   parallel::fit(memory.crossing_next, model.size(), Crossing());
   parallel::each_body(bodies, model.size(), [&](std::size_t i) { memory.crossing_next[i] = Crossing(); });
-  const bool remembers = memory.previous_p.size() == model.size();
   std::vector<double>& reach = scratch.reach;
   speculative_reach(model, state, dt, gravity, reach, bodies);
   // candidate pairs: the broad phase's, plus every plane against every dynamic body
@@ -603,10 +647,7 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   manifolds.next.clear();
   if (!chunked) manifolds.next_points.clear();
   // a candidate pair (i, j) as collide() takes it: a static-only shape (plane, triangle mesh) is A
-  const auto ordered = [&](BodyIndex i, BodyIndex j) {
-    const bool swap = static_only(model.shape[j]) && !static_only(model.shape[i]);
-    return swap ? std::make_pair(j, i) : std::make_pair(i, j);
-  };
+  const auto ordered = [&](BodyIndex i, BodyIndex j) { return collided_order(model, i, j); };
   // whether pair (a, b) keeps its manifolds from step to step (docs/conventions.md, "Contact recycling")
   const auto keeps = [&](BodyIndex a, BodyIndex b) { return recycle > 0.0 && recycles(model.shape[a], model.shape[b]); };
   // the last detection's manifold of (a, b) when the pair keeps it this step (it has hardly moved
@@ -624,33 +665,11 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
                                 std::vector<SeparatingFace>& separating, auto&& crossed, std::vector<KeptManifold>& kept,
                                 std::vector<KeptPoint>& kept_points) {
     const auto [a, b] = ordered(i, j);
-    double threshold = margin + reach[i] + reach[j];
-    if (const auto* plane = std::get_if<Plane>(&model.shape[a]))
-      threshold = margin + plane_reach(model, state, b, state.R[a] * plane->normal, dt, gravity);
     const std::size_t first = out.size();
-    // a triangle mesh remembers which side of it the body belongs on (trimesh_item)
     TrianglePast past;
-    if (std::holds_alternative<TriangleMesh>(model.shape[a])) {
-      if (remembers) {
-        past.travel = state.p[b] - memory.previous_p[b];
-        if (memory.crossing[b].mesh == a) past.remembered = memory.crossing[b].triangle;
-      }
-      past.body_centre = state.p[b];
-      past.body_radius = model.rho[b];
-    }
-    const PairMotion motion(model, state, a, b, dt, gravity, margin);
-    PairContext context{a, b, &motion, &past};
-    context.separating_last = &memory.separating.last;
-    context.separating_next = &separating;
-    collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
-            {broad_phase.triangles(a), broad_phase.triangles(b), &buffers}, out, context);
+    collide_pair(model, state, a, b, reach[a], reach[b], dt, gravity, margin, broad_phase, memory, buffers, out, past,
+                 &memory.separating.last, &separating);
     if (past.found >= 0) crossed(b, Crossing{a, past.found});
-    for (std::size_t k = first; k < out.size(); ++k) {
-      out[k].body_a = a;
-      out[k].body_b = b;
-      out[k].arm_a = out[k].point - state.p[a];
-      out[k].arm_b = out[k].point - state.p[b];
-    }
     if (keeps(a, b) && out.size() > first) keep_manifold(state, a, b, out, first, kept, kept_points);
   };
   const std::size_t P = pairs.size();
@@ -780,6 +799,45 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
   if (!std::is_sorted(memory.separating.next.begin(), memory.separating.next.end()))
     std::sort(memory.separating.next.begin(), memory.separating.next.end());
   std::swap(memory.separating.last, memory.separating.next);
+}
+
+bool any_turned(const Model& model, const std::vector<std::pair<BodyIndex, BodyIndex>>& pairs,
+                const std::vector<double>& turned) {
+  return std::any_of(pairs.begin(), pairs.end(), [&](const auto& p) { return turned_far(model, p.first, p.second, turned); });
+}
+
+void redetect_turned(const Model& model, const State& now, double dt, const Vec3& gravity, double margin,
+                     const BroadPhase& broad_phase, const ContactMemory& memory, Scratch& scratch,
+                     const std::vector<double>& turned, const std::vector<Contact>& carried,
+                     const std::vector<Vec3>& carried_a, const std::vector<Vec3>& carried_b, std::vector<Contact>& out,
+                     std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b) {
+  out.clear();
+  anchor_a.clear();
+  anchor_b.clear();
+  const std::size_t K = carried.size();
+  std::size_t i = 0;  // the carried contacts, in pair order: a pair's run starts at i
+  for (const auto& [first, second] : scratch.pairs) {
+    const auto [a, b] = collided_order(model, first, second);
+    const std::size_t from = i;
+    while (i < K && carried[i].body_a == a && carried[i].body_b == b) ++i;
+    // a sensor's pairs are never solved (World::split_sensors took them out)
+    if (turned_far(model, a, b, turned) && !model.is_sensor[a] && !model.is_sensor[b]) {
+      const std::size_t before = out.size();
+      TrianglePast past;  // (the crossing it finds is the next detection's to find)
+      collide_pair(model, now, a, b, body_reach(model, now, a, dt, gravity), body_reach(model, now, b, dt, gravity), dt,
+                   gravity, margin, broad_phase, memory, scratch, out, past, nullptr, nullptr);
+      for (std::size_t k = before; k < out.size(); ++k) {  // found here: the lever arms are the point's now
+        anchor_a.push_back(out[k].point);
+        anchor_b.push_back(out[k].point);
+      }
+    } else {
+      out.insert(out.end(), carried.begin() + static_cast<std::ptrdiff_t>(from), carried.begin() + static_cast<std::ptrdiff_t>(i));
+      anchor_a.insert(anchor_a.end(), carried_a.begin() + static_cast<std::ptrdiff_t>(from), carried_a.begin() + static_cast<std::ptrdiff_t>(i));
+      anchor_b.insert(anchor_b.end(), carried_b.begin() + static_cast<std::ptrdiff_t>(from), carried_b.begin() + static_cast<std::ptrdiff_t>(i));
+    }
+  }
+  if (i != K)
+    throw std::logic_error("redetect_turned: the step's contacts are not in the order of its candidate pairs");
 }
 
 }  // namespace signorini::collision

@@ -211,8 +211,6 @@ std::vector<Contact>& World::own_contacts() {
 
 void World::step_once(double dt) {
   if (settings_.solver.method == SolverMethod::Soft) return soft_step_once(dt);
-  const int n = substep_count(dt);
-  const double h = dt / n;
   StepProfile& t = report_.time;
   Laps lap(t);
   guard_->begin(state_, *solver_, &moving_, pool_.get());  // checkpoint: what an undo puts back
@@ -223,9 +221,17 @@ void World::step_once(double dt) {
   lap(t.detect);
   wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
   lap(t.wake);
+  // (after the wake: a joint that woke asks for its substeps; automatic substeps are also short
+  // enough for the fast-turning bodies in contact, at most kTurnSubsteps of them or
+  // kTurnSubstepFactor times the step's own count)
+  const bool automatic = settings_.solver.substeps < 1;
+  int n = substep_count(dt);
+  const int most = std::max(collision::kTurnSubsteps, collision::kTurnSubstepFactor * n);
+  if (automatic) n = std::max(n, std::min(most, turn_substeps(contacts_base_, dt)));
+  double h = dt / n, elapsed = 0.0;
   SolverStats stats;
   for (int k = 0; k < n; ++k) {
-    carry_contacts(k);                                 // the step's contacts moved to this substep
+    carry_contacts(k, dt - elapsed);                   // the step's contacts moved to this substep
     dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, settings_.solver.gyroscopic, v_, omega_,
                                      pool_.get(), &moving_);
     stats = solver::solve_contacts(model_, state_, h, settings_.solver, contacts_next_, v_, omega_, *solver_,
@@ -235,6 +241,16 @@ void World::step_once(double dt) {
     dynamics::advance(model_, state_, solver_->v_move, solver_->omega_move, v_, omega_, h, pool_.get(), &moving_);
     guard_->check_finite(model_, state_, *solver_, &moving_);  // checkpoint: nothing non-finite is kept
     end_substep(stats, h);
+    elapsed += h;
+    // a body set turning fast by this substep's contacts: the rest of the step in shorter substeps
+    if (automatic && k + 1 < n && n < most) {
+      const double rest = (n - k - 1) * h;
+      const int more = std::min(most - k - 1, turn_substeps(contacts_next_, rest));
+      if (more > n - k - 1) {
+        h = rest / more;
+        n = k + 1 + more;
+      }
+    }
     lap(t.integrate);
   }
   continuous();                                        // fast bodies put back before the static ones they passed
@@ -308,13 +324,93 @@ void World::soft_step_once(double dt) {
   lap.done();
 }
 
-void World::carry_contacts(int k) {
+namespace {
+
+/// The step's impulse sums for the contacts `now` (K), from the last substep's contacts `last`,
+/// whose impulse fields hold their sums so far: a contact's sum is that of the contact of `last`
+/// with its key (bodies, features), else 0 (a point found anew). Both lists are in the order of the
+/// step's candidate pairs, sorted by (lower body, higher body); a pair's points are matched among
+/// themselves (at most a few).
+void match_impulses(const std::vector<Contact>& last, const std::vector<Contact>& now, std::vector<double>& sums) {
+  const auto pair_of = [](const Contact& c) { return std::make_pair(std::min(c.body_a, c.body_b), std::max(c.body_a, c.body_b)); };
+  sums.assign(now.size(), 0.0);
+  std::size_t i = 0;
+  for (std::size_t j = 0; j < now.size();) {
+    const auto pair = pair_of(now[j]);
+    std::size_t end = j;  // now's run of the pair
+    while (end < now.size() && now[end].body_a == now[j].body_a && now[end].body_b == now[j].body_b) ++end;
+    while (i < last.size() && pair_of(last[i]) < pair) ++i;
+    std::size_t last_end = i;  // last's run of the pair
+    while (last_end < last.size() && last[last_end].body_a == now[j].body_a && last[last_end].body_b == now[j].body_b)
+      ++last_end;
+    for (std::size_t k = j; k < end; ++k)
+      for (std::size_t m = i; m < last_end; ++m)
+        if (last[m].feature_a == now[k].feature_a && last[m].feature_b == now[k].feature_b) {
+          sums[k] = last[m].impulse;
+          break;
+        }
+    i = last_end;
+    j = end;
+  }
+}
+
+}  // namespace
+
+void World::carry_contacts(int k, double rest) {
   if (k == 0) {
     // copied into kept storage, grown geometrically (a copy assignment allocates the exact size)
     if (contacts_next_.capacity() < contacts_base_.size()) contacts_next_.reserve(2 * contacts_base_.size());
     contacts_next_ = contacts_base_;
-  } else {
-    collision::carry_contacts(model_, contacts_base_, guard_->start(), state_, contacts_next_, anchor_a_, anchor_b_);
+    redetected_ = false;
+    return;
+  }
+  find_turned();
+  const bool turned = collision::any_turned(model_, scratch_->pairs, turned_);
+  // the step's impulse sums follow the contacts by key when the list is not the carried one
+  const bool rekey = turned || redetected_;
+  if (rekey) contacts_prev_.swap(contacts_next_);  // (their impulses are the sums so far: sum_impulses)
+  collision::carry_contacts(model_, contacts_base_, guard_->start(), state_, contacts_next_, anchor_a_, anchor_b_);
+  if (turned) {
+    collision::redetect_turned(model_, state_, rest, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
+                               *scratch_, turned_, contacts_next_, anchor_a_, anchor_b_, redetected_list_,
+                               redetected_a_, redetected_b_);
+    contacts_next_.swap(redetected_list_);
+    anchor_a_.swap(redetected_a_);
+    anchor_b_.swap(redetected_b_);
+  }
+  redetected_ = turned;
+  if (rekey) match_impulses(contacts_prev_, contacts_next_, impulse_sum_);
+}
+
+int World::turn_substeps(const std::vector<Contact>& contacts, double span) const {
+  // the substeps that keep each pair's turn within kTurnReach of its smaller inner radius:
+  // span (|omega_A| rho_A + |omega_B| rho_B) / (kTurnReach min(inner_A, inner_B))
+  const auto sweep = [&](BodyIndex i) {
+    return model_.is_static[i] || std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : state_.omega[i].norm() * model_.rho[i];
+  };
+  // a contact that closes within the span at speed u counts u too: an impact off the centre can
+  // set a body turning at about u / rho within a substep, too late for the substeps after it
+  const auto closing = [&](const Contact& c) {
+    const auto at = [&](BodyIndex i) { return Vec3(state_.v[i] + state_.omega[i].cross(c.point - state_.p[i])); };
+    const double u = std::max(0.0, -c.normal.dot(at(c.body_b) - at(c.body_a)));
+    return c.gap < span * u ? u : 0.0;
+  };
+  double fastest = 0.0;
+  for (const Contact& c : contacts)
+    fastest = std::max(fastest, (sweep(c.body_a) + sweep(c.body_b) + closing(c)) /
+                                    std::min(model_.inner[c.body_a], model_.inner[c.body_b]));
+  // (a huge count is capped by the caller; 1e-9 absorbs rounding)
+  return static_cast<int>(std::clamp(std::ceil(span * fastest / collision::kTurnReach - 1e-9), 1.0, 1e6));
+}
+
+void World::find_turned() {
+  // how far a turn from R_0 to R moves a point at distance rho from the centre, at most:
+  // 2 sin(angle / 2) rho = sqrt(3 - tr(R R_0^T)) rho (tr = 1 + 2 cos(angle))
+  const State& start = guard_->start();
+  turned_.assign(model_.size(), 0.0);
+  for (const BodyIndex i : moving_) {
+    if (state_.asleep(i) || std::holds_alternative<Sphere>(model_.shape[i])) continue;
+    turned_[i] = std::sqrt(std::max(0.0, 3.0 - state_.R[i].cwiseProduct(start.R[i]).sum())) * model_.rho[i];
   }
 }
 

@@ -23,7 +23,8 @@ Modules, in the order of a step:
     rays      ray casts by brute force (containment tests, sampling and bisection; triangles by
               edge functions), to check the World's queries
     step      one step (contacts, then substeps of velocity, solve, integrate on the contacts
-              carried along: carry_contacts; or the soft step) and a rollout
+              carried along: carry_contacts, a fast-turning pair's found again: redetect_turned,
+              in substeps short enough for its turn: turn_substeps; or the soft step) and a rollout
 
 A snapshot (``World.snapshot()``, or built by hand) holds gravity, settings (defaults in
 ``solver.DEFAULT_SETTINGS`` for missing keys), bodies (shape, static, mass, inv_mass, inertia,
@@ -131,7 +132,7 @@ from .solver import (
     warm_start,
 )
 from .soft import carried_gaps, contact_softness, core_offsets, gap_rounding, rounding_radius, soft_step, soft_sweep, softness
-from .step import carry_contacts, copy_snapshot, rollout, step, step_once
+from .step import carry_contacts, copy_snapshot, redetect_turned, rollout, step, step_once, turn_substeps
 from .support import (
     fibonacci_sphere,
     support_box,
@@ -159,7 +160,7 @@ __all__ = [
     "quat_to_matrix", "reachable", "read_cache", "reduce_manifold", "restitution", "restitutive_contacts",
     "rodrigues", "rollout", "select_manifold", "shape_volume", "signed_area", "skew",
     "solve_contacts", "solver_settings", "sort_cache", "speculative_bias", "speculative_reach", "spinning_friction",
-    "carry_contacts", "step", "step_once", "store", "support_box", "support_capsule", "support_cylinder",
+    "carry_contacts", "redetect_turned", "step", "step_once", "store", "turn_substeps", "support_box", "support_capsule", "support_cylinder",
     "support_hull", "support_of", "support_separation", "support_sphere", "tangent_basis",
     "unconstrained_velocity", "velocities_from_alpha", "warm_start", "world_inertia",
     "apply_forces", "carried_gaps", "contact_softness", "core_offsets", "friction_rows", "gap_rounding",

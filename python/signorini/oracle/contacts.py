@@ -67,8 +67,15 @@ def bounding_radius(shape):
     raise ValueError(f"unknown shape type {kind!r}")
 
 
+def turn_speed(omega, rho, dt):
+    """How fast (m/s) a body turning at omega rad/s can move its surface over a step of dt, with
+    bounding radius rho m: omega rho, but a turn moves no point further than 2 rho, so at most
+    2 rho / dt."""
+    return min(omega * rho, 2.0 * rho / dt)
+
+
 def speculative_reach(snapshot, dt):
-    """s_b = dt (|v_b| + dt |g| + |omega_b| rho_b) per dynamic body, 0 for static ones.
+    """s_b = dt (|v_b| + dt |g| + turn_speed(|omega_b|, rho_b, dt)) per dynamic body, 0 for static ones.
 
     Inputs: snapshot, dt s.  Output (N,) m: how far a body's surface can travel in one step.
     """
@@ -80,13 +87,13 @@ def speculative_reach(snapshot, dt):
     for b, body in enumerate(snapshot["bodies"]):
         if not static[b]:
             rho = bounding_radius(body["shape"])
-            s[b] = dt * (np.linalg.norm(v[b]) + dt * g + np.linalg.norm(omega[b]) * rho)
+            s[b] = dt * (np.linalg.norm(v[b]) + dt * g + turn_speed(np.linalg.norm(omega[b]), rho, dt))
     return s
 
 
 def plane_reach(snapshot, b, n, dt):
     """Reach of body b towards a plane of world normal n (3,): only the approach counts,
-    dt (max(0, -n . v_b) + dt max(0, -n . g) + |omega_b| rho_b); 0 for a static body. m."""
+    dt (max(0, -n . v_b) + dt max(0, -n . g) + turn_speed(|omega_b|, rho_b, dt)); 0 for a static body. m."""
     body = snapshot["bodies"][b]
     if body["static"]:
         return 0.0
@@ -94,7 +101,7 @@ def plane_reach(snapshot, b, n, dt):
     omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)[b]
     g = np.asarray(snapshot["gravity"], dtype=float)
     return dt * (max(0.0, -float(n @ v)) + dt * max(0.0, -float(n @ g))
-                 + np.linalg.norm(omega) * bounding_radius(body["shape"]))
+                 + turn_speed(np.linalg.norm(omega), bounding_radius(body["shape"]), dt))
 
 
 def _relative_motion(snapshot, a, b, y):

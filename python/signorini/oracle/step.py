@@ -16,7 +16,7 @@ import copy
 
 import numpy as np
 
-from .contacts import detect_contacts
+from .contacts import bounding_radius, detect_contacts
 from .joints import break_joints
 from .rigid import apply_impulses, integrate, unconstrained_velocity
 from .soft import contact_rounding, soft_step
@@ -127,6 +127,96 @@ def carry_contacts(contacts, detected, now):
     return out
 
 
+# A pair is collided again in a substep once its bodies' turns since the step's detection have
+# moved their points more than TURN_REACH of its smaller inner radius; automatic substeps are short
+# enough that each turns a pair by at most as much, at most TURN_SUBSTEPS of them or
+# TURN_SUBSTEP_FACTOR times the step's own count (the core's collision::kTurnReach, kTurnSubsteps,
+# kTurnSubstepFactor; docs/conventions.md, "Deep overlaps")
+TURN_REACH = 0.25
+TURN_SUBSTEPS = 16
+TURN_SUBSTEP_FACTOR = 4
+
+
+def _turn_radii(snapshot):
+    """Per body (N,): its bounding radius rho (m), 0 for a static body or a sphere (a sphere's
+    contacts do not follow its turn); and its inner radius (m, infinity when unknown)."""
+    rho = np.array([0.0 if b.get("static") or b["shape"]["type"] == "sphere" else bounding_radius(b["shape"])
+                    for b in snapshot["bodies"]])
+    inner = np.array([float(b.get("inner_radius", np.inf)) for b in snapshot["bodies"]])
+    return rho, inner
+
+
+def turn_substeps(snapshot, contacts, span):
+    """The substeps ``span`` seconds take for the contacts' fast-turning bodies at the snapshot's
+    angular velocities: the fewest that turn each contact's pair by at most TURN_REACH of its
+    smaller inner radius, span (|omega_A| rho_A + |omega_B| rho_B + u) / (TURN_REACH min(inner_A,
+    inner_B)), with u the contact's closing speed -n . (v_B(y) - v_A(y)) when it closes within the
+    span (gap < span u; an impact off the centre can set a body turning at about u / rho), else 0;
+    1 when none turns, at most 10**6."""
+    a = np.asarray(contacts["body_a"], dtype=np.int64)
+    b = np.asarray(contacts["body_b"], dtype=np.int64)
+    if len(a) == 0:
+        return 1
+    rho, inner = _turn_radii(snapshot)
+    p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
+    v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
+    omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
+    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
+    gap = np.asarray(contacts["gap"], dtype=float)
+    relative = (v[b] + np.cross(omega[b], y - p[b])) - (v[a] + np.cross(omega[a], y - p[a]))
+    u = np.maximum(0.0, -np.einsum("ki,ki->k", n, relative))
+    u = np.where(gap < span * u, u, 0.0)
+    sweep = np.linalg.norm(omega, axis=1) * rho
+    fastest = float(np.max((sweep[a] + sweep[b] + u) / np.minimum(inner[a], inner[b])))
+    return int(min(max(np.ceil(span * fastest / TURN_REACH - 1e-9), 1), 10**6))
+
+
+def redetect_turned(contacts, carried, detected, now, dt):
+    """The step's contacts in a substep: ``carried`` (carry_contacts's), but for the pairs whose
+    bodies' turns since ``detected`` moved their points more than TURN_REACH of the pair's
+    smaller inner radius (a turn from R_0 to R moves a point at rho by sqrt(3 - tr(R R_0^T)) rho
+    at most), whose contacts are found again at ``now`` as a detection for a step of dt (what is
+    left of the step) finds them,
+    their anchors at their points. None when no pair has turned so far.
+
+    Inputs: contacts dict (the step's, as detected), carried dict, two snapshots, dt s.
+    Output: a contacts dict (pair order) with anchor_a, anchor_b, or None.
+    """
+    rho, inner = _turn_radii(detected)
+    R0 = np.asarray(detected["rotation"], dtype=float).reshape(-1, 3, 3)
+    R = np.asarray(now["rotation"], dtype=float).reshape(-1, 3, 3)
+    moved = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("kij,kij->k", R, R0))) * rho
+
+    far = moved[:, None] + moved[None, :] > TURN_REACH * np.minimum(inner[:, None], inner[None, :])
+    if not far.any():
+        return None
+    fresh = detect_contacts(now, dt)
+    pair_of = {}  # (lower, higher) -> (contact indices of the carried list, of the fresh list)
+    for name, c in (("carried", carried), ("fresh", fresh)):
+        for k, (i, j) in enumerate(zip(c["body_a"], c["body_b"])):
+            pair_of.setdefault((min(i, j), max(i, j)), {"carried": [], "fresh": []})[name].append(k)
+    pick = []  # (list, index) in pair order
+    for key in sorted(pair_of):
+        name = "fresh" if far[key] else "carried"
+        pick += [(name, k) for k in pair_of[key][name]]
+    anchors = {"carried": (np.asarray(carried["anchor_a"]), np.asarray(carried["anchor_b"])),
+               "fresh": (fresh["point"], fresh["point"])}
+    out = {}
+    for field in ("body_a", "body_b", "point", "normal", "gap", "feature_a", "feature_b"):
+        src = {"carried": np.asarray(carried[field]), "fresh": np.asarray(fresh[field])}
+        out[field] = np.array([src[name][k] for name, k in pick], dtype=src["carried"].dtype).reshape(
+            (len(pick),) + src["carried"].shape[1:])
+    out["anchor_a"] = np.array([anchors[name][0][k] for name, k in pick], dtype=float).reshape(-1, 3)
+    out["anchor_b"] = np.array([anchors[name][1][k] for name, k in pick], dtype=float).reshape(-1, 3)
+    return out
+
+
+def _keys(contacts):
+    return list(zip(np.asarray(contacts["body_a"]).tolist(), np.asarray(contacts["body_b"]).tolist(),
+                    np.asarray(contacts["feature_a"]).tolist(), np.asarray(contacts["feature_b"]).tolist()))
+
+
 def step(snapshot, dt, contacts=None, ties=None):
     """Advance the snapshot by one step of dt seconds: contacts detected once (reaching as far as
     the whole step moves), then n substeps of dt / n (``substeps``, or automatic), each solving the
@@ -168,12 +258,37 @@ def step(snapshot, dt, contacts=None, ties=None):
         state, info = soft_step(snapshot, contacts, dt, n, ties)
         flagged = (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
     else:
-        state, info, flagged, impulse = snapshot, None, 0, 0.0
-        for k in range(n):
-            state, info = step_once(state, dt / n, contacts if k == 0 else carry_contacts(contacts, snapshot, state))
+        # automatic substeps are short enough for the turning bodies, at most TURN_SUBSTEPS or
+        # TURN_SUBSTEP_FACTOR times the step's own count
+        automatic, most = settings["substeps"] < 1, max(TURN_SUBSTEPS, TURN_SUBSTEP_FACTOR * n)
+        if automatic:
+            n = max(n, min(most, turn_substeps(snapshot, contacts, dt)))
+        h, elapsed = dt / n, 0.0
+        state, info, flagged, impulse, last, redetected, k = snapshot, None, 0, 0.0, None, False, -1
+        while k + 1 < n:
+            k += 1
+            now = contacts
+            if k > 0:
+                now = carry_contacts(contacts, snapshot, state)
+                fresh = redetect_turned(contacts, now, snapshot, state, dt - elapsed)  # for the rest of the step
+                # the step's impulse per contact, summed over its substeps: by key once a substep's
+                # contacts are not the carried ones (a point found anew starts from 0)
+                if fresh is not None or redetected:
+                    sums = dict(zip(_keys(last), impulse))
+                    now = fresh if fresh is not None else now
+                    impulse = np.array([sums.get(key, 0.0) for key in _keys(now)], dtype=float)
+                redetected = fresh is not None
+            state, info = step_once(state, h, now)
             impulse = impulse + np.asarray(info["impulse"], dtype=float)  # the step's: summed over its substeps
+            last, elapsed = now, elapsed + h
             # the substeps the Python layer warns about: unconverged and approaching too fast
             flagged += (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
+            # a body set turning fast by this substep's contacts: the rest of the step in shorter substeps
+            if automatic and k + 1 < n and n < most:
+                rest = (n - k - 1) * h
+                more = min(most - k - 1, turn_substeps(state, now, rest))
+                if more > n - k - 1:
+                    h, n = rest / more, k + 1 + more
         info["impulse"] = impulse
     info["flagged"] = int(flagged)
     # joints pulled harder than they bear break, after the whole step (World::break_joints)
