@@ -584,7 +584,7 @@ inline bool turned_far(const Model& model, BodyIndex a, BodyIndex b, const std::
   return turned[a] + turned[b] > kTurnReach * std::min(model.inner[a], model.inner[b]);
 }
 
-/// True when some candidate pair of `pairs` has turned far (turned_far).
+/// True when some candidate pair of `pairs` without a sensor has turned far (turned_far).
 bool any_turned(const Model& model, const std::vector<std::pair<BodyIndex, BodyIndex>>& pairs,
                 const std::vector<double>& turned);
 

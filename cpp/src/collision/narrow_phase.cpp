@@ -803,7 +803,10 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
 
 bool any_turned(const Model& model, const std::vector<std::pair<BodyIndex, BodyIndex>>& pairs,
                 const std::vector<double>& turned) {
-  return std::any_of(pairs.begin(), pairs.end(), [&](const auto& p) { return turned_far(model, p.first, p.second, turned); });
+  // (a sensor's pairs are never solved: World::split_sensors took them out)
+  return std::any_of(pairs.begin(), pairs.end(), [&](const auto& p) {
+    return turned_far(model, p.first, p.second, turned) && !model.is_sensor[p.first] && !model.is_sensor[p.second];
+  });
 }
 
 void redetect_turned(const Model& model, const State& now, double dt, const Vec3& gravity, double margin,

@@ -384,8 +384,8 @@ void World::carry_contacts(int k, double rest) {
 }
 
 int World::turn_substeps(const std::vector<Contact>& contacts, double span) const {
-  // the substeps that keep each pair's turn within kTurnReach of its smaller inner radius:
-  // span (|omega_A| rho_A + |omega_B| rho_B) / (kTurnReach min(inner_A, inner_B))
+  // the substeps that keep each pair's turn (and closing) within kTurnReach of its smaller inner
+  // radius: span (|omega_A| rho_A + |omega_B| rho_B + u) / (kTurnReach min(inner_A, inner_B))
   const auto sweep = [&](BodyIndex i) {
     return model_.is_static[i] || std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : state_.omega[i].norm() * model_.rho[i];
   };
