@@ -58,7 +58,9 @@ lever, over their omega^2. It is not yet a failure class: on a first sample the 
 sweeps unconverged on jointed chains in contact and leaves errors of 1e-6 m at rest, 100 to 10,000
 times this bound. The deepest overlap of a detected contact relative to the
 smaller body's inner size (the radius of a ball it surely contains; a resting contact keeps the
-solver's slop, at most 1 mm and 0.2 of that size), the largest energy gain, the
+solver's slop, at most 1 mm and 0.2 of that size; a body's contacts with the floor are not
+measured once its centre has left a height field's square, as for ``tunnel``: fallen past the
+field's edge, it can be pulled back in under the field from below), the largest energy gain, the
 worst contact-point error and the slowest step, each with the scene it came from.
 """
 from __future__ import annotations
@@ -766,6 +768,7 @@ def run(scene: dict, log=None) -> dict:
     # the bodies whose centre left the height field's square (never judged as tunnelled)
     field = float(np.abs(floor["heightfield"][0][:, :2]).max()) if floor["heightfield"] is not None else math.inf
     left = np.zeros(n, dtype=bool)
+    floor_body = np.array([bool(static[i]) and shapes[i]["type"] in ("plane", "trimesh") for i in range(n)])
     for k in range(steps):
         # contacts of the state the step starts from: exact points, checked against both shapes
         c = world.detect_contacts(dt)
@@ -773,6 +776,9 @@ def run(scene: dict, log=None) -> dict:
             P, R = world.positions, world.rotations
             gap = c.gap
             rel = -gap / np.minimum(inner[c.body_a], inner[c.body_b])
+            # (a body that left the height field's square may come back in under it: as for tunnel)
+            under = floor_body[c.body_a] & left[c.body_b] | floor_body[c.body_b] & left[c.body_a]
+            rel = np.where(under, 0.0, rel)
             worst = int(np.argmax(rel))
             if rel[worst] > max_overlap:
                 max_overlap = float(rel[worst])
