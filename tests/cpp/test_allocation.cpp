@@ -217,6 +217,33 @@ TEST(Allocation, StepsOnTwoThreadsAllocateNothingAfterWarmUp) {
   }
 }
 
+/// A cube spinning at 200 rad/s on a frictionless floor among resting boxes, in both solvers: its
+/// corner pairs are collided again within the step (the PGS's substeps, the soft step's runs of
+/// rows), into kept buffers.
+TEST(Allocation, StepsWithATurningPairFoundAgainAllocateNothingAfterWarmUp) {
+  for (SolverMethod method : {SolverMethod::Soft, SolverMethod::PGS}) {
+    WorldSettings settings = awake();
+    settings.solver.method = method;
+    World w(settings);
+    BodyDesc floor;
+    floor.shape = Plane(Vec3::UnitZ(), 0.0);
+    floor.is_static = true;
+    floor.material.friction = 0.0;
+    w.add_body(floor);
+    for (int k = 0; k < 4; ++k) {
+      BodyDesc d;
+      d.shape = Box(Vec3(0.05, 0.05, 0.05));
+      d.mass = 1.0;
+      d.position = Vec3(0.3 * k, 0.0, 0.05);
+      d.material.friction = 0.0;
+      if (k == 0) d.angular_velocity = Vec3(0.0, 0.0, 200.0);
+      w.add_body(d);
+    }
+    expect_quiet(allocations_after_warm_up(w, 1.0 / 60.0));
+    EXPECT_GT(w.step_report().steps, 16);  // the turn's substeps
+  }
+}
+
 TEST(Allocation, StepsOfABusyPileWithSpinRowsAllocateNothingAfterWarmUp) {
   World w(awake());
   build_pit(w, 0.002);

@@ -165,13 +165,7 @@ def top_overlap(solver, dt, spin):
     return deepest
 
 
-SOFT_TOPS = pytest.mark.xfail(strict=True, reason="issue 21, not met yet: the soft step keeps its rows, lever arms "
-                              "as detected, through the step while a spun capsule's core circles the axis of omega "
-                              "(docs/conventions.md, \"Deep overlaps\": tops); the PGS finds a fast-turning pair's "
-                              "contacts again in its substeps")
-
-
-@pytest.mark.parametrize("solver", ["pgs", pytest.param("soft", marks=SOFT_TOPS)])
+@pytest.mark.parametrize("solver", ["pgs", "soft"])
 @pytest.mark.parametrize("dt", [1 / 240, 1 / 60])
 @pytest.mark.parametrize("spin", [100.0, 200.0])
 def test_a_capsule_spinning_like_a_top_sinks_no_further_than_its_contact_force_presses_it(solver, dt, spin):

@@ -64,7 +64,10 @@ def test_no_contact_pulls_a_body_towards_the_back_of_a_triangle(shape):
 @pytest.mark.parametrize("dt", [1 / 60, 1 / 1000])
 def test_small_fast_spinning_bodies_dropped_on_a_triangle_floor_come_to_rest_on_it(dt):
     # 2.5 cm bodies of every convex kind hit a triangle-mesh floor at 11 m/s spinning at up to
-    # 50 rad/s; after 1.5 s each rests on the floor: centre above it by at most its bounding radius
+    # 50 rad/s; from 1.4 s to 1.5 s each stays on the floor: centre above it by at most its
+    # bounding radius at every step (round ones may still roll and wobble like coins: a cylinder
+    # rocking on its rim between 0.3 and 0.87 of its tilt moves its centre up and down 3.5 mm at
+    # +-0.09 m/s, so a single velocity says less than the whole window)
     rng = np.random.default_rng(11)
     hull_points = rng.normal(size=(12, 3))
     hull_points *= 0.0125 / np.linalg.norm(hull_points, axis=1, keepdims=True)
@@ -82,13 +85,13 @@ def test_small_fast_spinning_bodies_dropped_on_a_triangle_floor_come_to_rest_on_
         bodies.append((i, sg.shape_dict(w.shape(i))))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sg.SolverWarning)  # the impacts, not what is tested here
-        w.step(dt, int(round(1.5 / dt)))
-    for i, shape in bodies:
-        z = w.positions[i][2]
-        assert z > 0.0, (i, shape["type"], z)
-        assert z < 0.0125 * np.sqrt(3) + 0.002, (i, shape["type"], z)
-        # on the floor, not falling through it (round ones may still roll and wobble like coins)
-        assert w.velocities[i][2] > -0.05, (i, shape["type"], w.velocities[i])
+        w.step(dt, int(round(1.4 / dt)))
+        for _ in range(int(round(0.1 / dt))):
+            w.step(dt)
+            for i, shape in bodies:
+                z = w.positions[i][2]
+                assert z > 0.0, (i, shape["type"], z)
+                assert z < 0.0125 * np.sqrt(3) + 0.002, (i, shape["type"], z)
 
 
 @pytest.mark.parametrize("dt", [1 / 60, 1 / 240])

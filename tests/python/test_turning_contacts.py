@@ -1,15 +1,18 @@
-"""Contacts of fast-turning bodies found again inside the PGS step (issue 21, "Deep overlaps go";
+"""Contacts of fast-turning bodies found again inside the step (issue 21, "Deep overlaps go";
 docs/conventions.md, "Deep overlaps": turning contacts).
 
 A pair whose bodies' turns since the step's detection have moved their points more than
 TURN_REACH (0.25) of its smaller inner radius is collided again at the substep's poses, and a
 step with automatic substeps takes so many that each turns a contact's pair by at most as much (at
-most 16, or 4 times the step's own count). The oracle does the same with its own narrow phase."""
+most 16 per 1/240 s, or 4 times the step's own count; half of them up front). The soft step does
+the same in runs of rows: a run ends where a pair has turned far since its rows were made, and the
+rest of the step runs on rows made anew. The oracle does the same with its own narrow phase."""
 import numpy as np
 import pytest
 
 import signorini as sg
 from signorini import compare, fuzz, oracle
+from signorini.world import SOLVER_DEFAULTS
 
 G = 9.81
 
@@ -35,10 +38,17 @@ def test_the_oracle_counts_the_substeps_a_turning_pair_needs():
         rho = np.sqrt(3) * 0.05
         assert oracle.turn_substeps(snap, oracle.detect_contacts(snap, dt), dt) == expected
         assert expected == int(np.ceil(dt * spin * rho / (0.25 * 0.05)))
-        # the core takes max(its own count, that), at most max(16, 4 x its own)
+        # the core takes max(its own count, that), at most half of the budget, max(16 per 1/240 s,
+        # 4 x its own), up front; past half (400 rad/s at 1/240: 12 of 16), the first substep
+        # splits the rest of the step into the substeps it asks for, within the budget
         w.step(dt)
         own = int(np.ceil(dt * 960 - 1e-9))
-        assert w.step_report["steps"] == max(own, min(expected, max(16, 4 * own)))
+        budget = oracle.turn_budget(dt, own)
+        assert budget == max(16 * int(np.ceil(dt * 240 - 1e-9)), 4 * own)
+        if expected <= budget // 2:
+            assert w.step_report["steps"] == max(own, expected)
+        else:
+            assert budget // 2 < w.step_report["steps"] <= min(expected, budget)
 
 
 def test_fixed_substeps_are_kept_however_fast_a_body_turns():
@@ -57,10 +67,10 @@ def test_a_sphere_s_turn_asks_for_nothing():
     assert w.step_report["steps"] == 4
 
 
-def push_through():
+def push_through(**solver):
     """A ball (r 0.1 m, 5 kg) at 5 m/s, 1 mm from a cube (half side 0.05 m, 1 kg) with a 5 mm cube
     (1 g) touching its far side off its centre line, all on the floor."""
-    w = sg.World(gravity=(0, 0, -G), sleeping=False)
+    w = sg.World(gravity=(0, 0, -G), sleeping=False, **solver)
     w.add_static(sg.Plane((0, 0, 1), 0.0))
     w.add_body(sg.Sphere(0.1), mass=5.0, position=(-0.151, 0, 0.1), velocity=(5.0, 0, 0))
     w.add_body(sg.Box((0.05, 0.05, 0.05)), mass=1.0, position=(0, 0, 0.05))
@@ -132,3 +142,57 @@ def test_fuzzer_scenes_with_fast_turning_small_bodies_stay_above_half_their_inne
     result = fuzz.run(fuzz.generate(seed, index))
     assert not result["failures"], result["failures"]
     assert result["max_overlap"] < fuzz.DEEP_OVERLAP, result["overlap_at"]
+
+
+def test_the_soft_step_makes_its_rows_again_for_a_turning_box_as_the_oracle_does(monkeypatch):
+    # the tilted spinning cube of the PGS's test above with the soft step (its own 4 substeps at
+    # dt 1/60): a run of rows ends once a corner's pair has turned a quarter of the inner radius
+    # since the rows were made, the pair is collided again and the rest runs on new rows; the
+    # oracle, handed the core's contacts at each step's start, does the same to rounding
+    found_again = []
+    redetect = oracle.step.__globals__["redetect_turned"]
+
+    def counting(*args):
+        out = redetect(*args)
+        found_again.append(out is not None)
+        return out
+
+    monkeypatch.setitem(oracle.step.__globals__, "redetect_turned", counting)
+    w, _ = spun_box_on_floor(60.0, axis=(0.6, 0.0, 0.8), height=0.01, solver="soft")
+    report = compare.lockstep(w, 1 / 60, 40)
+    assert report.largest < 1e-10, "\n".join(report.lines())
+    assert report.contact_count_mismatches == 0
+    assert sum(found_again) > 10  # runs ended with contacts found again (16 of them)
+
+
+def test_the_soft_step_splits_the_rest_of_a_step_after_an_impact_as_the_oracle_does():
+    # the push-through scene with the soft step (its own 1 substep at dt 1/240): the ball's
+    # closing asks for 2 up front, and the impact on the small cube then splits the rest
+    w = push_through(solver="soft")
+    w.step(1 / 240)
+    assert w.step_report["steps"] > 2
+    report = compare.lockstep(push_through(solver="soft"), 1 / 240, 10)
+    assert report.largest < 1e-10, "\n".join(report.lines())
+
+
+@pytest.mark.parametrize("dt", [1 / 60, 1 / 240])
+def test_the_soft_step_s_impulse_balances_the_weight_over_its_runs_of_rows(dt):
+    # the cube spinning at 200 rad/s on the floor (friction 0) with the soft step: its corner
+    # pairs end a run of rows in most substeps, with the same features, so each contact keeps its
+    # impulse summed over the runs. The soft step's velocities change by exactly the impulses it
+    # applies, so the floor's impulse over the step is the weight's m g dt plus the change of
+    # vertical momentum, to rounding
+    w, b = spun_box_on_floor(200.0, mu=0.0, solver="soft")
+    for _ in range(20):
+        vz = w.velocities[b][2]
+        w.step(dt)
+        assert w.step_report["steps"] > 4
+        c = w.contacts
+        total = float(np.sum(c.impulse * c.normal[:, 2]))
+        expected = 1.0 * (w.velocities[b][2] - vz) + 1.0 * G * dt
+        assert total == pytest.approx(expected, rel=0, abs=1e-12)
+        assert len(c.gap) == 4
+    # it spun on, flat, each corner at its spring's static deflection: a quarter of the weight
+    # (2.45 N) on the corner's effective mass (1 / (1/m + |r x n|^2 / I) = 0.25 kg) and the floor's
+    # spring (twice contact_hertz: 60 Hz), g / omega^2 = 6.9e-5 m (10 % for the spin's wobble)
+    assert -w.contacts.gap.min() < 1.1 * G / (2 * np.pi * 2 * SOLVER_DEFAULTS["contact_hertz"]) ** 2

@@ -410,16 +410,32 @@ class World {
   /// (collision::turned_far) collided again (collision::redetect_turned, for the `rest` of the
   /// step, s), and the step's impulse sums then matched to the new list by contact key.
   void carry_contacts(int k, double rest);
-  /// turned_ (N): how far each awake, non-spherical body's turn since the step began has moved
-  /// its points, at most (m; 0 for the others: a sphere's contacts do not follow its turn).
-  void find_turned();
+  /// turned_ (N): how far each awake, non-spherical body's turn since `from` (the step's start,
+  /// or where the soft step's rows were made) has moved its points, at most (m; 0 for the others:
+  /// a sphere's contacts do not follow its turn).
+  void find_turned(const State& from);
+  /// The most substeps the turning rule gives a step of dt whose own rule gives n:
+  /// max(collision::kTurnSubsteps per 1/kTurnRate s begun, collision::kTurnSubstepFactor n). A step
+  /// takes at most half of them before its first substep, so that a body set turning by an impact
+  /// has room left.
+  int turn_budget(double dt, int n) const;
+  /// The soft step after substep k of n (h s each; automatic substeps): when a pair of its
+  /// contacts has turned far since its rows were made (collision::turned_far), or a body turns so
+  /// fast that the rest of the step wants more substeps (turn_substeps, at most `most` in all),
+  /// this run of rows ends (soft_end: its forces become the warm start, its impulses join the
+  /// step's sums), the contacts are carried to now with the turned pairs collided again, and the
+  /// rest of the step runs on rows made anew (soft_begin), in n - k - 1 or more substeps (n and h
+  /// updated). Returns whether it cut.
+  bool soft_cut(int k, int& n, double& h, int most);
+  /// contacts_next_'s impulses += impulse_sum_ (the runs before, matched by key); impulse_sum_
+  /// takes the totals.
+  void add_impulse_sums();
   /// The substeps `span` seconds take for the fast-turning bodies of `contacts` at their present
   /// angular velocities: so many that each turns a pair by at most collision::kTurnReach of its
   /// smaller inner radius (1 when none turns; at most 1e6). A step with automatic substeps takes
-  /// at least this many for its contacts as detected, and when a substep has set bodies turning
-  /// faster, the rest of the step is split again for the substep's contacts, at most
-  /// max(collision::kTurnSubsteps, collision::kTurnSubstepFactor times its own rule's count)
-  /// substeps in all.
+  /// this many for its contacts as detected (at most half of turn_budget), and when a substep has
+  /// set bodies turning faster, the rest of the step is split again for the substep's contacts,
+  /// at most turn_budget substeps in all.
   int turn_substeps(const std::vector<Contact>& contacts, double span) const;
   /// After substep k's solve: each contact's impulse becomes the sum over the substeps so far
   /// (Contacts.impulse is the step's whole normal impulse).
@@ -513,6 +529,8 @@ class World {
   std::vector<Contact> redetected_list_; ///< a substep's contacts with the turned bodies' pairs found again
   std::vector<Vec3> redetected_a_, redetected_b_;  ///< their anchors
   bool redetected_ = false;              ///< the last substep's contacts were not only carried
+  int soft_runs_ = 0;                    ///< the soft step's runs of rows ended so far (soft_cut)
+  State segment_start_;                  ///< p and R where the soft step's present rows were made
   /// the non-static bodies, ascending: the only ones a step moves, so the only ones its per-body
   /// stages visit (a step's cost grows with them and the contacts, not with static bodies)
   std::vector<BodyIndex> moving_;

@@ -561,30 +561,37 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 /// but a round side (rounding_radius rho > 0) carries its core c_B = w_B + rho_B n (c_A = w_A -
 /// rho_A n) with the whole turn, dp + (R R_0^T - I) (c - p_0), since its witness stays under the
 /// core however the body turns (a rolling ball keeps its gap; a spinning capsule's end cap follows
-/// its core). The normal stays; the lever arms stay as detected: anchor_X = y + dp_X, where the
-/// solver applies the force on X (K, world, m); y <- (anchor_a + anchor_b) / 2. Written into out.
+/// its core). The normal stays; the lever arms stay as detected: anchor_X = y + dp_X (or, given
+/// the contacts' anchors at `detected`, from_a and from_b (K), anchor_X = from_X + dp_X; a kept
+/// contact's p_X + arm_X), where the solver applies the force on X (K, world, m); y <- (anchor_a +
+/// anchor_b) / 2. Written into out.
 void carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
                     const State& now, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,
-                    std::vector<Vec3>& anchor_b);
+                    std::vector<Vec3>& anchor_b, const std::vector<Vec3>* from_a = nullptr,
+                    const std::vector<Vec3>* from_b = nullptr);
 
 /// A pair of the PGS step is collided again in a substep once its bodies' turns since the step's
 /// detection have moved their points more than this fraction of its smaller inner radius
 /// (turned_far, redetect_turned): contacts carried along stop describing a turning corner long
 /// before it has turned through a face (docs/conventions.md, "Deep overlaps"). A step whose
 /// contacts turn faster takes substeps short enough that each turns a pair by at most as much
-/// (World::turn_substeps), at most kTurnSubsteps of them or kTurnSubstepFactor times the count
-/// its own rule gives, whichever is more: 16 at dt 1/1000 and 1/240, 64 at 1/60.
+/// (World::turn_substeps), at most kTurnSubsteps of them per 1/kTurnRate s of the step (begun) or
+/// kTurnSubstepFactor times the count its own rule gives, whichever is more: 16 at dt 1/1000 and
+/// 1/240, 64 at 1/60, with either solver (World::turn_budget).
 constexpr double kTurnReach = 0.25;
 constexpr int kTurnSubsteps = 16;
+constexpr double kTurnRate = 240.0;
 constexpr int kTurnSubstepFactor = 4;
 
 /// True when candidate pair (a, b) has turned far: turned[a] + turned[b] > kTurnReach min(inner_a,
-/// inner_b), turned (N) how far each body's turn has moved its points (m).
+/// inner_b), turned (N) how far each body's turn has moved its points (m). Never for a pair with a
+/// sensor (its pairs are never solved: World::split_sensors takes them out).
 inline bool turned_far(const Model& model, BodyIndex a, BodyIndex b, const std::vector<double>& turned) {
-  return turned[a] + turned[b] > kTurnReach * std::min(model.inner[a], model.inner[b]);
+  return turned[a] + turned[b] > kTurnReach * std::min(model.inner[a], model.inner[b]) && !model.is_sensor[a] &&
+         !model.is_sensor[b];
 }
 
-/// True when some candidate pair of `pairs` without a sensor has turned far (turned_far).
+/// True when some candidate pair of `pairs` has turned far (turned_far).
 bool any_turned(const Model& model, const std::vector<std::pair<BodyIndex, BodyIndex>>& pairs,
                 const std::vector<double>& turned);
 

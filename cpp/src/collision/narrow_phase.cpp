@@ -421,7 +421,7 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 
 void carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
                     const State& now, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,
-                    std::vector<Vec3>& anchor_b) {
+                    std::vector<Vec3>& anchor_b, const std::vector<Vec3>* from_a, const std::vector<Vec3>* from_b) {
   if (out.capacity() < at_detection.size()) out.reserve(2 * at_detection.size());  // no exact-size copy
   out = at_detection;
   anchor_a.resize(out.size());
@@ -449,8 +449,8 @@ void carry_contacts(const Model& model, const std::vector<Contact>& at_detection
     const Vec3 moved_b = rho_b > 0.0 ? turned(b, c.point + half + rho_b * c.normal) : moved(b, c.point + half);
     const Vec3 moved_a = rho_a > 0.0 ? turned(a, c.point - half - rho_a * c.normal) : moved(a, c.point - half);
     c.gap += c.normal.dot(moved_b - moved_a);
-    anchor_a[k] = c.point + (now.p[a] - detected.p[a]);
-    anchor_b[k] = c.point + (now.p[b] - detected.p[b]);
+    anchor_a[k] = (from_a ? (*from_a)[k] : c.point) + (now.p[a] - detected.p[a]);
+    anchor_b[k] = (from_b ? (*from_b)[k] : c.point) + (now.p[b] - detected.p[b]);
     c.point = 0.5 * (anchor_a[k] + anchor_b[k]);
     if (c.kept) {  // its rows keep the lever arms of the detection that found its manifold
       anchor_a[k] = now.p[a] + c.arm_a;
@@ -803,10 +803,8 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
 
 bool any_turned(const Model& model, const std::vector<std::pair<BodyIndex, BodyIndex>>& pairs,
                 const std::vector<double>& turned) {
-  // (a sensor's pairs are never solved: World::split_sensors took them out)
-  return std::any_of(pairs.begin(), pairs.end(), [&](const auto& p) {
-    return turned_far(model, p.first, p.second, turned) && !model.is_sensor[p.first] && !model.is_sensor[p.second];
-  });
+  return std::any_of(pairs.begin(), pairs.end(),
+                     [&](const auto& p) { return turned_far(model, p.first, p.second, turned); });
 }
 
 void redetect_turned(const Model& model, const State& now, double dt, const Vec3& gravity, double margin,
@@ -823,8 +821,7 @@ void redetect_turned(const Model& model, const State& now, double dt, const Vec3
     const auto [a, b] = collided_order(model, first, second);
     const std::size_t from = i;
     while (i < K && carried[i].body_a == a && carried[i].body_b == b) ++i;
-    // a sensor's pairs are never solved (World::split_sensors took them out)
-    if (turned_far(model, a, b, turned) && !model.is_sensor[a] && !model.is_sensor[b]) {
+    if (turned_far(model, a, b, turned)) {
       const std::size_t before = out.size();
       TrianglePast past;  // (the crossing it finds is the next detection's to find)
       collide_pair(model, now, a, b, body_reach(model, now, a, dt, gravity), body_reach(model, now, b, dt, gravity), dt,

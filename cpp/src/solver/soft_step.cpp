@@ -105,7 +105,8 @@ Softness soften(double hertz, double zeta, double h) {
 }
 
 void soft_begin(const Model& model, const State& state, double h, const SolverSettings& settings,
-                const std::vector<Contact>& contacts, SolverData& d) {
+                const std::vector<Contact>& contacts, SolverData& d, const std::vector<Vec3>* anchor_a,
+                const std::vector<Vec3>* anchor_b) {
   const std::size_t N = model.size(), K = contacts.size();
   d.h = h;
   parallel::fit(d.dI_inv, N, Mat3(Mat3::Zero()));
@@ -128,7 +129,7 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   soften(springs[1], 2.0 * hertz, 0.5 * settings.damping_ratio, h);
   // a pair's points together, for the lanes; the warm start's forces recalled and the soft points
   // made as the rows are made, in one pass over the contacts
-  prepare(model, state, h, contacts, nullptr, nullptr, d, Order::ByPair, settings.warm_start ? &settings : nullptr,
+  prepare(model, state, h, contacts, anchor_a, anchor_b, d, Order::ByPair, settings.warm_start ? &settings : nullptr,
           springs);
   d.restitution_sweeps = 0;
   d.alpha_iter.clear();

@@ -21,7 +21,8 @@ namespace signorini::solver {
 /// Out: d's rows (dt folded as h), solve order, soft points (anchors, gaps, softness), u_i from the
 ///      state's velocities, and d.alpha recalled from the cache (applied by every solve).
 void soft_begin(const Model& model, const State& state, double h, const SolverSettings& settings,
-                const std::vector<Contact>& contacts, SolverData& d);
+                const std::vector<Contact>& contacts, SolverData& d, const std::vector<Vec3>* anchor_a = nullptr,
+                const std::vector<Vec3>* anchor_b = nullptr);
 
 /// A substep's solve. In: state (poses now), v, omega (N, world) = the unconstrained velocities.
 /// Out: v, omega = the velocities that move the poses: the forces of the last substep (or the

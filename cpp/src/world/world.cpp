@@ -223,12 +223,11 @@ void World::step_once(double dt) {
   wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
   lap(t.wake);
   // (after the wake: a joint that woke asks for its substeps; automatic substeps are also short
-  // enough for the fast-turning bodies in contact, at most kTurnSubsteps of them or
-  // kTurnSubstepFactor times the step's own count)
+  // enough for the fast-turning bodies in contact, at most turn_budget of them, half up front)
   const bool automatic = settings_.solver.substeps < 1;
   int n = substep_count(dt);
-  const int most = std::max(collision::kTurnSubsteps, collision::kTurnSubstepFactor * n);
-  if (automatic) n = std::max(n, std::min(most, turn_substeps(contacts_base_, dt)));
+  const int most = turn_budget(dt, n);
+  if (automatic) n = std::max(n, std::min(most / 2, turn_substeps(contacts_base_, dt)));
   double h = dt / n, elapsed = 0.0;
   SolverStats stats;
   for (int k = 0; k < n; ++k) {
@@ -291,13 +290,19 @@ void World::soft_step_once(double dt) {
   lap(t.detect);
   wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
   lap(t.wake);
-  const int n = substep_count(dt);                     // (after the wake: a joint that woke asks for its substeps)
-  const double h = dt / n;
+  // (after the wake: a joint that woke asks for its substeps; automatic substeps are also short
+  // enough for the fast-turning bodies in contact, as in step_once)
+  const bool automatic = q.substeps < 1;
+  int n = substep_count(dt);
+  const int most = turn_budget(dt, n);
+  if (automatic) n = std::max(n, std::min(most / 2, turn_substeps(contacts_base_, dt)));
+  double h = dt / n;
   // the step's contacts, to be written by the solver: moved, not copied (the soft step never
   // reads them as detected again; the next step detects into the other list)
   contacts_next_.swap(contacts_base_);
   solver::soft_begin(model_, state_, h, q, contacts_next_, *solver_);
   lap(t.prepare);
+  soft_runs_ = 0;
   for (int k = 0; k < n; ++k) {
     dynamics::unconstrained_velocity(model_, state_, settings_.gravity, h, q.gyroscopic, v_, omega_, pool_.get(),
                                      &moving_);
@@ -309,9 +314,13 @@ void World::soft_step_once(double dt) {
     lap(t.relax);
     guard_->check_finite(model_, state_, *solver_, &moving_);  // checkpoint: nothing non-finite is kept
     ++report_.steps;
+    // a pair turned far since the rows were made, or a body set turning fast: the rest of the step
+    // on rows made again (at most `most` substeps in all)
+    if (automatic && k + 1 < n) soft_cut(k, n, h, most);
     lap(t.integrate);
   }
-  const SolverStats stats = solver::soft_end(model_, state_, q, contacts_next_, state_.v, state_.omega, *solver_);
+  SolverStats stats = solver::soft_end(model_, state_, q, contacts_next_, state_.v, state_.omega, *solver_);
+  if (soft_runs_ > 0) add_impulse_sums();  // the step's impulses: the runs before summed by key
   end_substep_flags(stats, state_.time);
   solver_->cache.swap(solver_->cache_next);
   lap(t.store);
@@ -365,7 +374,7 @@ void World::carry_contacts(int k, double rest) {
     redetected_ = false;
     return;
   }
-  find_turned();
+  find_turned(guard_->start());
   const bool turned = collision::any_turned(model_, scratch_->pairs, turned_);
   // the step's impulse sums follow the contacts by key when the list is not the carried one
   const bool rekey = turned || redetected_;
@@ -381,6 +390,70 @@ void World::carry_contacts(int k, double rest) {
   }
   redetected_ = turned;
   if (rekey) match_impulses(contacts_prev_, contacts_next_, impulse_sum_);
+}
+
+int World::turn_budget(double dt, int n) const {
+  // (1e-9 absorbs rounding: dt = 1/240 is one span)
+  const int spans = static_cast<int>(std::clamp(std::ceil(dt * collision::kTurnRate - 1e-9), 1.0, 1e6));
+  return std::max(collision::kTurnSubsteps * spans, collision::kTurnSubstepFactor * n);
+}
+
+bool World::soft_cut(int k, int& n, double& h, int most) {
+  // the rows were made at segment_start_'s poses (the step's start for the first run of rows)
+  const State& from = soft_runs_ ? segment_start_ : guard_->start();
+  find_turned(from);
+  const bool turned = std::any_of(contacts_next_.begin(), contacts_next_.end(), [&](const Contact& c) {
+    return collision::turned_far(model_, c.body_a, c.body_b, turned_);
+  });
+  const double rest = (n - k - 1) * h;
+  const int more = n < most ? std::min(most - k - 1, turn_substeps(contacts_next_, rest)) : 0;
+  if (!turned && more <= n - k - 1) return false;
+  // this run of rows ends here: its forces stored (the next run's warm start, by key) and its
+  // impulses added to the step's sums so far
+  const SolverStats stats =
+      solver::soft_end(model_, state_, settings_.solver, contacts_next_, state_.v, state_.omega, *solver_);
+  end_substep_flags(stats, state_.time);
+  solver_->cache.swap(solver_->cache_next);
+  if (soft_runs_ == 0) impulse_sum_.assign(contacts_next_.size(), 0.0);
+  add_impulse_sums();
+  // the run's contacts carried to now, the turned pairs collided again for the rest of the step
+  // (a run after the first was made on carried contacts: their anchors, not their points, move on)
+  contacts_prev_.swap(contacts_next_);
+  if (soft_runs_ > 0) {
+    redetected_a_.swap(anchor_a_);
+    redetected_b_.swap(anchor_b_);
+  }
+  collision::carry_contacts(model_, contacts_prev_, from, state_, contacts_next_, anchor_a_, anchor_b_,
+                            soft_runs_ > 0 ? &redetected_a_ : nullptr, soft_runs_ > 0 ? &redetected_b_ : nullptr);
+  if (turned) {
+    collision::redetect_turned(model_, state_, rest, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
+                               *scratch_, turned_, contacts_next_, anchor_a_, anchor_b_, redetected_list_,
+                               redetected_a_, redetected_b_);
+    contacts_next_.swap(redetected_list_);
+    anchor_a_.swap(redetected_a_);
+    anchor_b_.swap(redetected_b_);
+  }
+  match_impulses(contacts_prev_, contacts_next_, impulse_sum_);
+  if (more > n - k - 1) {
+    h = rest / more;
+    n = k + 1 + more;
+  }
+  segment_start_.p = state_.p;  // (copies into kept storage)
+  segment_start_.R = state_.R;
+  ++soft_runs_;
+  solver::soft_begin(model_, state_, h, settings_.solver, contacts_next_, *solver_, &anchor_a_, &anchor_b_);
+  return true;
+}
+
+void World::add_impulse_sums() {
+  // Contacts.impulse: the step's whole normal impulse, this run's added to the sums before it
+  // (and the touching flags, which store set from this run's alone, from the sum: what the events read)
+  const bool flags = solver_->touches.size() == contacts_next_.size();
+  for (std::size_t i = 0; i < contacts_next_.size(); ++i) {
+    contacts_next_[i].impulse += impulse_sum_[i];
+    impulse_sum_[i] = contacts_next_[i].impulse;
+    if (flags) solver_->touches[i] = contacts_next_[i].impulse > 0.0 || contacts_next_[i].gap < 0.0;
+  }
 }
 
 int World::turn_substeps(const std::vector<Contact>& contacts, double span) const {
@@ -404,7 +477,7 @@ int World::turn_substeps(const std::vector<Contact>& contacts, double span) cons
   return static_cast<int>(std::clamp(std::ceil(span * fastest / collision::kTurnReach - 1e-9), 1.0, 1e6));
 }
 
-void World::find_turned() {
+void World::find_turned(const State& from) {
   // how far a turn from R_0 to R moves a point at distance rho from the centre, at most:
   // 2 sin(angle / 2) rho = sqrt(3 - tr(R R_0^T)) rho (tr = 1 + 2 cos(angle))
   // (a sphere's turn moves none of its surface; a capsule's or cylinder's spin about its own axis
@@ -412,11 +485,10 @@ void World::find_turned() {
   // axes, sink past their slop when only the axis's turn counts. Only the moving bodies' entries
   // are written: a static body's stays 0 from the sizing, which bodies_changed redoes, so that the
   // cost follows the moving bodies)
-  const State& start = guard_->start();
   parallel::fit(turned_, model_.size(), 0.0);
   for (const BodyIndex i : moving_) {
     const bool still = state_.asleep(i) || std::holds_alternative<Sphere>(model_.shape[i]);
-    turned_[i] = still ? 0.0 : std::sqrt(std::max(0.0, 3.0 - state_.R[i].cwiseProduct(start.R[i]).sum())) * model_.rho[i];
+    turned_[i] = still ? 0.0 : std::sqrt(std::max(0.0, 3.0 - state_.R[i].cwiseProduct(from.R[i]).sum())) * model_.rho[i];
   }
 }
 

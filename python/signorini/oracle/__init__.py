@@ -132,7 +132,8 @@ from .solver import (
     warm_start,
 )
 from .soft import carried_gaps, contact_softness, core_offsets, gap_rounding, rounding_radius, soft_step, soft_sweep, softness
-from .step import carry_contacts, copy_snapshot, redetect_turned, rollout, step, step_once, turn_substeps
+from .step import (carry_contacts, copy_snapshot, redetect_turned, rollout, soft_runs, step, step_once, turn_budget,
+                   turn_substeps)
 from .support import (
     fibonacci_sphere,
     support_box,
@@ -160,7 +161,7 @@ __all__ = [
     "quat_to_matrix", "reachable", "read_cache", "reduce_manifold", "restitution", "restitutive_contacts",
     "rodrigues", "rollout", "select_manifold", "shape_volume", "signed_area", "skew",
     "solve_contacts", "solver_settings", "sort_cache", "speculative_bias", "speculative_reach", "spinning_friction",
-    "carry_contacts", "redetect_turned", "step", "step_once", "store", "turn_substeps", "support_box", "support_capsule", "support_cylinder",
+    "carry_contacts", "redetect_turned", "step", "step_once", "store", "turn_substeps", "turn_budget", "soft_runs", "support_box", "support_capsule", "support_cylinder",
     "support_hull", "support_of", "support_separation", "support_sphere", "tangent_basis",
     "unconstrained_velocity", "velocities_from_alpha", "warm_start", "world_inertia",
     "apply_forces", "carried_gaps", "contact_softness", "core_offsets", "friction_rows", "gap_rounding",

@@ -296,9 +296,12 @@ def normal_velocities(rows, q_dot):
             if len(a) else np.zeros(0))
 
 
-def soft_step(snapshot, contacts, dt, n, ties=None):
+def soft_step(snapshot, contacts, dt, n, ties=None, h=None, cut=None):
     """One soft step of dt in n substeps of h = dt / n (the module doc), from a snapshot whose
-    pending impulses are applied, on the contacts detected at its start.
+    pending impulses are applied, on the contacts detected at its start. With h given, n substeps
+    of h (a run of rows within a step: ``step.step``); with cut, a function of (state after
+    substep k, k) that returns True to end the run after substep k (the info then reports the k + 1
+    substeps run).
 
     Inputs: snapshot (bodies, settings, cache, state at the step's start), contacts dict (K; with
             feature_a, feature_b for the warm start), dt s, n substeps, ties {contact: bool} (the
@@ -325,7 +328,7 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
             (``joints.store_joints``, at the step's end poses).
     """
     s = solver_settings(snapshot)
-    h = dt / n
+    h = dt / n if h is None else h
     start = snapshot
 
     # begin: rows at the start poses, u_i from the start velocities, softness, the recalled forces
@@ -354,7 +357,8 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
     state = start
     x, tau = alpha.tolist(), alpha_spin.tolist()
     tied = set()
-    for _ in range(n):
+    ran = 0
+    for k in range(n):
         # the unconstrained velocity of the current state
         v_star, omega_star = unconstrained_velocity(state, h)
         q_dot = np.hstack([omega_star, v_star])
@@ -398,6 +402,9 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
         alpha_n = alpha[0::3]
         impulse += h * alpha_n
         alpha_max = np.maximum(alpha_max, alpha_n)
+        ran = k + 1
+        if cut is not None and k + 1 < n and cut(state, k):
+            break
     alpha, alpha_spin = np.asarray(x, dtype=float), np.asarray(tau, dtype=float)
 
     # end: store the last substep's forces, the whole impulse, the certificate against the rigid
@@ -413,7 +420,7 @@ def soft_step(snapshot, contacts, dt, n, ties=None):
         "iterations": s["soft_iterations"] + s["relax_iterations"],
         "restitution_iterations": restitution_iterations, "position_iterations": 0, "converged": True,
         "gap_end": gap, "alpha_max": alpha_max, "restitutive": restitutive, "bounced": bounced,
-        "hertz": soft["hertz"], "zeta": soft["zeta"], "substeps": n, "tied": sorted(tied),
+        "hertz": soft["hertz"], "zeta": soft["zeta"], "substeps": ran, "tied": sorted(tied),
     })
 
     # the joints' forces and torques on B, from the last substep's blocks, about B's anchor at the end

@@ -129,11 +129,13 @@ def carry_contacts(contacts, detected, now):
 
 # A pair is collided again in a substep once its bodies' turns since the step's detection have
 # moved their points more than TURN_REACH of its smaller inner radius; automatic substeps are short
-# enough that each turns a pair by at most as much, at most TURN_SUBSTEPS of them or
-# TURN_SUBSTEP_FACTOR times the step's own count (the core's collision::kTurnReach, kTurnSubsteps,
-# kTurnSubstepFactor; docs/conventions.md, "Deep overlaps")
+# enough that each turns a pair by at most as much, at most TURN_SUBSTEPS of them per 1 / TURN_RATE s
+# or TURN_SUBSTEP_FACTOR times the step's own count (``turn_budget``; the core's
+# collision::kTurnReach, kTurnSubsteps, kTurnRate, kTurnSubstepFactor; docs/conventions.md, "Deep
+# overlaps"); the soft step too, in runs of rows (``soft_runs``)
 TURN_REACH = 0.25
 TURN_SUBSTEPS = 16
+TURN_RATE = 240.0
 TURN_SUBSTEP_FACTOR = 4
 
 
@@ -212,6 +214,72 @@ def redetect_turned(contacts, carried, detected, now, dt):
     return out
 
 
+def turn_budget(dt, n):
+    """The most substeps the turning rule gives a step of dt whose own rule gives n (the core's
+    World::turn_budget): TURN_SUBSTEPS per 1 / TURN_RATE s of the step (begun) or
+    TURN_SUBSTEP_FACTOR n, whichever is more; a step takes at most half of them before its first
+    substep, so that a body set turning by an impact leaves room to split the rest."""
+    spans = int(min(max(np.ceil(dt * TURN_RATE - 1e-9), 1), 10**6))
+    return max(TURN_SUBSTEPS * spans, TURN_SUBSTEP_FACTOR * n)
+
+
+def _turned_contacts(contacts, detected, now):
+    """Whether a pair of ``contacts`` has turned far between the two snapshots: its bodies' turns
+    moved their points more than TURN_REACH of its smaller inner radius (as ``redetect_turned``)."""
+    rho, inner = _turn_radii(detected)
+    R0 = np.asarray(detected["rotation"], dtype=float).reshape(-1, 3, 3)
+    R = np.asarray(now["rotation"], dtype=float).reshape(-1, 3, 3)
+    moved = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("kij,kij->k", R, R0))) * rho
+    a = np.asarray(contacts["body_a"], dtype=np.int64)
+    b = np.asarray(contacts["body_b"], dtype=np.int64)
+    return bool(np.any(moved[a] + moved[b] > TURN_REACH * np.minimum(inner[a], inner[b])))
+
+
+def soft_runs(snapshot, contacts, dt, n, most, ties=None):
+    """The soft step of dt in n substeps (``soft.soft_step``), in runs of rows: after a substep k
+    (but the last) of a run, with most > 0 (automatic substeps; at most ``most`` substeps in all),
+    when a pair of the run's contacts has turned far since its rows were made (``_turned_contacts``)
+    or the rest of the step, rest = (n - k - 1) h, wants more substeps for the contacts' turning
+    and closing (``turn_substeps`` at now, capped at most - k - 1), the run ends; its contacts
+    are carried to now (``carry_contacts``), the turned pairs found again (``redetect_turned``, for
+    the rest of the step), and the rest runs on rows made anew, in the more substeps, warm started
+    from the run's forces (its cache). The step's impulse per contact is summed over the runs by
+    key (a contact found anew starts from 0); the rest of the info is the last run's.
+
+    Returns (new_snapshot, info, flagged)."""
+    settings = solver_settings(snapshot)
+    h, done, start = dt / n, 0, snapshot  # done: the substeps of the runs before
+    sums, flagged = {}, 0
+    while True:
+        decided = {}
+
+        def cut(state, k):
+            i = done + k  # the substep of the step
+            rest = (n - i - 1) * h
+            more = min(most - i - 1, turn_substeps(state, contacts, rest)) if n < most else 0
+            turned = _turned_contacts(contacts, start, state)
+            if not turned and more <= n - i - 1:
+                return False
+            decided.update(i=i, rest=rest, more=more, turned=turned)
+            return True
+
+        state, info = soft_step(start, contacts, dt, n - done, ties if done == 0 else None, h=h,
+                                cut=cut if most > 0 else None)
+        flagged += (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
+        impulse = np.asarray(info["impulse"], dtype=float) + np.array(
+            [sums.get(key, 0.0) for key in _keys(contacts)], dtype=float)
+        if not decided:
+            info["impulse"], info["substeps"] = impulse, n
+            return state, info, flagged
+        sums = dict(zip(_keys(contacts), impulse))
+        carried = carry_contacts(contacts, start, state)
+        fresh = redetect_turned(contacts, carried, start, state, decided["rest"]) if decided["turned"] else None
+        contacts = fresh if fresh is not None else carried
+        if decided["more"] > n - decided["i"] - 1:
+            h, n = decided["rest"] / decided["more"], decided["i"] + 1 + decided["more"]
+        done, start = decided["i"] + 1, state
+
+
 def _keys(contacts):
     return list(zip(np.asarray(contacts["body_a"]).tolist(), np.asarray(contacts["body_b"]).tolist(),
                     np.asarray(contacts["feature_a"]).tolist(), np.asarray(contacts["feature_b"]).tolist()))
@@ -253,16 +321,16 @@ def step(snapshot, dt, contacts=None, ties=None):
     snapshot = apply_impulses(snapshot)
     if contacts is None:
         contacts = detect_contacts(snapshot, dt)
+    # automatic substeps are short enough for the turning bodies, at most turn_budget(n) in all,
+    # half of them before the first
+    automatic, most = settings["substeps"] < 1, turn_budget(dt, n)
+    if automatic:
+        n = max(n, min(most // 2, turn_substeps(snapshot, contacts, dt)))
     if settings["solver"] == "soft":
-        # the soft step: its substeps share one set of rows; flagged once, at its end
-        state, info = soft_step(snapshot, contacts, dt, n, ties)
-        flagged = (not info["converged"]) and info["max_penetration_velocity"] > settings["warn_velocity"]
+        # the soft step: its substeps share one set of rows until a pair turns far or the rest of
+        # the step wants shorter substeps (soft_runs); flagged once per run of rows
+        state, info, flagged = soft_runs(snapshot, contacts, dt, n, most if automatic else 0, ties)
     else:
-        # automatic substeps are short enough for the turning bodies, at most TURN_SUBSTEPS or
-        # TURN_SUBSTEP_FACTOR times the step's own count
-        automatic, most = settings["substeps"] < 1, max(TURN_SUBSTEPS, TURN_SUBSTEP_FACTOR * n)
-        if automatic:
-            n = max(n, min(most, turn_substeps(snapshot, contacts, dt)))
         h, elapsed = dt / n, 0.0
         state, info, flagged, impulse, last, redetected, k = snapshot, None, 0, 0.0, None, False, -1
         while k + 1 < n:
