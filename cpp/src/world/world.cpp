@@ -295,7 +295,7 @@ void World::soft_step_once(double dt) {
   const bool automatic = q.substeps < 1;
   int n = substep_count(dt);
   const int most = turn_budget(dt, n);
-  if (automatic) n = std::max(n, std::min(most, turn_substeps(contacts_base_, dt)));
+  if (automatic) n = std::max(n, std::min(most, turn_substeps(contacts_base_, dt, &lever_)));
   double h = dt / n;
   // the step's contacts, to be written by the solver: moved, not copied (the soft step never
   // reads them as detected again; the next step detects into the other list)
@@ -402,11 +402,29 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
   // the rows were made at segment_start_'s poses (the step's start for the first run of rows)
   const State& from = soft_runs_ ? segment_start_ : guard_->start();
   find_turned(from);
-  const bool turned = std::any_of(contacts_next_.begin(), contacts_next_.end(), [&](const Contact& c) {
+  // bounds from the moving bodies alone, so that a step where nothing turns or moves fast reads no
+  // contact (a pass over a large pile's contacts costs more than its solve's share of a substep):
+  // - no pair has turned far while 2 max(turned) <= kTurnReach min(inner) over every body;
+  // - no contact's turn_substeps term, (sweep_A + sweep_B + u) / min(inner_A, inner_B), exceeds
+  //   2 S / min(inner), S the largest |v| + |omega| (rho (not for a sphere) + lever_ + |p - p_0|)
+  //   (u <= |v_A + omega_A x r_A| + |v_B + omega_B x r_B|, |r_X| <= lever_ + |p_X - p_X0|);
+  //   (1 + 1e-9) covers the rounding of the terms' sums
+  double T = 0.0, S = 0.0, inner = std::numeric_limits<double>::infinity();
+  for (const double r : model_.inner) inner = std::min(inner, r);
+  for (const BodyIndex i : moving_) {
+    T = std::max(T, turned_[i]);
+    const double sweep = std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : model_.rho[i];
+    const double w = state_.omega[i].norm();
+    S = std::max(S, state_.v[i].norm() + w * (sweep + lever_ + (state_.p[i] - from.p[i]).norm()));
+  }
+  const double rest = (n - k - 1) * h;
+  const bool may_turn = 2.0 * T > collision::kTurnReach * inner;
+  const bool may_split = n < most && rest * (2.0 * S / inner) * (1.0 + 1e-9) / collision::kTurnReach - 1e-9 > n - k - 1;
+  if (!may_turn && !may_split) return false;
+  const bool turned = may_turn && std::any_of(contacts_next_.begin(), contacts_next_.end(), [&](const Contact& c) {
     return collision::turned_far(model_, c.body_a, c.body_b, turned_);
   });
-  const double rest = (n - k - 1) * h;
-  const int more = n < most ? std::min(most - k - 1, turn_substeps(contacts_next_, rest)) : 0;
+  const int more = may_split ? std::min(most - k - 1, turn_substeps(contacts_next_, rest)) : 0;
   if (!turned && more <= n - k - 1) return false;
   // this run of rows ends here: its forces stored (the next run's warm start, by key) and its
   // impulses added to the step's sums so far
@@ -440,6 +458,7 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
   }
   segment_start_.p = state_.p;  // (copies into kept storage)
   segment_start_.R = state_.R;
+  lever_ = lever(contacts_next_);
   ++soft_runs_;
   solver::soft_begin(model_, state_, h, settings_.solver, contacts_next_, *solver_, &anchor_a_, &anchor_b_);
   return true;
@@ -456,7 +475,15 @@ void World::add_impulse_sums() {
   }
 }
 
-int World::turn_substeps(const std::vector<Contact>& contacts, double span) const {
+double World::lever(const std::vector<Contact>& contacts) const {
+  double r = 0.0;
+  for (const Contact& c : contacts)
+    for (const BodyIndex i : {c.body_a, c.body_b})
+      if (!model_.is_static[i]) r = std::max(r, (c.point - state_.p[i]).norm());
+  return r;
+}
+
+int World::turn_substeps(const std::vector<Contact>& contacts, double span, double* lever) const {
   // the substeps that keep each pair's turn (and closing) within kTurnReach of its smaller inner
   // radius: span (|omega_A| rho_A + |omega_B| rho_B + u) / (kTurnReach min(inner_A, inner_B))
   const auto sweep = [&](BodyIndex i) {
@@ -469,10 +496,15 @@ int World::turn_substeps(const std::vector<Contact>& contacts, double span) cons
     const double u = std::max(0.0, -c.normal.dot(at(c.body_b) - at(c.body_a)));
     return c.gap < span * u ? u : 0.0;
   };
-  double fastest = 0.0;
-  for (const Contact& c : contacts)
+  double fastest = 0.0, r = 0.0;
+  for (const Contact& c : contacts) {
     fastest = std::max(fastest, (sweep(c.body_a) + sweep(c.body_b) + closing(c)) /
                                     std::min(model_.inner[c.body_a], model_.inner[c.body_b]));
+    if (lever)  // (in the same pass: the contacts are read once)
+      for (const BodyIndex i : {c.body_a, c.body_b})
+        if (!model_.is_static[i]) r = std::max(r, (c.point - state_.p[i]).norm());
+  }
+  if (lever) *lever = r;
   // (a huge count is capped by the caller; 1e-9 absorbs rounding)
   return static_cast<int>(std::clamp(std::ceil(span * fastest / collision::kTurnReach - 1e-9), 1.0, 1e6));
 }
