@@ -562,8 +562,9 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 /// rho_A n) with the whole turn, dp + (R R_0^T - I) (c - p_0), since its witness stays under the
 /// core however the body turns (a rolling ball keeps its gap; a spinning capsule's end cap follows
 /// its core). The normal stays; the lever arms stay as detected: anchor_X = y + dp_X (or, given
-/// the contacts' anchors at `detected`, from_a and from_b (K), anchor_X = from_X + dp_X; a kept
-/// contact's p_X + arm_X), where the solver applies the force on X (K, world, m); y <- (anchor_a +
+/// the contacts' anchors at `detected`, from_a and from_b (K), anchor_X = from_X + dp_X, and the
+/// witnesses taken from them, w_A = from_A - gap/2 n, w_B = from_B + gap/2 n; a kept contact's
+/// anchor is p_X + arm_X), where the solver applies the force on X (K, world, m); y <- (anchor_a +
 /// anchor_b) / 2. Written into out.
 void carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
                     const State& now, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,

@@ -446,11 +446,15 @@ void carry_contacts(const Model& model, const std::vector<Contact>& at_detection
     // under the core however the body turns); any other side its witness point, to first order
     const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(a)], feature_part(c.feature_a));
     const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(b)], feature_part(c.feature_b));
-    const Vec3 moved_b = rho_b > 0.0 ? turned(b, c.point + half + rho_b * c.normal) : moved(b, c.point + half);
-    const Vec3 moved_a = rho_a > 0.0 ? turned(a, c.point - half - rho_a * c.normal) : moved(a, c.point - half);
+    // each side's witness from where its force acts, given its anchor (a contact carried before:
+    // its point, the anchors' midpoint, lags a fast body by half its travel, and a spinning round
+    // side's core taken from it would swing with the turn)
+    const Vec3 y_a = from_a ? (*from_a)[k] : c.point, y_b = from_b ? (*from_b)[k] : c.point;
+    const Vec3 moved_b = rho_b > 0.0 ? turned(b, y_b + half + rho_b * c.normal) : moved(b, y_b + half);
+    const Vec3 moved_a = rho_a > 0.0 ? turned(a, y_a - half - rho_a * c.normal) : moved(a, y_a - half);
     c.gap += c.normal.dot(moved_b - moved_a);
-    anchor_a[k] = (from_a ? (*from_a)[k] : c.point) + (now.p[a] - detected.p[a]);
-    anchor_b[k] = (from_b ? (*from_b)[k] : c.point) + (now.p[b] - detected.p[b]);
+    anchor_a[k] = y_a + (now.p[a] - detected.p[a]);
+    anchor_b[k] = y_b + (now.p[b] - detected.p[b]);
     c.point = 0.5 * (anchor_a[k] + anchor_b[k]);
     if (c.kept) {  // its rows keep the lever arms of the detection that found its manifold
       anchor_a[k] = now.p[a] + c.arm_a;

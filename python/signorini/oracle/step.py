@@ -78,7 +78,7 @@ def step_once(snapshot, dt, contacts=None):
     return new, info
 
 
-def carry_contacts(contacts, detected, now):
+def carry_contacts(contacts, detected, now, anchored=False):
     """The contacts detected at snapshot ``detected`` carried to snapshot ``now`` by the motion of
     their bodies (a substep), to first order, as the velocity constraint linearises it: with each
     body's displacement dp = p - p_0 and turn dtheta = vee of the skew part of R R_0^T, and the
@@ -88,7 +88,9 @@ def carry_contacts(contacts, detected, now):
     w_A - rho_A n) moved with the body's whole turn, dp_X + (R_X R_X0^T - I) (c_X - p_X0), in place
     of its term (a spinning body's witness stays under its core). The normal stays; the lever arms
     stay as detected: anchor_X = y + dp_X (or, when the contacts carry anchor_X, anchor_X + dp_X),
-    where the solver applies the force on X; y <- (anchor_a + anchor_b) / 2.
+    where the solver applies the force on X; y <- (anchor_a + anchor_b) / 2. With anchored (contacts
+    carried before, whose point, the anchors' midpoint, lags a fast body by half its travel), each
+    side's witness is taken from its anchor: w_A = anchor_a - gap/2 n, w_B = anchor_b + gap/2 n.
 
     Inputs: contacts dict (K contacts), two snapshots (position (N, 3), rotation (N, 3, 3); the
             first with its bodies).
@@ -117,8 +119,12 @@ def carry_contacts(contacts, detected, now):
     # a round side carries its core, rho beyond its witness, with the body's whole turn, so its
     # witness stays under the core however the body turns
     rho_a, rho_b = contact_rounding(detected, contacts)
-    moved_b = np.where((rho_b > 0.0)[:, None], turned(b, point + half + rho_b[:, None] * n), moved(b, point + half))
-    moved_a = np.where((rho_a > 0.0)[:, None], turned(a, point - half - rho_a[:, None] * n), moved(a, point - half))
+    y_a, y_b = point, point
+    if anchored:
+        y_a = np.asarray(contacts["anchor_a"], dtype=float).reshape(-1, 3)
+        y_b = np.asarray(contacts["anchor_b"], dtype=float).reshape(-1, 3)
+    moved_b = np.where((rho_b > 0.0)[:, None], turned(b, y_b + half + rho_b[:, None] * n), moved(b, y_b + half))
+    moved_a = np.where((rho_a > 0.0)[:, None], turned(a, y_a - half - rho_a[:, None] * n), moved(a, y_a - half))
     out = dict(contacts)
     out["gap"] = gap + np.einsum("ki,ki->k", n, moved_b - moved_a)
     out["anchor_a"], out["anchor_b"] = point + dp[a], point + dp[b]
@@ -273,7 +279,7 @@ def soft_runs(snapshot, contacts, dt, n, most, ties=None):
             info["impulse"], info["substeps"] = impulse, n
             return state, info, flagged
         sums = dict(zip(_keys(contacts), impulse))
-        carried = carry_contacts(contacts, start, state)
+        carried = carry_contacts(contacts, start, state, anchored=done > 0)
         fresh = redetect_turned(contacts, carried, start, state, decided["rest"]) if decided["turned"] else None
         contacts = fresh if fresh is not None else carried
         if decided["more"] > n - decided["i"] - 1:
