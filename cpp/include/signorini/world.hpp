@@ -434,12 +434,7 @@ class World {
   /// this many for its contacts as detected (at most turn_budget), and when a substep has
   /// set bodies turning faster, the rest of the step is split again for the substep's contacts,
   /// at most turn_budget substeps in all.
-  /// With `lever`, also the largest distance of a contact's point from the centre of one of its
-  /// moving bodies (m; as lever(), in the same pass).
-  int turn_substeps(const std::vector<Contact>& contacts, double span, double* lever = nullptr) const;
-  /// The largest distance of a contact's point from the centre of one of its moving bodies (m): a
-  /// bound on the lever arms of the soft step's rows (soft_cut's bounds).
-  double lever(const std::vector<Contact>& contacts) const;
+  int turn_substeps(const std::vector<Contact>& contacts, double span) const;
   /// After substep k's solve: each contact's impulse becomes the sum over the substeps so far
   /// (Contacts.impulse is the step's whole normal impulse).
   void sum_impulses(int k);
@@ -534,7 +529,6 @@ class World {
   bool redetected_ = false;              ///< the last substep's contacts were not only carried
   int soft_runs_ = 0;                    ///< the soft step's runs of rows ended so far (soft_cut)
   State segment_start_;                  ///< p and R where the soft step's present rows were made
-  double lever_ = 0.0;                   ///< lever() of the present rows' contacts, when they were made (m)
   /// the non-static bodies, ascending: the only ones a step moves, so the only ones its per-body
   /// stages visit (a step's cost grows with them and the contacts, not with static bodies)
   std::vector<BodyIndex> moving_;

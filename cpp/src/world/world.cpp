@@ -295,7 +295,7 @@ void World::soft_step_once(double dt) {
   const bool automatic = q.substeps < 1;
   int n = substep_count(dt);
   const int most = turn_budget(dt, n);
-  if (automatic) n = std::max(n, std::min(most, turn_substeps(contacts_base_, dt, &lever_)));
+  if (automatic) n = std::max(n, std::min(most, turn_substeps(contacts_base_, dt)));
   double h = dt / n;
   // the step's contacts, to be written by the solver: moved, not copied (the soft step never
   // reads them as detected again; the next step detects into the other list)
@@ -406,16 +406,14 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
   // contact (a pass over a large pile's contacts costs more than its solve's share of a substep):
   // - no pair has turned far while 2 max(turned) <= kTurnReach min(inner) over every body;
   // - no contact's turn_substeps term, (sweep_A + sweep_B + u) / min(inner_A, inner_B), exceeds
-  //   2 S / min(inner), S the largest |v| + |omega| (rho (not for a sphere) + lever_ + |p - p_0|)
-  //   (u <= |v_A + omega_A x r_A| + |v_B + omega_B x r_B|, |r_X| <= lever_ + |p_X - p_X0|);
+  //   2 S / min(inner), S the largest |omega| rho (not for a sphere) + |v| (u <= |v_A| + |v_B|);
   //   (1 + 1e-9) covers the rounding of the terms' sums
   double T = 0.0, S = 0.0, inner = std::numeric_limits<double>::infinity();
   for (const double r : model_.inner) inner = std::min(inner, r);
   for (const BodyIndex i : moving_) {
     T = std::max(T, turned_[i]);
-    const double sweep = std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : model_.rho[i];
-    const double w = state_.omega[i].norm();
-    S = std::max(S, state_.v[i].norm() + w * (sweep + lever_ + (state_.p[i] - from.p[i]).norm()));
+    const double sweep = std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : state_.omega[i].norm() * model_.rho[i];
+    S = std::max(S, sweep + state_.v[i].norm());
   }
   const double rest = (n - k - 1) * h;
   const bool may_turn = 2.0 * T > collision::kTurnReach * inner;
@@ -458,7 +456,6 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
   }
   segment_start_.p = state_.p;  // (copies into kept storage)
   segment_start_.R = state_.R;
-  lever_ = lever(contacts_next_);
   ++soft_runs_;
   solver::soft_begin(model_, state_, h, settings_.solver, contacts_next_, *solver_, &anchor_a_, &anchor_b_);
   return true;
@@ -475,36 +472,27 @@ void World::add_impulse_sums() {
   }
 }
 
-double World::lever(const std::vector<Contact>& contacts) const {
-  double r = 0.0;
-  for (const Contact& c : contacts)
-    for (const BodyIndex i : {c.body_a, c.body_b})
-      if (!model_.is_static[i]) r = std::max(r, (c.point - state_.p[i]).norm());
-  return r;
-}
-
-int World::turn_substeps(const std::vector<Contact>& contacts, double span, double* lever) const {
+int World::turn_substeps(const std::vector<Contact>& contacts, double span) const {
   // the substeps that keep each pair's turn (and closing) within kTurnReach of its smaller inner
   // radius: span (|omega_A| rho_A + |omega_B| rho_B + u) / (kTurnReach min(inner_A, inner_B))
   const auto sweep = [&](BodyIndex i) {
     return model_.is_static[i] || std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : state_.omega[i].norm() * model_.rho[i];
   };
-  // a contact that closes within the span at speed u counts u too: an impact off the centre can
-  // set a body turning at about u / rho within a substep, too late for the substeps after it
-  const auto closing = [&](const Contact& c) {
-    const auto at = [&](BodyIndex i) { return Vec3(state_.v[i] + state_.omega[i].cross(c.point - state_.p[i])); };
-    const double u = std::max(0.0, -c.normal.dot(at(c.body_b) - at(c.body_a)));
-    return c.gap < span * u ? u : 0.0;
+  // a contact whose bodies' centres close within the span at speed u counts u too: an impact off
+  // the centre can set a body turning at about u / rho within a substep, too late for the
+  // substeps after it. (The centres': a turn's share of the closing is the sweep's already, and a
+  // point carried through substeps, the anchors' midpoint, lags a fast body, so that omega x (y -
+  // p) would read a spinning ball's travel as closing)
+  // A pair counts only when it can touch within the span: gap < span (sweeps + u) (a speculative
+  // pair half a metre apart asks nothing for its turn)
+  const auto term = [&](const Contact& c) {
+    const double s = sweep(c.body_a) + sweep(c.body_b);
+    const double u = std::max(0.0, -c.normal.dot(state_.v[c.body_b] - state_.v[c.body_a]));
+    return c.gap < span * (s + u) ? s + (c.gap < span * u ? u : 0.0) : 0.0;
   };
-  double fastest = 0.0, r = 0.0;
-  for (const Contact& c : contacts) {
-    fastest = std::max(fastest, (sweep(c.body_a) + sweep(c.body_b) + closing(c)) /
-                                    std::min(model_.inner[c.body_a], model_.inner[c.body_b]));
-    if (lever)  // (in the same pass: the contacts are read once)
-      for (const BodyIndex i : {c.body_a, c.body_b})
-        if (!model_.is_static[i]) r = std::max(r, (c.point - state_.p[i]).norm());
-  }
-  if (lever) *lever = r;
+  double fastest = 0.0;
+  for (const Contact& c : contacts)
+    fastest = std::max(fastest, term(c) / std::min(model_.inner[c.body_a], model_.inner[c.body_b]));
   // (a huge count is capped by the caller; 1e-9 absorbs rounding)
   return static_cast<int>(std::clamp(std::ceil(span * fastest / collision::kTurnReach - 1e-9), 1.0, 1e6));
 }

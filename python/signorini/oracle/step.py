@@ -160,8 +160,10 @@ def turn_substeps(snapshot, contacts, span):
     """The substeps ``span`` seconds take for the contacts' fast-turning bodies at the snapshot's
     angular velocities: the fewest that turn each contact's pair by at most TURN_REACH of its
     smaller inner radius, span (|omega_A| rho_A + |omega_B| rho_B + u) / (TURN_REACH min(inner_A,
-    inner_B)), with u the contact's closing speed -n . (v_B(y) - v_A(y)) when it closes within the
-    span (gap < span u; an impact off the centre can set a body turning at about u / rho), else 0;
+    inner_B)), with u the closing speed of its bodies' centres -n . (v_B - v_A) when it closes
+    within the span (gap < span u; an impact off the centre can set a body turning at about u /
+    rho), else 0 (a turn's share of the closing is in the sweep terms); a contact counts only when
+    its pair can touch within the span, gap < span (|omega_A| rho_A + |omega_B| rho_B + u);
     1 when none turns, at most 10**6."""
     a = np.asarray(contacts["body_a"], dtype=np.int64)
     b = np.asarray(contacts["body_b"], dtype=np.int64)
@@ -171,14 +173,13 @@ def turn_substeps(snapshot, contacts, span):
     p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
     v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
     omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
-    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
     n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
     gap = np.asarray(contacts["gap"], dtype=float)
-    relative = (v[b] + np.cross(omega[b], y - p[b])) - (v[a] + np.cross(omega[a], y - p[a]))
-    u = np.maximum(0.0, -np.einsum("ki,ki->k", n, relative))
-    u = np.where(gap < span * u, u, 0.0)
+    u = np.maximum(0.0, -np.einsum("ki,ki->k", n, v[b] - v[a]))  # the centres' (the turn's is the sweep's)
     sweep = np.linalg.norm(omega, axis=1) * rho
-    fastest = float(np.max((sweep[a] + sweep[b] + u) / np.minimum(inner[a], inner[b])))
+    s = sweep[a] + sweep[b]
+    term = np.where(gap < span * (s + u), s + np.where(gap < span * u, u, 0.0), 0.0)  # pairs that can touch
+    fastest = float(np.max(term / np.minimum(inner[a], inner[b])))
     return int(min(max(np.ceil(span * fastest / TURN_REACH - 1e-9), 1), 10**6))
 
 
