@@ -598,6 +598,21 @@ TEST(WorldThreads, FiguresReadDuringAnotherThreadsStepsAreThoseOfAFinishedStep) 
   }
 }
 
+/// A frictionless floor and on it a cube of half side 0.05 m, 1 kg, spun at 200 rad/s about z;
+/// returns the cube.
+BodyIndex add_spun_cube(World& world) {
+  BodyDesc floor = ground();
+  floor.material.friction = 0.0;
+  world.add_body(floor);
+  BodyDesc cube;
+  cube.shape = Box(Vec3(0.05, 0.05, 0.05));
+  cube.mass = 1.0;
+  cube.position = Vec3(0, 0, 0.05);
+  cube.angular_velocity = Vec3(0, 0, 200.0);
+  cube.material.friction = 0.0;
+  return world.add_body(cube);
+}
+
 TEST(World, AFastTurningCubeIsSteppedInShorterSubstepsWithItsContactsFoundAgain) {
   // a cube of half side 0.05 m (rho = 0.0866 m, inner radius 0.05 m), 1 kg, on a frictionless
   // floor, spun at 200 rad/s about z: its corners sweep 17.3 m/s against a quarter of its inner
@@ -610,16 +625,7 @@ TEST(World, AFastTurningCubeIsSteppedInShorterSubstepsWithItsContactsFoundAgain)
   WorldSettings settings;
   settings.sleep.enabled = false;
   World world(settings);
-  BodyDesc floor = ground();
-  floor.material.friction = 0.0;
-  world.add_body(floor);
-  BodyDesc cube;
-  cube.shape = Box(Vec3(0.05, 0.05, 0.05));
-  cube.mass = 1.0;
-  cube.position = Vec3(0, 0, 0.05);
-  cube.angular_velocity = Vec3(0, 0, 200.0);
-  cube.material.friction = 0.0;
-  const BodyIndex b = world.add_body(cube);
+  const BodyIndex b = add_spun_cube(world);
   for (int k = 0; k < 20; ++k) {
     const double vz = world.state().v[b].z();
     world.step(dt);
@@ -654,16 +660,7 @@ TEST(World, TheSoftStepMakesItsRowsAgainForAFastTurningCube) {
   settings.sleep.enabled = false;
   settings.solver.method = SolverMethod::Soft;
   World world(settings);
-  BodyDesc floor = ground();
-  floor.material.friction = 0.0;
-  world.add_body(floor);
-  BodyDesc cube;
-  cube.shape = Box(Vec3(0.05, 0.05, 0.05));
-  cube.mass = 1.0;
-  cube.position = Vec3(0, 0, 0.05);
-  cube.angular_velocity = Vec3(0, 0, 200.0);
-  cube.material.friction = 0.0;
-  const BodyIndex b = world.add_body(cube);
+  const BodyIndex b = add_spun_cube(world);
   const double omega = 2.0 * M_PI * 2.0 * settings.solver.contact_hertz;
   for (int k = 0; k < 20; ++k) {
     const double vz = world.state().v[b].z();

@@ -88,11 +88,9 @@ def test_a_substep_that_sets_a_small_body_moving_splits_the_rest_of_the_step():
     assert report.largest < 1e-10, "\n".join(report.lines())
 
 
-def test_the_oracle_and_the_core_find_a_turning_box_s_contacts_again_alike(monkeypatch):
-    # a cube spun at 60 rad/s about a tilted axis, landing on the floor from 1 cm at dt 1/60: its
-    # corner contacts are found again in the later substeps (it turns 1 rad a step); the oracle,
-    # handed the core's contacts at each step's start, finds them again with its own narrow
-    # phase and steps alike to rounding (1e-10, as test_crosscheck)
+def count_found_again(monkeypatch):
+    """A list that records, for each call of the oracle's redetect_turned from now on, whether it
+    found contacts again (monkeypatched for the test)."""
     found_again = []
     redetect = oracle.step.__globals__["redetect_turned"]
 
@@ -102,6 +100,15 @@ def test_the_oracle_and_the_core_find_a_turning_box_s_contacts_again_alike(monke
         return out
 
     monkeypatch.setitem(oracle.step.__globals__, "redetect_turned", counting)
+    return found_again
+
+
+def test_the_oracle_and_the_core_find_a_turning_box_s_contacts_again_alike(monkeypatch):
+    # a cube spun at 60 rad/s about a tilted axis, landing on the floor from 1 cm at dt 1/60: its
+    # corner contacts are found again in the later substeps (it turns 1 rad a step); the oracle,
+    # handed the core's contacts at each step's start, finds them again with its own narrow
+    # phase and steps alike to rounding (1e-10, as test_crosscheck)
+    found_again = count_found_again(monkeypatch)
     w, _ = spun_box_on_floor(60.0, axis=(0.6, 0.0, 0.8), height=0.01)
     report = compare.lockstep(w, 1 / 60, 40)
     assert report.largest < 1e-10, "\n".join(report.lines())
@@ -144,15 +151,7 @@ def test_the_soft_step_makes_its_rows_again_for_a_turning_box_as_the_oracle_does
     # dt 1/60): a run of rows ends once a corner's pair has turned a quarter of the inner radius
     # since the rows were made, the pair is collided again and the rest runs on new rows; the
     # oracle, handed the core's contacts at each step's start, does the same to rounding
-    found_again = []
-    redetect = oracle.step.__globals__["redetect_turned"]
-
-    def counting(*args):
-        out = redetect(*args)
-        found_again.append(out is not None)
-        return out
-
-    monkeypatch.setitem(oracle.step.__globals__, "redetect_turned", counting)
+    found_again = count_found_again(monkeypatch)
     w, _ = spun_box_on_floor(60.0, axis=(0.6, 0.0, 0.8), height=0.01, solver="soft")
     report = compare.lockstep(w, 1 / 60, 40)
     assert report.largest < 1e-10, "\n".join(report.lines())

@@ -414,6 +414,9 @@ class World {
   /// or where the soft step's rows were made) has moved its points, at most (m; 0 for the others:
   /// a sphere's contacts do not follow its turn).
   void find_turned(const State& from);
+  /// contacts_next_ and anchor_a_, anchor_b_ (carried) with the pairs turned far (turned_) collided
+  /// again at the present poses for the `rest` of the step (collision::redetect_turned).
+  void redetect_turned(double rest);
   /// The most substeps the turning rule gives a step of dt whose own rule gives n:
   /// max(collision::kTurnSubsteps per 1/kTurnRate s begun, collision::kTurnSubstepFactor n).
   int turn_budget(double dt, int n) const;

@@ -380,16 +380,18 @@ void World::carry_contacts(int k, double rest) {
   const bool rekey = turned || redetected_;
   if (rekey) contacts_prev_.swap(contacts_next_);  // (their impulses are the sums so far: sum_impulses)
   collision::carry_contacts(model_, contacts_base_, guard_->start(), state_, contacts_next_, anchor_a_, anchor_b_);
-  if (turned) {
-    collision::redetect_turned(model_, state_, rest, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
-                               *scratch_, turned_, contacts_next_, anchor_a_, anchor_b_, redetected_list_,
-                               redetected_a_, redetected_b_);
-    contacts_next_.swap(redetected_list_);
-    anchor_a_.swap(redetected_a_);
-    anchor_b_.swap(redetected_b_);
-  }
+  if (turned) redetect_turned(rest);
   redetected_ = turned;
   if (rekey) match_impulses(contacts_prev_, contacts_next_, impulse_sum_);
+}
+
+void World::redetect_turned(double rest) {
+  collision::redetect_turned(model_, state_, rest, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
+                             *scratch_, turned_, contacts_next_, anchor_a_, anchor_b_, redetected_list_, redetected_a_,
+                             redetected_b_);
+  contacts_next_.swap(redetected_list_);
+  anchor_a_.swap(redetected_a_);
+  anchor_b_.swap(redetected_b_);
 }
 
 int World::turn_budget(double dt, int n) const {
@@ -441,14 +443,7 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
   }
   collision::carry_contacts(model_, contacts_prev_, from, state_, contacts_next_, anchor_a_, anchor_b_,
                             soft_runs_ > 0 ? &redetected_a_ : nullptr, soft_runs_ > 0 ? &redetected_b_ : nullptr);
-  if (turned) {
-    collision::redetect_turned(model_, state_, rest, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
-                               *scratch_, turned_, contacts_next_, anchor_a_, anchor_b_, redetected_list_,
-                               redetected_a_, redetected_b_);
-    contacts_next_.swap(redetected_list_);
-    anchor_a_.swap(redetected_a_);
-    anchor_b_.swap(redetected_b_);
-  }
+  if (turned) redetect_turned(rest);
   match_impulses(contacts_prev_, contacts_next_, impulse_sum_);
   if (more > n - k - 1) {
     h = rest / more;
