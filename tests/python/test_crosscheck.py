@@ -81,6 +81,33 @@ def test_a_spinning_body_keeps_the_oracles_speculative_points():
         assert len(touched - {cap}) <= {1 / 240: 0, 1 / 60: 2}[dt]
 
 
+@pytest.mark.parametrize("solver", ["pgs", "soft"])
+def test_a_stack_falling_as_one_keeps_the_contacts_its_landing_closes(solver):
+    # two 20 cm cubes falling at 20 m/s, 5 cm apart, the lower one 10 cm over the floor: they do
+    # not approach each other, but the lower one lands within the step (dt |v| = 33 cm) and the
+    # upper one then closes on it at 20 m/s (docs/conventions.md, "Which contacts exist": a body's
+    # own closing speed counts when its partner can be stopped by a third). Without that rule the
+    # pair had no contact in that step, and the upper cube went 18.5 cm (PGS) and 9.1 cm (soft step)
+    # into the lower one. With it, the speculative contact stops the upper cube at the lower one's
+    # face: no deeper than the slop (1 mm) after the landing step
+    dt = 1 / 60
+    world = sg.World(gravity=(0.0, 0.0, -9.81), solver=solver)
+    world.add_static(sg.Plane((0, 0, 1), 0.0))
+    lower = world.add_body(sg.Box((0.1, 0.1, 0.1)), mass=1.0, position=(0, 0, 0.2), velocity=(0, 0, -20.0))
+    upper = world.add_body(sg.Box((0.1, 0.1, 0.1)), mass=1.0, position=(0, 0, 0.45), velocity=(0, 0, -20.0))
+    core = world.detect_contacts(dt)
+    expected = oracle.detect_contacts(world.snapshot(), dt)
+    assert np.array_equal(core.body_a, expected["body_a"]) and np.array_equal(core.body_b, expected["body_b"])
+    assert np.allclose(core.gap, expected["gap"], rtol=0, atol=1e-12)
+    pair = (core.body_a == lower) & (core.body_b == upper)
+    assert pair.sum() == 4 and np.allclose(core.gap[pair], 0.05, rtol=0, atol=1e-12)
+    world.step(dt)
+    assert np.all(world.velocities[:, 2] > -1.0)  # both landed within the step
+    after = world.detect_contacts(dt)
+    pair = (after.body_a == lower) & (after.body_b == upper)
+    assert pair.any() and after.gap[pair].min() > -0.001
+
+
 def test_the_manifold_is_chosen_among_the_points_the_step_can_close():
     # a flat box (half 6 x 6 x 1 cm) turned 45 degrees about z and tilted 4 degrees about x, its
     # lowest point 1 mm over a static box's top face, sliding at 5 m/s along x: the body-wide

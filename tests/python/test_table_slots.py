@@ -594,6 +594,29 @@ def test_golden_cylinder_polytope():
                     [((0.0, 0.0, 0.3 + g / 2), Z, g)])
 
 
+def test_a_cylinder_lying_along_a_tilted_ridge_touches_at_both_ends():
+    # slot: Cylinder - Polytope, a side along an edge (docs/conventions.md, "Contacts", a side on a
+    # side). A box (half 0.3 x 0.2 x 0.2) turned 45 degrees about x, its top edge a ridge along x
+    # through the origin, tilted up by beta = 5 degrees (z = x tan beta); a cylinder (radius 0.1,
+    # half height 0.1) lying along x over it at height 0.1 + 0.1 tan beta, so that its right rim
+    # touches the ridge at x = 0.1. The two straight lines (the ridge, the cylinder's lowest side)
+    # touch at one end and part by h sin 2 beta = 17.4 mm at the other: both ends are points of the
+    # manifold (a rocking side is caught at its far end too), each at the ridge point whose
+    # coordinate along the ridge matches a side's end, (-h cos 2 beta, 0, -h cos 2 beta tan beta)
+    # and (h, 0, h tan beta), with the cylinder's point straight above it: normal z, gap the height
+    # between. Before, the pair had one point: the near end alone, and a cylinder rocking along a
+    # box's edge in the built-in pile at dt 1/60 rocked on past 20 s
+    beta, h, r = np.radians(5.0), 0.1, 0.1
+    R_box = rot(1, -beta) @ rot(0, np.pi / 4)
+    p_box = rot(1, -beta) @ np.array([0.0, 0.0, -0.2 * np.sqrt(2.0)])
+    z_axis = r + h * np.tan(beta)
+    x0 = -h * np.cos(2 * beta)
+    far = (x0, 0.0, 0.5 * (x0 * np.tan(beta) + z_axis - r))
+    near = (h, 0.0, h * np.tan(beta))
+    assert_contacts(sg.Box((0.3, 0.2, 0.2)), p_box, R_box, sg.Cylinder(r, h), (0.0, 0.0, z_axis), ALONG_X, 0.02,
+                    [(far, Z, h * np.sin(2 * beta)), (near, Z, 0.0)], tol=1e-8)
+
+
 @pytest.mark.slots("plane-sphere", role="golden")
 def test_golden_plane_sphere():
     # slot: Plane - Sphere. The plane n . x = 0.1, n = (0, 0.6, 0.8); a ball of radius 0.2 whose

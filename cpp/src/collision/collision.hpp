@@ -395,8 +395,17 @@ void contact_items(const Item& a, const Item& b, double threshold, Scratch& scra
 
 /// The supporting feature of item `it` along world direction dir, written into s: a face (a
 /// polytope face, or a cylinder's cap as 8 rim points, within ~5.7 degrees of dir), a segment (a
-/// capsule's or cylinder's side), or a point.
+/// capsule's or cylinder's side within ~11.5 degrees of square to dir), or a point.
 void support_feature(const Item& it, const Vec3& dir, SupportFeature& s);
+
+/// Two supporting features with no face (sa of A, sb of B, along the normal n from A to B), at
+/// least one a straight side (a segment: a cylinder's or capsule's side within ~11.5 degrees of
+/// square to n), the other a side too or a polytope's vertex whose edge serves as one, lying along
+/// each other (within ~11.5 degrees in the plane square to n): appends a contact at each end of
+/// their overlap along the side with gap n . (x_B - x_A) < threshold (m) and returns true; false
+/// (nothing appended) otherwise, where the distance's single point serves.
+bool side_on_side(const Item& a, const Item& b, const SupportFeature& sa, const SupportFeature& sb, const Vec3& n,
+                  double threshold, std::vector<Contact>& out);
 
 /// The incident feature `inc` clipped by the side planes of the reference face `ref` (a face:
 /// points counter-clockwise about ref.normal, seen from outside), each kept point q with
@@ -526,7 +535,9 @@ struct PairMotion {
              double margin);
   /// The same pair seen from B (collide() swaps a static-only B to A).
   PairMotion swapped() const;
-  /// True if the pair can close c (normal A -> B, world frame) in this step.
+  /// True if the pair can close c (normal A -> B, world frame) in this step: at their approach
+  /// speed at c, or at one body's own when the other, a dynamic body, is stopped by a third within
+  /// the step (a stack falling as one closes its gaps when its lowest body lands).
   bool can_close(const Contact& c) const;
   /// The gap of c at the end of the step if the point moves on at its velocity after gravity's
   /// kick: gap + dt n . (v_B(y) - v_A(y) + dt g_rel) (m), y = c.point (the manifold's ranking).
@@ -536,6 +547,8 @@ struct PairMotion {
 
   Vec3 p_a, v_a, omega_a, p_b, v_b, omega_b;  ///< centres (m), velocities (m/s), spins (rad/s)
   Vec3 g_rel = Vec3::Zero();  ///< g_B - g_A (m/s^2)
+  Vec3 g_a = Vec3::Zero(), g_b = Vec3::Zero();  ///< g_i: gravity for a body gravity moves, else 0 (m/s^2)
+  bool stoppable_a = false, stoppable_b = false;  ///< dynamic: another contact can stop it within the step
   double turning = 0.0;  ///< (|omega_A|^2 rho_A + |omega_B|^2 rho_B) / 2 (m/s^2)
   double dt = 0.0, margin = 0.0;
   double inner = 0.0;  ///< the smaller inner radius of the pair's bodies (m; a plane's is infinite)

@@ -384,7 +384,11 @@ PairMotion::PairMotion(const Model& model, const State& state, BodyIndex a, Body
       omega_b(state.omega[b]), dt(dt_), margin(margin_), inner(std::min(model.inner[a], model.inner[b])) {
   auto moved_by_gravity = [&](BodyIndex i) { return !model.is_static[i] && !model.is_kinematic[i]; };
   auto turn = [&](BodyIndex i) { return model.is_static[i] ? 0.0 : state.omega[i].squaredNorm() * model.rho[i]; };
-  g_rel = (moved_by_gravity(b) ? gravity : Vec3::Zero()) - (moved_by_gravity(a) ? gravity : Vec3::Zero());
+  g_a = moved_by_gravity(a) ? gravity : Vec3::Zero();
+  g_b = moved_by_gravity(b) ? gravity : Vec3::Zero();
+  g_rel = g_b - g_a;
+  stoppable_a = moved_by_gravity(a);
+  stoppable_b = moved_by_gravity(b);
   turning = 0.5 * (turn(a) + turn(b));
 }
 
@@ -394,6 +398,8 @@ PairMotion PairMotion::swapped() const {
   std::swap(m.v_a, m.v_b);
   std::swap(m.omega_a, m.omega_b);
   m.g_rel = -g_rel;
+  std::swap(m.g_a, m.g_b);
+  std::swap(m.stoppable_a, m.stoppable_b);
   return m;
 }
 
@@ -403,9 +409,16 @@ Vec3 PairMotion::relative_velocity(const Vec3& y) const {
 
 bool PairMotion::can_close(const Contact& c) const {
   if (c.gap < margin) return true;
-  const double approach = std::max(0.0, -c.normal.dot(relative_velocity(c.point)));
-  const double falling = std::max(0.0, -c.normal.dot(g_rel));
-  return c.gap < margin + dt * (approach + dt * (falling + turning));
+  const Vec3& n = c.normal;
+  const Vec3& y = c.point;
+  // the approach at their velocities, or at one body's own with the other stopped: a body's
+  // velocity is not known to hold for the step, since a third body can stop it
+  double closing = std::max(0.0, -n.dot(relative_velocity(y))) + dt * std::max(0.0, -n.dot(g_rel));
+  if (stoppable_a)
+    closing = std::max(closing, std::max(0.0, -n.dot(v_b + omega_b.cross(y - p_b))) + dt * std::max(0.0, -n.dot(g_b)));
+  if (stoppable_b)
+    closing = std::max(closing, std::max(0.0, n.dot(v_a + omega_a.cross(y - p_a))) + dt * std::max(0.0, n.dot(g_a)));
+  return c.gap < margin + dt * (closing + dt * turning);
 }
 
 double PairMotion::end_gap(const Contact& c) const {

@@ -266,6 +266,10 @@ void polytope_capsule(const Polytope& P, const Pose& pa, std::uint32_t part_a, c
 
 namespace {
 constexpr double kFaceCos = 0.995;  // a face within ~5.7 degrees of the normal supports as a face
+// A straight side (a cylinder's or capsule's generator line, a polytope's edge) within ~11.5
+// degrees of square to the normal supports as a segment: both its ends become points of the
+// manifold, the far one speculative, so that a side rocking on a side is caught at both ends
+constexpr double kSideSin = 0.2;
 }  // namespace
 
 void support_feature(const Item& it, const Vec3& dir, SupportFeature& s) {
@@ -314,7 +318,7 @@ void support_feature(const Item& it, const Vec3& dir, SupportFeature& s) {
       }
       s.normal = (cap ? 1.0 : -1.0) * a;
       s.is_face = true;
-    } else if (std::abs(c) <= 1.0 - kFaceCos) {
+    } else if (std::abs(c) <= kSideSin) {
       for (int end = 0; end < 2; ++end) {
         s.points.push_back(p + (end ? 1.0 : -1.0) * cyl->half_height * a + cyl->radius * u);
         s.ids.push_back(feature_id(FeatureKind::Vertex, 16 + end, it.part));
@@ -414,6 +418,108 @@ void clip_features(const SupportFeature& ref, const SupportFeature& inc, bool re
   }
 }
 
+namespace {
+
+/// A segment of an item's surface: its ends (world, m) and their feature ids.
+struct Side {
+  Vec3 end[2];
+  FeatureId id[2];
+};
+
+/// The edge of polytope item `it` at its supporting vertex (feature id `vertex`) that runs most
+/// nearly along the unit in-plane direction `along` (square to n), if it is within kSideSin of
+/// square to n and of parallel to `along`: the supporting vertex of a box whose edge lies along a
+/// cylinder's side.
+bool polytope_side(const Item& it, FeatureId vertex, const Vec3& n, const Vec3& along, Side& side) {
+  if (feature_kind(vertex) != FeatureKind::Vertex) return false;
+  const Polytope& P = *it.polytope;
+  const Mat3& R = it.pose.R;
+  const int v = static_cast<int>(feature_index(vertex));
+  double best = kSideSin;
+  bool found = false;
+  for (const Polytope::Edge& e : P.edges) {
+    if (e.v0 != v && e.v1 != v) continue;
+    const int w = e.v0 == v ? e.v1 : e.v0;
+    const Vec3 d = (R * (P.vertex(w) - P.vertex(v))).normalized();
+    const double off_plane = std::abs(d.dot(n));
+    const double across = (d - d.dot(n) * n).cross(along).norm();  // sin of the in-plane angle (times |d's part|)
+    if (off_plane <= kSideSin && across <= best) {
+      best = across;
+      side.end[0] = R * P.vertex(v) + it.pose.p;
+      side.end[1] = R * P.vertex(w) + it.pose.p;
+      side.id[0] = feature_id(FeatureKind::Vertex, static_cast<std::uint32_t>(v), it.part);
+      side.id[1] = feature_id(FeatureKind::Vertex, static_cast<std::uint32_t>(w), it.part);
+      found = true;
+    }
+  }
+  return found;
+}
+
+}  // namespace
+
+bool side_on_side(const Item& a, const Item& b, const SupportFeature& sa, const SupportFeature& sb, const Vec3& n,
+                  double threshold, std::vector<Contact>& out) {
+  // (written here: FCL and libccd give one point for a pair of convex shapes; a side lying along a
+  // side needs both ends of their overlap, as a face's clip gives a face's corners)
+  const bool seg_a = sa.points.size() == 2, seg_b = sb.points.size() == 2;
+  if (!seg_a && !seg_b) return false;
+  // the reference: a straight side of a cylinder or capsule (A's when both are), whose tangent
+  // plane along it is square to n to within kSideSin; the incident: the other side or edge
+  const bool ref_is_a = seg_a;
+  const SupportFeature& s = ref_is_a ? sa : sb;
+  Side ref{{s.points[0], s.points[1]}, {s.ids[0], s.ids[1]}}, inc;
+  auto in_plane = [&](const Vec3& d) -> Vec3 { return d - d.dot(n) * n; };
+  const Vec3 along = in_plane(ref.end[1] - ref.end[0]);
+  const double length = along.norm();
+  if (!(length > 0.0)) return false;
+  const Vec3 e = along / length;
+  const SupportFeature& o = ref_is_a ? sb : sa;
+  if (o.points.size() == 2) {
+    inc = Side{{o.points[0], o.points[1]}, {o.ids[0], o.ids[1]}};
+    if (in_plane((inc.end[1] - inc.end[0]).normalized()).cross(e).norm() > kSideSin) return false;
+  } else {
+    const Item& other = ref_is_a ? b : a;
+    if (!other.polytope || o.points.size() != 1 || !polytope_side(other, o.ids[0], n, e, inc)) return false;
+  }
+  // the incident side clipped to the reference's extent along e, [0, length]; each clipped point q
+  // (on the incident body) a contact with the reference body's surface point nearest to it, along
+  // the surface's normal there (the radial direction of the cylinder's or capsule's axis): both
+  // witnesses lie on their shapes, and the gap is q's distance (signed) from the reference
+  const double t0 = e.dot(inc.end[0] - ref.end[0]), t1 = e.dot(inc.end[1] - ref.end[0]);
+  const double L = a.radius() + b.radius();
+  if (!(std::abs(t1 - t0) > 1e-9 * L)) return false;  // an edge square to the side: one point
+  const double lo = std::max(0.0, std::min(t0, t1)), hi = std::min(length, std::max(t0, t1));
+  if (!(hi - lo > 1e-9 * L)) return false;
+  const Item& round = ref_is_a ? a : b;
+  const Vec3 axis = round.pose.R.col(2);
+  const double radius = round.cylinder ? round.cylinder->radius : round.capsule->radius;
+  const double half = round.cylinder ? round.cylinder->half_height : round.capsule->half_length;
+  const std::size_t first = out.size();
+  for (const double t : {lo, hi}) {
+    const double u = (t - t0) / (t1 - t0), w = t / length;
+    const Vec3 q = inc.end[0] + u * (inc.end[1] - inc.end[0]);
+    const double z = axis.dot(q - round.pose.p);
+    if (round.cylinder && std::abs(z) > half) continue;  // beyond the cylinder's side (a rim)
+    const Vec3 core = round.pose.p + std::clamp(z, -half, half) * axis;
+    const Vec3 rho = q - core;
+    const double distance = rho.norm();
+    // (q on the axis: the pair's normal, a deep point whose direction is lost)
+    const Vec3 out_dir = distance > 1e-12 * L ? Vec3(rho / distance) : Vec3(ref_is_a ? n : Vec3(-n));
+    const double gap = distance - radius;
+    if (!(gap < threshold)) continue;
+    const Vec3 on_ref = core + radius * out_dir;
+    Contact c;
+    c.normal = ref_is_a ? out_dir : Vec3(-out_dir);
+    c.gap = gap;
+    c.point = on_ref + 0.5 * gap * out_dir;
+    const FeatureId ref_id = ref.id[w < 0.5 ? 0 : 1], inc_id = inc.id[u < 0.5 ? 0 : 1];
+    c.feature_a = ref_is_a ? ref_id : inc_id;
+    c.feature_b = ref_is_a ? inc_id : ref_id;
+    out.push_back(c);
+  }
+  return out.size() > first;
+}
+
 void convex_by_support(const Item& a, const Item& b, double threshold, Scratch& scratch, std::vector<Contact>& out) {
   convex_by_support(a, b, gjk_epa(a, b, *scratch.epa), threshold, scratch, out);
 }
@@ -427,8 +533,10 @@ void convex_by_support(const Item& a, const Item& b, const Distance& dist, doubl
   support_feature(a, n, sa);
   support_feature(b, -n, sb);
   const bool ref_is_a = sa.is_face && (!sb.is_face || sa.normal.dot(n) >= -sb.normal.dot(n));
-  if (!sa.is_face && !sb.is_face) {
-    // no face on either side (edge against edge, a rim against a rim): FCL's single point
+  const std::size_t first = out.size();
+  if (!sa.is_face && !sb.is_face && !side_on_side(a, b, sa, sb, n, threshold, out)) {
+    // no face on either side and not two sides along each other (edge across edge, a rim against
+    // a rim): the single point of the distance
     Contact c;
     c.normal = n;
     c.gap = dist.gap;
@@ -438,9 +546,9 @@ void convex_by_support(const Item& a, const Item& b, const Distance& dist, doubl
     out.push_back(c);
     return;
   }
-  const std::size_t first = out.size();
-  clip_features(ref_is_a ? sa : sb, ref_is_a ? sb : sa, ref_is_a, ref_is_a ? a.part : b.part,
-                ref_is_a ? b.part : a.part, threshold, scratch, out);
+  if (sa.is_face || sb.is_face)
+    clip_features(ref_is_a ? sa : sb, ref_is_a ? sb : sa, ref_is_a, ref_is_a ? a.part : b.part,
+                  ref_is_a ? b.part : a.part, threshold, scratch, out);
   double least = std::numeric_limits<double>::infinity();
   for (std::size_t k = first; k < out.size(); ++k) least = std::min(least, out[k].gap);
   const double L = a.radius() + b.radius();

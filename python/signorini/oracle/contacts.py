@@ -104,32 +104,39 @@ def plane_reach(snapshot, b, n, dt):
                  + turn_speed(np.linalg.norm(omega), bounding_radius(body["shape"]), dt))
 
 
-def _relative_motion(snapshot, a, b, y):
-    """The motion of the pair (a, b) at the points y (K, 3) m: v_b(y) - v_a(y) (K, 3) m/s, with
-    v_i(y) = v_i + omega_i x (y - p_i), and g_b - g_a (3,) m/s^2, g_i = gravity for a body gravity
-    moves, else 0."""
+def _point_motion(snapshot, i, y):
+    """Body i's motion at the points y (K, 3) m: v_i(y) = v_i + omega_i x (y - p_i) (K, 3) m/s, g_i
+    (3,) m/s^2 (gravity for a body gravity moves, else 0), and whether it is dynamic (a contact
+    with a third body can stop it within the step)."""
     static, _, _, _ = body_arrays(snapshot)
     kinematic, _ = motion_flags(snapshot)
     p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
     v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
     omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
     g = np.asarray(snapshot["gravity"], dtype=float)
+    dynamic = not (static[i] or kinematic[i])
+    return v[i] + np.cross(omega[i], y - p[i]), (g if dynamic else np.zeros(3)), dynamic
 
-    def point_velocity(i):
-        return v[i] + np.cross(omega[i], y - p[i])
 
-    def gravity_of(i):
-        return g if not (static[i] or kinematic[i]) else np.zeros(3)
-
-    return point_velocity(b) - point_velocity(a), gravity_of(b) - gravity_of(a)
+def _relative_motion(snapshot, a, b, y):
+    """The motion of the pair (a, b) at the points y (K, 3) m: v_b(y) - v_a(y) (K, 3) m/s, with
+    v_i(y) = v_i + omega_i x (y - p_i), and g_b - g_a (3,) m/s^2, g_i = gravity for a body gravity
+    moves, else 0."""
+    v_a, g_a, _ = _point_motion(snapshot, a, y)
+    v_b, g_b, _ = _point_motion(snapshot, b, y)
+    return v_b - v_a, g_b - g_a
 
 
 def reachable(snapshot, dt, margin, a, b, y, n, gap):
     """Which points of the pair (a, b)'s manifold it can close in this step (K,) bool: gap < margin,
-    or gap < margin + dt (u + dt (g_n + (|omega_a|^2 rho_a + |omega_b|^2 rho_b) / 2)) with
-    u = max(0, -n . (v_b(y) - v_a(y))) the approach speed at the point (v_i(y) = v_i + omega_i x
-    (y - p_i)), g_n = max(0, -n . (g_b - g_a)) (g_i = gravity for a body gravity moves, else 0) and
-    the turn of a spinning surface beyond first order (centripetal acceleration <= |omega|^2 rho).
+    or gap < margin + dt (c + dt (|omega_a|^2 rho_a + |omega_b|^2 rho_b) / 2) with c the closing
+    speed: the largest of u + dt g_n (u = max(0, -n . (v_b(y) - v_a(y))) the approach speed at the
+    point, v_i(y) = v_i + omega_i x (y - p_i), g_n = max(0, -n . (g_b - g_a)), g_i = gravity for a
+    body gravity moves, else 0) and, for a dynamic partner that a third body can stop within the
+    step, each body's own: max(0, -n . v_b(y)) + dt max(0, -n . g_b) with a stopped,
+    max(0, n . v_a(y)) + dt max(0, n . g_a) with b stopped (a stack falling as one closes its gaps
+    when its lowest body lands). The last term is the turn of a spinning surface beyond first order
+    (centripetal acceleration <= |omega|^2 rho).
 
     Inputs: snapshot, dt s, margin m, bodies a, b, y (K, 3) m, n (K, 3) from a to b, gap (K,) m.
     """
@@ -140,10 +147,17 @@ def reachable(snapshot, dt, margin, a, b, y, n, gap):
     def turning(i):
         return 0.0 if static[i] else float(omega[i] @ omega[i]) * bounding_radius(bodies[i]["shape"])
 
-    relative, g_rel = _relative_motion(snapshot, a, b, y)
-    approach = np.maximum(0.0, -np.einsum("kj,kj->k", n, relative))
-    falling = np.maximum(0.0, -(n @ g_rel))
-    reach = dt * (approach + dt * (falling + 0.5 * (turning(a) + turning(b))))
+    def toward(velocity, g, sign):  # closing speed along sign * n, with gravity's kick
+        return np.maximum(0.0, sign * np.einsum("kj,kj->k", n, velocity)) + dt * np.maximum(0.0, sign * (n @ g))
+
+    v_a, g_a, dynamic_a = _point_motion(snapshot, a, y)
+    v_b, g_b, dynamic_b = _point_motion(snapshot, b, y)
+    closing = toward(v_b - v_a, g_b - g_a, -1.0)
+    if dynamic_a:
+        closing = np.maximum(closing, toward(v_b, g_b, -1.0))
+    if dynamic_b:
+        closing = np.maximum(closing, toward(v_a, g_a, 1.0))
+    reach = dt * (closing + dt * (0.5 * (turning(a) + turning(b))))
     return gap < margin + reach  # reach >= 0: every point within the margin stays
 
 
