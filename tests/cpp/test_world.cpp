@@ -648,7 +648,7 @@ TEST(World, AFastTurningCubeIsSteppedInShorterSubstepsWithItsContactsFoundAgain)
 
 TEST(World, TheSoftStepMakesItsRowsAgainForAFastTurningCube) {
   // the cube above with the soft step (its own 4 substeps at dt 1/60): the same 24 substeps for
-  // the turn (within the budget of 16 per 1/240 s), and a run of rows ends each
+  // the turn (at most half of the budget of 16 per 1/240 s up front), and a run of rows ends each
   // time a corner's pair has turned a quarter of the inner radius since its rows were made; the
   // corners are collided again with the same features, so each contact keeps its impulse summed
   // over the runs. The soft step changes the velocities by exactly the impulses it applies: the

@@ -4,7 +4,7 @@ docs/conventions.md, "Deep overlaps": turning contacts).
 A pair whose bodies' turns since the step's detection have moved their points more than
 TURN_REACH (0.25) of its smaller inner radius is collided again at the substep's poses, and a
 step with automatic substeps takes so many that each turns a contact's pair by at most as much (at
-most 16 per 1/240 s, or 4 times the step's own count). The soft step does
+most 16 per 1/240 s, or 4 times the step's own count; half of them up front). The soft step does
 the same in runs of rows: a run ends where a pair has turned far since its rows were made, and the
 rest of the step runs on rows made anew. The oracle does the same with its own narrow phase."""
 import numpy as np
@@ -38,12 +38,17 @@ def test_the_oracle_counts_the_substeps_a_turning_pair_needs():
         rho = np.sqrt(3) * 0.05
         assert oracle.turn_substeps(snap, oracle.detect_contacts(snap, dt), dt) == expected
         assert expected == int(np.ceil(dt * spin * rho / (0.25 * 0.05)))
-        # the core takes max(its own count, that), at most the budget, max(16 per 1/240 s, 4 x its own)
+        # the core takes max(its own count, that), at most half of the budget, max(16 per 1/240 s,
+        # 4 x its own), up front; past half (400 rad/s at 1/240: 12 of 16), the first substep
+        # splits the rest of the step into the substeps it asks for, within the budget
         w.step(dt)
         own = int(np.ceil(dt * 960 - 1e-9))
         budget = oracle.turn_budget(dt, own)
         assert budget == max(16 * int(np.ceil(dt * 240 - 1e-9)), 4 * own)
-        assert w.step_report["steps"] == max(own, min(expected, budget))
+        if expected <= budget // 2:
+            assert w.step_report["steps"] == max(own, expected)
+        else:
+            assert budget // 2 < w.step_report["steps"] <= min(expected, budget)
 
 
 def test_fixed_substeps_are_kept_however_fast_a_body_turns():

@@ -418,7 +418,9 @@ class World {
   /// again at the present poses for the `rest` of the step (collision::redetect_turned).
   void redetect_turned(double rest);
   /// The most substeps the turning rule gives a step of dt whose own rule gives n:
-  /// max(collision::kTurnSubsteps per 1/kTurnRate s begun, collision::kTurnSubstepFactor n).
+  /// max(collision::kTurnSubsteps per 1/kTurnRate s begun, collision::kTurnSubstepFactor n). A step
+  /// takes at most half of them before its first substep, so that a body set turning by an impact
+  /// has room left.
   int turn_budget(double dt, int n) const;
   /// The soft step after substep k of n (h s each; automatic substeps): when a pair of its
   /// contacts has turned far since its rows were made (collision::turned_far), or a body turns so
@@ -434,7 +436,7 @@ class World {
   /// The substeps `span` seconds take for the fast-turning bodies of `contacts` at their present
   /// angular velocities: so many that each turns a pair by at most collision::kTurnReach of its
   /// smaller inner radius (1 when none turns; at most 1e6). A step with automatic substeps takes
-  /// this many for its contacts as detected (at most turn_budget), and when a substep has
+  /// this many for its contacts as detected (at most half of turn_budget), and when a substep has
   /// set bodies turning faster, the rest of the step is split again for the substep's contacts,
   /// at most turn_budget substeps in all.
   int turn_substeps(const std::vector<Contact>& contacts, double span) const;

@@ -223,11 +223,11 @@ void World::step_once(double dt) {
   wake_touched(dt);                                    // sleeping islands touched by moving bodies wake
   lap(t.wake);
   // (after the wake: a joint that woke asks for its substeps; automatic substeps are also short
-  // enough for the fast-turning bodies in contact, at most turn_budget of them)
+  // enough for the fast-turning bodies in contact, at most turn_budget of them, half up front)
   const bool automatic = settings_.solver.substeps < 1;
   int n = substep_count(dt);
   const int most = turn_budget(dt, n);
-  if (automatic) n = std::max(n, std::min(most, turn_substeps(contacts_base_, dt)));
+  if (automatic) n = std::max(n, std::min(most / 2, turn_substeps(contacts_base_, dt)));
   double h = dt / n, elapsed = 0.0;
   SolverStats stats;
   for (int k = 0; k < n; ++k) {
@@ -295,7 +295,7 @@ void World::soft_step_once(double dt) {
   const bool automatic = q.substeps < 1;
   int n = substep_count(dt);
   const int most = turn_budget(dt, n);
-  if (automatic) n = std::max(n, std::min(most, turn_substeps(contacts_base_, dt)));
+  if (automatic) n = std::max(n, std::min(most / 2, turn_substeps(contacts_base_, dt)));
   double h = dt / n;
   // the step's contacts, to be written by the solver: moved, not copied (the soft step never
   // reads them as detected again; the next step detects into the other list)

@@ -10,7 +10,8 @@ With ``settings["solver"] == "soft"`` the step is the soft step (``soft.soft_ste
 above, then substeps of at most 1/240 s when automatic, each solve -> integrate -> relax (the
 joints' rows in both schedules), in runs of rows made anew where a pair has turned far
 (``soft_runs``). Automatic substeps, with either solver, are also short enough for the turning and
-closing pairs in contact (``turn_substeps``, within ``turn_budget``). After the step, joints pulled past their break_force or
+closing pairs in contact (``turn_substeps``, within ``turn_budget``, half of it before the first
+substep). After the step, joints pulled past their break_force or
 break_torque break (``joints.break_joints``).
 """
 
@@ -226,7 +227,8 @@ def redetect_turned(contacts, carried, detected, now, dt):
 def turn_budget(dt, n):
     """The most substeps the turning rule gives a step of dt whose own rule gives n (the core's
     World::turn_budget): TURN_SUBSTEPS per 1 / TURN_RATE s of the step (begun) or
-    TURN_SUBSTEP_FACTOR n, whichever is more."""
+    TURN_SUBSTEP_FACTOR n, whichever is more; a step takes at most half of them before its first
+    substep, so that a body set turning by an impact leaves room to split the rest."""
     spans = int(min(max(np.ceil(dt * TURN_RATE - 1e-9), 1), 10**6))
     return max(TURN_SUBSTEPS * spans, TURN_SUBSTEP_FACTOR * n)
 
@@ -329,10 +331,11 @@ def step(snapshot, dt, contacts=None, ties=None):
     snapshot = apply_impulses(snapshot)
     if contacts is None:
         contacts = detect_contacts(snapshot, dt)
-    # automatic substeps are short enough for the turning bodies, at most turn_budget(dt, n)
+    # automatic substeps are short enough for the turning bodies, at most turn_budget(dt, n) in
+    # all, half of them before the first
     automatic, most = settings["substeps"] < 1, turn_budget(dt, n)
     if automatic:
-        n = max(n, min(most, turn_substeps(snapshot, contacts, dt)))
+        n = max(n, min(most // 2, turn_substeps(snapshot, contacts, dt)))
     if settings["solver"] == "soft":
         # the soft step: its substeps share one set of rows until a pair turns far or the rest of
         # the step wants shorter substeps (soft_runs); flagged once per run of rows
