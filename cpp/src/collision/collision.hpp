@@ -395,12 +395,12 @@ void contact_items(const Item& a, const Item& b, double threshold, Scratch& scra
 
 /// The supporting feature of item `it` along world direction dir, written into s: a face (a
 /// polytope face, or a cylinder's cap as 8 rim points, within ~5.7 degrees of dir), a segment (a
-/// capsule's or cylinder's side within ~11.5 degrees of square to dir), or a point.
+/// cylinder's side within ~11.5 degrees of square to dir, a capsule's within 5.7), or a point.
 void support_feature(const Item& it, const Vec3& dir, SupportFeature& s);
 
 /// Two supporting features with no face (sa of A, sb of B, along the normal n from A to B), at
-/// least one a straight side (a segment: a cylinder's or capsule's side within ~11.5 degrees of
-/// square to n), the other a side too or a polytope's vertex whose edge serves as one, lying along
+/// least one a straight side (a segment: a cylinder's side within ~11.5 degrees of square to n, a
+/// capsule's within 5.7), the other a side too or a polytope's vertex whose edge serves as one, lying along
 /// each other (within ~11.5 degrees in the plane square to n): appends a contact at each end of
 /// their overlap along the side with gap n . (x_B - x_A) < threshold (m) and returns true; false
 /// (nothing appended) otherwise, where the distance's single point serves.

@@ -266,9 +266,10 @@ void polytope_capsule(const Polytope& P, const Pose& pa, std::uint32_t part_a, c
 
 namespace {
 constexpr double kFaceCos = 0.995;  // a face within ~5.7 degrees of the normal supports as a face
-// A straight side (a cylinder's or capsule's generator line, a polytope's edge) within ~11.5
-// degrees of square to the normal supports as a segment: both its ends become points of the
-// manifold, the far one speculative, so that a side rocking on a side is caught at both ends
+// A cylinder's side (its generator line), and a polytope's edge beside one, within ~11.5 degrees
+// of square to the normal support as a segment: both its ends become points of the manifold, the
+// far one speculative, so that a side rocking on a side is caught at both ends (a capsule's side
+// keeps the face's 5.7 degrees)
 constexpr double kSideSin = 0.2;
 }  // namespace
 
