@@ -51,6 +51,48 @@ def test_the_oracle_counts_the_substeps_a_turning_pair_needs():
             assert budget // 2 < w.step_report["steps"] <= min(expected, budget)
 
 
+def capsule_landing(tilt, speed=10.0, **solver):
+    """A capsule (r 0.05 m, half length 0.1 m, 1 kg) falling at `speed` m/s, its axis `tilt`
+    radians off horizontal, its lowest point 1 mm over the floor."""
+    w = sg.World(gravity=(0, 0, -G), sleeping=False, **solver)
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    turn = 0.5 * np.pi - tilt  # about y: the axis z tipped towards x
+    q = (np.cos(turn / 2), 0.0, np.sin(turn / 2), 0.0)
+    w.add_body(sg.Capsule(0.05, 0.1), mass=1.0, position=(0, 0, 0.05 + 0.1 * np.sin(tilt) + 1e-3), orientation=q,
+               velocity=(0, 0, -speed))
+    return w
+
+
+def test_an_impact_asks_for_substeps_as_far_as_it_can_turn_the_body():
+    # landing flat, the two ends' closing points' centroid is under the centre: the impact cannot
+    # turn the capsule, and the soft step takes its own 1 substep at dt 1/240 (counting the whole
+    # 10 m/s, it took ceil(dt 10 / (0.25 0.05)) = 4). Tilted 30 degrees, it lands on one end, h cos
+    # 30 off the centre of rho = 0.15 m: f u = 0.577 x 10 m/s asks for ceil(dt f u / (0.25 r)) = 2
+    flat = capsule_landing(0.0, solver="soft")
+    snap = flat.snapshot()
+    assert oracle.turn_substeps(snap, oracle.detect_contacts(snap, 1 / 240), 1 / 240) == 1
+    flat.step(1 / 240)
+    assert flat.step_report["steps"] == 1
+    tilted = capsule_landing(np.pi / 6, solver="soft")
+    snap = tilted.snapshot()
+    contacts = oracle.detect_contacts(snap, 1 / 240)
+    assert len(contacts["gap"]) == 1
+    f = 0.1 * np.cos(np.pi / 6) / 0.15
+    assert oracle.turn_substeps(snap, contacts, 1 / 240) == int(np.ceil(f * 10.0 / (240 * 0.25 * 0.05))) == 2
+    # the core takes them up front (and may split the rest after the impact)
+    tilted.step(1 / 240)
+    assert tilted.step_report["steps"] >= 2
+    report = compare.lockstep(capsule_landing(np.pi / 6, solver="soft"), 1 / 240, 5)
+    assert report.largest < 1e-10, "\n".join(report.lines())
+    # the PGS counts the whole closing speed: landing flat at 20 m/s at dt 1/60, ceil(dt 20 / (0.25
+    # 0.05)) = 27 substeps (its own 16), as the oracle counts them
+    pgs = capsule_landing(0.0, speed=20.0)
+    snap = pgs.snapshot()
+    assert oracle.turn_substeps(snap, oracle.detect_contacts(snap, 1 / 60), 1 / 60) == 27
+    pgs.step(1 / 60)
+    assert pgs.step_report["steps"] >= 27
+
+
 def test_fixed_substeps_are_kept_however_fast_a_body_turns():
     w, _ = spun_box_on_floor(400.0, substeps=2)
     w.step(1 / 240)
@@ -67,22 +109,23 @@ def test_a_sphere_s_turn_asks_for_nothing():
     assert w.step_report["steps"] == 4
 
 
-def push_through(**solver):
-    """A ball (r 0.1 m, 5 kg) at 5 m/s, 1 mm from a cube (half side 0.05 m, 1 kg) with a 5 mm cube
-    (1 g) touching its far side off its centre line, all on the floor."""
+def push_through(speed=5.0, **solver):
+    """A ball (r 0.1 m, 5 kg) at `speed` m/s, 1 mm from a cube (half side 0.05 m, 1 kg) with a 5 mm
+    cube (1 g) touching its far side off its centre line, all on the floor."""
     w = sg.World(gravity=(0, 0, -G), sleeping=False, **solver)
     w.add_static(sg.Plane((0, 0, 1), 0.0))
-    w.add_body(sg.Sphere(0.1), mass=5.0, position=(-0.151, 0, 0.1), velocity=(5.0, 0, 0))
+    w.add_body(sg.Sphere(0.1), mass=5.0, position=(-0.151, 0, 0.1), velocity=(speed, 0, 0))
     w.add_body(sg.Box((0.05, 0.05, 0.05)), mass=1.0, position=(0, 0, 0.05))
     w.add_body(sg.Box((0.0025, 0.0025, 0.0025)), mass=0.001, position=(0.053, 0.03, 0.0025))
     return w
 
 
 def test_a_substep_that_sets_a_small_body_moving_splits_the_rest_of_the_step():
-    # at the step's start only the ball closes on the big cube: 5 m/s against its inner radius
-    # 0.05 m asks for 2 substeps (the PGS takes its own 4 at dt 1/240). The first substep's impact
-    # drives the big cube into the small one, whose contact then closes at about 5 m/s against an
-    # inner radius of 2.5 mm: the rest of the step (3/960 s) is split into at most 16 - 1 substeps
+    # at the step's start only the ball closes on the big cube: the PGS counts the whole 5 m/s,
+    # which against its inner radius 0.05 m asks for 2 substeps (it takes its own 4 at dt 1/240).
+    # The first substep's impact drives the big cube into the small one, whose contact then closes
+    # at about 5 m/s against an inner radius of 2.5 mm: the rest of the step (3/960 s) is split into
+    # at most 16 - 1 substeps
     w = push_through()
     snap = w.snapshot()
     assert oracle.turn_substeps(snap, oracle.detect_contacts(snap, 1 / 240), 1 / 240) == 2
@@ -165,12 +208,16 @@ def test_the_soft_step_makes_its_rows_again_for_a_turning_box_as_the_oracle_does
 
 
 def test_the_soft_step_splits_the_rest_of_a_step_after_an_impact_as_the_oracle_does():
-    # the push-through scene with the soft step (its own 1 substep at dt 1/240): the ball's
-    # closing asks for 2 up front, and the impact on the small cube then splits the rest
-    w = push_through(solver="soft")
+    # the push-through scene with the soft step (its own 1 substep at dt 1/240), the ball at 8 m/s:
+    # it strikes the big cube's top edge, 0.05 m off its centre of its rho 0.0866 m, so the impact
+    # can turn it at f u = 0.577 x 8 m/s, which asks for 2 substeps up front; the impact on the
+    # small cube then splits the rest
+    w = push_through(8.0, solver="soft")
+    snap = w.snapshot()
+    assert oracle.turn_substeps(snap, oracle.detect_contacts(snap, 1 / 240), 1 / 240) == 2
     w.step(1 / 240)
     assert w.step_report["steps"] > 2
-    report = compare.lockstep(push_through(solver="soft"), 1 / 240, 10)
+    report = compare.lockstep(push_through(8.0, solver="soft"), 1 / 240, 10)
     assert report.largest < 1e-10, "\n".join(report.lines())
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from .contacts import bounding_radius, detect_contacts
 from .joints import break_joints
-from .rigid import apply_impulses, integrate, unconstrained_velocity
+from .rigid import apply_impulses, integrate, motion_flags, unconstrained_velocity
 from .soft import contact_rounding, soft_step
 from .solver import solve_contacts, solver_settings, substep_count
 
@@ -160,26 +160,51 @@ def _turn_radii(snapshot):
 def turn_substeps(snapshot, contacts, span):
     """The substeps ``span`` seconds take for the contacts' fast-turning bodies at the snapshot's
     angular velocities: the fewest that turn each contact's pair by at most TURN_REACH of its
-    smaller inner radius, span (|omega_A| rho_A + |omega_B| rho_B + u) / (TURN_REACH min(inner_A,
-    inner_B)), with u the closing speed of its bodies' centres -n . (v_B - v_A) when it closes
-    within the span (gap < span u; an impact off the centre can set a body turning at about u /
-    rho), else 0 (a turn's share of the closing is in the sweep terms); a contact counts only when
-    its pair can touch within the span, gap < span (|omega_A| rho_A + |omega_B| rho_B + u);
-    1 when none turns, at most 10**6."""
+    smaller inner radius, span (|omega_A| rho_A + |omega_B| rho_B + f u) / (TURN_REACH min(inner_A,
+    inner_B)). u is the closing speed of its bodies' centres -n . (v_B - v_A) when it closes within
+    the span (gap < span u), else 0 (a turn's share of the closing is in the sweep terms): an
+    impact can set a body turning at about f u / rho. With the soft step, f = min(1, |(y - p) x n|
+    / rho) at the centroid y of the pair's points that close within the span, the larger of its
+    bodies' (0 for a static or kinematic body or a sphere; a pair's points are its run in the
+    list); the PGS counts the whole u (f = 1: its hard landings sink less for it). A contact
+    counts only when its pair can touch within the span, gap < span (|omega_A| rho_A + |omega_B|
+    rho_B + u); 1 when none turns, at most 10**6."""
     a = np.asarray(contacts["body_a"], dtype=np.int64)
     b = np.asarray(contacts["body_b"], dtype=np.int64)
     if len(a) == 0:
         return 1
     rho, inner = _turn_radii(snapshot)
+    kinematic, _ = motion_flags(snapshot)
+    turns = (rho > 0.0) & ~kinematic  # (rho is 0 for a static body or a sphere)
     p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
     v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
-    omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
     n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
+    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
     gap = np.asarray(contacts["gap"], dtype=float)
     u = np.maximum(0.0, -np.einsum("ki,ki->k", n, v[b] - v[a]))  # the centres' (the turn's is the sweep's)
+    closes = gap < span * u
+    # each contact's impact point: the centroid of its pair's run's closing points
+    centroid = np.zeros((len(a), 3))
+    start = 0
+    for k in range(1, len(a) + 1):
+        if k == len(a) or a[k] != a[start] or b[k] != b[start]:
+            run = np.arange(start, k)[closes[start:k]]
+            if len(run):
+                total = np.zeros(3)
+                for m in run:  # (summed in order, as the core)
+                    total = total + y[m]
+                centroid[start:k] = total / len(run)
+            start = k
+
+    def lever(i):
+        arm = np.linalg.norm(np.cross(centroid - p[i], n), axis=1)
+        return np.where(turns[i], np.minimum(1.0, arm / np.where(turns[i], rho[i], 1.0)), 0.0)
+
+    f = np.maximum(lever(a), lever(b)) if solver_settings(snapshot)["solver"] == "soft" else np.ones(len(a))
+    omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
     sweep = np.linalg.norm(omega, axis=1) * rho
     s = sweep[a] + sweep[b]
-    term = np.where(gap < span * (s + u), s + np.where(gap < span * u, u, 0.0), 0.0)  # pairs that can touch
+    term = np.where(gap < span * (s + u), s + np.where(closes, f * u, 0.0), 0.0)  # pairs that can touch
     fastest = float(np.max(term / np.minimum(inner[a], inner[b])))
     return int(min(max(np.ceil(span * fastest / TURN_REACH - 1e-9), 1), 10**6))
 
