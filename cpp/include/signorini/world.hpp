@@ -422,6 +422,16 @@ class World {
   /// takes at most half of them before its first substep, so that a body set turning by an impact
   /// has room left.
   int turn_budget(double dt, int n) const;
+  /// A step's first plan of its substeps, after its detection and wake: n its own count
+  /// (substep_count) or, when automatic (settings' substeps < 1), at least as many as
+  /// turn_substeps asks for its detected contacts (contacts_base_), at most half of `most`
+  /// (turn_budget), the cap on the substeps it may split into later.
+  struct SubstepPlan {
+    int n = 1;
+    int most = 1;
+    bool automatic = false;
+  };
+  SubstepPlan plan_substeps(double dt) const;
   /// The soft step after substep k of n (h s each; automatic substeps): when a pair of its
   /// contacts has turned far since its rows were made (collision::turned_far), or a body turns so
   /// fast that the rest of the step wants more substeps (turn_substeps, at most `most` in all),

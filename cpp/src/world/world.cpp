@@ -224,10 +224,8 @@ void World::step_once(double dt) {
   lap(t.wake);
   // (after the wake: a joint that woke asks for its substeps; automatic substeps are also short
   // enough for the fast-turning bodies in contact, at most turn_budget of them, half up front)
-  const bool automatic = settings_.solver.substeps < 1;
-  int n = substep_count(dt);
-  const int most = turn_budget(dt, n);
-  if (automatic) n = std::max(n, std::min(most / 2, turn_substeps(contacts_base_, dt)));
+  const auto [first_n, most, automatic] = plan_substeps(dt);
+  int n = first_n;
   double h = dt / n, elapsed = 0.0;
   SolverStats stats;
   for (int k = 0; k < n; ++k) {
@@ -292,10 +290,8 @@ void World::soft_step_once(double dt) {
   lap(t.wake);
   // (after the wake: a joint that woke asks for its substeps; automatic substeps are also short
   // enough for the fast-turning bodies in contact, as in step_once)
-  const bool automatic = q.substeps < 1;
-  int n = substep_count(dt);
-  const int most = turn_budget(dt, n);
-  if (automatic) n = std::max(n, std::min(most / 2, turn_substeps(contacts_base_, dt)));
+  const auto [first_n, most, automatic] = plan_substeps(dt);
+  int n = first_n;
   double h = dt / n;
   // the step's contacts, to be written by the solver: moved, not copied (the soft step never
   // reads them as detected again; the next step detects into the other list)
@@ -398,6 +394,15 @@ int World::turn_budget(double dt, int n) const {
   // (1e-9 absorbs rounding: dt = 1/240 is one span)
   const int spans = static_cast<int>(std::clamp(std::ceil(dt * collision::kTurnRate - 1e-9), 1.0, 1e6));
   return std::max(collision::kTurnSubsteps * spans, collision::kTurnSubstepFactor * n);
+}
+
+World::SubstepPlan World::plan_substeps(double dt) const {
+  SubstepPlan plan;
+  plan.automatic = settings_.solver.substeps < 1;
+  plan.n = substep_count(dt);
+  plan.most = turn_budget(dt, plan.n);
+  if (plan.automatic) plan.n = std::max(plan.n, std::min(plan.most / 2, turn_substeps(contacts_base_, dt)));
+  return plan;
 }
 
 bool World::soft_cut(int k, int& n, double& h, int most) {
