@@ -427,6 +427,9 @@ struct Side {
   FeatureId id[2];
 };
 
+/// d's part in the plane square to the unit n.
+Vec3 in_plane(const Vec3& d, const Vec3& n) { return d - d.dot(n) * n; }
+
 /// The edge of polytope item `it` at its supporting vertex (feature id `vertex`) that runs most
 /// nearly along the unit in-plane direction `along` (square to n), if it is within kSideSin of
 /// square to n and of parallel to `along`: the supporting vertex of a box whose edge lies along a
@@ -443,7 +446,7 @@ bool polytope_side(const Item& it, FeatureId vertex, const Vec3& n, const Vec3& 
     const int w = e.v0 == v ? e.v1 : e.v0;
     const Vec3 d = (R * (P.vertex(w) - P.vertex(v))).normalized();
     const double off_plane = std::abs(d.dot(n));
-    const double across = (d - d.dot(n) * n).cross(along).norm();  // sin of the in-plane angle (times |d's part|)
+    const double across = in_plane(d, n).cross(along).norm();  // sin of the in-plane angle (times |d's part|)
     if (off_plane <= kSideSin && across <= best) {
       best = across;
       side.end[0] = R * P.vertex(v) + it.pose.p;
@@ -469,15 +472,14 @@ bool side_on_side(const Item& a, const Item& b, const SupportFeature& sa, const 
   const bool ref_is_a = seg_a;
   const SupportFeature& s = ref_is_a ? sa : sb;
   Side ref{{s.points[0], s.points[1]}, {s.ids[0], s.ids[1]}}, inc;
-  auto in_plane = [&](const Vec3& d) -> Vec3 { return d - d.dot(n) * n; };
-  const Vec3 along = in_plane(ref.end[1] - ref.end[0]);
+  const Vec3 along = in_plane(ref.end[1] - ref.end[0], n);
   const double length = along.norm();
   if (!(length > 0.0)) return false;
   const Vec3 e = along / length;
   const SupportFeature& o = ref_is_a ? sb : sa;
   if (o.points.size() == 2) {
     inc = Side{{o.points[0], o.points[1]}, {o.ids[0], o.ids[1]}};
-    if (in_plane((inc.end[1] - inc.end[0]).normalized()).cross(e).norm() > kSideSin) return false;
+    if (in_plane((inc.end[1] - inc.end[0]).normalized(), n).cross(e).norm() > kSideSin) return false;
   } else {
     const Item& other = ref_is_a ? b : a;
     if (!other.polytope || o.points.size() != 1 || !polytope_side(other, o.ids[0], n, e, inc)) return false;
