@@ -538,6 +538,9 @@ class World {
   std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
   std::vector<double> impulse_sum_;      ///< per contact: its normal impulse over the substeps so far (N s)
   std::vector<double> turned_;           ///< per body: how far its turn since the step's detection moved it (m)
+  /// the smallest inner radius of any body (m; soft_cut's bound), negative until read after the
+  /// bodies changed (bodies_changed), so that a step's cost does not follow the static bodies
+  double least_inner_ = -1.0;
   std::vector<Contact> contacts_prev_;   ///< the last substep's contacts, while a substep detects again
   std::vector<Contact> redetected_list_; ///< a substep's contacts with the turned bodies' pairs found again
   std::vector<Vec3> redetected_a_, redetected_b_;  ///< their anchors

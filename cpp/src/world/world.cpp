@@ -194,6 +194,7 @@ void World::bodies_changed(bool relist) {
   omega_.clear();
   turned_.clear();
   scratch_->reach.clear();
+  least_inner_ = -1.0;
 }
 
 int SolverSettings::substep_count(double dt, bool joints) const {
@@ -415,8 +416,12 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
   // - no contact's turn_substeps term, (sweep_A + sweep_B + f u) / min(inner_A, inner_B), exceeds
   //   2 S / min(inner), S the largest |omega| rho (not for a sphere) + |v| (f u <= |v_A| + |v_B|);
   //   (1 + 1e-9) covers the rounding of the terms' sums
-  double T = 0.0, S = 0.0, inner = std::numeric_limits<double>::infinity();
-  for (const double r : model_.inner) inner = std::min(inner, r);
+  if (least_inner_ < 0.0) {
+    least_inner_ = std::numeric_limits<double>::infinity();
+    for (const double r : model_.inner) least_inner_ = std::min(least_inner_, r);
+  }
+  double T = 0.0, S = 0.0;
+  const double inner = least_inner_;
   for (const BodyIndex i : moving_) {
     T = std::max(T, turned_[i]);
     const double sweep = std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : state_.omega[i].norm() * model_.rho[i];
