@@ -639,7 +639,9 @@ def test_carried_contacts_follow_their_bodies():
     # a sphere rolled by 0.2 rad about y while moving 0.1 m along x and 1 mm down: to first order
     # its bottom point moves along x only, so the gap closes by exactly the 1 mm (a rotated material
     # point would have lifted r (1 - cos 0.2) = 5 mm, a false gap); the anchor on the sphere moves
-    # with its centre, the plane's stays
+    # with its centre and stays half the gap over its witness (the gap closed by 1 mm: it rises
+    # 0.5 mm against its centre, so that its core, gap / 2 + r under it, is the centre), the
+    # plane's (a flat side, its lever arm) stays
     snap = sphere_on_plane(gap=0.002)
     contacts = o.detect_contacts(snap, 0.01)
     roll = np.array([np.cos(0.1), 0, np.sin(0.1), 0])  # 0.2 rad about y
@@ -648,7 +650,9 @@ def test_carried_contacts_follow_their_bodies():
     carried = o.carry_contacts(contacts, snap, moved)
     assert carried["gap"][0] == pytest.approx(contacts["gap"][0] - 0.001, abs=1e-15)
     np.testing.assert_allclose(carried["anchor_a"][0], contacts["point"][0], atol=1e-15)
-    np.testing.assert_allclose(carried["anchor_b"][0], contacts["point"][0] + [0.1, 0, -0.001], atol=1e-15)
+    np.testing.assert_allclose(carried["anchor_b"][0], contacts["point"][0] + [0.1, 0, -0.0005], atol=1e-15)
+    core = carried["anchor_b"][0] + (0.5 * carried["gap"][0] + 0.5) * carried["normal"][0]  # r = 0.5
+    np.testing.assert_allclose(core, moved["position"][1], atol=1e-15)
     np.testing.assert_array_equal(carried["normal"], contacts["normal"])
     # a box corner turning towards the plane closes its gap by the turn times its lever arm
     box = make_snapshot([plane(), make_body({"type": "box", "half_extents": np.array([0.5, 0.5, 0.5])})],

@@ -89,7 +89,10 @@ def carry_contacts(contacts, detected, now, anchored=False):
     w_A - rho_A n) moved with the body's whole turn, dp_X + (R_X R_X0^T - I) (c_X - p_X0), in place
     of its term (a spinning body's witness stays under its core). The normal stays; the lever arms
     stay as detected: anchor_X = y + dp_X (or, when the contacts carry anchor_X, anchor_X + dp_X),
-    where the solver applies the force on X; y <- (anchor_a + anchor_b) / 2. With anchored (contacts
+    where the solver applies the force on X; on a round side moved along n by half the change of
+    the gap, (gap' - gap) / 2 n for A and the opposite for B (its anchor is half the gap beyond its
+    witness, as a contact point is, since its core is taken from it); y <- (anchor_a + anchor_b) /
+    2. With anchored (contacts
     carried before, whose point, the anchors' midpoint, lags a fast body by half its travel), each
     side's witness is taken from its anchor: w_A = anchor_a - gap/2 n, w_B = anchor_b + gap/2 n.
 
@@ -128,11 +131,16 @@ def carry_contacts(contacts, detected, now, anchored=False):
     moved_a = np.where((rho_a > 0.0)[:, None], turned(a, y_a - half - rho_a[:, None] * n), moved(a, y_a - half))
     out = dict(contacts)
     out["gap"] = gap + np.einsum("ki,ki->k", n, moved_b - moved_a)
-    out["anchor_a"], out["anchor_b"] = point + dp[a], point + dp[b]
+    # a round side's anchor half the new gap beyond its witness, as a contact point is (its core is
+    # taken from it); a flat side's stays its lever arm
+    shift = 0.5 * (out["gap"] - gap)[:, None] * n
+    shift_a, shift_b = np.where((rho_a > 0.0)[:, None], shift, 0.0), np.where((rho_b > 0.0)[:, None], shift, 0.0)
+    out["anchor_a"], out["anchor_b"] = point + dp[a] + shift_a, point + dp[b] - shift_b
     out["point"] = 0.5 * (out["anchor_a"] + out["anchor_b"])
-    for key, i in (("anchor_a", a), ("anchor_b", b)):  # given lever arms (a recycled contact's) stay
+    # given lever arms (a recycled contact's) stay
+    for key, i, moved_by in (("anchor_a", a, shift_a), ("anchor_b", b, -shift_b)):
         if key in contacts:
-            out[key] = np.asarray(contacts[key], dtype=float).reshape(-1, 3) + dp[i]
+            out[key] = np.asarray(contacts[key], dtype=float).reshape(-1, 3) + dp[i] + moved_by
     return out
 
 
