@@ -491,10 +491,9 @@ int World::turn_substeps(const std::vector<Contact>& contacts, double span) cons
   // face) asks for nothing, and one at a corner of a small body up to u / rho. The PGS counts the
   // whole u (f = 1): its hard landings sink less in the substeps their closing asks for (rain's
   // columns: 108 steps past half a radius against 151 with the lever), the soft step's do not (280
-  // either way). (The centres' closing: a turn's
-  // share of the closing is the sweep's already, and a point carried through substeps, the
-  // anchors' midpoint, lags a fast body, so that omega x (y - p) would read a spinning ball's travel
-  // as closing.)
+  // either way). (The centres' closing: a turn's share of the closing is the sweep's already, and
+  // a point carried through substeps, the anchors' midpoint, lags a fast body, so that omega x (y -
+  // p) would read a spinning ball's travel as closing.)
   // A pair counts only when it can touch within the span: gap < span (sweeps + u) (a speculative
   // pair half a metre apart asks nothing for its turn)
   const auto closing = [&](const Contact& c) {
