@@ -91,10 +91,10 @@ def carry_contacts(contacts, detected, now, anchored=False):
     stay as detected: anchor_X = y + dp_X (or, when the contacts carry anchor_X, anchor_X + dp_X),
     where the solver applies the force on X; on a round side moved along n by half the change of
     the gap, (gap' - gap) / 2 n for A and the opposite for B (its anchor is half the gap beyond its
-    witness, as a contact point is, since its core is taken from it); y <- (anchor_a + anchor_b) /
-    2. With anchored (contacts
-    carried before, whose point, the anchors' midpoint, lags a fast body by half its travel), each
-    side's witness is taken from its anchor: w_A = anchor_a - gap/2 n, w_B = anchor_b + gap/2 n.
+    witness, as a contact point is, since its core is taken from it); y <- (anchor_a + anchor_b) / 2.
+    With anchored (contacts carried before, whose point, the anchors' midpoint, lags a fast body by
+    half its travel), each side's witness is taken from its anchor: w_A = anchor_a - gap/2 n, w_B =
+    anchor_b + gap/2 n.
 
     Inputs: contacts dict (K contacts), two snapshots (position (N, 3), rotation (N, 3, 3); the
             first with its bodies).
