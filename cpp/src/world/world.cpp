@@ -506,13 +506,14 @@ int World::turn_substeps(const std::vector<Contact>& contacts, double span) cons
   const bool levered = settings_.solver.method == SolverMethod::Soft;
   double fastest = 0.0;
   for (std::size_t j = 0; j < contacts.size();) {
-    // the pair's run of contacts (the list is in pair order) and the centroid of its closing points
+    // the pair's run of contacts (the list is in pair order) and, for the lever, the centroid of
+    // its closing points
     const BodyIndex a = contacts[j].body_a, b = contacts[j].body_b;
     std::size_t end = j;
     Vec3 centroid = Vec3::Zero();
     int closes = 0;
     for (; end < contacts.size() && contacts[end].body_a == a && contacts[end].body_b == b; ++end)
-      if (contacts[end].gap < span * closing(contacts[end])) {
+      if (levered && contacts[end].gap < span * closing(contacts[end])) {
         centroid += contacts[end].point;
         ++closes;
       }

@@ -165,6 +165,37 @@ def _turn_radii(snapshot):
     return rho, inner
 
 
+def _impact_levers(snapshot, contacts, closes, rho):
+    """Per contact (K,): f = min(1, |(y - p) x n| / rho), the larger of its pair's bodies' (0 for a
+    static or kinematic body or a sphere: rho 0 here), y the centroid of the closing points
+    (``closes``, (K,) bool) of its pair's run in the list: how much of an impact's closing speed
+    can turn a body (``turn_substeps``, soft step)."""
+    a = np.asarray(contacts["body_a"], dtype=np.int64)
+    b = np.asarray(contacts["body_b"], dtype=np.int64)
+    n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
+    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
+    p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
+    kinematic, _ = motion_flags(snapshot)
+    turns = (rho > 0.0) & ~kinematic
+    centroid = np.zeros((len(a), 3))
+    start = 0
+    for k in range(1, len(a) + 1):
+        if k == len(a) or a[k] != a[start] or b[k] != b[start]:
+            run = np.arange(start, k)[closes[start:k]]
+            if len(run):
+                total = np.zeros(3)
+                for m in run:  # (summed in order, as the core)
+                    total = total + y[m]
+                centroid[start:k] = total / len(run)
+            start = k
+
+    def lever(i):
+        arm = np.linalg.norm(np.cross(centroid - p[i], n), axis=1)
+        return np.where(turns[i], np.minimum(1.0, arm / np.where(turns[i], rho[i], 1.0)), 0.0)
+
+    return np.maximum(lever(a), lever(b))
+
+
 def turn_substeps(snapshot, contacts, span):
     """The substeps ``span`` seconds take for the contacts' fast-turning bodies at the snapshot's
     angular velocities: the fewest that turn each contact's pair by at most TURN_REACH of its
@@ -182,33 +213,13 @@ def turn_substeps(snapshot, contacts, span):
     if len(a) == 0:
         return 1
     rho, inner = _turn_radii(snapshot)
-    kinematic, _ = motion_flags(snapshot)
-    turns = (rho > 0.0) & ~kinematic  # (rho is 0 for a static body or a sphere)
-    p = np.asarray(snapshot["position"], dtype=float).reshape(-1, 3)
     v = np.asarray(snapshot["velocity"], dtype=float).reshape(-1, 3)
     n = np.asarray(contacts["normal"], dtype=float).reshape(-1, 3)
-    y = np.asarray(contacts["point"], dtype=float).reshape(-1, 3)
     gap = np.asarray(contacts["gap"], dtype=float)
     u = np.maximum(0.0, -np.einsum("ki,ki->k", n, v[b] - v[a]))  # the centres' (the turn's is the sweep's)
     closes = gap < span * u
-    # each contact's impact point: the centroid of its pair's run's closing points
-    centroid = np.zeros((len(a), 3))
-    start = 0
-    for k in range(1, len(a) + 1):
-        if k == len(a) or a[k] != a[start] or b[k] != b[start]:
-            run = np.arange(start, k)[closes[start:k]]
-            if len(run):
-                total = np.zeros(3)
-                for m in run:  # (summed in order, as the core)
-                    total = total + y[m]
-                centroid[start:k] = total / len(run)
-            start = k
-
-    def lever(i):
-        arm = np.linalg.norm(np.cross(centroid - p[i], n), axis=1)
-        return np.where(turns[i], np.minimum(1.0, arm / np.where(turns[i], rho[i], 1.0)), 0.0)
-
-    f = np.maximum(lever(a), lever(b)) if solver_settings(snapshot)["solver"] == "soft" else np.ones(len(a))
+    soft = solver_settings(snapshot)["solver"] == "soft"
+    f = _impact_levers(snapshot, contacts, closes, rho) if soft else np.ones(len(a))
     omega = np.asarray(snapshot["angular_velocity"], dtype=float).reshape(-1, 3)
     sweep = np.linalg.norm(omega, axis=1) * rho
     s = sweep[a] + sweep[b]
