@@ -501,9 +501,10 @@ class BroadPhase {
   void cast_ray(const Vec3& o, const Vec3& u, double bound, RayVisitor& visitor, std::vector<const void*>& stack,
                 std::int64_t& nodes) const;
   /// The bodies whose tree boxes overlap [lo, hi] (world, m), appended to out in tree order
-  /// (planes excluded).
+  /// (planes excluded); statics_only: the static tree's alone (a body's being static is fixed when
+  /// it is added), which skips walking the moving bodies' trees.
   void overlap_box(const Vec3& lo, const Vec3& hi, std::vector<BodyIndex>& out, std::vector<const void*>& stack,
-                   std::int64_t& nodes) const;
+                   std::int64_t& nodes, bool statics_only = false) const;
 
  private:
   /// Sets every static body's box from its pose, grown by margin/2, and refits the static tree.

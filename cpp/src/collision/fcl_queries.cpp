@@ -528,10 +528,10 @@ void BroadPhase::cast_ray(const Vec3& o, const Vec3& u, double bound, RayVisitor
 }
 
 void BroadPhase::overlap_box(const Vec3& lo, const Vec3& hi, std::vector<BodyIndex>& out,
-                             std::vector<const void*>& stack, std::int64_t& nodes) const {
+                             std::vector<const void*>& stack, std::int64_t& nodes, bool statics_only) const {
   const Impl& m = *impl_;
   const fcl::DynamicAABBTreeCollisionManagerd* trees[3] = {&m.static_tree, &m.dynamic_tree, &m.sleep_tree};
-  for (int k = 0; k < 3; ++k) {
+  for (int k = 0; k < (statics_only ? 1 : 3); ++k) {
     const TreeNode* root = trees[k]->getTree().getRoot();
     if (!root) continue;
     stack.clear();

@@ -66,14 +66,16 @@ double deeper(const Model& model, const State& state, const collision::BroadPhas
   return most;
 }
 
-/// The bodies whose broad-phase boxes meet the box [lo, hi] (world, m), and every plane,
-/// ascending, each once: written into s.swept (allocates nothing once it has grown).
+/// The static bodies whose broad-phase boxes meet the box [lo, hi] (world, m), and every plane,
+/// ascending, each once: written into s.swept (allocates nothing once it has grown). Only the
+/// static tree is walked: continuous collision puts bodies back before static ones alone (rain's
+/// 4,200 falling capsules made the walk of the moving bodies' tree a tenth of the step).
 const std::vector<BodyIndex>& in_box(const collision::BroadPhase& bp, const Vec3& lo, const Vec3& hi,
                                      collision::Scratch& s) {
   std::vector<BodyIndex>& out = s.swept;
   out.assign(bp.planes().begin(), bp.planes().end());
   std::int64_t nodes = 0;
-  bp.overlap_box(lo, hi, out, s.tree_stack, nodes);
+  bp.overlap_box(lo, hi, out, s.tree_stack, nodes, /*statics_only=*/true);
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
