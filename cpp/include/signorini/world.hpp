@@ -450,6 +450,14 @@ class World {
   /// set bodies turning faster, the rest of the step is split again for the substep's contacts,
   /// at most turn_budget substeps in all.
   int turn_substeps(const std::vector<Contact>& contacts, double span) const;
+  /// A bound on turn_substeps's count from the moving bodies alone, so that a step where nothing
+  /// turns or moves fast reads no contact (a pass over a large pile's contacts costs more than its
+  /// solve's share of a substep): no contact's term, (sweep_A + sweep_B + f u) / min(inner_A,
+  /// inner_B), exceeds 2 S / min(inner), S the largest |omega| rho (not for a sphere) + |v| of a
+  /// moving body (f u <= |v_A| + |v_B|), min(inner) over every body. Returns 2 S / min(inner) (1/s),
+  /// with (1 + 1e-9) for the rounding of the terms' sums; and the largest turn, turned_, of a
+  /// moving body into *turned (m) when asked for.
+  double turn_rate_bound(double* turned = nullptr) const;
   /// After substep k's solve: each contact's impulse becomes the sum over the substeps so far
   /// (Contacts.impulse is the step's whole normal impulse).
   void sum_impulses(int k);
@@ -540,7 +548,7 @@ class World {
   std::vector<double> turned_;           ///< per body: how far its turn since the step's detection moved it (m)
   /// the smallest inner radius of any body (m; soft_cut's bound), negative until read after the
   /// bodies changed (bodies_changed), so that a step's cost does not follow the static bodies
-  double least_inner_ = -1.0;
+  mutable double least_inner_ = -1.0;
   std::vector<Contact> contacts_prev_;   ///< the last substep's contacts, while a substep detects again
   std::vector<Contact> redetected_list_; ///< a substep's contacts with the turned bodies' pairs found again
   std::vector<Vec3> redetected_a_, redetected_b_;  ///< their anchors

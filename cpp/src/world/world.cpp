@@ -402,8 +402,25 @@ World::SubstepPlan World::plan_substeps(double dt) const {
   plan.automatic = settings_.solver.substeps < 1;
   plan.n = substep_count(dt);
   plan.most = turn_budget(dt, plan.n);
-  if (plan.automatic) plan.n = std::max(plan.n, std::min(plan.most / 2, turn_substeps(contacts_base_, dt)));
+  // (the bound first: a pile at rest asks for nothing, and its contacts are not read)
+  if (plan.automatic && std::ceil(dt * turn_rate_bound() / collision::kTurnReach - 1e-9) > plan.n)
+    plan.n = std::max(plan.n, std::min(plan.most / 2, turn_substeps(contacts_base_, dt)));
   return plan;
+}
+
+double World::turn_rate_bound(double* turned) const {
+  if (least_inner_ < 0.0) {
+    least_inner_ = std::numeric_limits<double>::infinity();
+    for (const double r : model_.inner) least_inner_ = std::min(least_inner_, r);
+  }
+  double T = 0.0, S = 0.0;
+  for (const BodyIndex i : moving_) {
+    if (turned) T = std::max(T, turned_[i]);
+    const double sweep = std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : state_.omega[i].norm() * model_.rho[i];
+    S = std::max(S, sweep + state_.v[i].norm());
+  }
+  if (turned) *turned = T;
+  return 2.0 * S / least_inner_ * (1.0 + 1e-9);
 }
 
 bool World::soft_cut(int k, int& n, double& h, int most) {
@@ -411,25 +428,13 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
   const State& from = soft_runs_ ? segment_start_ : guard_->start();
   find_turned(from);
   // bounds from the moving bodies alone, so that a step where nothing turns or moves fast reads no
-  // contact (a pass over a large pile's contacts costs more than its solve's share of a substep):
-  // - no pair has turned far while 2 max(turned) <= kTurnReach min(inner) over every body;
-  // - no contact's turn_substeps term, (sweep_A + sweep_B + f u) / min(inner_A, inner_B), exceeds
-  //   2 S / min(inner), S the largest |omega| rho (not for a sphere) + |v| (f u <= |v_A| + |v_B|);
-  //   (1 + 1e-9) covers the rounding of the terms' sums
-  if (least_inner_ < 0.0) {
-    least_inner_ = std::numeric_limits<double>::infinity();
-    for (const double r : model_.inner) least_inner_ = std::min(least_inner_, r);
-  }
-  double T = 0.0, S = 0.0;
-  const double inner = least_inner_;
-  for (const BodyIndex i : moving_) {
-    T = std::max(T, turned_[i]);
-    const double sweep = std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : state_.omega[i].norm() * model_.rho[i];
-    S = std::max(S, sweep + state_.v[i].norm());
-  }
+  // contact: no pair has turned far while 2 max(turned) <= kTurnReach min(inner) over every body,
+  // and turn_substeps asks for no more than turn_rate_bound gives
+  double T = 0.0;
+  const double rate = turn_rate_bound(&T);
   const double rest = (n - k - 1) * h;
-  const bool may_turn = 2.0 * T > collision::kTurnReach * inner;
-  const bool may_split = n < most && rest * (2.0 * S / inner) * (1.0 + 1e-9) / collision::kTurnReach - 1e-9 > n - k - 1;
+  const bool may_turn = 2.0 * T > collision::kTurnReach * least_inner_;
+  const bool may_split = n < most && rest * rate / collision::kTurnReach - 1e-9 > n - k - 1;
   if (!may_turn && !may_split) return false;
   const bool turned = may_turn && std::any_of(contacts_next_.begin(), contacts_next_.end(), [&](const Contact& c) {
     return collision::turned_far(model_, c.body_a, c.body_b, turned_);
