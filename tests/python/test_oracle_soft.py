@@ -109,6 +109,26 @@ def kinematic_paddle(**settings):
     return w
 
 
+def two_points(**settings):
+    """Two-point pairs, whose normal rows the soft step solves as one block: a capsule landing flat,
+    one landing tilted on one end and then falling flat and sliding, a box landing on an edge, and
+    a box tilted onto another box's face (an edge on a face); frictions differ."""
+    w = sg.World(gravity=(0, 0, -G), sleeping=False, **settings)
+    w.add_static(sg.Plane((0, 0, 1), 0.0), friction=0.7)
+    lying = (math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0)  # the capsule's axis along x
+    w.add_body(sg.Capsule(0.05, 0.15), density=800.0, position=(0, 0, 0.1), orientation=lying,
+               velocity=(0, 0, -3.0), friction=0.5)
+    tilt = 0.3  # about y, from lying
+    w.add_body(sg.Capsule(0.05, 0.15), density=800.0, position=(0, 0.6, 0.3),
+               orientation=(math.cos(math.pi / 4 + tilt / 2), 0.0, math.sin(math.pi / 4 + tilt / 2), 0.0),
+               velocity=(0.4, 0, -1.0), friction=0.5)
+    edge = (math.cos(0.3), math.sin(0.3), 0.0, 0.0)  # 0.6 rad about x: it lands on an edge
+    w.add_body(sg.Box((0.1, 0.1, 0.1)), density=500.0, position=(1.0, 0, 0.25), orientation=edge, friction=0.4)
+    w.add_body(sg.Box((0.25, 0.25, 0.1)), density=500.0, position=(1.0, 1.0, 0.1), friction=0.4)
+    w.add_body(sg.Box((0.08, 0.08, 0.08)), density=900.0, position=(1.0, 1.0, 0.35), orientation=edge, friction=0.6)
+    return w
+
+
 def run_lockstep(world, dt, steps):
     """``compare.lockstep`` one step at a time, keeping what the core did in each (for the checks
     that a scene exercised what it is for). Returns (largest difference, the report of the step
@@ -246,6 +266,8 @@ LOCKSTEP = {
     "bounce": (bounce, 1 / 240, 300, {}),
     "bounce_substeps": (bounce, 1 / 60, 100, {}),
     "kinematic_paddle": (kinematic_paddle, 1 / 240, 300, {}),
+    "two_points": (two_points, 1 / 240, 240, {}),
+    "two_points_substeps": (two_points, 1 / 60, 90, {}),
 }
 
 
@@ -274,6 +296,15 @@ def test_soft_step_agrees_with_the_oracle_step_by_step_to_1e_10(name):
         assert any(np.any(c.friction != 0.0) for c in contacts)
     if name == "kinematic_paddle":
         assert any(np.any((c.body_a == 2) | (c.body_b == 2)) for c in contacts)
+    if name.startswith("two_points"):
+        # pairs of exactly two points, pushing (blocks), and such a pair with one point alone pushing
+        def pairs(c):
+            keys, counts = np.unique(np.stack([c.body_a, c.body_b], axis=1), axis=0, return_counts=True)
+            return {tuple(k): n for k, n in zip(keys, counts)}
+        blocks = [(c, pairs(c)) for c in contacts if len(c)]
+        assert any(n == 2 for _, p in blocks for n in p.values())
+        assert any(n == 2 and np.count_nonzero(c.alpha[(c.body_a == a) & (c.body_b == b)] > 0) == 1
+                   for c, p in blocks for (a, b), n in p.items())
 
 
 # --------------------------------------------------------------------------- closed forms

@@ -10,7 +10,9 @@ Tolerances from the physics:
   the rounding of E itself: its sum of terms m g |z| (and 1/2 m v^2) is rounded to a few ulps of
   their total, 1e-12 of it is a wide margin for that and far below any real gain (a 1 g body
   rising 1 um already gains 1e-8 J);
-- rest: every body's centre of mass slower than 1 cm/s after 4 s;
+- rest: every body's centre of mass slower than 1 cm/s over the last of the 4 s (at every step of
+  it, not at one instant: the soft step's ragdoll keeps rocking, between 0.4 and 4 cm/s, and passed
+  the one-instant check at 4 s by the phase of its rocking);
 - joints: 1 mm at the anchors, the issue's figure.
 """
 import math
@@ -65,12 +67,13 @@ def run(solver: str) -> dict:
 
     e0 = energy()
     scale = float(np.sum(masses * G * np.abs(np.asarray(w.positions)[dynamic, 2])))
-    energies = []
+    energies, speeds = [], []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sg.SolverWarning)
         for _ in range(round(SECONDS / DT)):
             w.step(DT)
             energies.append(energy())
+            speeds.append(float(np.linalg.norm(np.asarray(w.velocities)[dynamic], axis=1).max()))
     separation = bench.separations(w.positions, w.rotations, bodies, anchors)
     # each ball joint's swing (the angle between its axes in the two bodies) and twist, at the end
     from signorini.oracle.joints import twist_angle
@@ -85,7 +88,8 @@ def run(solver: str) -> dict:
         a_A, a_B = RA @ joint["axis_a"], RB @ joint["axis_b"]
         swings.append(math.atan2(np.linalg.norm(np.cross(a_A, a_B)), a_A @ a_B))
         twists.append(twist_angle(joint, RA, RB)[0])
-    speed = float(np.linalg.norm(np.asarray(w.velocities)[dynamic], axis=1).max())
+    # the fastest body's speed at any step of the last second
+    speed = max(speeds[-round(1.0 / DT):])
     return {"e0": e0, "scale": scale, "energies": np.array(energies), "speed": speed,
             "doll_mass": float(np.asarray(w.masses)[doll.bodies].sum()), "separation": float(separation.max()),
             "joint_positions": w.joint_positions[doll.joints], "swings": swings, "twists": twists,
@@ -109,10 +113,20 @@ def test_energy_never_rises_above_its_start(runs, solver):
     assert r["energies"][-1] < r["e0"] - 0.5 * r["doll_mass"] * G * 0.3
 
 
+@pytest.mark.parametrize("solver", [
+    "pgs",
+    pytest.param("soft", marks=pytest.mark.xfail(
+        strict=True, reason="the soft step's ragdoll keeps rocking on the pile (0.4 to 4 cm/s from 2 s to 10 s, "
+                            "its centre of mass swaying by about a centimetre): not yet at rest")),
+])
+def test_the_ragdoll_comes_to_rest(runs, solver):
+    r = runs[solver]
+    assert r["speed"] < REST_SPEED, (solver, r["speed"])
+
+
 @pytest.mark.parametrize("solver", ["pgs", "soft"])
 def test_joints_hold_within_a_millimetre_at_rest(runs, solver):
     r = runs[solver]
-    assert r["speed"] < REST_SPEED, (solver, r["speed"])
     assert r["doll_z"] > 0.0  # on the pile or the ground, not through it
     assert r["separation"] < SEPARATION, (solver, r["separation"])
     # the hinges rest inside their limits, the ball joints inside their cones and twist ranges (limit

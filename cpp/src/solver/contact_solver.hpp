@@ -107,6 +107,11 @@ constexpr std::size_t kLanes = 4;
 /// The most contacts of a pair a lane takes (a pair with more is solved one contact at a time).
 constexpr std::size_t kManifoldPoints = 4;
 
+/// A two-point pair's normal rows are solved as one block (rows::solve_pair) only while
+/// det K >= kPairConditioning K11 K22 (Box2D v2's block solver asks as much of its condition
+/// number, at 1,000): two points nearly on top of each other are then solved one at a time.
+constexpr double kPairConditioning = 1e-3;
+
 /// How the solve order is made (rows.cpp, solve_order): a colour per contact (the lecture's PGS) or
 /// per body pair, the pair's contacts one after the other (the soft step).
 enum class Order { ByContact, ByPair };
@@ -143,6 +148,12 @@ struct alignas(32) WideGroup {
   int first[kLanes], count[kLanes];  ///< each lane's solve positions [first, first + count)
   bool a_moves[kLanes], b_moves[kLanes];
   int points = 0;           ///< the largest count
+  /// every lane a pair of exactly two points, whose normal rows the lanes solve as one block
+  /// (rows::solve_pair): K11, K22 their deltas, K12 their coupling (rows::normal_coupling; s/kg)
+  bool two = false;
+  alignas(32) double K11[kLanes];  // (aligned: the lanes load them as whole registers)
+  alignas(32) double K22[kLanes];
+  alignas(32) double K12[kLanes];
   bool round = false;       ///< some point has a round side (a sigma != 0)
   /// solved by the scalar code: a contact whose normal or first friction row has delta <= 0 (both
   /// bodies static: never made by the narrow phase), or a pair whose points differ in normal or spring
@@ -161,9 +172,11 @@ struct SolverData {
   /// the World's joints (solver/joint_rows.hpp), solved beside the contacts; null or empty: none
   JointSet* joints = nullptr;
   /// solve positions where each colour starts (colour c: [colour_start[c], colour_start[c + 1]));
-  /// the last colour is the shared one, whose contacts may share bodies; where each colour's units
-  /// of more than kManifoldPoints contacts start (the colour's end when it has none)
-  std::vector<int> colour_start, long_start;
+  /// the last colour is the shared one, whose contacts may share bodies; by pair, where each
+  /// colour's two-point units end (two_end: they come first, solved as blocks, rows::solve_pair)
+  /// and where its units of more than kManifoldPoints contacts start (long_start; the colour's end
+  /// when it has none). By contact, two_end is each colour's start.
+  std::vector<int> colour_start, two_end, long_start;
   /// the blocks the threads claim in a sweep (rows::by_colour): block i is the solve positions
   /// [block_start[i], block_start[i + 1]), colour c's blocks are colour_block[c] ..
   /// colour_block[c + 1] - 1 (block_start ends with K)

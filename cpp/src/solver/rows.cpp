@@ -115,8 +115,9 @@ void make_rows(const PairFacts& f, const std::vector<Mat3>& dI_inv, const Vec3& 
 /// (a unit is a contact, Order::ByContact, or the run of consecutive contacts of one body pair,
 /// Order::ByPair), each taking the lowest of 64 colours that none of its moving bodies has yet,
 /// from colour 32 up for a unit against a body that does not move (the rest share a 65th), then
-/// listed colour by colour, within a colour first the units of at most kManifoldPoints contacts,
-/// then the longer ones, each part in contact order. A contact with the ground is then solved
+/// listed colour by colour, within a colour first (by pair) the units of exactly two contacts,
+/// then the other units of at most kManifoldPoints contacts, then the longer ones, each part in
+/// contact order (so that the lanes' groups of two-point pairs, solved as blocks, are whole). A contact with the ground is then solved
 /// after those of the bodies it carries, so that in a sweep the ground has the last word (Box2D v3
 /// does the same with its last colours): a light body under a heavy one no longer rocks. By
 /// contact, consecutive contacts rarely share a body, so a sweep does not wait for one contact's
@@ -124,8 +125,8 @@ void make_rows(const PairFacts& f, const std::vector<Mat3>& dI_inv, const Vec3& 
 /// thread); by pair, a pair's points follow each other and the soft step's lanes solve four pairs
 /// at once (wide_rows.hpp), each lane keeping its pair's two bodies in registers.
 /// Out: d.order (K: solve position -> contact), d.slot (K: contact -> solve position),
-/// d.unit_first, d.colour_start, d.long_start, and the blocks the threads claim (d.block_start,
-/// d.colour_block).
+/// d.unit_first, d.colour_start, d.two_end, d.long_start, and the blocks the threads claim
+/// (d.block_start, d.colour_block).
 static void solve_order(const Model& model, const std::vector<Contact>& contacts, Order kind, SolverData& d) {
   const std::size_t K = contacts.size();
   constexpr int kColours = 65;
@@ -136,8 +137,8 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
   // the colours of the listed bodies (the others, static, never take one) start empty
   parallel::fit(d.colours_used, model.size(), std::uint64_t(0));
   parallel::each_body(d.bodies, model.size(), [&](std::size_t i) { d.colours_used[i] = 0; });
-  d.slot.resize(K);  // each contact's bucket first: 2 colour, + 1 in a long unit
-  std::array<int, 2 * kColours + 1> start{};
+  d.slot.resize(K);  // each contact's bucket first: 3 colour, + 0 in a two-point unit (by pair), + 2 in a long one, + 1 else
+  std::array<int, 3 * kColours + 1> start{};
   for (std::size_t i = 0, j = 0; i < K; i = j) {
     j = i + 1;
     if (kind == Order::ByPair)
@@ -156,15 +157,17 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
       if (a_moves) d.colours_used[a] |= std::uint64_t(1) << colour;
       if (b_moves) d.colours_used[b] |= std::uint64_t(1) << colour;
     }
-    const int bucket = 2 * colour + (j - i > kManifoldPoints ? 1 : 0);
+    const int bucket = 3 * colour + (j - i > kManifoldPoints ? 2 : kind == Order::ByPair && j - i == 2 ? 0 : 1);
     for (std::size_t k = i; k < j; ++k) d.slot[k] = bucket;
     start[bucket + 1] += static_cast<int>(j - i);
   }
-  for (int c = 0; c < 2 * kColours; ++c) start[c + 1] += start[c];
+  for (int c = 0; c < 3 * kColours; ++c) start[c + 1] += start[c];
   d.colour_start.resize(kColours + 1);  // 66 ints: the capacity stays after the first step
+  d.two_end.resize(kColours);
   d.long_start.resize(kColours);
-  for (int c = 0; c <= kColours; ++c) d.colour_start[c] = start[2 * c];
-  for (int c = 0; c < kColours; ++c) d.long_start[c] = start[2 * c + 1];
+  for (int c = 0; c <= kColours; ++c) d.colour_start[c] = start[3 * c];
+  for (int c = 0; c < kColours; ++c) d.two_end[c] = start[3 * c + 1];
+  for (int c = 0; c < kColours; ++c) d.long_start[c] = start[3 * c + 2];
   d.order.resize(K);
   d.unit_first.resize(K);
   for (std::size_t i = 0; i < K; ++i) {
@@ -175,8 +178,9 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
     d.unit_first[k] = kind == Order::ByContact || i == 0 || !same_pair(i - 1, i);
   }
   // the blocks of about kContactsPerTask contacts the threads claim (by_colour), each within one
-  // colour; by pair, cut between units only, and among the short units only every kLanes units
-  // (a WideGroup is never split); the shared last colour is one block
+  // colour; by pair, cut between units only, and among the two-point units and among the other
+  // short ones only every kLanes units of the part (a WideGroup is never split); the shared last
+  // colour is one block
   d.block_start.clear();
   d.colour_block.resize(kColours + 1);
   for (int c = 0; c < kColours; ++c) {
@@ -187,12 +191,14 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
       d.block_start.push_back(first);
       continue;
     }
-    int block = first, units = 0;  // the block's first position; short units so far in the colour
+    // the block's first position; two-point and other short units so far in the colour
+    int block = first, twos = 0, units = 0;
     d.block_start.push_back(first);
     for (int k = first + 1; k <= end; ++k) {
       if (k < end && !d.unit_first[k]) continue;  // within a unit
-      if (k - 1 < d.long_start[c]) ++units;
-      const bool at_group = k >= d.long_start[c] || units % static_cast<int>(kLanes) == 0;
+      if (k - 1 < d.two_end[c]) ++twos;
+      else if (k - 1 < d.long_start[c]) ++units;
+      const bool at_group = k >= d.long_start[c] || (k < d.two_end[c] ? twos : units) % static_cast<int>(kLanes) == 0;
       if (k < end && k - block >= static_cast<int>(kContactsPerTask) && at_group) {
         block = k;
         d.block_start.push_back(k);

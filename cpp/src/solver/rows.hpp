@@ -267,6 +267,57 @@ struct SoftNormal {
   }
 };
 
+/// The coupling of the normal rows of two contacts c1, c2 of one body pair (s/kg):
+/// K12 = dt J_n1 M^-1 J_n2^T = (dt / m_A + dt / m_B) n1 . n2 + (r_a1 x n1) . dt I_A^-1 (r_a2 x n2)
+/// + (r_b1 x n1) . dt I_B^-1 (r_b2 x n2), a body that does not move adding nothing. dI holds dt I_X^-1.
+inline double normal_coupling(const ContactRows& c1, const ContactRows& c2, const Mat3* dI) {
+  double K12 = (c1.dinv_mass_a + c1.dinv_mass_b) * c1.n.dot(c2.n);
+  if (c1.a_moves) K12 += c1.r_a.cross(c1.n).dot(dI[c1.a] * c2.r_a.cross(c2.n));
+  if (c1.b_moves) K12 += c1.r_b.cross(c1.n).dot(dI[c1.b] * c2.r_b.cross(c2.n));
+  return K12;
+}
+
+/// The two normal rows of a two-point pair as one block: the new forces y >= 0 with
+/// w = K' y - c >= 0 and y_i w_i = 0 (K' = [[K11, K12], [K21, K22]], s/kg: the pair's Delassus
+/// block with each row's coupling scaled by its soft rule's mass scale, pair_side; c m/s), by
+/// Box2D v2's cases in turn: both rows push (y = K'^-1 c, when det K' >= kPairConditioning K11 K22),
+/// only the first (y1 = c1 / K11, w2 = K21 y1 - c2 >= 0), only the second, neither (c <= 0). K' is
+/// a P-matrix (a positive diagonal times a positive definite matrix), so one of them holds; at a
+/// case's edge, where rounding may reject every one, the first row alone pushes. The lanes repeat
+/// these operations (wide_kernel.hpp).
+inline void solve_pair(double K11, double K22, double K12, double K21, double c1, double c2, double& y1, double& y2) {
+  const double det = K11 * K22 - K12 * K21;
+  if (det >= kPairConditioning * (K11 * K22)) {
+    y1 = (K22 * c1 - K12 * c2) / det;
+    y2 = (K11 * c2 - K21 * c1) / det;
+    if (y1 >= 0.0 && y2 >= 0.0) return;
+  }
+  const double z1 = c1 / K11, z2 = c2 / K22;
+  if (z1 >= 0.0 && K21 * z1 - c2 >= 0.0) {
+    y1 = z1, y2 = 0.0;
+  } else if (z2 >= 0.0 && K12 * z2 - c1 >= 0.0) {
+    y1 = 0.0, y2 = z2;
+  } else if (c1 <= 0.0 && c2 <= 0.0) {
+    y1 = 0.0, y2 = 0.0;
+  } else {
+    y1 = std::max(z1, 0.0), y2 = 0.0;
+  }
+}
+
+/// Row i of a two-point pair's block (solve_pair) by its soft rule (SoftNormal: bias b, mass_scale
+/// ms, impulse_scale): the row's own rule, K_ii (y_i - alpha_i) = -(ms vn_i + b) - impulse_scale
+/// K_ii alpha_i, with its velocity vn_i seeing the other row's change too, vn_i + K_ij (y_j -
+/// alpha_j):
+///   K_ii (y_i - alpha_i) + ms K_ij (y_j - alpha_j) = -(ms vn_i + b) - impulse_scale K_ii alpha_i
+/// (alpha the forces before the sweep). Returns K'_ij = ms K_ij into *coupling and
+/// c_i = (K_ii alpha_i + K'_ij alpha_j) - impulse_scale (K_ii alpha_i) - (ms vn_i + b).
+inline double pair_side(double K_ii, double K_ij, double alpha_i, double alpha_j, double vn, const SoftNormal& rule,
+                        double* coupling) {
+  *coupling = rule.mass_scale * K_ij;
+  const double own = K_ii * alpha_i;
+  return ((own + *coupling * alpha_j) - rule.impulse_scale * own) - (rule.mass_scale * vn + rule.bias);
+}
+
 /// The solve order and the rows: d.order, d.slot, d.rows (a contact's normal, t1 and t2 rows,
 /// in solve order, dt folded in), d.alpha zeroed, by solve position u_i = J_n q_dot (from d.qd;
 /// 0 for a contact with e_i = 0, which never reads it) and e_i, and the spin rows. A normal row's

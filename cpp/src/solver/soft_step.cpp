@@ -53,7 +53,7 @@ void body_motion(const Model& model, const State& state, SolverData& d) {
   });
 }
 
-/// One sweep over every contact in solve order (soft_contact), colour by colour over the threads;
+/// One sweep over every contact in solve order (soft_units), colour by colour over the threads;
 /// four body pairs at a time (wide_sweep) when the lanes run (d.lanes).
 template <bool kSpin, bool kGap>
 void sweep(const SolverSettings& s, SolverData& d, bool biased, bool kick) {
@@ -67,7 +67,7 @@ void sweep(const SolverSettings& s, SolverData& d, bool biased, bool kick) {
     if (!kSpin) {
       wide_sweep(s, x, d, first, end);
     } else {
-      for (std::size_t k = first; k < end; ++k) soft_contact<kSpin, kGap>(s, x, d, k);
+      soft_units<kSpin, kGap>(s, x, d, first, end);
     }
     return 0.0;  // not used: the soft step runs a fixed number of sweeps
   });

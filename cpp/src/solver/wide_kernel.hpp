@@ -173,6 +173,10 @@ struct Kernel {
     const B zero(0.0), one(1.0), inv_h(x.inv_h), max_push(-x.max_push_velocity);
     for (std::size_t gi = group; gi < group + groups; ++gi) {
       WideGroup& g = d.groups[gi];
+      if (g.two) {
+        run_two<kGap, kKick>(x, d, g);
+        continue;
+      }
       for (std::size_t h = 0; h < kLanes; h += L) {
         // the pairs: bodies, their velocities and inverse inertias (and how far they have moved)
         Pairs q, kick;
@@ -267,6 +271,140 @@ struct Kernel {
         store_pairs(d, g, h, q);
         if constexpr (kKick) store_pairs(d.kick, g, h, kick);
       }
+    }
+  }
+
+  /// One sweep over a group of two-point pairs (WideGroup::two), the scalar soft_pair lane by
+  /// lane: both normal rows as one block (rows::pair_side, rows::solve_pair), their changes
+  /// applied point after point, then each point's friction rows (soft_pair's pair_friction, the
+  /// pyramid), then (kKick) each point's forces into d.kick.
+  template <bool kGap, bool kKick>
+  static void run_two(const SoftSweep& x, const Lanes& d, WideGroup& g) {
+    const B zero(0.0), one(1.0), inv_h(x.inv_h), max_push(-x.max_push_velocity), conditioning(kPairConditioning);
+    for (std::size_t h = 0; h < kLanes; h += L) {
+      Pairs q, kick;
+      load_pairs(d, g, h, q);
+      if constexpr (kKick) {
+        kick = q;
+        load_velocities(d.kick, g, h, kick);
+      }
+      B dRa[9], dRb[9], dpa[3], dpb[3];
+      if constexpr (kGap) {
+        gather_n<9>(d.dR, 9, g.a + h, dRa);
+        gather_n<9>(d.dR, 9, g.b + h, dRb);
+        gather_n<3>(d.dp, 3, g.a + h, dpa);
+        gather_n<3>(d.dp, 3, g.b + h, dpb);
+      }
+      const B dinv_mass_a = load(g.dinv_mass_a + h), dinv_mass_b = load(g.dinv_mass_b + h), mu = load(g.mu + h);
+      const V3 n = load3(g.n, h), t1 = load3(g.t1, h), t2 = load3(g.t2, h);
+      B n_dRa_n = zero, n_dRb_n = zero;
+      if constexpr (kGap) {
+        if (g.round) {
+          n_dRb_n = dot(n, mul(dRb, n));
+          n_dRa_n = dot(n, mul(dRa, n));
+        }
+      }
+      B ms = one, rate = zero, is = zero;
+      if (x.biased) {
+        ms = load(g.mass_scale + h);
+        rate = load(g.bias_rate + h);
+        is = load(g.impulse_scale + h);
+      }
+      WideGroup::Point* pt[2] = {&g.point[0], &g.point[1]};
+      V3 r_a[2], r_b[2];
+      B bias[2], mass_scale[2], impulse_scale[2], a_n[2], vn[2];
+      for (int j = 0; j < 2; ++j) {
+        WideGroup::Point& p = *pt[j];
+        r_a[j] = load3(p.r_a, h);
+        r_b[j] = load3(p.r_b, h);
+        B s;
+        if constexpr (kGap) {  // gap_now, as run's
+          const V3 moved_b = add({dpb[0], dpb[1], dpb[2]}, mul(dRb, r_b[j]));
+          const V3 moved_a = add({dpa[0], dpa[1], dpa[2]}, mul(dRa, r_a[j]));
+          s = load(p.gap0 + h) + dot(n, sub(moved_b, moved_a));
+          if (g.round) s = s + (load(p.sigma_b + h) * n_dRb_n + load(p.sigma_a + h) * n_dRa_n);
+          s.store_aligned(p.s + h);
+        } else {
+          s = load(p.s + h);
+        }
+        // the point's rule (soft_rule)
+        const Mask speculative = s > zero;
+        bias[j] = xsimd::select(speculative, s * inv_h, zero);
+        mass_scale[j] = one;
+        impulse_scale[j] = zero;
+        if (x.biased) {
+          bias[j] = xsimd::select(speculative, bias[j], max_of(ms * rate * s, max_push));
+          mass_scale[j] = xsimd::select(speculative, one, ms);
+          impulse_scale[j] = xsimd::select(speculative, zero, is);
+        }
+        a_n[j] = load(p.alpha[0] + h);
+      }
+      // both normal rows' velocities before either changes
+      for (int j = 0; j < 2; ++j) {
+        const V3 dv = sub(add(q.vb, cross(q.wb, r_b[j])), add(q.va, cross(q.wa, r_a[j])));
+        vn[j] = dot(n, dv);
+      }
+      // the block (rows::pair_side, rows::solve_pair: the first case that holds, else the fallback)
+      const B K11 = load(g.K11 + h), K22 = load(g.K22 + h), K12 = load(g.K12 + h);
+      const B K12s = mass_scale[0] * K12, K21s = mass_scale[1] * K12;  // each row's coupling, soft
+      const B own1 = K11 * a_n[0], own2 = K22 * a_n[1];
+      const B c1 = ((own1 + K12s * a_n[1]) - impulse_scale[0] * own1) - (mass_scale[0] * vn[0] + bias[0]);
+      const B c2 = ((own2 + K21s * a_n[0]) - impulse_scale[1] * own2) - (mass_scale[1] * vn[1] + bias[1]);
+      const B det = K11 * K22 - K12s * K21s;
+      const Mask well = det >= conditioning * (K11 * K22);
+      const B y1 = (K22 * c1 - K12s * c2) / det, y2 = (K11 * c2 - K21s * c1) / det;
+      const B z1 = c1 / K11, z2 = c2 / K22;
+      const Mask both = well && (y1 >= zero) && (y2 >= zero);
+      const Mask first = (z1 >= zero) && (K21s * z1 - c2 >= zero);
+      const Mask second = (z2 >= zero) && (K12s * z2 - c1 >= zero);
+      const Mask neither = (c1 <= zero) && (c2 <= zero);
+      B f1 = max_of(z1, zero), f2 = zero;
+      f1 = xsimd::select(neither, zero, f1);
+      f2 = xsimd::select(neither, zero, f2);
+      f1 = xsimd::select(second, zero, f1);
+      f2 = xsimd::select(second, z2, f2);
+      f1 = xsimd::select(first, z1, f1);
+      f2 = xsimd::select(first, zero, f2);
+      f1 = xsimd::select(both, y1, f1);
+      f2 = xsimd::select(both, y2, f2);
+      const B force[2] = {f1, f2};
+      for (int j = 0; j < 2; ++j) {
+        const B d0 = force[j] - a_n[j];
+        push(q, d0 != zero, r_a[j], r_b[j], scale(d0, n), dinv_mass_a, dinv_mass_b);
+        force[j].store_aligned(pt[j]->alpha[0] + h);
+      }
+      // each point's friction rows (pair_friction), from the velocity at the point now
+      for (int j = 0; j < 2; ++j) {
+        WideGroup::Point& p = *pt[j];
+        const B a_1 = load(p.alpha[1] + h), a_2 = load(p.alpha[2] + h);
+        const B bound = mu * force[j];
+        const V3 dv = sub(add(q.vb, cross(q.wb, r_b[j])), add(q.va, cross(q.wa, r_a[j])));
+        B a1 = clamp(a_1 - dot(t1, dv) * load(p.inv_delta[1] + h), -bound, bound);
+        B d1 = a1 - a_1;
+        const B u2 = dot(t2, dv) + load(p.W_21 + h) * d1;
+        B a2 = clamp(a_2 - u2 * load(p.inv_delta[2] + h), -bound, bound);
+        B d2 = a2 - a_2;
+        const Mask unbounded = bound == zero;
+        d1 = xsimd::select(unbounded, -a_1, d1);
+        d2 = xsimd::select(unbounded, -a_2, d2);
+        a1 = xsimd::select(unbounded, zero, a1);
+        a2 = xsimd::select(unbounded, zero, a2);
+        push(q, (d1 != zero) || (d2 != zero), r_a[j], r_b[j], add(scale(d1, t1), scale(d2, t2)), dinv_mass_a,
+             dinv_mass_b);
+        a1.store_aligned(p.alpha[1] + h);
+        a2.store_aligned(p.alpha[2] + h);
+      }
+      if constexpr (kKick) {  // the next substep's warm start of both points (rows::apply_force's sums)
+        for (int j = 0; j < 2; ++j) {
+          WideGroup::Point& p = *pt[j];
+          const B f0 = load(p.alpha[0] + h), fa = load(p.alpha[1] + h), fb = load(p.alpha[2] + h);
+          const Mask any = (f0 != zero) || (fa != zero) || (fb != zero);
+          push(kick, any, r_a[j], r_b[j], add(add(scale(f0, n), scale(fa, t1)), scale(fb, t2)), dinv_mass_a,
+               dinv_mass_b);
+        }
+      }
+      store_pairs(d, g, h, q);
+      if constexpr (kKick) store_pairs(d.kick, g, h, kick);
     }
   }
 };

@@ -30,7 +30,7 @@ bool cpu_has_avx2() {
 WideIsa best_isa() { return cpu_has_avx2() ? WideIsa::AVX2 : WideIsa::SSE2; }
 
 std::atomic<WideIsa> current{best_isa()};
-std::atomic<std::size_t> solved{0};
+std::atomic<std::size_t> solved{0}, pairs_solved{0};
 
 /// The solve position of lane l's point j in g (a lane with fewer points repeats its last).
 std::size_t point_position(const WideGroup& g, std::size_t l, std::size_t j) {
@@ -70,6 +70,8 @@ WideIsa wide_isa() { return current.load(); }
 
 std::size_t wide_contacts_solved() { return solved.load(std::memory_order_relaxed); }
 
+std::size_t wide_pairs_solved() { return pairs_solved.load(std::memory_order_relaxed); }
+
 }  // namespace signorini::solver
 
 namespace signorini {
@@ -103,29 +105,35 @@ void widen(const SolverSettings& s, SolverData& d) {
     return;
   }
   const std::size_t colours = d.colour_start.size() - 1;
-  // the groups' lanes, colour by colour: every four units (pairs of at most kManifoldPoints
-  // contacts, listed first in their colour) from the colour's start; the shared last colour has none
+  // the groups' lanes, colour by colour: every four units from the colour's start among its
+  // two-point pairs (listed first: groups of blocks, WideGroup::two), then every four among its
+  // other pairs of at most kManifoldPoints contacts (listed next); the shared last colour has none
   d.wide_first.resize(colours + 1);
   std::size_t G = 0;
   for (std::size_t c = 0; c < colours; ++c) {
     d.wide_first[c] = static_cast<int>(G);
     if (c + 1 == colours) continue;
-    const std::size_t end = static_cast<std::size_t>(d.long_start[c]);
-    std::size_t lane = 0;
-    for (std::size_t k = static_cast<std::size_t>(d.colour_start[c]); k < end;) {
-      std::size_t m = k + 1;
-      while (m < end && !d.unit_first[m]) ++m;
-      if (lane == 0) {
-        if (G == d.wide.size()) d.wide.emplace_back();
-        ++G;
+    const std::size_t part[3] = {static_cast<std::size_t>(d.colour_start[c]), static_cast<std::size_t>(d.two_end[c]),
+                                 static_cast<std::size_t>(d.long_start[c])};
+    for (int two = 1; two >= 0; --two) {
+      const std::size_t end = part[2 - two];
+      std::size_t lane = 0;
+      for (std::size_t k = part[1 - two]; k < end;) {
+        std::size_t m = k + 1;
+        while (m < end && !d.unit_first[m]) ++m;
+        if (lane == 0) {
+          if (G == d.wide.size()) d.wide.emplace_back();
+          ++G;
+        }
+        WideGroup& g = d.wide[G - 1];
+        g.two = two == 1;
+        g.first[lane] = static_cast<int>(k);
+        g.count[lane] = static_cast<int>(m - k);
+        lane = (lane + 1) % kLanes;
+        k = m;
       }
-      WideGroup& g = d.wide[G - 1];
-      g.first[lane] = static_cast<int>(k);
-      g.count[lane] = static_cast<int>(m - k);
-      lane = (lane + 1) % kLanes;
-      k = m;
+      if (lane != 0) --G;  // the part's last units that do not fill a group: one by one
     }
-    if (lane != 0) --G;  // the colour's last units that do not fill a group: one by one
   }
   d.wide_first[colours] = static_cast<int>(G);
   d.wide.resize(G);
@@ -196,6 +204,14 @@ void widen(const SolverSettings& s, SolverData& d) {
       }
       // the round sides' core offsets, read only in a group that has one (a group of boxes is
       // spared writing them: the groups are written whole every step)
+      // a group of blocks: each pair's normal rows' deltas and coupling (rows::normal_coupling)
+      if (g.two)
+        for (std::size_t l = 0; l < kLanes; ++l) {
+          const std::size_t k0 = static_cast<std::size_t>(g.first[l]);
+          g.K11[l] = d.rows[k0].delta[0];
+          g.K22[l] = d.rows[k0 + 1].delta[0];
+          g.K12[l] = rows::normal_coupling(d.rows[k0], d.rows[k0 + 1], d.dI_inv.data());
+        }
       if (g.round)
         for (std::size_t l = 0; l < kLanes; ++l)
           for (std::size_t j = 0; j < kManifoldPoints; ++j) {
@@ -292,8 +308,9 @@ wide::Lanes raw_lanes(SolverData& d) {
 }
 
 /// Solve positions [first, end) colour by colour from the colour of `first` on: lanes(group,
-/// groups) for the groups in it (a colour's groups cover its first positions one after the other,
-/// and by_colour's blocks start at a group or after them), one_by_one(from, to) for the rest.
+/// groups) for the groups in it (a colour's groups cover its two-point pairs, then its other short
+/// pairs, each part from its start, four pairs a group, and by_colour's blocks start at a group or
+/// between them), one_by_one(from, to) for the rest.
 template <class Lanes, class OneByOne>
 void walk(SolverData& d, std::size_t first, std::size_t end, Lanes&& lanes, OneByOne&& one_by_one) {
   std::size_t c = static_cast<std::size_t>(
@@ -309,11 +326,21 @@ void walk(SolverData& d, std::size_t first, std::size_t end, Lanes&& lanes, OneB
     const std::size_t g_end = static_cast<std::size_t>(d.wide_first[c + 1]);
     while (gi < g_end && group_first(gi) < k) ++gi;  // the groups of the blocks before this one
     while (gi < g_end && group_end(gi) <= stop) {
-      std::size_t run = 0;  // groups in a row that the lanes take
-      while (gi + run < g_end && group_end(gi + run) <= stop && !d.wide[gi + run].one_by_one) ++run;
+      // the units between the groups (a colour's last two-point pairs that fill no group)
+      if (group_first(gi) > k) {
+        one_by_one(k, group_first(gi));
+        k = group_first(gi);
+      }
+      std::size_t run = 0;  // groups in a row, each where the last ends, that the lanes take
+      while (gi + run < g_end && group_end(gi + run) <= stop && !d.wide[gi + run].one_by_one &&
+             group_first(gi + run) == (run == 0 ? k : group_end(gi + run - 1)))
+        ++run;
       if (run > 0) {
         lanes(gi, run);
         solved.fetch_add(group_end(gi + run - 1) - k, std::memory_order_relaxed);
+        std::size_t twos = 0;
+        for (std::size_t j = gi; j < gi + run; ++j) twos += d.wide[j].two ? kLanes : 0;
+        if (twos > 0) pairs_solved.fetch_add(twos, std::memory_order_relaxed);
         k = group_end(gi + run - 1);
         gi += run;
       } else {
@@ -332,9 +359,9 @@ void walk(SolverData& d, std::size_t first, std::size_t end, Lanes&& lanes, OneB
 void wide_sweep(const SolverSettings& s, const SoftSweep& x, SolverData& d, std::size_t first, std::size_t end) {
   const auto one_by_one = [&](std::size_t from, std::size_t to) {
     if (x.update_gaps)
-      for (std::size_t k = from; k < to; ++k) soft_contact<false, true>(s, x, d, k);
+      soft_units<false, true>(s, x, d, from, to);
     else
-      for (std::size_t k = from; k < to; ++k) soft_contact<false, false>(s, x, d, k);
+      soft_units<false, false>(s, x, d, from, to);
   };
   if (!d.lanes) return one_by_one(first, end);
   // (the ISA as chosen now: the groups hold the gaps for the whole step once it began with lanes)

@@ -47,6 +47,9 @@ WideIsa wide_isa();
 /// Contacts the lanes have solved since the process started (summed per wide run, a count for tests
 /// that check the lanes ran).
 std::size_t wide_contacts_solved();
+/// Two-point pairs the lanes have solved as blocks since the process started (WideGroup::two; a
+/// count for tests).
+std::size_t wide_pairs_solved();
 
 /// d.wide and d.wide_first from d.rows, d.colour_start and d.long_start (the solve order by pair):
 /// colour c's pairs of at most kManifoldPoints contacts, from the colour's start, fill groups

@@ -234,7 +234,9 @@ def soft_sweep(sweep, rows, soft, s, x, tau, q_dot, h, biased, max_push_velocity
     """One sweep over every contact in solve order: its normal row by the soft rule of the module
     doc (biased: the spring on an overlap; not biased: rigid; a positive gap s_i: rigid with the
     speculative bias s_i / h either way), then its friction rows and its spin row
-    (``friction_rows``).
+    (``friction_rows``). A body pair of exactly two contacts (a unit of the solve order by pair)
+    has its two normal rows solved as one block first (``solve_pair``), then each contact's
+    friction rows.
 
     The biased rule is discontinuous at s_i = 0 (rigid above, a damped spring at and below), and
     a contact that closed its gap speculatively ends at a gap of rounding size: which side it is on
@@ -252,11 +254,8 @@ def soft_sweep(sweep, rows, soft, s, x, tau, q_dot, h, biased, max_push_velocity
     impulse_scale = soft["impulse_scale"].tolist()
     gap = np.asarray(s, dtype=float).tolist()
     band = [0.0] * len(gap) if band is None else np.asarray(band, dtype=float).tolist()
-    for i in rows["order"].tolist():
-        n = 3 * i
-        delta = sweep.delta[n]
-        if not delta > 0.0:
-            continue  # both bodies static: never produced by the narrow phase
+
+    def rule(i):  # (b, mass_scale, impulse_scale) of contact i's normal row
         speculative = gap[i] > 0.0
         if biased and abs(gap[i]) <= band[i]:
             if tied is not None:
@@ -264,12 +263,43 @@ def soft_sweep(sweep, rows, soft, s, x, tau, q_dot, h, biased, max_push_velocity
             if ties is not None and i in ties:
                 speculative = bool(ties[i])
         if speculative:
-            b, m_scale, i_scale = gap[i] / h, 1.0, 0.0
-        elif biased:
-            b = max(mass_scale[i] * bias_rate[i] * gap[i], -max_push_velocity)
-            m_scale, i_scale = mass_scale[i], impulse_scale[i]
-        else:
-            b, m_scale, i_scale = 0.0, 1.0, 0.0
+            return gap[i] / h, 1.0, 0.0
+        if biased:
+            return max(mass_scale[i] * bias_rate[i] * gap[i], -max_push_velocity), mass_scale[i], impulse_scale[i]
+        return 0.0, 1.0, 0.0
+
+    two = two_point_pairs(sweep)
+    order = rows["order"].tolist()
+    k = 0
+    while k < len(order):
+        i = order[k]
+        n = 3 * i
+        if two[i] and sweep.delta[n] > 0.0 and sweep.delta[n + 3] > 0.0:
+            # the pair's normal rows as one block: each row's own rule, its velocity J_i q_dot
+            # seeing the other row's change too (K_ij the rows' coupling),
+            #   K_ii (y_i - alpha_i) + mass_scale_i K_ij (y_j - alpha_j)
+            #     = -(mass_scale_i J_i q_dot + b_i) - impulse_scale_i K_ii alpha_i,
+            # y >= 0 complementary
+            m = n + 3
+            (b1, m1, i1), (b2, m2, i2) = rule(i), rule(i + 1)
+            K11, K22 = sweep.delta[n], sweep.delta[m]
+            K12 = sweep.dt * float(sweep.J_A[n] @ sweep.MJ_A[m] + sweep.J_B[n] @ sweep.MJ_B[m])
+            c1 = K11 * x[n] + m1 * K12 * x[m] - i1 * K11 * x[n] - (m1 * sweep.velocity(n, q_dot) + b1)
+            c2 = m2 * K12 * x[n] + K22 * x[m] - i2 * K22 * x[m] - (m2 * sweep.velocity(m, q_dot) + b2)
+            y1, y2 = solve_pair(K11, K22, m1 * K12, m2 * K12, c1, c2)
+            for row, y in ((n, y1), (m, y2)):
+                if y != x[row]:
+                    sweep.apply(row, y - x[row], q_dot)
+                    x[row] = y
+            friction_rows(sweep, i, mu[i], x, tau, q_dot, friction_cone)
+            friction_rows(sweep, i + 1, mu[i + 1], x, tau, q_dot, friction_cone)
+            k += 2
+            continue
+        k += 1
+        delta = sweep.delta[n]
+        if not delta > 0.0:
+            continue  # both bodies static: never produced by the narrow phase
+        b, m_scale, i_scale = rule(i)
         # normal: alpha <- max(alpha - (mass_scale J q_dot + b) / delta - impulse_scale alpha, 0)
         alpha = max(x[n] - (m_scale * sweep.velocity(n, q_dot) + b) / delta - i_scale * x[n], 0.0)
         if alpha != x[n]:
@@ -277,6 +307,52 @@ def soft_sweep(sweep, rows, soft, s, x, tau, q_dot, h, biased, max_push_velocity
             x[n] = alpha
         # friction and spin, bounded by the new normal force, as in the PGS
         friction_rows(sweep, i, mu[i], x, tau, q_dot, friction_cone)
+
+
+# a pair's two normal rows are one block only while det K >= PAIR_CONDITIONING K11 K22 (Box2D v2's
+# block solver asks as much of its condition number, at 1,000): two points nearly on top of each
+# other are solved one at a time (the first alone, ``solve_pair``)
+PAIR_CONDITIONING = 1e-3
+
+
+def two_point_pairs(sweep):
+    """(K,) bools: contact i is the first of a body pair's exactly two contacts (consecutive in
+    contact order, as the narrow phase lists a pair's points), whose normal rows a soft sweep
+    solves as one block."""
+    A, B = sweep.a[0::3], sweep.b[0::3]
+    K = len(A)
+    first = [False] * K
+    i = 0
+    while i < K:
+        j = i + 1
+        while j < K and (A[j], B[j]) == (A[i], B[i]):
+            j += 1
+        if j - i == 2:
+            first[i] = True
+        i = j
+    return first
+
+
+def solve_pair(K11, K22, K12, K21, c1, c2):
+    """The block of two normal rows (Box2D v2's two-point block solver, with the soft rule):
+    y >= 0 with w = K y - c >= 0 and y_i w_i = 0, K = [[K11, K12], [K21, K22]] (s/kg; each row's
+    coupling scaled by its mass scale: a P-matrix), c (m/s), by its cases in turn: both push
+    (y = K^-1 c, when det K >= PAIR_CONDITIONING K11 K22), the first alone (y1 = c1 / K11 with
+    K21 y1 - c2 >= 0), the second alone, neither (c <= 0); at a case's edge, where rounding may
+    reject every one, the first alone, clamped at 0. Output: (y1, y2) N."""
+    det = K11 * K22 - K12 * K21
+    if det >= PAIR_CONDITIONING * K11 * K22:
+        y1, y2 = (K22 * c1 - K12 * c2) / det, (K11 * c2 - K21 * c1) / det
+        if y1 >= 0.0 and y2 >= 0.0:
+            return y1, y2
+    z1, z2 = c1 / K11, c2 / K22
+    if z1 >= 0.0 and K21 * z1 - c2 >= 0.0:
+        return z1, 0.0
+    if z2 >= 0.0 and K12 * z2 - c1 >= 0.0:
+        return 0.0, z2
+    if c1 <= 0.0 and c2 <= 0.0:
+        return 0.0, 0.0
+    return max(z1, 0.0), 0.0
 
 
 def _moved(snapshot, q_dot, h):

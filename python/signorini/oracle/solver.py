@@ -256,8 +256,9 @@ def solve_order(snapshot, contacts, by_pair=False):
     taken yet, from colour 32 up against a body that does not move (so that the ground's contacts
     are solved after those of the bodies they carry, as Box2D v3 does; below 32 when 32..63 are
     all taken), or colour 64 when all are taken; the order lists colour 0's units, then colour
-    1's, ..., within a colour first the units of at most MANIFOLD_POINTS contacts, then the
-    longer ones, each part in contact order, a unit's contacts in contact order. By contact,
+    1's, ..., within a colour first (by pair) the units of exactly two contacts, then the other
+    units of at most MANIFOLD_POINTS contacts, then the longer ones, each part in contact order, a
+    unit's contacts in contact order. By contact,
     consecutive contacts rarely share a body, which lets the core's sweep start one contact
     before the previous one's velocity update is done; by pair, the core's lanes solve four pairs
     at once. The order is part of the method, so the oracle repeats it.
@@ -271,7 +272,7 @@ def solve_order(snapshot, contacts, by_pair=False):
     free = (~static & ~kinematic).tolist()
     used = [0] * len(free)
     everything = (1 << 64) - 1
-    bucket = []  # 2 colour, + 1 in a unit of more than MANIFOLD_POINTS contacts
+    bucket = []  # 3 colour, + 0 in a two-point unit (by pair), + 2 in one of more than MANIFOLD_POINTS contacts, + 1 else
     i, K = 0, len(A)
     while i < K:
         j = i + 1
@@ -290,7 +291,8 @@ def solve_order(snapshot, contacts, by_pair=False):
             for x in (a, b):
                 if free[x]:
                     used[x] |= 1 << c
-        bucket += [2 * c + (j - i > MANIFOLD_POINTS)] * (j - i)
+        part = 2 if j - i > MANIFOLD_POINTS else 0 if by_pair and j - i == 2 else 1
+        bucket += [3 * c + part] * (j - i)
         i = j
     return np.argsort(np.asarray(bucket, dtype=np.int64), kind="stable")
 
