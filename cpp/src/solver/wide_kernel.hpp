@@ -139,6 +139,86 @@ struct Kernel {
     q.vb = select3(on_b, add(q.vb, scale(dinv_mass_b, P)), q.vb);
   }
 
+  /// What a sweep reads of lanes h .. h + L - 1 of a group before its points: the pairs (q; and,
+  /// kKick, their bodies' entries of d.kick), how far their bodies have moved (kGap), their
+  /// masses, friction, directions, a round side's n . dR n terms, and their springs (biased).
+  struct Frame {
+    Pairs q, kick;
+    B dRa[9], dRb[9], dpa[3], dpb[3];
+    B dinv_mass_a, dinv_mass_b, mu;
+    V3 n, t1, t2;
+    B n_dRa_n, n_dRb_n;
+    B ms, rate, is;
+  };
+  template <bool kGap, bool kKick>
+  static void load_frame(const SoftSweep& x, const Lanes& d, const WideGroup& g, std::size_t h, Frame& f) {
+    const B zero(0.0), one(1.0);
+    load_pairs(d, g, h, f.q);
+    if constexpr (kKick) {  // the same pairs and masks, the bodies' entries of d.kick
+      f.kick = f.q;
+      load_velocities(d.kick, g, h, f.kick);
+    }
+    if constexpr (kGap) {
+      gather_n<9>(d.dR, 9, g.a + h, f.dRa);
+      gather_n<9>(d.dR, 9, g.b + h, f.dRb);
+      gather_n<3>(d.dp, 3, g.a + h, f.dpa);
+      gather_n<3>(d.dp, 3, g.b + h, f.dpb);
+    }
+    f.dinv_mass_a = load(g.dinv_mass_a + h);
+    f.dinv_mass_b = load(g.dinv_mass_b + h);
+    f.mu = load(g.mu + h);
+    f.n = load3(g.n, h);
+    f.t1 = load3(g.t1, h);
+    f.t2 = load3(g.t2, h);
+    // a round side's carried point is its core (gap_now): n . dR n of each pair's bodies
+    f.n_dRa_n = zero;
+    f.n_dRb_n = zero;
+    if constexpr (kGap) {
+      if (g.round) {
+        f.n_dRb_n = dot(f.n, mul(f.dRb, f.n));
+        f.n_dRa_n = dot(f.n, mul(f.dRa, f.n));
+      }
+    }
+    f.ms = one;  // the pairs' springs
+    f.rate = zero;
+    f.is = zero;
+    if (x.biased) {
+      f.ms = load(g.mass_scale + h);
+      f.rate = load(g.bias_rate + h);
+      f.is = load(g.impulse_scale + h);
+    }
+  }
+  /// A point's gap: brought up to date (gap_now) and stored with kGap, else as stored.
+  template <bool kGap>
+  static B point_gap(const Frame& f, const WideGroup& g, WideGroup::Point& pt, std::size_t h, const V3& r_a,
+                     const V3& r_b) {
+    if constexpr (kGap) {
+      // gap_now: gap0 + n . ((dp_B + dR_B r_B) - (dp_A + dR_A r_A))
+      const V3 moved_b = add({f.dpb[0], f.dpb[1], f.dpb[2]}, mul(f.dRb, r_b));
+      const V3 moved_a = add({f.dpa[0], f.dpa[1], f.dpa[2]}, mul(f.dRa, r_a));
+      B s = load(pt.gap0 + h) + dot(f.n, sub(moved_b, moved_a));
+      if (g.round) s = s + (load(pt.sigma_b + h) * f.n_dRb_n + load(pt.sigma_a + h) * f.n_dRa_n);
+      s.store_aligned(pt.s + h);  // (a lane past its last point writes its own unused slot)
+      return s;
+    } else {
+      return load(pt.s + h);
+    }
+  }
+  /// The normal row's rule at gap s (soft_rule): speculative (s > 0) closes its gap; an overlap is
+  /// the spring in a biased sweep, rigid in a relax sweep.
+  static void point_rule(const SoftSweep& x, const Frame& f, const B& s, B& bias, B& mass_scale, B& impulse_scale) {
+    const B zero(0.0), one(1.0), inv_h(x.inv_h), max_push(-x.max_push_velocity);
+    const Mask speculative = s > zero;
+    bias = xsimd::select(speculative, s * inv_h, zero);
+    mass_scale = one;
+    impulse_scale = zero;
+    if (x.biased) {
+      bias = xsimd::select(speculative, bias, max_of(f.ms * f.rate * s, max_push));
+      mass_scale = xsimd::select(speculative, one, f.ms);
+      impulse_scale = xsimd::select(speculative, zero, f.is);
+    }
+  }
+
   /// The warm start over the groups (rows.cpp, apply_forces): each point's three forces as one
   /// impulse on its pair's bodies, point after point in solve order.
   static void warm_start(const Lanes& d, std::size_t group, std::size_t groups) {
@@ -170,7 +250,7 @@ struct Kernel {
   /// sums in the same order as the scalar code's rows::apply_force on d.kick).
   template <bool kGap, bool kKick>
   static void run(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups) {
-    const B zero(0.0), one(1.0), inv_h(x.inv_h), max_push(-x.max_push_velocity);
+    const B zero(0.0);
     for (std::size_t gi = group; gi < group + groups; ++gi) {
       WideGroup& g = d.groups[gi];
       if (g.two) {
@@ -178,61 +258,19 @@ struct Kernel {
         continue;
       }
       for (std::size_t h = 0; h < kLanes; h += L) {
-        // the pairs: bodies, their velocities and inverse inertias (and how far they have moved)
-        Pairs q, kick;
-        load_pairs(d, g, h, q);
-        if constexpr (kKick) {  // the same pairs and masks, the bodies' entries of d.kick
-          kick = q;
-          load_velocities(d.kick, g, h, kick);
-        }
-        B dRa[9], dRb[9], dpa[3], dpb[3];
-        if constexpr (kGap) {
-          gather_n<9>(d.dR, 9, g.a + h, dRa);
-          gather_n<9>(d.dR, 9, g.b + h, dRb);
-          gather_n<3>(d.dp, 3, g.a + h, dpa);
-          gather_n<3>(d.dp, 3, g.b + h, dpb);
-        }
-        const B dinv_mass_a = load(g.dinv_mass_a + h), dinv_mass_b = load(g.dinv_mass_b + h), mu = load(g.mu + h);
+        Frame f;
+        load_frame<kGap, kKick>(x, d, g, h, f);
+        Pairs &q = f.q, &kick = f.kick;
+        const B dinv_mass_a = f.dinv_mass_a, dinv_mass_b = f.dinv_mass_b, mu = f.mu;
+        const V3 &n = f.n, &t1 = f.t1, &t2 = f.t2;
         const B count = as_doubles(g.count + h);
-        const V3 n = load3(g.n, h), t1 = load3(g.t1, h), t2 = load3(g.t2, h);
-        // a round side's carried point is its core (gap_now): n . dR n of each pair's bodies
-        B n_dRa_n = zero, n_dRb_n = zero;
-        if constexpr (kGap) {
-          if (g.round) {
-            n_dRb_n = dot(n, mul(dRb, n));
-            n_dRa_n = dot(n, mul(dRa, n));
-          }
-        }
-        B ms = one, rate = zero, is = zero;  // the pairs' springs
-        if (x.biased) {
-          ms = load(g.mass_scale + h);
-          rate = load(g.bias_rate + h);
-          is = load(g.impulse_scale + h);
-        }
         for (int j = 0; j < g.points; ++j) {
           WideGroup::Point& pt = g.point[j];
           const Mask active = B(static_cast<double>(j)) < count;
           const V3 r_a = load3(pt.r_a, h), r_b = load3(pt.r_b, h);
-          // the normal row's rule (SoftNormal): speculative (s > 0) closes its gap; an overlap is
-          // the spring in a biased sweep, rigid in a relax sweep
-          B s;
-          if constexpr (kGap) {
-            // gap_now: gap0 + n . ((dp_B + dR_B r_B) - (dp_A + dR_A r_A))
-            const V3 moved_b = add({dpb[0], dpb[1], dpb[2]}, mul(dRb, r_b));
-            const V3 moved_a = add({dpa[0], dpa[1], dpa[2]}, mul(dRa, r_a));
-            s = load(pt.gap0 + h) + dot(n, sub(moved_b, moved_a));
-            if (g.round) s = s + (load(pt.sigma_b + h) * n_dRb_n + load(pt.sigma_a + h) * n_dRa_n);
-            s.store_aligned(pt.s + h);  // (a lane past its last point writes its own unused slot)
-          } else {
-            s = load(pt.s + h);
-          }
-          const Mask speculative = s > zero;
-          B bias = xsimd::select(speculative, s * inv_h, zero), mass_scale = one, impulse_scale = zero;
-          if (x.biased) {
-            bias = xsimd::select(speculative, bias, max_of(ms * rate * s, max_push));
-            mass_scale = xsimd::select(speculative, one, ms);
-            impulse_scale = xsimd::select(speculative, zero, is);
-          }
+          const B s = point_gap<kGap>(f, g, pt, h, r_a, r_b);
+          B bias, mass_scale, impulse_scale;
+          point_rule(x, f, s, bias, mass_scale, impulse_scale);
           const B a_n = load(pt.alpha[0] + h), a_1 = load(pt.alpha[1] + h), a_2 = load(pt.alpha[2] + h);
           // the relative velocity at the point
           const V3 dv = sub(add(q.vb, cross(q.wb, r_b)), add(q.va, cross(q.wa, r_a)));
@@ -280,64 +318,21 @@ struct Kernel {
   /// pyramid), then (kKick) each point's forces into d.kick.
   template <bool kGap, bool kKick>
   static void run_two(const SoftSweep& x, const Lanes& d, WideGroup& g) {
-    const B zero(0.0), one(1.0), inv_h(x.inv_h), max_push(-x.max_push_velocity), conditioning(kPairConditioning);
+    const B zero(0.0), conditioning(kPairConditioning);
     for (std::size_t h = 0; h < kLanes; h += L) {
-      Pairs q, kick;
-      load_pairs(d, g, h, q);
-      if constexpr (kKick) {
-        kick = q;
-        load_velocities(d.kick, g, h, kick);
-      }
-      B dRa[9], dRb[9], dpa[3], dpb[3];
-      if constexpr (kGap) {
-        gather_n<9>(d.dR, 9, g.a + h, dRa);
-        gather_n<9>(d.dR, 9, g.b + h, dRb);
-        gather_n<3>(d.dp, 3, g.a + h, dpa);
-        gather_n<3>(d.dp, 3, g.b + h, dpb);
-      }
-      const B dinv_mass_a = load(g.dinv_mass_a + h), dinv_mass_b = load(g.dinv_mass_b + h), mu = load(g.mu + h);
-      const V3 n = load3(g.n, h), t1 = load3(g.t1, h), t2 = load3(g.t2, h);
-      B n_dRa_n = zero, n_dRb_n = zero;
-      if constexpr (kGap) {
-        if (g.round) {
-          n_dRb_n = dot(n, mul(dRb, n));
-          n_dRa_n = dot(n, mul(dRa, n));
-        }
-      }
-      B ms = one, rate = zero, is = zero;
-      if (x.biased) {
-        ms = load(g.mass_scale + h);
-        rate = load(g.bias_rate + h);
-        is = load(g.impulse_scale + h);
-      }
+      Frame f;
+      load_frame<kGap, kKick>(x, d, g, h, f);
+      Pairs &q = f.q, &kick = f.kick;
+      const B dinv_mass_a = f.dinv_mass_a, dinv_mass_b = f.dinv_mass_b, mu = f.mu;
+      const V3 &n = f.n, &t1 = f.t1, &t2 = f.t2;
       WideGroup::Point* pt[2] = {&g.point[0], &g.point[1]};
       V3 r_a[2], r_b[2];
       B bias[2], mass_scale[2], impulse_scale[2], a_n[2], vn[2];
       for (int j = 0; j < 2; ++j) {
-        WideGroup::Point& p = *pt[j];
-        r_a[j] = load3(p.r_a, h);
-        r_b[j] = load3(p.r_b, h);
-        B s;
-        if constexpr (kGap) {  // gap_now, as run's
-          const V3 moved_b = add({dpb[0], dpb[1], dpb[2]}, mul(dRb, r_b[j]));
-          const V3 moved_a = add({dpa[0], dpa[1], dpa[2]}, mul(dRa, r_a[j]));
-          s = load(p.gap0 + h) + dot(n, sub(moved_b, moved_a));
-          if (g.round) s = s + (load(p.sigma_b + h) * n_dRb_n + load(p.sigma_a + h) * n_dRa_n);
-          s.store_aligned(p.s + h);
-        } else {
-          s = load(p.s + h);
-        }
-        // the point's rule (soft_rule)
-        const Mask speculative = s > zero;
-        bias[j] = xsimd::select(speculative, s * inv_h, zero);
-        mass_scale[j] = one;
-        impulse_scale[j] = zero;
-        if (x.biased) {
-          bias[j] = xsimd::select(speculative, bias[j], max_of(ms * rate * s, max_push));
-          mass_scale[j] = xsimd::select(speculative, one, ms);
-          impulse_scale[j] = xsimd::select(speculative, zero, is);
-        }
-        a_n[j] = load(p.alpha[0] + h);
+        r_a[j] = load3(pt[j]->r_a, h);
+        r_b[j] = load3(pt[j]->r_b, h);
+        point_rule(x, f, point_gap<kGap>(f, g, *pt[j], h, r_a[j], r_b[j]), bias[j], mass_scale[j], impulse_scale[j]);
+        a_n[j] = load(pt[j]->alpha[0] + h);
       }
       // both normal rows' velocities before either changes
       for (int j = 0; j < 2; ++j) {
