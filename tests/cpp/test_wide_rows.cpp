@@ -128,7 +128,8 @@ TEST(WideRows, EveryIsaGivesTheBitsOfTheScalarSweepAtEveryThreadCount) {
       const std::size_t start = solver::wide_contacts_solved(), pairs = solver::wide_pairs_solved();
       EXPECT_EQ(busy_scene(threads, 60), scalar) << isa << ", " << threads << " threads";
       if (isa != "scalar") EXPECT_GT(solver::wide_contacts_solved(), start) << isa << ": no contact went through the lanes";
-      if (isa != "scalar") EXPECT_GT(solver::wide_pairs_solved(), pairs) << isa << ": no pair went through the lanes as a block";
+      if (isa != "scalar")
+        EXPECT_GT(solver::wide_pairs_solved(), pairs) << isa << ": no pair went through the lanes as a block";
     }
   }
 }

@@ -117,9 +117,10 @@ void make_rows(const PairFacts& f, const std::vector<Mat3>& dI_inv, const Vec3& 
 /// from colour 32 up for a unit against a body that does not move (the rest share a 65th), then
 /// listed colour by colour, within a colour first (by pair) the units of exactly two contacts,
 /// then the other units of at most kManifoldPoints contacts, then the longer ones, each part in
-/// contact order (so that the lanes' groups of two-point pairs, solved as blocks, are whole). A contact with the ground is then solved
-/// after those of the bodies it carries, so that in a sweep the ground has the last word (Box2D v3
-/// does the same with its last colours): a light body under a heavy one no longer rocks. By
+/// contact order (so that the lanes' groups of two-point pairs, solved as blocks, are whole). A
+/// contact with the ground is then solved after those of the bodies it carries, so that in a sweep
+/// the ground has the last word (Box2D v3 does the same with its last colours): a light body under
+/// a heavy one no longer rocks. By
 /// contact, consecutive contacts rarely share a body, so a sweep does not wait for one contact's
 /// velocity update before starting the next (the idea of Box2D v3's graph colouring, here for one
 /// thread); by pair, a pair's points follow each other and the soft step's lanes solve four pairs
@@ -137,7 +138,9 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
   // the colours of the listed bodies (the others, static, never take one) start empty
   parallel::fit(d.colours_used, model.size(), std::uint64_t(0));
   parallel::each_body(d.bodies, model.size(), [&](std::size_t i) { d.colours_used[i] = 0; });
-  d.slot.resize(K);  // each contact's bucket first: 3 colour, + 0 in a two-point unit (by pair), + 2 in a long one, + 1 else
+  // each contact's bucket first: 3 colour, + 0 in a two-point unit (by pair), + 2 in a long one,
+  // + 1 in any other
+  d.slot.resize(K);
   std::array<int, 3 * kColours + 1> start{};
   for (std::size_t i = 0, j = 0; i < K; i = j) {
     j = i + 1;
