@@ -159,6 +159,14 @@ inline double update_normal(const ContactRows& c, const Mat3* dI, double bias, d
   return update_normal(c, dI, bias, alpha, qd[c.a], qd[c.b]);
 }
 
+/// A friction bound of 0 projects any friction force to 0: the forces alpha[1], alpha[2] go to 0,
+/// their changes into d1, d2.
+inline void drop_friction(double* alpha, double& d1, double& d2) {
+  d1 = -alpha[1];
+  d2 = -alpha[2];
+  alpha[1] = alpha[2] = 0.0;
+}
+
 /// One contact's three rows in a sweep (normal, then its two friction rows) on the velocities A, B
 /// of its bodies; change = max(change, the rows' delta |d_alpha|).
 /// This is the lecture's Gauss-Seidel order, row after row, written so that the three rows do not
@@ -182,11 +190,8 @@ template <class Normal>
   const double bound = c.mu * a0;
   double d1 = 0.0, d2 = 0.0;
   if (bound == 0.0) {
-    // a zero bound projects any friction force to 0 (a separating or speculative contact): the
-    // friction rows' velocities are not needed
-    d1 = -alpha[1];
-    d2 = -alpha[2];
-    alpha[1] = alpha[2] = 0.0;
+    // (a separating or speculative contact: the friction rows' velocities are not needed)
+    drop_friction(alpha, d1, d2);
   } else if (c.delta[1] > 0.0) {
     // A and B are untouched so far: the rows read the velocity the normal row read
     const double u1 = c.t1.dot(dv) + c.W_1n * d0;

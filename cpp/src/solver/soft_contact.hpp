@@ -73,9 +73,7 @@ inline void pair_friction(const SolverSettings& s, SolverData& d, std::size_t k,
   const double bound = c.mu * alpha[0];
   double d1 = 0.0, d2 = 0.0;
   if (bound == 0.0) {
-    d1 = -alpha[1];
-    d2 = -alpha[2];
-    alpha[1] = alpha[2] = 0.0;
+    rows::drop_friction(alpha, d1, d2);
   } else if (c.delta[1] > 0.0) {
     const Vec3 dv = rows::point_velocity(c, A, B);
     if (s.friction_cone == FrictionCone::Cone) {
