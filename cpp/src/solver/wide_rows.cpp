@@ -113,12 +113,15 @@ void widen(const SolverSettings& s, SolverData& d) {
   for (std::size_t c = 0; c < colours; ++c) {
     d.wide_first[c] = static_cast<int>(G);
     if (c + 1 == colours) continue;
-    const std::size_t part[3] = {static_cast<std::size_t>(d.colour_start[c]), static_cast<std::size_t>(d.two_end[c]),
-                                 static_cast<std::size_t>(d.long_start[c])};
-    for (int two = 1; two >= 0; --two) {
-      const std::size_t end = part[2 - two];
+    const auto at = [](int k) { return static_cast<std::size_t>(k); };
+    const struct {
+      std::size_t from, end;
+      bool two;
+    } parts[2] = {{at(d.colour_start[c]), at(d.two_end[c]), true}, {at(d.two_end[c]), at(d.long_start[c]), false}};
+    for (const auto& part : parts) {
+      const std::size_t end = part.end;
       std::size_t lane = 0;
-      for (std::size_t k = part[1 - two]; k < end;) {
+      for (std::size_t k = part.from; k < end;) {
         std::size_t m = k + 1;
         while (m < end && !d.unit_first[m]) ++m;
         if (lane == 0) {
@@ -126,7 +129,7 @@ void widen(const SolverSettings& s, SolverData& d) {
           ++G;
         }
         WideGroup& g = d.wide[G - 1];
-        g.two = two == 1;
+        g.two = part.two;
         g.first[lane] = static_cast<int>(k);
         g.count[lane] = static_cast<int>(m - k);
         lane = (lane + 1) % kLanes;
