@@ -450,10 +450,77 @@ int restitution(const SolverSettings& s, SolverData& d) {
 }
 
 // ---- f. store -----------------------------------------------------------------------------------
+namespace {
+
+/// The next cache sorted by key (first in contact order on equal keys), one entry per key; the
+/// narrow phase lists contacts by body pair and feature ids, so it is usually sorted already
+/// (checked over the threads: each range with the entry before it; sorted and without repeated
+/// keys, the usual case, nothing more is done).
+void sort_cache(SolverData& d) {
+  const auto before = [](const CachedContact& x, const CachedContact& y) {
+    return key_less(x, y) || (same_key(x, y) && x.order < y.order);
+  };
+  std::atomic<bool> unsorted{false}, repeats{false};
+  for_ranges(d, d.cache_next.size(), 4096, [&](std::size_t first, std::size_t end) {
+    bool down = false, same = false;
+    for (std::size_t k = std::max<std::size_t>(first, 1); k < end && !down; ++k) {
+      down = before(d.cache_next[k], d.cache_next[k - 1]);
+      same = same || same_key(d.cache_next[k], d.cache_next[k - 1]);
+    }
+    if (down) unsorted.store(true, std::memory_order_relaxed);
+    if (same) repeats.store(true, std::memory_order_relaxed);
+  });
+  if (unsorted.load()) std::sort(d.cache_next.begin(), d.cache_next.end(), before);
+  if (unsorted.load() || repeats.load())
+    d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(), same_key), d.cache_next.end());
+}
+
+/// store without the report (store's report = false): each contact's forces and impulse, its
+/// touching flag and the next cache only.
+void store_forces(double dt, std::vector<Contact>& contacts, SolverData& d, const std::vector<SoftPoint>* soft) {
+  const std::size_t K = contacts.size();
+  d.cache_next.resize(K);
+  d.touches.resize(K);
+  for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+      if (i + kAhead < end) {
+        const std::size_t j = static_cast<std::size_t>(d.slot[i + kAhead]);
+        prefetch_read(&d.rows[j].t1, 2 * sizeof(Vec3));  // what is read of the rows: t1, t2
+        prefetch_read(&d.alpha[3 * j], 3 * sizeof(double));
+        prefetch_read(&d.alpha_iter[j], sizeof(double));
+        if (soft) prefetch_read(&(*soft)[j], sizeof(SoftPoint));
+      }
+      const std::size_t k = static_cast<std::size_t>(d.slot[i]);
+      Contact& c = contacts[i];
+      const ContactRows& r = d.rows[k];
+      const double* alpha = &d.alpha[3 * k];
+      c.alpha = alpha[0];
+      c.impulse = soft ? (*soft)[k].impulse : dt * alpha[0];
+      c.friction = alpha[1] * r.t1 + alpha[2] * r.t2;
+      const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[k];
+      c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
+      d.touches[i] = c.impulse > 0.0 || c.gap < 0.0;
+      CachedContact& e = d.cache_next[i];
+      e.body_a = c.body_a;
+      e.body_b = c.body_b;
+      e.feature_a = c.feature_a;
+      e.feature_b = c.feature_b;
+      e.alpha = d.alpha_iter[k];
+      e.friction = c.friction;
+      e.spin = c.spin_torque;
+      e.order = static_cast<int>(i);
+    }
+  });
+  sort_cache(d);
+}
+
+}  // namespace
+
 /// Forces and velocities per contact, summed forces per body, the next cache, the certificate.
 void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats,
-           const std::vector<SoftPoint>* soft) {
+           const std::vector<SoftPoint>* soft, bool report) {
   const std::size_t K = contacts.size();
+  if (!report) return store_forces(dt, contacts, d, soft);
   d.cache_next.resize(K);
   d.contact_torque.resize(2 * K);  // every entry is written below, contact by contact
   d.contact_force.resize(K);
@@ -584,26 +651,7 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   };
   if (parts == 1) sum_part(0);
   else d.pool->join(sum_part);
-  // sorted by key (first in contact order on equal keys), one entry per key; the narrow phase
-  // lists contacts by body pair and feature ids, so this is usually sorted already
-  const auto before = [](const CachedContact& x, const CachedContact& y) {
-    return key_less(x, y) || (same_key(x, y) && x.order < y.order);
-  };
-  // (checked over the threads: each range with the entry before it; sorted and without repeated
-  // keys, the usual case, nothing more is done)
-  std::atomic<bool> unsorted{false}, repeats{false};
-  for_ranges(d, K, 4096, [&](std::size_t first, std::size_t end) {
-    bool down = false, same = false;
-    for (std::size_t k = std::max<std::size_t>(first, 1); k < end && !down; ++k) {
-      down = before(d.cache_next[k], d.cache_next[k - 1]);
-      same = same || same_key(d.cache_next[k], d.cache_next[k - 1]);
-    }
-    if (down) unsorted.store(true, std::memory_order_relaxed);
-    if (same) repeats.store(true, std::memory_order_relaxed);
-  });
-  if (unsorted.load()) std::sort(d.cache_next.begin(), d.cache_next.end(), before);
-  if (unsorted.load() || repeats.load())
-    d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(), same_key), d.cache_next.end());
+  sort_cache(d);
   // maxima of violations: 0 when nothing violates (and when there are no contacts)
   stats.max_alpha_negative = std::max(stats.max_alpha_negative, 0.0);
   stats.max_penetration_velocity = std::max(stats.max_penetration_velocity, 0.0);

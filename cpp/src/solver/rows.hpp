@@ -369,7 +369,10 @@ int restitution(const SolverSettings& s, SolverData& d);
 /// restitutive contact; its violation maxima at least 0). c.impulse = dt alpha, or with soft (the
 /// soft step's points, by solve position) the impulse summed over its substeps, and the bias
 /// max(s, 0) / dt of each point's gap s at the step's end instead of the row's.
+/// report = false (a run of the soft step's rows that another follows in the same step): only each
+/// contact's alpha, friction, spin_torque and impulse, d.touches and the next cache; the rest (the
+/// contacts' force, velocities and slip, the bodies' sums, stats) left as they were.
 void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, SolverData& d, SolverStats& stats,
-           const std::vector<SoftPoint>* soft = nullptr);
+           const std::vector<SoftPoint>* soft = nullptr, bool report = true);
 
 }  // namespace signorini::solver::rows

@@ -211,14 +211,17 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
 }
 
 SolverStats soft_end(const Model& model, const State& state, const SolverSettings& settings,
-                     std::vector<Contact>& contacts, std::vector<Vec3>& v, std::vector<Vec3>& omega, SolverData& d) {
+                     std::vector<Contact>& contacts, std::vector<Vec3>& v, std::vector<Vec3>& omega, SolverData& d,
+                     bool report) {
   const std::size_t N = model.size(), K = contacts.size();
   SolverStats stats;
   stats.contacts = static_cast<int>(K);
   stats.iterations = settings.soft_iterations + settings.relax_iterations;
   stats.restitution_iterations = d.restitution_sweeps;
-  clear_body_forces(d, N);
-  load(v, omega, d);
+  if (report) {  // (the bodies' sums and the velocities after the solve: the report's alone)
+    clear_body_forces(d, N);
+    load(v, omega, d);
+  }
   if (d.alpha_iter.size() != K) {  // no substep ran (never: a step has at least one)
     d.alpha_iter.assign(K, 0.0);
     d.restitutive.assign(K, char(0));
@@ -229,9 +232,9 @@ SolverStats soft_end(const Model& model, const State& state, const SolverSetting
   // the certificate's targets: the rigid contact at its end gap (speculative: close it, no more),
   // or e u for a contact that bounced in the last substep; each contact's impulse: its substeps'
   // summed (store reads both from the soft points)
-  store(d.h, settings, contacts, d, stats, &d.soft);
+  store(d.h, settings, contacts, d, stats, &d.soft, report);
   if (JointSet* joints = joints_of(d)) store_joints(state, *joints);
-  unload(d, v, omega);
+  if (report) unload(d, v, omega);
   // a fixed number of sweeps by design: never flagged as unconverged (the certificate says what
   // the contacts satisfy)
   stats.converged = true;

@@ -44,7 +44,11 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
 /// (the step's whole normal impulse, N s), normal_velocity, slip; d.body_force, d.body_torque;
 /// d.cache_next; returns the stats with the certificate against the rigid targets (each contact's
 /// end gap / h, or e u).
+/// report = false (a run of rows that another follows within the step): what the next run needs
+/// only (store's report = false): the contacts' alpha, friction, spin_torque and impulse, and
+/// d.cache_next; the bodies' sums and the certificate are not made (the stats returned are empty).
 SolverStats soft_end(const Model& model, const State& state, const SolverSettings& settings,
-                     std::vector<Contact>& contacts, std::vector<Vec3>& v, std::vector<Vec3>& omega, SolverData& d);
+                     std::vector<Contact>& contacts, std::vector<Vec3>& v, std::vector<Vec3>& omega, SolverData& d,
+                     bool report = true);
 
 }  // namespace signorini::solver

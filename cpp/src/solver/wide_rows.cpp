@@ -45,15 +45,16 @@ void each_point(G& g, F&& f) {
     for (int j = 0; j < g.count[l]; ++j) f(g.point[j], l, static_cast<std::size_t>(g.first[l] + j));
 }
 
-/// f(point, l, k) for every point slot of every group, over the threads: lane l of point j and
-/// the solve position k it holds (point_position), for copying a field into the groups.
+/// f(point, l, k) for every point slot the sweeps read (j < g.points) of every group, over the
+/// threads: lane l of point j and the solve position k it holds (point_position), for copying a
+/// field into the groups.
 template <class F>
 void each_slot(SolverData& d, F&& f) {
   rows::for_ranges(d, d.wide.size(), 64, [&](std::size_t from, std::size_t to) {
     for (std::size_t gi = from; gi < to; ++gi) {
       WideGroup& g = d.wide[gi];
       for (std::size_t l = 0; l < kLanes; ++l)
-        for (std::size_t j = 0; j < kManifoldPoints; ++j) f(g.point[j], l, point_position(g, l, j));
+        for (std::size_t j = 0; j < static_cast<std::size_t>(g.points); ++j) f(g.point[j], l, point_position(g, l, j));
     }
   });
 }
@@ -148,7 +149,11 @@ void widen(const SolverSettings& s, SolverData& d) {
       WideGroup& g = d.wide[gi];
       g.one_by_one = false;
       g.round = false;
+      // the sweeps read points j < g.points only (a group of capsules lying on each other fills
+      // two of kManifoldPoints)
       g.points = 0;
+      for (std::size_t l = 0; l < kLanes; ++l) g.points = std::max(g.points, g.count[l]);
+      const std::size_t points = static_cast<std::size_t>(g.points);
       for (std::size_t l = 0; l < kLanes; ++l) {
         const std::size_t k0 = static_cast<std::size_t>(g.first[l]);
         const ContactRows& pair = d.rows[k0];
@@ -174,8 +179,7 @@ void widen(const SolverSettings& s, SolverData& d) {
         g.bias_rate[l] = spring.bias_rate;
         g.mass_scale[l] = spring.mass_scale;
         g.impulse_scale[l] = spring.impulse_scale;
-        g.points = std::max(g.points, g.count[l]);
-        for (std::size_t j = 0; j < kManifoldPoints; ++j) {
+        for (std::size_t j = 0; j < points; ++j) {
           WideGroup::Point& p = g.point[j];
           // a lane with fewer points repeats its last: the lanes compute it, and write nothing
           const std::size_t k = point_position(g, l, j);
@@ -217,7 +221,7 @@ void widen(const SolverSettings& s, SolverData& d) {
         }
       if (g.round)
         for (std::size_t l = 0; l < kLanes; ++l)
-          for (std::size_t j = 0; j < kManifoldPoints; ++j) {
+          for (std::size_t j = 0; j < points; ++j) {
             const SoftPoint& soft = d.soft[point_position(g, l, j)];
             g.point[j].sigma_a[l] = soft.sigma_a;
             g.point[j].sigma_b[l] = soft.sigma_b;

@@ -442,10 +442,9 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
   const int more = may_split ? std::min(most - k - 1, turn_substeps(contacts_next_, rest)) : 0;
   if (!turned && more <= n - k - 1) return false;
   // this run of rows ends here: its forces stored (the next run's warm start, by key) and its
-  // impulses added to the step's sums so far
-  const SolverStats stats =
-      solver::soft_end(model_, state_, settings_.solver, contacts_next_, state_.v, state_.omega, *solver_);
-  end_substep_flags(stats, state_.time);
+  // impulses added to the step's sums so far (the report, the certificate and the bodies' sums,
+  // is the last run's: not made here)
+  solver::soft_end(model_, state_, settings_.solver, contacts_next_, state_.v, state_.omega, *solver_, false);
   solver_->cache.swap(solver_->cache_next);
   if (soft_runs_ == 0) impulse_sum_.assign(contacts_next_.size(), 0.0);
   add_impulse_sums();
