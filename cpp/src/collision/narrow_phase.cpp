@@ -655,7 +655,8 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
       if (!model.is_static[b] && !state.asleep(b)) pairs.emplace_back(std::min(k, b), std::max(k, b));
     });
   }
-  std::sort(pairs.begin(), pairs.end());
+  // (the broad phase's are sorted: without planes, as in most large scenes, nothing to do)
+  if (!std::is_sorted(pairs.begin(), pairs.end())) std::sort(pairs.begin(), pairs.end());
   // collision filtering: disabled bodies, filter bits, excluded pairs, two infinite masses
   // and pairs where nothing moves: a sleeping body against a sleeping, static or still kinematic one
   const auto still = [&](BodyIndex k) {

@@ -161,7 +161,8 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
       if (b_moves) d.colours_used[b] |= std::uint64_t(1) << colour;
     }
     const int bucket = 3 * colour + (j - i > kManifoldPoints ? 2 : kind == Order::ByPair && j - i == 2 ? 0 : 1);
-    for (std::size_t k = i; k < j; ++k) d.slot[k] = bucket;
+    // (2 bucket + whether the contact starts its unit, so that the contacts are read once)
+    for (std::size_t k = i; k < j; ++k) d.slot[k] = 2 * bucket + (k == i);
     start[bucket + 1] += static_cast<int>(j - i);
   }
   for (int c = 0; c < 3 * kColours; ++c) start[c + 1] += start[c];
@@ -174,11 +175,11 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
   d.order.resize(K);
   d.unit_first.resize(K);
   for (std::size_t i = 0; i < K; ++i) {
-    const int k = start[d.slot[i]]++;
+    const int k = start[d.slot[i] / 2]++;
+    // a unit's contacts are consecutive in both orders: it starts where its pair does
+    d.unit_first[k] = static_cast<char>(d.slot[i] % 2);
     d.order[k] = static_cast<int>(i);
     d.slot[i] = k;
-    // a unit's contacts are consecutive in both orders: it starts where its pair does
-    d.unit_first[k] = kind == Order::ByContact || i == 0 || !same_pair(i - 1, i);
   }
   // the blocks of about kContactsPerTask contacts the threads claim (by_colour), each within one
   // colour; by pair, cut between units only, and among the two-point units and among the other

@@ -331,7 +331,16 @@ void walk(SolverData& d, std::size_t first, std::size_t end, Lanes&& lanes, OneB
     if (k >= stop) continue;  // an empty colour
     std::size_t gi = static_cast<std::size_t>(d.wide_first[c]);
     const std::size_t g_end = static_cast<std::size_t>(d.wide_first[c + 1]);
-    while (gi < g_end && group_first(gi) < k) ++gi;  // the groups of the blocks before this one
+    // past the groups of the blocks before this one (a colour's groups are in solve order: found
+    // by bisection, each a group's struct apart)
+    if (gi < g_end && group_first(gi) < k) {
+      std::size_t lo = gi, hi = g_end;  // group_first(lo) < k <= group_first(hi) (hi = g_end: none)
+      while (hi - lo > 1) {
+        const std::size_t mid = lo + (hi - lo) / 2;
+        (group_first(mid) < k ? lo : hi) = mid;
+      }
+      gi = hi;
+    }
     while (gi < g_end && group_end(gi) <= stop) {
       // the units between the groups (a colour's last two-point pairs that fill no group)
       if (group_first(gi) > k) {

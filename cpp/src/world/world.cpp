@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
 
 #include "collision/collision.hpp"
@@ -413,12 +414,21 @@ double World::turn_rate_bound(double* turned) const {
     least_inner_ = std::numeric_limits<double>::infinity();
     for (const double r : model_.inner) least_inner_ = std::min(least_inner_, r);
   }
+  // (maxima over the threads' ranges: the same bits in any order)
   double T = 0.0, S = 0.0;
-  for (const BodyIndex i : moving_) {
-    if (turned) T = std::max(T, turned_[i]);
-    const double sweep = std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : state_.omega[i].norm() * model_.rho[i];
-    S = std::max(S, sweep + state_.v[i].norm());
-  }
+  std::mutex joined;
+  parallel::for_ranges(pool_.get(), moving_.size(), 1024, [&](std::size_t first, std::size_t end) {
+    double T_part = 0.0, S_part = 0.0;
+    for (std::size_t k = first; k < end; ++k) {
+      const BodyIndex i = moving_[k];
+      if (turned) T_part = std::max(T_part, turned_[i]);
+      const double sweep = std::holds_alternative<Sphere>(model_.shape[i]) ? 0.0 : state_.omega[i].norm() * model_.rho[i];
+      S_part = std::max(S_part, sweep + state_.v[i].norm());
+    }
+    const std::lock_guard<std::mutex> lock(joined);
+    T = std::max(T, T_part);
+    S = std::max(S, S_part);
+  });
   if (turned) *turned = T;
   return 2.0 * S / least_inner_ * (1.0 + 1e-9);
 }
@@ -545,10 +555,10 @@ void World::find_turned(const State& from) {
   // are written: a static body's stays 0 from the sizing, which bodies_changed redoes, so that the
   // cost follows the moving bodies)
   parallel::fit(turned_, model_.size(), 0.0);
-  for (const BodyIndex i : moving_) {
+  parallel::for_bodies(pool_.get(), &moving_, model_.size(), 1024, [&](std::size_t i) {
     const bool still = state_.asleep(i) || std::holds_alternative<Sphere>(model_.shape[i]);
     turned_[i] = still ? 0.0 : std::sqrt(std::max(0.0, 3.0 - state_.R[i].cwiseProduct(from.R[i]).sum())) * model_.rho[i];
-  }
+  });
 }
 
 void World::sum_impulses(int k) {
