@@ -56,10 +56,12 @@ void body_motion(const Model& model, const State& state, SolverData& d) {
 /// One sweep over every contact in solve order (soft_units), colour by colour over the threads;
 /// four body pairs at a time (wide_sweep) when the lanes run (d.lanes).
 template <bool kSpin, bool kGap>
-void sweep(const SolverSettings& s, SolverData& d, bool biased, bool kick) {
+void sweep(const SolverSettings& s, SolverData& d, bool biased, bool kick, bool accumulate) {
   SoftSweep x;
   x.biased = biased;
   x.kick = kick;
+  x.accumulate = accumulate;
+  x.h = d.h;
   x.update_gaps = kGap;
   x.inv_h = 1.0 / d.h;
   x.max_push_velocity = s.max_push_velocity;
@@ -74,8 +76,10 @@ void sweep(const SolverSettings& s, SolverData& d, bool biased, bool kick) {
 }
 
 /// count sweeps; update_gaps: the first brings every contact's gap up to date (with count 0, a
-/// pass of its own does); kick: the last also gathers the next substep's warm start (SoftSweep::kick).
-void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool update_gaps, bool kick = false) {
+/// pass of its own does); kick: the last also gathers the next substep's warm start (SoftSweep::kick);
+/// accumulate: the last also adds the grouped points' forces to their impulses (SoftSweep::accumulate).
+void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool update_gaps, bool kick = false,
+            bool accumulate = false) {
   const bool spin = !d.spin_rows.empty();
   if (update_gaps && count == 0) {
     for_ranges(d, d.soft.size(), 1024, [&](std::size_t first, std::size_t end) {
@@ -85,11 +89,13 @@ void sweeps(const SolverSettings& s, SolverData& d, bool biased, int count, bool
   }
   JointSet* joints = joints_of(d, true);
   for (int i = 0; i < count; ++i) {
-    const bool last_kick = kick && i + 1 == count;
+    const bool last_kick = kick && i + 1 == count, last_sum = accumulate && i + 1 == count;
     if (i == 0 && update_gaps)
-      spin ? sweep<true, true>(s, d, biased, last_kick) : sweep<false, true>(s, d, biased, last_kick);
+      spin ? sweep<true, true>(s, d, biased, last_kick, last_sum)
+           : sweep<false, true>(s, d, biased, last_kick, last_sum);
     else
-      spin ? sweep<true, false>(s, d, biased, last_kick) : sweep<false, false>(s, d, biased, last_kick);
+      spin ? sweep<true, false>(s, d, biased, last_kick, last_sum)
+           : sweep<false, false>(s, d, biased, last_kick, last_sum);
     if (joints) sweep_joints(*joints, d, biased ? JointSweep::SoftBiased : JointSweep::SoftRelax, d.h);
   }
 }
@@ -182,16 +188,18 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
   // the next substep's warm start gathered by the last sweep, unless restitution may still change
   // forces after it (no contact has restitution: !d.bouncy)
   const bool kick = another && !d.bouncy && settings.relax_iterations >= 1;
-  sweeps(settings, d, false, settings.relax_iterations, true, kick);
+  // without restitution the grouped contacts only add up their impulses, in the groups, until
+  // soft_end hands them out: as the last relax sweep leaves them (SoftSweep::accumulate), or
+  // (wide_accumulate) in a pass of their own when no sweep runs
+  const bool deferred = d.lanes && !d.bouncy;
+  const bool in_sweep = deferred && settings.relax_iterations >= 1;
+  sweeps(settings, d, false, settings.relax_iterations, true, kick, in_sweep);
   d.kick_ready = kick;
   // each contact settled (settle: its force for the cache, whether it bounces, its impulse); the
   // grouped ones as their forces leave the groups, the others in order
   d.alpha_iter.resize(K);
   d.restitutive.resize(K);
-  // without restitution the grouped contacts only add up their impulses, in the groups, until
-  // soft_end hands them out (wide_accumulate)
-  const bool deferred = d.lanes && !d.bouncy;
-  if (deferred) wide_accumulate(d);
+  if (deferred && !in_sweep) wide_accumulate(d);
   std::atomic<bool> bounces{d.lanes && !deferred && wide_settle(settings, d)};
   for_ranges(d, K, 1024, [&](std::size_t first, std::size_t end) {
     bool any = false;

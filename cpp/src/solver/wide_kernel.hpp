@@ -243,6 +243,14 @@ struct Kernel {
     }
   }
 
+  /// SoftSweep::accumulate: the point's last force f0 in lanes h .. h + L - 1 added to its impulse
+  /// (h alpha_n) and its largest force, as wide_accumulate adds them (every lane: a lane past its
+  /// last point adds to its unused slot, never read).
+  static void accumulate(const SoftSweep& x, WideGroup::Point& pt, std::size_t h, const B& f0) {
+    (load(pt.impulse + h) + B(x.h) * f0).store_aligned(pt.impulse + h);
+    max_of(load(pt.alpha_max + h), f0).store_aligned(pt.alpha_max + h);
+  }
+
   /// One sweep over the groups: each lane's pair, point after point in solve order, its two bodies'
   /// velocities kept in registers from the first point to the last.
   /// kKick (SoftSweep::kick): each point's forces as it leaves the sweep are also added, as the
@@ -301,6 +309,7 @@ struct Kernel {
           f0.store_aligned(pt.alpha[0] + h);
           f1.store_aligned(pt.alpha[1] + h);
           f2.store_aligned(pt.alpha[2] + h);
+          if (x.accumulate) accumulate(x, pt, h, f0);
           if constexpr (kKick) {  // the next substep's warm start of this point (warm_start's sums)
             const Mask any = ((f0 != zero) || (f1 != zero) || (f2 != zero)) && active;
             push(kick, any, r_a, r_b, add(add(scale(f0, n), scale(f1, t1)), scale(f2, t2)), dinv_mass_a, dinv_mass_b);
@@ -389,6 +398,8 @@ struct Kernel {
         a1.store_aligned(p.alpha[1] + h);
         a2.store_aligned(p.alpha[2] + h);
       }
+      if (x.accumulate)
+        for (int j = 0; j < 2; ++j) accumulate(x, *pt[j], h, force[j]);
       if constexpr (kKick) {  // the next substep's warm start of both points (rows::apply_force's sums)
         for (int j = 0; j < 2; ++j) {
           WideGroup::Point& p = *pt[j];

@@ -32,6 +32,11 @@ struct SoftSweep {
   /// the sweep are also summed, as the warm start applies them, into its bodies' d.kick (the next
   /// substep's warm start, gathered while the rows are at hand: SolverData::kick)
   bool kick = false;
+  /// the last relax sweep of a substep without restitution: each grouped point's force as it
+  /// leaves the sweep is also added to its impulse (h alpha_n) and its largest force, as
+  /// wide_accumulate would add them after the sweep (the same sums: the sweep is their last change)
+  bool accumulate = false;
+  double h = 0.0;  ///< the substep (s), for accumulate
 };
 
 /// Which code runs the groups: the best the CPU has (Auto), or one forced, for tests that compare
