@@ -476,6 +476,43 @@ void sort_cache(SolverData& d) {
     d.cache_next.erase(std::unique(d.cache_next.begin(), d.cache_next.end(), same_key), d.cache_next.end());
 }
 
+/// Asks early for what store reads of the contact at solve position j: its rows (whole, or only
+/// t1 and t2), forces, normal force and soft point.
+inline void ask_ahead(const SolverData& d, const std::vector<SoftPoint>* soft, std::size_t j, bool whole_rows) {
+  if (whole_rows) prefetch_read(&d.rows[j], sizeof(ContactRows));
+  else prefetch_read(&d.rows[j].t1, 2 * sizeof(Vec3));
+  prefetch_read(&d.alpha[3 * j], 3 * sizeof(double));
+  prefetch_read(&d.alpha_iter[j], sizeof(double));
+  if (soft) prefetch_read(&(*soft)[j], sizeof(SoftPoint));
+}
+
+/// Contact c's forces from its rows r at solve position k: alpha (normal force), impulse (dt
+/// alpha, or with soft its substeps' summed impulse), friction alpha_t1 t1 + alpha_t2 t2 (on B; A
+/// gets the opposite) and spin_torque (n on B, the opposite on A).
+inline void contact_forces(double dt, const SolverData& d, const std::vector<SoftPoint>* soft, std::size_t k,
+                           const ContactRows& r, Contact& c) {
+  const double* alpha = &d.alpha[3 * k];
+  c.alpha = alpha[0];
+  c.impulse = soft ? (*soft)[k].impulse : dt * alpha[0];
+  c.friction = alpha[1] * r.t1 + alpha[2] * r.t2;
+  const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[k];
+  c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
+}
+
+/// The next step's warm-start entry of contact c (contact i, solve position k): its key, its force
+/// before restitution (d.alpha_iter), its friction and spin torque, its contact order.
+inline void cache_entry(SolverData& d, std::size_t i, std::size_t k, const Contact& c) {
+  CachedContact& e = d.cache_next[i];
+  e.body_a = c.body_a;
+  e.body_b = c.body_b;
+  e.feature_a = c.feature_a;
+  e.feature_b = c.feature_b;
+  e.alpha = d.alpha_iter[k];
+  e.friction = c.friction;
+  e.spin = c.spin_torque;
+  e.order = static_cast<int>(i);
+}
+
 /// store without the report (store's report = false): each contact's forces and impulse, its
 /// touching flag and the next cache only.
 void store_forces(double dt, std::vector<Contact>& contacts, SolverData& d, const std::vector<SoftPoint>* soft) {
@@ -484,32 +521,12 @@ void store_forces(double dt, std::vector<Contact>& contacts, SolverData& d, cons
   d.touches.resize(K);
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
     for (std::size_t i = first; i < end; ++i) {
-      if (i + kAhead < end) {
-        const std::size_t j = static_cast<std::size_t>(d.slot[i + kAhead]);
-        prefetch_read(&d.rows[j].t1, 2 * sizeof(Vec3));  // what is read of the rows: t1, t2
-        prefetch_read(&d.alpha[3 * j], 3 * sizeof(double));
-        prefetch_read(&d.alpha_iter[j], sizeof(double));
-        if (soft) prefetch_read(&(*soft)[j], sizeof(SoftPoint));
-      }
+      if (i + kAhead < end) ask_ahead(d, soft, static_cast<std::size_t>(d.slot[i + kAhead]), false);
       const std::size_t k = static_cast<std::size_t>(d.slot[i]);
       Contact& c = contacts[i];
-      const ContactRows& r = d.rows[k];
-      const double* alpha = &d.alpha[3 * k];
-      c.alpha = alpha[0];
-      c.impulse = soft ? (*soft)[k].impulse : dt * alpha[0];
-      c.friction = alpha[1] * r.t1 + alpha[2] * r.t2;
-      const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[k];
-      c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
+      contact_forces(dt, d, soft, k, d.rows[k], c);
       d.touches[i] = c.impulse > 0.0 || c.gap < 0.0;
-      CachedContact& e = d.cache_next[i];
-      e.body_a = c.body_a;
-      e.body_b = c.body_b;
-      e.feature_a = c.feature_a;
-      e.feature_b = c.feature_b;
-      e.alpha = d.alpha_iter[k];
-      e.friction = c.friction;
-      e.spin = c.spin_torque;
-      e.order = static_cast<int>(i);
+      cache_entry(d, i, k, c);
     }
   });
   sort_cache(d);
@@ -538,25 +555,14 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
     SolverStats part = start;
     for (std::size_t i = first; i < end; ++i) {
-      if (i + kAhead < end) {
-        const std::size_t j = static_cast<std::size_t>(d.slot[i + kAhead]);
-        prefetch_read(&d.rows[j], sizeof(ContactRows));
-        prefetch_read(&d.alpha[3 * j], 3 * sizeof(double));
-        prefetch_read(&d.alpha_iter[j], sizeof(double));
-        if (soft) prefetch_read(&(*soft)[j], sizeof(SoftPoint));
-      }
+      if (i + kAhead < end) ask_ahead(d, soft, static_cast<std::size_t>(d.slot[i + kAhead]), true);
       const std::size_t k = static_cast<std::size_t>(d.slot[i]);
       Contact& c = contacts[i];
       const ContactRows& r = d.rows[k];
       const double* alpha = &d.alpha[3 * k];
-      // forces: normal alpha n, friction alpha_t1 t1 + alpha_t2 t2 (on B; A gets the opposite)
-      c.alpha = alpha[0];
-      c.impulse = soft ? (*soft)[k].impulse : dt * alpha[0];
-      c.friction = alpha[1] * r.t1 + alpha[2] * r.t2;
-      c.force = alpha[0] * c.normal + c.friction;
-      // torsional friction: spin_torque n on B, the opposite on A
-      const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[k];
-      c.spin_torque = spin >= 0 ? d.spin_alpha[spin] : 0.0;
+      contact_forces(dt, d, soft, k, r, c);
+      c.force = alpha[0] * c.normal + c.friction;  // on B (A gets the opposite)
+      const int spin = d.spin_rows.empty() ? -1 : d.spin_slot[k];  // its spin row, for the certificate
       // the torques the contact puts on A and B about their centres: the force at the lever arm,
       // and torsional friction (-t n on A, t n on B); for each body's sums below
       const Vec3 spin_torque = c.spin_torque * c.normal;
@@ -612,15 +618,7 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
       }
 
       // the cache for the next step's warm start: the force before restitution
-      CachedContact& e = d.cache_next[i];
-      e.body_a = c.body_a;
-      e.body_b = c.body_b;
-      e.feature_a = c.feature_a;
-      e.feature_b = c.feature_b;
-      e.alpha = d.alpha_iter[k];
-      e.friction = c.friction;
-      e.spin = c.spin_torque;
-      e.order = static_cast<int>(i);
+      cache_entry(d, i, k, c);
     }
     const std::lock_guard<std::mutex> lock(joined);
     stats.residual = std::max(stats.residual, part.residual);
