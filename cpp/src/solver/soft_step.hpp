@@ -46,7 +46,8 @@ void soft_relax(const Model& model, const State& state, const SolverSettings& se
 /// end gap / h, or e u).
 /// report = false (a run of rows that another follows within the step): what the next run needs
 /// only (store's report = false): the contacts' alpha, friction, spin_torque and impulse, and
-/// d.cache_next; the bodies' sums and the certificate are not made (the stats returned are empty).
+/// d.cache_next; the bodies' sums and the certificate are not made (the stats returned hold the
+/// counts only: contacts, sweeps).
 SolverStats soft_end(const Model& model, const State& state, const SolverSettings& settings,
                      std::vector<Contact>& contacts, std::vector<Vec3>& v, std::vector<Vec3>& omega, SolverData& d,
                      bool report = true);
