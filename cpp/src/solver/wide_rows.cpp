@@ -333,14 +333,11 @@ void walk(SolverData& d, std::size_t first, std::size_t end, Lanes&& lanes, OneB
     const std::size_t g_end = static_cast<std::size_t>(d.wide_first[c + 1]);
     // past the groups of the blocks before this one (a colour's groups are in solve order: found
     // by bisection, each a group's struct apart)
-    if (gi < g_end && group_first(gi) < k) {
-      std::size_t lo = gi, hi = g_end;  // group_first(lo) < k <= group_first(hi) (hi = g_end: none)
-      while (hi - lo > 1) {
-        const std::size_t mid = lo + (hi - lo) / 2;
-        (group_first(mid) < k ? lo : hi) = mid;
-      }
-      gi = hi;
-    }
+    const auto groups = d.wide.begin();
+    gi = static_cast<std::size_t>(
+        std::partition_point(groups + static_cast<std::ptrdiff_t>(gi), groups + static_cast<std::ptrdiff_t>(g_end),
+                             [&](const WideGroup& g) { return static_cast<std::size_t>(g.first[0]) < k; }) -
+        groups);
     while (gi < g_end && group_end(gi) <= stop) {
       // the units between the groups (a colour's last two-point pairs that fill no group)
       if (group_first(gi) > k) {
