@@ -50,9 +50,10 @@ spike hits all; each step is timed alone (releases, certificate and state reads 
 chunk's ms/step is its total over its length. ms/step is the median over the chunks of all
 ``--repeats`` runs, with the 25-75 % range. "sg/this" is signorini's first row (its defaults, else the soft step) over the row's.
 ``--box3d PATH`` also runs Box3D's own benchmark app on the matching scene (1 thread, its own
-scene at its own size and sleeping, in child processes just before and just after ours, so that a
-load change on the machine during our run weighs on both sides) and prints its ms/step, the median
-over both sets of runs.
+scene at its own size and sleeping, in child processes interleaved with our chunks: one run before
+the first and one after each, so that a load change on the machine weighs on both sides) and
+prints its ms/step, the median over its runs, and signorini's ratio to it chunk by chunk (each of
+our chunks against the app's runs just before and just after it).
 ``--box3d-sag PATH`` runs ``benchmarks/box3d/pyramid_sag.c`` (built against a Box3D checkout, see
 its header) for large_pyramid over the same simulated time and dt, 4 substeps, and prints Box3D's
 largest box displacement in the box3d app row's "max disp m", judged by the same 1 cm rule.
@@ -500,8 +501,10 @@ def run_steps(run, first: int, count: int, releases: dict) -> float:
     return total
 
 
-def bench_scene(name: str, args, available: dict) -> list[dict]:
+def bench_scene(name: str, args, available: dict, between=None) -> list[dict]:
     """Runs every variant of one scene, chunks interleaved; returns a row dict per table row.
+    ``between(chunk)``, when given, runs after each chunk of every repeat (chunk counts on over
+    the repeats): Box3D's app interleaved with ours (``--box3d``).
 
     Row fields: scene, engine, bodies (dynamic), steps (timed), ms, q1, q3 (median and quartiles
     of the chunks' ms/step), ratio (signorini's ms over this row's), threads2_ms, sleep_ratio
@@ -535,6 +538,8 @@ def bench_scene(name: str, args, available: dict) -> list[dict]:
                     for v, run in runs:
                         v.times.append(1e3 * run_steps(run, first, length, releases) / length)
                     first += length
+                    if between is not None:
+                        between(repeat * len(lengths) + chunk)
                     # progress on stderr, so stdout keeps the figures alone
                     print(f"    {name}: repeat {repeat + 1}/{args.repeats}, chunk {chunk + 1}/{len(lengths)}",
                           file=sys.stderr, flush=True)
@@ -570,7 +575,8 @@ def make_rows(name, variants, info, quality, available) -> list[dict]:
         ms, q1, q3 = _median(kinds["main"].times)
         row = {"scene": name, "engine": row_name, "size": info["size"], "bodies": info["bodies"],
                "steps": info["steps"], "dt": info["dt"], "settle": info["settle"] or 0,
-               "ms": ms, "q1": q1, "q3": q3, "ratio": None, "threads2_ms": None, "sleep_ratio": None,
+               "ms": ms, "q1": q1, "q3": q3, "times": list(kinds["main"].times), "ratio": None,
+               "threads2_ms": None, "sleep_ratio": None,
                **quality.get(row_name, {})}
         if "threads" in kinds:
             t2 = _median(kinds["threads"].times)[0]
@@ -629,14 +635,43 @@ def run_box3d(path: str, name: str, repeats: int, timeout: float = 1800.0) -> di
     return {"ms": ms, "q1": q1, "q3": q3, "steps": steps, "runs": len(totals), "per_step": per_step}
 
 
-def merge_box3d(before: dict, after: dict) -> dict:
-    """The app's runs before and after ours as one result (median and quartiles over all runs);
-    either alone when the other failed."""
-    if "error" in before or "error" in after:
-        return after if "error" in before else before
-    per_step = before["per_step"] + after["per_step"]
-    ms, q1, q3 = _median(per_step)
-    return {"ms": ms, "q1": q1, "q3": q3, "steps": after["steps"], "runs": len(per_step), "per_step": per_step}
+class Box3dBeside:
+    """Box3D's app interleaved with our chunks: one run of it (``run_box3d``, 1 repeat) before the
+    scene and one after each chunk (``bench_scene``'s ``between``), so that its figure and ours
+    see the same minutes of a shared machine's load. ``result()``: the median and quartiles over
+    all its runs, ``per_step`` the runs in order ([0] before the first chunk, [i + 1] after chunk
+    i), or {"error": text} when every run failed."""
+
+    def __init__(self, path: str, name: str):
+        self.path, self.name, self.runs, self.errors = path, name, [], []
+        self(-1)
+
+    def __call__(self, chunk: int) -> None:
+        got = run_box3d(self.path, self.name, 1)
+        if "error" in got:
+            self.errors.append(got["error"])
+            self.runs.append(None)
+        else:
+            self.steps = got["steps"]
+            self.runs.append(got["per_step"][0])
+
+    def result(self) -> dict:
+        per_step = [r for r in self.runs if r is not None]
+        if not per_step:
+            return {"error": self.errors[-1] if self.errors else "never ran"}
+        ms, q1, q3 = _median(per_step)
+        return {"ms": ms, "q1": q1, "q3": q3, "steps": self.steps, "runs": len(per_step), "per_step": self.runs}
+
+
+def chunk_ratios(times: list[float], beside: list) -> list[float]:
+    """Our chunk i's ms/step over the mean of the Box3D runs just before and just after it
+    (``Box3dBeside.per_step``: [i] and [i + 1]; one alone when the other failed)."""
+    ratios = []
+    for i, ms in enumerate(times):
+        near = [r for r in beside[i:i + 2] if r is not None]
+        if near:
+            ratios.append(ms / (sum(near) / len(near)))
+    return ratios
 
 
 BOX3D_SAG = re.compile(r"^result steps=(\d+) max_disp=([0-9.eE+-]+) top_dz=([0-9.eE+-]+) boxes_over_1cm=(\d+)")
@@ -727,24 +762,30 @@ def main(argv: list[str] | None = None) -> list[dict]:
     rows, box3d = [], {}
     for name in names:
         target = {"sleep": None}.get(name, name)
-        box3d_before = (run_box3d(args.box3d, target, max(2, args.repeats))
-                        if args.box3d and target and not args.tiny else None)
+        beside = Box3dBeside(args.box3d, target) if args.box3d and target and not args.tiny else None
         t0 = time.perf_counter()
-        scene_rows = bench_scene(name, args, available)
+        scene_rows = bench_scene(name, args, available, between=beside)
         rows += scene_rows
         size = scene_rows[0]["size"] if scene_rows else "no engine ran"
         print(f"  {name}: {size}, done in {time.perf_counter() - t0:.0f} s wall", flush=True)
-        if box3d_before is not None:
-            result = merge_box3d(box3d_before, run_box3d(args.box3d, target, max(2, args.repeats)))
+        if beside is not None:
+            result = beside.result()
             box3d[name] = result
             if "error" in result:
                 print(f"  {name}: Box3D app failed: {result['error']}")
             else:
                 # signorini's first row (its defaults, else the soft step), as in sg/this
-                base = next((r["ms"] for r in scene_rows if r["engine"].startswith("signorini")), None)
+                first = next((r for r in scene_rows if r["engine"].startswith("signorini")), None)
+                base = first["ms"] if first else None
                 rows.append({"scene": name, "engine": "box3d app", "bodies": None, "steps": result["steps"],
                              "ms": result["ms"], "q1": result["q1"], "q3": result["q3"],
                              "ratio": base / result["ms"] if base else None, "threads2": "-", "sleep": "-"})
+                if first is not None:
+                    ratios = chunk_ratios(first["times"], result["per_step"])
+                    if ratios:
+                        print(f"  {name}: {first['engine']} / Box3D app, chunk by chunk (each against the app's "
+                              f"runs just before and after it): median {float(np.median(ratios)):.2f}, "
+                              f"range {min(ratios):.2f}-{max(ratios):.2f} over {len(ratios)} chunks")
         if args.box3d_sag and name == "large_pyramid" and not args.tiny and scene_rows:
             ours = scene_rows[0]
             sag_steps = ours["settle"] + ours["steps"]  # the simulated time our quality columns saw
@@ -775,7 +816,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
             print(f"{row['scene']}, {row['engine']}: {verdict} (largest box displacement "
                   f"{row['displacement'] * 1000:.2f} mm; 1 cm allowed)")
     if box3d:
-        print("box3d app: its own scene (its size, sleeping and 4 substeps), 1 thread, child processes before and after ours; "
+        print("box3d app: its own scene (its size, sleeping and 4 substeps), 1 thread, child processes between our chunks; "
               "large_world at Box3D's 1000 x 1000; rain with its ragdolls and meshes")
     sys.stdout.flush()
     return rows

@@ -134,3 +134,11 @@ def test_rain_releases_follow_box3d_schedule():
     # tiny: 2 columns of 2 cells, one stack of 14 capsules each; the third release re-drops column 0
     assert len(scene.releases[0]) == 28 and scene.releases[64] == scene.releases[0]
     assert not np.asarray(scene.world.enabled)[scene.releases[0]].any()
+
+
+def test_chunk_ratios_pair_each_chunk_with_the_box3d_runs_beside_it():
+    bench = load_benchmark("bench_scale")
+    # the app ran before chunk 0 and after each chunk; a failed run (None) leaves its neighbour alone
+    beside = [10.0, 20.0, None, 40.0]
+    assert bench.chunk_ratios([30.0, 40.0, 80.0], beside) == pytest.approx([2.0, 2.0, 2.0])
+    assert bench.chunk_ratios([5.0], [None, None]) == []
