@@ -478,7 +478,8 @@ void sort_cache(SolverData& d) {
 
 /// Asks early for what store reads of the contact at solve position j: its rows (whole, or only
 /// t1 and t2), forces, normal force and soft point.
-inline void ask_ahead(const SolverData& d, const std::vector<SoftPoint>* soft, std::size_t j, bool whole_rows) {
+[[gnu::always_inline]] inline void ask_ahead(const SolverData& d, const std::vector<SoftPoint>* soft, std::size_t j,
+                                             bool whole_rows) {
   if (whole_rows) prefetch_read(&d.rows[j], sizeof(ContactRows));
   else prefetch_read(&d.rows[j].t1, 2 * sizeof(Vec3));
   prefetch_read(&d.alpha[3 * j], 3 * sizeof(double));

@@ -29,14 +29,16 @@ constexpr std::size_t kAhead = 8;
 /// Asks the memory for the cache lines of [p, p + bytes), to be written (prefetch_write) or read
 /// soon: for loops that reach their items out of order (by solve position, or the other way), which
 /// the processor cannot foresee; kAhead items early. A hint only: it changes no result.
+/// Always inlined, as every function whose work is prefetches alone must be: GCC finds such a
+/// function const (a prefetch has no effect it models) and deletes the calls it did not inline.
 template <int kWrite>
-inline void prefetch(const void* p, std::size_t bytes) {
+[[gnu::always_inline]] inline void prefetch(const void* p, std::size_t bytes) {
   const char* c = static_cast<const char*>(p);
   for (std::size_t o = 0; o < bytes; o += 64) __builtin_prefetch(c + o, kWrite);
   __builtin_prefetch(c + bytes - 1, kWrite);  // the last line, when [p, p + bytes) starts inside one
 }
-inline void prefetch_write(const void* p, std::size_t bytes) { prefetch<1>(p, bytes); }
-inline void prefetch_read(const void* p, std::size_t bytes) { prefetch<0>(p, bytes); }
+[[gnu::always_inline]] inline void prefetch_write(const void* p, std::size_t bytes) { prefetch<1>(p, bytes); }
+[[gnu::always_inline]] inline void prefetch_read(const void* p, std::size_t bytes) { prefetch<0>(p, bytes); }
 
 /// f(begin, end) over [0, n) on d.pool's threads (the calling thread alone without a pool), for
 /// work whose items write only their own outputs.

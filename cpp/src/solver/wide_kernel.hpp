@@ -219,11 +219,32 @@ struct Kernel {
     }
   }
 
+  /// Asks the memory for the groups ahead of group gi of [group, end) (a hint: it changes no
+  /// result). A group is some 4 kB, about a page, so the processor's own prefetcher, which stops at
+  /// a page's end, does not run ahead of the walk: without this a sweep waited on the memory at
+  /// each group's first field and each point's first (a third of the biased sweep's time on the
+  /// 5,050-cube pyramid). Two stages: the fields before the points of group gi + 2, and the points
+  /// the sweeps read of group gi + 1 (its count was asked for one group earlier).
+  [[gnu::always_inline]] static void ask_ahead(const WideGroup* groups, std::size_t gi, std::size_t end) {
+    if (gi + 2 < end) {
+      const char* head = reinterpret_cast<const char*>(&groups[gi + 2].n);
+      const char* tail = reinterpret_cast<const char*>(groups + gi + 3);
+      for (const char* c = head; c < tail; c += 64) __builtin_prefetch(c, 1);
+    }
+    if (gi + 1 < end) {
+      const WideGroup& next = groups[gi + 1];
+      const char* first = reinterpret_cast<const char*>(&next.point[0]);
+      const char* last = reinterpret_cast<const char*>(&next.point[next.points]);
+      for (const char* c = first; c < last; c += 64) __builtin_prefetch(c, 1);
+    }
+  }
+
   /// The warm start over the groups (rows.cpp, apply_forces): each point's three forces as one
   /// impulse on its pair's bodies, point after point in solve order.
   static void warm_start(const Lanes& d, std::size_t group, std::size_t groups) {
     const B zero(0.0);
     for (std::size_t gi = group; gi < group + groups; ++gi) {
+      ask_ahead(d.groups, gi, group + groups);
       const WideGroup& g = d.groups[gi];
       for (std::size_t h = 0; h < kLanes; h += L) {
         Pairs q;
@@ -260,6 +281,7 @@ struct Kernel {
   static void run(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups) {
     const B zero(0.0);
     for (std::size_t gi = group; gi < group + groups; ++gi) {
+      ask_ahead(d.groups, gi, group + groups);
       WideGroup& g = d.groups[gi];
       if (g.two) {
         run_two<kGap, kKick>(x, d, g);
