@@ -162,6 +162,29 @@ TEST(BroadPhase, FindsEveryPairThatBruteForceFindsOnRandomScenes) {
               brute_total, static_cast<double>(broad_total) / static_cast<double>(brute_total));
 }
 
+TEST(BroadPhase, BodiesAddedAfterTheTreesAreBuiltAreFoundOneAtATimeOrManyAtOnce) {
+  // the leaves of added bodies enter the trees at the next pairs(): the first 100 as a tree built
+  // at once, then one at a time (inserted into it) and then many (the tree built anew with them);
+  // each time, the pairs are those of a broad phase given all the bodies at once
+  const double dt = 1.0 / 60.0, margin = 0.005;
+  const scenes::Scene scene = scenes::random_scene(7, 200, scenes::Mix::AllConvex, 4.5, 0.05, 0.4, 5.0, 8.0, 0.2);
+  const std::vector<double> reach = reach_of(scene, dt, Vec3(0, 0, -9.81));
+  const auto add = [&](collision::BroadPhase& broad_phase, std::size_t i) {
+    broad_phase.add_body(static_cast<BodyIndex>(i), scene.model.shape[i], scene.model.is_static[i], scene.state.p[i],
+                         scene.state.R[i]);
+  };
+  collision::BroadPhase grown;
+  std::size_t n = 0;
+  for (const std::size_t upto : {100u, 101u, 102u, 160u, 200u}) {
+    for (; n < upto; ++n) add(grown, n);
+    collision::BroadPhase fresh;
+    for (std::size_t i = 0; i < upto; ++i) add(fresh, i);
+    const std::vector<Pair> expected = pairs_of(fresh, scene, reach, margin);
+    ASSERT_FALSE(expected.empty()) << upto << " bodies";
+    EXPECT_EQ(pairs_of(grown, scene, reach, margin), expected) << upto << " bodies";
+  }
+}
+
 TEST(BroadPhase, SleepingBodiesArePairedWithAwakeOnesOnlyAsTheyFallAsleepAndWake) {
   // the same random scenes with a share of the dynamic bodies asleep (state.awake 0, at rest):
   // no pair of two sleeping bodies or of a sleeping and a static one; every brute-force pair with

@@ -203,6 +203,25 @@ def test_unsupported_pair_is_refused_when_the_body_is_added():
     w.add_body(sg.Cylinder(0.1, 0.2), density=100.0, position=(5, 0, 1))
 
 
+def test_a_static_open_mesh_refuses_the_moving_bodies_added_after_it_until_it_is_removed():
+    # two static bodies never collide, so the open mesh is taken while nothing moves; a moving body
+    # added later would touch it and is refused, naming both; once the mesh is gone it is taken
+    w = sg.World()
+    w.add_static(sg.Plane((0, 0, 1), 0.0))
+    v, f = box_mesh((0.5, 0.5, 0.5))
+    mesh = w.add_static(sg.Mesh(v, f[:-1]), position=(10, 0, 0))
+    w.add_static(sg.Box((1.0, 1.0, 1.0)), position=(-5, 0, 0))
+    before = world_state(w)
+    with pytest.raises(ValueError, match=r"body 3 \(Sphere\): unsupported pair Mesh \(non-convex or open\) - Sphere"
+                       r".*\(with body 1\)"):
+        w.add_body(sg.Sphere(0.1), density=100.0, position=(0, 0, 1))
+    assert world_state(w) == before
+    w.remove_body(mesh)
+    ball = w.add_body(sg.Sphere(0.1), density=100.0, position=(0, 0, 1))
+    w.step(1 / 240, 240)
+    assert w.positions[ball][2] == pytest.approx(0.1, abs=2e-3)
+
+
 def test_a_dynamic_torus_is_decomposed_and_carries_a_ball_on_its_tube():
     v, f = torus(0.3, 0.1, 24, 12)
     w = make_world()

@@ -515,6 +515,11 @@ class World {
   std::shared_ptr<std::vector<Contact>> contacts_;
   SolverStats stats_;
   std::unordered_map<std::string, BodyIndex> by_name_;
+  /// bodies whose shape is a bare non-convex mesh (collision::is_bare_nonconvex_mesh): the only
+  /// shape of an unsupported pair, so add_body checks a new shape against the bodies it may touch
+  /// only while there is one, or when the new shape is one (else building a world of N bodies
+  /// would make N^2 / 2 pair checks)
+  std::size_t bare_meshes_ = 0;
   std::vector<std::shared_ptr<void>> retired_;  ///< outgrown state storage (see push_keeping)
   StepReport report_;
   ContactEvents events_;       ///< the last step() call's contact events

@@ -297,8 +297,12 @@ struct Services {
   Scratch* scratch = nullptr;
 };
 
+/// A mesh that can only collide with planes: not decomposed, and non-convex or open.
+bool is_bare_nonconvex_mesh(const Shape& s);
+
 /// Empty when the narrow phase can collide shapes a and b; otherwise why not ("unsupported pair
 /// ..."). Pairs of static-only shapes count as supported: both are static and never collide.
+/// Only a pair with a bare non-convex mesh (is_bare_nonconvex_mesh) is unsupported.
 std::string unsupported_pair(const Shape& a, const Shape& b);
 
 /// The contact manifold of shape a at pose_a (A) and shape b at pose_b (B): up to 4 contacts with
@@ -467,7 +471,9 @@ class BroadPhase {
   BroadPhase();
   ~BroadPhase();
   /// Registers body i (after the Model has it). Planes are not registered (they are unbounded and
-  /// tested against every dynamic body directly).
+  /// tested against every dynamic body directly). Its leaves enter the trees at the next pairs() or
+  /// refresh(), together with every body added before it (a balanced build, not a chain of inserts);
+  /// cast_ray and overlap_box need one of those first.
   void add_body(BodyIndex i, const Shape& shape, bool is_static, const Vec3& p, const Mat3& R);
   /// Moves static body i (rare; rebuilds its tree entry).
   void move_static(BodyIndex i, const Vec3& p, const Mat3& R);

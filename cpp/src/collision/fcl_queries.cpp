@@ -290,6 +290,39 @@ struct BroadPhase::Impl {
   double static_margin = -1.0;  ///< margin the static AABBs were last grown by
   double sleep_margin = -1.0;   ///< margin the sleeping AABBs were last grown by
   std::size_t sleeping = 0;     ///< bodies in sleep_tree
+
+  /// The proxies added since the trees were last used, by tree (static_tree, dynamic_tree,
+  /// sleep_tree), registered together by flush() before a tree is used. FCL's tree inserts a leaf
+  /// where it fits and never rebalances while inserting, so bodies added one by one in a row (a
+  /// pyramid's boxes, or the parked proxies, laid out along a line) grow a chain as deep as the
+  /// tree is large: registering a 5,050-box pyramid that way took most of a second and grew as
+  /// N^2. Registered together into an empty tree, FCL builds it balanced from all the leaves at
+  /// once (N log N).
+  std::vector<fcl::CollisionObjectd*> pending[3];
+  fcl::DynamicAABBTreeCollisionManagerd* tree(int k) { return k == 0 ? &static_tree : k == 1 ? &dynamic_tree : &sleep_tree; }
+  /// A tree that already holds leaves is built anew with the pending ones when they are at least
+  /// this many, else takes them one at a time (a body or two added to a running world).
+  static constexpr std::size_t kRebuildFrom = 32;
+  void flush() {
+    for (int k = 0; k < 3; ++k) {
+      std::vector<fcl::CollisionObjectd*>& added = pending[k];
+      if (added.empty()) continue;
+      fcl::DynamicAABBTreeCollisionManagerd& t = *tree(k);
+      if (t.size() > 0 && added.size() < kRebuildFrom) {
+        for (fcl::CollisionObjectd* proxy : added) t.registerObject(proxy);
+      } else {
+        if (t.size() > 0) {
+          std::vector<fcl::CollisionObjectd*> held;
+          t.getObjects(held);
+          t.clear();
+          added.insert(added.begin(), held.begin(), held.end());
+        }
+        t.registerObjects(added);
+      }
+      added.clear();
+    }
+  }
+  bool flushed() const { return pending[0].empty() && pending[1].empty() && pending[2].empty(); }
 };
 
 BroadPhase::BroadPhase() : impl_(std::make_unique<Impl>()) {}
@@ -315,15 +348,15 @@ void BroadPhase::add_body(BodyIndex i, const Shape& shape, bool is_static, const
   auto proxy = std::make_unique<Proxy>(geometry, i);
   proxy->set_pose(shape, p, R);
   if (is_static) {
-    impl_->static_tree.registerObject(proxy.get());
+    impl_->pending[0].push_back(proxy.get());
     impl_->static_dirty = true;
   } else {
-    impl_->dynamic_tree.registerObject(proxy.get());
+    impl_->pending[1].push_back(proxy.get());
     impl_->dynamic_bodies.push_back(i);
     auto parked = std::make_unique<Proxy>(geometry, i);
     parked->setTransform(R, p);
     parked->park(-1.0);
-    impl_->sleep_tree.registerObject(parked.get());
+    impl_->pending[2].push_back(parked.get());
     impl_->sleep_proxy.back() = std::move(parked);
     impl_->moved_awake.reserve(impl_->dynamic_bodies.size());
     impl_->moved_asleep.reserve(impl_->dynamic_bodies.size());
@@ -341,6 +374,7 @@ void BroadPhase::move_static(BodyIndex i, const Vec3& p, const Mat3& R) {
 
 void BroadPhase::refit_static(const Model& model, const State& state, double margin) {
   Impl& m = *impl_;
+  m.flush();
   for (BodyIndex i = 0; i < static_cast<BodyIndex>(m.proxy.size()); ++i) {
     if (!m.proxy[i] || !model.is_static[i]) continue;
     m.proxy[i]->set_pose(model.shape[i], state.p[i], state.R[i]);
@@ -354,6 +388,7 @@ void BroadPhase::refit_static(const Model& model, const State& state, double mar
 void BroadPhase::pairs(const Model& model, const State& state, const std::vector<double>& reach, double margin,
                        std::vector<std::pair<BodyIndex, BodyIndex>>& out, const parallel::Pool* pool) {
   Impl& m = *impl_;
+  m.flush();
   // static bodies: grown once by margin/2, refitted only when one moved or the margin changed
   if (m.static_dirty || m.static_margin != margin) {
     refit_static(model, state, margin);
@@ -484,6 +519,7 @@ const std::vector<BodyIndex>& BroadPhase::planes() const { return impl_->planes;
 
 void BroadPhase::refresh(const Model& model, const State& state) {
   Impl& m = *impl_;
+  m.flush();
   if (m.static_dirty) refit_static(model, state, std::max(m.static_margin, 0.0));
   for (BodyIndex i : m.dynamic_bodies) {
     if (m.in_sleep_tree[i]) {
@@ -501,6 +537,7 @@ void BroadPhase::refresh(const Model& model, const State& state) {
 void BroadPhase::cast_ray(const Vec3& o, const Vec3& u, double bound, RayVisitor& visitor,
                           std::vector<const void*>& stack, std::int64_t& nodes) const {
   const Impl& m = *impl_;
+  if (!m.flushed()) throw std::logic_error("BroadPhase::cast_ray: bodies were added since the last pairs() or refresh()");
   // sleep: which tree holds a body's box (the other holds it parked, and is skipped)
   const fcl::DynamicAABBTreeCollisionManagerd* trees[3] = {&m.static_tree, &m.dynamic_tree, &m.sleep_tree};
   for (int k = 0; k < 3; ++k) {
@@ -530,6 +567,7 @@ void BroadPhase::cast_ray(const Vec3& o, const Vec3& u, double bound, RayVisitor
 void BroadPhase::overlap_box(const Vec3& lo, const Vec3& hi, std::vector<BodyIndex>& out,
                              std::vector<const void*>& stack, std::int64_t& nodes, bool statics_only) const {
   const Impl& m = *impl_;
+  if (!m.flushed()) throw std::logic_error("BroadPhase::overlap_box: bodies were added since the last pairs() or refresh()");
   const fcl::DynamicAABBTreeCollisionManagerd* trees[3] = {&m.static_tree, &m.dynamic_tree, &m.sleep_tree};
   for (int k = 0; k < (statics_only ? 1 : 3); ++k) {
     const TreeNode* root = trees[k]->getTree().getRoot();

@@ -18,12 +18,6 @@ namespace {
 
 bool is_plane(const Shape& s) { return std::holds_alternative<Plane>(s); }
 
-/// A mesh that can only collide with planes: not decomposed, and non-convex or open.
-bool is_bare_nonconvex_mesh(const Shape& s) {
-  const auto* m = std::get_if<Mesh>(&s);
-  return m && m->pieces.empty() && (!m->is_convex() || !m->closedness_problem().empty());
-}
-
 
 /// Normals reversed and ids swapped for the contacts from index `from` on (A and B exchanged).
 void flip(std::vector<Contact>& out, std::size_t from) {
@@ -267,6 +261,11 @@ void items_of(const Shape& shape, const Pose& pose, std::vector<Item>& items,
         },
         shape);
   }
+}
+
+bool is_bare_nonconvex_mesh(const Shape& s) {
+  const auto* m = std::get_if<Mesh>(&s);
+  return m && m->pieces.empty() && (!m->is_convex() || !m->closedness_problem().empty());
 }
 
 std::string unsupported_pair(const Shape& a, const Shape& b) {

@@ -154,15 +154,19 @@ BodyIndex World::add_body(const BodyDesc& desc) {
       throw std::invalid_argument(who + ": " + e.what());
     }
   }
-  // every body it may touch (a static body: the non-static ones, two static bodies never collide)
+  // every body it may touch (a static body: the non-static ones, two static bodies never collide);
+  // only a pair with a bare non-convex mesh can fail, so without one on either side nothing is checked
+  const bool bare = collision::is_bare_nonconvex_mesh(shape);
   const auto check_pair = [&](BodyIndex j) {
     const std::string problem = collision::unsupported_pair(model_.shape[j], shape);
     if (!problem.empty()) throw std::invalid_argument(who + ": " + problem + " (with body " + std::to_string(j) + ")");
   };
-  if (desc.is_static) {
-    for (const BodyIndex j : moving_) check_pair(j);
-  } else {
-    for (BodyIndex j = 0; j < index; ++j) check_pair(j);
+  if (bare || bare_meshes_ > 0) {
+    if (desc.is_static) {
+      for (const BodyIndex j : moving_) check_pair(j);
+    } else {
+      for (BodyIndex j = 0; j < index; ++j) check_pair(j);
+    }
   }
 
   // commit
@@ -170,6 +174,7 @@ BodyIndex World::add_body(const BodyDesc& desc) {
   model_.rho.push_back(bounding_radius(shape));
   model_.inner.push_back(inner_radius(shape));
   model_.shape.push_back(std::move(shape));
+  bare_meshes_ += bare ? 1 : 0;
   model_.is_static.push_back(desc.is_static);
   model_.mass.push_back(mass);
   model_.inv_mass.push_back(inv_mass);
@@ -260,6 +265,8 @@ void World::remove_bodies(const std::vector<BodyIndex>& indices) {
   by_name_.clear();
   for (BodyIndex j = 0; j < kept; ++j)
     if (!model_.name[j].empty()) by_name_[model_.name[j]] = j;
+  bare_meshes_ = static_cast<std::size_t>(
+      std::count_if(model_.shape.begin(), model_.shape.end(), [](const Shape& x) { return collision::is_bare_nonconvex_mesh(x); }));
   auto& pairs = model_.excluded_pairs;
   pairs.erase(std::remove_if(pairs.begin(), pairs.end(), [&](const auto& p) { return gone(p.first) || gone(p.second); }),
               pairs.end());
