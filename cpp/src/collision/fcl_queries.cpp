@@ -262,7 +262,7 @@ bool TriangleQuery::cast_ray(const TriangleMesh& mesh, const Vec3& o, const Vec3
 /// std::sort of those took 3 % of rain's step (4,200 falling capsules); the standard library has no
 /// sort by buckets of bounded integers, hence this one.
 static void sort_pairs(std::vector<std::pair<BodyIndex, BodyIndex>>& pairs, std::size_t N, std::vector<int>& bucket,
-                std::vector<std::pair<BodyIndex, BodyIndex>>& out) {
+                       std::vector<std::pair<BodyIndex, BodyIndex>>& out) {
   bucket.assign(N + 1, 0);
   for (const auto& ij : pairs) ++bucket[static_cast<std::size_t>(ij.first) + 1];
   for (std::size_t i = 0; i < N; ++i) bucket[i + 1] += bucket[i];
@@ -271,7 +271,8 @@ static void sort_pairs(std::vector<std::pair<BodyIndex, BodyIndex>>& pairs, std:
   // bucket[i] is now where body i's pairs end
   for (std::size_t i = 0, first = 0; i < N; ++i) {
     const std::size_t end = static_cast<std::size_t>(bucket[i]);
-    if (end - first > 1) std::sort(out.begin() + static_cast<std::ptrdiff_t>(first), out.begin() + static_cast<std::ptrdiff_t>(end));
+    const auto at = [&](std::size_t k) { return out.begin() + static_cast<std::ptrdiff_t>(k); };
+    if (end - first > 1) std::sort(at(first), at(end));
     first = end;
   }
   pairs.swap(out);
