@@ -503,8 +503,8 @@ def run_steps(run, first: int, count: int, releases: dict) -> float:
 
 def bench_scene(name: str, args, available: dict, between=None) -> list[dict]:
     """Runs every variant of one scene, chunks interleaved; returns a row dict per table row.
-    ``between(chunk)``, when given, runs after each chunk of every repeat (chunk counts on over
-    the repeats): Box3D's app interleaved with ours (``--box3d``).
+    ``between()``, when given, runs after each chunk of every repeat: Box3D's app interleaved with
+    ours (``--box3d``).
 
     Row fields: scene, engine, bodies (dynamic), steps (timed), ms, q1, q3 (median and quartiles
     of the chunks' ms/step), ratio (signorini's ms over this row's), threads2_ms, sleep_ratio
@@ -539,7 +539,7 @@ def bench_scene(name: str, args, available: dict, between=None) -> list[dict]:
                         v.times.append(1e3 * run_steps(run, first, length, releases) / length)
                     first += length
                     if between is not None:
-                        between(repeat * len(lengths) + chunk)
+                        between()
                     # progress on stderr, so stdout keeps the figures alone
                     print(f"    {name}: repeat {repeat + 1}/{args.repeats}, chunk {chunk + 1}/{len(lengths)}",
                           file=sys.stderr, flush=True)
@@ -644,9 +644,9 @@ class Box3dBeside:
 
     def __init__(self, path: str, name: str):
         self.path, self.name, self.runs, self.errors = path, name, [], []
-        self(-1)
+        self()
 
-    def __call__(self, chunk: int) -> None:
+    def __call__(self) -> None:
         got = run_box3d(self.path, self.name, 1)
         if "error" in got:
             self.errors.append(got["error"])
