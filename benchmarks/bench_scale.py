@@ -1,6 +1,6 @@
 """Scale benchmark of issue 21: Box3D's benchmark scenes in signorini, pybullet and rapier3d (no asserts).
 
-    python benchmarks/bench_scale.py [--scenes large_pyramid,many_pyramids,rain,convex_pile,large_world,sleep]
+    python benchmarks/bench_scale.py [--scenes large_pyramid,many_pyramids,rain,convex_pile,large_world,sleep,box_bin]
         [--tiny] [--seconds S] [--dt DT] [--scale F] [--repeats 1] [--chunks 10]
         [--engines signorini,pybullet,rapier3d] [--sweeps 10 --substeps 1] [--box3d PATH]
 
@@ -29,6 +29,10 @@ benchmark app steps 1/60 with 4 substeps), and Box3D's step counts:
   sleeping off (the row) and on (the "sleep on/off" column, the ratio of the two costs: the cost
   of the settled pile asleep against awake; the issue's target is at most 5 %), for signorini's
   PGS and soft rows and the peers.
+- ``box_bin`` (not Box3D's: issue 21's "10,000 boxes settling in a bin", at its dt 1/240): 10,000
+  boxes of 0.5 m, 20 x 20 columns of 25 in a lattice 0.75 m apart across and 0.6 m up, each box
+  turned up to 0.1 rad about a seeded axis, falling onto each other inside four static walls;
+  sleeping off; 180 steps land the layers untimed, then 240 are timed as the columns settle.
 
 Engines, all in this process with the scene's dt; each scene is built by one function and
 mirrored into the peers (``benchmarks/_peers.py``):
@@ -308,12 +312,50 @@ def sleep_pile(tiny: bool = False, across: int | None = None, layers: int | None
                       settle=10 if tiny else 150, stands=True)
 
 
+def box_bin(tiny: bool = False, **world_kwargs) -> BenchScene:
+    """10,000 boxes of 0.5 m (tiny: 3 x 3 x 2) settling in a walled bin at dt 1/240, sleeping off
+    (not Box3D's: issue 21's "10,000 boxes settling in a bin"): 20 x 20 columns of 25, 0.75 m
+    apart across and 0.6 m up, each box turned up to 0.1 rad about a seeded axis (it reaches 0.57
+    m at most), inside four static walls 0.25 m beyond the outer columns, the lowest layer's
+    centres 0.3 m over the floor. The lattice falls onto itself layer by layer: 180 untimed steps
+    (0.75 s) land the layers, then 240 steps (1 s) are timed while the columns (40,000 contacts,
+    four a box) settle on each other."""
+    across, layers = (3, 2) if tiny else (20, 25)
+    world = sg.World(gravity=GRAVITY, **world_kwargs)
+    h, pitch, rise = 0.25, 0.75, 0.6
+    inner = 0.5 * pitch * across + 0.25  # the walls' inner faces, from the middle
+    height = rise * layers + 1.0
+    _ground(world, inner + 1.0, inner + 1.0)
+    for axis in (0, 1):
+        for side in (-1.0, 1.0):
+            centre = [0.0, 0.0, 0.5 * height]
+            centre[axis] = side * (inner + 0.25)
+            half = [inner + 0.5, inner + 0.5, 0.5 * height]
+            half[axis] = 0.25
+            world.add_static(sg.Box(tuple(half)), position=tuple(centre), friction=FRICTION, restitution=0.0)
+    rng = np.random.default_rng(10000)
+    for layer in range(layers):
+        for i in range(across):
+            for j in range(across):
+                axis = rng.normal(size=3)
+                world.add_body(sg.Box((h, h, h)), density=1000.0,
+                               position=((i - 0.5 * (across - 1)) * pitch, (j - 0.5 * (across - 1)) * pitch,
+                                         (layer + 0.5) * rise),
+                               orientation=axis_angle_quaternion(tuple(axis / np.linalg.norm(axis)),
+                                                                 rng.uniform(0.0, 0.1)),
+                               friction=FRICTION, restitution=0.0)
+    n = across * across * layers
+    return BenchScene("box_bin", world, 1.0 / 240.0, 240,
+                      f"{n} boxes, {across} x {across} columns of {layers}, in a bin", settle=10 if tiny else 180)
+
+
 SCENES = {"large_pyramid": large_pyramid, "many_pyramids": many_pyramids, "rain": rain,
-          "convex_pile": convex_pile, "large_world": large_world, "sleep": sleep_pile}
+          "convex_pile": convex_pile, "large_world": large_world, "sleep": sleep_pile, "box_bin": box_bin}
 ENGINES = ("signorini", "soft", "pybullet", "rapier3d")
-# whether Box3D's scene lets bodies sleep (its two pyramid scenes switch sleeping off)
+# whether Box3D's scene lets bodies sleep (its two pyramid scenes switch sleeping off); for our
+# own scenes, whether they do (the sleep scene's main rows switch it off, its sleep column on)
 BOX3D_SLEEPING = {"large_pyramid": False, "many_pyramids": False, "rain": True, "convex_pile": True,
-                  "large_world": True, "sleep": True}
+                  "large_world": True, "sleep": True, "box_bin": False}
 
 
 def world_supports(keyword: str, value) -> bool:
@@ -718,7 +760,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--tiny", action="store_true", help="small versions of the scenes (smoke test)")
     parser.add_argument("--seconds", type=float, default=None, help="simulated seconds timed per scene "
                         "(default: Box3D's step count)")
-    parser.add_argument("--dt", type=float, default=None, help="time step (default: Box3D's 1/60)")
+    parser.add_argument("--dt", type=float, default=None, help="time step (default: the scene's, "
+                        "Box3D's 1/60; box_bin 1/240)")
     parser.add_argument("--scale", type=float, default=0.05, help="large_world's grid as a share of "
                         "Box3D's 1000 x 1000 (default 0.05)")
     parser.add_argument("--repeats", type=int, default=1, help="fresh runs per scene (default 1)")
@@ -761,7 +804,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
           f"ms/step = median over chunks")
     rows, box3d = [], {}
     for name in names:
-        target = {"sleep": None}.get(name, name)
+        target = {"sleep": None, "box_bin": None}.get(name, name)
         beside = Box3dBeside(args.box3d, target) if args.box3d and target and not args.tiny else None
         t0 = time.perf_counter()
         scene_rows = bench_scene(name, args, available, between=beside)
