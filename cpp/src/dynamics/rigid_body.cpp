@@ -35,6 +35,10 @@ Vec3 free_rotation(const Mat3& I, const Mat3& I_inv, const Vec3& w, double dt, G
     }
     case Gyroscopic::Midpoint: {
       // Newton on F(w') = I (w' - w) + dt m x (I m), m = (w + w') / 2
+      // (a body that does not turn, rain's falling capsules: F = 0 at w' = w, and the one Newton
+      // step below would give w back bit for bit, each zero's sign too: F = +0, so every row of
+      // J^-1 F has the +0 of its positive diagonal, and w - (+0) = w)
+      if (w.x() == 0.0 && w.y() == 0.0 && w.z() == 0.0) return w;
       Vec3 w1 = w;
       for (int k = 0; k < 10; ++k) {
         const Vec3 m = 0.5 * (w + w1);
