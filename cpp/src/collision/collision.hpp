@@ -585,11 +585,12 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 /// the contacts' anchors at `detected`, from_a and from_b (K), anchor_X = from_X + dp_X, and the
 /// witnesses taken from them, w_A = from_A - gap/2 n, w_B = from_B + gap/2 n; a kept contact's
 /// anchor is p_X + arm_X), where the solver applies the force on X (K, world, m); y <- (anchor_a +
-/// anchor_b) / 2. Written into out.
+/// anchor_b) / 2. Written into out, contact by contact over the threads of `pool` (null: the
+/// calling thread alone; the same bits either way).
 void carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
                     const State& now, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,
                     std::vector<Vec3>& anchor_b, const std::vector<Vec3>* from_a = nullptr,
-                    const std::vector<Vec3>* from_b = nullptr);
+                    const std::vector<Vec3>* from_b = nullptr, const parallel::Pool* pool = nullptr);
 
 /// A pair of the PGS step is collided again in a substep once its bodies' turns since the step's
 /// detection have moved their points more than this fraction of its smaller inner radius

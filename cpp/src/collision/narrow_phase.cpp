@@ -433,9 +433,10 @@ double plane_reach(const Model& model, const State& state, BodyIndex b, const Ve
 
 void carry_contacts(const Model& model, const std::vector<Contact>& at_detection, const State& detected,
                     const State& now, std::vector<Contact>& out, std::vector<Vec3>& anchor_a,
-                    std::vector<Vec3>& anchor_b, const std::vector<Vec3>* from_a, const std::vector<Vec3>* from_b) {
-  if (out.capacity() < at_detection.size()) out.reserve(2 * at_detection.size());  // no exact-size copy
-  out = at_detection;
+                    std::vector<Vec3>& anchor_b, const std::vector<Vec3>* from_a, const std::vector<Vec3>* from_b,
+                    const parallel::Pool* pool) {
+  if (out.capacity() < at_detection.size()) out.reserve(2 * at_detection.size());  // grown geometrically
+  out.resize(at_detection.size());  // (each entry copied below, by the thread that carries it)
   anchor_a.resize(out.size());
   anchor_b.resize(out.size());
   // the first-order motion of the point x of body i since detection: dp + dtheta x (x - p_0)
@@ -450,38 +451,42 @@ void carry_contacts(const Model& model, const std::vector<Contact>& at_detection
     const Vec3 r = x - detected.p[i];
     return (now.p[i] - detected.p[i]) + (now.R[i] * (detected.R[i].transpose() * r) - r);
   };
-  for (std::size_t k = 0; k < out.size(); ++k) {
-    Contact& c = out[k];
-    const Vec3 half = 0.5 * c.gap * c.normal;
-    const int a = c.body_a, b = c.body_b;
-    // a round side carries its core, rho beyond its witness, with the whole turn (the witness stays
-    // under the core however the body turns); any other side its witness point, to first order
-    const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(a)], feature_part(c.feature_a));
-    const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(b)], feature_part(c.feature_b));
-    // each side's witness from where its force acts, given its anchor (a contact carried before:
-    // its point, the anchors' midpoint, lags a fast body by half its travel, and a spinning round
-    // side's core taken from it would swing with the turn)
-    const Vec3 y_a = from_a ? (*from_a)[k] : c.point, y_b = from_b ? (*from_b)[k] : c.point;
-    const Vec3 moved_b = rho_b > 0.0 ? turned(b, y_b + half + rho_b * c.normal) : moved(b, y_b + half);
-    const Vec3 moved_a = rho_a > 0.0 ? turned(a, y_a - half - rho_a * c.normal) : moved(a, y_a - half);
-    const double gap0 = c.gap;
-    c.gap += c.normal.dot(moved_b - moved_a);
-    // a round side's anchor half the new gap beyond its witness, as a contact point is: the next
-    // carry and the soft step's rows take its core from its anchor and the gap (kept half the old
-    // gap beyond, a spinning ball's core, off its centre by half what the gap had closed, swung
-    // with its turn and read the ball as never closing: fuzz 1:729's 6.7 mm ball went through a box
-    // at 30 m/s with the soft step). A flat side's witness is carried to first order, which a shift
-    // along n does not change; its anchor stays its rows' lever arm.
-    const Vec3 shift = 0.5 * (c.gap - gap0) * c.normal;
-    const Vec3 shift_a = rho_a > 0.0 ? shift : Vec3(Vec3::Zero()), shift_b = rho_b > 0.0 ? shift : Vec3(Vec3::Zero());
-    anchor_a[k] = y_a + (now.p[a] - detected.p[a]) + shift_a;
-    anchor_b[k] = y_b + (now.p[b] - detected.p[b]) - shift_b;
-    c.point = 0.5 * (anchor_a[k] + anchor_b[k]);
-    if (c.kept) {  // its rows keep the lever arms of the detection that found its manifold
-      anchor_a[k] = now.p[a] + c.arm_a + shift_a;
-      anchor_b[k] = now.p[b] + c.arm_b - shift_b;
+  // each contact carried on its own (it writes only its own entries): over the pool's threads
+  parallel::for_ranges(pool, out.size(), 1024, [&](std::size_t first, std::size_t end) {
+    for (std::size_t k = first; k < end; ++k) {
+      Contact& c = out[k];
+      c = at_detection[k];
+      const Vec3 half = 0.5 * c.gap * c.normal;
+      const int a = c.body_a, b = c.body_b;
+      // a round side carries its core, rho beyond its witness, with the whole turn (the witness stays
+      // under the core however the body turns); any other side its witness point, to first order
+      const double rho_a = rounding_radius(model.shape[static_cast<std::size_t>(a)], feature_part(c.feature_a));
+      const double rho_b = rounding_radius(model.shape[static_cast<std::size_t>(b)], feature_part(c.feature_b));
+      // each side's witness from where its force acts, given its anchor (a contact carried before:
+      // its point, the anchors' midpoint, lags a fast body by half its travel, and a spinning round
+      // side's core taken from it would swing with the turn)
+      const Vec3 y_a = from_a ? (*from_a)[k] : c.point, y_b = from_b ? (*from_b)[k] : c.point;
+      const Vec3 moved_b = rho_b > 0.0 ? turned(b, y_b + half + rho_b * c.normal) : moved(b, y_b + half);
+      const Vec3 moved_a = rho_a > 0.0 ? turned(a, y_a - half - rho_a * c.normal) : moved(a, y_a - half);
+      const double gap0 = c.gap;
+      c.gap += c.normal.dot(moved_b - moved_a);
+      // a round side's anchor half the new gap beyond its witness, as a contact point is: the next
+      // carry and the soft step's rows take its core from its anchor and the gap (kept half the old
+      // gap beyond, a spinning ball's core, off its centre by half what the gap had closed, swung
+      // with its turn and read the ball as never closing: fuzz 1:729's 6.7 mm ball went through a box
+      // at 30 m/s with the soft step). A flat side's witness is carried to first order, which a shift
+      // along n does not change; its anchor stays its rows' lever arm.
+      const Vec3 shift = 0.5 * (c.gap - gap0) * c.normal;
+      const Vec3 shift_a = rho_a > 0.0 ? shift : Vec3(Vec3::Zero()), shift_b = rho_b > 0.0 ? shift : Vec3(Vec3::Zero());
+      anchor_a[k] = y_a + (now.p[a] - detected.p[a]) + shift_a;
+      anchor_b[k] = y_b + (now.p[b] - detected.p[b]) - shift_b;
+      c.point = 0.5 * (anchor_a[k] + anchor_b[k]);
+      if (c.kept) {  // its rows keep the lever arms of the detection that found its manifold
+        anchor_a[k] = now.p[a] + c.arm_a + shift_a;
+        anchor_b[k] = now.p[b] + c.arm_b - shift_b;
+      }
     }
-  }
+  });
 }
 
 /// Pairs per chunk of a detection split over threads (about the cost of a task's scheduling).

@@ -377,7 +377,8 @@ void World::carry_contacts(int k, double rest) {
   // the step's impulse sums follow the contacts by key when the list is not the carried one
   const bool rekey = turned || redetected_;
   if (rekey) contacts_prev_.swap(contacts_next_);  // (their impulses are the sums so far: sum_impulses)
-  collision::carry_contacts(model_, contacts_base_, guard_->start(), state_, contacts_next_, anchor_a_, anchor_b_);
+  collision::carry_contacts(model_, contacts_base_, guard_->start(), state_, contacts_next_, anchor_a_, anchor_b_,
+                            nullptr, nullptr, pool_.get());
   if (turned) redetect_turned(rest);
   redetected_ = turned;
   if (rekey) match_impulses(contacts_prev_, contacts_next_, impulse_sum_);
@@ -466,7 +467,8 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
     redetected_b_.swap(anchor_b_);
   }
   collision::carry_contacts(model_, contacts_prev_, from, state_, contacts_next_, anchor_a_, anchor_b_,
-                            soft_runs_ > 0 ? &redetected_a_ : nullptr, soft_runs_ > 0 ? &redetected_b_ : nullptr);
+                            soft_runs_ > 0 ? &redetected_a_ : nullptr, soft_runs_ > 0 ? &redetected_b_ : nullptr,
+                            pool_.get());
   if (turned) redetect_turned(rest);
   match_impulses(contacts_prev_, contacts_next_, impulse_sum_);
   if (more > n - k - 1) {
@@ -518,30 +520,44 @@ int World::turn_substeps(const std::vector<Contact>& contacts, double span) cons
     return std::min(1.0, (y - state_.p[i]).cross(n).norm() / model_.rho[i]);
   };
   const bool levered = settings_.solver.method == SolverMethod::Soft;
+  const auto same_pair = [&](std::size_t j, std::size_t k) {
+    return contacts[j].body_a == contacts[k].body_a && contacts[j].body_b == contacts[k].body_b;
+  };
+  // the pairs over the pool's threads, a range taking the pairs that begin in it (a maximum: the
+  // same bits in any order)
   double fastest = 0.0;
-  for (std::size_t j = 0; j < contacts.size();) {
-    // the pair's run of contacts (the list is in pair order) and, for the lever, the centroid of
-    // its closing points
-    const BodyIndex a = contacts[j].body_a, b = contacts[j].body_b;
-    std::size_t end = j;
-    Vec3 centroid = Vec3::Zero();
-    int closes = 0;
-    for (; end < contacts.size() && contacts[end].body_a == a && contacts[end].body_b == b; ++end)
-      if (levered && contacts[end].gap < span * closing(contacts[end])) {
-        centroid += contacts[end].point;
-        ++closes;
+  std::mutex joined;
+  parallel::for_ranges(pool_.get(), contacts.size(), 1024, [&](std::size_t first, std::size_t last) {
+    std::size_t j = first;
+    while (j > 0 && j < last && same_pair(j, j - 1)) ++j;  // the range before takes its last pair whole
+    double part = 0.0;
+    while (j < last) {
+      // the pair's run of contacts (the list is in pair order) and, for the lever, the centroid of
+      // its closing points
+      const BodyIndex a = contacts[j].body_a, b = contacts[j].body_b;
+      std::size_t end = j;
+      Vec3 centroid = Vec3::Zero();
+      int closes = 0;
+      for (; end < contacts.size() && same_pair(end, j); ++end)
+        if (levered && contacts[end].gap < span * closing(contacts[end])) {
+          centroid += contacts[end].point;
+          ++closes;
+        }
+      if (closes > 0) centroid /= closes;
+      const double s = sweep(a) + sweep(b), inner = std::min(model_.inner[a], model_.inner[b]);
+      for (; j < end; ++j) {
+        const Contact& c = contacts[j];
+        const double u = closing(c);
+        if (!(c.gap < span * (s + u))) continue;
+        const double f = !(c.gap < span * u) ? 0.0
+                         : levered             ? std::max(lever(a, centroid, c.normal), lever(b, centroid, c.normal))
+                                               : 1.0;
+        part = std::max(part, (s + f * u) / inner);
       }
-    if (closes > 0) centroid /= closes;
-    const double s = sweep(a) + sweep(b), inner = std::min(model_.inner[a], model_.inner[b]);
-    for (; j < end; ++j) {
-      const Contact& c = contacts[j];
-      const double u = closing(c);
-      if (!(c.gap < span * (s + u))) continue;
-      const double f =
-          c.gap < span * u ? (levered ? std::max(lever(a, centroid, c.normal), lever(b, centroid, c.normal)) : 1.0) : 0.0;
-      fastest = std::max(fastest, (s + f * u) / inner);
     }
-  }
+    const std::lock_guard<std::mutex> lock(joined);
+    fastest = std::max(fastest, part);
+  });
   // (a huge count is capped by the caller; 1e-9 absorbs rounding)
   return static_cast<int>(std::clamp(std::ceil(span * fastest / collision::kTurnReach - 1e-9), 1.0, 1e6));
 }
