@@ -505,6 +505,20 @@ bool recycles(const Shape& a, const Shape& b) {
 
 namespace {
 
+/// Contacts ahead of the one being written whose slot a pair writing recycled contacts asks for.
+constexpr std::size_t kWriteAhead = 8;
+
+/// Asks the memory for the cache lines of a contact's slot, to be written: the step's list is
+/// written over slot by slot, and each recycled contact's write (four cache lines) waited on its
+/// lines (two thirds of generate_contacts' own time on the 5,050-cube pyramid). A hint only.
+/// Always inlined, as a function whose work is prefetches alone must be: GCC finds it const and
+/// deletes the calls it does not inline.
+[[gnu::always_inline]] inline void ask_to_write(const Contact* slot) {
+  const char* p = reinterpret_cast<const char*>(slot);
+  for (std::size_t o = 0; o < sizeof(Contact); o += 64) __builtin_prefetch(p + o, 1);
+  __builtin_prefetch(p + sizeof(Contact) - 1, 1);  // the last line, when the slot starts inside one
+}
+
 /// Pair (a, b)'s manifold of the last detection (memory.last, sorted), or null. hint: where the
 /// caller's last search ended (0 at first), updated: the pairs come in nearly sorted order (by body
 /// indices, a static-only shape put first), so the search walks on from there a few entries before
@@ -710,8 +724,11 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
     for (const auto& [i, j] : pairs) {
       const auto [a, b] = ordered(i, j);
       if (const KeptManifold* last = kept_for(a, b, hint)) {
-        for (std::uint32_t k = last->first; k < last->first + last->count; ++k)
+        for (std::uint32_t k = last->first; k < last->first + last->count; ++k) {
+          if (contacts.size() + kWriteAhead < contacts.capacity())
+            ask_to_write(contacts.data() + contacts.size() + kWriteAhead);
           contacts.push_back(recycled_contact(state, a, b, manifolds.last_points[k]));
+        }
         KeptManifold m = *last;  // found where it was: its drift is still measured from there
         m.first = static_cast<std::uint32_t>(manifolds.next_points.size());
         manifolds.next_points.insert(manifolds.next_points.end(), manifolds.last_points.begin() + last->first,
@@ -808,8 +825,10 @@ void generate_contacts(const Model& model, const State& state, double dt, const 
                     manifolds.next_points.begin() + static_cast<std::ptrdiff_t>(place.points_at));
           if (place.last >= 0) {
             const auto [a, b] = ordered(pairs[k].first, pairs[k].second);
-            for (std::uint32_t q = 0; q < place.count; ++q)
+            for (std::uint32_t q = 0; q < place.count; ++q) {
+              if (place.at + q + kWriteAhead < contacts.size()) ask_to_write(&contacts[place.at + q + kWriteAhead]);
               contacts[place.at + q] = recycled_contact(state, a, b, points[place.points_from + q]);
+            }
           } else {
             std::copy(chunk.contacts.begin() + static_cast<std::ptrdiff_t>(fresh),
                       chunk.contacts.begin() + static_cast<std::ptrdiff_t>(fresh + place.count),

@@ -144,8 +144,13 @@ static void solve_order(const Model& model, const std::vector<Contact>& contacts
   std::array<int, 3 * kColours + 1> start{};
   for (std::size_t i = 0, j = 0; i < K; i = j) {
     j = i + 1;
+    // (each contact is read for its bodies: asked for ahead, as the contacts walked go by)
+    const auto ask = [&](std::size_t k) {
+      if (k + kWalkAhead < K) prefetch_read(&contacts[k + kWalkAhead], 2 * sizeof(BodyIndex));
+    };
+    ask(i);
     if (kind == Order::ByPair)
-      while (j < K && same_pair(i, j)) ++j;
+      while (j < K && same_pair(i, j)) ask(j++);
     const int a = contacts[i].body_a, b = contacts[i].body_b;
     const bool a_moves = !model.is_static[a] && !model.is_kinematic[a];
     const bool b_moves = !model.is_static[b] && !model.is_kinematic[b];
@@ -328,6 +333,7 @@ bool find_recalled(const std::vector<Contact>& contacts, SolverData& d) {
     CachedContact key, previous;
     auto cursor = d.cache.begin();  // the first entry not below the previous contact's key
     for (std::size_t i = first; i < end; ++i) {
+      if (i + kWalkAhead < end) prefetch_read(&contacts[i + kWalkAhead], kContactKeyBytes);
       const Contact& c = contacts[i];
       key.body_a = c.body_a;
       key.body_b = c.body_b;

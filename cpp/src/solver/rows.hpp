@@ -8,6 +8,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <mutex>
 #include <stdexcept>
@@ -26,6 +27,13 @@ constexpr std::size_t kContactsPerTask = 256;
 
 /// Contacts ahead of the one in hand whose scattered outputs a loop asks the memory for.
 constexpr std::size_t kAhead = 8;
+/// Contacts ahead of the one in hand that a walk reading a few fields of each, in order, asks
+/// for: a Contact spans four cache lines and such a walk reads one or two of them, a stride the
+/// processor's prefetcher did not follow on the pyramid's 15,000 contacts (every read waited on
+/// memory); a walk doing a few nanoseconds of work a contact asks this far ahead to hide it.
+constexpr std::size_t kWalkAhead = 32;
+/// The bytes of a Contact its key (bodies and features) spans, from its start.
+constexpr std::size_t kContactKeyBytes = offsetof(Contact, feature_b) + sizeof(FeatureId);
 /// Asks the memory for the cache lines of [p, p + bytes), to be written (prefetch_write) or read
 /// soon: for loops that reach their items out of order (by solve position, or the other way), which
 /// the processor cannot foresee; kAhead items early. A hint only: it changes no result.
