@@ -562,7 +562,15 @@ void store(double dt, const SolverSettings& s, std::vector<Contact>& contacts, S
   for_ranges(d, K, 512, [&](std::size_t first, std::size_t end) {
     SolverStats part = start;
     for (std::size_t i = first; i < end; ++i) {
-      if (i + kAhead < end) ask_ahead(d, soft, static_cast<std::size_t>(d.slot[i + kAhead]), true);
+      if (i + kAhead < end) {
+        ask_ahead(d, soft, static_cast<std::size_t>(d.slot[i + kAhead]), true);
+        prefetch_write(&contacts[i + kAhead], sizeof(Contact));  // written whole, read for its key
+      }
+      if (i + kAhead / 2 < end) {  // the bodies' velocities, read by index (the contact is in by now)
+        const Contact& ahead = contacts[i + kAhead / 2];
+        prefetch_read(&d.qd[static_cast<std::size_t>(ahead.body_a)], sizeof(BodyVelocity));
+        prefetch_read(&d.qd[static_cast<std::size_t>(ahead.body_b)], sizeof(BodyVelocity));
+      }
       const std::size_t k = static_cast<std::size_t>(d.slot[i]);
       Contact& c = contacts[i];
       const ContactRows& r = d.rows[k];
