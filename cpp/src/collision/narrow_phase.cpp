@@ -11,6 +11,7 @@
 #include "collision/collision.hpp"
 #include "math/rotation.hpp"
 #include "parallel/pool.hpp"
+#include "parallel/prefetch.hpp"
 #include "signorini/collide.hpp"
 
 namespace signorini::collision {
@@ -510,14 +511,9 @@ constexpr std::size_t kWriteAhead = 8;
 
 /// Asks the memory for the cache lines of a contact's slot, to be written: the step's list is
 /// written over slot by slot, and each recycled contact's write (four cache lines) waited on its
-/// lines (two thirds of generate_contacts' own time on the 5,050-cube pyramid). A hint only.
-/// Always inlined, as a function whose work is prefetches alone must be: GCC finds it const and
-/// deletes the calls it does not inline.
-[[gnu::always_inline]] inline void ask_to_write(const Contact* slot) {
-  const char* p = reinterpret_cast<const char*>(slot);
-  for (std::size_t o = 0; o < sizeof(Contact); o += 64) __builtin_prefetch(p + o, 1);
-  __builtin_prefetch(p + sizeof(Contact) - 1, 1);  // the last line, when the slot starts inside one
-}
+/// lines (two thirds of generate_contacts' own time on the 5,050-cube pyramid). Always inlined
+/// (parallel/prefetch.hpp).
+[[gnu::always_inline]] inline void ask_to_write(const Contact* slot) { parallel::prefetch_write(slot, sizeof(Contact)); }
 
 /// Pair (a, b)'s manifold of the last detection (memory.last, sorted), or null. hint: where the
 /// caller's last search ended (0 at first), updated: the pairs come in nearly sorted order (by body

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "parallel/pool.hpp"
+#include "parallel/prefetch.hpp"
 #include "solver/contact_solver.hpp"
 
 namespace signorini::solver::rows {
@@ -27,26 +28,14 @@ constexpr std::size_t kContactsPerTask = 256;
 
 /// Contacts ahead of the one in hand whose scattered outputs a loop asks the memory for.
 constexpr std::size_t kAhead = 8;
-/// Contacts ahead of the one in hand that a walk reading a few fields of each, in order, asks
-/// for: a Contact spans four cache lines and such a walk reads one or two of them, a stride the
-/// processor's prefetcher did not follow on the pyramid's 15,000 contacts (every read waited on
-/// memory); a walk doing a few nanoseconds of work a contact asks this far ahead to hide it.
-constexpr std::size_t kWalkAhead = 32;
 /// The bytes of a Contact its key (bodies and features) spans, from its start.
 constexpr std::size_t kContactKeyBytes = offsetof(Contact, feature_b) + sizeof(FeatureId);
-/// Asks the memory for the cache lines of [p, p + bytes), to be written (prefetch_write) or read
-/// soon: for loops that reach their items out of order (by solve position, or the other way), which
-/// the processor cannot foresee; kAhead items early. A hint only: it changes no result.
-/// Always inlined, as every function whose work is prefetches alone must be: GCC finds such a
-/// function const (a prefetch has no effect it models) and deletes the calls it did not inline.
-template <int kWrite>
-[[gnu::always_inline]] inline void prefetch(const void* p, std::size_t bytes) {
-  const char* c = static_cast<const char*>(p);
-  for (std::size_t o = 0; o < bytes; o += 64) __builtin_prefetch(c + o, kWrite);
-  __builtin_prefetch(c + bytes - 1, kWrite);  // the last line, when [p, p + bytes) starts inside one
-}
-[[gnu::always_inline]] inline void prefetch_write(const void* p, std::size_t bytes) { prefetch<1>(p, bytes); }
-[[gnu::always_inline]] inline void prefetch_read(const void* p, std::size_t bytes) { prefetch<0>(p, bytes); }
+/// The memory hints (parallel/prefetch.hpp), for loops that reach their items out of order (by
+/// solve position, or the other way), which the processor cannot foresee, kAhead items early, and
+/// for walks in order (kWalkAhead).
+using parallel::kWalkAhead;
+using parallel::prefetch_read;
+using parallel::prefetch_write;
 
 /// f(begin, end) over [0, n) on d.pool's threads (the calling thread alone without a pool), for
 /// work whose items write only their own outputs.

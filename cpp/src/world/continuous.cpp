@@ -20,6 +20,7 @@
 #include "collision/ray.hpp"
 #include "math/rotation.hpp"
 #include "parallel/pool.hpp"
+#include "parallel/prefetch.hpp"
 #include "signorini/world.hpp"
 #include "solver/joint_rows.hpp"
 #include "world/step_guard.hpp"
@@ -45,8 +46,6 @@ constexpr int kBisections = 20;
 /// bumpy mesh went 0.25 of its inner radius deeper step after step, each step's contacts carried
 /// from its start to first order in the turn, until it was 64 % deep (fuzz 1:286)
 constexpr double kOverlapFraction = 0.5;
-/// How many contacts ahead a walk over the step's contacts asks for the one it will read.
-constexpr std::size_t kAhead = 32;
 
 /// How much deeper shape (bounded, at pose) is in the static bodies `walls` than `start_depth` says
 /// it was in each (m, the largest; 0 when it is in none deeper): each depth is -(the least gap of
@@ -169,7 +168,7 @@ void World::continuous() {
     for (std::size_t k = first; k < end; ++k) {
       // (a contact is a few cache lines, read for its bodies alone: asked for ahead, or each waits
       // on memory, 90 % of this stage on the 5,050-cube pyramid)
-      if (k + kAhead < end) __builtin_prefetch(&contacts_next_[k + kAhead].body_a);
+      if (k + parallel::kWalkAhead < end) parallel::prefetch_read(&contacts_next_[k + parallel::kWalkAhead], 2 * sizeof(BodyIndex));
       const Contact& c = contacts_next_[k];
       if (model_.is_static[c.body_a]) flag(c.body_b);
       if (model_.is_static[c.body_b]) flag(c.body_a);
