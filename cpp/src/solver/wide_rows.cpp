@@ -147,13 +147,35 @@ void widen(const SolverSettings& s, SolverData& d) {
   rows::for_ranges(d, G, 64, [&](std::size_t from, std::size_t to) {
     for (std::size_t gi = from; gi < to; ++gi) {
       WideGroup& g = d.wide[gi];
-      g.one_by_one = false;
       g.round = false;
       // the sweeps read points j < g.points only (a group of capsules lying on each other fills
       // two of kManifoldPoints)
       g.points = 0;
       for (std::size_t l = 0; l < kLanes; ++l) g.points = std::max(g.points, g.count[l]);
       const std::size_t points = static_cast<std::size_t>(g.points);
+      // the lanes assume the rows the scalar sweep solves in full (contact_rows' first branches),
+      // and one normal (so one tangent basis) and one spring per pair, to the bit. A group that
+      // breaks that is solved one contact at a time, and nothing reads its fields: they are not
+      // written (a pile of boxes turned on each other, whose clipped edge crossings each take the
+      // normal of their two edges, has every group so)
+      g.one_by_one = false;
+      for (std::size_t l = 0; l < kLanes && !g.one_by_one; ++l) {
+        const std::size_t k0 = static_cast<std::size_t>(g.first[l]);
+        const ContactRows& pair = d.rows[k0];
+        const SoftPoint& spring = d.soft[k0];
+        for (std::size_t j = 0; j < points; ++j) {
+          const std::size_t k = point_position(g, l, j);
+          const ContactRows& r = d.rows[k];
+          const SoftPoint& soft = d.soft[k];
+          const bool same = std::memcmp(r.n.data(), pair.n.data(), sizeof(Vec3)) == 0 &&
+                            std::memcmp(r.t1.data(), pair.t1.data(), sizeof(Vec3)) == 0 &&
+                            std::memcmp(r.t2.data(), pair.t2.data(), sizeof(Vec3)) == 0 &&
+                            soft.bias_rate == spring.bias_rate && soft.mass_scale == spring.mass_scale &&
+                            soft.impulse_scale == spring.impulse_scale;
+          if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0) || !same) g.one_by_one = true;
+        }
+      }
+      if (g.one_by_one) continue;
       for (std::size_t l = 0; l < kLanes; ++l) {
         const std::size_t k0 = static_cast<std::size_t>(g.first[l]);
         const ContactRows& pair = d.rows[k0];
@@ -199,14 +221,6 @@ void widen(const SolverSettings& s, SolverData& d) {
           p.impulse[l] = soft.impulse;
           p.alpha_max[l] = soft.alpha_max;
           if (soft.sigma_a != 0.0 || soft.sigma_b != 0.0) g.round = true;
-          // the lanes assume the rows the scalar sweep solves in full (contact_rows' first
-          // branches), and one normal (so one tangent basis) and one spring per pair, to the bit
-          const bool same = std::memcmp(r.n.data(), pair.n.data(), sizeof(Vec3)) == 0 &&
-                            std::memcmp(r.t1.data(), pair.t1.data(), sizeof(Vec3)) == 0 &&
-                            std::memcmp(r.t2.data(), pair.t2.data(), sizeof(Vec3)) == 0 &&
-                            soft.bias_rate == spring.bias_rate && soft.mass_scale == spring.mass_scale &&
-                            soft.impulse_scale == spring.impulse_scale;
-          if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0) || !same) g.one_by_one = true;
         }
       }
       // the round sides' core offsets, read only in a group that has one (a group of boxes is
@@ -226,7 +240,7 @@ void widen(const SolverSettings& s, SolverData& d) {
             g.point[j].sigma_a[l] = soft.sigma_a;
             g.point[j].sigma_b[l] = soft.sigma_b;
           }
-      if (!g.one_by_one) each_point(g, [&](const WideGroup::Point&, std::size_t, std::size_t k) { d.in_lanes[k] = 1; });
+      each_point(g, [&](const WideGroup::Point&, std::size_t, std::size_t k) { d.in_lanes[k] = 1; });
     }
   });
 }
