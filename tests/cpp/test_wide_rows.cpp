@@ -2,6 +2,7 @@
 // give the bits of the scalar code, in every ISA this CPU has and at every thread count.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -13,10 +14,11 @@ using namespace signorini;
 
 namespace {
 
-/// Restores the process-wide choice when a test ends, whatever it set.
+/// Restores the process-wide choice when a test ends, whatever it set ("auto" when it was).
 struct KeepSimd {
   std::string isa = simd();
-  ~KeepSimd() { set_simd(isa); }
+  bool named = solver::wide_isa_named();
+  ~KeepSimd() { set_simd(named ? isa : std::string("auto")); }
 };
 
 std::vector<std::string> isas() {
@@ -114,7 +116,69 @@ std::vector<double> busy_scene(int threads, int steps, int relax_iterations = 1,
   return bytes;
 }
 
+/// Stacks of 3 boxes on the ground, each box turned about the vertical a little more than the one
+/// under it (their pairs' clipped edge crossings each take the normal of their two edges: the
+/// groups take their points' own directions, WideGroup::frame), stepped `steps` times of dt; the
+/// state after, as bytes.
+std::vector<double> turned_stacks(double dt, int steps) {
+  WorldSettings settings;
+  settings.solver.method = SolverMethod::Soft;
+  settings.sleep.enabled = false;
+  World world(settings);
+  BodyDesc ground;
+  ground.shape = Plane(Vec3::UnitZ(), 0.0);
+  ground.is_static = true;
+  world.add_body(ground);
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j)
+      for (int k = 0; k < 3; ++k) {
+        BodyDesc d;
+        d.shape = Box(Vec3(0.5, 0.5, 0.5));
+        d.density = 1000.0;
+        d.position = Vec3(1.5 * i, 1.5 * j, 0.5 + 1.0 * k);
+        const double turn = 0.05 * k + 0.01 * (i + j);
+        d.orientation = Quat4(std::cos(0.5 * turn), 0.0, 0.0, std::sin(0.5 * turn));
+        world.add_body(d);
+      }
+  world.step(dt, steps);
+  std::vector<double> bytes;
+  for (std::size_t i = 0; i < world.state().p.size(); ++i)
+    for (const Vec3& x : {world.state().p[i], world.state().v[i], world.state().omega[i]})
+      bytes.insert(bytes.end(), x.data(), x.data() + 3);
+  for (const Contact& c : world.contacts()) bytes.push_back(c.alpha);
+  return bytes;
+}
+
 }  // namespace
+
+TEST(WideRows, PairsWhosePointsDifferInNormalRunInTheLanesWithTheirOwnDirections) {
+  KeepSimd keep;
+  set_simd("scalar");
+  const std::vector<double> scalar = turned_stacks(1.0 / 60.0, 30);
+  for (const std::string& isa : isas()) {
+    if (isa == "scalar") continue;
+    set_simd(isa);
+    const std::size_t framed = solver::wide_framed_pairs_solved();
+    EXPECT_EQ(turned_stacks(1.0 / 60.0, 30), scalar) << isa;
+    EXPECT_GT(solver::wide_framed_pairs_solved(), framed) << isa << ": no pair went through the lanes with its points' own directions";
+  }
+}
+
+TEST(WideRows, ChosenAutomaticallyTheLanesRunWhereTheyPayForCopyingTheRows) {
+  KeepSimd keep;
+  set_simd("scalar");
+  const std::vector<double> at_60 = turned_stacks(1.0 / 60.0, 20), at_240 = turned_stacks(1.0 / 240.0, 20);
+  set_simd("auto");
+  if (simd() == "scalar") GTEST_SKIP() << "no lanes on this CPU";
+  // dt 1/60: 4 substeps of a biased and a relax sweep, 12 passes over pairs of 4 contacts: lanes
+  std::size_t before = solver::wide_contacts_solved();
+  EXPECT_EQ(turned_stacks(1.0 / 60.0, 20), at_60);
+  EXPECT_GT(solver::wide_contacts_solved(), before);
+  // dt 1/240: 1 substep, 3 passes: one by one, the same bits
+  before = solver::wide_contacts_solved();
+  EXPECT_EQ(turned_stacks(1.0 / 240.0, 20), at_240);
+  EXPECT_EQ(solver::wide_contacts_solved(), before);
+}
 
 TEST(WideRows, EveryIsaGivesTheBitsOfTheScalarSweepAtEveryThreadCount) {
   KeepSimd keep;

@@ -135,7 +135,8 @@ struct SolverStats {
 };
 
 /// The code the soft step's sweeps solve four body pairs at a time with (docs/conventions.md, "Rows
-/// four pairs at a time"): "auto" (the widest the CPU has, the default), "avx2", "sse2", or "scalar" (one
+/// four pairs at a time"): "auto" (the widest the CPU has, the default, run only where the lanes pay
+/// for copying the rows into them), "avx2", "sse2" (run wherever the lanes can), or "scalar" (one
 /// contact at a time). Every choice gives the same bits; process-wide, for benchmarks and tests
 /// that compare them. Throws std::invalid_argument for another name, or "avx2" on a CPU or build
 /// without it.

@@ -116,13 +116,21 @@ constexpr double kPairConditioning = 1e-3;
 /// per body pair, the pair's contacts one after the other (the soft step).
 enum class Order { ByContact, ByPair };
 
+/// The directions of each point of a WideGroup whose pairs' points do not share one normal
+/// (WideGroup::frame): point j's normal and tangents, lane by lane (a lane with fewer points
+/// repeats its last, as the group's points do).
+struct alignas(32) PointFrames {
+  double n[kManifoldPoints][3][kLanes], t1[kManifoldPoints][3][kLanes], t2[kManifoldPoints][3][kLanes];
+};
+
 /// Four body pairs of one colour laid out for SIMD (solver/wide_rows.hpp), lane l the run of
 /// count[l] contacts (1 to kManifoldPoints) of one pair from solve position first[l] on: what the
 /// soft step's sweeps read of their ContactRows and SoftPoints, each field as four values side by
 /// side, so a field of the four pairs loads as one register, and each lane's bodies are read once
-/// per sweep. A pair's points share its normal and tangents (widen checks it, bit for bit) and its
-/// spring; each point's gap and forces live here during the step (soft_end gives the gaps back to
-/// the soft points; the forces go back to d.alpha after each substep's relax sweeps).
+/// per sweep. A pair's points share its spring (widen checks it, bit for bit), and its normal and
+/// tangents, or else the group's points take theirs from SolverData::frames (frame); each point's
+/// gap and forces live here during the step (soft_end gives the gaps back to the soft points; the
+/// forces go back to d.alpha after each substep's relax sweeps).
 struct alignas(32) WideGroup {
   /// the rows of point j of each lane (a lane with fewer points repeats its last: unused)
   struct Point {
@@ -155,6 +163,11 @@ struct alignas(32) WideGroup {
   alignas(32) double K22[kLanes];
   alignas(32) double K12[kLanes];
   bool round = false;       ///< some point has a round side (a sigma != 0)
+  /// -1: every point of a pair has the pair's n, t1, t2 (bit for bit); else the index of the
+  /// group's PointFrames in SolverData::frames, its points' own directions (a box turned on
+  /// another: a clipped edge crossing takes the normal of its two edges, a face point the face's;
+  /// never in a group of blocks or with a round side)
+  int frame = -1;
   /// solved by the scalar code: a contact whose normal or first friction row has delta <= 0 (both
   /// bodies static: never made by the narrow phase), or a pair whose points differ in normal or spring
   bool one_by_one = false;
@@ -188,6 +201,8 @@ struct SolverData {
   /// the soft step's rows four pairs at a time (wide_rows.hpp: widen): colour c's groups are
   /// wide[wide_first[c] .. wide_first[c + 1]), from the colour's first contact on, one after the other
   std::vector<WideGroup> wide;
+  /// the point directions of the groups whose pairs' points differ in them (WideGroup::frame)
+  std::vector<PointFrames> frames;
   std::vector<int> wide_first;
   /// the soft step's sweeps run the groups in lanes this step (set by soft_begin: not with the
   /// scalar code chosen, spin rows or the cone rule); the grouped contacts' gaps and forces then

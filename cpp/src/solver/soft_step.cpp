@@ -110,7 +110,7 @@ Softness soften(double hertz, double zeta, double h) {
   return Softness{omega / a1, a2 * a3, a3};
 }
 
-void soft_begin(const Model& model, const State& state, double h, const SolverSettings& settings,
+void soft_begin(const Model& model, const State& state, double h, int substeps, const SolverSettings& settings,
                 const std::vector<Contact>& contacts, SolverData& d, const std::vector<Vec3>* anchor_a,
                 const std::vector<Vec3>* anchor_b) {
   const std::size_t N = model.size(), K = contacts.size();
@@ -141,7 +141,8 @@ void soft_begin(const Model& model, const State& state, double h, const SolverSe
   d.alpha_iter.clear();
   // whether any contact has restitution (without, no contact's approach is ever read)
   d.bouncy = std::any_of(d.e.begin(), d.e.begin() + static_cast<std::ptrdiff_t>(K), [](double e) { return e > 0.0; });
-  widen(settings, d);  // the groups take the warm-start forces too
+  // the groups take the warm-start forces too; each is swept, with its warm start, this many times
+  widen(settings, d, substeps * (1 + settings.soft_iterations + settings.relax_iterations));
 }
 
 void soft_solve(const Model& model, const State& state, const SolverSettings& settings, std::vector<Vec3>& v,

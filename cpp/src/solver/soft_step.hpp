@@ -17,10 +17,12 @@ namespace signorini::solver {
 
 /// Begins a step of n substeps of h (s).
 /// In:  model; state (poses and velocities at the step's start, pending impulses applied);
+///      substeps: how many substeps these rows serve (n, or the rest of the step after a cut; the
+///      lanes run when they pay for their copy of the rows: widen);
 ///      contacts (K, as the narrow phase wrote them); d.cache (the previous step's forces).
 /// Out: d's rows (dt folded as h), solve order, soft points (anchors, gaps, softness), u_i from the
 ///      state's velocities, and d.alpha recalled from the cache (applied by every solve).
-void soft_begin(const Model& model, const State& state, double h, const SolverSettings& settings,
+void soft_begin(const Model& model, const State& state, double h, int substeps, const SolverSettings& settings,
                 const std::vector<Contact>& contacts, SolverData& d, const std::vector<Vec3>* anchor_a = nullptr,
                 const std::vector<Vec3>* anchor_b = nullptr);
 

@@ -189,14 +189,15 @@ struct Kernel {
     }
   }
   /// A point's gap: brought up to date (gap_now) and stored with kGap, else as stored.
+  /// n: the point's normal (the pair's, f.n, unless the group has a frame; never with a round side)
   template <bool kGap>
   static B point_gap(const Frame& f, const WideGroup& g, WideGroup::Point& pt, std::size_t h, const V3& r_a,
-                     const V3& r_b) {
+                     const V3& r_b, const V3& n) {
     if constexpr (kGap) {
       // gap_now: gap0 + n . ((dp_B + dR_B r_B) - (dp_A + dR_A r_A))
       const V3 moved_b = add({f.dpb[0], f.dpb[1], f.dpb[2]}, mul(f.dRb, r_b));
       const V3 moved_a = add({f.dpa[0], f.dpa[1], f.dpa[2]}, mul(f.dRa, r_a));
-      B s = load(pt.gap0 + h) + dot(f.n, sub(moved_b, moved_a));
+      B s = load(pt.gap0 + h) + dot(n, sub(moved_b, moved_a));
       if (g.round) s = s + (load(pt.sigma_b + h) * f.n_dRb_n + load(pt.sigma_a + h) * f.n_dRa_n);
       s.store_aligned(pt.s + h);  // (a lane past its last point writes its own unused slot)
       return s;
@@ -225,7 +226,9 @@ struct Kernel {
   /// each group's first field and each point's first (a third of the biased sweep's time on the
   /// 5,050-cube pyramid). Two stages: the fields before the points of group gi + 2, and the points
   /// the sweeps read of group gi + 1 (its count was asked for one group earlier).
-  [[gnu::always_inline]] static void ask_ahead(const WideGroup* groups, std::size_t gi, std::size_t end) {
+  /// A group with a frame (read only) has its points' directions asked for with its points.
+  [[gnu::always_inline]] static void ask_ahead(const Lanes& d, std::size_t gi, std::size_t end) {
+    const WideGroup* groups = d.groups;
     if (gi + 2 < end) {
       const char* head = reinterpret_cast<const char*>(&groups[gi + 2].n);
       const char* tail = reinterpret_cast<const char*>(groups + gi + 3);
@@ -236,6 +239,24 @@ struct Kernel {
       const char* first = reinterpret_cast<const char*>(&next.point[0]);
       const char* last = reinterpret_cast<const char*>(&next.point[next.points]);
       for (const char* c = first; c < last; c += 64) __builtin_prefetch(c, 1);
+      if (next.frame >= 0) {
+        const char* frame = reinterpret_cast<const char*>(d.frames + next.frame);
+        for (std::size_t o = 0; o < sizeof(PointFrames); o += 64) __builtin_prefetch(frame + o, 0);
+      }
+    }
+  }
+  /// Point j's directions in lanes h .. h + L - 1: the pair's (f.n, f.t1, f.t2), or the group's
+  /// frame's (pf not null).
+  static void point_frame(const PointFrames* pf, int j, std::size_t h, const V3& n, const V3& t1, const V3& t2,
+                          V3& n_j, V3& t1_j, V3& t2_j) {
+    if (pf) {
+      n_j = load3(pf->n[j], h);
+      t1_j = load3(pf->t1[j], h);
+      t2_j = load3(pf->t2[j], h);
+    } else {
+      n_j = n;
+      t1_j = t1;
+      t2_j = t2;
     }
   }
 
@@ -244,16 +265,19 @@ struct Kernel {
   static void warm_start(const Lanes& d, std::size_t group, std::size_t groups) {
     const B zero(0.0);
     for (std::size_t gi = group; gi < group + groups; ++gi) {
-      ask_ahead(d.groups, gi, group + groups);
+      ask_ahead(d, gi, group + groups);
       const WideGroup& g = d.groups[gi];
       for (std::size_t h = 0; h < kLanes; h += L) {
         Pairs q;
         load_pairs(d, g, h, q);
         const B dinv_mass_a = load(g.dinv_mass_a + h), dinv_mass_b = load(g.dinv_mass_b + h);
         const B count = as_doubles(g.count + h);
-        const V3 n = load3(g.n, h), t1 = load3(g.t1, h), t2 = load3(g.t2, h);
+        const V3 n_pair = load3(g.n, h), t1_pair = load3(g.t1, h), t2_pair = load3(g.t2, h);
+        const PointFrames* pf = g.frame >= 0 ? d.frames + g.frame : nullptr;
         for (int j = 0; j < g.points; ++j) {
           const WideGroup::Point& pt = g.point[j];
+          V3 n, t1, t2;
+          point_frame(pf, j, h, n_pair, t1_pair, t2_pair, n, t1, t2);
           const B a0 = load(pt.alpha[0] + h), a1 = load(pt.alpha[1] + h), a2 = load(pt.alpha[2] + h);
           const Mask any = ((a0 != zero) || (a1 != zero) || (a2 != zero)) && (B(static_cast<double>(j)) < count);
           const V3 P = add(add(scale(a0, n), scale(a1, t1)), scale(a2, t2));
@@ -281,7 +305,7 @@ struct Kernel {
   static void run(const SoftSweep& x, const Lanes& d, std::size_t group, std::size_t groups) {
     const B zero(0.0);
     for (std::size_t gi = group; gi < group + groups; ++gi) {
-      ask_ahead(d.groups, gi, group + groups);
+      ask_ahead(d, gi, group + groups);
       WideGroup& g = d.groups[gi];
       if (g.two) {
         run_two<kGap, kKick>(x, d, g);
@@ -292,13 +316,15 @@ struct Kernel {
         load_frame<kGap, kKick>(x, d, g, h, f);
         Pairs &q = f.q, &kick = f.kick;
         const B dinv_mass_a = f.dinv_mass_a, dinv_mass_b = f.dinv_mass_b, mu = f.mu;
-        const V3 &n = f.n, &t1 = f.t1, &t2 = f.t2;
         const B count = as_doubles(g.count + h);
+        const PointFrames* pf = g.frame >= 0 ? d.frames + g.frame : nullptr;
         for (int j = 0; j < g.points; ++j) {
           WideGroup::Point& pt = g.point[j];
+          V3 n, t1, t2;  // the point's directions
+          point_frame(pf, j, h, f.n, f.t1, f.t2, n, t1, t2);
           const Mask active = B(static_cast<double>(j)) < count;
           const V3 r_a = load3(pt.r_a, h), r_b = load3(pt.r_b, h);
-          const B s = point_gap<kGap>(f, g, pt, h, r_a, r_b);
+          const B s = point_gap<kGap>(f, g, pt, h, r_a, r_b, n);
           B bias, mass_scale, impulse_scale;
           point_rule(x, f, s, bias, mass_scale, impulse_scale);
           const B a_n = load(pt.alpha[0] + h), a_1 = load(pt.alpha[1] + h), a_2 = load(pt.alpha[2] + h);
@@ -362,7 +388,8 @@ struct Kernel {
       for (int j = 0; j < 2; ++j) {
         r_a[j] = load3(pt[j]->r_a, h);
         r_b[j] = load3(pt[j]->r_b, h);
-        point_rule(x, f, point_gap<kGap>(f, g, *pt[j], h, r_a[j], r_b[j]), bias[j], mass_scale[j], impulse_scale[j]);
+        point_rule(x, f, point_gap<kGap>(f, g, *pt[j], h, r_a[j], r_b[j], f.n), bias[j], mass_scale[j],
+                   impulse_scale[j]);
         a_n[j] = load(pt[j]->alpha[0] + h);
       }
       // both normal rows' velocities before either changes

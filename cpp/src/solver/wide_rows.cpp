@@ -30,7 +30,9 @@ bool cpu_has_avx2() {
 WideIsa best_isa() { return cpu_has_avx2() ? WideIsa::AVX2 : WideIsa::SSE2; }
 
 std::atomic<WideIsa> current{best_isa()};
-std::atomic<std::size_t> solved{0}, pairs_solved{0};
+/// whether the ISA was asked for by name (the lanes then run wherever they can: widen)
+std::atomic<bool> named{false};
+std::atomic<std::size_t> solved{0}, pairs_solved{0}, framed_solved{0};
 
 /// The solve position of lane l's point j in g (a lane with fewer points repeats its last).
 std::size_t point_position(const WideGroup& g, std::size_t l, std::size_t j) {
@@ -65,13 +67,16 @@ void set_wide_isa(WideIsa isa) {
   if (isa == WideIsa::AVX2 && !cpu_has_avx2())
     throw std::invalid_argument("set_wide_isa: AVX2 asked for, but this CPU or build has no AVX2 sweep");
   current.store(isa == WideIsa::Auto ? best_isa() : isa);
+  named.store(isa != WideIsa::Auto);
 }
 
 WideIsa wide_isa() { return current.load(); }
+bool wide_isa_named() { return named.load(); }
 
 std::size_t wide_contacts_solved() { return solved.load(std::memory_order_relaxed); }
 
 std::size_t wide_pairs_solved() { return pairs_solved.load(std::memory_order_relaxed); }
+std::size_t wide_framed_pairs_solved() { return framed_solved.load(std::memory_order_relaxed); }
 
 }  // namespace signorini::solver
 
@@ -98,8 +103,19 @@ std::string simd() {
 
 namespace signorini::solver {
 
-void widen(const SolverSettings& s, SolverData& d) {
+void widen(const SolverSettings& s, SolverData& d, int passes) {
   d.lanes = wide_isa() != WideIsa::Scalar && d.spin_rows.empty() && s.friction_cone == FrictionCone::Pyramid;
+  if (d.lanes && !named.load()) {
+    // whether they pay: enough passes, and enough contacts a pair among those the groups would take
+    // (each colour's pairs of at most kManifoldPoints contacts; the shared last colour has none)
+    std::size_t pairs = 0, points = 0;
+    for (std::size_t c = 0; c + 2 < d.colour_start.size(); ++c) {
+      const std::size_t from = static_cast<std::size_t>(d.colour_start[c]), to = static_cast<std::size_t>(d.long_start[c]);
+      points += to - from;
+      for (std::size_t k = from; k < to; ++k) pairs += d.unit_first[k] ? 1 : 0;
+    }
+    d.lanes = passes >= kLanePasses && points >= static_cast<std::size_t>(kLanePoints) * pairs && pairs > 0;
+  }
   if (!d.lanes) {
     d.wide.clear();
     d.wide_first.assign(d.colour_start.size(), 0);
@@ -142,24 +158,26 @@ void widen(const SolverSettings& s, SolverData& d) {
   d.wide_first[colours] = static_cast<int>(G);
   d.wide.resize(G);
   rows::assign_n(d.in_lanes, d.rows.size(), char(0));
-  // each group filled by one thread: its pairs' bodies, materials, directions and springs, and
-  // each point's rows and gaps
+  // each group looked at by one thread: whether the lanes can solve it, and with its points' own
+  // directions. The lanes assume the rows the scalar sweep solves in full (contact_rows' first
+  // branches) and one spring per pair, to the bit; a pair's points may differ in normal (so in
+  // tangents: a box turned on another, whose clipped edge crossings each take the normal of their
+  // two edges) where the group takes each point's own (frame; not in a group of blocks, which solves
+  // a pair's two normal rows along one normal, nor with a round side, whose core's travel is read
+  // along the pair's). A group the lanes do not solve is solved one contact at a time, and nothing
+  // reads its fields: they are not written.
   rows::for_ranges(d, G, 64, [&](std::size_t from, std::size_t to) {
     for (std::size_t gi = from; gi < to; ++gi) {
       WideGroup& g = d.wide[gi];
-      g.round = false;
       // the sweeps read points j < g.points only (a group of capsules lying on each other fills
       // two of kManifoldPoints)
       g.points = 0;
       for (std::size_t l = 0; l < kLanes; ++l) g.points = std::max(g.points, g.count[l]);
       const std::size_t points = static_cast<std::size_t>(g.points);
-      // the lanes assume the rows the scalar sweep solves in full (contact_rows' first branches),
-      // and one normal (so one tangent basis) and one spring per pair, to the bit. A group that
-      // breaks that is solved one contact at a time, and nothing reads its fields: they are not
-      // written (a pile of boxes turned on each other, whose clipped edge crossings each take the
-      // normal of their two edges, has every group so)
       g.one_by_one = false;
-      for (std::size_t l = 0; l < kLanes && !g.one_by_one; ++l) {
+      g.round = false;
+      bool turned = false;  // some pair's points differ in direction
+      for (std::size_t l = 0; l < kLanes; ++l) {
         const std::size_t k0 = static_cast<std::size_t>(g.first[l]);
         const ContactRows& pair = d.rows[k0];
         const SoftPoint& spring = d.soft[k0];
@@ -167,15 +185,31 @@ void widen(const SolverSettings& s, SolverData& d) {
           const std::size_t k = point_position(g, l, j);
           const ContactRows& r = d.rows[k];
           const SoftPoint& soft = d.soft[k];
-          const bool same = std::memcmp(r.n.data(), pair.n.data(), sizeof(Vec3)) == 0 &&
-                            std::memcmp(r.t1.data(), pair.t1.data(), sizeof(Vec3)) == 0 &&
-                            std::memcmp(r.t2.data(), pair.t2.data(), sizeof(Vec3)) == 0 &&
-                            soft.bias_rate == spring.bias_rate && soft.mass_scale == spring.mass_scale &&
-                            soft.impulse_scale == spring.impulse_scale;
-          if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0) || !same) g.one_by_one = true;
+          turned = turned || std::memcmp(r.n.data(), pair.n.data(), sizeof(Vec3)) != 0 ||
+                   std::memcmp(r.t1.data(), pair.t1.data(), sizeof(Vec3)) != 0 ||
+                   std::memcmp(r.t2.data(), pair.t2.data(), sizeof(Vec3)) != 0;
+          const bool same_spring = soft.bias_rate == spring.bias_rate && soft.mass_scale == spring.mass_scale &&
+                                   soft.impulse_scale == spring.impulse_scale;
+          if (!(r.delta[0] > 0.0) || !(r.delta[1] > 0.0) || !same_spring) g.one_by_one = true;
+          if (soft.sigma_a != 0.0 || soft.sigma_b != 0.0) g.round = true;
         }
       }
+      if (turned && (g.two || g.round)) g.one_by_one = true;
+      g.frame = turned && !g.one_by_one ? 0 : -1;  // (numbered below)
+    }
+  });
+  std::size_t F = 0;
+  for (WideGroup& g : d.wide)
+    if (g.frame >= 0) g.frame = static_cast<int>(F++);
+  d.frames.resize(F);
+  // each group the lanes solve filled by one thread: its pairs' bodies, materials, directions and
+  // springs, and each point's rows and gaps (and directions, with a frame)
+  rows::for_ranges(d, G, 64, [&](std::size_t from, std::size_t to) {
+    for (std::size_t gi = from; gi < to; ++gi) {
+      WideGroup& g = d.wide[gi];
       if (g.one_by_one) continue;
+      const std::size_t points = static_cast<std::size_t>(g.points);
+      PointFrames* frame = g.frame >= 0 ? &d.frames[static_cast<std::size_t>(g.frame)] : nullptr;
       for (std::size_t l = 0; l < kLanes; ++l) {
         const std::size_t k0 = static_cast<std::size_t>(g.first[l]);
         const ContactRows& pair = d.rows[k0];
@@ -220,7 +254,12 @@ void widen(const SolverSettings& s, SolverData& d) {
           for (int i = 0; i < 3; ++i) p.alpha[i][l] = d.alpha[3 * k + static_cast<std::size_t>(i)];
           p.impulse[l] = soft.impulse;
           p.alpha_max[l] = soft.alpha_max;
-          if (soft.sigma_a != 0.0 || soft.sigma_b != 0.0) g.round = true;
+          if (frame)
+            for (int i = 0; i < 3; ++i) {
+              frame->n[j][i][l] = r.n[i];
+              frame->t1[j][i][l] = r.t1[i];
+              frame->t2[j][i][l] = r.t2[i];
+            }
         }
       }
       // the round sides' core offsets, read only in a group that has one (a group of boxes is
@@ -325,7 +364,7 @@ wide::Lanes raw_lanes(SolverData& d) {
                      d.qd.empty() ? nullptr : d.qd[0].omega.data(),
                      d.dp.empty() ? nullptr : d.dp[0].data(),
                      d.dR.empty() ? nullptr : d.dR[0].data(),
-                     d.kick.empty() ? nullptr : d.kick[0].omega.data()};
+                     d.kick.empty() ? nullptr : d.kick[0].omega.data(), d.frames.data()};
 }
 
 /// Solve positions [first, end) colour by colour from the colour of `first` on: lanes(group,
@@ -365,9 +404,13 @@ void walk(SolverData& d, std::size_t first, std::size_t end, Lanes&& lanes, OneB
       if (run > 0) {
         lanes(gi, run);
         solved.fetch_add(group_end(gi + run - 1) - k, std::memory_order_relaxed);
-        std::size_t twos = 0;
-        for (std::size_t j = gi; j < gi + run; ++j) twos += d.wide[j].two ? kLanes : 0;
+        std::size_t twos = 0, framed = 0;
+        for (std::size_t j = gi; j < gi + run; ++j) {
+          twos += d.wide[j].two ? kLanes : 0;
+          framed += d.wide[j].frame >= 0 ? kLanes : 0;
+        }
         if (twos > 0) pairs_solved.fetch_add(twos, std::memory_order_relaxed);
+        if (framed > 0) framed_solved.fetch_add(framed, std::memory_order_relaxed);
         k = group_end(gi + run - 1);
         gi += run;
       } else {

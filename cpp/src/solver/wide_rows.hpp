@@ -48,6 +48,9 @@ enum class WideIsa { Auto, Scalar, SSE2, AVX2 };
 void set_wide_isa(WideIsa isa);
 /// The code the wide sweeps run with now (never Auto).
 WideIsa wide_isa();
+/// Whether it was asked for by name (set_wide_isa other than Auto): the lanes then run wherever
+/// they can, not only where they pay (widen).
+bool wide_isa_named();
 
 /// Contacts the lanes have solved since the process started (summed per wide run, a count for tests
 /// that check the lanes ran).
@@ -55,15 +58,34 @@ std::size_t wide_contacts_solved();
 /// Two-point pairs the lanes have solved as blocks since the process started (WideGroup::two; a
 /// count for tests).
 std::size_t wide_pairs_solved();
+/// Pairs the lanes have solved with their points' own directions since the process started
+/// (WideGroup::frame; a count for tests).
+std::size_t wide_framed_pairs_solved();
 
 /// d.wide and d.wide_first from d.rows, d.colour_start and d.long_start (the solve order by pair):
 /// colour c's pairs of at most kManifoldPoints contacts, from the colour's start, fill groups
 /// wide_first[c] .. wide_first[c + 1] - 1, four pairs a group; the shared last colour has none. A
 /// group with a contact whose normal or first friction row has delta <= 0 (both bodies static:
-/// never made by the narrow phase) is flagged, and its contacts run one by one.
+/// never made by the narrow phase), or a pair whose points differ in spring, is flagged, and its
+/// contacts run one by one, as are those of a group of blocks or with a round side whose pair's
+/// points differ in direction; any other group whose pairs' points differ in direction takes their
+/// own from d.frames (WideGroup::frame).
+/// passes: how many times the groups will be swept (their warm starts counted) before the rows are
+/// made again. Unless an ISA was asked for by name (set_wide_isa, set_simd), the lanes run only
+/// where they pay for copying the rows into the groups: at least kLanePasses passes, over pairs of
+/// kLanePoints contacts or more on average (measured: docs/conventions.md, "Rows four pairs at a
+/// time"); otherwise the contacts are solved one by one, with the same bits.
 /// Out: d.lanes (whether the lanes run this step: not with the scalar code chosen, spin rows or
-/// the cone rule; without them no groups are made).
-void widen(const SolverSettings& s, SolverData& d);
+/// the cone rule, nor where they do not pay; without them no groups are made).
+void widen(const SolverSettings& s, SolverData& d, int passes);
+
+/// Where the lanes pay for their copy of the rows (widen): each group swept at least this many
+/// times, and its pairs of at least this many contacts on average. Measured on a 2-core x86-64
+/// with AVX2 (soft step, 1 thread): the 5,050-cube pyramid at dt 1/60 (4 substeps, 12 passes, 4
+/// contacts a pair) 37.0 ms a step with the lanes against 39.4 one by one, at dt 1/240 (3 passes)
+/// 29.8 against 25.9; Box3D's rain (12 passes or more, 1 or 2 contacts a pair) 13.6 against 11.8.
+constexpr int kLanePasses = 8;
+constexpr int kLanePoints = 3;
 
 /// The gaps of the grouped contacts (which live in the groups while the sweeps run) back into their
 /// soft points (wide_gaps_out), and the soft points' gaps into the groups (wide_gaps_in: after a
@@ -108,6 +130,7 @@ struct Lanes {
   const double* dp;         ///< d.dp: per body (3)
   const double* dR;         ///< d.dR: per body (3 x 3, column-major)
   double* kick;             ///< d.kick: per body omega (3) then v (3) (written with SoftSweep::kick)
+  const PointFrames* frames;  ///< d.frames: the points' own directions of a group with WideGroup::frame >= 0
 };
 
 /// The groups [group, group + groups) (none flagged one_by_one) in the lanes of one ISA

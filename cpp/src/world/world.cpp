@@ -298,7 +298,7 @@ void World::soft_step_once(double dt) {
   // the step's contacts, to be written by the solver: moved, not copied (the soft step never
   // reads them as detected again; the next step detects into the other list)
   contacts_next_.swap(contacts_base_);
-  solver::soft_begin(model_, state_, h, q, contacts_next_, *solver_);
+  solver::soft_begin(model_, state_, h, n, q, contacts_next_, *solver_);
   lap(t.prepare);
   soft_runs_ = 0;
   for (int k = 0; k < n; ++k) {
@@ -478,7 +478,8 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
   segment_start_.p = state_.p;  // (copies into kept storage)
   segment_start_.R = state_.R;
   ++soft_runs_;
-  solver::soft_begin(model_, state_, h, settings_.solver, contacts_next_, *solver_, &anchor_a_, &anchor_b_);
+  solver::soft_begin(model_, state_, h, n - k - 1, settings_.solver, contacts_next_, *solver_, &anchor_a_,
+                     &anchor_b_);
   return true;
 }
 
