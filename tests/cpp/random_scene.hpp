@@ -2,7 +2,8 @@
 // test_contacts.cpp) and the collision benchmark (benchmarks/bench_collision.cpp): a tessellated
 // floor, random
 // rotations, random convex shapes, and a Model + State of bodies scattered in a cube, built
-// without a World so that the broad phase and the narrow phase can be driven stage by stage.
+// without a World so that the broad phase and the narrow phase can be driven stage by stage; and a
+// World's motion as bytes, for the tests that compare runs bit for bit.
 #pragma once
 
 #include <cmath>
@@ -151,6 +152,17 @@ inline void drift(Scene& scene, double dt, double side) {
       s.R[i] = 1.5 * R - 0.5 * R * R.transpose() * R;
     }
   }
+}
+
+/// A world's motion as numbers to compare bit for bit: every body's p, v and omega, then every
+/// contact's normal force.
+inline std::vector<double> motion_bytes(const World& world) {
+  std::vector<double> bytes;
+  for (std::size_t i = 0; i < world.state().p.size(); ++i)
+    for (const Vec3& x : {world.state().p[i], world.state().v[i], world.state().omega[i]})
+      bytes.insert(bytes.end(), x.data(), x.data() + 3);
+  for (const Contact& c : world.contacts()) bytes.push_back(c.alpha);
+  return bytes;
 }
 
 }  // namespace signorini::scenes

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "random_scene.hpp"
 #include "signorini/world.hpp"
 #include "solver/wide_rows.hpp"
 
@@ -141,12 +142,7 @@ std::vector<double> turned_stacks(double dt, int steps) {
         world.add_body(d);
       }
   world.step(dt, steps);
-  std::vector<double> bytes;
-  for (std::size_t i = 0; i < world.state().p.size(); ++i)
-    for (const Vec3& x : {world.state().p[i], world.state().v[i], world.state().omega[i]})
-      bytes.insert(bytes.end(), x.data(), x.data() + 3);
-  for (const Contact& c : world.contacts()) bytes.push_back(c.alpha);
-  return bytes;
+  return scenes::motion_bytes(world);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "random_scene.hpp"
 #include "signorini/world.hpp"
 
 using namespace signorini;
@@ -159,12 +160,7 @@ std::vector<double> grid_of_stacks(const WorldSettings& settings) {
         world.add_body(d);
       }
   world.step(1.0 / 60.0, 40);
-  std::vector<double> bytes;
-  for (std::size_t i = 0; i < world.state().p.size(); ++i)
-    for (const Vec3& x : {world.state().p[i], world.state().v[i], world.state().omega[i]})
-      bytes.insert(bytes.end(), x.data(), x.data() + 3);
-  for (const Contact& c : world.contacts()) bytes.push_back(c.alpha);
-  return bytes;
+  return scenes::motion_bytes(world);
 }
 
 TEST(World, EveryThreadCountGivesTheBitsOfOneThread) {
