@@ -156,7 +156,8 @@ TEST(WideRows, PairsWhosePointsDifferInNormalRunInTheLanesWithTheirOwnDirections
     set_simd(isa);
     const std::size_t framed = solver::wide_framed_pairs_solved();
     EXPECT_EQ(turned_stacks(1.0 / 60.0, 30), scalar) << isa;
-    EXPECT_GT(solver::wide_framed_pairs_solved(), framed) << isa << ": no pair went through the lanes with its points' own directions";
+    EXPECT_GT(solver::wide_framed_pairs_solved(), framed)
+        << isa << ": no pair went through the lanes with its points' own directions";
   }
 }
 

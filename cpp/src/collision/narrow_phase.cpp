@@ -513,7 +513,9 @@ constexpr std::size_t kWriteAhead = 8;
 /// written over slot by slot, and each recycled contact's write (four cache lines) waited on its
 /// lines (two thirds of generate_contacts' own time on the 5,050-cube pyramid). Always inlined
 /// (parallel/prefetch.hpp).
-[[gnu::always_inline]] inline void ask_to_write(const Contact* slot) { parallel::prefetch_write(slot, sizeof(Contact)); }
+[[gnu::always_inline]] inline void ask_to_write(const Contact* slot) {
+  parallel::prefetch_write(slot, sizeof(Contact));
+}
 
 /// Pair (a, b)'s manifold of the last detection (memory.last, sorted), or null. hint: where the
 /// caller's last search ended (0 at first), updated: the pairs come in nearly sorted order (by body

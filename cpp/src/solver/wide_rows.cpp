@@ -110,7 +110,7 @@ void widen(const SolverSettings& s, SolverData& d, int passes) {
     // (each colour's pairs of at most kManifoldPoints contacts; the shared last colour has none)
     std::size_t pairs = 0, points = 0;
     for (std::size_t c = 0; c + 2 < d.colour_start.size(); ++c) {
-      const std::size_t from = static_cast<std::size_t>(d.colour_start[c]), to = static_cast<std::size_t>(d.long_start[c]);
+      const auto from = static_cast<std::size_t>(d.colour_start[c]), to = static_cast<std::size_t>(d.long_start[c]);
       points += to - from;
       for (std::size_t k = from; k < to; ++k) pairs += d.unit_first[k] ? 1 : 0;
     }

@@ -168,7 +168,8 @@ void World::continuous() {
     for (std::size_t k = first; k < end; ++k) {
       // (a contact is a few cache lines, read for its bodies alone: asked for ahead, or each waits
       // on memory, 90 % of this stage on the 5,050-cube pyramid)
-      if (k + parallel::kWalkAhead < end) parallel::prefetch_read(&contacts_next_[k + parallel::kWalkAhead], 2 * sizeof(BodyIndex));
+      if (k + parallel::kWalkAhead < end)
+        parallel::prefetch_read(&contacts_next_[k + parallel::kWalkAhead], 2 * sizeof(BodyIndex));
       const Contact& c = contacts_next_[k];
       if (model_.is_static[c.body_a]) flag(c.body_b);
       if (model_.is_static[c.body_b]) flag(c.body_a);
