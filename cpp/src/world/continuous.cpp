@@ -187,15 +187,9 @@ void World::continuous() {
     // the turn's angle from the trace of R R0^T (the elementwise sum of R .* R0), no more per body;
     // its axis only for a body that turned fast
     const double cos_turn = std::clamp(0.5 * (state_.R[i].cwiseProduct(start.R[i]).sum() - 1.0), -1.0, 1.0);
-    const double swing = std::acos(cos_turn) * model_.rho[i];  // how far the turn moved its points, at most (m)
-    const bool turned = swing > kFastFraction * inner;
+    const bool turned = std::acos(cos_turn) * model_.rho[i] > kFastFraction * inner;
     const bool held = on_static[static_cast<std::size_t>(i)] != 0;
     if (!travelled && !turned && !held) return false;  // nothing to check
-    // held, but no point of it moved more than half kBackFraction of its inner radius: it cannot be
-    // deeper in a static body than it started by more (a depth follows the deepest point), so the
-    // path's rule below has nothing to put back and its depths are not computed (a pile's lowest
-    // layer at rest on the floor; half: the depths' rounding)
-    if (!travelled && !turned && travel + swing <= 0.5 * kBackFraction * inner) return false;
     // a jointed body is not moved alone: putting it back without its partners would open its
     // joints, so its mechanism goes with it (wind_back_with)
     const Shape& shape = model_.shape[i];
