@@ -2,8 +2,8 @@
 // test_contacts.cpp) and the collision benchmark (benchmarks/bench_collision.cpp): a tessellated
 // floor, random
 // rotations, random convex shapes, and a Model + State of bodies scattered in a cube, built
-// without a World so that the broad phase and the narrow phase can be driven stage by stage; and a
-// World's motion as bytes, for the tests that compare runs bit for bit.
+// without a World so that the broad phase and the narrow phase can be driven stage by stage; and, for
+// the World tests, a ground plane and a World's motion as bytes to compare runs bit for bit.
 #pragma once
 
 #include <cmath>
@@ -152,6 +152,14 @@ inline void drift(Scene& scene, double dt, double side) {
       s.R[i] = 1.5 * R - 0.5 * R * R.transpose() * R;
     }
   }
+}
+
+/// A static ground plane z = 0 (normal +z).
+inline BodyDesc ground() {
+  BodyDesc d;
+  d.shape = Plane(Vec3::UnitZ(), 0.0);
+  d.is_static = true;
+  return d;
 }
 
 /// A world's motion as numbers to compare bit for bit: every body's p, v and omega, then every

@@ -8,9 +8,11 @@
 #include <memory>
 #include <string>
 
+#include "random_scene.hpp"
 #include "signorini/world.hpp"
 
 using namespace signorini;
+using scenes::ground;
 
 namespace {
 
@@ -21,13 +23,6 @@ WorldSettings sleeping(SolverMethod method = SolverMethod::PGS) {
   s.sleep.enabled = true;
   s.solver.method = method;
   return s;
-}
-
-BodyDesc ground() {
-  BodyDesc d;
-  d.shape = Plane(Vec3::UnitZ(), 0.0);
-  d.is_static = true;
-  return d;
 }
 
 /// A 0.2 m cube resting on the ground (its centre at z0 + 0.1) at x.

@@ -46,10 +46,7 @@ std::vector<double> busy_scene(int threads, int steps, int relax_iterations = 1,
   settings.threads = threads;
   settings.sleep.enabled = false;
   World world(settings);
-  BodyDesc ground;
-  ground.shape = Plane(Vec3::UnitZ(), 0.0);
-  ground.is_static = true;
-  world.add_body(ground);
+  world.add_body(scenes::ground());
   for (int i = 0; i < 10; ++i)
     for (int j = 0; j < 10; ++j)
       for (int k = 0; k < 3; ++k) {
@@ -126,10 +123,7 @@ std::vector<double> turned_stacks(double dt, int steps) {
   settings.solver.method = SolverMethod::Soft;
   settings.sleep.enabled = false;
   World world(settings);
-  BodyDesc ground;
-  ground.shape = Plane(Vec3::UnitZ(), 0.0);
-  ground.is_static = true;
-  world.add_body(ground);
+  world.add_body(scenes::ground());
   for (int i = 0; i < 6; ++i)
     for (int j = 0; j < 6; ++j)
       for (int k = 0; k < 3; ++k) {

@@ -13,15 +13,9 @@
 #include "signorini/world.hpp"
 
 using namespace signorini;
+using scenes::ground;
 
 namespace {
-
-BodyDesc ground() {
-  BodyDesc d;
-  d.shape = Plane(Vec3::UnitZ(), 0.0);
-  d.is_static = true;
-  return d;
-}
 
 BodyDesc box_at(double z) {
   BodyDesc d;
