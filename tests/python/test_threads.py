@@ -300,10 +300,15 @@ def test_a_cores_view_taken_while_another_thread_adds_bodies_shows_the_bodies_of
         expected = [tuple(p) for p in np.array(core.positions)]
         expected += [(2000.0 + 3.0 * k, 0.0, 0.0) for k in range(400)]
         expected = np.array(expected)
-        done = threading.Event()
+        done, read = threading.Event(), threading.Event()
 
         def adder():
-            for p in expected[MAIN:]:
+            for k, p in enumerate(expected[MAIN:]):
+                # every 100 bodies, until the reader has taken a view since (on a loaded machine the
+                # 400 adds once ran out before the reader's first turn: it saw one length)
+                if k % 100 == 0:
+                    read.clear()
+                    read.wait(timeout=10.0)
                 w.add_body(sg.Sphere(0.1), density=500.0, position=p, group=2, mask=2)
             done.set()
 
@@ -315,6 +320,7 @@ def test_a_cores_view_taken_while_another_thread_adds_bodies_shows_the_bodies_of
                 assert MAIN <= n <= len(expected), n
                 assert np.array_equal(np.array(view), expected[:n]), n
                 lengths.add(n)
+                read.set()
             assert len(lengths) > 1, lengths
 
         errors = run_threads(adder, reader)
