@@ -360,9 +360,13 @@ void plane_item(const Vec3& n, double offset, const Item& b, std::vector<Contact
 /// found among 18 candidate pairs rather than all 144, with the same result.
 /// separated, optional: set to the face (of_b, face) whose axis separated the pair by at least the
 /// threshold when that is why no contact was made; face = -1 otherwise.
+/// motion, optional: the pair's (A, B, the bodies a and b belong to); contacts it cannot close
+/// (PairMotion::can_close) may then be left out, and the tests stop where none can be: those it
+/// can close are the same (the separating face may be set where the threshold alone would not).
 void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
                        const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,
-                       std::vector<Contact>& out, bool boxes = false, SeparatingFace* separated = nullptr);
+                       std::vector<Contact>& out, bool boxes = false, SeparatingFace* separated = nullptr,
+                       const PairMotion* motion = nullptr);
 
 /// The separation of polytope b from a along face f of a (world poses): min over b's vertices of
 /// n_f . x - offset_f, the value of that face in the separating-axis test.
@@ -537,6 +541,7 @@ void speculative_reach(const Model& model, const State& state, double dt, const 
 /// towards. collide() drops the points a pair cannot close before it reduces the manifold to 4
 /// (PairContext::motion), so a far speculative point never takes the place of one that holds.
 struct PairMotion {
+  PairMotion() = default;  ///< nothing moves: fields set one by one (tests)
   /// The pair (a, b) as collide() sees it (A first), at `state`, for a step of dt s.
   PairMotion(const Model& model, const State& state, BodyIndex a, BodyIndex b, double dt, const Vec3& gravity,
              double margin);
@@ -551,8 +556,19 @@ struct PairMotion {
   double end_gap(const Contact& c) const;
   /// v_B(y) - v_A(y), the velocity of B's point y relative to A's (world, m/s).
   Vec3 relative_velocity(const Vec3& y) const;
+  /// A gap (m) that no contact can_close keeps reaches, whatever its normal, for contacts whose
+  /// point y lies within r_a of A's centre and r_b of B's (m): margin + dt (u + dt turning), u the
+  /// largest closing speed can_close can find there (each velocity's norm, |omega_i| r_i for the
+  /// spins). Up to rounding: callers add a slack.
+  double closable_gap(double r_a, double r_b) const;
+  /// The same for the contacts whose normal n (A -> B, world) lies in the cone n . k >= c (k unit,
+  /// 0 <= c <= 1): each velocity's largest component over the cone instead of its norm. A pair of
+  /// convex shapes separated by s along k has every contact nearer than t in that cone for c = s / t
+  /// (n . (q - p) >= s for any points p of A and q of B), at a gap of at least s.
+  double closable_gap(double r_a, double r_b, const Vec3& k, double c) const;
 
-  Vec3 p_a, v_a, omega_a, p_b, v_b, omega_b;  ///< centres (m), velocities (m/s), spins (rad/s)
+  Vec3 p_a = Vec3::Zero(), v_a = Vec3::Zero(), omega_a = Vec3::Zero();  ///< A's centre (m), velocity (m/s), spin (rad/s)
+  Vec3 p_b = Vec3::Zero(), v_b = Vec3::Zero(), omega_b = Vec3::Zero();  ///< B's
   Vec3 g_rel = Vec3::Zero();  ///< g_B - g_A (m/s^2)
   Vec3 g_a = Vec3::Zero(), g_b = Vec3::Zero();  ///< g_i: gravity for a body gravity moves, else 0 (m/s^2)
   bool stoppable_a = false, stoppable_b = false;  ///< dynamic: another contact can stop it within the step

@@ -79,7 +79,7 @@ void contact_polytope_polytope(const Item& a, const Item& b, double threshold, c
     }
   }
   polytope_polytope(*a.polytope, a.pose, a.part, *b.polytope, b.pose, b.part, threshold, *scratch.polytope, out,
-                    a.box && b.box, cached ? &key : nullptr);
+                    a.box && b.box, cached ? &key : nullptr, pair.motion);
   if (cached && key.face >= 0) pair.separating_next->push_back(key);
 }
 
@@ -419,6 +419,42 @@ bool PairMotion::can_close(const Contact& c) const {
   if (stoppable_b)
     closing = std::max(closing, std::max(0.0, n.dot(v_a + omega_a.cross(y - p_a))) + dt * std::max(0.0, n.dot(g_a)));
   return c.gap < margin + dt * (closing + dt * turning);
+}
+
+namespace {
+
+/// The largest m . w over unit m in the cone m . k >= c (k unit, 0 <= c <= 1): |w| when w lies in
+/// it, else on its rim, c (w . k) + sqrt(1 - c^2) |w - (w . k) k|.
+double cone_max(const Vec3& w, const Vec3& k, double c) {
+  const double along = w.dot(k), length = w.norm();
+  if (along >= c * length) return length;
+  return c * along + std::sqrt(std::max(0.0, 1.0 - c * c)) * (w - along * k).norm();
+}
+
+/// can_close's closing speed bounded over its points (within r_a, r_b of the centres) and normals:
+/// largest(w) bounds n . w over the normals considered (m/s).
+template <class Largest>
+double closing_bound(const PairMotion& m, double r_a, double r_b, Largest&& largest) {
+  const double turn_a = m.omega_a.norm() * r_a, turn_b = m.omega_b.norm() * r_b;
+  const auto toward = [&](const Vec3& v, const Vec3& g) {
+    return std::max(0.0, largest(v)) + m.dt * std::max(0.0, largest(g));
+  };
+  double u = toward(m.v_a - m.v_b, -m.g_rel) + turn_a + turn_b;
+  if (m.stoppable_a) u = std::max(u, toward(-m.v_b, -m.g_b) + turn_b);
+  if (m.stoppable_b) u = std::max(u, toward(m.v_a, m.g_a) + turn_a);
+  return u;
+}
+
+}  // namespace
+
+double PairMotion::closable_gap(double r_a, double r_b) const {
+  const double u = closing_bound(*this, r_a, r_b, [](const Vec3& w) { return w.norm(); });
+  return margin + dt * (u + dt * turning);
+}
+
+double PairMotion::closable_gap(double r_a, double r_b, const Vec3& k, double c) const {
+  const double u = closing_bound(*this, r_a, r_b, [&](const Vec3& w) { return cone_max(w, k, c); });
+  return margin + dt * (u + dt * turning);
 }
 
 double PairMotion::end_gap(const Contact& c) const {

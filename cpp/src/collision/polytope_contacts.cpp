@@ -700,8 +700,32 @@ void ScratchDeleter::operator()(PolytopeScratch* p) const { delete p; }
 
 void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, const Polytope& b,
                        const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,
-                       std::vector<Contact>& out, bool boxes, SeparatingFace* separated) {
+                       std::vector<Contact>& out, bool boxes, SeparatingFace* separated, const PairMotion* motion) {
   if (separated) separated->face = -1;
+  // a box's vertices all lie at |h| (vertex 7 = (+h_x, +h_y, +h_z)): the same number, 8 times cheaper
+  const double radius_a = boxes ? a.vertex(7).norm() : radius_of(a);
+  const double radius_b = boxes ? b.vertex(7).norm() : radius_of(b);
+  const double L = radius_a + radius_b;
+  // With the pair's motion, a contact it cannot close is dropped after (keep_closable), and the
+  // tests stop where none can be closed: at closable_gap (points within the polytopes' radii of
+  // their origins, and half the threshold more), but not below 2 tol, under which a face preferred
+  // by tol over a separating one could clip points nearer than the separation (the exits below
+  // leave out only contacts farther than the threshold). The slack: rounding, and the 1e-9 L of
+  // closest_pair_after_clip. Every contact kept is the same as without the motion.
+  double r_a = 0.0, r_b = 0.0, slack = 0.0;
+  if (motion) {
+    r_a = (pa.p - motion->p_a).norm() + radius_a + threshold;
+    r_b = (pb.p - motion->p_b).norm() + radius_b + threshold;
+    slack = 1e-6 * (L + motion->margin) + 1e-12 * (pa.p.norm() + pb.p.norm());
+    threshold = std::min(threshold, std::max(motion->closable_gap(r_a, r_b), 2.0 * kFacePreference * L) + slack);
+  }
+  // whether a contact of gap >= lower whose normal lies within the cone n . k >= lower / nearer
+  // (k unit, A's frame: every contact nearer than `nearer` of a pair separated by lower along k)
+  // can be closed
+  const auto closable_beyond = [&](const Vec3& k, double lower, double nearer) {
+    const double c = std::clamp((lower - slack) / nearer, 0.0, 1.0);
+    return lower - slack < motion->closable_gap(r_a, r_b, pa.R * k, c);
+  };
   // everything in A's frame: B placed by R_ab = R_a^T R_b, t_ab = R_a^T (p_b - p_a)
   View& A = scratch.A;
   View& B = scratch.B;
@@ -721,8 +745,6 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   }
   // faces are preferred: B's face only when better than A's by tol, an edge only when better than
   // both by tol (tol = 5e-4 L), or a tilted stack would rock on one point ("Manifolds", box against box)
-  // a box's vertices all lie at |h| (vertex 7 = (+h_x, +h_y, +h_z)): the same number, 8 times cheaper
-  const double L = boxes ? a.vertex(7).norm() + b.vertex(7).norm() : radius_of(a) + radius_of(b);
   // an edge axis matters when it beats both faces by at least 1e-9 L, or reaches the threshold
   const double edge_bound = std::min(std::max(fa.separation, fb.separation) + 1e-9 * L, threshold);
   const EdgeQuery e = boxes ? box_edge_query(A, B, R_ab, t_ab, edge_bound)
@@ -732,6 +754,8 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   const double edge_tol = std::abs(e.axis.dot(n_face)) >= kNearlyParallel ? kFacePreference * L : 1e-9 * L;
   const double tol = kFacePreference * L;
   if (e.edge_a >= 0 && e.separation > std::max(fa.separation, fb.separation) + edge_tol) {
+    // its contact lies at e.separation or farther, its normal in the cone about the axis
+    if (motion && !closable_beyond(e.axis, e.separation, threshold)) return;
     edge_contact(A, B, e, pa, threshold, L, scratch.closest, out);
     return;
   }
@@ -744,8 +768,24 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   // apart or touching, the clip can miss the closest pair, which is then added (touching: along the
   // better face axis) so that a speculative contact's deepest gap is the distance
   const bool b_better = fb.separation > fa.separation;
-  closest_pair_after_clip(A, B, b_better ? Vec3(-n_face) : n_face, b_better ? Vec3(-n_face) : n_face,
-                          std::max(fa.separation, fb.separation), L, threshold, pa, scratch.closest, first, out);
+  const Vec3 axis = b_better ? Vec3(-n_face) : n_face;
+  const double lower = std::max(fa.separation, fb.separation);
+  // none of the clipped points can be closed, nor a closest pair (at lower or farther, its normal
+  // in the cone about the axis; nearer than the threshold and than the clipped points, or it is
+  // not added): the pair gives nothing, and the closest pair is not looked for
+  if (motion) {
+    double least = threshold;
+    bool closable = false;
+    for (std::size_t k = first; k < out.size(); ++k) {
+      least = std::min(least, out[k].gap);
+      closable = closable || motion->can_close(out[k]);
+    }
+    if (!closable && !closable_beyond(axis, lower, least)) {
+      out.resize(first);
+      return;
+    }
+  }
+  closest_pair_after_clip(A, B, axis, axis, lower, L, threshold, pa, scratch.closest, first, out);
 }
 
 double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope& b, const Pose& pb) {
