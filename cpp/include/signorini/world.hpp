@@ -520,6 +520,12 @@ class World {
   /// only while there is one, or when the new shape is one (else building a world of N bodies
   /// would make N^2 / 2 pair checks)
   std::size_t bare_meshes_ = 0;
+  /// The last hull add_body moved to its centre of mass, and where: bodies added with the same
+  /// hull share the moved polytope (a pile of 5,000 copies reads one from the cache, not 5,000).
+  struct MovedHull {
+    std::shared_ptr<const Polytope> source, moved;
+    Vec3 com = Vec3::Zero();
+  } last_hull_;
   std::vector<std::shared_ptr<void>> retired_;  ///< outgrown state storage (see push_keeping)
   StepReport report_;
   ContactEvents events_;       ///< the last step() call's contact events

@@ -228,6 +228,9 @@ struct PairContext {
   /// choosing the manifold. Null: all kept.
   const PairMotion* motion = nullptr;
   TrianglePast* past = nullptr;          ///< for a TriangleMesh A: B's past, and the crossing found
+  /// pair_scale of the two shapes when the caller has their bounding radii (the World's rho), so
+  /// that collide() need not walk their vertices; 0: collide() computes it
+  double scale = 0.0;
   /// the separating-face cache, used when both bodies are known: the last detection's entries
   /// (read) and where this pair's are appended
   const std::vector<SeparatingFace>* separating_last = nullptr;

@@ -331,7 +331,8 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
   if (const auto* plane = std::get_if<Plane>(&a)) {
     plane_contacts(*plane, pose_a, b, pose_b, threshold, s, candidates);
     keep_closable(pair.motion, candidates);
-    finish_manifold(candidates, threshold, pair_scale(a, b), out, s.candidate_index, pair.motion);
+    finish_manifold(candidates, threshold, pair.scale > 0.0 ? pair.scale : pair_scale(a, b), out, s.candidate_index,
+                    pair.motion);
     return;
   }
   items_b.clear();
@@ -359,7 +360,7 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
   }
   keep_closable(pair.motion, candidates);
   // ranked by gap: the end-gap ranking is the plane's only (docs/conventions.md, "Manifolds")
-  finish_manifold(candidates, threshold, pair_scale(a, b), out, s.candidate_index);
+  finish_manifold(candidates, threshold, pair.scale > 0.0 ? pair.scale : pair_scale(a, b), out, s.candidate_index);
 }
 
 void speculative_reach(const Model& model, const State& state, double dt, const Vec3& gravity,
@@ -675,6 +676,11 @@ void collide_pair(const Model& model, const State& state, BodyIndex a, BodyIndex
   }
   const PairMotion motion(model, state, a, b, dt, gravity, margin);
   PairContext context{a, b, &motion, &past};
+  // pair_scale from the bounding radii the model keeps (the same sum, in the same order)
+  double scale = 0.0;
+  for (const BodyIndex i : {a, b})
+    if (!static_only(model.shape[i])) scale += model.rho[i];
+  context.scale = scale > 0.0 ? scale : 1.0;
   context.separating_last = separating_last;
   context.separating_next = separating_next;
   collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,

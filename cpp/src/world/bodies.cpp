@@ -2,6 +2,7 @@
 // and commit), and remove (one pass that renumbers everything that names bodies).
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -140,7 +141,11 @@ BodyIndex World::add_body(const BodyDesc& desc) {
       for (auto& piece : mesh->pieces) piece = std::make_shared<const Polytope>(geometry::translated(*piece, -props.com));
     } else if (auto* hull = std::get_if<ConvexHull>(&shape)) {
       hull->vertices.rowwise() -= props.com.transpose();
-      hull->polytope = std::make_shared<const Polytope>(geometry::translated(*hull->polytope, -props.com));
+      // the same hull moved by the same bits as the last one: its polytope is shared, read only
+      if (last_hull_.source != hull->polytope || std::memcmp(last_hull_.com.data(), props.com.data(), sizeof(Vec3)) != 0)
+        last_hull_ = {hull->polytope, std::make_shared<const Polytope>(geometry::translated(*hull->polytope, -props.com)),
+                      props.com};
+      hull->polytope = last_hull_.moved;
     } else if (auto* compound = std::get_if<Compound>(&shape)) {
       for (Compound::Part& part : compound->parts) part.position -= props.com;
     }
