@@ -174,24 +174,26 @@ EdgeQuery edge_query(const View& A, const View& B, double bound, EdgeBuffers& sc
     if (arc_max(B.n[eb[j].f0], B.n[eb[j].f1], A.centroid - B.v[eb[j].v0]) >= bound - slack) kb.push_back(static_cast<int>(j));
   const std::size_t na = ka.size(), nb = kb.size();
   if (na == 0 || nb == 0) return q;
-  // side_a[f * na + i] = (-n_B f) . (b_i x a_i); dxc[j] = d_j x c_j (over the kept edges)
+  // side_a[i * fb + f] = (-n_B f) . (b_i x a_i), a row per kept edge of A (walked along f below);
+  // dxc[j] = d_j x c_j (over the kept edges)
   std::vector<double>& side_a = scratch.side_a;
   std::vector<Vec3>& dxc = scratch.dxc;
-  side_a.resize(fb * na);
+  side_a.resize(na * fb);
   for (std::size_t i = 0; i < na; ++i) {
     const auto& e = ea[ka[i]];
     const Vec3 bxa = A.n[e.f1].cross(A.n[e.f0]);
-    for (std::size_t f = 0; f < fb; ++f) side_a[f * na + i] = (-B.n[f]).dot(bxa);
+    double* row = &side_a[i * fb];
+    for (std::size_t f = 0; f < fb; ++f) row[f] = (-B.n[f]).dot(bxa);
   }
   dxc.resize(nb);
   for (std::size_t j = 0; j < nb; ++j) dxc[j] = (-B.n[eb[kb[j]].f1]).cross(-B.n[eb[kb[j]].f0]);
   if (fb <= 64) {
     for (std::size_t i = 0; i < na; ++i) {
       std::uint64_t above = 0, below = 0;  // B faces with (-n_B) . (b x a) > 0, < 0
+      const double* row = &side_a[i * fb];
       for (std::size_t f = 0; f < fb; ++f) {
-        const double x = side_a[f * na + i];
-        above |= std::uint64_t(x > 0.0) << f;
-        below |= std::uint64_t(x < 0.0) << f;
+        above |= std::uint64_t(row[f] > 0.0) << f;
+        below |= std::uint64_t(row[f] < 0.0) << f;
       }
       const Vec3& a = A.n[ea[ka[i]].f0];
       const Vec3& b = A.n[ea[ka[i]].f1];
@@ -200,7 +202,7 @@ EdgeQuery edge_query(const View& A, const View& B, double bound, EdgeBuffers& sc
         const std::uint64_t m0 = std::uint64_t(1) << e.f0, m1 = std::uint64_t(1) << e.f1;
         // cba * dba < 0: c and d strictly on opposite sides
         if (!(((above & m0) && (below & m1)) || ((below & m0) && (above & m1)))) continue;
-        const double cba = side_a[e.f0 * na + i];
+        const double cba = row[e.f0];
         const double adc = a.dot(dxc[j]), bdc = b.dot(dxc[j]);
         if (adc * bdc < 0.0 && cba * bdc > 0.0) edge_pair_axis(A, B, ka[i], kb[j], q);
       }
@@ -216,8 +218,9 @@ EdgeQuery edge_query(const View& A, const View& B, double bound, EdgeBuffers& sc
     const auto& e = ea[ka[i]];
     const double* adc_row = &side_b[e.f0 * nb];  // a . (d x c) for every j
     const double* bdc_row = &side_b[e.f1 * nb];  // b . (d x c)
+    const double* row = &side_a[i * fb];
     for (std::size_t j = 0; j < nb; ++j) {
-      const double cba = side_a[eb[kb[j]].f0 * na + i], dba = side_a[eb[kb[j]].f1 * na + i];
+      const double cba = row[eb[kb[j]].f0], dba = row[eb[kb[j]].f1];
       if (!(cba * dba < 0.0)) continue;
       const double adc = adc_row[j], bdc = bdc_row[j];
       if (adc * bdc < 0.0 && cba * bdc > 0.0) edge_pair_axis(A, B, ka[i], kb[j], q);
@@ -475,8 +478,12 @@ bool closest_features(const View& A, const View& B, const Vec3& L, double bound,
 /// - apart with a closest point off its edge (the separation only bounds the distance): the
 ///   polytopes' closest pair p, q (closest_features, ties 1e-12 L), gap |q - p|, normal
 ///   (q - p) / gap, point (p + q) / 2, when gap < threshold.
+/// leave_out(k, lower, nearer): true when no contact of gap >= lower whose normal lies in the cone
+/// n . k >= lower / nearer can be kept (polytope_polytope, given the pair's motion); the closest
+/// pair is then not looked for.
+template <class LeaveOut>
 void edge_contact(const View& A, const View& B, const EdgeQuery& e, const Pose& pa, double threshold, double L,
-                  ClosestBuffers& buffers, std::vector<Contact>& out) {
+                  ClosestBuffers& buffers, std::vector<Contact>& out, LeaveOut&& leave_out) {
   const auto& EA = A.topo->edges[e.edge_a];
   const auto& EB = B.topo->edges[e.edge_b];
   const Vec3 p0 = A.v[EA.v0], u = A.v[EA.v1] - p0;
@@ -497,6 +504,8 @@ void edge_contact(const View& A, const View& B, const EdgeQuery& e, const Pose& 
       closest_on_edge(A, e.edge_a, B.v[v], x, id, dim);
       bound = std::min(bound, (B.v[v] - x).norm());
     }
+    // the closest pair: at the separation or farther, nearer than the threshold and than the bound
+    if (leave_out(e.axis, e.separation, std::min(threshold, bound))) return;
     ClosestPair c;
     if (closest_features(A, B, e.axis, bound, 1e-12 * L, buffers, c) && c.distance > 0.0) {
       if (!(c.distance < threshold)) return;
@@ -756,7 +765,9 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   if (e.edge_a >= 0 && e.separation > std::max(fa.separation, fb.separation) + edge_tol) {
     // its contact lies at e.separation or farther, its normal in the cone about the axis
     if (motion && !closable_beyond(e.axis, e.separation, threshold)) return;
-    edge_contact(A, B, e, pa, threshold, L, scratch.closest, out);
+    edge_contact(A, B, e, pa, threshold, L, scratch.closest, out, [&](const Vec3& k, double lower, double nearer) {
+      return motion && !closable_beyond(k, lower, nearer);
+    });
     return;
   }
   const double face_tol = std::abs(A.n[fa.face].dot(B.n[fb.face])) >= kNearlyParallel ? tol : 1e-9 * L;
@@ -863,7 +874,8 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
     edge_meets = s >= 0.0 && s <= 1.0 && t >= 0.0 && t <= 1.0;
   }
   if (edge_meets && e.separation > std::max(sep_a, fb.separation) + tol) {
-    edge_contact(A, B, e, pa, threshold, radius_of(tri) + radius_of(b), scratch.closest, out);
+    edge_contact(A, B, e, pa, threshold, radius_of(tri) + radius_of(b), scratch.closest, out,
+                 [](const Vec3&, double, double) { return false; });
     return;
   }
   // B's face axis is set by the triangle's feature deepest along it: a vertex between two inactive
