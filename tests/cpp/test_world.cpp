@@ -3,6 +3,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <random>
 #include <set>
 #include <thread>
 #include <type_traits>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "random_scene.hpp"
+#include "signorini/mass_properties.hpp"
 #include "signorini/world.hpp"
 
 using namespace signorini;
@@ -182,6 +184,39 @@ TEST(World, ThreadsBelowZeroAreRefusedAndTheWorldIsUnchanged) {
   settings.threads = 0;  // the machine's cores
   world.set_settings(settings);
   EXPECT_GE(world.settings().threads, 1);
+}
+
+// Bodies added one after another with the same hull share its polytope moved to their centre of
+// mass (a pile of copies reads one from the cache); a body with another hull, or the first hull
+// again after it, gets its own, with the same numbers: each is its hull's vertices in its frame.
+TEST(World, BodiesAddedWithTheSameHullShareItsPolytopeMovedToTheirCentreOfMass) {
+  std::mt19937_64 rng(7);
+  // off-centre points: the centre of mass is not the origin, so the polytope is moved
+  Points points = scenes::random_hull(rng, 20, Vec3(0.4, 0.3, 0.2)).vertices;
+  points.rowwise() += Vec3(0.3, -0.2, 0.1).transpose();
+  const ConvexHull hull(points);
+  const ConvexHull other = scenes::random_hull(rng, 16, Vec3(0.2, 0.3, 0.4));
+  World world;
+  for (const ConvexHull* h : {&hull, &hull, &other, &hull}) {
+    BodyDesc d;
+    d.shape = *h;
+    d.density = 500.0;
+    d.position = Vec3(0.0, 0.0, 2.0 * static_cast<double>(world.model().size()));
+    world.add_body(d);
+  }
+  const auto polytope = [&](BodyIndex i) { return std::get<ConvexHull>(world.model().shape[i]).polytope; };
+  EXPECT_EQ(polytope(0), polytope(1));
+  EXPECT_NE(polytope(1), polytope(2));
+  EXPECT_NE(polytope(2), polytope(3));
+  for (BodyIndex i = 0; i < 4; ++i) {
+    const ConvexHull& h = std::get<ConvexHull>(world.model().shape[i]);
+    ASSERT_EQ(h.polytope->vertices.rows(), h.vertices.rows()) << i;
+    EXPECT_TRUE(h.polytope->vertices == h.vertices) << "body " << i << ": its polytope is its hull in its frame";
+  }
+  EXPECT_TRUE(polytope(3)->vertices == polytope(0)->vertices);
+  // moved once: the hull given was off its centre of mass, each body's is centred on it
+  EXPECT_GT(mass_properties(Shape(hull), 1.0).com.norm(), 0.3);
+  for (BodyIndex i = 0; i < 4; ++i) EXPECT_LT(mass_properties(world.model().shape[i], 1.0).com.norm(), 1e-12) << i;
 }
 
 TEST(World, DeterministicBitForBit) {
