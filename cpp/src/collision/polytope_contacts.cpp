@@ -69,14 +69,32 @@ struct FaceQuery {
   int face = -1;
 };
 
-/// Largest separation of `other`'s vertices from the face planes of `self` (first on ties).
-FaceQuery face_query(const View& self, const View& other) {
+/// Largest separation of `other`'s vertices from the face planes of `self` (first on ties), or the
+/// first face whose separation reaches `enough` (the caller needs no more: the pair is apart).
+/// A face is left as soon as one vertex lies at or below the best separation so far: it cannot be
+/// chosen (y -> y - d is monotone in floating point, so min(n . x) - d, computed for the faces that
+/// are not left, and the choice are the same numbers as over every vertex).
+FaceQuery face_query(const View& self, const View& other, double enough = kInf) {
   FaceQuery q;
   for (std::size_t f = 0; f < self.n.size(); ++f) {
-    const double s = other.min_along(self.n[f]) - self.d[f];
+    const Vec3& n = self.n[f];
+    const double d = self.d[f];
+    double least = kInf;
+    bool beaten = false;
+    for (const Vec3& x : other.v) {
+      const double y = n.dot(x);
+      if (y - d <= q.separation) {
+        beaten = true;
+        break;
+      }
+      least = std::min(least, y);
+    }
+    if (beaten) continue;
+    const double s = least - d;
     if (s > q.separation) {
       q.separation = s;
       q.face = static_cast<int>(f);
+      if (s >= enough) return q;
     }
   }
   return q;
@@ -742,12 +760,12 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   const Vec3 t_ab = pa.R.transpose() * (pb.p - pa.p);
   A.place_local(a, part_a);
   B.place(b, R_ab, t_ab, part_b);
-  const FaceQuery fa = face_query(A, B);
+  const FaceQuery fa = face_query(A, B, threshold);
   if (!(fa.separation < threshold)) {
     if (separated) separated->of_b = false, separated->face = fa.face;
     return;
   }
-  const FaceQuery fb = face_query(B, A);
+  const FaceQuery fb = face_query(B, A, threshold);
   if (!(fb.separation < threshold)) {
     if (separated) separated->of_b = true, separated->face = fb.face;
     return;
@@ -822,7 +840,7 @@ void triangle_polytope(const Polytope& tri, const std::array<bool, 3>& active, c
     clip_faces(A, 0, B, true, threshold, pa.R, pa.p, scratch.poly, scratch.next, scratch.dist, out, &active);
     return;
   }
-  const FaceQuery fb = face_query(B, A);
+  const FaceQuery fb = face_query(B, A, threshold);
   if (!(fb.separation < threshold)) return;
   const double tol = kFacePreference * (radius_of(tri) + radius_of(b));
   const double support_tol = 1e-9 * (radius_of(tri) + radius_of(b));
