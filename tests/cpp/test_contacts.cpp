@@ -513,15 +513,16 @@ TEST(Manifold, BoxPairsMatchTheGeneralPolytopeTestBitForBit) {
 
 // Given the pair's motion, polytope_polytope may leave out contacts the step cannot close
 // (PairMotion::can_close) and stops its tests where none can be: what can_close keeps of its
-// contacts must be exactly what it keeps of those made without the motion, bit for bit. Hulls and boxes
-// overlapping, touching and apart (to 1.5 m), falling together (the stack that lands), moving
-// apart or towards each other, spinning, one of them static, at dt 1/60 and 1/240.
+// contacts must be exactly what it keeps of those made without the motion, bit for bit; and
+// collide()'s manifold must be the same with the separating-face cache as without it. Hulls and
+// boxes overlapping, touching and apart (to 1.5 m), falling together (the stack that lands),
+// moving apart or towards each other, spinning, one of them static, at dt 1/60 and 1/240.
 TEST(Manifold, APairsMotionLeavesOutTheContactsItCannotCloseAndChangesNoOther) {
   std::mt19937_64 rng(20261129);
   std::uniform_real_distribution<double> size(0.1, 1.0), unit(0.0, 1.0);
   collision::Scratch scratch;
   const Vec3 gravity(0.0, 0.0, -9.81);
-  int dropped_all = 0, kept = 0, some = 0, left_out = 0;
+  int dropped_all = 0, kept = 0, some = 0, left_out = 0, remembered = 0;
   for (int n = 0; n < 4000; ++n) {
     const bool boxes = n % 3 == 0;
     std::unique_ptr<Box> box_a, box_b;
@@ -575,6 +576,32 @@ TEST(Manifold, APairsMotionLeavesOutTheContactsItCannotCloseAndChangesNoOther) {
       if (m.can_close(c)) got.push_back(c);
     ASSERT_TRUE(same(closable, got)) << "pair " << n << ": " << all.size() << " contacts, " << closable.size()
                                      << " closable; given the motion " << given.size() << ", " << got.size();
+    // through collide(), as a World calls it from step to step: the second time with B moved
+    // towards A by up to 10 % of the way, and the faces the first found separating the pair
+    // (tried first, at the threshold the motion narrows)
+    const Shape shape_a = boxes ? Shape(*box_a) : Shape(*hull_a);
+    const Shape shape_b = boxes ? Shape(*box_b) : Shape(*hull_b);
+    const Pose pb_next{pa.p + (1.0 - 0.1 * unit(rng)) * (pb.p - pa.p), pb.R};
+    collision::PairMotion m_next = m;
+    m_next.p_b = pb_next.p;
+    collision::PairContext plain;
+    plain.motion = &m;
+    std::vector<Contact> expected, expected_next, first_step, second_step;
+    collision::collide(shape_a, pa, shape_b, pb, threshold, {nullptr, nullptr, &scratch}, expected, plain);
+    plain.motion = &m_next;
+    collision::collide(shape_a, pa, shape_b, pb_next, threshold, {nullptr, nullptr, &scratch}, expected_next, plain);
+    std::vector<collision::SeparatingFace> none, found, again;
+    collision::PairContext cached;
+    cached.body_a = 0, cached.body_b = 1;
+    cached.motion = &m;
+    cached.separating_last = &none, cached.separating_next = &found;
+    collision::collide(shape_a, pa, shape_b, pb, threshold, {nullptr, nullptr, &scratch}, first_step, cached);
+    cached.motion = &m_next;
+    cached.separating_last = &found, cached.separating_next = &again;
+    collision::collide(shape_a, pa, shape_b, pb_next, threshold, {nullptr, nullptr, &scratch}, second_step, cached);
+    ASSERT_TRUE(same(expected, first_step)) << "pair " << n;
+    ASSERT_TRUE(same(expected_next, second_step)) << "pair " << n << ", separating faces remembered: " << found.size();
+    remembered += !found.empty() && !again.empty();
     dropped_all += !all.empty() && closable.empty();
     kept += !closable.empty();
     some += !closable.empty() && closable.size() < all.size();
@@ -582,12 +609,13 @@ TEST(Manifold, APairsMotionLeavesOutTheContactsItCannotCloseAndChangesNoOther) {
   }
   // the sample must exercise every outcome: pairs whose contacts all go, pairs that keep all or
   // some, and pairs whose tests stopped early
-  std::printf("%d pairs lose every contact, %d keep some (%d not all); %d gave fewer given the motion\n", dropped_all,
-              kept, some, left_out);
+  std::printf("%d pairs lose every contact, %d keep some (%d not all); %d gave fewer given the motion; %d apart along a "
+              "remembered face\n", dropped_all, kept, some, left_out, remembered);
   EXPECT_GT(dropped_all, 300);
   EXPECT_GT(kept, 300);
   EXPECT_GT(some, 20);
   EXPECT_GT(left_out, 150);
+  EXPECT_GT(remembered, 1000);
 }
 
 // The dispatch table over item kinds: every slot of the four kinds has a test that finds the contact

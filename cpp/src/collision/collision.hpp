@@ -371,6 +371,11 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
                        std::vector<Contact>& out, bool boxes = false, SeparatingFace* separated = nullptr,
                        const PairMotion* motion = nullptr);
 
+/// The threshold polytope_polytope runs its tests to given the pair's motion (m): no contact the
+/// motion can close lies at or beyond it (boxes: as there).
+double polytope_threshold(const Polytope& a, const Pose& pa, const Polytope& b, const Pose& pb, bool boxes,
+                          double threshold, const PairMotion& motion);
+
 /// The separation of polytope b from a along face f of a (world poses): min over b's vertices of
 /// n_f . x - offset_f, the value of that face in the separating-axis test.
 double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope& b, const Pose& pb);

@@ -69,9 +69,13 @@ void contact_polytope_polytope(const Item& a, const Item& b, double threshold, c
       if (it->face >= 0 && static_cast<std::size_t>(it->face) < P.normals.size()) {
         const double s = it->of_b ? face_separation(*b.polytope, b.pose, it->face, *a.polytope, a.pose)
                                   : face_separation(*a.polytope, a.pose, it->face, *b.polytope, b.pose);
-        // rounding between this and the full test's value of the same face stays far below slack
+        // rounding between this and the full test's value of the same face stays far below slack;
+        // given the motion, the test runs to a nearer threshold (polytope_threshold)
         const double slack = 1e-9 * (a.ball_radius + b.ball_radius) + 1e-12 * (a.pose.p.norm() + b.pose.p.norm());
-        if (s >= threshold + slack) {
+        const double reach = pair.motion ? polytope_threshold(*a.polytope, a.pose, *b.polytope, b.pose, a.box && b.box,
+                                                              threshold, *pair.motion)
+                                         : threshold;
+        if (s >= reach + slack) {
           pair.separating_next->push_back(*it);
           return;
         }

@@ -709,6 +709,33 @@ void closest_pair_after_clip(const View& A, const View& B, const Vec3& axis, con
 
 double radius_of(const Polytope& P) { return P.vertices.rowwise().norm().maxCoeff(); }
 
+/// The polytope's radius in the pair's length scale L: its farthest vertex from its origin; a
+/// box's vertices all lie at |h| (vertex 7 = (+h_x, +h_y, +h_z)): the same number, 8 times cheaper.
+double scale_radius(const Polytope& P, bool box) { return box ? P.vertex(7).norm() : radius_of(P); }
+
+/// What a pair's motion lets polytope_polytope leave out: bounds of how far a contact's point lies
+/// from A's and B's centres (m), the slack for rounding (m) and the threshold the tests run to (m).
+struct MotionBounds {
+  double r_a = 0.0, r_b = 0.0, slack = 0.0, threshold = 0.0;
+};
+
+/// With the pair's motion, a contact it cannot close is dropped after (keep_closable), and the
+/// tests stop where none can be closed: at closable_gap (points within the polytopes' radii of
+/// their origins, and half the threshold more), but not below 2 tol, under which a face preferred
+/// by tol over a separating one could clip points nearer than the separation (the exits leave out
+/// only contacts farther than the threshold). The slack: rounding, and the 1e-9 L of
+/// closest_pair_after_clip. Every contact kept is the same as without the motion.
+MotionBounds motion_bounds(const PairMotion& motion, const Pose& pa, const Pose& pb, double radius_a, double radius_b,
+                           double threshold) {
+  MotionBounds m;
+  const double L = radius_a + radius_b;
+  m.r_a = (pa.p - motion.p_a).norm() + radius_a + threshold;
+  m.r_b = (pb.p - motion.p_b).norm() + radius_b + threshold;
+  m.slack = 1e-6 * (L + motion.margin) + 1e-12 * (pa.p.norm() + pb.p.norm());
+  m.threshold = std::min(threshold, std::max(motion.closable_gap(m.r_a, m.r_b), 2.0 * kFacePreference * L) + m.slack);
+  return m;
+}
+
 }  // namespace
 
 /// The narrow phase's buffers for polytope pairs (a member of Scratch): both polytopes placed in
@@ -729,23 +756,14 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
                        const Pose& pb, std::uint32_t part_b, double threshold, PolytopeScratch& scratch,
                        std::vector<Contact>& out, bool boxes, SeparatingFace* separated, const PairMotion* motion) {
   if (separated) separated->face = -1;
-  // a box's vertices all lie at |h| (vertex 7 = (+h_x, +h_y, +h_z)): the same number, 8 times cheaper
-  const double radius_a = boxes ? a.vertex(7).norm() : radius_of(a);
-  const double radius_b = boxes ? b.vertex(7).norm() : radius_of(b);
+  const double radius_a = scale_radius(a, boxes), radius_b = scale_radius(b, boxes);
   const double L = radius_a + radius_b;
-  // With the pair's motion, a contact it cannot close is dropped after (keep_closable), and the
-  // tests stop where none can be closed: at closable_gap (points within the polytopes' radii of
-  // their origins, and half the threshold more), but not below 2 tol, under which a face preferred
-  // by tol over a separating one could clip points nearer than the separation (the exits below
-  // leave out only contacts farther than the threshold). The slack: rounding, and the 1e-9 L of
-  // closest_pair_after_clip. Every contact kept is the same as without the motion.
-  double r_a = 0.0, r_b = 0.0, slack = 0.0;
+  MotionBounds bounds;
   if (motion) {
-    r_a = (pa.p - motion->p_a).norm() + radius_a + threshold;
-    r_b = (pb.p - motion->p_b).norm() + radius_b + threshold;
-    slack = 1e-6 * (L + motion->margin) + 1e-12 * (pa.p.norm() + pb.p.norm());
-    threshold = std::min(threshold, std::max(motion->closable_gap(r_a, r_b), 2.0 * kFacePreference * L) + slack);
+    bounds = motion_bounds(*motion, pa, pb, radius_a, radius_b, threshold);
+    threshold = bounds.threshold;
   }
+  const double r_a = bounds.r_a, r_b = bounds.r_b, slack = bounds.slack;
   // whether a contact of gap >= lower whose normal lies within the cone n . k >= lower / nearer
   // (k unit, A's frame: every contact nearer than `nearer` of a pair separated by lower along k)
   // can be closed
@@ -815,6 +833,11 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
     }
   }
   closest_pair_after_clip(A, B, axis, axis, lower, L, threshold, pa, scratch.closest, first, out);
+}
+
+double polytope_threshold(const Polytope& a, const Pose& pa, const Polytope& b, const Pose& pb, bool boxes,
+                          double threshold, const PairMotion& motion) {
+  return motion_bounds(motion, pa, pb, scale_radius(a, boxes), scale_radius(b, boxes), threshold).threshold;
 }
 
 double face_separation(const Polytope& a, const Pose& pa, int f, const Polytope& b, const Pose& pb) {
