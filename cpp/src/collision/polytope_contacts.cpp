@@ -766,9 +766,9 @@ void polytope_polytope(const Polytope& a, const Pose& pa, std::uint32_t part_a, 
   const double r_a = bounds.r_a, r_b = bounds.r_b, slack = bounds.slack;
   // whether a contact of gap >= lower whose normal lies within the cone n . k >= lower / nearer
   // (k unit, A's frame: every contact nearer than `nearer` of a pair separated by lower along k)
-  // can be closed
+  // can be closed (nearer <= 0: the half space n . k >= 0)
   const auto closable_beyond = [&](const Vec3& k, double lower, double nearer) {
-    const double c = std::clamp((lower - slack) / nearer, 0.0, 1.0);
+    const double c = nearer > 0.0 ? std::clamp((lower - slack) / nearer, 0.0, 1.0) : 0.0;
     return lower - slack < motion->closable_gap(r_a, r_b, pa.R * k, c);
   };
   // everything in A's frame: B placed by R_ab = R_a^T R_b, t_ab = R_a^T (p_b - p_a)
