@@ -319,6 +319,8 @@ void collide(const Shape& a, const Pose& pose_a, const Shape& b, const Pose& pos
 /// Length scale L of a pair (sum of the bounding radii of its bounded shapes), for the relative
 /// tolerances of the manifold rules.
 double pair_scale(const Shape& a, const Shape& b);
+/// The same, given the shapes' bounding radii (the World's rho): no walk over their vertices.
+double pair_scale(const Shape& a, double rho_a, const Shape& b, double rho_b);
 
 /// Candidates -> manifold (docs/conventions.md, "Manifolds"): drops gap >= threshold, sorts by
 /// (feature_a, feature_b), drops duplicates within 1e-9 L, reduces more than 4 to 4 by area,

@@ -112,11 +112,16 @@ void finish_manifold(std::vector<Contact>& c, double threshold, double L, std::v
   for (int k = 0; k < count; ++k) out.push_back(c[index[pick[k]]]);
 }
 
-double pair_scale(const Shape& a, const Shape& b) {
+double pair_scale(const Shape& a, double rho_a, const Shape& b, double rho_b) {
   double L = 0.0;
-  for (const Shape* s : {&a, &b})
-    if (!static_only(*s)) L += bounding_radius(*s);
+  if (!static_only(a)) L += rho_a;
+  if (!static_only(b)) L += rho_b;
   return L > 0.0 ? L : 1.0;
+}
+
+double pair_scale(const Shape& a, const Shape& b) {
+  // a static-only shape's radius is not needed (a plane's is infinite): not computed
+  return pair_scale(a, static_only(a) ? 0.0 : bounding_radius(a), b, static_only(b) ? 0.0 : bounding_radius(b));
 }
 
 }  // namespace signorini::collision

@@ -680,11 +680,7 @@ void collide_pair(const Model& model, const State& state, BodyIndex a, BodyIndex
   }
   const PairMotion motion(model, state, a, b, dt, gravity, margin);
   PairContext context{a, b, &motion, &past};
-  // pair_scale from the bounding radii the model keeps (the same sum, in the same order)
-  double scale = 0.0;
-  for (const BodyIndex i : {a, b})
-    if (!static_only(model.shape[i])) scale += model.rho[i];
-  context.scale = scale > 0.0 ? scale : 1.0;
+  context.scale = pair_scale(model.shape[a], model.rho[a], model.shape[b], model.rho[b]);
   context.separating_last = separating_last;
   context.separating_next = separating_next;
   collide(model.shape[a], {state.p[a], state.R[a]}, model.shape[b], {state.p[b], state.R[b]}, threshold,
