@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "parallel/huge_pages.hpp"
 #include "random_scene.hpp"
 #include "signorini/world.hpp"
 #include "solver/wide_rows.hpp"
@@ -222,4 +224,32 @@ TEST(WideRows, UnknownIsasAreRefusedAndTheChoiceIsKept) {
   EXPECT_EQ(simd(), "sse2");
   set_simd("auto");
   EXPECT_NE(simd(), "scalar");
+}
+
+// The rows' and groups' storage (parallel/huge_pages.hpp): a block of 2 MB or more is mapped on a
+// huge page boundary (Linux; whether the system then backs it with huge pages is its own setting),
+// smaller ones come from the heap, and either keeps its values as the vector grows, is copied and
+// is freed.
+TEST(HugePages, LargeBlocksStartOnAHugePageAndKeepTheirValuesAsTheVectorGrows) {
+  using parallel::kHugePage;
+  parallel::HugeVector<double> v;
+  bool mapped = false;  // some capacity reached a huge page
+  for (int i = 0; i < 700000; ++i) {
+    v.push_back(0.5 * i);
+    if (v.capacity() * sizeof(double) >= kHugePage) {
+      mapped = true;
+      if (parallel::kMapsHuge) {
+        ASSERT_EQ(reinterpret_cast<std::uintptr_t>(v.data()) % kHugePage, 0u) << "at " << v.size() << " values";
+      }
+    }
+  }
+  EXPECT_TRUE(mapped);
+  for (int i = 0; i < 700000; ++i) ASSERT_EQ(v[static_cast<std::size_t>(i)], 0.5 * i);
+  const parallel::HugeVector<double> copy = v;
+  EXPECT_EQ(copy, v);
+  v.resize(10);
+  v.shrink_to_fit();  // back to the heap: the mapping is released
+  EXPECT_EQ(v.back(), 4.5);
+  parallel::HugeVector<solver::WideGroup> groups(1000);  // over-aligned: 32 bytes, mapped at 2 MB
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(groups.data()) % alignof(solver::WideGroup), 0u);
 }

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "parallel/huge_pages.hpp"
 #include "signorini/contact.hpp"
 #include "signorini/model.hpp"
 #include "signorini/solver.hpp"
@@ -197,12 +198,12 @@ struct SolverData {
   // rows: one ContactRows per contact (normal, t1, t2), in solve order (contact order[k] at k);
   // their forces alpha (N), 3 per contact (at 3k, 3k + 1, 3k + 2); the solve order (order: position -> contact, slot: contact -> position) and the
   // colours each body has taken while it was made (a bit per colour)
-  std::vector<ContactRows> rows;
+  parallel::HugeVector<ContactRows> rows;
   /// the soft step's rows four pairs at a time (wide_rows.hpp: widen): colour c's groups are
   /// wide[wide_first[c] .. wide_first[c + 1]), from the colour's first contact on, one after the other
-  std::vector<WideGroup> wide;
+  parallel::HugeVector<WideGroup> wide;
   /// the point directions of the groups whose pairs' points differ in them (WideGroup::frame)
-  std::vector<PointFrames> frames;
+  parallel::HugeVector<PointFrames> frames;
   std::vector<int> wide_first;
   /// the soft step's sweeps run the groups in lanes this step (set by soft_begin: not with the
   /// scalar code chosen, spin rows or the cone rule); the grouped contacts' gaps and forces then

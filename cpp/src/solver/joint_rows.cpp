@@ -445,7 +445,7 @@ namespace {
 /// keeps the separating velocity its drift asked for: a taut rope between two capsules spun at
 /// 190 rad/s, in substeps of 1/960 s, doubled fuzz 1:1's energy on it)
 void predict_drift(JointSet& js, const State& state, const std::vector<BodyVelocity>& qd, double h,
-                   const std::vector<ContactRows>* rows, double turn, bool limits) {
+                   const parallel::HugeVector<ContactRows>* rows, double turn, bool limits) {
   const double half = 0.5 * h;
   if (rows) {
     js.touching.assign(qd.size(), 0);

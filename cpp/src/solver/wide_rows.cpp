@@ -158,14 +158,16 @@ void widen(const SolverSettings& s, SolverData& d, int passes) {
   d.wide_first[colours] = static_cast<int>(G);
   d.wide.resize(G);
   rows::assign_n(d.in_lanes, d.rows.size(), char(0));
-  // each group looked at by one thread: whether the lanes can solve it, and with its points' own
-  // directions. The lanes assume the rows the scalar sweep solves in full (contact_rows' first
-  // branches) and one spring per pair, to the bit; a pair's points may differ in normal (so in
-  // tangents: a box turned on another, whose clipped edge crossings each take the normal of their
-  // two edges) where the group takes each point's own (frame; not in a group of blocks, which solves
-  // a pair's two normal rows along one normal, nor with a round side, whose core's travel is read
-  // along the pair's). A group the lanes do not solve is solved one contact at a time, and nothing
-  // reads its fields: they are not written.
+  // each group looked at and filled by one thread, in one pass over its rows: whether the lanes
+  // can solve it, and with its points' own directions. The lanes assume the rows the scalar sweep
+  // solves in full (contact_rows' first branches) and one spring per pair, to the bit; a pair's
+  // points may differ in normal (so in tangents: a box turned on another, whose clipped edge
+  // crossings each take the normal of their two edges) where the group takes each point's own
+  // (frame; not in a group of blocks, which solves a pair's two normal rows along one normal, nor
+  // with a round side, whose core's travel is read along the pair's). A group the lanes do not
+  // solve is solved one contact at a time, and nothing reads its fields: they are not written.
+  // The directions of the groups with a frame are written in a pass of their own once the frames
+  // are numbered (few groups have one).
   rows::for_ranges(d, G, 64, [&](std::size_t from, std::size_t to) {
     for (std::size_t gi = from; gi < to; ++gi) {
       WideGroup& g = d.wide[gi];
@@ -196,20 +198,9 @@ void widen(const SolverSettings& s, SolverData& d, int passes) {
       }
       if (turned && (g.two || g.round)) g.one_by_one = true;
       g.frame = turned && !g.one_by_one ? 0 : -1;  // (numbered below)
-    }
-  });
-  std::size_t F = 0;
-  for (WideGroup& g : d.wide)
-    if (g.frame >= 0) g.frame = static_cast<int>(F++);
-  d.frames.resize(F);
-  // each group the lanes solve filled by one thread: its pairs' bodies, materials, directions and
-  // springs, and each point's rows and gaps (and directions, with a frame)
-  rows::for_ranges(d, G, 64, [&](std::size_t from, std::size_t to) {
-    for (std::size_t gi = from; gi < to; ++gi) {
-      WideGroup& g = d.wide[gi];
       if (g.one_by_one) continue;
-      const std::size_t points = static_cast<std::size_t>(g.points);
-      PointFrames* frame = g.frame >= 0 ? &d.frames[static_cast<std::size_t>(g.frame)] : nullptr;
+      // its pairs' bodies, materials, directions and springs, and each point's rows and gaps (the
+      // rows just read, still in cache)
       for (std::size_t l = 0; l < kLanes; ++l) {
         const std::size_t k0 = static_cast<std::size_t>(g.first[l]);
         const ContactRows& pair = d.rows[k0];
@@ -254,16 +245,8 @@ void widen(const SolverSettings& s, SolverData& d, int passes) {
           for (int i = 0; i < 3; ++i) p.alpha[i][l] = d.alpha[3 * k + static_cast<std::size_t>(i)];
           p.impulse[l] = soft.impulse;
           p.alpha_max[l] = soft.alpha_max;
-          if (frame)
-            for (int i = 0; i < 3; ++i) {
-              frame->n[j][i][l] = r.n[i];
-              frame->t1[j][i][l] = r.t1[i];
-              frame->t2[j][i][l] = r.t2[i];
-            }
         }
       }
-      // the round sides' core offsets, read only in a group that has one (a group of boxes is
-      // spared writing them: the groups are written whole every step)
       // a group of blocks: each pair's normal rows' deltas and coupling (rows::normal_coupling)
       if (g.two)
         for (std::size_t l = 0; l < kLanes; ++l) {
@@ -272,6 +255,8 @@ void widen(const SolverSettings& s, SolverData& d, int passes) {
           g.K22[l] = d.rows[k0 + 1].delta[0];
           g.K12[l] = rows::normal_coupling(d.rows[k0], d.rows[k0 + 1], d.dI_inv.data());
         }
+      // the round sides' core offsets, read only in a group that has one (a group of boxes is
+      // spared writing them: the groups are written whole every step)
       if (g.round)
         for (std::size_t l = 0; l < kLanes; ++l)
           for (std::size_t j = 0; j < points; ++j) {
@@ -280,6 +265,28 @@ void widen(const SolverSettings& s, SolverData& d, int passes) {
             g.point[j].sigma_b[l] = soft.sigma_b;
           }
       each_point(g, [&](const WideGroup::Point&, std::size_t, std::size_t k) { d.in_lanes[k] = 1; });
+    }
+  });
+  // the frames, numbered in group order, and each framed group's points' directions
+  std::size_t F = 0;
+  for (WideGroup& g : d.wide)
+    if (g.frame >= 0) g.frame = static_cast<int>(F++);
+  d.frames.resize(F);
+  if (F == 0) return;
+  rows::for_ranges(d, G, 64, [&](std::size_t from, std::size_t to) {
+    for (std::size_t gi = from; gi < to; ++gi) {
+      const WideGroup& g = d.wide[gi];
+      if (g.frame < 0) continue;
+      PointFrames& frame = d.frames[static_cast<std::size_t>(g.frame)];
+      for (std::size_t l = 0; l < kLanes; ++l)
+        for (std::size_t j = 0; j < static_cast<std::size_t>(g.points); ++j) {
+          const ContactRows& r = d.rows[point_position(g, l, j)];
+          for (int i = 0; i < 3; ++i) {
+            frame.n[j][i][l] = r.n[i];
+            frame.t1[j][i][l] = r.t1[i];
+            frame.t2[j][i][l] = r.t2[i];
+          }
+        }
     }
   });
 }
