@@ -52,6 +52,52 @@ TEST(Robustness, AnEnergyExplosionIsUndoneAndNamesTheBody) {
   EXPECT_EQ(world.state().time, 0.0);
 }
 
+// An undone step puts the warm-start cache back as it was, bit for bit: the guard keeps the cache
+// the step started with by swapping buffers as the step's runs of rows end (StepGuard::swap_cache),
+// so this holds after one substep's swap, after several, and after a soft step's.
+TEST(Robustness, AnUndoneStepPutsTheWarmStartCacheBack) {
+  for (SolverMethod method : {SolverMethod::PGS, SolverMethod::Soft}) {
+    for (int substeps : {1, 4}) {
+      WorldSettings s;
+      s.solver.method = method;
+      s.solver.substeps = substeps;
+      s.solver.gyroscopic = Gyroscopic::Explicit;
+      s.sleep.enabled = false;
+      World world(s);
+      BodyDesc ground;
+      ground.shape = Plane(Vec3::UnitZ(), 0.0);
+      ground.is_static = true;
+      world.add_body(ground);
+      BodyDesc box;  // resting on the ground: four contacts, each with its cache entry
+      box.shape = Box(Vec3(0.5, 0.5, 0.5));
+      box.mass = 1.0;
+      box.position = Vec3(0.0, 0.0, 0.5);
+      world.add_body(box);
+      BodyDesc spinner;  // far away, spun so fast that its explicit gyroscopic step explodes
+      spinner.shape = Box(Vec3(0.5, 0.25, 0.1));
+      spinner.mass = 1.0;
+      spinner.position = Vec3(20.0, 0.0, 5.0);
+      world.add_body(spinner);
+      for (int k = 0; k < 30; ++k) world.step(1.0 / 60.0);
+      const std::vector<CachedContact> before = world.warm_start_cache();
+      ASSERT_GE(before.size(), 4u);
+      const State state = world.state();
+      world.set_angular_velocity(2, Vec3(200.0, 200.0, 200.0));
+      EXPECT_THROW(world.step(1.0), std::runtime_error) << "method " << static_cast<int>(method);
+      const std::vector<CachedContact> after = world.warm_start_cache();
+      ASSERT_EQ(after.size(), before.size());
+      for (std::size_t k = 0; k < before.size(); ++k) {
+        EXPECT_EQ(after[k].body_a, before[k].body_a);
+        EXPECT_EQ(after[k].feature_a, before[k].feature_a);
+        EXPECT_EQ(after[k].alpha, before[k].alpha);
+        EXPECT_EQ(after[k].friction, before[k].friction);
+      }
+      EXPECT_EQ(world.state().p[1], state.p[1]);
+      EXPECT_EQ(world.state().time, state.time);
+    }
+  }
+}
+
 TEST(Robustness, ShapesAndMassesBeyondDoublePrecisionSaySo) {
   World world;
   auto message = [&](const Shape& shape, double mass) -> std::string {

@@ -38,14 +38,8 @@ void StepGuard::begin(const State& state, const solver::SolverData& solver, cons
     });
     before_.time = state.time;
   }
-  // copied into kept storage, grown geometrically (a copy assignment allocates the exact size),
-  // in ranges over the threads
-  if (cache_before_.capacity() < solver.cache.size()) cache_before_.reserve(2 * solver.cache.size());
-  cache_before_.resize(solver.cache.size());
-  parallel::for_ranges(pool, solver.cache.size(), 4096, [&](std::size_t first, std::size_t end) {
-    std::copy(solver.cache.begin() + static_cast<std::ptrdiff_t>(first), solver.cache.begin() + static_cast<std::ptrdiff_t>(end),
-              cache_before_.begin() + static_cast<std::ptrdiff_t>(first));
-  });
+  held_ = false;  // the cache stays where it is (swap_cache, keep_cache)
+  pool_ = pool;
   whole_forces_ = solver.bodies == nullptr || solver.is_forced.size() != solver.body_force.size();
   if (whole_forces_) {
     force_before_ = solver.body_force;
@@ -62,6 +56,27 @@ void StepGuard::begin(const State& state, const solver::SolverData& solver, cons
     force_before_[k] = solver.body_force[forced_before_[k]];
     torque_before_[k] = solver.body_torque[forced_before_[k]];
   }
+}
+
+void StepGuard::swap_cache(solver::SolverData& solver) {
+  solver.cache.swap(solver.cache_next);
+  if (held_) return;
+  // the cache the step started with is now cache_next, which the next run's store would write
+  cache_before_.swap(solver.cache_next);
+  held_ = true;
+}
+
+void StepGuard::keep_cache(const solver::SolverData& solver) {
+  if (held_) return;
+  // copied into kept storage, grown geometrically (a copy assignment allocates the exact size),
+  // in ranges over the threads
+  if (cache_before_.capacity() < solver.cache.size()) cache_before_.reserve(2 * solver.cache.size());
+  cache_before_.resize(solver.cache.size());
+  parallel::for_ranges(pool_, solver.cache.size(), 4096, [&](std::size_t first, std::size_t end) {
+    std::copy(solver.cache.begin() + static_cast<std::ptrdiff_t>(first), solver.cache.begin() + static_cast<std::ptrdiff_t>(end),
+              cache_before_.begin() + static_cast<std::ptrdiff_t>(first));
+  });
+  held_ = true;
 }
 
 void StepGuard::measure_start(const Model& model, const State& state, const std::vector<BodyIndex>* bodies,
@@ -83,7 +98,8 @@ void StepGuard::undo(State& state, solver::SolverData& solver) {
   checks::copy_into(state.awake, before_.awake);
   checks::copy_into(state.sleep_time, before_.sleep_time);
   checks::copy_into(state.island, before_.island);
-  solver.cache.swap(cache_before_);
+  if (held_) solver.cache.swap(cache_before_);  // (else the step has not moved or changed it)
+  held_ = false;
   if (whole_forces_) {
     solver.body_force.swap(force_before_);
     solver.body_torque.swap(torque_before_);

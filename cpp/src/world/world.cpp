@@ -170,9 +170,11 @@ void World::wake_touched(double dt) {
   // detected again with it awake (its own contacts were not detected while it slept); with
   // sleeping off nothing sleeps (switching it off, or restoring into such a world, wakes all)
   if (!settings_.sleep.enabled) return;
-  while (islands_->mark_touched(model_, state_, contacts_base_) &&
-         islands_->wake_marked(model_, state_, solver_->cache, false, &moving_))
+  while (islands_->mark_touched(model_, state_, contacts_base_)) {
+    guard_->keep_cache(*solver_);  // (the woken islands' stashed entries join the cache)
+    if (!islands_->wake_marked(model_, state_, solver_->cache, false, &moving_)) break;
     detect_contacts(dt, contacts_base_);
+  }
 }
 
 void World::end_islands(double dt) {
@@ -320,7 +322,7 @@ void World::soft_step_once(double dt) {
   SolverStats stats = solver::soft_end(model_, state_, q, contacts_next_, state_.v, state_.omega, *solver_);
   if (soft_runs_ > 0) add_impulse_sums();  // the step's impulses: the runs before summed by key
   end_substep_flags(stats, state_.time);
-  solver_->cache.swap(solver_->cache_next);
+  guard_->swap_cache(*solver_);  // (the cache the step started with kept for an undo)
   lap(t.store);
   continuous();                                        // fast bodies put back before the static ones they passed
   lap(t.continuous);
@@ -456,7 +458,7 @@ bool World::soft_cut(int k, int& n, double& h, int most) {
   // impulses added to the step's sums so far (the report, the certificate and the bodies' sums,
   // is the last run's: not made here)
   solver::soft_end(model_, state_, settings_.solver, contacts_next_, state_.v, state_.omega, *solver_, false);
-  solver_->cache.swap(solver_->cache_next);
+  guard_->swap_cache(*solver_);  // (the cache the step started with kept for an undo)
   if (soft_runs_ == 0) impulse_sum_.assign(contacts_next_.size(), 0.0);
   add_impulse_sums();
   // the run's contacts carried to now, the turned pairs collided again for the rest of the step
@@ -595,7 +597,7 @@ void World::sum_impulses(int k) {
 }
 
 void World::end_substep(const SolverStats& stats, double h) {
-  solver_->cache.swap(solver_->cache_next);
+  guard_->swap_cache(*solver_);  // (the cache the step started with kept for an undo)
   ++report_.steps;
   end_substep_flags(stats, state_.time - h);
 }
