@@ -27,27 +27,36 @@ void grow_by_points(const Points& V, const Mat3& R, const Vec3& p, Vec3& lo, Vec
   }
 }
 
-/// Grows lo, hi by the tight world box of a convex primitive at pose (p, R).
-void grow_by_primitive(const Primitive& shape, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
-  Vec3 e = Vec3::Zero();  // half extents about p, for the closed forms
-  if (const auto* s = std::get_if<Sphere>(&shape)) {
-    e = Vec3::Constant(s->radius);
-  } else if (const auto* b = std::get_if<Box>(&shape)) {
-    e = R.cwiseAbs() * b->half_extents;
-  } else if (const auto* c = std::get_if<Capsule>(&shape)) {
-    e = c->half_length * R.col(2).cwiseAbs() + Vec3::Constant(c->radius);
-  } else if (const auto* c = std::get_if<Cylinder>(&shape)) {
-    // the caps are disks of normal a: along axis i a disk reaches r sqrt(1 - a_i^2)
-    const Vec3 a = R.col(2);
-    for (int i = 0; i < 3; ++i) e[i] = c->half_height * std::abs(a[i]) + c->radius * std::sqrt(std::max(0.0, 1.0 - a[i] * a[i]));
-  } else if (const auto* h = std::get_if<ConvexHull>(&shape)) {
-    grow_by_points(h->vertices, R, p, lo, hi);
-    return;
-  } else {
-    throw std::logic_error("broad phase: no bounding box for this primitive");
-  }
+/// Grows lo, hi by the tight world box of a convex primitive at pose (p, R), taken as its own
+/// kind by reference: made into a Primitive, a box or a hull would be copied with its shared
+/// polytope (an atomic count that two threads boxing identical bodies fought over) and a hull with
+/// its vertices (two allocations), for every body in every step.
+void grow_by(const Sphere& s, const Mat3&, const Vec3& p, Vec3& lo, Vec3& hi) {
+  const Vec3 e = Vec3::Constant(s.radius);
   lo = lo.cwiseMin(p - e);
   hi = hi.cwiseMax(p + e);
+}
+void grow_by(const Box& b, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
+  const Vec3 e = R.cwiseAbs() * b.half_extents;
+  lo = lo.cwiseMin(p - e);
+  hi = hi.cwiseMax(p + e);
+}
+void grow_by(const Capsule& c, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
+  const Vec3 e = c.half_length * R.col(2).cwiseAbs() + Vec3::Constant(c.radius);
+  lo = lo.cwiseMin(p - e);
+  hi = hi.cwiseMax(p + e);
+}
+void grow_by(const Cylinder& c, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
+  // the caps are disks of normal a: along axis i a disk reaches r sqrt(1 - a_i^2)
+  const Vec3 a = R.col(2);
+  Vec3 e;
+  for (int i = 0; i < 3; ++i) e[i] = c.half_height * std::abs(a[i]) + c.radius * std::sqrt(std::max(0.0, 1.0 - a[i] * a[i]));
+  lo = lo.cwiseMin(p - e);
+  hi = hi.cwiseMax(p + e);
+}
+void grow_by(const ConvexHull& h, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) { grow_by_points(h.vertices, R, p, lo, hi); }
+void grow_by_primitive(const Primitive& shape, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
+  std::visit([&](const auto& s) { grow_by(s, R, p, lo, hi); }, shape);
 }
 
 /// The tight world box of a shape at pose (p, R): the rotated shape's own extent, not the box of
@@ -69,7 +78,7 @@ void tight_aabb(const Shape& shape, const Mat3& R, const Vec3& p, Vec3& lo, Vec3
         [&](const auto& s) {
           using T = std::decay_t<decltype(s)>;
           if constexpr (is_primitive_v<T>)
-            grow_by_primitive(Primitive(s), R, p, lo, hi);
+            grow_by(s, R, p, lo, hi);
         },
         shape);
   }

@@ -240,8 +240,15 @@ double part_radius(const Primitive& shape, const Vec3& t, const Mat3& R) {
       }
       return out;
     }
+    /// max_i |v_i R^T + t| (a row at a time: the whole product would be a matrix on the heap, and
+    /// a step asks for the radius of a pair's shapes)
     double farthest(const Points& v) const {
-      return ((v * R.transpose()).rowwise() + t.transpose()).rowwise().norm().maxCoeff();
+      double out = 0.0;
+      for (Eigen::Index i = 0; i < v.rows(); ++i) {
+        const Eigen::RowVector3d x = v.row(i) * R.transpose() + t.transpose();
+        out = i == 0 ? x.norm() : std::max(out, x.norm());
+      }
+      return out;
     }
   };
   return std::visit(Radius{t, R}, shape);
