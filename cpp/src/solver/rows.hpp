@@ -46,7 +46,7 @@ void for_ranges(const SolverData& d, std::size_t n, std::size_t grain, F&& f) {
 
 /// sweep(begin, end) over the solve positions [0, K), K = d.rows.size(), in solve order colour by
 /// colour; each colour (whose units share no moving body) cut into the blocks of solve_order
-/// (about kContactsPerTask contacts, never splitting a unit or a WideGroup) that d.pool's threads
+/// (at least kContactsPerTask contacts, never splitting a unit or a WideGroup) that d.pool's threads
 /// claim in order from one counter, and the shared last colour (whose contacts may share a body)
 /// one block, so that every thread count gives the bits of one thread. A thread that claims a
 /// block of colour c first waits until every block of the colours before c is done (each was
