@@ -27,8 +27,9 @@ void* map_huge(std::size_t bytes) {
 
 void unmap_huge(void* p, std::size_t bytes) noexcept { munmap(p, round_up(bytes, kHugePage)); }
 #else
-void* map_huge(std::size_t bytes) { return ::operator new(bytes); }
-void unmap_huge(void* p, std::size_t) noexcept { ::operator delete(p); }
+// (not called: HugePageAllocator takes the heap where kMapsHuge is false)
+void* map_huge(std::size_t bytes) { return ::operator new(bytes, std::align_val_t(kHugePage)); }
+void unmap_huge(void* p, std::size_t) noexcept { ::operator delete(p, std::align_val_t(kHugePage)); }
 #endif
 
 }  // namespace signorini::parallel
