@@ -27,34 +27,36 @@ void grow_by_points(const Points& V, const Mat3& R, const Vec3& p, Vec3& lo, Vec
   }
 }
 
+/// lo, hi grown by the box of half extents e about p.
+void grow_about(const Vec3& p, const Vec3& e, Vec3& lo, Vec3& hi) {
+  lo = lo.cwiseMin(p - e);
+  hi = hi.cwiseMax(p + e);
+}
+
 /// Grows lo, hi by the tight world box of a convex primitive at pose (p, R), taken as its own
 /// kind by reference: made into a Primitive, a box or a hull would be copied with its shared
 /// polytope (an atomic count that two threads boxing identical bodies fought over) and a hull with
 /// its vertices (two allocations), for every body in every step.
 void grow_by(const Sphere& s, const Mat3&, const Vec3& p, Vec3& lo, Vec3& hi) {
-  const Vec3 e = Vec3::Constant(s.radius);
-  lo = lo.cwiseMin(p - e);
-  hi = hi.cwiseMax(p + e);
+  grow_about(p, Vec3::Constant(s.radius), lo, hi);
 }
 void grow_by(const Box& b, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
-  const Vec3 e = R.cwiseAbs() * b.half_extents;
-  lo = lo.cwiseMin(p - e);
-  hi = hi.cwiseMax(p + e);
+  grow_about(p, R.cwiseAbs() * b.half_extents, lo, hi);
 }
 void grow_by(const Capsule& c, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
-  const Vec3 e = c.half_length * R.col(2).cwiseAbs() + Vec3::Constant(c.radius);
-  lo = lo.cwiseMin(p - e);
-  hi = hi.cwiseMax(p + e);
+  grow_about(p, c.half_length * R.col(2).cwiseAbs() + Vec3::Constant(c.radius), lo, hi);
 }
 void grow_by(const Cylinder& c, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
   // the caps are disks of normal a: along axis i a disk reaches r sqrt(1 - a_i^2)
   const Vec3 a = R.col(2);
   Vec3 e;
-  for (int i = 0; i < 3; ++i) e[i] = c.half_height * std::abs(a[i]) + c.radius * std::sqrt(std::max(0.0, 1.0 - a[i] * a[i]));
-  lo = lo.cwiseMin(p - e);
-  hi = hi.cwiseMax(p + e);
+  for (int i = 0; i < 3; ++i)
+    e[i] = c.half_height * std::abs(a[i]) + c.radius * std::sqrt(std::max(0.0, 1.0 - a[i] * a[i]));
+  grow_about(p, e, lo, hi);
 }
-void grow_by(const ConvexHull& h, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) { grow_by_points(h.vertices, R, p, lo, hi); }
+void grow_by(const ConvexHull& h, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
+  grow_by_points(h.vertices, R, p, lo, hi);
+}
 void grow_by_primitive(const Primitive& shape, const Mat3& R, const Vec3& p, Vec3& lo, Vec3& hi) {
   std::visit([&](const auto& s) { grow_by(s, R, p, lo, hi); }, shape);
 }
