@@ -24,6 +24,10 @@
 namespace {
 std::atomic<bool> counting{false};
 std::atomic<long> allocations{0};
+/// One allocation, counted while counting.
+void count_allocation() {
+  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
+}
 }  // namespace
 
 // malloc and its kin too, which Eigen's dynamic matrices call directly (not operator new): glibc
@@ -37,23 +41,23 @@ void* __libc_calloc(std::size_t n, std::size_t size);
 void* __libc_realloc(void* p, std::size_t size);
 void* __libc_memalign(std::size_t alignment, std::size_t size);
 void* malloc(std::size_t size) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
+  count_allocation();
   return __libc_malloc(size);
 }
 void* calloc(std::size_t n, std::size_t size) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
+  count_allocation();
   return __libc_calloc(n, size);
 }
 void* realloc(void* p, std::size_t size) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
+  count_allocation();
   return __libc_realloc(p, size);
 }
 void* aligned_alloc(std::size_t alignment, std::size_t size) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
+  count_allocation();
   return __libc_memalign(alignment, size);
 }
 int posix_memalign(void** out, std::size_t alignment, std::size_t size) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
+  count_allocation();
   *out = __libc_memalign(alignment, size);
   return *out ? 0 : ENOMEM;
 }
@@ -69,7 +73,7 @@ constexpr bool kCountsMalloc = false;
 // every form of operator new goes through these two (counted once: they take the memory from
 // glibc directly); the deletes only have to match malloc/free
 void* operator new(std::size_t size) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
+  count_allocation();
   if (void* p = SIGNORINI_RAW_MALLOC(size ? size : 1)) return p;
   throw std::bad_alloc();
 }
@@ -83,7 +87,7 @@ void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
 }
 void* operator new[](std::size_t size, const std::nothrow_t& tag) noexcept { return operator new(size, tag); }
 void* operator new(std::size_t size, std::align_val_t align) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
+  count_allocation();
   const std::size_t a = static_cast<std::size_t>(align);
   if (void* p = SIGNORINI_RAW_MEMALIGN(a, (size + a - 1) / a * a)) return p;
   throw std::bad_alloc();

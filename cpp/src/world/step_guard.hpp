@@ -20,12 +20,13 @@ namespace parallel { class Pool; }
 class StepGuard {
  public:
   /// Checkpoint at the start of a step (before the pending impulses): keeps state and contact
-  /// forces in storage reused from step to step, and the cache as it is (swap_cache, keep_cache). bodies: the bodies a step can change (the
-  /// World's non-static bodies, ascending; null: all), the only ones copied once a whole copy has
-  /// been taken: a step never changes a static body, and whatever else changes one (a setter, a
-  /// restore, bodies added or removed) calls invalidate() first. Contact forces: only the entries
-  /// listed as forced (solver::SolverData::forced) when the solver has a body list. The bodies'
-  /// entries and the cache are copied on pool's threads (null: the calling thread alone).
+  /// forces in storage reused from step to step, and the cache as it is (swap_cache, keep_cache).
+  /// bodies: the bodies a step can change (the World's non-static bodies, ascending; null: all),
+  /// the only ones copied once a whole copy has been taken: a step never changes a static body, and
+  /// whatever else changes one (a setter, a restore, bodies added or removed) calls invalidate()
+  /// first. Contact forces: only the entries listed as forced (solver::SolverData::forced) when the
+  /// solver has a body list. The bodies' entries (and keep_cache's copy) are copied on pool's
+  /// threads (null: the calling thread alone).
   void begin(const State& state, const solver::SolverData& solver, const std::vector<BodyIndex>* bodies = nullptr,
              const parallel::Pool* pool = nullptr);
   /// The next begin() copies the whole state (a static body's state changed, or the body count).
