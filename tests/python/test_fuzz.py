@@ -166,11 +166,26 @@ def test_the_summary_counts_every_scene(sample):
     assert len(report["results"]) == SAMPLE_SCENES
     clean = sum(not r["failures"] for r in report["results"])
     assert f": {clean} clean; " in lines[-1]
-    deep = sum(r["max_overlap"] > fuzz.DEEP_OVERLAP for r in report["results"])
-    assert f"({deep} scenes past 50%)" in lines[-1]
+    deep = [r for r in report["results"] if r["max_overlap"] > fuzz.DEEP_OVERLAP]
+    in_range = [r["scene"] for r in deep if r["mass_ratio"] <= fuzz.MASS_RATIO_TARGET]
+    assert f"({len(deep)} scenes past 50%, {len(in_range)} of them with masses within 1:1000" in lines[-1]
+    assert all(name in lines[-1] for name in in_range)
     for r in report["results"]:
         for key in ("max_overlap", "max_energy_gain", "max_point_error"):
             assert math.isfinite(r[key])
+        assert r["mass_ratio"] >= 1.0
+
+
+def test_a_scenes_mass_ratio_counts_its_structures_links():
+    # scene 1:1's free bodies span 1:22 in mass; its chains' links make the scene's span 1:73
+    scene = fuzz.generate(1, 1)
+    world, _ = fuzz.build(scene)
+    m = world.masses[~world.is_static]  # the floor is not counted
+    free = [b["mass"] for b in scene["bodies"]]
+    result = fuzz.run({**scene, "duration": 2 * scene["dt"]})
+    assert result["mass_ratio"] == m.max() / m.min()
+    assert result["mass_ratio"] > 3 * max(free) / min(free)
+    assert fuzz.mass_ratio(np.array([2.0])) == 1.0
 
 
 def test_the_solver_option_runs_every_scene_with_that_solver():
