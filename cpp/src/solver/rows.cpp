@@ -245,8 +245,10 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
   const bool recalled = recall != nullptr && find_recalled(contacts, d);
   d.rows.resize(K);
   assign_n(d.alpha, 3 * K, 0.0);
-  d.u.resize(K);
-  d.e.resize(K);
+  // e_i and u_i zero, in order, and written below only for a contact that can bounce (a write
+  // where the solve position takes it, for every contact, reached a cache line out of order)
+  assign_n(d.u, K, 0.0);
+  assign_n(d.e, K, 0.0);
   if (springs) d.soft.resize(K);
   std::atomic<bool> spinning{false};  // some contact's pair has spinning friction
   // each contact writes only its own rows, u_i and e_i: split over the threads
@@ -278,10 +280,12 @@ void prepare(const Model& model, const State& state, double dt, const std::vecto
       make_rows(f, d.dI_inv, r_a, r_b, dir, r);
       // a speculative contact may close its gap, no more; an overlap is left to the position pass
       r.bias = std::max(c.gap, 0.0) / dt;
-      d.e[k] = f.e;
       // the approach is read only by a contact that can bounce (restitution, the certificate's
       // target of a restitutive contact): the others skip gathering their bodies' velocities
-      d.u[k] = f.e > 0.0 ? normal_velocity(r, d.qd) : 0.0;
+      if (f.e > 0.0) {
+        d.e[k] = f.e;
+        d.u[k] = normal_velocity(r, d.qd);
+      }
       if (recalled && d.recalled[i] >= 0) recall_force(*recall, d, i, k, r.t1, r.t2, r.mu);
       if (springs) {  // the soft step's point: its spring, its gap, a round side's core offset
         SoftPoint& p = d.soft[k];
