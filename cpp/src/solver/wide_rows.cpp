@@ -278,7 +278,8 @@ void widen(const SolverSettings& s, SolverData& d, int passes) {
   // Each group is filled in a copy on the thread's stack, then put in place whole (put): filled
   // in place, field by field and lane by lane, each of the group's 62 cache lines (out of cache
   // since the last step's sweeps) was read for ownership at its first write, one miss after
-  // another; copied whole, the lines stream (the 5,050-cube pyramid: prepare 11.7 -> 10.5 ms on 1 thread).
+  // another; copied whole, the lines stream (the 5,050-cube pyramid, 1 thread: prepare 11.7 ->
+  // 10.5 ms).
   rows::for_ranges(d, G, 64, [&](std::size_t from, std::size_t to) {
     alignas(64) WideGroup g;
     for (std::size_t gi = from; gi < to; ++gi) {
