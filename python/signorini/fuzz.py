@@ -941,7 +941,7 @@ def run_many(count: int, seed: int, jobs: int = 1, timeout: float = 300.0, out=p
         return f"{format(r[key], fmt)} ({r['scene']})"
 
     deep = [r for r in got if r["max_overlap"] > DEEP_OVERLAP]
-    deep_in_range = [r for r in deep if r.get("mass_ratio", math.inf) <= MASS_RATIO_TARGET]
+    deep_in_range = [r for r in deep if r["mass_ratio"] <= MASS_RATIO_TARGET]
     summary = (f"fuzz {count} scenes, seed {seed}{f', solver {solver}' if solver else ''}: {clean} clean; " +
                ", ".join(f"{kind} {counts[kind]}" for kind in FAILURES) +
                f"; deepest overlap {worst('max_overlap', '.0%')} of inner size "
