@@ -307,6 +307,63 @@ TEST(BroadPhase, FatBoxesGiveExactlyThePairsWhoseBoxesOverlapWhateverMoves) {
 
 // ---- determinism -------------------------------------------------------------------------------
 
+TEST(BroadPhase, EscapedBodiesMeetEveryBodyTheirBoxesNowReach) {
+  // within a step: after pairs() at the step's start, most dynamic bodies move within their reach
+  // (a shift of 0.9 reach), while 20 escape it (shifted 0.3 to 0.6 m and turned): escaped_pairs
+  // must give every pair of an escaped body whose boxes at the new poses, grown by the reach from
+  // there + margin/2, overlap (the candidates a detection now would test), and only such pairs
+  const double dt = 1.0 / 60.0, margin = 0.005, side = 4.5;
+  const Vec3 gravity(0, 0, -9.81);
+  for (std::uint64_t seed : {21u, 22u, 23u}) {
+    scenes::Scene scene = scenes::random_scene(seed, 200, scenes::Mix::AllConvex, side, 0.05, 0.4, 5.0, 8.0, 0.2);
+    collision::BroadPhase broad_phase;
+    scenes::register_bodies(scene, broad_phase);
+    const std::vector<double> reach = reach_of(scene, dt, gravity);
+    pairs_of(broad_phase, scene, reach, margin);
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    const auto direction = [&] {
+      Vec3 d(u(rng), u(rng), u(rng));
+      return Vec3(d.norm() > 1e-3 ? Vec3(d.normalized()) : Vec3::UnitX());
+    };
+    std::vector<BodyIndex> escaped;
+    for (std::size_t i = 0; i < scene.size(); ++i) {
+      if (scene.model.is_static[i]) continue;
+      if (escaped.size() < 20 && i % 7 == 3) {
+        escaped.push_back(static_cast<BodyIndex>(i));
+        scene.state.p[i] += (0.3 + 0.3 * std::abs(u(rng))) * direction();
+        scene.state.R[i] = math::rodrigues(direction(), 1.0) * scene.state.R[i];
+      } else {
+        scene.state.p[i] += 0.9 * reach[i] * direction();
+      }
+    }
+    ASSERT_EQ(escaped.size(), 20u);
+    const std::vector<double> now = reach_of(scene, 0.5 * dt, gravity);
+    double bound = 0.0;
+    for (double r : now) bound = std::max(bound, r);
+    std::vector<Pair> found;
+    std::vector<const void*> stack;
+    broad_phase.escaped_pairs(scene.model, scene.state, escaped, now, bound, margin, found, stack);
+    EXPECT_TRUE(std::is_sorted(found.begin(), found.end()));
+    EXPECT_EQ(std::set<Pair>(found.begin(), found.end()).size(), found.size()) << "duplicate pairs";
+    const auto is_escaped = [&](BodyIndex i) { return std::binary_search(escaped.begin(), escaped.end(), i); };
+    std::size_t expected = 0;
+    const std::set<Pair> found_set(found.begin(), found.end());
+    for (const Pair& p : box_pairs(scene, now, margin)) {
+      if (!is_escaped(p.first) && !is_escaped(p.second)) continue;
+      ++expected;
+      EXPECT_TRUE(found_set.count(p)) << "seed " << seed << ": misses (" << p.first << ", " << p.second << ")";
+    }
+    const std::vector<Pair> all = box_pairs(scene, now, margin);
+    const std::set<Pair> all_set(all.begin(), all.end());
+    for (const Pair& p : found) {
+      EXPECT_TRUE(is_escaped(p.first) || is_escaped(p.second)) << "(" << p.first << ", " << p.second << ")";
+      EXPECT_TRUE(all_set.count(p)) << "(" << p.first << ", " << p.second << ") whose boxes do not overlap";
+    }
+    EXPECT_GT(expected, 0u) << "seed " << seed << ": no escaped body meets another";
+  }
+}
+
 TEST(Determinism, CollideTwiceGivesBitIdenticalContacts) {
   // every pair of a random scene that has contacts, collided twice (with other pairs in between,
   // so that scratch buffers are reused), gives the same bits

@@ -407,16 +407,26 @@ class World {
   void soft_step_once(double dt);
   /// The step's contacts carried to substep k into contacts_next_ (k = 0: as detected); from k = 1
   /// on, the pairs whose bodies' turns since the step's detection moved their points too far
-  /// (collision::turned_far) collided again (collision::redetect_turned, for the `rest` of the
-  /// step, s), and the step's impulse sums then matched to the new list by contact key.
+  /// (collision::turned_far), and the pairs of escaped bodies (find_escaped) that carry no
+  /// contact, collided again (collision::redetect_turned, for the `rest` of the step, s), and the
+  /// step's impulse sums then matched to the new list by contact key.
   void carry_contacts(int k, double rest);
+  /// escaped_ (ascending) and escaped_flag_ (N): the awake dynamic bodies (not kinematic) whose
+  /// surface has moved further since `from` (the step's start) than the step's detection reached
+  /// for them, |p - p_0| + turned_ > scratch_->reach (a body set moving within the step: struck by
+  /// a faster one, pulled by a joint); with any, escape_pairs_: their candidate pairs at the
+  /// present poses for the `rest` of the step (collision::BroadPhase::escaped_pairs), those
+  /// model.can_collide refuses, a sensor's and a sleeping body's left out. Returns whether any
+  /// body escaped. Reads turned_ (find_turned first).
+  bool find_escaped(const State& from, double rest);
   /// turned_ (N): how far each awake, non-spherical body's turn since `from` (the step's start,
   /// or where the soft step's rows were made) has moved its points, at most (m; 0 for the others:
   /// a sphere's contacts do not follow its turn).
   void find_turned(const State& from);
   /// contacts_next_ and anchor_a_, anchor_b_ (carried) with the pairs turned far (turned_) collided
   /// again at the present poses for the `rest` of the step (collision::redetect_turned).
-  void redetect_turned(double rest);
+  /// escapes: also the escaped bodies' pairs that carry no contact (find_escaped's; the PGS step's).
+  void redetect_turned(double rest, bool escapes = false);
   /// The most substeps the turning rule gives a step of dt whose own rule gives n:
   /// max(collision::kTurnSubsteps per 1/kTurnRate s begun, collision::kTurnSubstepFactor n). A step
   /// takes at most half of them before its first substep, so that a body set turning by an impact
@@ -557,6 +567,11 @@ class World {
   std::vector<Vec3> v_, omega_;          ///< q_dot* and then q_dot^{t+1}
   std::vector<double> impulse_sum_;      ///< per contact: its normal impulse over the substeps so far (N s)
   std::vector<double> turned_;           ///< per body: how far its turn since the step's detection moved it (m)
+  std::vector<BodyIndex> escaped_;       ///< the bodies that outran the step's reach (find_escaped), ascending
+  std::vector<char> escaped_flag_;       ///< per body: 1 for those of escaped_
+  std::vector<double> escape_reach_;     ///< per body: its reach from the present poses for the rest of the step (m)
+  std::vector<std::pair<BodyIndex, BodyIndex>> escape_pairs_;  ///< the escaped bodies' candidate pairs now
+  std::vector<const void*> escape_stack_;///< the tree walk's stack
   /// the smallest inner radius of any body (m; soft_cut's bound), negative until read after the
   /// bodies changed (bodies_changed), so that a step's cost does not follow the static bodies
   mutable double least_inner_ = -1.0;

@@ -525,6 +525,18 @@ class BroadPhase {
   /// it is added), which skips walking the moving bodies' trees.
   void overlap_box(const Vec3& lo, const Vec3& hi, std::vector<BodyIndex>& out, std::vector<const void*>& stack,
                    std::int64_t& nodes, bool statics_only = false) const;
+  /// Within a step, after pairs(): the pairs (i, j), i < j, of at least one body of `escaped`
+  /// (ascending: awake dynamic bodies whose surface has moved further since the step's start than
+  /// pairs() was given as their reach) whose boxes at `now`, grown by reach[i] + margin/2 and
+  /// reach[j] + margin/2, overlap (planes excluded), sorted, appended to out (cleared first).
+  /// Every other body is inside the leaf pairs() gave it (it stayed within its reach), so the
+  /// trees are walked with an escaped body's grown box grown once more by the largest reach +
+  /// margin/2 (reach_bound) and the bodies met are tested with their boxes at `now`; escaped
+  /// bodies are tested against each other directly (their leaves are out of date). reach (N, m):
+  /// each body's reach from `now` (body_reach for the rest of the step).
+  void escaped_pairs(const Model& model, const State& now, const std::vector<BodyIndex>& escaped,
+                     const std::vector<double>& reach, double reach_bound, double margin,
+                     std::vector<std::pair<BodyIndex, BodyIndex>>& out, std::vector<const void*>& stack) const;
 
  private:
   /// Sets every static body's box from its pose, grown by margin/2, and refits the static tree.
@@ -645,18 +657,23 @@ bool any_turned(const Model& model, const std::vector<std::pair<BodyIndex, BodyI
 
 /// The step's contacts in a substep after some pairs have turned far since the detection
 /// (turned_far; docs/conventions.md, "Deep overlaps": a body's rows aim where its contacts were
-/// found, and a turn moves a corner's contact off its face): the pairs of the step's candidate
-/// list scratch.pairs (as the last generate_contacts left it) that have turned far are collided
-/// again at `now`, as a detection at `now` for a step of dt would (dt: what is left of the
-/// step; speculative reach from now's velocities: body_reach; no memory written), their contacts'
-/// anchors at their points; the other pairs' carried contacts and anchors (carried, carried_a,
+/// found, and a turn moves a corner's contact off its face), or some body has escaped (moved
+/// further than the detection's reach for it: BroadPhase::escaped_pairs): the pairs of the step's
+/// candidate list scratch.pairs (as the last generate_contacts left it) that have turned far are
+/// collided again at `now`, as a detection at `now` for a step of dt would (dt: what is left of
+/// the step; speculative reach from now's velocities: body_reach; no memory written), their
+/// contacts' anchors at their points; so are, with `escaped` (N flags; null: none), the pairs of
+/// an escaped body that carry no contact, among scratch.pairs and `extra` (sorted candidate
+/// pairs of the escaped bodies at `now`, some new to the step; the caller leaves out those of a
+/// sensor or a sleeping body). The other pairs' carried contacts and anchors (carried, carried_a,
 /// carried_b: carry_contacts's, in pair order) are copied. Written into out, anchor_a, anchor_b,
 /// in pair order. turned (N): how far each body's turn has moved its points (m).
 void redetect_turned(const Model& model, const State& now, double dt, const Vec3& gravity, double margin,
                      const BroadPhase& broad_phase, const ContactMemory& memory, Scratch& scratch,
                      const std::vector<double>& turned, const std::vector<Contact>& carried,
                      const std::vector<Vec3>& carried_a, const std::vector<Vec3>& carried_b, std::vector<Contact>& out,
-                     std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b);
+                     std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b, const std::vector<char>* escaped = nullptr,
+                     const std::vector<std::pair<BodyIndex, BodyIndex>>* extra = nullptr);
 
 /// The speed (m/s) at which a body turning at |omega| (rad/s) can move its surface over a step of
 /// dt towards another, with bounding radius rho (m): |omega| rho, but a turn moves no point

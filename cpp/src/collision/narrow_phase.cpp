@@ -901,17 +901,35 @@ void redetect_turned(const Model& model, const State& now, double dt, const Vec3
                      const BroadPhase& broad_phase, const ContactMemory& memory, Scratch& scratch,
                      const std::vector<double>& turned, const std::vector<Contact>& carried,
                      const std::vector<Vec3>& carried_a, const std::vector<Vec3>& carried_b, std::vector<Contact>& out,
-                     std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b) {
+                     std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b, const std::vector<char>* escaped,
+                     const std::vector<std::pair<BodyIndex, BodyIndex>>* extra) {
   out.clear();
   anchor_a.clear();
   anchor_b.clear();
   const std::size_t K = carried.size();
+  const auto& listed = scratch.pairs;
+  static const std::vector<std::pair<BodyIndex, BodyIndex>> none;
+  const auto& added = extra ? *extra : none;
+  const auto escapes = [&](BodyIndex x) { return escaped != nullptr && (*escaped)[static_cast<std::size_t>(x)] != 0; };
   std::size_t i = 0;  // the carried contacts, in pair order: a pair's run starts at i
-  for (const auto& [first, second] : scratch.pairs) {
+  // the step's candidate pairs and the escaped bodies' pairs at `now`, merged in pair order (a
+  // pair in both once)
+  for (std::size_t u = 0, w = 0; u < listed.size() || w < added.size();) {
+    const bool from_listed = w == added.size() || (u < listed.size() && listed[u] <= added[w]);
+    const auto [first, second] = from_listed ? listed[u] : added[w];
+    const bool in_added = w < added.size() && added[w] == std::make_pair(first, second);
+    if (from_listed) ++u;
+    if (in_added) ++w;
     const auto [a, b] = collided_order(model, first, second);
     const std::size_t from = i;
-    while (i < K && carried[i].body_a == a && carried[i].body_b == b) ++i;
-    if (turned_far(model, a, b, turned)) {
+    while (from_listed && i < K && carried[i].body_a == a && carried[i].body_b == b) ++i;
+    // an escaped body's pair without a carried contact: the step's detection did not reach it
+    // (a candidate new to the step, or one whose points it found out of reach); never a sensor's
+    // (not solved) nor a sleeping body's (it wakes at the next detection)
+    const auto sleeps = [&](BodyIndex x) { return !model.is_static[x] && now.asleep(x); };
+    const bool lost = (escapes(a) || escapes(b)) && i == from && !model.is_sensor[a] && !model.is_sensor[b] &&
+                      !sleeps(a) && !sleeps(b);
+    if (turned_far(model, a, b, turned) || lost) {
       const std::size_t before = out.size();
       TrianglePast past;  // (the crossing it finds is the next detection's to find)
       collide_pair(model, now, a, b, body_reach(model, now, a, dt, gravity), body_reach(model, now, b, dt, gravity), dt,

@@ -196,6 +196,8 @@ void World::bodies_changed(bool relist) {
   v_.clear();
   omega_.clear();
   turned_.clear();
+  escaped_.clear();
+  escaped_flag_.clear();
   scratch_->reach.clear();
   least_inner_ = -1.0;
 }
@@ -376,20 +378,23 @@ void World::carry_contacts(int k, double rest) {
   }
   find_turned(guard_->start());
   const bool turned = collision::any_turned(model_, scratch_->pairs, turned_);
+  // a body set moving past its reach within the step (docs/conventions.md, "Deep overlaps":
+  // escaped bodies): its pairs that the detection did not reach are found now
+  const bool escaped = find_escaped(guard_->start(), rest);
   // the step's impulse sums follow the contacts by key when the list is not the carried one
-  const bool rekey = turned || redetected_;
+  const bool rekey = turned || escaped || redetected_;
   if (rekey) contacts_prev_.swap(contacts_next_);  // (their impulses are the sums so far: sum_impulses)
   collision::carry_contacts(model_, contacts_base_, guard_->start(), state_, contacts_next_, anchor_a_, anchor_b_,
                             nullptr, nullptr, pool_.get());
-  if (turned) redetect_turned(rest);
-  redetected_ = turned;
+  if (turned || escaped) redetect_turned(rest, escaped);
+  redetected_ = turned || escaped;
   if (rekey) match_impulses(contacts_prev_, contacts_next_, impulse_sum_);
 }
 
-void World::redetect_turned(double rest) {
+void World::redetect_turned(double rest, bool escapes) {
   collision::redetect_turned(model_, state_, rest, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
                              *scratch_, turned_, contacts_next_, anchor_a_, anchor_b_, redetected_list_, redetected_a_,
-                             redetected_b_);
+                             redetected_b_, escapes ? &escaped_flag_ : nullptr, escapes ? &escape_pairs_ : nullptr);
   contacts_next_.swap(redetected_list_);
   anchor_a_.swap(redetected_a_);
   anchor_b_.swap(redetected_b_);
@@ -578,6 +583,35 @@ void World::find_turned(const State& from) {
     const bool still = state_.asleep(i) || std::holds_alternative<Sphere>(model_.shape[i]);
     turned_[i] = still ? 0.0 : std::sqrt(std::max(0.0, 3.0 - state_.R[i].cwiseProduct(from.R[i]).sum())) * model_.rho[i];
   });
+}
+
+bool World::find_escaped(const State& from, double rest) {
+  // (in body order on the calling thread: a few operations per moving body, beside a substep's
+  // sweeps; only the moving bodies' entries are written, as for turned_)
+  parallel::fit(escaped_flag_, model_.size(), char(0));
+  for (const BodyIndex i : escaped_) escaped_flag_[static_cast<std::size_t>(i)] = 0;
+  escaped_.clear();
+  const std::vector<double>& reach = scratch_->reach;  // the step's detection's
+  for (const BodyIndex i : moving_) {
+    if (model_.is_kinematic[i] || state_.asleep(i)) continue;
+    if ((state_.p[i] - from.p[i]).norm() + turned_[i] > reach[i]) {
+      escaped_.push_back(i);
+      escaped_flag_[static_cast<std::size_t>(i)] = 1;
+    }
+  }
+  if (escaped_.empty()) return false;
+  collision::speculative_reach(model_, state_, rest, settings_.gravity, escape_reach_, &moving_);
+  double bound = 0.0;
+  for (const BodyIndex i : moving_) bound = std::max(bound, escape_reach_[i]);
+  broad_phase_->escaped_pairs(model_, state_, escaped_, escape_reach_, bound, settings_.contact_margin, escape_pairs_,
+                              escape_stack_);
+  const auto sleeps = [&](BodyIndex x) { return !model_.is_static[x] && state_.asleep(x); };
+  const auto refused = [&](const std::pair<BodyIndex, BodyIndex>& p) {
+    return !model_.can_collide(p.first, p.second) || model_.is_sensor[p.first] || model_.is_sensor[p.second] ||
+           sleeps(p.first) || sleeps(p.second);
+  };
+  escape_pairs_.erase(std::remove_if(escape_pairs_.begin(), escape_pairs_.end(), refused), escape_pairs_.end());
+  return true;
 }
 
 void World::sum_impulses(int k) {

@@ -19,7 +19,7 @@ import copy
 
 import numpy as np
 
-from .contacts import bounding_radius, detect_contacts
+from .contacts import bounding_radius, detect_contacts, speculative_reach
 from .joints import break_joints
 from .rigid import apply_impulses, integrate, motion_flags, unconstrained_velocity
 from .soft import contact_rounding, soft_step
@@ -228,15 +228,17 @@ def turn_substeps(snapshot, contacts, span):
     return int(min(max(np.ceil(span * fastest / TURN_REACH - 1e-9), 1), 10**6))
 
 
-def redetect_turned(contacts, carried, detected, now, dt):
+def redetect_turned(contacts, carried, detected, now, dt, escaped=None):
     """The step's contacts in a substep: ``carried`` (carry_contacts's), but for the pairs whose
     bodies' turns since ``detected`` moved their points more than TURN_REACH of the pair's
     smaller inner radius (a turn from R_0 to R moves a point at rho by sqrt(3 - tr(R R_0^T)) rho
     at most), whose contacts are found again at ``now`` as a detection for a step of dt (what is
-    left of the step) finds them,
-    their anchors at their points. None when no pair has turned so far.
+    left of the step) finds them, their anchors at their points; and, with ``escaped`` (N,) bool
+    (``escaped_bodies``), the pairs of an escaped body that carry no contact, found at ``now``
+    likewise (a pair the step's detection left out, or kept no point of, on the reach the
+    escaped body has outrun). None when no pair has turned and no body escaped so far.
 
-    Inputs: contacts dict (the step's, as detected), carried dict, two snapshots, dt s.
+    Inputs: contacts dict (the step's, as detected), carried dict, two snapshots, dt s, escaped.
     Output: a contacts dict (pair order) with anchor_a, anchor_b, or None.
     """
     rho, inner = _turn_radii(detected)
@@ -245,7 +247,8 @@ def redetect_turned(contacts, carried, detected, now, dt):
     moved = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("kij,kij->k", R, R0))) * rho
 
     far = moved[:, None] + moved[None, :] > TURN_REACH * np.minimum(inner[:, None], inner[None, :])
-    if not far.any():
+    escaped = np.zeros(len(rho), dtype=bool) if escaped is None else np.asarray(escaped, dtype=bool)
+    if not far.any() and not escaped.any():
         return None
     fresh = detect_contacts(now, dt)
     pair_of = {}  # (lower, higher) -> (contact indices of the carried list, of the fresh list)
@@ -254,7 +257,8 @@ def redetect_turned(contacts, carried, detected, now, dt):
             pair_of.setdefault((min(i, j), max(i, j)), {"carried": [], "fresh": []})[name].append(k)
     pick = []  # (list, index) in pair order
     for key in sorted(pair_of):
-        name = "fresh" if far[key] else "carried"
+        lost = (escaped[key[0]] or escaped[key[1]]) and not pair_of[key]["carried"]
+        name = "fresh" if far[key] or lost else "carried"
         pick += [(name, k) for k in pair_of[key][name]]
     anchors = {"carried": (np.asarray(carried["anchor_a"]), np.asarray(carried["anchor_b"])),
                "fresh": (fresh["point"], fresh["point"])}
@@ -266,6 +270,27 @@ def redetect_turned(contacts, carried, detected, now, dt):
     out["anchor_a"] = np.array([anchors[name][0][k] for name, k in pick], dtype=float).reshape(-1, 3)
     out["anchor_b"] = np.array([anchors[name][1][k] for name, k in pick], dtype=float).reshape(-1, 3)
     return out
+
+
+def escaped_bodies(detected, now, dt):
+    """Per body (N,) bool: a dynamic body (not kinematic) whose surface has moved further since
+    ``detected`` than the step's detection reached for it: |p - p_0| plus its turn's reach
+    (sqrt(3 - tr(R R_0^T)) rho, 0 for a sphere) above its speculative reach s_b for the step of dt
+    (``speculative_reach``). Such a body was set moving within the step (struck by a faster one,
+    pulled by a joint): pairs the detection left out, as beyond its reach, may touch now.
+
+    Inputs: two snapshots (the step's start after its impulses, and now), dt s (the whole step's).
+    """
+    kinematic, _ = motion_flags(detected)
+    static = np.array([bool(b["static"]) for b in detected["bodies"]], dtype=bool)
+    rho, _ = _turn_radii(detected)
+    p0 = np.asarray(detected["position"], dtype=float).reshape(-1, 3)
+    p = np.asarray(now["position"], dtype=float).reshape(-1, 3)
+    R0 = np.asarray(detected["rotation"], dtype=float).reshape(-1, 3, 3)
+    R = np.asarray(now["rotation"], dtype=float).reshape(-1, 3, 3)
+    turn = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("kij,kij->k", R, R0))) * rho
+    moved = np.linalg.norm(p - p0, axis=1) + turn
+    return ~static & ~kinematic & (moved > speculative_reach(detected, dt))
 
 
 def turn_budget(dt, n):
@@ -392,7 +417,9 @@ def step(snapshot, dt, contacts=None, ties=None):
             now = contacts
             if k > 0:
                 now = carry_contacts(contacts, snapshot, state)
-                fresh = redetect_turned(contacts, now, snapshot, state, dt - elapsed)  # for the rest of the step
+                # (pairs of a body set moving past its reach within the step: found now too)
+                fresh = redetect_turned(contacts, now, snapshot, state, dt - elapsed,
+                                        escaped_bodies(snapshot, state, dt))  # for the rest of the step
                 # the step's impulse per contact, summed over its substeps: by key once a substep's
                 # contacts are not the carried ones (a point found anew starts from 0)
                 if fresh is not None or redetected:
