@@ -413,8 +413,9 @@ class World {
   void carry_contacts(int k, double rest);
   /// escaped_ (ascending) and escaped_flag_ (N): the awake dynamic bodies (not kinematic) whose
   /// surface has moved further since `from` (the step's start) than the step's detection reached
-  /// for them, |p - p_0| + turned_ > scratch_->reach (a body set moving within the step: struck by
-  /// a faster one, pulled by a joint); with any, escape_pairs_: their candidate pairs at the
+  /// for them, out of the box its broad phase grew, |p - p_0| + turned_ > scratch_->reach +
+  /// contact_margin / 2 (a body set moving within the step: struck by a faster one, pulled by a
+  /// joint); with any, escape_pairs_: their candidate pairs at the
   /// present poses for the `rest` of the step (collision::BroadPhase::escaped_pairs), those
   /// model.can_collide refuses, a sensor's and a sleeping body's left out. Returns whether any
   /// body escaped. Reads turned_ (find_turned first).

@@ -591,10 +591,13 @@ bool World::find_escaped(const State& from, double rest) {
   parallel::fit(escaped_flag_, model_.size(), char(0));
   for (const BodyIndex i : escaped_) escaped_flag_[static_cast<std::size_t>(i)] = 0;
   escaped_.clear();
+  // out of the box the step's broad phase grew for it (its reach then and half the margin): a
+  // body still inside it can meet no body the detection left out, whose own box it did not meet
   const std::vector<double>& reach = scratch_->reach;  // the step's detection's
+  const double half_margin = 0.5 * settings_.contact_margin;
   for (const BodyIndex i : moving_) {
     if (model_.is_kinematic[i] || state_.asleep(i)) continue;
-    if ((state_.p[i] - from.p[i]).norm() + turned_[i] > reach[i]) {
+    if ((state_.p[i] - from.p[i]).norm() + turned_[i] > reach[i] + half_margin) {
       escaped_.push_back(i);
       escaped_flag_[static_cast<std::size_t>(i)] = 1;
     }

@@ -19,7 +19,7 @@ import copy
 
 import numpy as np
 
-from .contacts import bounding_radius, detect_contacts, speculative_reach
+from .contacts import DEFAULT_CONTACT_MARGIN, bounding_radius, detect_contacts, speculative_reach
 from .joints import break_joints
 from .rigid import apply_impulses, integrate, motion_flags, unconstrained_velocity
 from .soft import contact_rounding, soft_step
@@ -276,7 +276,8 @@ def escaped_bodies(detected, now, dt):
     """Per body (N,) bool: a dynamic body (not kinematic) whose surface has moved further since
     ``detected`` than the step's detection reached for it: |p - p_0| plus its turn's reach
     (sqrt(3 - tr(R R_0^T)) rho, 0 for a sphere) above its speculative reach s_b for the step of dt
-    (``speculative_reach``). Such a body was set moving within the step (struck by a faster one,
+    (``speculative_reach``) and half the contact margin (what a pair's threshold, margin + s_A +
+    s_B, grants each side). Such a body was set moving within the step (struck by a faster one,
     pulled by a joint): pairs the detection left out, as beyond its reach, may touch now.
 
     Inputs: two snapshots (the step's start after its impulses, and now), dt s (the whole step's).
@@ -290,7 +291,8 @@ def escaped_bodies(detected, now, dt):
     R = np.asarray(now["rotation"], dtype=float).reshape(-1, 3, 3)
     turn = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("kij,kij->k", R, R0))) * rho
     moved = np.linalg.norm(p - p0, axis=1) + turn
-    return ~static & ~kinematic & (moved > speculative_reach(detected, dt))
+    margin = float((detected.get("settings") or {}).get("contact_margin", DEFAULT_CONTACT_MARGIN))
+    return ~static & ~kinematic & (moved > speculative_reach(detected, dt) + 0.5 * margin)
 
 
 def turn_budget(dt, n):
