@@ -417,8 +417,9 @@ class World {
   /// contact_margin / 2 (a body set moving within the step: struck by a faster one, pulled by a
   /// joint); with any, escape_pairs_: their candidate pairs at the
   /// present poses for the `rest` of the step (collision::BroadPhase::escaped_pairs), those
-  /// model.can_collide refuses, a sensor's and a sleeping body's left out. Returns whether any
-  /// body escaped. Reads turned_ (find_turned first).
+  /// model.can_collide refuses, a sensor's, a sleeping body's and those the step's contacts
+  /// already hold left out. Returns whether any pair is left (pairs to find anew). Reads turned_
+  /// (find_turned first).
   bool find_escaped(const State& from, double rest);
   /// turned_ (N): how far each awake, non-spherical body's turn since `from` (the step's start,
   /// or where the soft step's rows were made) has moved its points, at most (m; 0 for the others:

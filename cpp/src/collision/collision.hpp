@@ -663,9 +663,9 @@ bool any_turned(const Model& model, const std::vector<std::pair<BodyIndex, BodyI
 /// collided again at `now`, as a detection at `now` for a step of dt would (dt: what is left of
 /// the step; speculative reach from now's velocities: body_reach; no memory written), their
 /// contacts' anchors at their points; so are, with `escaped` (N flags; null: none), the pairs of
-/// an escaped body that carry no contact, among scratch.pairs and `extra` (sorted candidate
-/// pairs of the escaped bodies at `now`, some new to the step; the caller leaves out those of a
-/// sensor or a sleeping body). The other pairs' carried contacts and anchors (carried, carried_a,
+/// an escaped body in `extra` that carry no contact (sorted candidate pairs of the escaped bodies
+/// at `now`, some new to the step; the caller may leave out those that carry contacts, and leaves
+/// out those of a sensor or a sleeping body). The other pairs' carried contacts and anchors (carried, carried_a,
 /// carried_b: carry_contacts's, in pair order) are copied. Written into out, anchor_a, anchor_b,
 /// in pair order. turned (N): how far each body's turn has moved its points (m).
 void redetect_turned(const Model& model, const State& now, double dt, const Vec3& gravity, double margin,

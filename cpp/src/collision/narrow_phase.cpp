@@ -923,12 +923,12 @@ void redetect_turned(const Model& model, const State& now, double dt, const Vec3
     const auto [a, b] = collided_order(model, first, second);
     const std::size_t from = i;
     while (from_listed && i < K && carried[i].body_a == a && carried[i].body_b == b) ++i;
-    // an escaped body's pair without a carried contact: the step's detection did not reach it
-    // (a candidate new to the step, or one whose points it found out of reach); never a sensor's
-    // (not solved) nor a sleeping body's (it wakes at the next detection)
+    // an escaped body's pair without a carried contact whose boxes meet now (`extra`): the step's
+    // detection did not reach it (a candidate new to the step, or one whose points it found out of
+    // reach); never a sensor's (not solved) nor a sleeping body's (it wakes at the next detection)
     const auto sleeps = [&](BodyIndex x) { return !model.is_static[x] && now.asleep(x); };
-    const bool lost = (escapes(a) || escapes(b)) && i == from && !model.is_sensor[a] && !model.is_sensor[b] &&
-                      !sleeps(a) && !sleeps(b);
+    const bool lost = in_added && (escapes(a) || escapes(b)) && i == from && !model.is_sensor[a] &&
+                      !model.is_sensor[b] && !sleeps(a) && !sleeps(b);
     if (turned_far(model, a, b, turned) || lost) {
       const std::size_t before = out.size();
       TrianglePast past;  // (the crossing it finds is the next detection's to find)

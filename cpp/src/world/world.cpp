@@ -608,13 +608,33 @@ bool World::find_escaped(const State& from, double rest) {
   for (const BodyIndex i : moving_) bound = std::max(bound, escape_reach_[i]);
   broad_phase_->escaped_pairs(model_, state_, escaped_, escape_reach_, bound, settings_.contact_margin, escape_pairs_,
                               escape_stack_);
+  // and every plane (unbounded: in no tree), as the detection pairs it with every dynamic body
+  if (!broad_phase_->planes().empty()) {
+    for (const BodyIndex k : broad_phase_->planes())
+      for (const BodyIndex i : escaped_) escape_pairs_.emplace_back(std::min(k, i), std::max(k, i));
+    std::sort(escape_pairs_.begin(), escape_pairs_.end());
+    escape_pairs_.erase(std::unique(escape_pairs_.begin(), escape_pairs_.end()), escape_pairs_.end());
+  }
   const auto sleeps = [&](BodyIndex x) { return !model_.is_static[x] && state_.asleep(x); };
   const auto refused = [&](const std::pair<BodyIndex, BodyIndex>& p) {
     return !model_.can_collide(p.first, p.second) || model_.is_sensor[p.first] || model_.is_sensor[p.second] ||
            sleeps(p.first) || sleeps(p.second);
   };
-  escape_pairs_.erase(std::remove_if(escape_pairs_.begin(), escape_pairs_.end(), refused), escape_pairs_.end());
-  return true;
+  // and those that carry contacts (the step's detected list, which carry_contacts carries: in pair
+  // order, sorted by lower then higher body): an escaped body's pair whose boxes do not meet now
+  // gets no contact for the rest of the step either, so the pairs left are all that is found anew
+  const auto pair_of = [](const Contact& c) {
+    return std::make_pair(std::min(c.body_a, c.body_b), std::max(c.body_a, c.body_b));
+  };
+  const auto carries = [&](const std::pair<BodyIndex, BodyIndex>& p) {
+    const auto it = std::lower_bound(contacts_base_.begin(), contacts_base_.end(), p,
+                                     [&](const Contact& c, const std::pair<BodyIndex, BodyIndex>& x) { return pair_of(c) < x; });
+    return it != contacts_base_.end() && pair_of(*it) == p;
+  };
+  escape_pairs_.erase(std::remove_if(escape_pairs_.begin(), escape_pairs_.end(),
+                                     [&](const auto& p) { return refused(p) || carries(p); }),
+                      escape_pairs_.end());
+  return !escape_pairs_.empty();
 }
 
 void World::sum_impulses(int k) {
