@@ -342,8 +342,9 @@ TEST(BroadPhase, EscapedBodiesMeetEveryBodyTheirBoxesNowReach) {
     double bound = 0.0;
     for (double r : now) bound = std::max(bound, r);
     std::vector<Pair> found;
+    std::vector<BodyIndex> met;
     std::vector<const void*> stack;
-    broad_phase.escaped_pairs(scene.model, scene.state, escaped, now, bound, margin, found, stack);
+    broad_phase.escaped_pairs(scene.model, scene.state, escaped, now, bound, margin, found, met, stack);
     EXPECT_TRUE(std::is_sorted(found.begin(), found.end()));
     EXPECT_EQ(std::set<Pair>(found.begin(), found.end()).size(), found.size()) << "duplicate pairs";
     const auto is_escaped = [&](BodyIndex i) { return std::binary_search(escaped.begin(), escaped.end(), i); };

@@ -573,6 +573,7 @@ class World {
   std::vector<char> escaped_flag_;       ///< per body: 1 for those of escaped_
   std::vector<double> escape_reach_;     ///< per body: its reach from the present poses for the rest of the step (m)
   std::vector<std::pair<BodyIndex, BodyIndex>> escape_pairs_;  ///< the escaped bodies' candidate pairs now
+  std::vector<BodyIndex> escape_met_;    ///< the bodies a tree walk met
   std::vector<const void*> escape_stack_;///< the tree walk's stack
   /// the smallest inner radius of any body (m; soft_cut's bound), negative until read after the
   /// bodies changed (bodies_changed), so that a step's cost does not follow the static bodies

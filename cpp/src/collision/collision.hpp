@@ -530,13 +530,15 @@ class BroadPhase {
   /// pairs() was given as their reach) whose boxes at `now`, grown by reach[i] + margin/2 and
   /// reach[j] + margin/2, overlap (planes excluded), sorted, appended to out (cleared first).
   /// Every other body is inside the leaf pairs() gave it (it stayed within its reach), so the
-  /// trees are walked with an escaped body's grown box grown once more by the largest reach +
-  /// margin/2 (reach_bound) and the bodies met are tested with their boxes at `now`; escaped
-  /// bodies are tested against each other directly (their leaves are out of date). reach (N, m):
-  /// each body's reach from `now` (body_reach for the rest of the step).
+  /// trees are walked (overlap_box) with an escaped body's grown box grown once more by the
+  /// largest reach + margin/2 (reach_bound) and the bodies met are tested with their boxes at
+  /// `now`; escaped bodies are tested against each other directly (their leaves are out of date).
+  /// reach (N, m): each body's reach from `now` (body_reach for the rest of the step). met, stack:
+  /// the walks' buffers.
   void escaped_pairs(const Model& model, const State& now, const std::vector<BodyIndex>& escaped,
                      const std::vector<double>& reach, double reach_bound, double margin,
-                     std::vector<std::pair<BodyIndex, BodyIndex>>& out, std::vector<const void*>& stack) const;
+                     std::vector<std::pair<BodyIndex, BodyIndex>>& out, std::vector<BodyIndex>& met,
+                     std::vector<const void*>& stack) const;
 
  private:
   /// Sets every static body's box from its pose, grown by margin/2, and refits the static tree.

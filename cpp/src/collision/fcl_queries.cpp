@@ -636,11 +636,10 @@ void BroadPhase::overlap_box(const Vec3& lo, const Vec3& hi, std::vector<BodyInd
 
 void BroadPhase::escaped_pairs(const Model& model, const State& now, const std::vector<BodyIndex>& escaped,
                                const std::vector<double>& reach, double reach_bound, double margin,
-                               std::vector<std::pair<BodyIndex, BodyIndex>>& out, std::vector<const void*>& stack) const {
-  const Impl& m = *impl_;
+                               std::vector<std::pair<BodyIndex, BodyIndex>>& out, std::vector<BodyIndex>& met,
+                               std::vector<const void*>& stack) const {
   out.clear();
-  if (!m.flushed()) throw std::logic_error("BroadPhase::escaped_pairs: bodies were added since the last pairs()");
-  // each body's box at `now`, grown by its reach and half the margin
+  // each body's box at `now`, grown by its reach and half the margin (and `extra`)
   const auto grown = [&](BodyIndex i, double extra, Vec3& lo, Vec3& hi) {
     tight_aabb(model.shape[i], now.R[i], now.p[i], lo, hi);
     const Vec3 grow = Vec3::Constant(reach[i] + 0.5 * margin + extra);
@@ -651,34 +650,21 @@ void BroadPhase::escaped_pairs(const Model& model, const State& now, const std::
     return !((lo_a.array() > hi_b.array()).any() || (lo_b.array() > hi_a.array()).any());
   };
   const auto pair = [](BodyIndex i, BodyIndex j) { return std::make_pair(std::min(i, j), std::max(i, j)); };
-  const fcl::DynamicAABBTreeCollisionManagerd* trees[3] = {&m.static_tree, &m.dynamic_tree, &m.sleep_tree};
+  std::int64_t nodes = 0;
   for (std::size_t e = 0; e < escaped.size(); ++e) {
     const BodyIndex i = escaped[e];
     Vec3 lo, hi, wide_lo, wide_hi;
     grown(i, 0.0, lo, hi);
     grown(i, reach_bound + 0.5 * margin, wide_lo, wide_hi);
-    // the other bodies, each inside its leaf: those whose leaves meet the box grown once more
-    for (int k = 0; k < 3; ++k) {
-      const TreeNode* root = trees[k]->getTree().getRoot();
-      if (!root) continue;
-      stack.clear();
-      stack.push_back(root);
-      while (!stack.empty()) {
-        const TreeNode* node = static_cast<const TreeNode*>(stack.back());
-        stack.pop_back();
-        if ((node->bv.min_.array() > wide_hi.array()).any() || (node->bv.max_.array() < wide_lo.array()).any()) continue;
-        if (!node->isLeaf()) {
-          stack.push_back(node->children[1]);
-          stack.push_back(node->children[0]);
-          continue;
-        }
-        const BodyIndex j = static_cast<const Proxy*>(static_cast<const fcl::CollisionObjectd*>(node->data))->index();
-        if (j == i || (k > 0 && static_cast<bool>(m.in_sleep_tree[j]) != (k == 2))) continue;
-        if (std::binary_search(escaped.begin(), escaped.end(), j)) continue;  // (below, at its box now)
-        Vec3 lo_j, hi_j;
-        grown(j, 0.0, lo_j, hi_j);
-        if (overlap(lo, hi, lo_j, hi_j)) out.push_back(pair(i, j));
-      }
+    // the other bodies, each inside its leaf: those whose leaves meet the box grown once more,
+    // then tested with their boxes now
+    met.clear();
+    overlap_box(wide_lo, wide_hi, met, stack, nodes);
+    for (const BodyIndex j : met) {
+      if (j == i || std::binary_search(escaped.begin(), escaped.end(), j)) continue;  // (below, at its box now)
+      Vec3 lo_j, hi_j;
+      grown(j, 0.0, lo_j, hi_j);
+      if (overlap(lo, hi, lo_j, hi_j)) out.push_back(pair(i, j));
     }
     // the escaped bodies after it, at their boxes now
     for (std::size_t f = e + 1; f < escaped.size(); ++f) {

@@ -607,7 +607,7 @@ bool World::find_escaped(const State& from, double rest) {
   double bound = 0.0;
   for (const BodyIndex i : moving_) bound = std::max(bound, escape_reach_[i]);
   broad_phase_->escaped_pairs(model_, state_, escaped_, escape_reach_, bound, settings_.contact_margin, escape_pairs_,
-                              escape_stack_);
+                              escape_met_, escape_stack_);
   // and every plane (unbounded: in no tree), as the detection pairs it with every dynamic body
   if (!broad_phase_->planes().empty()) {
     for (const BodyIndex k : broad_phase_->planes())
