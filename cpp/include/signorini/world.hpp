@@ -411,7 +411,7 @@ class World {
   /// contact, collided again (collision::redetect_turned, for the `rest` of the step, s), and the
   /// step's impulse sums then matched to the new list by contact key.
   void carry_contacts(int k, double rest);
-  /// escaped_ (ascending) and escaped_flag_ (N): the awake dynamic bodies (not kinematic) whose
+  /// escaped_ (ascending): the awake dynamic bodies (not kinematic) whose
   /// surface has moved further since `from` (the step's start) than the step's detection reached
   /// for them, out of the box its broad phase grew, |p - p_0| + turned_ > scratch_->reach +
   /// contact_margin / 2 (a body set moving within the step: struck by a faster one, pulled by a
@@ -570,7 +570,6 @@ class World {
   std::vector<double> impulse_sum_;      ///< per contact: its normal impulse over the substeps so far (N s)
   std::vector<double> turned_;           ///< per body: how far its turn since the step's detection moved it (m)
   std::vector<BodyIndex> escaped_;       ///< the bodies that outran the step's reach (find_escaped), ascending
-  std::vector<char> escaped_flag_;       ///< per body: 1 for those of escaped_
   std::vector<double> escape_reach_;     ///< per body: its reach from the present poses for the rest of the step (m)
   std::vector<std::pair<BodyIndex, BodyIndex>> escape_pairs_;  ///< the escaped bodies' candidate pairs now
   std::vector<BodyIndex> escape_met_;    ///< the bodies a tree walk met

@@ -664,17 +664,17 @@ bool any_turned(const Model& model, const std::vector<std::pair<BodyIndex, BodyI
 /// candidate list scratch.pairs (as the last generate_contacts left it) that have turned far are
 /// collided again at `now`, as a detection at `now` for a step of dt would (dt: what is left of
 /// the step; speculative reach from now's velocities: body_reach; no memory written), their
-/// contacts' anchors at their points; so are, with `escaped` (N flags; null: none), the pairs of
-/// an escaped body in `extra` that carry no contact (sorted candidate pairs of the escaped bodies
-/// at `now`, some new to the step; the caller may leave out those that carry contacts, and leaves
-/// out those of a sensor or a sleeping body). The other pairs' carried contacts and anchors (carried, carried_a,
+/// contacts' anchors at their points; so are the pairs of `extra` that carry no contact (null:
+/// none; sorted candidate pairs of the escaped bodies at `now`, some new to the step, whose boxes
+/// meet there; the caller may leave out those that carry contacts, and leaves out those
+/// model.can_collide refuses, a sensor's and a sleeping body's). The other pairs' carried contacts and anchors (carried, carried_a,
 /// carried_b: carry_contacts's, in pair order) are copied. Written into out, anchor_a, anchor_b,
 /// in pair order. turned (N): how far each body's turn has moved its points (m).
 void redetect_turned(const Model& model, const State& now, double dt, const Vec3& gravity, double margin,
                      const BroadPhase& broad_phase, const ContactMemory& memory, Scratch& scratch,
                      const std::vector<double>& turned, const std::vector<Contact>& carried,
                      const std::vector<Vec3>& carried_a, const std::vector<Vec3>& carried_b, std::vector<Contact>& out,
-                     std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b, const std::vector<char>* escaped = nullptr,
+                     std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b,
                      const std::vector<std::pair<BodyIndex, BodyIndex>>* extra = nullptr);
 
 /// The speed (m/s) at which a body turning at |omega| (rad/s) can move its surface over a step of

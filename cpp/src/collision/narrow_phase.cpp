@@ -901,7 +901,7 @@ void redetect_turned(const Model& model, const State& now, double dt, const Vec3
                      const BroadPhase& broad_phase, const ContactMemory& memory, Scratch& scratch,
                      const std::vector<double>& turned, const std::vector<Contact>& carried,
                      const std::vector<Vec3>& carried_a, const std::vector<Vec3>& carried_b, std::vector<Contact>& out,
-                     std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b, const std::vector<char>* escaped,
+                     std::vector<Vec3>& anchor_a, std::vector<Vec3>& anchor_b,
                      const std::vector<std::pair<BodyIndex, BodyIndex>>* extra) {
   out.clear();
   anchor_a.clear();
@@ -910,7 +910,6 @@ void redetect_turned(const Model& model, const State& now, double dt, const Vec3
   const auto& listed = scratch.pairs;
   static const std::vector<std::pair<BodyIndex, BodyIndex>> none;
   const auto& added = extra ? *extra : none;
-  const auto escapes = [&](BodyIndex x) { return escaped != nullptr && (*escaped)[static_cast<std::size_t>(x)] != 0; };
   std::size_t i = 0;  // the carried contacts, in pair order: a pair's run starts at i
   // the step's candidate pairs and the escaped bodies' pairs at `now`, merged in pair order (a
   // pair in both once)
@@ -925,10 +924,8 @@ void redetect_turned(const Model& model, const State& now, double dt, const Vec3
     while (from_listed && i < K && carried[i].body_a == a && carried[i].body_b == b) ++i;
     // an escaped body's pair without a carried contact whose boxes meet now (`extra`): the step's
     // detection did not reach it (a candidate new to the step, or one whose points it found out of
-    // reach); never a sensor's (not solved) nor a sleeping body's (it wakes at the next detection)
-    const auto sleeps = [&](BodyIndex x) { return !model.is_static[x] && now.asleep(x); };
-    const bool lost = in_added && (escapes(a) || escapes(b)) && i == from && !model.is_sensor[a] &&
-                      !model.is_sensor[b] && !sleeps(a) && !sleeps(b);
+    // reach)
+    const bool lost = in_added && i == from;
     if (turned_far(model, a, b, turned) || lost) {
       const std::size_t before = out.size();
       TrianglePast past;  // (the crossing it finds is the next detection's to find)

@@ -197,7 +197,6 @@ void World::bodies_changed(bool relist) {
   omega_.clear();
   turned_.clear();
   escaped_.clear();
-  escaped_flag_.clear();
   scratch_->reach.clear();
   least_inner_ = -1.0;
 }
@@ -343,8 +342,12 @@ namespace {
 /// with its key (bodies, features), else 0 (a point found anew). Both lists are in the order of the
 /// step's candidate pairs, sorted by (lower body, higher body); a pair's points are matched among
 /// themselves (at most a few).
+/// A contact's body pair as the candidate pairs list it: (lower, higher).
+std::pair<BodyIndex, BodyIndex> pair_of(const Contact& c) {
+  return std::make_pair(std::min(c.body_a, c.body_b), std::max(c.body_a, c.body_b));
+}
+
 void match_impulses(const std::vector<Contact>& last, const std::vector<Contact>& now, std::vector<double>& sums) {
-  const auto pair_of = [](const Contact& c) { return std::make_pair(std::min(c.body_a, c.body_b), std::max(c.body_a, c.body_b)); };
   sums.assign(now.size(), 0.0);
   std::size_t i = 0;
   for (std::size_t j = 0; j < now.size();) {
@@ -394,7 +397,7 @@ void World::carry_contacts(int k, double rest) {
 void World::redetect_turned(double rest, bool escapes) {
   collision::redetect_turned(model_, state_, rest, settings_.gravity, settings_.contact_margin, *broad_phase_, *memory_,
                              *scratch_, turned_, contacts_next_, anchor_a_, anchor_b_, redetected_list_, redetected_a_,
-                             redetected_b_, escapes ? &escaped_flag_ : nullptr, escapes ? &escape_pairs_ : nullptr);
+                             redetected_b_, escapes ? &escape_pairs_ : nullptr);
   contacts_next_.swap(redetected_list_);
   anchor_a_.swap(redetected_a_);
   anchor_b_.swap(redetected_b_);
@@ -588,8 +591,6 @@ void World::find_turned(const State& from) {
 bool World::find_escaped(const State& from, double rest) {
   // (in body order on the calling thread: a few operations per moving body, beside a substep's
   // sweeps; only the moving bodies' entries are written, as for turned_)
-  parallel::fit(escaped_flag_, model_.size(), char(0));
-  for (const BodyIndex i : escaped_) escaped_flag_[static_cast<std::size_t>(i)] = 0;
   escaped_.clear();
   // out of the box the step's broad phase grew for it (its reach then and half the margin): a
   // body still inside it can meet no body the detection left out, whose own box it did not meet
@@ -597,10 +598,7 @@ bool World::find_escaped(const State& from, double rest) {
   const double half_margin = 0.5 * settings_.contact_margin;
   for (const BodyIndex i : moving_) {
     if (model_.is_kinematic[i] || state_.asleep(i)) continue;
-    if ((state_.p[i] - from.p[i]).norm() + turned_[i] > reach[i] + half_margin) {
-      escaped_.push_back(i);
-      escaped_flag_[static_cast<std::size_t>(i)] = 1;
-    }
+    if ((state_.p[i] - from.p[i]).norm() + turned_[i] > reach[i] + half_margin) escaped_.push_back(i);
   }
   if (escaped_.empty()) return false;
   collision::speculative_reach(model_, state_, rest, settings_.gravity, escape_reach_, &moving_);
@@ -623,9 +621,6 @@ bool World::find_escaped(const State& from, double rest) {
   // and those that carry contacts (the step's detected list, which carry_contacts carries: in pair
   // order, sorted by lower then higher body): an escaped body's pair whose boxes do not meet now
   // gets no contact for the rest of the step either, so the pairs left are all that is found anew
-  const auto pair_of = [](const Contact& c) {
-    return std::make_pair(std::min(c.body_a, c.body_b), std::max(c.body_a, c.body_b));
-  };
   const auto carries = [&](const std::pair<BodyIndex, BodyIndex>& p) {
     const auto it = std::lower_bound(contacts_base_.begin(), contacts_base_.end(), p,
                                      [&](const Contact& c, const std::pair<BodyIndex, BodyIndex>& x) { return pair_of(c) < x; });

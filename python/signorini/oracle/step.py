@@ -165,6 +165,16 @@ def _turn_radii(snapshot):
     return rho, inner
 
 
+def _turn_reach(detected, now):
+    """Per body (N,): how far its turn between the two snapshots has moved its points, at most,
+    sqrt(3 - tr(R R_0^T)) rho (= 2 sin(angle / 2) rho; 0 for a static body or a sphere), m; and
+    its inner radius (``_turn_radii``)."""
+    rho, inner = _turn_radii(detected)
+    R0 = np.asarray(detected["rotation"], dtype=float).reshape(-1, 3, 3)
+    R = np.asarray(now["rotation"], dtype=float).reshape(-1, 3, 3)
+    return np.sqrt(np.maximum(0.0, 3.0 - np.einsum("kij,kij->k", R, R0))) * rho, inner
+
+
 def _impact_levers(snapshot, contacts, closes, rho):
     """Per contact (K,): f = min(1, |(y - p) x n| / rho), the larger of its pair's bodies' (0 for a
     static or kinematic body or a sphere: rho 0 here), y the centroid of the closing points
@@ -241,13 +251,10 @@ def redetect_turned(contacts, carried, detected, now, dt, escaped=None):
     Inputs: contacts dict (the step's, as detected), carried dict, two snapshots, dt s, escaped.
     Output: a contacts dict (pair order) with anchor_a, anchor_b, or None.
     """
-    rho, inner = _turn_radii(detected)
-    R0 = np.asarray(detected["rotation"], dtype=float).reshape(-1, 3, 3)
-    R = np.asarray(now["rotation"], dtype=float).reshape(-1, 3, 3)
-    moved = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("kij,kij->k", R, R0))) * rho
+    moved, inner = _turn_reach(detected, now)
 
     far = moved[:, None] + moved[None, :] > TURN_REACH * np.minimum(inner[:, None], inner[None, :])
-    escaped = np.zeros(len(rho), dtype=bool) if escaped is None else np.asarray(escaped, dtype=bool)
+    escaped = np.zeros(len(moved), dtype=bool) if escaped is None else np.asarray(escaped, dtype=bool)
     if not far.any() and not escaped.any():
         return None
     fresh = detect_contacts(now, dt)
@@ -284,13 +291,9 @@ def escaped_bodies(detected, now, dt):
     """
     kinematic, _ = motion_flags(detected)
     static = np.array([bool(b["static"]) for b in detected["bodies"]], dtype=bool)
-    rho, _ = _turn_radii(detected)
     p0 = np.asarray(detected["position"], dtype=float).reshape(-1, 3)
     p = np.asarray(now["position"], dtype=float).reshape(-1, 3)
-    R0 = np.asarray(detected["rotation"], dtype=float).reshape(-1, 3, 3)
-    R = np.asarray(now["rotation"], dtype=float).reshape(-1, 3, 3)
-    turn = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("kij,kij->k", R, R0))) * rho
-    moved = np.linalg.norm(p - p0, axis=1) + turn
+    moved = np.linalg.norm(p - p0, axis=1) + _turn_reach(detected, now)[0]
     margin = float((detected.get("settings") or {}).get("contact_margin", DEFAULT_CONTACT_MARGIN))
     return ~static & ~kinematic & (moved > speculative_reach(detected, dt) + 0.5 * margin)
 
@@ -307,10 +310,7 @@ def turn_budget(dt, n):
 def _turned_contacts(contacts, detected, now):
     """Whether a pair of ``contacts`` has turned far between the two snapshots: its bodies' turns
     moved their points more than TURN_REACH of its smaller inner radius (as ``redetect_turned``)."""
-    rho, inner = _turn_radii(detected)
-    R0 = np.asarray(detected["rotation"], dtype=float).reshape(-1, 3, 3)
-    R = np.asarray(now["rotation"], dtype=float).reshape(-1, 3, 3)
-    moved = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("kij,kij->k", R, R0))) * rho
+    moved, inner = _turn_reach(detected, now)
     a = np.asarray(contacts["body_a"], dtype=np.int64)
     b = np.asarray(contacts["body_b"], dtype=np.int64)
     return bool(np.any(moved[a] + moved[b] > TURN_REACH * np.minimum(inner[a], inner[b])))
